@@ -1,0 +1,361 @@
+"""One model algebra for gas films: springs, dashpots and spring-pots composed in series and parallel.
+
+An element's complex stiffness at the Laplace variable ``s`` (rad/s; ``s = jω`` for a steady-state FRF,
+``s = σ + jω`` for an FRF measured through an exponential window of decay rate σ):
+
+* spring ``k``:                ``Z = k``                 (N/m)
+* dashpot ``eta``:             ``Z = eta * s``           (N·s/m)
+* spring-pot ``eta, alpha``:   ``Z = eta * s**alpha``    (N·s^α/m; α = 0 is a spring, α = 1 a dashpot)
+
+Parallel elements add their stiffnesses; series elements add their compliances. The nine models of the paper
+(networks from ``shared/paper/ERRATA.md`` item 4) are named compositions in :data:`PAPER_MODELS`, and a user can
+write a new one in the short text form parsed by :func:`parse_network`, e.g.
+``"k3 || (k1 -- pot(eta1, alpha)) || (k2 -- pot(eta2, beta))"``.
+
+Evaluation is vectorised: a parameter array of shape ``(..., n_parameters)`` gives stiffnesses of shape
+``(..., n_frequencies)``.
+"""
+
+from __future__ import annotations
+
+import abc
+import re
+from dataclasses import dataclass
+from typing import Mapping, Sequence
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from drivers.errors import SettingError
+
+
+@dataclass(frozen=True)
+class Parameter:
+    """A model parameter with its unit, search bounds and the scale an optimiser should search it in."""
+
+    name: str
+    unit: str
+    lower: float
+    upper: float
+    scale: str  # "log" for stiffnesses and coefficients, "linear" for orders
+
+    def to_unit_interval(self, value: np.ndarray) -> np.ndarray:
+        """Map a value inside the bounds to [0, 1] in the parameter's own scale."""
+        if self.scale == "log":
+            return (np.log(value) - np.log(self.lower)) / (np.log(self.upper) - np.log(self.lower))
+        return (value - self.lower) / (self.upper - self.lower)
+
+    def from_unit_interval(self, u: np.ndarray) -> np.ndarray:
+        """Inverse of :meth:`to_unit_interval`."""
+        if self.scale == "log":
+            return np.exp(np.log(self.lower) + u * (np.log(self.upper) - np.log(self.lower)))
+        return self.lower + u * (self.upper - self.lower)
+
+
+SPRING_BOUNDS_N_PER_M = (1e2, 1e12)
+DASHPOT_BOUNDS_NS_PER_M = (1e-2, 1e10)
+SPRINGPOT_BOUNDS = (1e-4, 1e13)
+ORDER_BOUNDS = (0.0, 2.0)
+
+
+class Node(abc.ABC):
+    """A network of elements with a complex stiffness."""
+
+    @abc.abstractmethod
+    def parameters(self) -> list[Parameter]:
+        """The parameters of this node and everything below it, in reading order."""
+
+    @abc.abstractmethod
+    def stiffness(self, s: np.ndarray, values: Mapping[str, np.ndarray]) -> np.ndarray:
+        """Complex stiffness in N/m at the Laplace variable ``s``."""
+
+    @abc.abstractmethod
+    def text(self) -> str:
+        """The node in the short text form."""
+
+
+@dataclass(frozen=True)
+class Spring(Node):
+    name: str
+
+    def parameters(self) -> list[Parameter]:
+        return [Parameter(self.name, "N/m", *SPRING_BOUNDS_N_PER_M, "log")]
+
+    def stiffness(self, s: np.ndarray, values: Mapping[str, np.ndarray]) -> np.ndarray:
+        return values[self.name] * np.ones_like(s)
+
+    def text(self) -> str:
+        return self.name
+
+
+@dataclass(frozen=True)
+class Dashpot(Node):
+    name: str
+
+    def parameters(self) -> list[Parameter]:
+        return [Parameter(self.name, "N·s/m", *DASHPOT_BOUNDS_NS_PER_M, "log")]
+
+    def stiffness(self, s: np.ndarray, values: Mapping[str, np.ndarray]) -> np.ndarray:
+        return values[self.name] * s
+
+    def text(self) -> str:
+        return f"dashpot({self.name})"
+
+
+@dataclass(frozen=True)
+class SpringPot(Node):
+    coefficient: str
+    order: str
+
+    def parameters(self) -> list[Parameter]:
+        return [
+            Parameter(self.coefficient, f"N·s^{self.order}/m", *SPRINGPOT_BOUNDS, "log"),
+            Parameter(self.order, "1", *ORDER_BOUNDS, "linear"),
+        ]
+
+    def stiffness(self, s: np.ndarray, values: Mapping[str, np.ndarray]) -> np.ndarray:
+        return values[self.coefficient] * s ** values[self.order]
+
+    def text(self) -> str:
+        return f"pot({self.coefficient}, {self.order})"
+
+
+@dataclass(frozen=True)
+class Parallel(Node):
+    children: tuple[Node, ...]
+
+    def parameters(self) -> list[Parameter]:
+        return [p for child in self.children for p in child.parameters()]
+
+    def stiffness(self, s: np.ndarray, values: Mapping[str, np.ndarray]) -> np.ndarray:
+        return sum(child.stiffness(s, values) for child in self.children)
+
+    def text(self) -> str:
+        return " || ".join(_grouped(child) for child in self.children)
+
+
+@dataclass(frozen=True)
+class Series(Node):
+    children: tuple[Node, ...]
+
+    def parameters(self) -> list[Parameter]:
+        return [p for child in self.children for p in child.parameters()]
+
+    def stiffness(self, s: np.ndarray, values: Mapping[str, np.ndarray]) -> np.ndarray:
+        return 1.0 / sum(1.0 / child.stiffness(s, values) for child in self.children)
+
+    def text(self) -> str:
+        return " -- ".join(_grouped(child) for child in self.children)
+
+
+def _grouped(node: Node) -> str:
+    return f"({node.text()})" if isinstance(node, (Parallel, Series)) else node.text()
+
+
+class FilmModel:
+    """A named network with an ordered parameter list; evaluates Z(s) for one or many parameter sets."""
+
+    def __init__(self, name: str, network: Node, description: str = "") -> None:
+        self.name = name
+        self.network = network
+        self.description = description
+        parameters = network.parameters()
+        names = [p.name for p in parameters]
+        duplicates = sorted({n for n in names if names.count(n) > 1})
+        if duplicates:
+            raise SettingError(f"model {name}: parameter names used twice: {', '.join(duplicates)}")
+        self.parameters: tuple[Parameter, ...] = tuple(parameters)
+
+    def __repr__(self) -> str:
+        return f"FilmModel({self.name!r}, {self.network.text()!r})"
+
+    @property
+    def parameter_names(self) -> tuple[str, ...]:
+        return tuple(p.name for p in self.parameters)
+
+    @property
+    def text(self) -> str:
+        return self.network.text()
+
+    def vector(self, values: Mapping[str, float]) -> np.ndarray:
+        """Parameter vector in this model's order from a name → value mapping."""
+        missing = [n for n in self.parameter_names if n not in values]
+        if missing:
+            raise SettingError(f"model {self.name}: missing parameter(s) {', '.join(missing)}")
+        return np.array([float(values[n]) for n in self.parameter_names])
+
+    def mapping(self, vector: Sequence[float]) -> dict[str, float]:
+        """Name → value mapping from a parameter vector."""
+        return {n: float(v) for n, v in zip(self.parameter_names, vector)}
+
+    def stiffness(self, s: ArrayLike, params: ArrayLike | Mapping[str, float]) -> np.ndarray:
+        """Complex stiffness Z(s) in N/m; ``params`` of shape (..., P) gives a result of shape (..., len(s))."""
+        s = np.asarray(s, dtype=complex)
+        vector = self.vector(params) if isinstance(params, Mapping) else np.asarray(params, dtype=float)
+        if vector.shape[-1] != len(self.parameters):
+            raise SettingError(
+                f"model {self.name}: expected {len(self.parameters)} parameters "
+                f"({', '.join(self.parameter_names)}), got {vector.shape[-1]}"
+            )
+        values = {n: vector[..., i, np.newaxis] for i, n in enumerate(self.parameter_names)}
+        return self.network.stiffness(s, values)
+
+
+def laplace_variable(freq_hz: ArrayLike, decay_rate_1_s: float = 0.0) -> np.ndarray:
+    """``s = σ + j·2πf``: σ is the decay rate of an exponential window applied to force and response alike."""
+    return decay_rate_1_s + 2j * np.pi * np.asarray(freq_hz, dtype=float)
+
+
+def accelerance_from_stiffness(s: ArrayLike, stiffness_n_per_m: ArrayLike, mass_kg: ArrayLike) -> np.ndarray:
+    """Accelerance A/F in (m/s²)/N of a mass on a film: ``s² / (Z(s) + m s²)``; at s = jω, ``-ω²/(Z - mω²)``."""
+    s = np.asarray(s, dtype=complex)
+    mass = np.asarray(mass_kg, dtype=float)
+    if mass.ndim:
+        mass = mass[..., np.newaxis]
+    return s**2 / (np.asarray(stiffness_n_per_m) + mass * s**2)
+
+
+def accelerance(
+    model: FilmModel,
+    params: ArrayLike | Mapping[str, float],
+    freq_hz: ArrayLike,
+    mass_kg: ArrayLike,
+    decay_rate_1_s: float = 0.0,
+) -> np.ndarray:
+    """Accelerance of ``mass_kg`` on the film ``model``; with ``decay_rate_1_s`` > 0 the exponentially windowed one."""
+    s = laplace_variable(freq_hz, decay_rate_1_s)
+    return accelerance_from_stiffness(s, model.stiffness(s, params), mass_kg)
+
+
+# --- the short text form -------------------------------------------------------------------------------------------
+
+_TOKEN = re.compile(r"\s*(\|\||--|\(|\)|,|[A-Za-z_][A-Za-z_0-9]*)")
+
+
+def parse_network(text: str, name: str = "custom", description: str = "") -> FilmModel:
+    """Parse the short text form into a model.
+
+    Grammar: ``a || b`` is parallel, ``a -- b`` is series (series binds tighter), parentheses group; a bare name is a
+    spring, ``dashpot(c)`` a dashpot and ``pot(eta, alpha)`` a spring-pot. Example (the paper's FOMGF):
+    ``k3 || (k1 -- pot(eta1, alpha)) || (k2 -- pot(eta2, beta))``.
+    """
+    tokens: list[str] = []
+    position = 0
+    stripped = text.strip()
+    while position < len(stripped):
+        match = _TOKEN.match(stripped, position)
+        if not match:
+            raise SettingError(f"model '{text}': cannot read '{stripped[position:]}'")
+        tokens.append(match.group(1))
+        position = match.end()
+    if not tokens:
+        raise SettingError("model: the network text is empty")
+    parser = _Parser(tokens, text)
+    node = parser.parallel()
+    if parser.index != len(tokens):
+        raise SettingError(f"model '{text}': unexpected '{tokens[parser.index]}'")
+    return FilmModel(name, node, description)
+
+
+class _Parser:
+    def __init__(self, tokens: list[str], text: str) -> None:
+        self.tokens = tokens
+        self.text = text
+        self.index = 0
+
+    def _peek(self) -> str | None:
+        return self.tokens[self.index] if self.index < len(self.tokens) else None
+
+    def _take(self, expected: str | None = None) -> str:
+        token = self._peek()
+        if token is None or (expected is not None and token != expected):
+            raise SettingError(f"model '{self.text}': expected '{expected or 'a name'}' but found '{token or 'the end'}'")
+        self.index += 1
+        return token
+
+    def parallel(self) -> Node:
+        nodes = [self.series()]
+        while self._peek() == "||":
+            self._take("||")
+            nodes.append(self.series())
+        return nodes[0] if len(nodes) == 1 else Parallel(tuple(nodes))
+
+    def series(self) -> Node:
+        nodes = [self.atom()]
+        while self._peek() == "--":
+            self._take("--")
+            nodes.append(self.atom())
+        return nodes[0] if len(nodes) == 1 else Series(tuple(nodes))
+
+    def atom(self) -> Node:
+        token = self._take()
+        if token == "(":
+            node = self.parallel()
+            self._take(")")
+            return node
+        if not re.fullmatch(r"[A-Za-z_][A-Za-z_0-9]*", token):
+            raise SettingError(f"model '{self.text}': expected an element but found '{token}'")
+        if token == "dashpot":
+            self._take("(")
+            coefficient = self._take()
+            self._take(")")
+            return Dashpot(coefficient)
+        if token == "pot":
+            self._take("(")
+            coefficient = self._take()
+            self._take(",")
+            order = self._take()
+            self._take(")")
+            return SpringPot(coefficient, order)
+        return Spring(token)
+
+
+# --- the paper's nine models (ERRATA.md item 4) --------------------------------------------------------------------
+
+PAPER_MODEL_TEXT: dict[str, tuple[str, str]] = {
+    "SD": ("k || dashpot(eta)", "spring-damper"),
+    "Zener": ("k2 || (k1 -- dashpot(eta1))", "Zener (standard linear solid)"),
+    "Maxwell": ("k3 || (k1 -- dashpot(eta1)) || (k2 -- dashpot(eta2))", "generalised Maxwell, two arms"),
+    "TGF": ("(k1 || dashpot(eta1)) -- dashpot(eta2)", "three-parameter gas film"),
+    "BGF": ("k1 -- dashpot(eta1) -- (k2 || dashpot(eta2))", "Burgers gas film"),
+    "FOZGF": ("k2 || (k1 -- pot(eta1, alpha))", "fractional-order Zener gas film"),
+    "FOMGF": ("k3 || (k1 -- pot(eta1, alpha)) || (k2 -- pot(eta2, beta))", "fractional-order Maxwell gas film"),
+    "FOTGF": ("(k1 || pot(eta1, alpha)) -- pot(eta2, beta)", "fractional-order three-parameter gas film"),
+    "FOBGF": ("k1 -- pot(eta1, alpha) -- (k2 || pot(eta2, beta))", "fractional-order Burgers gas film"),
+}
+
+#: The nine models in the order of the paper's Table 2.
+PAPER_MODEL_ORDER = ("SD", "FOZGF", "Zener", "FOMGF", "Maxwell", "FOTGF", "FOBGF", "TGF", "BGF")
+
+PAPER_MODELS: dict[str, FilmModel] = {
+    name: parse_network(text, name, description) for name, (text, description) in PAPER_MODEL_TEXT.items()
+}
+
+#: Table 1 of the paper (identified parameters, SI units). ERRATA item 5: the Zener and FOZGF rows contain errors.
+PAPER_TABLE1: dict[str, dict[str, float]] = {
+    "SD": {"k": 3.78e7, "eta": 3.45e3},
+    "FOZGF": {"k1": 3.20e5, "k2": 4.61e9, "eta1": 4.33e8, "alpha": 1.9186},
+    "Zener": {"k1": 4.85e4, "k2": 3.81e7, "eta1": 2.75e5},
+    "FOMGF": {"k1": 2.91e6, "k2": 4.89e8, "k3": 3.27e7, "eta1": 16.14, "eta2": 101.81, "alpha": 1.7472, "beta": 0.1621},
+    "Maxwell": {"k1": 3.53e7, "k2": 2.93e6, "k3": 1.09e5, "eta1": 2.57e5, "eta2": 5.19e6},
+    "FOTGF": {"k1": 2.00e6, "eta1": 3.86e7, "eta2": 1.14e6, "alpha": 0.0036, "beta": 0.80},
+    "FOBGF": {"k1": 4.05e7, "k2": 3.01e8, "eta1": 1.75e4, "eta2": 1.21e5, "alpha": 1.3641, "beta": 0.0773},
+    "TGF": {"k1": 2.13e10, "eta1": 2.12e4, "eta2": 4.259e10},
+    "BGF": {"k1": 9.95e6, "k2": 4.898e10, "eta1": 4.84e8, "eta2": 1.8e8},
+}
+
+PAPER_MASS_KG = 25.05
+
+
+def get_model(name_or_text: str) -> FilmModel:
+    """A paper model by name (case-insensitive), or a new network written in the short text form."""
+    wanted = name_or_text.strip()
+    for name, model in PAPER_MODELS.items():
+        if name.lower() == wanted.lower():
+            return model
+    if not any(operator in wanted for operator in ("||", "--", "(")):
+        raise SettingError(
+            f"model '{name_or_text}': unknown; choose one of {', '.join(PAPER_MODEL_ORDER)} or write a network "
+            f"such as 'k || dashpot(eta)'"
+        )
+    return parse_network(wanted)
