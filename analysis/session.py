@@ -1,0 +1,694 @@
+"""HDF5 session files: everything one hammer session recorded, safe against a killed process.
+
+One file per session (layout in ``docs/session-format.md``). Hits are appended to pre-created chunked, resizable
+datasets while the file is in HDF5's single-writer/multiple-reader (SWMR) mode: the raw record is written and
+flushed first, then its row in the hit table, then the file descriptor is fsync'ed. SWMR keeps the file's metadata
+consistent on disk at every moment, so a process killed at any point leaves a file whose committed hits (the rows of
+the hit table) can always be read. Such a file still carries HDF5's "open for writing" flags: :meth:`Session.open`
+reads it in SWMR mode and, when opened for appending, first rewrites it into a clean file (``recovered`` is then
+True). Structural changes (FRF, fits, diagnoses, status) are made with the file out of SWMR mode.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import datetime
+import enum
+import json
+import os
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Iterator, Mapping
+
+import h5py
+import numpy as np
+
+from drivers.errors import GasfilmError
+from drivers.interface import ChannelConfig, ChannelKind, Coupling, DaqConfig
+
+SCHEMA_VERSION = 1
+FORMAT_NAME = "gasfilm-session"
+REASONS_LENGTH = 256
+SAMPLES_PER_CHUNK = 16384
+STATUSES = ("recording", "complete", "aborted", "interrupted")
+
+
+class SessionError(GasfilmError):
+    """A session file is missing, damaged, foreign, too new, or holds unusable data."""
+
+
+@dataclass(frozen=True)
+class StoredHit:
+    """One hit as stored in a session: the raw record and how it was judged."""
+
+    index: int  # row in the session, 0-based
+    data: np.ndarray  # (channels, samples), N and m/s²
+    sample_rate_hz: float
+    trigger_index: int
+    start_time_s: float
+    overload: np.ndarray  # (channels,) bool
+    force_channel: int
+    response_channel: int
+    capture_index: int  # the hit's index as numbered by the capture that produced it
+    verdict: Any  # analysis.validation.Verdict
+
+    def as_hit_record(self) -> Any:
+        """The stored hit as an :class:`analysis.capture.HitRecord` (for re-validation)."""
+        from analysis.capture import HitRecord
+
+        return HitRecord(
+            index=self.index,
+            data=self.data,
+            sample_rate_hz=self.sample_rate_hz,
+            trigger_index=self.trigger_index,
+            start_time_s=self.start_time_s,
+            overload=self.overload,
+            force_channel=self.force_channel,
+            response_channel=self.response_channel,
+        )
+
+
+def to_jsonable(value: Any) -> Any:
+    """Plain JSON types for settings: dataclasses, enums, numpy values, tuples and paths included."""
+    if dataclasses.is_dataclass(value) and not isinstance(value, type):
+        return {field.name: to_jsonable(getattr(value, field.name)) for field in dataclasses.fields(value)}
+    if isinstance(value, enum.Enum):
+        return to_jsonable(value.value)
+    if isinstance(value, Mapping):
+        return {str(key): to_jsonable(item) for key, item in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [to_jsonable(item) for item in value]
+    if isinstance(value, np.ndarray):
+        return to_jsonable(value.tolist())
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, complex):
+        return {"real": value.real, "imag": value.imag}
+    if isinstance(value, Path):
+        return str(value)
+    return value
+
+
+def _json_dumps(value: Any) -> str:
+    return json.dumps(to_jsonable(value), allow_nan=True)
+
+
+def _utc_now() -> str:
+    return datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")
+
+
+def _hit_table_dtype(channel_count: int) -> np.dtype:
+    return np.dtype(
+        [
+            ("accepted", "?"),
+            ("overridden", "?"),
+            ("reasons", f"S{REASONS_LENGTH}"),
+            ("start_time_s", "<f8"),
+            ("trigger_index", "<i8"),
+            ("capture_index", "<i8"),
+            ("sample_rate_hz", "<f8"),
+            ("force_channel", "<i2"),
+            ("response_channel", "<i2"),
+            ("overload", "?", (channel_count,)),
+        ]
+    )
+
+
+def _encode_reasons(reasons: tuple[str, ...], path: Path) -> bytes:
+    for reason in reasons:
+        if ";" in reason:
+            raise SessionError(f"{path}: hit reason '{reason}' contains ';', which separates stored reasons")
+    encoded = "; ".join(reasons).encode("utf-8")
+    if len(encoded) > REASONS_LENGTH:
+        raise SessionError(f"{path}: hit reasons '{'; '.join(reasons)}' exceed {REASONS_LENGTH} bytes")
+    return encoded
+
+
+def _decode_reasons(raw: bytes) -> tuple[str, ...]:
+    text = raw.decode("utf-8")
+    return tuple(reason for reason in text.split("; ") if reason)
+
+
+def _config_to_dict(config: DaqConfig) -> dict[str, Any]:
+    return {
+        "channels": [
+            {
+                "physical_channel": channel.physical_channel,
+                "kind": channel.kind.value,
+                "sensitivity": channel.sensitivity,
+                "sensitivity_units": channel.sensitivity_units,
+                "iepe_current_a": channel.iepe_current_a,
+                "coupling": Coupling(channel.coupling).value,
+                "name": channel.name,
+                "unit": channel.kind.unit,
+                "full_scale_si": channel.full_scale_si,
+            }
+            for channel in config.channels
+        ],
+        "sample_rate_hz": config.sample_rate_hz,
+        "samples_per_chunk": config.samples_per_chunk,
+    }
+
+
+def _config_from_dict(data: Mapping[str, Any]) -> DaqConfig:
+    channels = tuple(
+        ChannelConfig(
+            physical_channel=channel["physical_channel"],
+            kind=ChannelKind(channel["kind"]),
+            sensitivity=float(channel["sensitivity"]),
+            sensitivity_units=channel["sensitivity_units"],
+            iepe_current_a=float(channel["iepe_current_a"]),
+            coupling=Coupling(channel["coupling"]),
+            name=channel["name"],
+        )
+        for channel in data["channels"]
+    )
+    return DaqConfig(channels, float(data["sample_rate_hz"]), int(data["samples_per_chunk"]))
+
+
+def _write_mapping(group: h5py.Group, values: Mapping[str, Any]) -> None:
+    """Arrays become datasets, strings and numbers attributes, anything else a JSON attribute."""
+    json_keys = []
+    for key, value in values.items():
+        if isinstance(value, (list, tuple)) and value and all(
+            isinstance(item, (int, float, complex, np.number)) and not isinstance(item, bool) for item in value
+        ):
+            value = np.asarray(value)
+        if isinstance(value, np.ndarray) and value.dtype.kind in "biufc":
+            group.create_dataset(key, data=value)
+        elif isinstance(value, (str, bool, int, float, np.number, np.bool_)):
+            group.attrs[key] = value
+        else:
+            group.attrs[key] = _json_dumps(value)
+            json_keys.append(key)
+    group.attrs["json_keys"] = _json_dumps(json_keys)
+
+
+def _read_mapping(group: h5py.Group) -> dict[str, Any]:
+    json_keys = set(json.loads(group.attrs.get("json_keys", "[]")))
+    values: dict[str, Any] = {}
+    for key, value in group.attrs.items():
+        if key == "json_keys":
+            continue
+        if key in json_keys:
+            values[key] = json.loads(value)
+        elif isinstance(value, np.generic):
+            values[key] = value.item()
+        else:
+            values[key] = value
+    for key, dataset in group.items():
+        values[key] = dataset[()]
+    return values
+
+
+def _describe_open_failure(path: Path, error: OSError) -> SessionError:
+    text = str(error)
+    if "truncated file" in text:
+        return SessionError(f"{path}: truncated HDF5 file (the file ends before its data does)")
+    if "signature not found" in text:
+        return SessionError(f"{path}: wrong file type: not an HDF5 file")
+    return SessionError(f"{path}: cannot open the HDF5 file ({text})")
+
+
+class Session:
+    """An open session file. Create with :meth:`create`, open with :meth:`open`; use as a context manager."""
+
+    def __init__(self, path: Path, file: h5py.File, writable: bool, recovered: bool = False) -> None:
+        self.path = path
+        self._file = file
+        self.writable = writable
+        self.recovered = recovered
+        self.sync_each_hit = True
+        self._check_layout()
+
+    # ----- creating and opening -------------------------------------------------------------------------------
+
+    @classmethod
+    def create(
+        cls,
+        path: str | Path,
+        daq_config: DaqConfig,
+        rig_spec_toml: str | None,
+        settings: Mapping[str, Any],
+        overwrite: bool = False,
+        actual_sample_rate_hz: float | None = None,
+        device_name: str = "",
+        sync_each_hit: bool = True,
+    ) -> "Session":
+        """A new session file holding the setup; it appears at ``path`` only once complete.
+
+        ``actual_sample_rate_hz`` is the rate the device reports (the NI 9234 may coerce the requested rate);
+        ``sync_each_hit=False`` skips the fsync after each hit (for bulk imports, not for live acquisition).
+        """
+        path = Path(path)
+        if path.exists() and not overwrite:
+            raise SessionError(f"{path}: the session file exists already (choose another name, or append to it)")
+        if not path.parent.is_dir():
+            raise SessionError(f"{path}: the folder {path.parent} does not exist")
+        building = path.with_name(f".{path.name}.{os.getpid()}.creating")
+        file = h5py.File(building, "w", libver="latest")
+        try:
+            file.attrs["format"] = FORMAT_NAME
+            file.attrs["schema_version"] = SCHEMA_VERSION
+            file.attrs["created_utc"] = _utc_now()
+            file.attrs["status"] = "recording"
+            file.attrs["status_reason"] = ""
+            file.attrs["closed_utc"] = ""
+            rig = file.create_group("rig")
+            rig.attrs["present"] = rig_spec_toml is not None
+            rig.create_dataset("spec_toml", data=rig_spec_toml or "", dtype=h5py.string_dtype())
+            daq = file.create_group("daq")
+            daq.attrs["config"] = _json_dumps(_config_to_dict(daq_config))
+            daq.attrs["requested_sample_rate_hz"] = float(daq_config.sample_rate_hz)
+            daq.attrs["sample_rate_hz"] = float(actual_sample_rate_hz or daq_config.sample_rate_hz)
+            daq.attrs["device"] = device_name
+            settings_group = file.create_group("settings")
+            for key, value in settings.items():
+                settings_group.attrs[key] = _json_dumps(value)
+            channel_count = len(daq_config.channels)
+            hits = file.create_group("hits")
+            hits.create_dataset(
+                "data",
+                shape=(0, channel_count, 0),
+                maxshape=(None, channel_count, None),
+                chunks=(1, channel_count, SAMPLES_PER_CHUNK),
+                dtype="<f8",
+                fillvalue=np.nan,
+            )
+            hits.create_dataset(
+                "table",
+                shape=(0,),
+                maxshape=(None,),
+                chunks=(64,),
+                dtype=_hit_table_dtype(channel_count),
+            )
+            for name in ("frf", "fits", "diagnoses"):
+                file.create_group(name)
+            file.flush()
+            file.swmr_mode = True
+            os.replace(building, path)
+        except BaseException:
+            file.close()
+            building.unlink(missing_ok=True)
+            raise
+        session = cls(path, file, writable=True)
+        session.sync_each_hit = sync_each_hit
+        return session
+
+    @classmethod
+    def open(cls, path: str | Path, mode: str = "r") -> "Session":
+        """Open a session for reading (``"r"``) or for appending and adding results (``"a"``)."""
+        path = Path(path)
+        if mode not in ("r", "a"):
+            raise SessionError(f"{path}: mode '{mode}' is not valid; use 'r' or 'a'")
+        if not path.exists():
+            raise SessionError(f"{path}: no such session file")
+        if path.is_dir():
+            raise SessionError(f"{path}: is a folder, not a session file")
+        try:
+            file = h5py.File(path, mode, libver="latest") if mode == "a" else h5py.File(path, "r")
+        except OSError as error:
+            if "already open for write" not in str(error):
+                raise _describe_open_failure(path, error) from None
+            # Flags of a writer that ended without closing the file (killed, crashed, power loss).
+            if mode == "r":
+                try:
+                    file = h5py.File(path, "r", swmr=True)
+                except OSError as swmr_error:
+                    raise _describe_open_failure(path, swmr_error) from None
+                return cls(path, file, writable=False, recovered=True)
+            _recover(path)
+            session = cls.open(path, "a")
+            session.recovered = True
+            return session
+        return cls(path, file, writable=mode == "a")
+
+    def _check_layout(self) -> None:
+        attrs = self._file.attrs
+        if attrs.get("format") != FORMAT_NAME or "schema_version" not in attrs:
+            self._file.close()
+            raise SessionError(f"{self.path}: an HDF5 file, but not a gasfilm session (no '{FORMAT_NAME}' format mark)")
+        version = int(attrs["schema_version"])
+        if version > SCHEMA_VERSION:
+            self._file.close()
+            raise SessionError(
+                f"{self.path}: session schema_version {version} is newer than this gasfilm reads "
+                f"(up to {SCHEMA_VERSION}); update gasfilm"
+            )
+        try:
+            self._table.shape
+            self._data.shape
+        except (KeyError, OSError) as error:
+            self._file.close()
+            raise SessionError(f"{self.path}: damaged session: the hit datasets cannot be read ({error})") from None
+
+    # ----- context manager and closing ----------------------------------------------------------------------
+
+    def __enter__(self) -> "Session":
+        return self
+
+    def __exit__(self, exc_type: type | None, exc: BaseException | None, traceback: object) -> None:
+        if not self.is_open:
+            return
+        if exc is None:
+            self.close("complete")
+        else:
+            self.close("aborted", f"{type(exc).__name__}: {exc}" if str(exc) else type(exc).__name__)
+
+    @property
+    def is_open(self) -> bool:
+        return bool(self._file.id.valid)
+
+    def close(self, status: str = "complete", reason: str = "") -> None:
+        """Record how the session ended (``"complete"`` or ``"aborted"`` with a reason) and close the file."""
+        if not self.is_open:
+            return
+        if self.writable:
+            if status not in ("complete", "aborted"):
+                raise SessionError(f"{self.path}: close status '{status}' is not valid; use 'complete' or 'aborted'")
+            self._set_status(status, reason)
+            self._file.attrs["closed_utc"] = _utc_now()
+        self._file.close()
+
+    def _set_status(self, status: str, reason: str) -> None:
+        self._structural()
+        self._file.attrs["status"] = status
+        self._file.attrs["status_reason"] = reason
+        self._file.flush()
+
+    # ----- file modes ------------------------------------------------------------------------------------------
+
+    def _require_writable(self) -> None:
+        if not self.writable:
+            raise SessionError(f"{self.path}: the session is open read-only (open it with mode 'a' to change it)")
+        if not self.is_open:
+            raise SessionError(f"{self.path}: the session is closed")
+
+    def _structural(self) -> None:
+        """Leave SWMR mode (by reopening the file) so groups and attributes can be created."""
+        self._require_writable()
+        if self._file.swmr_mode:
+            self._file.close()
+            self._file = h5py.File(self.path, "a", libver="latest")
+
+    def _appending(self) -> None:
+        """Enter SWMR mode: from now on the file on disk is consistent after every flush."""
+        self._require_writable()
+        if not self._file.swmr_mode:
+            if self._file.attrs["status"] != "recording":
+                self._set_status("recording", "")
+            self._file.flush()
+            self._file.swmr_mode = True
+
+    def _sync(self) -> None:
+        if self.sync_each_hit:
+            os.fsync(self._file.id.get_vfd_handle())
+
+    # ----- metadata ----------------------------------------------------------------------------------------------
+
+    @property
+    def _data(self) -> h5py.Dataset:
+        return self._file["hits/data"]
+
+    @property
+    def _table(self) -> h5py.Dataset:
+        return self._file["hits/table"]
+
+    @property
+    def schema_version(self) -> int:
+        return int(self._file.attrs["schema_version"])
+
+    @property
+    def status(self) -> str:
+        """``recording``, ``complete``, ``aborted``; ``interrupted`` when the writer ended without closing."""
+        status = str(self._file.attrs["status"])
+        if status == "recording" and self.recovered:
+            return "interrupted"
+        return status
+
+    @property
+    def status_reason(self) -> str:
+        return str(self._file.attrs["status_reason"])
+
+    @property
+    def daq_config(self) -> DaqConfig:
+        return _config_from_dict(json.loads(self._file["daq"].attrs["config"]))
+
+    @property
+    def sample_rate_hz(self) -> float:
+        """The sample rate the device actually ran at."""
+        return float(self._file["daq"].attrs["sample_rate_hz"])
+
+    @property
+    def requested_sample_rate_hz(self) -> float:
+        return float(self._file["daq"].attrs["requested_sample_rate_hz"])
+
+    @property
+    def device_name(self) -> str:
+        return str(self._file["daq"].attrs["device"])
+
+    @property
+    def rig_spec_toml(self) -> str | None:
+        if not bool(self._file["rig"].attrs["present"]):
+            return None
+        return self._file["rig/spec_toml"].asstr()[()]
+
+    @property
+    def settings(self) -> dict[str, Any]:
+        """Processing settings as stored (plain JSON values)."""
+        return {key: json.loads(value) for key, value in self._file["settings"].attrs.items()}
+
+    def update_settings(self, settings: Mapping[str, Any]) -> None:
+        """Store (or replace) processing settings by key."""
+        self._structural()
+        for key, value in settings.items():
+            self._file["settings"].attrs[key] = _json_dumps(value)
+        self._file.flush()
+
+    # ----- hits ---------------------------------------------------------------------------------------------------
+
+    @property
+    def hit_count(self) -> int:
+        """Hits committed to the file (a row in the hit table, written after the hit's record)."""
+        if self._file.swmr_mode and not self.writable:
+            self._table.refresh()
+            self._data.refresh()
+        return min(self._table.shape[0], self._data.shape[0])
+
+    @property
+    def record_samples(self) -> int:
+        """Samples per record (0 before the first hit)."""
+        return int(self._data.shape[2])
+
+    def append_hit(self, hit: Any, verdict: Any) -> int:
+        """Store one hit and its verdict, flushed to disk before returning; return its index in the session."""
+        self._appending()
+        data = np.asarray(hit.data, dtype=np.float64)
+        channels = self._data.shape[1]
+        if data.ndim != 2 or data.shape[0] != channels:
+            raise SessionError(f"{self.path}: hit record of shape {data.shape} does not have {channels} channels")
+        if not np.all(np.isfinite(data)):
+            raise SessionError(f"{self.path}: hit {self.hit_count} has NaN or infinite samples; not stored")
+        index = self.hit_count
+        samples = self.record_samples
+        if index == 0 and self._data.shape[0] == 0:
+            samples = data.shape[1]
+        elif data.shape[1] != samples:
+            raise SessionError(
+                f"{self.path}: hit {index} has {data.shape[1]} samples per channel; this session stores {samples}"
+            )
+        row = np.zeros((), dtype=self._table.dtype)
+        row["accepted"] = bool(verdict.accepted)
+        row["overridden"] = bool(getattr(verdict, "overridden", False))
+        row["reasons"] = _encode_reasons(tuple(verdict.reasons), self.path)
+        row["start_time_s"] = float(hit.start_time_s)
+        row["trigger_index"] = int(hit.trigger_index)
+        row["capture_index"] = int(hit.index)
+        row["sample_rate_hz"] = float(hit.sample_rate_hz)
+        row["force_channel"] = int(hit.force_channel)
+        row["response_channel"] = int(hit.response_channel)
+        row["overload"] = np.asarray(hit.overload, dtype=bool).reshape(channels)
+        self._data.resize((index + 1, channels, samples))
+        self._data[index] = data
+        self._data.flush()
+        self._table.resize((index + 1,))
+        self._table[index] = row
+        self._table.flush()
+        self._sync()
+        return index
+
+    def _rows(self) -> np.ndarray:
+        return self._table[: self.hit_count]
+
+    def _verdict(self, row: np.void) -> Any:
+        from analysis.validation import Verdict
+
+        return Verdict(
+            accepted=bool(row["accepted"]),
+            reasons=_decode_reasons(bytes(row["reasons"])),
+            overridden=bool(row["overridden"]),
+        )
+
+    def verdicts(self) -> list[Any]:
+        """Every hit's verdict, in order (no sample data read)."""
+        return [self._verdict(row) for row in self._rows()]
+
+    def _read_data(self, indices: np.ndarray | slice) -> np.ndarray:
+        try:
+            return self._data[indices]
+        except OSError as error:
+            raise SessionError(f"{self.path}: damaged session: hit records cannot be read ({error})") from None
+
+    def _check_finite(self, records: np.ndarray, indices: np.ndarray) -> None:
+        bad = ~np.all(np.isfinite(records), axis=(1, 2))
+        if np.any(bad):
+            hit = int(indices[np.argmax(bad)])
+            channel = int(np.argmax(~np.all(np.isfinite(records[np.argmax(bad)]), axis=1)))
+            label = self.daq_config.channels[channel].label
+            raise SessionError(f"{self.path}: hit {hit} has NaN samples in channel {channel} ({label})")
+
+    def hits(self, check_finite: bool = True) -> list[StoredHit]:
+        """Every stored hit with its record and verdict."""
+        rows = self._rows()
+        indices = np.arange(len(rows))
+        records = self._read_data(slice(0, len(rows)))
+        if check_finite and len(rows):
+            self._check_finite(records, indices)
+        return [
+            StoredHit(
+                index=int(index),
+                data=records[index],
+                sample_rate_hz=float(row["sample_rate_hz"]),
+                trigger_index=int(row["trigger_index"]),
+                start_time_s=float(row["start_time_s"]),
+                overload=np.array(row["overload"], dtype=bool),
+                force_channel=int(row["force_channel"]),
+                response_channel=int(row["response_channel"]),
+                capture_index=int(row["capture_index"]),
+                verdict=self._verdict(row),
+            )
+            for index, row in zip(indices, rows)
+        ]
+
+    def __iter__(self) -> Iterator[StoredHit]:
+        return iter(self.hits())
+
+    def accepted_indices(self) -> np.ndarray:
+        return np.flatnonzero(self._rows()["accepted"])
+
+    def accepted_records(self) -> np.ndarray:
+        """The accepted hits' records, ``(hits, channels, samples)``; raises naming a hit with NaN samples."""
+        indices = self.accepted_indices()
+        if len(indices) == 0:
+            return np.empty((0, self._data.shape[1], self.record_samples))
+        records = self._read_data(indices)
+        self._check_finite(records, indices)
+        return records
+
+    def set_verdict(self, index: int, verdict: Any) -> None:
+        """Replace a hit's verdict (e.g. the user overrides a rejection); flushed at once."""
+        self._require_writable()
+        if not 0 <= index < self.hit_count:
+            raise SessionError(f"{self.path}: hit {index} does not exist (the session holds {self.hit_count})")
+        if not self._file.swmr_mode:
+            self._appending()
+        row = self._table[index]
+        row["accepted"] = bool(verdict.accepted)
+        row["overridden"] = bool(getattr(verdict, "overridden", False))
+        row["reasons"] = _encode_reasons(tuple(verdict.reasons), self.path)
+        self._table[index] = row
+        self._table.flush()
+        self._sync()
+
+    # ----- results ------------------------------------------------------------------------------------------------
+
+    def _write_result(self, kind: str, name: str, values: Mapping[str, Any]) -> None:
+        self._structural()
+        parent = self._file[kind]
+        if name in parent:
+            del parent[name]
+        group = parent.create_group(name)
+        _write_mapping(group, values)
+        group.attrs["written_utc"] = _utc_now()
+        self._file.flush()
+
+    def _read_result(self, kind: str, name: str) -> dict[str, Any]:
+        if name not in self._file[kind]:
+            available = ", ".join(self._file[kind]) or "none"
+            raise SessionError(f"{self.path}: no {kind} result named '{name}' (available: {available})")
+        values = _read_mapping(self._file[kind][name])
+        values.pop("written_utc", None)
+        return values
+
+    def result_names(self, kind: str) -> list[str]:
+        """Names stored under ``"frf"``, ``"fits"`` or ``"diagnoses"``."""
+        return list(self._file[kind])
+
+    def write_frf(self, frf: Any, name: str = "frf", hit_indices: np.ndarray | None = None) -> None:
+        """Store an :class:`analysis.spectra.FrfResult` field by field (optionally with the hits it averages)."""
+        values = dict(frf.to_dict())
+        if hit_indices is not None:
+            values["hit_indices"] = np.asarray(hit_indices, dtype=np.int64)
+        self._write_result("frf", name, values)
+
+    def read_frf(self, name: str = "frf") -> Any:
+        """The :class:`analysis.spectra.FrfResult` stored under ``name``."""
+        from analysis.spectra import FrfResult
+
+        values = self._read_result("frf", name)
+        values.pop("hit_indices", None)
+        return FrfResult.from_dict(values)
+
+    def frf_hit_indices(self, name: str = "frf") -> np.ndarray | None:
+        group = self._file["frf"].get(name)
+        return None if group is None or "hit_indices" not in group else group["hit_indices"][()]
+
+    def write_fit(self, name: str, values: Mapping[str, Any]) -> None:
+        """Store a fit (arrays as datasets, scalars and strings as attributes, nested values as JSON)."""
+        self._write_result("fits", name, values)
+
+    def read_fit(self, name: str) -> dict[str, Any]:
+        return self._read_result("fits", name)
+
+    def write_diagnosis(self, name: str, values: Mapping[str, Any]) -> None:
+        """Store a diagnosis (same rules as :meth:`write_fit`)."""
+        self._write_result("diagnoses", name, values)
+
+    def read_diagnosis(self, name: str) -> dict[str, Any]:
+        return self._read_result("diagnoses", name)
+
+
+def _recover(path: Path) -> None:
+    """Rewrite a session whose writer ended without closing it into a clean file, committed hits only."""
+    clean = path.with_name(f".{path.name}.{os.getpid()}.recovering")
+    try:
+        source = h5py.File(path, "r", swmr=True)
+    except OSError as error:
+        raise _describe_open_failure(path, error) from None
+    try:
+        if source.attrs.get("format") != FORMAT_NAME:
+            raise SessionError(f"{path}: an HDF5 file, but not a gasfilm session (no '{FORMAT_NAME}' format mark)")
+        with h5py.File(clean, "w", libver="latest") as target:
+            for key, value in source.attrs.items():
+                target.attrs[key] = value
+            for name in source:
+                source.copy(source[name], target, name=name)
+            committed = min(target["hits/table"].shape[0], target["hits/data"].shape[0])
+            data = target["hits/data"]
+            data.resize((committed, data.shape[1], data.shape[2]))
+            target["hits/table"].resize((committed,))
+            target.attrs["recovered_utc"] = _utc_now()
+            if target.attrs["status"] == "recording":
+                target.attrs["status"] = "interrupted"
+                target.attrs["status_reason"] = (
+                    f"the recording process ended without closing the session; {committed} hits recovered"
+                )
+    except OSError as error:
+        clean.unlink(missing_ok=True)
+        raise SessionError(f"{path}: damaged session that cannot be recovered ({error})") from None
+    except BaseException:
+        clean.unlink(missing_ok=True)
+        raise
+    finally:
+        source.close()
+    os.replace(clean, path)

@@ -1,0 +1,101 @@
+"""``gasfilm demo``: a short hammer session on the simulated rig, summarised.
+
+The main job end to end on the simulated NI 9234: stream, trigger, validate, store every hit in an HDF5 session,
+average the FRF, identify the film (SD and FOMGF), and print what a technician would check first.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from analysis.acquisition import AcquisitionLoop
+from analysis.capture import ImpactCapture, TriggerSettings
+from analysis.identify import fit_model
+from analysis.models import PAPER_MODELS
+from analysis.recording import HitRecorder
+from analysis.rig import RigSpec
+from analysis.session import Session
+from analysis.spectra import WindowSettings, compute_frf
+from analysis.validation import ValidationSettings
+from drivers import open_device
+from drivers.interface import ChannelKind, default_hammer_and_accelerometer
+
+G_M_S2 = 9.80665
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    parser = subparsers.add_parser("demo", help="run a short hammer session on the simulated rig and summarise it")
+    parser.add_argument("--hits", type=int, default=8, help="accepted hits to collect (default 8)")
+    parser.add_argument("--rig", type=Path, help="rig spec TOML (default: the paper's FOMGF film on 25.05 kg)")
+    parser.add_argument("--out", type=Path, default=Path("out/demo-session.h5"), help="session file to write")
+    parser.add_argument("--seed", type=int, default=1, help="simulator seed")
+    parser.add_argument("--no-fit", action="store_true", help="skip the film identification")
+    parser.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    spec = RigSpec.load(args.rig) if args.rig else RigSpec.nominal("FOMGF")
+    config = default_hammer_and_accelerometer(51200.0 / 4)
+    trigger = TriggerSettings(level_n=20.0, pretrigger_s=0.01, record_s=1.0)
+    validation = ValidationSettings()
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    device = open_device("sim", rig=spec, seed=args.seed, pacing="fast", hit_interval_s=(1.2, 2.0))
+    device.configure(config)
+    force_row = config.channel_index(ChannelKind.FORCE)
+    response_row = config.channel_index(ChannelKind.ACCELERATION)
+    full_scale = tuple(channel.full_scale_si for channel in config.channels)
+    started = time.monotonic()
+    with Session.create(
+        args.out,
+        config,
+        spec.to_toml(),
+        {"trigger": trigger, "validation": validation},
+        overwrite=True,
+    ) as session:
+        capture = ImpactCapture(trigger, device.sample_rate_hz, len(config.channels), force_row, response_row)
+        recorder = HitRecorder(session, capture, validation, full_scale_si=full_scale)
+        with device, AcquisitionLoop(device) as loop:
+            chunks = loop.subscribe("demo")
+            while recorder.accepted_count < args.hits:
+                chunk = chunks.get(timeout_s=30.0)
+                if chunk is None:
+                    break
+                for event in recorder.feed(chunk.data, chunk.status.overload):
+                    verdict = "accepted" if event.verdict.accepted else "rejected: " + ", ".join(event.verdict.reasons)
+                    print(f"  hit {event.index + 1:2d} at {event.start_time_s:6.2f} s  {verdict}", file=sys.stderr)
+        if loop.error is not None:
+            raise loop.error
+        hits = session.hits()
+        records = session.accepted_records()
+        window = WindowSettings()
+        frf = compute_frf(records[:, [force_row, response_row]], device.sample_rate_hz, window)
+        session.write_frf(frf)
+        peak_forces = [float(np.max(np.abs(h.data[force_row]))) for h in hits]
+        peak_responses = [float(np.max(np.abs(h.data[response_row]))) for h in hits]
+        band = (frf.freq_hz >= 20) & (frf.freq_hz <= 1000)
+        peak_hz = float(frf.freq_hz[band][np.argmax(np.abs(frf.h1[band]))])
+        print(f"gasfilm demo — simulated NI 9234, rig '{spec.name}', {device.sample_rate_hz:.0f} S/s")
+        print(f"  hits seen:         {len(hits)} ({len(records)} accepted, {len(hits) - len(records)} rejected)")
+        print(f"  peak force:        {min(peak_forces):.0f} … {max(peak_forces):.0f} N")
+        print(f"  peak response:     {min(peak_responses):.2f} … {max(peak_responses):.2f} m/s²")
+        print(f"  resonance |H1|:    {peak_hz:.1f} Hz, {np.max(np.abs(frf.h1[band])) / G_M_S2:.4f} g/N")
+        print(f"  coherence 20–1000 Hz: mean {np.mean(frf.coherence[band]):.4f}, min {np.min(frf.coherence[band]):.4f}")
+        if not args.no_fit:
+            fit_band = (frf.freq_hz >= 20) & (frf.freq_hz <= 800)
+            for name in ("SD", "FOMGF"):
+                fit = fit_model(
+                    PAPER_MODELS[name],
+                    frf.freq_hz[fit_band],
+                    frf.h1[fit_band],
+                    spec.mass_kg,
+                    decay_rate_1_s=frf.decay_rate_1_s,
+                )
+                session.write_fit(name, fit.to_dict())
+                print(f"  fit {name:6s} RMS {fit.rms / G_M_S2:.3e} g/N  ({fit.wall_time_s:.2f} s)")
+        print(f"  session:           {args.out} ({time.monotonic() - started:.1f} s)")
+    return 0

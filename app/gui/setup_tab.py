@@ -1,0 +1,390 @@
+"""Setup tab: device, channels and sensors, sample rate, trigger, windows, validation rules and rig spec."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from PySide6.QtCore import Qt, Signal
+from PySide6.QtWidgets import (
+    QCheckBox,
+    QComboBox,
+    QDoubleSpinBox,
+    QFileDialog,
+    QFormLayout,
+    QGridLayout,
+    QGroupBox,
+    QHBoxLayout,
+    QLabel,
+    QLineEdit,
+    QPushButton,
+    QSpinBox,
+    QTableWidget,
+    QVBoxLayout,
+    QWidget,
+)
+
+import drivers
+from analysis.capture import TriggerSettings
+from analysis.rig import RigSpec
+from analysis.spectra import WindowSettings
+from analysis.validation import ValidationSettings
+from app.gui.sensors import DEFAULT_SENSOR_LIBRARY, Sensor, load_sensor_library
+from app.gui.settings import SIM_TIPS, ChannelSetup, SetupState, rig_spec_label
+from app.gui.widgets import DataclassForm
+from drivers.errors import GasfilmError
+from drivers.interface import NI9234_VALID_RATES_HZ, SENSITIVITY_UNITS, ChannelKind, Coupling
+
+TYPED_IN = "typed in"
+_COLUMNS = ("Use", "Channel", "Name", "Type", "Sensor", "Sensitivity", "Units", "IEPE", "Coupling")
+
+
+class SetupTab(QWidget):
+    """Edits a :class:`SetupState`; ``changed`` fires on every edit, ``problem`` names what is invalid ('' if none)."""
+
+    changed = Signal()
+
+    def __init__(self, state: SetupState, parent: QWidget | None = None) -> None:
+        super().__init__(parent)
+        self.sensors: list[Sensor] = load_sensor_library(DEFAULT_SENSOR_LIBRARY)
+        self.sensor_library_path = DEFAULT_SENSOR_LIBRARY
+        self._loading = False
+
+        self.device_combo = QComboBox()
+        self.device_combo.setEditable(True)
+        refresh = QPushButton("Find devices")
+        refresh.clicked.connect(self.refresh_devices)
+        self.sim_auto_hammer = QCheckBox("Simulated hammer also hits by itself (every 1.5–3 s)")
+        self.sim_tip = QComboBox()
+        self.sim_tip.addItems(SIM_TIPS)
+        self.sim_seed = QSpinBox()
+        self.sim_seed.setRange(0, 1_000_000)
+        device_box = QGroupBox("Device")
+        device_form = QFormLayout(device_box)
+        device_row = QHBoxLayout()
+        device_row.addWidget(self.device_combo, 1)
+        device_row.addWidget(refresh)
+        device_form.addRow("NI 9234 module", device_row)
+        device_form.addRow("", self.sim_auto_hammer)
+        device_form.addRow("Simulated hammer tip", self.sim_tip)
+        device_form.addRow("Simulator seed", self.sim_seed)
+
+        self.table = QTableWidget(len(state.channels), len(_COLUMNS))
+        self.table.setHorizontalHeaderLabels(_COLUMNS)
+        self.table.verticalHeader().setVisible(False)
+        self.response_combo = QComboBox()
+        library_button = QPushButton("Sensor library…")
+        library_button.clicked.connect(self._choose_sensor_library)
+        self.library_label = QLabel(str(self.sensor_library_path))
+        channels_box = QGroupBox("Channels and sensors")
+        channels_layout = QVBoxLayout(channels_box)
+        channels_layout.addWidget(self.table)
+        channel_row = QHBoxLayout()
+        channel_row.addWidget(QLabel("FRF response channel"))
+        channel_row.addWidget(self.response_combo)
+        channel_row.addStretch(1)
+        channel_row.addWidget(self.library_label)
+        channel_row.addWidget(library_button)
+        channels_layout.addLayout(channel_row)
+
+        self.rate_combo = QComboBox()
+        for divisor, rate in enumerate(NI9234_VALID_RATES_HZ, start=1):
+            self.rate_combo.addItem(f"{rate:,.2f} S/s  (51 200 / {divisor})".replace(",", " "), rate)
+        self.live_view_s = QDoubleSpinBox()
+        self.live_view_s.setRange(0.2, 10.0)
+        self.live_view_s.setSuffix(" s")
+        self.trigger_form = DataclassForm(TriggerSettings)
+        trigger_box = QGroupBox("Sampling and trigger")
+        trigger_layout = QFormLayout(trigger_box)
+        trigger_layout.addRow("Sample rate", self.rate_combo)
+        trigger_layout.addRow("Live view length", self.live_view_s)
+        trigger_layout.addRow(self.trigger_form)
+
+        self.window_form = DataclassForm(WindowSettings)
+        window_box = QGroupBox("Windows")
+        QVBoxLayout(window_box).addWidget(self.window_form)
+
+        self.validation_form = DataclassForm(ValidationSettings)
+        self.auto_accept = QCheckBox("Accept hits that pass every check without asking")
+        self.auto_reject = QCheckBox("Reject hits that fail a check without asking")
+        validation_box = QGroupBox("Hit validation and accept rules")
+        validation_layout = QVBoxLayout(validation_box)
+        validation_layout.addWidget(self.validation_form)
+        validation_layout.addWidget(self.auto_accept)
+        validation_layout.addWidget(self.auto_reject)
+
+        self.rig_path = QLineEdit()
+        self.rig_path.setPlaceholderText(rig_spec_label(""))
+        browse = QPushButton("Open…")
+        browse.clicked.connect(self._choose_rig_spec)
+        nominal = QPushButton("Nominal")
+        nominal.clicked.connect(lambda: (self.rig_path.setText(""), self._emit_changed()))
+        self.rig_summary = QLabel()
+        self.rig_summary.setWordWrap(True)
+        rig_box = QGroupBox("Rig spec (simulated rig and diagnosis reference)")
+        rig_layout = QVBoxLayout(rig_box)
+        rig_row = QHBoxLayout()
+        rig_row.addWidget(self.rig_path, 1)
+        rig_row.addWidget(browse)
+        rig_row.addWidget(nominal)
+        rig_layout.addLayout(rig_row)
+        rig_layout.addWidget(self.rig_summary)
+
+        self.problem_label = QLabel()
+        self.problem_label.setWordWrap(True)
+
+        grid = QGridLayout(self)
+        grid.addWidget(device_box, 0, 0)
+        grid.addWidget(rig_box, 0, 1)
+        grid.addWidget(channels_box, 1, 0, 1, 2)
+        grid.addWidget(trigger_box, 2, 0)
+        side = QVBoxLayout()
+        side.addWidget(window_box)
+        side.addWidget(validation_box)
+        grid.addLayout(side, 2, 1)
+        grid.addWidget(self.problem_label, 3, 0, 1, 2)
+        grid.setRowStretch(4, 1)
+
+        for form in (self.trigger_form, self.window_form, self.validation_form):
+            form.changed.connect(self._emit_changed)
+        for box in (self.sim_auto_hammer, self.auto_accept, self.auto_reject):
+            box.toggled.connect(self._emit_changed)
+        self.device_combo.currentTextChanged.connect(self._emit_changed)
+        self.sim_tip.currentIndexChanged.connect(self._emit_changed)
+        self.sim_seed.valueChanged.connect(self._emit_changed)
+        self.rate_combo.currentIndexChanged.connect(self._emit_changed)
+        self.live_view_s.valueChanged.connect(self._emit_changed)
+        self.response_combo.currentIndexChanged.connect(self._emit_changed)
+        self.rig_path.editingFinished.connect(self._emit_changed)
+
+        self.refresh_devices()
+        self.set_state(state)
+
+    # --- state in and out ------------------------------------------------------------------------------------------
+
+    def set_state(self, state: SetupState) -> None:
+        self._loading = True
+        if self.device_combo.findText(state.device) < 0:
+            self.device_combo.addItem(state.device)
+        self.device_combo.setCurrentText(state.device)
+        self.sim_auto_hammer.setChecked(state.sim_auto_hammer)
+        self.sim_tip.setCurrentText(state.sim_tip)
+        self.sim_seed.setValue(state.sim_seed)
+        for row, channel in enumerate(state.channels):
+            self._fill_row(row, channel)
+        index = self.rate_combo.findData(min(NI9234_VALID_RATES_HZ, key=lambda r: abs(r - state.sample_rate_hz)))
+        self.rate_combo.setCurrentIndex(index)
+        self.live_view_s.setValue(state.live_view_s)
+        self.trigger_form.set_values(state.trigger)
+        self.window_form.set_values(state.window)
+        self.validation_form.set_values(state.validation)
+        self.auto_accept.setChecked(state.auto_accept)
+        self.auto_reject.setChecked(state.auto_reject)
+        self.rig_path.setText(state.rig_spec_path)
+        self._refresh_response_channels(state.response_channel)
+        self._loading = False
+        self._emit_changed()
+
+    def state(self) -> SetupState:
+        return SetupState(
+            device=self.device_combo.currentText().strip() or drivers.SIMULATED_DEVICE_NAME,
+            channels=[self._read_row(row) for row in range(self.table.rowCount())],
+            response_channel=self.response_combo.currentData() or "",
+            sample_rate_hz=float(self.rate_combo.currentData()),
+            trigger=self.trigger_form.values(),
+            window=self.window_form.values(),
+            validation=self.validation_form.values(),
+            rig_spec_path=self.rig_path.text().strip(),
+            auto_accept=self.auto_accept.isChecked(),
+            auto_reject=self.auto_reject.isChecked(),
+            sim_auto_hammer=self.sim_auto_hammer.isChecked(),
+            sim_tip=self.sim_tip.currentText(),
+            sim_seed=self.sim_seed.value(),
+            live_view_s=self.live_view_s.value(),
+        )
+
+    def problem(self) -> str:
+        """The first invalid setting as a one-line message, '' when the setup can be armed."""
+        state = self.state()
+        try:
+            state.daq_config()
+            if state.rig_spec_path:
+                RigSpec.load(state.rig_spec_path)
+        except GasfilmError as error:
+            return str(error)
+        return ""
+
+    # --- channel table ---------------------------------------------------------------------------------------------
+
+    def _fill_row(self, row: int, channel: ChannelSetup) -> None:
+        use = QCheckBox()
+        use.setChecked(channel.enabled)
+        name = QLineEdit(channel.name)
+        kind = QComboBox()
+        for member in ChannelKind:
+            kind.addItem(member.value, member.value)
+        kind.setCurrentIndex(kind.findData(channel.kind))
+        sensor = QComboBox()
+        sensitivity = QDoubleSpinBox()
+        sensitivity.setDecimals(4)
+        sensitivity.setRange(0.0, 100_000.0)
+        sensitivity.setValue(channel.sensitivity)
+        units = QComboBox()
+        iepe = QCheckBox()
+        iepe.setChecked(channel.iepe)
+        coupling = QComboBox()
+        coupling.addItems([c.value for c in Coupling])
+        coupling.setCurrentText(channel.coupling)
+        widgets = (use, None, name, kind, sensor, sensitivity, units, iepe, coupling)
+        for column, widget in enumerate(widgets):
+            if widget is not None:
+                self.table.setCellWidget(row, column, widget)
+        label = QLabel(channel.physical_channel)
+        label.setAlignment(Qt.AlignmentFlag.AlignCenter)
+        self.table.setCellWidget(row, 1, label)
+        self._fill_sensor_choices(row, channel.kind, channel.sensor_model)
+        self._fill_units(row, channel.kind, channel.units)
+        use.toggled.connect(lambda _=False: self._channels_changed())
+        name.editingFinished.connect(self._emit_changed)
+        kind.currentIndexChanged.connect(lambda _=0, r=row: self._kind_changed(r))
+        sensor.currentIndexChanged.connect(lambda _=0, r=row: self._sensor_picked(r))
+        sensitivity.valueChanged.connect(lambda _=0.0, r=row: self._typed_in(r))
+        units.currentIndexChanged.connect(lambda _=0, r=row: self._typed_in(r))
+        iepe.toggled.connect(self._emit_changed)
+        coupling.currentIndexChanged.connect(self._emit_changed)
+        self.table.resizeColumnsToContents()
+
+    def _cell(self, row: int, column: str) -> QWidget:
+        return self.table.cellWidget(row, _COLUMNS.index(column))
+
+    def _read_row(self, row: int) -> ChannelSetup:
+        sensor = self._cell(row, "Sensor").currentData()
+        return ChannelSetup(
+            physical_channel=self._cell(row, "Channel").text(),
+            kind=self._cell(row, "Type").currentData(),
+            enabled=self._cell(row, "Use").isChecked(),
+            name=self._cell(row, "Name").text(),
+            sensor_model=sensor or "",
+            sensitivity=self._cell(row, "Sensitivity").value(),
+            units=self._cell(row, "Units").currentText(),
+            iepe=self._cell(row, "IEPE").isChecked(),
+            coupling=self._cell(row, "Coupling").currentText(),
+        )
+
+    def _fill_sensor_choices(self, row: int, kind: str, selected: str) -> None:
+        combo: QComboBox = self._cell(row, "Sensor")
+        combo.blockSignals(True)
+        combo.clear()
+        combo.addItem(TYPED_IN, "")
+        for sensor in self.sensors:
+            if sensor.kind.value == kind:
+                combo.addItem(sensor.model, sensor.model)
+                combo.setItemData(combo.count() - 1, sensor.description, Qt.ItemDataRole.ToolTipRole)
+        combo.setCurrentIndex(max(0, combo.findData(selected)))
+        combo.blockSignals(False)
+
+    def _fill_units(self, row: int, kind: str, selected: str) -> None:
+        combo: QComboBox = self._cell(row, "Units")
+        combo.blockSignals(True)
+        combo.clear()
+        combo.addItems(list(SENSITIVITY_UNITS[ChannelKind(kind)]))
+        if combo.findText(selected) >= 0:
+            combo.setCurrentText(selected)
+        combo.blockSignals(False)
+
+    def _kind_changed(self, row: int) -> None:
+        kind = self._cell(row, "Type").currentData()
+        self._fill_sensor_choices(row, kind, "")
+        self._fill_units(row, kind, "")
+        self._channels_changed()
+
+    def _sensor_picked(self, row: int) -> None:
+        model = self._cell(row, "Sensor").currentData()
+        sensor = next((s for s in self.sensors if s.model == model), None)
+        if sensor is not None:
+            spin: QDoubleSpinBox = self._cell(row, "Sensitivity")
+            spin.blockSignals(True)
+            spin.setValue(sensor.sensitivity)
+            spin.blockSignals(False)
+            self._fill_units(row, sensor.kind.value, sensor.units)
+        self._emit_changed()
+
+    def _typed_in(self, row: int) -> None:
+        """A sensitivity or unit edited by hand no longer matches the library entry."""
+        combo: QComboBox = self._cell(row, "Sensor")
+        model = combo.currentData()
+        sensor = next((s for s in self.sensors if s.model == model), None)
+        current = self._read_row(row)
+        if sensor is not None and (sensor.sensitivity != current.sensitivity or sensor.units != current.units):
+            combo.blockSignals(True)
+            combo.setCurrentIndex(0)
+            combo.blockSignals(False)
+        self._emit_changed()
+
+    def _channels_changed(self) -> None:
+        self._refresh_response_channels(self.response_combo.currentData())
+        self._emit_changed()
+
+    def _refresh_response_channels(self, selected: str | None) -> None:
+        self.response_combo.blockSignals(True)
+        self.response_combo.clear()
+        for row in range(self.table.rowCount()):
+            channel = self._read_row(row)
+            if channel.enabled and channel.kind == ChannelKind.ACCELERATION.value:
+                self.response_combo.addItem(f"{channel.physical_channel} — {channel.name}", channel.physical_channel)
+        self.response_combo.setCurrentIndex(max(0, self.response_combo.findData(selected)))
+        self.response_combo.blockSignals(False)
+
+    # --- device, library and rig spec --------------------------------------------------------------------------------
+
+    def refresh_devices(self) -> None:
+        current = self.device_combo.currentText()
+        self.device_combo.blockSignals(True)
+        self.device_combo.clear()
+        self.device_combo.addItems(drivers.list_devices())
+        if current:
+            if self.device_combo.findText(current) < 0:
+                self.device_combo.addItem(current)
+            self.device_combo.setCurrentText(current)
+        self.device_combo.blockSignals(False)
+
+    def load_sensor_library(self, path: str | Path) -> None:
+        """Use another sensor library file (rows keep their typed-in values)."""
+        self.sensors = load_sensor_library(path)
+        self.sensor_library_path = Path(path)
+        self.library_label.setText(str(path))
+        for row in range(self.table.rowCount()):
+            channel = self._read_row(row)
+            self._fill_sensor_choices(row, channel.kind, channel.sensor_model)
+        self._emit_changed()
+
+    def _choose_sensor_library(self) -> None:
+        path, _ = QFileDialog.getOpenFileName(self, "Sensor library", str(self.sensor_library_path), "TOML (*.toml)")
+        if path:
+            self.load_sensor_library(path)
+
+    def _choose_rig_spec(self) -> None:
+        path, _ = QFileDialog.getOpenFileName(self, "Rig spec", self.rig_path.text(), "Rig spec (*.toml)")
+        if path:
+            self.rig_path.setText(path)
+            self._emit_changed()
+
+    def _emit_changed(self) -> None:
+        if self._loading:
+            return
+        is_sim = self.device_combo.currentText().strip() == drivers.SIMULATED_DEVICE_NAME
+        for widget in (self.sim_auto_hammer, self.sim_tip, self.sim_seed):
+            widget.setEnabled(is_sim)
+        self.rig_summary.setText(self._rig_summary())
+        problem = self.problem()
+        self.problem_label.setText(f"⚠ {problem}" if problem else "✓ Setup is valid")
+        self.problem_label.setStyleSheet("color: #b3261e;" if problem else "color: #1b7f3b;")
+        self.changed.emit()
+
+    def _rig_summary(self) -> str:
+        path = self.rig_path.text().strip()
+        try:
+            spec = RigSpec.load(path) if path else RigSpec.nominal("FOMGF")
+        except GasfilmError as error:
+            return str(error)
+        return f"{rig_spec_label(path)} — mass {spec.mass_kg:g} kg"
+

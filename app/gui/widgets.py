@@ -1,0 +1,224 @@
+"""Small widgets shared by the tabs: the error banner, settings forms built from dataclasses, and plot set-up."""
+
+from __future__ import annotations
+
+import dataclasses
+import enum
+import re
+from typing import Any
+
+import pyqtgraph as pg
+from PySide6.QtCore import Qt, Signal
+from PySide6.QtWidgets import (
+    QCheckBox,
+    QComboBox,
+    QDoubleSpinBox,
+    QFormLayout,
+    QFrame,
+    QHBoxLayout,
+    QLabel,
+    QLineEdit,
+    QPushButton,
+    QSpinBox,
+    QWidget,
+)
+
+#: Curve colours (colour-blind safe, Okabe–Ito) in the order models and channels are drawn.
+PALETTE = ("#0072B2", "#D55E00", "#009E73", "#CC79A7", "#E69F00", "#56B4E9", "#F0E442", "#000000", "#999999")
+MEASURED_COLOR = "#222222"
+ACCEPTED_COLOR = "#1b7f3b"
+REJECTED_COLOR = "#b3261e"
+PENDING_COLOR = "#a66300"
+
+_SEVERITY_STYLE = {
+    "error": ("#fdecea", "#b3261e"),
+    "warning": ("#fff4e5", "#a66300"),
+    "info": ("#e8f1fb", "#0b5394"),
+}
+
+#: Field-name suffixes (the project's unit convention) → unit shown next to the value.
+_UNIT_SUFFIXES = (
+    ("_1_s", "1/s"),
+    ("_hz", "Hz"),
+    ("_ms", "ms"),
+    ("_s", "s"),
+    ("_n", "N"),
+    ("_m_s2", "m/s²"),
+    ("_kg", "kg"),
+    ("_pct", "%"),
+    ("_percent", "%"),
+    ("_db", "dB"),
+    ("_fraction", "fraction"),
+)
+
+
+def split_unit(field_name: str) -> tuple[str, str]:
+    """``'pretrigger_s'`` → ``('pretrigger', 's')``; names without a unit suffix get ``''``."""
+    for suffix, unit in _UNIT_SUFFIXES:
+        if field_name.endswith(suffix) and len(field_name) > len(suffix):
+            return field_name[: -len(suffix)], unit
+    return field_name, ""
+
+
+def field_label(field_name: str) -> str:
+    base, unit = split_unit(field_name)
+    words = re.sub(r"_+", " ", base).strip()
+    words = words[:1].upper() + words[1:]
+    return f"{words} ({unit})" if unit else words
+
+
+class Banner(QFrame):
+    """A non-modal message strip above the tabs: device faults, refused settings, finished jobs."""
+
+    def __init__(self, parent: QWidget | None = None) -> None:
+        super().__init__(parent)
+        self.setObjectName("banner")
+        self._label = QLabel()
+        self._label.setWordWrap(True)
+        self._label.setTextInteractionFlags(Qt.TextInteractionFlag.TextSelectableByMouse)
+        close = QPushButton("Dismiss")
+        close.setFlat(True)
+        close.clicked.connect(self.hide)
+        layout = QHBoxLayout(self)
+        layout.setContentsMargins(10, 6, 6, 6)
+        layout.addWidget(self._label, 1)
+        layout.addWidget(close)
+        self.severity = ""
+        self.history: list[tuple[str, str]] = []
+        self.hide()
+
+    @property
+    def text(self) -> str:
+        return self._label.text()
+
+    def show_message(self, text: str, severity: str = "error") -> None:
+        background, foreground = _SEVERITY_STYLE[severity]
+        self.severity = severity
+        self.history.append((severity, text))
+        self._label.setText(text)
+        self.setStyleSheet(
+            f"QFrame#banner {{ background: {background}; border: 1px solid {foreground}; border-radius: 4px; }}"
+            f"QLabel {{ color: {foreground}; font-weight: 600; }}"
+        )
+        self.show()
+
+
+class DataclassForm(QWidget):
+    """An editor for a settings dataclass: one row per field, the unit taken from the field name's suffix."""
+
+    changed = Signal()
+
+    def __init__(self, settings_type: type, hidden: tuple[str, ...] = (), parent: QWidget | None = None) -> None:
+        super().__init__(parent)
+        self.settings_type = settings_type
+        self._defaults = settings_type()
+        self._editors: dict[str, QWidget] = {}
+        layout = QFormLayout(self)
+        layout.setFieldGrowthPolicy(QFormLayout.FieldGrowthPolicy.FieldsStayAtSizeHint)
+        for f in dataclasses.fields(settings_type):
+            if not f.init or f.name in hidden:
+                continue
+            editor = self._editor_for(f.name, getattr(self._defaults, f.name))
+            if editor is None:
+                continue
+            self._editors[f.name] = editor
+            layout.addRow(field_label(f.name), editor)
+
+    def _editor_for(self, name: str, default: Any) -> QWidget | None:
+        if isinstance(default, bool):
+            editor = QCheckBox()
+            editor.setChecked(default)
+            editor.toggled.connect(self.changed)
+        elif isinstance(default, enum.Enum):
+            editor = QComboBox()
+            for member in type(default):
+                editor.addItem(str(member.value), member.value)
+            editor.setCurrentIndex(editor.findData(default.value))
+            editor.currentIndexChanged.connect(self.changed)
+        elif isinstance(default, int):
+            editor = QSpinBox()
+            editor.setRange(-1_000_000, 1_000_000_000)
+            editor.setValue(default)
+            editor.valueChanged.connect(self.changed)
+        elif isinstance(default, float):
+            editor = QDoubleSpinBox()
+            editor.setDecimals(6)
+            editor.setRange(-1e9, 1e9)
+            editor.setStepType(QDoubleSpinBox.StepType.AdaptiveDecimalStepType)
+            editor.setValue(default)
+            editor.setMinimumWidth(110)
+            editor.valueChanged.connect(self.changed)
+        elif isinstance(default, str):
+            editor = QLineEdit(default)
+            editor.editingFinished.connect(self.changed)
+        else:
+            return None
+        editor.setObjectName(name)
+        return editor
+
+    def values(self) -> dict[str, Any]:
+        out: dict[str, Any] = {}
+        for name, editor in self._editors.items():
+            if isinstance(editor, QCheckBox):
+                out[name] = editor.isChecked()
+            elif isinstance(editor, QComboBox):
+                out[name] = editor.currentData()
+            elif isinstance(editor, (QSpinBox, QDoubleSpinBox)):
+                out[name] = editor.value()
+            elif isinstance(editor, QLineEdit):
+                out[name] = editor.text()
+        return out
+
+    def set_values(self, values: dict[str, Any]) -> None:
+        for name, value in values.items():
+            editor = self._editors.get(name)
+            if editor is None:
+                continue
+            editor.blockSignals(True)
+            if isinstance(editor, QCheckBox):
+                editor.setChecked(bool(value))
+            elif isinstance(editor, QComboBox):
+                index = editor.findData(value.value if isinstance(value, enum.Enum) else value)
+                if index >= 0:
+                    editor.setCurrentIndex(index)
+            elif isinstance(editor, QSpinBox):
+                editor.setValue(int(value))
+            elif isinstance(editor, QDoubleSpinBox):
+                editor.setValue(float(value))
+            elif isinstance(editor, QLineEdit):
+                editor.setText(str(value))
+            editor.blockSignals(False)
+
+
+def configure_pyqtgraph() -> None:
+    """White background, dark text: plots that read like a report and export cleanly."""
+    pg.setConfigOptions(background="w", foreground="#222222", antialias=False)
+
+
+def make_plot(
+    title: str,
+    left: tuple[str, str],
+    bottom: tuple[str, str] = ("Frequency", "Hz"),
+    log_y: bool = False,
+    legend: bool = True,
+) -> pg.PlotWidget:
+    """A plot with labelled axes and units, a grid and (optionally) a legend."""
+    widget = pg.PlotWidget(title=title)
+    item = widget.getPlotItem()
+    item.setLabel("left", left[0], units=left[1] or None)
+    item.setLabel("bottom", bottom[0], units=bottom[1] or None)
+    for side, (_, unit) in (("left", left), ("bottom", bottom)):
+        if "/" in unit or "°" in unit or unit in ("", "1"):
+            item.getAxis(side).enableAutoSIPrefix(False)
+    item.showGrid(x=True, y=True, alpha=0.25)
+    if log_y:
+        item.setLogMode(y=True)
+    if legend:
+        item.addLegend(offset=(-10, 10), labelTextSize="9pt")
+    item.setDownsampling(auto=True, mode="peak")
+    item.setClipToView(True)
+    return widget
+
+
+def pen(color: str, width: float = 1.5, style: Qt.PenStyle = Qt.PenStyle.SolidLine) -> Any:
+    return pg.mkPen(color=color, width=width, style=style)
