@@ -350,24 +350,30 @@ class Session:
     def __exit__(self, exc_type: type | None, exc: BaseException | None, traceback: object) -> None:
         if not self.is_open:
             return
-        if exc is None:
-            self.close("complete")
-        else:
+        if exc is not None and self.writable and self._file.attrs["status"] == "recording":
             self.close("aborted", f"{type(exc).__name__}: {exc}" if str(exc) else type(exc).__name__)
+        else:
+            self.close()
 
     @property
     def is_open(self) -> bool:
         return bool(self._file.id.valid)
 
-    def close(self, status: str = "complete", reason: str = "") -> None:
-        """Record how the session ended (``"complete"`` or ``"aborted"`` with a reason) and close the file."""
+    def close(self, status: str | None = None, reason: str = "") -> None:
+        """Close the file, recording how the session ended: ``"complete"`` or ``"aborted"`` (with a reason).
+
+        Without a status, a session that was recording becomes ``"complete"`` and any other keeps its status (so
+        adding a fit to an aborted session does not make it complete)."""
         if not self.is_open:
             return
         if self.writable:
-            if status not in ("complete", "aborted"):
+            if status is None:
+                status = "complete" if self._file.attrs["status"] == "recording" else None
+            elif status not in ("complete", "aborted"):
                 raise SessionError(f"{self.path}: close status '{status}' is not valid; use 'complete' or 'aborted'")
-            self._set_status(status, reason)
-            self._file.attrs["closed_utc"] = _utc_now()
+            if status is not None:
+                self._set_status(status, reason)
+                self._file.attrs["closed_utc"] = _utc_now()
         self._file.close()
 
     def _set_status(self, status: str, reason: str) -> None:

@@ -7,9 +7,10 @@ hit's time, film stiffness with the hit's level) make the model differ per hit:
 
 * ``film-memory``: a spring-pot ``η s^α`` (0 < α < 1) in parallel with the film — viscoelastic memory;
 * ``pneumatic-lag``: a lagged spring ``k_p / (1 + s τ)`` in parallel with the film — its damping is negative;
-* ``extra-mode``: an additional modal accelerance ``s² / (m_r (s² + 2 ζ ω_r s + ω_r²))``;
+* ``extra-mode``: a mass ``m_e`` on a spring and damper (``ω_e``, ``ζ_e``) riding on the mover, adding the dynamic
+  stiffness ``m_e s² (k_e + c_e s) / (m_e s² + k_e + c_e s)`` (as :class:`analysis.rig.ExtraMode`);
 * ``added-mass``: the moving mass is ``m + Δm``;
-* ``drift``: the film's stiffness scales with ``1 + rate · t`` (t the hit's time in the session);
+* ``drift``: the film's stiffness scales with ``1 + fraction_per_hour · t / 3600 s`` (t the hit's session time);
 * ``amplitude-nonlinearity``: the film stiffness gains ``Δk (J / J_ref)²`` (J the hit's impulse) — the equivalent
   linear stiffness of a cubic spring grows with the square of the displacement amplitude;
 * ``channel-delay``: the response lags the force by τ: ``× e^{-s τ}``;
@@ -21,8 +22,6 @@ hit's time, film stiffness with the hit's level) make the model differ per hit:
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Callable
-
 import numpy as np
 
 from analysis.models import FilmModel, laplace_variable
@@ -73,9 +72,9 @@ CATALOG: dict[str, Effect] = {
         Effect(
             "extra-mode",
             (
-                EffectParameter("frequency_hz", "Hz", "linear", 1.0, 1e5),
+                EffectParameter("freq_hz", "Hz", "linear", 1.0, 1e5),
                 EffectParameter("damping_ratio", "1", "log", 1e-4, 0.5),
-                EffectParameter("modal_mass_kg", "kg", "log", 1e-3, 1e8),
+                EffectParameter("mass_kg", "kg", "log", 1e-6, 1e4),
             ),
             "Something on the mover (a plate, the sensor mount, the fixture) has its own resonance that adds a "
             "small peak and dip to the measured FRF.",
@@ -88,7 +87,7 @@ CATALOG: dict[str, Effect] = {
         ),
         Effect(
             "drift",
-            (EffectParameter("stiffness_rate_1_s", "1/s", "linear", -1.0, 1.0),),
+            (EffectParameter("fraction_per_hour", "1/h", "linear", -1.0, 10.0),),
             "The rig changed during the session (for example the supply pressure): the film stiffness follows the "
             "hit time, so early and late hits resonate at slightly different frequencies.",
             per_hit=True,
@@ -178,18 +177,19 @@ class AugmentedModel:
         if hits is not None:
             scale = np.ones(len(hits.time_s))
             if "drift" in effects:
-                scale = scale + effects["drift"]["stiffness_rate_1_s"] * hits.time_s
+                scale = scale + effects["drift"]["fraction_per_hour"] * hits.time_s / 3600.0
             stiffness = scale[:, np.newaxis] * stiffness[np.newaxis, :]
             if "amplitude-nonlinearity" in effects:
                 level = (hits.impulse_ns / hits.reference_impulse_ns) ** 2
                 delta_k = effects["amplitude-nonlinearity"]["delta_k_at_reference_n_per_m"]
                 stiffness = stiffness + (delta_k * level)[:, np.newaxis]
-        mass_kg = self.mass_kg + effects.get("added-mass", {}).get("delta_mass_kg", 0.0)
-        h = s**2 / (stiffness + mass_kg * s**2)
         if "extra-mode" in effects:
             mode = effects["extra-mode"]
-            omega = 2 * np.pi * mode["frequency_hz"]
-            h = h + s**2 / (mode["modal_mass_kg"] * (s**2 + 2 * mode["damping_ratio"] * omega * s + omega**2))
+            omega = 2 * np.pi * mode["freq_hz"]
+            spring_damper = mode["mass_kg"] * (omega**2 + 2 * mode["damping_ratio"] * omega * s)
+            stiffness = stiffness + mode["mass_kg"] * s**2 * spring_damper / (mode["mass_kg"] * s**2 + spring_damper)
+        mass_kg = self.mass_kg + effects.get("added-mass", {}).get("delta_mass_kg", 0.0)
+        h = s**2 / (stiffness + mass_kg * s**2)
         if "channel-delay" in effects:
             h = h * np.exp(-s * effects["channel-delay"]["delay_s"])
         if "ac-coupling" in effects:
@@ -250,5 +250,3 @@ def write_slots(model: AugmentedModel, slots: list[ParameterSlot], vector: np.nd
         target[slot.name] = slot.from_search(value)
     return updated
 
-
-InitialGuess = Callable[..., list[dict[str, float]]]

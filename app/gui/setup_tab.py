@@ -24,7 +24,7 @@ from PySide6.QtWidgets import (
 )
 
 import drivers
-from analysis.capture import TriggerSettings
+from analysis.capture import SLOPES, TriggerSettings
 from analysis.rig import RigSpec
 from analysis.spectra import WindowSettings
 from analysis.validation import ValidationSettings
@@ -92,14 +92,16 @@ class SetupTab(QWidget):
         self.live_view_s = QDoubleSpinBox()
         self.live_view_s.setRange(0.2, 10.0)
         self.live_view_s.setSuffix(" s")
-        self.trigger_form = DataclassForm(TriggerSettings)
+        self.trigger_form = DataclassForm(TriggerSettings, choices={"slope": SLOPES})
         trigger_box = QGroupBox("Sampling and trigger")
         trigger_layout = QFormLayout(trigger_box)
         trigger_layout.addRow("Sample rate", self.rate_combo)
         trigger_layout.addRow("Live view length", self.live_view_s)
         trigger_layout.addRow(self.trigger_form)
 
-        self.window_form = DataclassForm(WindowSettings)
+        self.window_form = DataclassForm(
+            WindowSettings, optional_defaults={"force_window_ms": 10.0, "exponential_end_fraction": 0.01}
+        )
         window_box = QGroupBox("Windows")
         QVBoxLayout(window_box).addWidget(self.window_form)
 

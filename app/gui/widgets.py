@@ -108,21 +108,48 @@ class DataclassForm(QWidget):
 
     changed = Signal()
 
-    def __init__(self, settings_type: type, hidden: tuple[str, ...] = (), parent: QWidget | None = None) -> None:
+    def __init__(
+        self,
+        settings_type: type,
+        choices: dict[str, tuple[str, ...]] | None = None,
+        optional_defaults: dict[str, float] | None = None,
+        parent: QWidget | None = None,
+    ) -> None:
         super().__init__(parent)
         self.settings_type = settings_type
         self._defaults = settings_type()
+        self._choices = choices or {}
+        self._optional_defaults = optional_defaults or {}
         self._editors: dict[str, QWidget] = {}
+        self._switches: dict[str, QCheckBox] = {}
         layout = QFormLayout(self)
         layout.setFieldGrowthPolicy(QFormLayout.FieldGrowthPolicy.FieldsStayAtSizeHint)
         for f in dataclasses.fields(settings_type):
-            if not f.init or f.name in hidden:
+            if not f.init:
                 continue
-            editor = self._editor_for(f.name, getattr(self._defaults, f.name))
+            default = getattr(self._defaults, f.name)
+            optional = "None" in str(f.type)
+            if optional:
+                default = float(self._optional_defaults.get(f.name, 1.0)) if default is None else default
+            editor = self._editor_for(f.name, default)
             if editor is None:
                 continue
             self._editors[f.name] = editor
-            layout.addRow(field_label(f.name), editor)
+            if optional:
+                switch = QCheckBox()
+                switch.setObjectName(f"{f.name}_on")
+                switch.setToolTip("off: no window (rectangular)")
+                switch.setChecked(getattr(self._defaults, f.name) is not None)
+                editor.setEnabled(switch.isChecked())
+                switch.toggled.connect(editor.setEnabled)
+                switch.toggled.connect(self.changed)
+                self._switches[f.name] = switch
+                row = QHBoxLayout()
+                row.addWidget(switch)
+                row.addWidget(editor)
+                layout.addRow(field_label(f.name), row)
+            else:
+                layout.addRow(field_label(f.name), editor)
 
     def _editor_for(self, name: str, default: Any) -> QWidget | None:
         if isinstance(default, bool):
@@ -148,6 +175,12 @@ class DataclassForm(QWidget):
             editor.setValue(default)
             editor.setMinimumWidth(110)
             editor.valueChanged.connect(self.changed)
+        elif isinstance(default, str) and name in self._choices:
+            editor = QComboBox()
+            for choice in self._choices[name]:
+                editor.addItem(choice, choice)
+            editor.setCurrentIndex(max(0, editor.findData(default)))
+            editor.currentIndexChanged.connect(self.changed)
         elif isinstance(default, str):
             editor = QLineEdit(default)
             editor.editingFinished.connect(self.changed)
@@ -167,6 +200,8 @@ class DataclassForm(QWidget):
                 out[name] = editor.value()
             elif isinstance(editor, QLineEdit):
                 out[name] = editor.text()
+            if name in self._switches and not self._switches[name].isChecked():
+                out[name] = None
         return out
 
     def set_values(self, values: dict[str, Any]) -> None:
@@ -174,6 +209,14 @@ class DataclassForm(QWidget):
             editor = self._editors.get(name)
             if editor is None:
                 continue
+            switch = self._switches.get(name)
+            if switch is not None:
+                switch.blockSignals(True)
+                switch.setChecked(value is not None)
+                editor.setEnabled(value is not None)
+                switch.blockSignals(False)
+                if value is None:
+                    continue
             editor.blockSignals(True)
             if isinstance(editor, QCheckBox):
                 editor.setChecked(bool(value))

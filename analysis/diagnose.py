@@ -1,0 +1,369 @@
+"""Mismatch diagnosis: where simulation and recordings differ, which physics is missing, and how much it helps.
+
+The rig spec is compared with the recordings under the recordings' own conditions (per-hit FRFs through the same
+force and exponential windows, weighted by the measured noise, see :mod:`analysis.diagnosis.measurement`). Then:
+
+1. **recalibrate** the spec's own parameters (film parameters and the parameters of effects it already has); a
+   mismatch that this removes is ``parameters-only`` and never blamed on physics;
+2. **forward selection** over the catalog (:mod:`analysis.diagnosis.catalog`): each candidate term is fitted
+   together with the spec's parameters; the best one enters when it beats its BIC cost on all hits and improves the
+   prediction of hits that were not used to fit it; repeat until nothing significant is left;
+3. **check back**: with the noise scale of the final model, every term must still pay for itself;
+4. **report** findings (where, what, why, how much better) and measurement-quality notes separately.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from typing import Callable
+
+import numpy as np
+
+from analysis.diagnosis.catalog import CATALOG, CANDIDATE_ORDER, AugmentedModel, effect_slots, film_slots
+from analysis.diagnosis.measurement import HitSpectra, QualityNote, hit_spectra
+from analysis.diagnosis.selection import (
+    BIC_MARGIN,
+    HELD_OUT_THRESHOLD,
+    Evidence,
+    FitOutcome,
+    Step,
+    best_candidate_fit,
+    bic,
+    fit,
+    held_out_gain,
+    model_slots,
+)
+
+G_M_S2 = 9.80665
+MAX_TERMS = 3
+
+
+@dataclass
+class Finding:
+    """A missing piece of physics, named, located, fitted and explained."""
+
+    effect: str
+    band_hz: tuple[float, float]
+    parameters: dict[str, dict[str, float | str]]  # name → {"value", "uncertainty", "unit"}
+    evidence: str
+    explanation: str
+    hits: str
+    chi2_gain: float
+    held_out_gain: float
+
+    def to_dict(self) -> dict:
+        return {
+            "effect": self.effect,
+            "band_hz": [round(self.band_hz[0], 1), round(self.band_hz[1], 1)],
+            "parameters": self.parameters,
+            "evidence": self.evidence,
+            "explanation": self.explanation,
+            "hits": self.hits,
+            "chi2_gain": round(self.chi2_gain, 1),
+            "held_out_gain": round(self.held_out_gain, 1),
+        }
+
+
+@dataclass
+class Diagnosis:
+    """Everything the diagnosis found; ``improved_model`` is the spec with the corrections and terms added."""
+
+    verdict: str  # "consistent", "parameters-only", "missing physics"
+    findings: list[Finding]
+    quality: list[QualityNote]
+    recalibration: dict[str, dict[str, float]]  # name → {"spec", "fitted", "uncertainty"}
+    rms_before: float
+    rms_recalibrated: float
+    rms_after: float
+    bic_before: float
+    bic_after: float
+    chi2_per_point_before: float
+    chi2_per_point_after: float
+    given_model: AugmentedModel
+    improved_model: AugmentedModel
+    evidence: Evidence
+    wall_time_s: float
+    improved_spec: str | None = None
+    figures: list[str] = field(default_factory=list)
+
+    @property
+    def improvement_e(self) -> float:
+        """Equation (35) with the given spec as the reference: RMS reduction in %."""
+        return 100.0 * (self.rms_before - self.rms_after) / self.rms_before if self.rms_before > 0 else 0.0
+
+    def to_dict(self) -> dict:
+        return {
+            "verdict": self.verdict,
+            "findings": [f.to_dict() for f in self.findings],
+            "quality": [q.to_dict() for q in self.quality],
+            "recalibration": self.recalibration,
+            "rms_before": self.rms_before,
+            "rms_recalibrated": self.rms_recalibrated,
+            "rms_after": self.rms_after,
+            "rms_unit": "(m/s^2)/N",
+            "rms_before_g_per_n": self.rms_before / G_M_S2,
+            "rms_after_g_per_n": self.rms_after / G_M_S2,
+            "e_percent": self.improvement_e,
+            "bic_before": self.bic_before,
+            "bic_after": self.bic_after,
+            "chi2_per_point_before": self.chi2_per_point_before,
+            "chi2_per_point_after": self.chi2_per_point_after,
+            "band_hz": [float(self.evidence.freq_hz[0]), float(self.evidence.freq_hz[-1])],
+            "hits_used": int(self.evidence.hit_count),
+            "decay_rate_1_s": self.evidence.decay_rate_1_s,
+            "improved_spec": self.improved_spec,
+            "figures": self.figures,
+            "wall_time_s": self.wall_time_s,
+        }
+
+
+def _silent(message: str) -> None:
+    del message
+
+
+def diagnose_spectra(
+    spectra: HitSpectra,
+    model: AugmentedModel,
+    progress: Callable[[str], None] = _silent,
+) -> Diagnosis:
+    """Diagnose per-hit spectra against the augmented model of a rig spec."""
+    started = time.monotonic()
+    evidence = Evidence(spectra)
+    points = evidence.point_count
+    chi2_given = evidence.chi2(model)
+    rms_given = evidence.rms(model)
+    progress(f"compared {evidence.hit_count} hits on {len(evidence.freq_hz)} frequencies "
+             f"{evidence.freq_hz[0]:.0f}–{evidence.freq_hz[-1]:.0f} Hz: χ²/point {chi2_given / points:.2f}")
+
+    own_slots = model_slots(model)
+    recalibrated = fit(evidence, model, own_slots)
+    recalibration_gain = chi2_given - recalibrated.chi2
+    recalibration_significant = recalibration_gain > len(own_slots) * np.log(points) + BIC_MARGIN
+    current = recalibrated if recalibration_significant else FitOutcome(model, chi2_given, own_slots,
+                                                                          recalibrated.covariance, 0)
+    progress(f"recalibrated {len(own_slots)} spec parameter(s): χ² {chi2_given:.0f} → {recalibrated.chi2:.0f}"
+             + (" (significant)" if recalibration_significant else " (within the noise)"))
+
+    steps: list[Step] = []
+    while len(steps) < MAX_TERMS:
+        trials = []
+        for identifier in CANDIDATE_ORDER:
+            if identifier in current.model.effects:
+                continue
+            outcome = best_candidate_fit(evidence, current.model, identifier)
+            extra = len(CATALOG[identifier].parameters)
+            gain = current.chi2 - outcome.chi2
+            trials.append((gain - extra * np.log(points), identifier, outcome))
+        trials.sort(key=lambda trial: trial[0], reverse=True)
+        summary = ", ".join(f"{identifier} {score:+.0f}" for score, identifier, _ in trials[:4])
+        progress(f"step {len(steps) + 1}: BIC gain of the best candidates: {summary}")
+        accepted = None
+        for score, identifier, outcome in trials[:3]:
+            if score <= BIC_MARGIN:
+                break
+            gain_held_out = held_out_gain(evidence, current.model, outcome.model)
+            progress(f"  {identifier}: held-out χ² gain {gain_held_out:.0f} (needs > {HELD_OUT_THRESHOLD:.0f})")
+            if gain_held_out > HELD_OUT_THRESHOLD:
+                accepted = (identifier, outcome, gain_held_out)
+                break
+        if accepted is None:
+            break
+        identifier, outcome, gain_held_out = accepted
+        steps.append(
+            Step(identifier, outcome, current.chi2, outcome.chi2, gain_held_out,
+                 bic(current.chi2, len(current.slots), points), bic(outcome.chi2, len(outcome.slots), points))
+        )
+        current = outcome
+
+    steps, current = _check_back(evidence, model, steps, current, progress)
+    findings = [_finding(evidence, step, current) for step in steps]
+    if findings:
+        verdict = "missing physics"
+    elif recalibration_significant:
+        verdict = "parameters-only"
+    else:
+        verdict = "consistent"
+    recalibration = _recalibration_table(model, recalibrated) if recalibration_significant else {}
+    chi2_after = current.chi2
+    return Diagnosis(
+        verdict=verdict,
+        findings=findings,
+        quality=list(spectra.quality),
+        recalibration=recalibration,
+        rms_before=rms_given,
+        rms_recalibrated=evidence.rms(recalibrated.model),
+        rms_after=evidence.rms(current.model),
+        bic_before=bic(chi2_given, 0, points),
+        bic_after=bic(chi2_after, len(current.slots) if (steps or recalibration_significant) else 0, points),
+        chi2_per_point_before=chi2_given / points,
+        chi2_per_point_after=chi2_after / points,
+        given_model=model,
+        improved_model=current.model,
+        evidence=evidence,
+        wall_time_s=time.monotonic() - started,
+    )
+
+
+def _check_back(
+    evidence: Evidence,
+    model: AugmentedModel,
+    steps: list[Step],
+    current: FitOutcome,
+    progress: Callable[[str], None],
+) -> tuple[list[Step], FitOutcome]:
+    """Drop terms that no longer pay for themselves once the final model's noise scale is known."""
+    points = evidence.point_count
+    while steps:
+        noise_scale = max(1.0, current.chi2 / (points - len(current.slots)))
+        weakest = None
+        for step in steps:
+            reduced = current.model.copy()
+            del reduced.effects[step.identifier]
+            refit = fit(evidence, reduced, model_slots(reduced))
+            cost = (refit.chi2 - current.chi2) / noise_scale - len(CATALOG[step.identifier].parameters) * np.log(points)
+            if weakest is None or cost < weakest[0]:
+                weakest = (cost, step, refit)
+        assert weakest is not None
+        cost, step, refit = weakest
+        if cost > BIC_MARGIN:
+            break
+        progress(f"check back: {step.identifier} no longer significant (noise scale {noise_scale:.2f}); removed")
+        steps = [s for s in steps if s is not step]
+        current = refit
+    return steps, current
+
+
+def _recalibration_table(model: AugmentedModel, outcome: FitOutcome) -> dict[str, dict[str, float]]:
+    table = {}
+    for index, slot in enumerate(outcome.slots):
+        source = model.film_parameters if slot.owner == "film" else model.effects[slot.owner]
+        target = outcome.model.film_parameters if slot.owner == "film" else outcome.model.effects[slot.owner]
+        name = slot.name if slot.owner == "film" else f"{slot.owner}.{slot.name}"
+        table[name] = {"spec": source[slot.name], "fitted": target[slot.name],
+                       "uncertainty": outcome.uncertainty(index)}
+    return table
+
+
+def _effect_band(evidence: Evidence, with_effect: AugmentedModel, identifier: str) -> tuple[float, float]:
+    """The band that holds 80 % of the χ² the term removes (computed without refitting the rest)."""
+    without = with_effect.copy()
+    del without.effects[identifier]
+    gain = np.clip(evidence.chi2_per_frequency(without) - evidence.chi2_per_frequency(with_effect), 0.0, None)
+    freq_hz = evidence.freq_hz
+    if gain.sum() <= 0:
+        return float(freq_hz[0]), float(freq_hz[-1])
+    cumulative = np.cumsum(gain) / gain.sum()
+    low = freq_hz[min(np.searchsorted(cumulative, 0.1), len(freq_hz) - 1)]
+    high = freq_hz[min(np.searchsorted(cumulative, 0.9), len(freq_hz) - 1)]
+    return float(low), float(high)
+
+
+def _finding(evidence: Evidence, step: Step, final: FitOutcome) -> Finding:
+    identifier = step.identifier
+    slots = effect_slots(identifier)
+    parameters: dict[str, dict[str, float | str]] = {}
+    values = final.model.effects[identifier]
+    for slot, spec in zip(slots, CATALOG[identifier].parameters):
+        index = next(i for i, s in enumerate(final.slots) if s.owner == identifier and s.name == slot.name)
+        parameters[slot.name] = {"value": values[slot.name], "uncertainty": final.uncertainty(index),
+                                 "unit": spec.unit}
+    band = _effect_band(evidence, final.model, identifier)
+    gain = step.chi2_before - step.chi2_after
+    hits = "all hits"
+    if CATALOG[identifier].per_hit:
+        hits = f"all {evidence.hit_count} hits, " + (
+            "trend with hit time" if identifier == "drift" else "trend with hit force level"
+        )
+    return Finding(
+        effect=identifier,
+        band_hz=band,
+        parameters=parameters,
+        evidence=_evidence_sentence(identifier, parameters, band, gain, step.held_out_gain, evidence),
+        explanation=CATALOG[identifier].explanation,
+        hits=hits,
+        chi2_gain=gain,
+        held_out_gain=step.held_out_gain,
+    )
+
+
+def _value(parameters: dict, name: str) -> tuple[float, float]:
+    return float(parameters[name]["value"]), float(parameters[name]["uncertainty"])
+
+
+def _evidence_sentence(
+    identifier: str, parameters: dict, band: tuple[float, float], gain: float, held_out: float, evidence: Evidence
+) -> str:
+    where = f"{band[0]:.0f}–{band[1]:.0f} Hz"
+    scale = f"χ² falls by {gain:.0f} on all hits and by {held_out:.0f} on hits left out of the fit"
+    if identifier == "channel-delay":
+        delay, sigma = _value(parameters, "delay_s")
+        phase = 360 * band[1] * delay
+        return (f"The phase error grows linearly with frequency while the magnitude matches: the response lags by "
+                f"{delay * 1e6:.1f} ± {sigma * 1e6:.1f} µs ({phase:.2f}° at {band[1]:.0f} Hz); {scale}.")
+    if identifier == "added-mass":
+        mass, sigma = _value(parameters, "delta_mass_kg")
+        return (f"The high-frequency level and the resonance both move as a mass change of {mass * 1e3:+.0f} ± "
+                f"{sigma * 1e3:.0f} g predicts ({where}); {scale}.")
+    if identifier == "drift":
+        rate, sigma = _value(parameters, "fraction_per_hour")
+        span = float(np.ptp(evidence.spectra.conditions.time_s))
+        return (f"The resonance moves steadily from early to late hits: the film stiffness changes by "
+                f"{rate * span / 36:+.2f} % over the {span:.0f} s session ({rate * 100:+.1f} ± "
+                f"{sigma * 100:.1f} %/h), in {where}; {scale}.")
+    if identifier == "amplitude-nonlinearity":
+        delta_k, sigma = _value(parameters, "delta_k_at_reference_n_per_m")
+        impulses = evidence.spectra.conditions.impulse_ns
+        return (f"Harder hits resonate differently from softer ones: the stiffness changes by {delta_k:.3g} ± "
+                f"{sigma:.2g} N/m at the median hit (impulses {impulses.min():.3f}–{impulses.max():.3f} N·s), "
+                f"in {where}; {scale}.")
+    if identifier == "extra-mode":
+        frequency, sigma = _value(parameters, "freq_hz")
+        return (f"A localised peak/dip pattern near {frequency:.1f} ± {sigma:.1f} Hz that the film model cannot "
+                f"produce: an additional resonance ({where}); {scale}.")
+    if identifier == "film-memory":
+        alpha, sigma = _value(parameters, "alpha_memory")
+        return (f"The residual changes smoothly across {where} the way a frequency-dependent stiffness and damping "
+                f"does (spring-pot order {alpha:.2f} ± {sigma:.2f}); {scale}.")
+    if identifier == "pneumatic-lag":
+        tau, sigma = _value(parameters, "tau_lag")
+        return (f"Near the resonance the film damps less than a spring-damper can explain: a lagged film force "
+                f"(time constant {tau * 1e3:.3f} ± {sigma * 1e3:.3f} ms), in {where}; {scale}.")
+    if identifier == "ac-coupling":
+        corner, sigma = _value(parameters, "corner_hz")
+        return (f"At the low end of the band the response phase leads and its magnitude drops like a high-pass at "
+                f"{corner:.2f} ± {sigma:.2f} Hz on the response channel; {scale}.")
+    decay, sigma = _value(parameters, "decay_rate_1_s")
+    return (f"Every resonance is wider by the same decay rate {decay:.2f} ± {sigma:.2f} 1/s, as an exponential "
+            f"window the spec does not know about would make it; {scale}.")
+
+
+def diagnose_records(
+    records: np.ndarray,
+    sample_rate_hz: float,
+    model: AugmentedModel,
+    *,
+    hit_times_s: np.ndarray | None = None,
+    decay_rate_1_s: float | None = None,
+    force_window_s: float | None = None,
+    overload: np.ndarray | None = None,
+    band_hz: tuple[float, float] | None = None,
+    progress: Callable[[str], None] = _silent,
+) -> Diagnosis:
+    """Diagnose raw hit records (hits, 2, samples: force N, response m/s²) against an augmented model."""
+    started = time.monotonic()
+    spectra = hit_spectra(
+        records,
+        sample_rate_hz,
+        decay_rate_1_s=decay_rate_1_s,
+        force_window_s=force_window_s,
+        hit_times_s=hit_times_s,
+        overload=overload,
+        band_hz=band_hz,
+    )
+    diagnosis = diagnose_spectra(spectra, model, progress)
+    diagnosis.wall_time_s = time.monotonic() - started
+    return diagnosis
+
+
+__all__ = ["Diagnosis", "Finding", "diagnose_records", "diagnose_spectra", "film_slots"]

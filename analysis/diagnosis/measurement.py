@@ -1,0 +1,332 @@
+"""What the recordings say, with their own uncertainty: per-hit windowed spectra, measured noise, quality checks.
+
+Each accepted hit is windowed the way the session's FRF is (a force window around the pulse with a short taper, and
+an exponential window of decay rate σ on both channels from the trigger on), so that ``X_i / F_i`` is the hit's FRF at
+``s = σ + jω``. The noise of that FRF is measured, not assumed: the noise spectrum of each channel comes from the
+quiet pre-trigger samples, and the variance of hit i's FRF at f is ``(P_x(f) Σw_x² + |H|² P_f(f) Σw_f²) / |F_i(f)|²``.
+With these weights the weighted mean of the per-hit FRFs is exactly H1 (averaged cross- over auto-spectrum).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from analysis.diagnosis.catalog import HitConditions
+from drivers.errors import SettingError
+
+MAINS_BASES_HZ = (50.0, 60.0)
+QUIET_MARGIN_S = 0.001
+
+
+@dataclass
+class QualityNote:
+    """A measurement-quality observation (never physics)."""
+
+    kind: str  # "interference", "double hit", "overload", "low coherence", "truncation", "noise", "rejected hits"
+    message: str
+    band_hz: tuple[float, float] | None = None
+    hits: tuple[int, ...] = ()
+
+    def to_dict(self) -> dict:
+        return {"kind": self.kind, "message": self.message, "band_hz": self.band_hz, "hits": list(self.hits)}
+
+
+@dataclass
+class HitSpectra:
+    """Per-hit FRFs on the analysis grid with their measured noise variance."""
+
+    freq_hz: np.ndarray  # (G,)
+    decay_rate_1_s: float
+    h: np.ndarray  # (hits, G) complex per-hit FRF
+    variance: np.ndarray  # (hits, G) E|H_i − true|²: each of the real and imaginary parts carries half
+    conditions: HitConditions
+    hit_numbers: np.ndarray  # index of each used hit in the input
+    force_window_s: float
+    sample_rate_hz: float
+    n_samples: int
+    quality: list[QualityNote] = field(default_factory=list)
+
+    @property
+    def weight(self) -> np.ndarray:
+        """Weight per real number: the real and imaginary parts each have variance ``variance / 2``."""
+        return 2.0 / self.variance
+
+    def mean(self, subset: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """Weighted mean FRF (H1) over a subset of hits and its total weight per frequency."""
+        rows = slice(None) if subset is None else subset
+        weight = self.weight[rows]
+        total = weight.sum(axis=0)
+        return (weight * self.h[rows]).sum(axis=0) / total, total
+
+
+def _pulse_extent(force_n: np.ndarray, sample_rate_hz: float) -> tuple[int, int, int]:
+    """Start, peak and end sample of the main force pulse (where |F| exceeds 2 % of its peak)."""
+    magnitude = np.abs(force_n)
+    peak = int(np.argmax(magnitude))
+    threshold = 0.02 * magnitude[peak]
+    start = peak
+    while start > 0 and magnitude[start - 1] > threshold:
+        start -= 1
+    end = peak
+    while end < len(magnitude) - 1 and magnitude[end + 1] > threshold:
+        end += 1
+    return start, peak, end
+
+
+def _force_window(n_samples: int, end_index: int, taper_samples: int) -> np.ndarray:
+    window = np.zeros(n_samples)
+    window[: end_index + 1] = 1.0
+    taper_end = min(n_samples, end_index + 1 + taper_samples)
+    length = taper_end - (end_index + 1)
+    if length > 0:
+        window[end_index + 1 : taper_end] = 0.5 * (1 + np.cos(np.pi * np.arange(1, length + 1) / (taper_samples + 1)))
+    return window
+
+
+def _clipped(signal: np.ndarray, run: int = 3) -> bool:
+    """True when the signal sits at its own extreme for ``run`` consecutive samples (a clipped ADC)."""
+    magnitude = np.abs(signal)
+    peak = magnitude.max()
+    if peak == 0:
+        return False
+    at_peak = magnitude >= peak * (1 - 1e-9)
+    if at_peak.sum() < run:
+        return False
+    runs = np.diff(np.flatnonzero(np.diff(np.concatenate(([0], at_peak.astype(int), [0])))))[::2]
+    return bool(runs.size and runs.max() >= run)
+
+
+def _band_text(low_hz: float, high_hz: float) -> str:
+    return f"{low_hz:.0f}–{high_hz:.0f} Hz"
+
+
+def _contiguous_bands(mask: np.ndarray, freq_hz: np.ndarray, min_bins: int) -> list[tuple[int, int]]:
+    edges = np.diff(np.concatenate(([0], mask.astype(int), [0])))
+    starts, stops = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
+    return [(a, b - 1) for a, b in zip(starts, stops) if b - a >= min_bins]
+
+
+def hit_spectra(
+    records: np.ndarray,
+    sample_rate_hz: float,
+    *,
+    decay_rate_1_s: float | None = None,
+    force_window_s: float | None = None,
+    hit_times_s: np.ndarray | None = None,
+    overload: np.ndarray | None = None,
+    band_hz: tuple[float, float] | None = None,
+    max_points: int = 400,
+) -> HitSpectra:
+    """Window, transform and weigh the accepted hits; checks for double hits, clipping, mains lines, truncation.
+
+    ``records``: (hits, 2, samples) with row 0 the force in N and row 1 the response in m/s², all hits aligned the
+    same way (pre-trigger then pulse). Hits failing a check are left out and named in ``quality``.
+    """
+    records = np.asarray(records, dtype=float)
+    if records.ndim != 3 or records.shape[1] != 2 or records.shape[0] < 2:
+        raise SettingError(
+            f"diagnosis records: expected (hits ≥ 2, 2 channels, samples), got shape {records.shape}"
+        )
+    if not np.all(np.isfinite(records)):
+        raise SettingError("diagnosis records: the hit records contain NaN or infinite samples")
+    hit_count, _, n_samples = records.shape
+    quality: list[QualityNote] = []
+    extents = [_pulse_extent(record[0], sample_rate_hz) for record in records]
+    widths = np.array([end - start + 1 for start, _, end in extents])
+    pulse_samples = int(np.median(widths))
+    window_s = force_window_s if force_window_s else 3 * pulse_samples / sample_rate_hz + 0.001
+    taper = max(2, int(round(0.0005 * sample_rate_hz)))
+
+    keep = np.ones(hit_count, bool)
+    double_hits, clipped_hits = [], []
+    for index, (record, (start, peak, end)) in enumerate(zip(records, extents)):
+        after = record[0, end + 1 + pulse_samples :]
+        if after.size and np.max(np.abs(after)) > 0.1 * abs(record[0, peak]):
+            double_hits.append(index)
+        is_clipped = _clipped(record[0]) or _clipped(record[1])
+        if overload is not None and np.any(overload[index]):
+            is_clipped = True
+        if is_clipped:
+            clipped_hits.append(index)
+    for index in double_hits:
+        keep[index] = False
+    for index in clipped_hits:
+        keep[index] = False
+    if double_hits:
+        quality.append(
+            QualityNote("double hit", f"{len(double_hits)} hit(s) with a second impact were left out",
+                        hits=tuple(double_hits))
+        )
+    if clipped_hits:
+        quality.append(
+            QualityNote("overload", f"{len(clipped_hits)} clipped hit(s) were left out", hits=tuple(clipped_hits))
+        )
+    used = np.flatnonzero(keep)
+    if used.size < 2:
+        raise SettingError(f"diagnosis records: only {used.size} usable hit(s) after quality checks; at least 2 needed")
+    records = records[used]
+    extents = [extents[i] for i in used]
+
+    trigger = np.array([start for start, _, _ in extents])
+    quiet_end = trigger - int(QUIET_MARGIN_S * sample_rate_hz)
+    quiet_samples = int(np.min(quiet_end))
+    if quiet_samples < 16:
+        raise SettingError(
+            f"diagnosis records: only {max(quiet_samples, 0)} quiet pre-trigger samples; the noise cannot be "
+            f"measured (record at least 16 samples before the hit)"
+        )
+    if decay_rate_1_s is None:
+        decay_rate_1_s = np.log(100.0) / ((n_samples - int(np.median(trigger))) / sample_rate_hz)
+
+    time_s = np.arange(n_samples) / sample_rate_hz
+    force_spectra, response_spectra = [], []
+    sum_w2_force, sum_w2_response = [], []
+    for record, (start, _, end) in zip(records, extents):
+        exponential = np.exp(-decay_rate_1_s * np.clip(time_s - start / sample_rate_hz, 0.0, None))
+        force_end = min(n_samples - 1, start + int(round(window_s * sample_rate_hz)))
+        force_w = _force_window(n_samples, max(force_end, end), taper) * exponential
+        force_spectra.append(np.fft.rfft(record[0] * force_w))
+        response_spectra.append(np.fft.rfft(record[1] * exponential))
+        sum_w2_force.append(np.sum(force_w**2))
+        sum_w2_response.append(np.sum(exponential**2))
+    force_spectra = np.array(force_spectra)
+    response_spectra = np.array(response_spectra)
+    full_freq_hz = np.fft.rfftfreq(n_samples, 1.0 / sample_rate_hz)
+
+    noise_force = _noise_periodogram(records[:, 0], quiet_samples, full_freq_hz, sample_rate_hz)
+    noise_response = _noise_periodogram(records[:, 1], quiet_samples, full_freq_hz, sample_rate_hz)
+    floor = 1e-30
+    force_power = np.abs(force_spectra) ** 2 + floor
+    h_full = response_spectra / (force_spectra + floor)
+    cross = (response_spectra * np.conj(force_spectra)).sum(axis=0)
+    h1_full = cross / force_power.sum(axis=0)
+    variance_full = (
+        noise_response[np.newaxis, :] * np.array(sum_w2_response)[:, np.newaxis]
+        + np.abs(h1_full[np.newaxis, :]) ** 2 * noise_force[np.newaxis, :] * np.array(sum_w2_force)[:, np.newaxis]
+    ) / force_power
+    variance_full = np.maximum(variance_full, (1e-7 * np.abs(h1_full)) ** 2 + 1e-30)
+
+    # analysis band: where the hammer puts energy in (within 20 dB of its low-frequency level), below 0.4 fs
+    mean_force_power = force_power.mean(axis=0)
+    low, high = band_hz if band_hz else (10.0, 0.4 * sample_rate_hz)
+    reference = np.median(mean_force_power[(full_freq_hz >= low) & (full_freq_hz <= low + 50)]) if band_hz is None \
+        else np.max(mean_force_power)
+    if band_hz is None:
+        strong = mean_force_power >= 0.01 * reference
+        beyond = np.flatnonzero((full_freq_hz > low) & ~strong)
+        if beyond.size:
+            high = min(high, full_freq_hz[beyond[0]])
+    in_band = (full_freq_hz >= low) & (full_freq_hz <= high)
+
+    coherence = np.abs(cross) ** 2 / (force_power.sum(axis=0) * (np.abs(response_spectra) ** 2).sum(axis=0) + floor)
+    mask = in_band.copy()
+    line_width = int(np.ceil(2 + 2 * decay_rate_1_s * n_samples / sample_rate_hz))
+    mains = _mains_lines(h_full, h1_full, variance_full, full_freq_hz, in_band, line_width)
+    if mains:
+        base, harmonics = mains
+        for harmonic in harmonics:
+            centre = int(round(harmonic * n_samples / sample_rate_hz))
+            mask[max(0, centre - line_width) : centre + line_width + 1] = False
+        quality.append(
+            QualityNote(
+                "interference",
+                f"mains interference at {base:.0f} Hz and harmonics ({', '.join(f'{h:.0f}' for h in harmonics)} Hz): "
+                f"those lines are left out of the comparison",
+                band_hz=(min(harmonics), max(harmonics)),
+            )
+        )
+    low_coherence = mask & (coherence < 0.9)
+    for a, b in _contiguous_bands(low_coherence, full_freq_hz, 3):
+        quality.append(
+            QualityNote(
+                "low coherence",
+                f"coherence below 0.9 in {_band_text(full_freq_hz[a], full_freq_hz[b])} "
+                f"(minimum {coherence[a:b + 1].min():.2f}): the measurement is noisy there, weighted accordingly",
+                band_hz=(float(full_freq_hz[a]), float(full_freq_hz[b])),
+            )
+        )
+    tail = records[:, 1, -max(16, n_samples // 20) :]
+    tail_rms = np.sqrt(np.mean(tail**2, axis=1))
+    quiet_rms = np.sqrt(np.mean(records[:, 1, :quiet_samples] ** 2, axis=1)) + 1e-30
+    truncated = np.flatnonzero(tail_rms > 3 * quiet_rms)
+    if truncated.size:
+        quality.append(
+            QualityNote(
+                "truncation",
+                f"the response has not decayed by the end of the record in {truncated.size} hit(s): leakage is "
+                f"controlled only by the exponential window",
+                hits=tuple(int(used[i]) for i in truncated),
+            )
+        )
+
+    selected = np.flatnonzero(mask)
+    correlation_step = int(np.ceil(decay_rate_1_s * n_samples / sample_rate_hz))
+    step = max(1, correlation_step, int(np.ceil(selected.size / max_points)))
+    grid = selected[::step]
+    impulses = np.array(
+        [np.sum(record[0, start : end + 1]) / sample_rate_hz for record, (start, _, end) in zip(records, extents)]
+    )
+    if hit_times_s is None:
+        times = np.arange(hit_count, dtype=float)[used]
+    else:
+        times = np.asarray(hit_times_s, dtype=float)[used]
+    return HitSpectra(
+        freq_hz=full_freq_hz[grid],
+        decay_rate_1_s=float(decay_rate_1_s),
+        h=h_full[:, grid],
+        variance=variance_full[:, grid],
+        conditions=HitConditions(time_s=times, impulse_ns=np.abs(impulses)),
+        hit_numbers=used,
+        force_window_s=float(window_s),
+        sample_rate_hz=float(sample_rate_hz),
+        n_samples=int(n_samples),
+        quality=quality,
+    )
+
+
+def _noise_periodogram(
+    channel: np.ndarray, quiet_samples: int, freq_hz: np.ndarray, sample_rate_hz: float
+) -> np.ndarray:
+    """Noise power per sample at each frequency (white noise of variance σ² gives σ²), from the quiet samples."""
+    quiet = channel[:, :quiet_samples]
+    quiet = quiet - quiet.mean(axis=1, keepdims=True)
+    periodogram = np.mean(np.abs(np.fft.rfft(quiet, axis=1)) ** 2, axis=0) / quiet_samples
+    coarse_freq_hz = np.fft.rfftfreq(quiet_samples, 1.0 / sample_rate_hz)
+    # the mean removal empties the 0 Hz bin: use its neighbour there
+    if periodogram.size > 1:
+        periodogram[0] = periodogram[1]
+    smooth = np.convolve(periodogram, np.ones(3) / 3, mode="same") if periodogram.size > 3 else periodogram
+    smooth[0], smooth[-1] = periodogram[0], periodogram[-1]
+    return np.interp(freq_hz, coarse_freq_hz, smooth)
+
+
+def _mains_lines(
+    h: np.ndarray,
+    h1: np.ndarray,
+    variance: np.ndarray,
+    freq_hz: np.ndarray,
+    in_band: np.ndarray,
+    line_width: int,
+) -> tuple[float, list[float]] | None:
+    """Mains base frequency and harmonics whose hit-to-hit scatter stands far above the scatter around them."""
+    scatter = np.mean(np.abs(h - h1[np.newaxis, :]) ** 2 / variance, axis=0)
+    resolution = freq_hz[1] - freq_hz[0]
+    best: tuple[float, list[float]] | None = None
+    for base in MAINS_BASES_HZ:
+        found = []
+        for harmonic in np.arange(base, freq_hz[in_band].max() if in_band.any() else 0, base):
+            centre = int(round(harmonic / resolution))
+            if not in_band[centre]:
+                continue
+            near = scatter[max(0, centre - 1) : centre + 2].max()
+            ring = np.concatenate(
+                (scatter[max(0, centre - 8 * line_width) : max(0, centre - 2 * line_width)],
+                 scatter[centre + 2 * line_width : centre + 8 * line_width])
+            )
+            if ring.size and near > 10 * max(np.median(ring), 1.0):
+                found.append(float(harmonic))
+        if len(found) >= 1 and (best is None or len(found) > len(best[1])):
+            best = (base, found)
+    return best

@@ -1,0 +1,223 @@
+"""Between rig specs (:mod:`analysis.rig`) and the diagnosis's augmented model, both ways.
+
+Two catalog terms have no effect type in :mod:`analysis.rig` yet; they are registered here with
+:func:`analysis.rig.register_effect` so that an improved spec holding them loads and plays in the simulator:
+``pneumatic-lag`` (a lagged film spring) and ``ac-coupling`` (a high-pass on one channel). ``film-memory`` needs no
+type: it extends the film network itself with a spring-pot branch. ``window-damping`` is a property of how the
+records were processed, not of the rig; the improved spec says so in a comment.
+
+``amplitude-nonlinearity`` is fitted as a stiffness change that grows with the square of the hit's impulse; the
+spec's ``cubic-stiffness`` term ``k3·x³`` is its cause. The two are linked by equivalent linearisation: a hit of
+impulse J starts the mover at ``x0 = J / (M ω0)`` and the windowed FRF sees on average ``Δk = c · k3 · x0²``; the
+constant c (about 1/4 for a free decay) is measured with the exact nonlinear simulation of one hit
+(:func:`cubic_stiffness_constant`).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+import numpy as np
+
+from analysis.diagnosis.catalog import AugmentedModel, HitConditions
+from analysis.models import PAPER_MODELS, get_model
+from analysis.rig import (
+    CHANNELS,
+    AddedMass,
+    ChannelDelay,
+    CubicStiffness,
+    Drift,
+    Effect,
+    ExtraMode,
+    Mains,
+    RigSpec,
+    _channel_field,
+    _number,
+    _positive,
+    register_effect,
+    simulate_response,
+)
+from drivers.errors import SettingError
+
+MEMORY_ETA = "eta_memory"
+MEMORY_ALPHA = "alpha_memory"
+
+
+@register_effect("pneumatic-lag")
+@dataclass(frozen=True)
+class PneumaticLag(Effect):
+    """Part of the film force lags the motion by a first-order time constant: ``k_lag / (1 + s·tau_lag)``."""
+
+    k_lag: float = _number("N/m", _positive)
+    tau_lag: float = _number("s", _positive)
+
+    def added_stiffness(self, s: np.ndarray) -> np.ndarray:
+        return self.k_lag / (1.0 + s * self.tau_lag)
+
+
+@register_effect("ac-coupling")
+@dataclass(frozen=True)
+class AcCoupling(Effect):
+    """A first-order high-pass ``s / (s + 2π corner_hz)`` on one channel (beyond the module's own, equal on all)."""
+
+    channel: str = _channel_field()
+    corner_hz: float = _number("Hz", _positive)
+
+    def channel_transfer(self, channel: str, s: np.ndarray) -> np.ndarray | float:
+        return s / (s + 2 * np.pi * self.corner_hz) if channel == self.channel else 1.0
+
+
+def _resonance_omega(model: AugmentedModel) -> float:
+    """Undamped natural frequency of the mass on the film's stiffness at the resonance (fixed-point)."""
+    omega = np.sqrt(abs(model.film.stiffness(np.array([1j]), model.film_parameters)[0]) / model.mass_kg)
+    for _ in range(20):
+        stiffness = model.film.stiffness(np.array([1j * omega]), model.film_parameters)[0].real
+        omega = float(np.sqrt(max(stiffness, 1e-9) / model.mass_kg))
+    return omega
+
+
+def reference_displacement_m(model: AugmentedModel, impulse_ns: float) -> float:
+    """Initial displacement amplitude ``J / (M ω0)`` of a hit of impulse J."""
+    mass_kg = model.mass_kg + model.effects.get("added-mass", {}).get("delta_mass_kg", 0.0)
+    return impulse_ns / (mass_kg * _resonance_omega(model))
+
+
+def model_from_spec(spec: RigSpec, cubic_constant: float = 0.25, reference_impulse_ns: float = 1.0) -> AugmentedModel:
+    """The augmented model of a rig spec (``mains`` is measurement interference and plays no part in it)."""
+    film = get_model(spec.film_model)
+    model = AugmentedModel(film, dict(spec.film_parameters), spec.mass_kg, {})
+    for effect in spec.effects:
+        kind = type(effect).type_name
+        if kind in model.effects and kind not in ("added-mass", "channel-delay"):
+            raise SettingError(f"{spec.source}: the diagnosis handles one '{kind}' effect per spec, found more")
+        if isinstance(effect, AddedMass):
+            entry = model.effects.setdefault("added-mass", {"delta_mass_kg": 0.0})
+            entry["delta_mass_kg"] += effect.mass_kg
+        elif isinstance(effect, ChannelDelay):
+            entry = model.effects.setdefault("channel-delay", {"delay_s": 0.0})
+            entry["delay_s"] += effect.delay_s if effect.channel == "acceleration" else -effect.delay_s
+        elif isinstance(effect, ExtraMode):
+            model.effects["extra-mode"] = {"freq_hz": effect.freq_hz, "damping_ratio": effect.damping_ratio,
+                                           "mass_kg": effect.mass_kg}
+        elif isinstance(effect, Drift):
+            model.effects["drift"] = {"fraction_per_hour": effect.fraction_per_hour}
+        elif isinstance(effect, PneumaticLag):
+            model.effects["pneumatic-lag"] = {"k_lag": effect.k_lag, "tau_lag": effect.tau_lag}
+        elif isinstance(effect, AcCoupling):
+            if effect.channel != "acceleration":
+                raise SettingError(f"{spec.source}: the diagnosis models ac-coupling on the acceleration channel only")
+            model.effects["ac-coupling"] = {"corner_hz": effect.corner_hz}
+        elif isinstance(effect, CubicStiffness):
+            x0 = reference_displacement_m(model, reference_impulse_ns)
+            model.effects["amplitude-nonlinearity"] = {
+                "delta_k_at_reference_n_per_m": cubic_constant * effect.k3_n_per_m3 * x0**2
+            }
+        elif not isinstance(effect, Mains):
+            raise SettingError(f"{spec.source}: effect type '{kind}' is not known to the diagnosis")
+    return model
+
+
+def spec_from_model(
+    model: AugmentedModel,
+    base: RigSpec,
+    reference_impulse_ns: float,
+    cubic_constant: float = 0.25,
+    name: str | None = None,
+) -> tuple[RigSpec, list[str]]:
+    """The rig spec of an augmented model, keeping the base spec's sensors, hammer and mains; also notes for
+    what a spec cannot hold (``window-damping``)."""
+    notes: list[str] = []
+    film_text = model.film.name if model.film.name in PAPER_MODELS else model.film.text
+    parameters = dict(model.film_parameters)
+    effects: list[Effect] = [effect for effect in base.effects if isinstance(effect, Mains)]
+    mass_kg = model.mass_kg
+    for identifier, values in model.effects.items():
+        if identifier == "film-memory":
+            film_text = f"({model.film.text}) || pot({MEMORY_ETA}, {MEMORY_ALPHA})"
+            parameters[MEMORY_ETA] = values["eta_memory"]
+            parameters[MEMORY_ALPHA] = values["alpha_memory"]
+        elif identifier == "added-mass":
+            delta = values["delta_mass_kg"]
+            if delta > 0:
+                effects.append(AddedMass(mass_kg=delta))
+            else:
+                mass_kg = model.mass_kg + delta
+        elif identifier == "channel-delay":
+            delay = values["delay_s"]
+            if delay != 0:
+                effects.append(ChannelDelay(channel="acceleration" if delay > 0 else "force", delay_s=abs(delay)))
+        elif identifier == "extra-mode":
+            effects.append(ExtraMode(freq_hz=values["freq_hz"], damping_ratio=values["damping_ratio"],
+                                     mass_kg=values["mass_kg"]))
+        elif identifier == "drift":
+            effects.append(Drift(fraction_per_hour=values["fraction_per_hour"]))
+        elif identifier == "pneumatic-lag":
+            effects.append(PneumaticLag(k_lag=values["k_lag"], tau_lag=values["tau_lag"]))
+        elif identifier == "ac-coupling":
+            effects.append(AcCoupling(channel="acceleration", corner_hz=values["corner_hz"]))
+        elif identifier == "amplitude-nonlinearity":
+            delta_k = values["delta_k_at_reference_n_per_m"]
+            x0 = reference_displacement_m(model, reference_impulse_ns)
+            if delta_k > 0:
+                effects.append(CubicStiffness(k3_n_per_m3=delta_k / (cubic_constant * x0**2)))
+            else:
+                notes.append(f"amplitude-nonlinearity: softening (Δk = {delta_k:.3g} N/m at the median hit) has no "
+                             f"rig effect type; the spec keeps the linear film")
+        elif identifier == "window-damping":
+            notes.append(f"window-damping: the records carry an exponential window of decay rate "
+                         f"{values['decay_rate_1_s']:.4g} 1/s; process them with it, the rig itself is unchanged")
+    spec = dataclasses.replace(
+        base,
+        name=name or f"{base.name} (improved by gasfilm diagnose)",
+        mass_kg=mass_kg,
+        film_model=film_text,
+        film_parameters=parameters,
+        effects=tuple(effects),
+    )
+    return spec, notes
+
+
+def cubic_stiffness_constant(
+    model: AugmentedModel, reference_impulse_ns: float, sample_rate_hz: float, n_samples: int, decay_rate_1_s: float,
+    pulse_s: float = 0.001,
+) -> float:
+    """Measure c in ``Δk = c · k3 · x0²`` with one exact nonlinear hit against the linear one."""
+    from analysis.diagnosis.selection import Evidence, fit
+    from analysis.diagnosis.catalog import ParameterSlot
+    from analysis.diagnosis.measurement import HitSpectra
+
+    linear = model.copy()
+    linear.effects.pop("amplitude-nonlinearity", None)
+    base_spec, _ = spec_from_model(linear, RigSpec.nominal("SD", mass_kg=model.mass_kg,
+                                                           parameters={"k": 1.0, "eta": 1.0}), reference_impulse_ns)
+    omega = _resonance_omega(linear)
+    x0 = reference_displacement_m(linear, reference_impulse_ns)
+    stiffness = linear.mass_kg * omega**2
+    k3 = 0.002 * stiffness / x0**2
+    time_s = np.arange(n_samples) / sample_rate_hz
+    start = int(0.01 * sample_rate_hz)
+    pulse = np.where((time_s >= time_s[start]) & (time_s < time_s[start] + pulse_s),
+                     np.sin(np.pi * (time_s - time_s[start]) / pulse_s), 0.0)
+    force = pulse * reference_impulse_ns / (np.sum(pulse) / sample_rate_hz)
+    cubic_spec = base_spec.with_effects(CubicStiffness(k3_n_per_m3=k3))
+    window = np.exp(-decay_rate_1_s * np.clip(time_s - time_s[start], 0.0, None))
+    spectra = []
+    for spec in (base_spec, cubic_spec):
+        response = simulate_response(spec, force, sample_rate_hz)
+        spectra.append(np.fft.rfft(response * window) / np.fft.rfft(force * window))
+    freq_hz = np.fft.rfftfreq(n_samples, 1.0 / sample_rate_hz)
+    band = (freq_hz > 0.5 * omega / (2 * np.pi)) & (freq_hz < 2.0 * omega / (2 * np.pi))
+    h = np.array([spectra[1][band]])
+    conditions = HitConditions(np.zeros(1), np.array([reference_impulse_ns]))
+    evidence = Evidence(HitSpectra(freq_hz[band], decay_rate_1_s, h, np.ones_like(h.real), conditions,
+                                   np.zeros(1, int), 0.0, sample_rate_hz, n_samples))
+    trial = linear.copy()
+    trial.effects["amplitude-nonlinearity"] = {"delta_k_at_reference_n_per_m": 0.0}
+    slot = ParameterSlot("amplitude-nonlinearity", "delta_k_at_reference_n_per_m", "linear", -stiffness, stiffness)
+    outcome = fit(evidence, trial, [slot])
+    return outcome.model.effects["amplitude-nonlinearity"]["delta_k_at_reference_n_per_m"] / (k3 * x0**2)
+
+
+__all__ = ["AcCoupling", "PneumaticLag", "CHANNELS", "model_from_spec", "spec_from_model",
+           "cubic_stiffness_constant", "reference_displacement_m"]

@@ -1,0 +1,279 @@
+"""Windows, per-hit spectra and the averaged FRF of an impact test (formulas and references: docs/processing.md).
+
+For each hit ``i`` the force ``f`` and the response ``x`` (rows of a record) are windowed, transformed with one
+batched real FFT and scaled as one-sided spectral densities (Bendat & Piersol, *Random Data*, 4th ed., §11.5)::
+
+    F_i = rfft(f · w_force · w_exp),   X_i = rfft(x · w_exp)
+    G_ff = 2/(fs·N) · mean_i |F_i|²,   G_xx = 2/(fs·N) · mean_i |X_i|²,   G_fx = 2/(fs·N) · mean_i conj(F_i)·X_i
+
+(DC and, for even N, Nyquist not doubled: the same scaling as ``scipy.signal.csd`` and pyFRF for a rectangular
+window). The spectra are averaged over the hits, never the FRF ratios: ``H1 = G_fx/G_ff``, ``H2 = G_xx/G_xf``,
+``γ² = |G_fx|²/(G_ff·G_xx)``. Uncertainty of |H1|: the random error from coherence,
+``|H1|·sqrt(1-γ²)/(|γ|·sqrt(2·n))`` (Bendat & Piersol eq. 9.90), and the hit-to-hit scatter, the standard deviation
+of the per-hit FRFs ``X_i/F_i`` over ``sqrt(n)``.
+
+Windows: the force window is 1 from the record start to ``force_window_ms`` after the force peak, then falls to 0
+with a half-cosine taper of ``force_taper_ms``; the exponential window ``exp(-σ t)`` reaches
+``exponential_end_fraction`` at the last sample and multiplies force and response alike. The FRF of the windowed
+signals is then the Laplace accelerance at ``s = σ + jω``; σ is stored as ``FrfResult.decay_rate_1_s`` so a fit can
+use ``analysis.models.accelerance(..., decay_rate_1_s=σ)`` or remove the damping the window adds
+(``Δζ = σ/ω_n``, :func:`remove_window_damping`). No window-amplitude correction is applied (the same weighting is on
+force and response, so it cancels in the FRF; this is where pyFRF and OpenModal go wrong).
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, fields, replace
+from typing import Any, Mapping, Sequence
+
+import numpy as np
+import scipy.fft
+
+from drivers.errors import SettingError
+from drivers.interface import STANDARD_GRAVITY_M_S2
+
+FRF_UNIT_SI = "(m/s^2)/N"
+FRF_UNIT_G = "g/N"
+
+
+@dataclass(frozen=True)
+class WindowSettings:
+    """Force and exponential windows; ``None`` switches a window off (rectangular)."""
+
+    force_window_ms: float | None = None
+    force_taper_ms: float = 0.5
+    exponential_end_fraction: float | None = None
+
+    def __post_init__(self) -> None:
+        if self.force_window_ms is not None and not (np.isfinite(self.force_window_ms) and self.force_window_ms > 0):
+            raise SettingError(f"force_window_ms: {self.force_window_ms} ms must be positive (or None for no window)")
+        if not (np.isfinite(self.force_taper_ms) and self.force_taper_ms >= 0):
+            raise SettingError(f"force_taper_ms: {self.force_taper_ms} ms must be 0 or more")
+        if self.exponential_end_fraction is not None and not 0 < self.exponential_end_fraction <= 1:
+            raise SettingError(
+                f"exponential_end_fraction: {self.exponential_end_fraction} must be in (0, 1] (or None for no window)"
+            )
+
+    def decay_rate_1_s(self, n_samples: int, sample_rate_hz: float) -> float:
+        """σ in 1/s of the exponential window over a record of ``n_samples`` (0 without one)."""
+        if self.exponential_end_fraction is None:
+            return 0.0
+        return -np.log(self.exponential_end_fraction) * sample_rate_hz / (n_samples - 1)
+
+    def to_dict(self) -> dict[str, Any]:
+        return asdict(self)
+
+
+def exponential_window(n_samples: int, end_fraction: float) -> np.ndarray:
+    """``exp(-σ t)`` sampled over a record: 1 at the first sample, ``end_fraction`` at the last."""
+    return np.exp(np.log(end_fraction) * np.arange(n_samples) / (n_samples - 1))
+
+
+def force_window(force_n: np.ndarray, sample_rate_hz: float, settings: WindowSettings) -> np.ndarray:
+    """Force windows for force rows of shape (hits, samples): 1 up to ``force_window_ms`` after each row's peak, a
+    half-cosine taper of ``force_taper_ms``, 0 after (all ones when ``force_window_ms`` is None)."""
+    force_n = np.atleast_2d(force_n)
+    if settings.force_window_ms is None:
+        return np.ones_like(force_n)
+    peak = np.argmax(np.abs(force_n), axis=-1)
+    flat_end = peak + int(round(settings.force_window_ms * 1e-3 * sample_rate_hz))
+    taper = int(round(settings.force_taper_ms * 1e-3 * sample_rate_hz))
+    after = np.arange(force_n.shape[-1])[np.newaxis, :] - flat_end[:, np.newaxis]
+    if taper == 0:
+        return (after <= 0).astype(float)
+    ramp = 0.5 * (1.0 + np.cos(np.pi * np.clip(after, 0, taper) / taper))
+    return np.where(after <= 0, 1.0, np.where(after < taper, ramp, 0.0))
+
+
+def remove_window_damping(
+    damping_ratio: float, natural_freq_hz: float, decay_rate_1_s: float
+) -> tuple[float, float]:
+    """Damping ratio and natural frequency of the structure from those fitted to an exponentially windowed FRF.
+
+    The window moves every pole by -σ along the real axis: the fitted pole ``-ζ'ω' ± jω_d`` comes from the true pole
+    ``-(ζ'ω' - σ) ± jω_d``. To first order this is ``ζ = ζ' - σ/ω_n`` (Δζ = 1/(ω_n τ), τ = 1/σ)."""
+    omega_fit = 2 * np.pi * natural_freq_hz
+    real = damping_ratio * omega_fit - decay_rate_1_s
+    damped = omega_fit * np.sqrt(max(0.0, 1.0 - damping_ratio**2))
+    omega = float(np.hypot(real, damped))
+    return real / omega, omega / (2 * np.pi)
+
+
+@dataclass
+class FrfResult:
+    """The averaged FRF of a set of hits with its spectra, coherence and uncertainty (plain arrays and scalars)."""
+
+    freq_hz: np.ndarray
+    h1: np.ndarray
+    h2: np.ndarray
+    coherence: np.ndarray
+    gff: np.ndarray
+    gxx: np.ndarray
+    gfx: np.ndarray
+    h1_per_hit: np.ndarray  # (hits, frequencies)
+    n_averages: int
+    sample_rate_hz: float
+    n_samples: int
+    decay_rate_1_s: float
+    h1_std_coherence: np.ndarray
+    h1_std_scatter: np.ndarray
+    window: dict
+    frf_unit: str = FRF_UNIT_SI
+
+    def to_dict(self) -> dict[str, Any]:
+        """Field name → value, arrays as they are (for HDF5 datasets and attributes)."""
+        return {f.name: getattr(self, f.name) for f in fields(self)}
+
+    @classmethod
+    def from_dict(cls, values: Mapping[str, Any]) -> "FrfResult":
+        kwargs: dict[str, Any] = {}
+        for f in fields(cls):
+            if f.name not in values:
+                if f.name == "frf_unit":
+                    continue
+                raise SettingError(f"FRF: the stored result has no '{f.name}'")
+            kwargs[f.name] = values[f.name]
+        for name in ("n_averages", "n_samples"):
+            kwargs[name] = int(kwargs[name])
+        for name in ("sample_rate_hz", "decay_rate_1_s"):
+            kwargs[name] = float(kwargs[name])
+        kwargs["window"] = dict(kwargs["window"])
+        if "frf_unit" in kwargs:
+            kwargs["frf_unit"] = str(kwargs["frf_unit"])
+        return cls(**kwargs)
+
+    def in_g_per_n(self) -> "FrfResult":
+        """The same result with the response in g (FRFs in g/N, G_xx in g²/Hz)."""
+        if self.frf_unit == FRF_UNIT_G:
+            return self
+        g = STANDARD_GRAVITY_M_S2
+        return replace(
+            self,
+            h1=self.h1 / g,
+            h2=self.h2 / g,
+            h1_per_hit=self.h1_per_hit / g,
+            gxx=self.gxx / g**2,
+            gfx=self.gfx / g,
+            h1_std_coherence=self.h1_std_coherence / g,
+            h1_std_scatter=self.h1_std_scatter / g,
+            frf_unit=FRF_UNIT_G,
+        )
+
+    def band(self, lo_hz: float, hi_hz: float) -> "FrfResult":
+        """The frequency lines with ``lo_hz <= f <= hi_hz``."""
+        keep = (self.freq_hz >= lo_hz) & (self.freq_hz <= hi_hz)
+        return replace(
+            self,
+            freq_hz=self.freq_hz[keep],
+            h1=self.h1[keep],
+            h2=self.h2[keep],
+            coherence=self.coherence[keep],
+            gff=self.gff[keep],
+            gxx=self.gxx[keep],
+            gfx=self.gfx[keep],
+            h1_per_hit=self.h1_per_hit[:, keep],
+            h1_std_coherence=self.h1_std_coherence[keep],
+            h1_std_scatter=self.h1_std_scatter[keep],
+        )
+
+
+def _as_hits_array(records: Sequence[np.ndarray] | np.ndarray) -> np.ndarray:
+    if isinstance(records, np.ndarray):
+        data = records
+    else:
+        if len(records) == 0:
+            raise SettingError("records: no hits to average")
+        lengths = {np.shape(r)[-1] for r in records}
+        if len(lengths) != 1:
+            raise SettingError(f"records: hits of different lengths ({', '.join(map(str, sorted(lengths)))} samples)")
+        data = np.stack([np.asarray(r, dtype=float) for r in records])
+    if data.ndim == 2:
+        data = data[np.newaxis]
+    if data.ndim != 3:
+        raise SettingError(f"records: expected (hits, channels, samples), got shape {data.shape}")
+    if data.shape[0] == 0:
+        raise SettingError("records: no hits to average")
+    if data.shape[2] < 2:
+        raise SettingError(f"records: {data.shape[2]} sample(s) per hit is too short")
+    return data
+
+
+def compute_frf(
+    records: Sequence[np.ndarray] | np.ndarray,
+    sample_rate_hz: float,
+    window: WindowSettings = WindowSettings(),
+    force_row: int = 0,
+    response_row: int = 1,
+) -> FrfResult:
+    """Averaged H1, H2, coherence and uncertainty of hits given as (channels, samples) arrays or one
+    (hits, channels, samples) array; force in N, response in m/s²."""
+    if not sample_rate_hz > 0:
+        raise SettingError(f"sample_rate_hz: {sample_rate_hz} must be positive")
+    data = _as_hits_array(records)
+    n_hits, n_rows, n_samples = data.shape
+    for name, row in (("force_row", force_row), ("response_row", response_row)):
+        if not 0 <= row < n_rows:
+            raise SettingError(f"{name}: {row} is not a row of records with {n_rows} rows")
+    force = data[:, force_row, :]
+    response = data[:, response_row, :]
+    if window.force_window_ms is not None:
+        force = force * force_window(force, sample_rate_hz, window)
+    if window.exponential_end_fraction is not None:
+        decay = exponential_window(n_samples, window.exponential_end_fraction)
+        force = force * decay
+        response = response * decay
+
+    force_fft = scipy.fft.rfft(force, axis=-1, workers=-1)
+    response_fft = scipy.fft.rfft(response, axis=-1, workers=-1)
+    scale = np.full(force_fft.shape[-1], 2.0 / (sample_rate_hz * n_samples))
+    scale[0] /= 2.0
+    if n_samples % 2 == 0:
+        scale[-1] /= 2.0
+    gff = np.mean(force_fft.real**2 + force_fft.imag**2, axis=0) * scale
+    gxx = np.mean(response_fft.real**2 + response_fft.imag**2, axis=0) * scale
+    gfx = np.mean(np.conj(force_fft) * response_fft, axis=0) * scale
+    if not (np.all(np.isfinite(gff)) and np.all(np.isfinite(gxx))):
+        raise SettingError("records: the hits contain NaN or infinite samples")
+
+    with np.errstate(divide="ignore", invalid="ignore"):
+        h1 = gfx / gff
+        h2 = gxx / np.conj(gfx)
+        coherence = (gfx.real**2 + gfx.imag**2) / (gff * gxx)
+        h1_per_hit = response_fft / force_fft
+        gamma_sq = np.clip(coherence, 0.0, 1.0)
+        h1_std_coherence = np.abs(h1) * np.sqrt(1.0 - gamma_sq) / (np.sqrt(gamma_sq) * np.sqrt(2.0 * n_hits))
+        if n_hits > 1:
+            spread = h1_per_hit - h1_per_hit.mean(axis=0)
+            h1_std_scatter = np.sqrt(np.sum(spread.real**2 + spread.imag**2, axis=0) / (n_hits - 1) / n_hits)
+        else:
+            h1_std_scatter = np.full(h1.shape, np.nan)
+
+    decay_rate = window.decay_rate_1_s(n_samples, sample_rate_hz)
+    return FrfResult(
+        freq_hz=np.fft.rfftfreq(n_samples, 1.0 / sample_rate_hz),
+        h1=h1,
+        h2=h2,
+        coherence=coherence,
+        gff=gff,
+        gxx=gxx,
+        gfx=gfx,
+        h1_per_hit=h1_per_hit,
+        n_averages=n_hits,
+        sample_rate_hz=float(sample_rate_hz),
+        n_samples=n_samples,
+        decay_rate_1_s=float(decay_rate),
+        h1_std_coherence=h1_std_coherence,
+        h1_std_scatter=h1_std_scatter,
+        window={**window.to_dict(), "decay_rate_1_s": float(decay_rate)},
+    )
+
+
+def frf_from_hits(hits: Sequence[Any], window: WindowSettings = WindowSettings()) -> FrfResult:
+    """:func:`compute_frf` of :class:`analysis.capture.HitRecord`\\ s, using each hit's force and response channel."""
+    if len(hits) == 0:
+        raise SettingError("hits: no accepted hits to average")
+    rates = {hit.sample_rate_hz for hit in hits}
+    if len(rates) != 1:
+        raise SettingError(f"hits: recorded at different sample rates ({', '.join(map(str, sorted(rates)))} Hz)")
+    records = [np.stack((hit.data[hit.force_channel], hit.data[hit.response_channel])) for hit in hits]
+    return compute_frf(records, rates.pop(), window)

@@ -1,0 +1,352 @@
+"""Universal File Format (UFF) dataset 58 through pyuff: time records in, averaged FRF and coherence out.
+
+Import: every dataset 58 with function type 1 (time response) is a channel of one hit. A record is the force when
+its ordinate specific data type is 13 (excitation force), the response when it is 12 (acceleration); records of
+another data type are sorted by node and direction: a record measured at its own reference DOF (response node/dir
+equal to reference node/dir) is the force, any other is the response. The k-th force record and the k-th response
+record (in file order, after choosing the force and response DOF) make hit k. Values are converted to SI (N, m/s²)
+from the ordinate units label ("N", "lbf", "m/s^2", "g", …) or, without a label, from a units dataset 164.
+
+Export: the averaged H1 as function type 4 (accelerance, ordinate acceleration 12 over excitation force 13,
+m/s^2 / N, complex double) and the coherence as function type 6 (real double), preceded by a units dataset 164 (SI).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Mapping, Sequence
+
+import numpy as np
+import pyuff
+
+from drivers.errors import GasfilmError
+from drivers.interface import NI9234_VALID_RATES_HZ, STANDARD_GRAVITY_M_S2
+
+FUNCTION_TIME_RESPONSE = 1
+FUNCTION_FRF = 4
+FUNCTION_COHERENCE = 6
+DATA_TYPE_ACCELERATION = 12
+DATA_TYPE_EXCITATION_FORCE = 13
+DATA_TYPE_TIME = 17
+DATA_TYPE_FREQUENCY = 18
+UNITS_SI = 1
+POUND_FORCE_N = 4.4482216152605
+
+#: Factors from an ordinate units label to SI, per channel role.
+FORCE_UNITS_TO_N = {"n": 1.0, "newton": 1.0, "kn": 1e3, "lbf": POUND_FORCE_N, "lb": POUND_FORCE_N}
+ACCELERATION_UNITS_TO_M_S2 = {
+    "m/s^2": 1.0,
+    "m/s2": 1.0,
+    "m/s**2": 1.0,
+    "m s^-2": 1.0,
+    "g": STANDARD_GRAVITY_M_S2,
+    "mm/s^2": 1e-3,
+    "mm/s2": 1e-3,
+}
+NO_LABEL = ("", "none")
+RATE_SNAP_RELATIVE = 1e-4  # UFF stores the abscissa increment with 5 significant digits
+
+
+class UffError(GasfilmError):
+    """A UFF file is missing, empty, or holds time records gasfilm cannot use."""
+
+
+Dof = tuple[int, int]  # (node, direction); direction 1…3 = +X/+Y/+Z translation, negative = opposite sense
+
+
+@dataclass(frozen=True)
+class UffTimeRecords:
+    """Hits read from a UFF file: row 0 force (N), row 1 response (m/s²)."""
+
+    path: Path
+    records: np.ndarray  # (hits, 2, samples)
+    sample_rate_hz: float
+    force_dof: Dof
+    response_dof: Dof
+    start_times_s: np.ndarray  # (hits,)
+    descriptions: tuple[str, ...] = field(default=())
+
+    @property
+    def hit_count(self) -> int:
+        return int(self.records.shape[0])
+
+
+def _read_datasets(path: Path) -> list[dict[str, Any]]:
+    if not path.exists():
+        raise UffError(f"{path}: no such UFF file")
+    if path.is_dir():
+        raise UffError(f"{path}: is a folder, not a UFF file")
+    try:
+        uff = pyuff.UFF(str(path))
+        sets = uff.read_sets() if uff.get_n_sets() else []
+    except Exception as error:  # pyuff raises bare Exception for every malformed file
+        raise UffError(f"{path}: not a readable UFF file ({error})") from None
+    if isinstance(sets, dict):
+        sets = [sets]
+    if not sets:
+        raise UffError(f"{path}: empty UFF file: no datasets (is it a UFF file?)")
+    return sets
+
+
+def _label(dataset: Mapping[str, Any], key: str) -> str:
+    return str(dataset.get(key, "") or "").strip()
+
+
+def _dof(dataset: Mapping[str, Any], prefix: str) -> Dof:
+    return int(dataset.get(f"{prefix}_node", 0)), int(dataset.get(f"{prefix}_dir", 0))
+
+
+def _role(dataset: Mapping[str, Any]) -> str:
+    data_type = int(dataset.get("ordinate_spec_data_type", 0))
+    if data_type == DATA_TYPE_EXCITATION_FORCE:
+        return "force"
+    if data_type == DATA_TYPE_ACCELERATION:
+        return "response"
+    return "force" if _dof(dataset, "rsp") == _dof(dataset, "ref") else "response"
+
+
+def _si_factor(path: Path, number: int, dataset: Mapping[str, Any], role: str, units: Mapping[str, float]) -> float:
+    label = _label(dataset, "ordinate_axis_units_lab")
+    table = FORCE_UNITS_TO_N if role == "force" else ACCELERATION_UNITS_TO_M_S2
+    if label.lower() in NO_LABEL:
+        # No label: the file's unit system (dataset 164: values in file units = SI value × factor).
+        return 1.0 / units["force" if role == "force" else "length"]
+    factor = table.get(label.lower().replace(" ", ""))
+    if factor is None:
+        raise UffError(
+            f"{path}: dataset {number} ({role}) has units '{label}', which gasfilm cannot convert; "
+            f"allowed: {', '.join(sorted(table))}"
+        )
+    return factor
+
+
+def _sample_rate(path: Path, increments_s: Sequence[float]) -> float:
+    increments = np.asarray(increments_s, dtype=float)
+    if np.any(~np.isfinite(increments)) or np.any(increments <= 0):
+        raise UffError(f"{path}: time records have no positive abscissa increment (sample interval)")
+    if np.ptp(increments) > RATE_SNAP_RELATIVE * increments.max():
+        raise UffError(
+            f"{path}: time records have different sample intervals ({increments.min():.6g} … {increments.max():.6g} s)"
+        )
+    rate_hz = 1.0 / float(np.mean(increments))
+    nearest = min(NI9234_VALID_RATES_HZ, key=lambda valid: abs(valid - rate_hz))
+    return nearest if abs(nearest - rate_hz) <= RATE_SNAP_RELATIVE * rate_hz else rate_hz
+
+
+def _choose_dof(path: Path, role: str, available: Sequence[Dof], wanted: Dof | None) -> Dof:
+    distinct = sorted(set(available))
+    if wanted is not None:
+        if tuple(wanted) not in distinct:
+            listed = ", ".join(f"node {node} dir {direction}" for node, direction in distinct) or "none"
+            raise UffError(
+                f"{path}: no {role} time record at node {wanted[0]} dir {wanted[1]} (found: {listed})"
+            )
+        return (int(wanted[0]), int(wanted[1]))
+    if len(distinct) > 1:
+        listed = ", ".join(f"node {node} dir {direction}" for node, direction in distinct)
+        raise UffError(f"{path}: {role} time records at several DOFs ({listed}); choose one by node and direction")
+    return distinct[0]
+
+
+def read_uff_time_records(
+    path: str | Path, force_dof: Dof | None = None, response_dof: Dof | None = None
+) -> UffTimeRecords:
+    """Read the force/response time records of every hit from a UFF file (dataset 58, function type 1)."""
+    path = Path(path)
+    datasets = _read_datasets(path)
+    units = {"length": 1.0, "force": 1.0}
+    for dataset in datasets:
+        if dataset.get("type") == 164:
+            units = {"length": float(dataset["length"]), "force": float(dataset["force"])}
+    time_records = [
+        (number, dataset)
+        for number, dataset in enumerate(datasets, start=1)
+        if dataset.get("type") == 58 and int(dataset.get("func_type", -1)) == FUNCTION_TIME_RESPONSE
+    ]
+    if not time_records:
+        types = sorted({str(dataset.get("type", "?")) for dataset in datasets})
+        raise UffError(
+            f"{path}: no time records (dataset 58 with function type 1) among {len(datasets)} datasets "
+            f"of type {', '.join(types)}"
+        )
+    by_role: dict[str, list[tuple[int, dict[str, Any]]]] = {"force": [], "response": []}
+    for number, dataset in time_records:
+        by_role[_role(dataset)].append((number, dataset))
+    for role in ("force", "response"):
+        if not by_role[role]:
+            raise UffError(f"{path}: no {role} time records among the {len(time_records)} time records")
+    chosen_force = _choose_dof(path, "force", [_dof(d, "rsp") for _, d in by_role["force"]], force_dof)
+    chosen_response = _choose_dof(path, "response", [_dof(d, "rsp") for _, d in by_role["response"]], response_dof)
+    forces = [(n, d) for n, d in by_role["force"] if _dof(d, "rsp") == chosen_force]
+    responses = [(n, d) for n, d in by_role["response"] if _dof(d, "rsp") == chosen_response]
+    if len(forces) != len(responses):
+        raise UffError(
+            f"{path}: {len(forces)} force records but {len(responses)} response records; each hit needs one of each"
+        )
+    lengths = {len(np.asarray(d["data"])) for _, d in forces + responses}
+    if len(lengths) != 1:
+        raise UffError(
+            f"{path}: time records have inconsistent lengths ({', '.join(str(n) for n in sorted(lengths))} samples)"
+        )
+    samples = lengths.pop()
+    if samples < 2:
+        raise UffError(f"{path}: time records hold {samples} sample; at least 2 are needed")
+    records = np.empty((len(forces), 2, samples))
+    for hit, pair in enumerate(zip(forces, responses)):
+        for row, (role, (number, dataset)) in enumerate(zip(("force", "response"), pair)):
+            values = np.asarray(dataset["data"])
+            if np.iscomplexobj(values):
+                raise UffError(f"{path}: dataset {number} ({role} time record of hit {hit}) holds complex values")
+            if not np.all(np.isfinite(values)):
+                raise UffError(f"{path}: dataset {number} ({role} time record of hit {hit}) has NaN samples")
+            records[hit, row] = values * _si_factor(path, number, dataset, role, units)
+    increments = [float(d.get("abscissa_inc", 0.0)) or float(np.diff(np.asarray(d["x"][:2]))[0]) for _, d in forces]
+    sample_rate_hz = _sample_rate(path, increments + [float(d.get("abscissa_inc", 0.0)) for _, d in responses])
+    minima = np.array([float(d.get("abscissa_min", 0.0)) for _, d in forces])
+    if np.all(minima == minima[0]):
+        start_times_s = np.arange(len(forces)) * samples / sample_rate_hz
+    else:
+        start_times_s = minima
+    descriptions = tuple(_label(d, "id1") for _, d in forces)
+    return UffTimeRecords(path, records, sample_rate_hz, chosen_force, chosen_response, start_times_s, descriptions)
+
+
+def trigger_sample(force_n: np.ndarray, level_n: float | None = None) -> int:
+    """First sample at or above ``level_n`` (default: 10 % of the peak force); the peak when none is."""
+    peak = float(np.max(force_n))
+    level = 0.1 * peak if level_n is None else level_n
+    above = np.flatnonzero(force_n >= level)
+    return int(above[0]) if above.size else int(np.argmax(force_n))
+
+
+def _frf_dataset(
+    func_type: int,
+    data: np.ndarray,
+    freq_hz: np.ndarray,
+    response_dof: Dof,
+    reference_dof: Dof,
+    description: str,
+    ordinate: tuple[int, str],
+    denominator: tuple[int, str],
+) -> dict[str, Any]:
+    increment_hz = float(freq_hz[1] - freq_hz[0]) if len(freq_hz) > 1 else 0.0
+    even = bool(len(freq_hz) > 1 and np.allclose(np.diff(freq_hz), increment_hz, rtol=1e-9, atol=0.0))
+    return pyuff.prepare_58(
+        binary=0,
+        id1=description[:80] or "NONE",
+        id2="gasfilm",
+        func_type=func_type,
+        rsp_node=int(response_dof[0]),
+        rsp_dir=int(response_dof[1]),
+        ref_node=int(reference_dof[0]),
+        ref_dir=int(reference_dof[1]),
+        abscissa_spacing=1 if even else 0,
+        abscissa_spec_data_type=DATA_TYPE_FREQUENCY,
+        abscissa_axis_units_lab="Hz",
+        ordinate_spec_data_type=ordinate[0],
+        ordinate_axis_units_lab=ordinate[1],
+        orddenom_spec_data_type=denominator[0],
+        orddenom_axis_units_lab=denominator[1],
+        data=data,
+        x=np.asarray(freq_hz, dtype=float),
+    )
+
+
+def export_frf_uff(
+    frf: Any,
+    path: str | Path,
+    response_dof: Dof = (1, 3),
+    reference_dof: Dof = (1, 3),
+    description: str = "gasfilm averaged FRF",
+) -> Path:
+    """Write the averaged H1 (accelerance, m/s²/N) and the coherence of an ``FrfResult`` as UFF 58."""
+    path = Path(path)
+    if not path.parent.is_dir():
+        raise UffError(f"{path}: the folder {path.parent} does not exist")
+    freq_hz = np.asarray(frf.freq_hz, dtype=float)
+    h1 = np.asarray(frf.h1, dtype=complex)
+    coherence = np.asarray(frf.coherence, dtype=float)
+    if not (np.all(np.isfinite(h1)) and np.all(np.isfinite(coherence))):
+        raise UffError(f"{path}: the FRF holds NaN values; nothing written")
+    datasets = [
+        pyuff.prepare_164(
+            units_code=UNITS_SI,
+            units_description="SI",
+            temp_mode=1,
+            length=1.0,
+            force=1.0,
+            temp=1.0,
+            temp_offset=273.15,
+        ),
+        _frf_dataset(
+            FUNCTION_FRF,
+            h1,
+            freq_hz,
+            response_dof,
+            reference_dof,
+            f"{description} H1 accelerance",
+            (DATA_TYPE_ACCELERATION, "m/s^2"),
+            (DATA_TYPE_EXCITATION_FORCE, "N"),
+        ),
+        _frf_dataset(
+            FUNCTION_COHERENCE,
+            coherence,
+            freq_hz,
+            response_dof,
+            reference_dof,
+            f"{description} coherence",
+            (0, "NONE"),
+            (0, "NONE"),
+        ),
+    ]
+    try:
+        pyuff.UFF(str(path)).write_sets(datasets, mode="overwrite")
+    except OSError as error:
+        raise UffError(f"{path}: cannot write the UFF file ({error.strerror or error})") from None
+    return path
+
+
+def import_uff_session(
+    uff_path: str | Path,
+    session_path: str | Path,
+    validation: Any = None,
+    force_dof: Dof | None = None,
+    response_dof: Dof | None = None,
+    trigger_level_n: float | None = None,
+    overwrite: bool = False,
+) -> Path:
+    """Store the hits of a UFF file as a new session; each hit is validated with ``validation``
+    (:class:`analysis.validation.ValidationSettings`, default settings when None)."""
+    from analysis.capture import HitRecord
+    from analysis.session import Session
+    from analysis.validation import ValidationSettings, validate_hit
+
+    from drivers.interface import default_hammer_and_accelerometer
+
+    time_records = read_uff_time_records(uff_path, force_dof, response_dof)
+    validation = validation or ValidationSettings()
+    config = default_hammer_and_accelerometer(time_records.sample_rate_hz)
+    settings = {
+        "validation": validation,
+        "source": {
+            "uff_file": str(time_records.path),
+            "force_dof": time_records.force_dof,
+            "response_dof": time_records.response_dof,
+            "trigger_level_n": trigger_level_n,
+        },
+    }
+    with Session.create(session_path, config, None, settings, overwrite=overwrite, sync_each_hit=False) as session:
+        for hit_index, record in enumerate(time_records.records):
+            hit = HitRecord(
+                index=hit_index,
+                data=record,
+                sample_rate_hz=time_records.sample_rate_hz,
+                trigger_index=trigger_sample(record[0], trigger_level_n),
+                start_time_s=float(time_records.start_times_s[hit_index]),
+                overload=np.zeros(2, bool),
+                force_channel=0,
+                response_channel=1,
+            )
+            session.append_hit(hit, validate_hit(hit, validation))
+    return Path(session_path)

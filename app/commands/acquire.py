@@ -1,0 +1,208 @@
+"""``gasfilm acquire``: headless acquisition from the simulated or an NI device into a session file.
+
+Every hit is stored (flushed) before it is reported, so each "accepted hit N" line printed here is on disk: a killed
+process leaves a session holding every hit it reported. A device error ends the run: the session is closed as
+"aborted" with the reason, the hits stay, and the error is printed as one line.
+"""
+
+from __future__ import annotations
+
+import argparse
+import queue
+import sys
+import time
+from pathlib import Path
+
+from analysis.acquisition import AcquisitionLoop
+from analysis.capture import ImpactCapture, TriggerSettings
+from analysis.recording import HitEvent, HitRecorder
+from analysis.session import Session, SessionError
+from analysis.spectra import WindowSettings, compute_frf
+from analysis.validation import ValidationSettings
+from drivers import SIMULATED_DEVICE_NAME, open_device
+from drivers.errors import DeviceError, SettingError
+from drivers.interface import ChannelKind, DaqConfig, default_hammer_and_accelerometer
+
+#: Longest wait for a chunk before the run is declared stuck (the reader has its own device timeout).
+CHUNK_WAIT_S = 30.0
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    parser = subparsers.add_parser(
+        "acquire",
+        help="record hammer hits from the simulated or an NI device into a session file",
+        description="Record hammer hits into an HDF5 session: every hit (accepted or rejected) is stored as soon as "
+        "it is complete. Stops after --hits accepted hits, after --seconds of signal, or on Ctrl-C.",
+    )
+    parser.add_argument("--device", default=SIMULATED_DEVICE_NAME, help="'sim' or an NI-DAQmx device name")
+    parser.add_argument("--out", type=Path, required=True, help="session file to write (HDF5)")
+    limit = parser.add_mutually_exclusive_group()
+    limit.add_argument("--hits", type=int, help="stop after this many accepted hits")
+    limit.add_argument("--seconds", type=float, help="stop after this many seconds of signal")
+    parser.add_argument("--rig", type=Path, help="rig spec TOML (drives the simulator; stored with the session)")
+    parser.add_argument("--rate", type=float, default=12800.0, help="sample rate in S/s (51200/n; default 12800)")
+    parser.add_argument("--record-s", type=float, default=1.0, help="record length per hit in s (default 1.0)")
+    parser.add_argument("--trigger-n", type=float, default=20.0, help="trigger level on the force in N (default 20)")
+    parser.add_argument("--pretrigger-s", type=float, default=0.01, help="pre-trigger length in s (default 0.01)")
+    parser.add_argument("--force-window-ms", type=float, help="force window width after the peak in ms")
+    parser.add_argument("--exp-end", type=float, help="exponential window: value at the record end, e.g. 0.01")
+    parser.add_argument("--double-hit-fraction", type=float, default=ValidationSettings().double_hit_fraction,
+                        help="a second impact above this fraction of the first rejects the hit")
+    parser.add_argument("--seed", type=int, default=0, help="simulator: random seed")
+    parser.add_argument("--pacing", choices=("fast", "realtime"), default="realtime",
+                        help="simulator: deliver samples as fast as possible or at the real rate (default)")
+    parser.add_argument("--hit-interval", type=float, nargs=2, metavar=("MIN_S", "MAX_S"),
+                        help="simulator: time between hammer hits, drawn between MIN_S and MAX_S")
+    parser.add_argument("--double-hit-rate", type=float,
+                        help="simulator: fraction of double hits (default: the rig spec's, else 0)")
+    parser.add_argument("--append", action="store_true", help="append to an existing session instead of creating")
+    parser.set_defaults(func=run)
+
+
+def _open_device(args: argparse.Namespace, rig_spec: object | None):
+    if args.device == SIMULATED_DEVICE_NAME:
+        options = {"rig": rig_spec, "seed": args.seed, "pacing": args.pacing, "double_hit_rate": args.double_hit_rate}
+        if args.hit_interval is not None:
+            low, high = sorted(args.hit_interval)
+            if low <= 0:
+                raise SettingError(f"--hit-interval: {low} s must be positive")
+            options["hit_interval_s"] = (low, high)
+        return open_device(SIMULATED_DEVICE_NAME, **options)
+    return open_device(args.device)
+
+
+def _check_limits(args: argparse.Namespace) -> None:
+    if args.hits is not None and args.hits < 1:
+        raise SettingError(f"--hits: {args.hits} must be at least 1")
+    if args.seconds is not None and not args.seconds > 0:
+        raise SettingError(f"--seconds: {args.seconds} must be positive")
+
+
+def _open_session(args: argparse.Namespace, config: DaqConfig, rate_hz: float, device_name: str,
+                  rig_toml: str | None, settings: dict) -> Session:
+    if args.append:
+        session = Session.open(args.out, "a")
+        stored = session.daq_config
+        if len(stored.channels) != len(config.channels) or abs(session.sample_rate_hz - rate_hz) > 1e-6:
+            session.close()
+            raise SessionError(
+                f"{args.out}: recorded with {len(stored.channels)} channels at {session.sample_rate_hz:g} S/s; "
+                f"cannot append {len(config.channels)} channels at {rate_hz:g} S/s"
+            )
+        session.update_settings(settings)
+        return session
+    if args.out.exists():
+        raise SessionError(f"{args.out}: the session file exists already (use --append to add hits to it)")
+    return Session.create(args.out, config, rig_toml, settings, actual_sample_rate_hz=rate_hz, device_name=device_name)
+
+
+class _Progress:
+    """One line per hit on stdout (flushed at once), a running counter on stderr when it is a terminal."""
+
+    def __init__(self) -> None:
+        self.live = sys.stderr.isatty()
+
+    def hit(self, event: HitEvent) -> None:
+        if event.verdict.accepted:
+            line = f"accepted hit {event.index + 1} at {event.trigger_time_s:.2f} s, peak {event.peak_force_n:.0f} N"
+        else:
+            line = f"rejected hit {event.index + 1} at {event.trigger_time_s:.2f} s: {', '.join(event.verdict.reasons)}"
+        if self.live:
+            sys.stderr.write("\r\033[K")
+        print(line, flush=True)
+        self.counter(event.accepted_count, event.rejected_count)
+
+    def counter(self, accepted: int, rejected: int, stream_s: float | None = None) -> None:
+        if self.live:
+            clock = "" if stream_s is None else f" | {stream_s:.1f} s"
+            sys.stderr.write(f"\raccepted {accepted}, rejected {rejected}{clock}")
+            sys.stderr.flush()
+
+    def done(self) -> None:
+        if self.live:
+            sys.stderr.write("\r\033[K")
+            sys.stderr.flush()
+
+
+def run(args: argparse.Namespace) -> int:
+    _check_limits(args)
+    rig_spec = None
+    if args.rig is not None:
+        from analysis.rig import RigSpec
+
+        rig_spec = RigSpec.load(args.rig)
+    trigger = TriggerSettings(level_n=args.trigger_n, pretrigger_s=args.pretrigger_s, record_s=args.record_s)
+    validation = ValidationSettings(double_hit_fraction=args.double_hit_fraction)
+    window = WindowSettings(force_window_ms=args.force_window_ms, exponential_end_fraction=args.exp_end)
+    config = default_hammer_and_accelerometer(args.rate)
+    device = _open_device(args, rig_spec)
+    device.configure(config)
+    rate_hz = device.sample_rate_hz
+    settings = {"trigger": trigger, "validation": validation, "window": window}
+    session = _open_session(args, config, rate_hz, device.name, rig_spec.to_toml() if rig_spec else None, settings)
+    force_row = config.channel_index(ChannelKind.FORCE)
+    response_row = config.channel_index(ChannelKind.ACCELERATION)
+    capture = ImpactCapture(trigger, rate_hz, len(config.channels), force_row, response_row)
+    progress = _Progress()
+    recorder = HitRecorder(
+        session,
+        capture,
+        validation,
+        full_scale_si=[channel.full_scale_si for channel in config.channels],
+        window=window,
+        on_hit=progress.hit,
+    )
+    accepted_before = recorder.accepted_count
+    print(f"recording into {args.out} from {device.name} at {rate_hz:g} S/s", flush=True)
+    started = time.monotonic()
+    stream_s = 0.0
+    try:
+        with device, AcquisitionLoop(device) as loop:
+            chunks = loop.subscribe("acquire")
+            while True:
+                if args.hits is not None and recorder.accepted_count - accepted_before >= args.hits:
+                    break
+                if args.seconds is not None and stream_s >= args.seconds:
+                    break
+                try:
+                    chunk = chunks.get(timeout_s=CHUNK_WAIT_S)
+                except queue.Empty:
+                    raise DeviceError(f"device '{device.name}': no samples for {CHUNK_WAIT_S:.0f} s") from None
+                if chunk is None:
+                    raise loop.error or DeviceError(f"device '{device.name}': the stream ended unexpectedly")
+                recorder.feed(chunk.data, chunk.status.overload)
+                stream_s = (chunk.first_sample + chunk.data.shape[1]) / rate_hz
+                progress.counter(recorder.accepted_count, recorder.rejected_count, stream_s)
+            if chunks.dropped_chunks:
+                raise DeviceError(
+                    f"device '{device.name}': {chunks.dropped_chunks} chunks were lost because recording fell behind"
+                )
+    except DeviceError as error:
+        progress.done()
+        session.close("aborted", str(error))
+        raise DeviceError(
+            f"{error} — session {args.out} closed as aborted, {recorder.accepted_count} accepted hits kept",
+            getattr(error, "code", None),
+        ) from None
+    except KeyboardInterrupt:
+        progress.done()
+        session.close("aborted", "interrupted by the user")
+        print(f"interrupted: session {args.out} closed with {recorder.accepted_count} accepted hits", flush=True)
+        return 130
+    except BaseException as error:
+        progress.done()
+        session.close("aborted", f"{type(error).__name__}: {error}")
+        raise
+    progress.done()
+    if recorder.accepted_count:
+        frf = compute_frf(session.accepted_records(), rate_hz, window, force_row, response_row)
+        session.write_frf(frf, hit_indices=session.accepted_indices())
+    session.close("complete")
+    reasons = ", ".join(f"{reason}: {count}" for reason, count in sorted(recorder.reason_counts.items()))
+    print(
+        f"session {args.out}: {recorder.hit_count} hits, {recorder.accepted_count} accepted, "
+        f"{recorder.rejected_count} rejected{f' ({reasons})' if reasons else ''}; "
+        f"{stream_s:.1f} s of signal in {time.monotonic() - started:.1f} s",
+        flush=True,
+    )
+    return 0

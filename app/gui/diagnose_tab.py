@@ -1,0 +1,213 @@
+"""Diagnose tab: what the rig spec leaves out, with evidence, before/after overlay and residuals; improved spec."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from PySide6.QtCore import Qt
+from PySide6.QtWidgets import (
+    QFileDialog,
+    QGroupBox,
+    QHBoxLayout,
+    QLabel,
+    QListWidget,
+    QListWidgetItem,
+    QProgressBar,
+    QPushButton,
+    QSplitter,
+    QTextBrowser,
+    QVBoxLayout,
+    QWidget,
+)
+
+from app.gui.controller import SessionController
+from app.gui.widgets import MEASURED_COLOR, PALETTE, make_plot, pen
+from drivers.errors import GasfilmError
+from drivers.interface import STANDARD_GRAVITY_M_S2
+
+G = STANDARD_GRAVITY_M_S2
+
+
+class DiagnoseTab(QWidget):
+    """Run the mismatch diagnosis of the session against its rig spec and show what it found."""
+
+    def __init__(self, controller: SessionController, parent: QWidget | None = None) -> None:
+        super().__init__(parent)
+        self.controller = controller
+
+        self.run_button = QPushButton("Diagnose the session")
+        self.run_button.setObjectName("diagnose")
+        self.cancel_button = QPushButton("Cancel")
+        self.cancel_button.setEnabled(False)
+        self.progress = QProgressBar()
+        self.progress.setRange(0, 0)
+        self.progress.hide()
+        self.status = QLabel("Compares the session with its rig spec under the same test conditions.")
+        self.status.setWordWrap(True)
+        self.export_button = QPushButton("Export improved rig spec…")
+        self.play_button = QPushButton("Play improved spec on the simulated rig")
+        self.play_button.setObjectName("play_improved")
+        for button in (self.export_button, self.play_button):
+            button.setEnabled(False)
+        top = QHBoxLayout()
+        top.addWidget(self.run_button)
+        top.addWidget(self.cancel_button)
+        top.addWidget(self.progress)
+        top.addWidget(self.status, 1)
+        top.addWidget(self.export_button)
+        top.addWidget(self.play_button)
+
+        self.summary = QLabel()
+        self.summary.setWordWrap(True)
+        self.findings = QListWidget()
+        self.findings.currentItemChanged.connect(self._show_finding)
+        self.details = QTextBrowser()
+        self.quality = QListWidget()
+        findings_box = QGroupBox("Findings (physics the spec leaves out)")
+        findings_layout = QVBoxLayout(findings_box)
+        findings_layout.addWidget(self.summary)
+        findings_layout.addWidget(self.findings, 1)
+        findings_layout.addWidget(self.details, 2)
+        quality_box = QGroupBox("Measurement quality (never claimed as physics)")
+        QVBoxLayout(quality_box).addWidget(self.quality)
+        left = QSplitter(Qt.Orientation.Vertical)
+        left.addWidget(findings_box)
+        left.addWidget(quality_box)
+        left.setSizes([600, 200])
+
+        self.overlay_plot = make_plot("Measured vs rig spec, before and after", ("|H|", "g/N"), log_y=True)
+        self.residual_plot = make_plot("Residual |H_model − H_measured|", ("|ΔH|", "g/N"))
+        self.residual_plot.setXLink(self.overlay_plot)
+        plots = QWidget()
+        plots_layout = QVBoxLayout(plots)
+        plots_layout.setContentsMargins(0, 0, 0, 0)
+        plots_layout.addWidget(self.overlay_plot, 3)
+        plots_layout.addWidget(self.residual_plot, 2)
+
+        splitter = QSplitter(Qt.Orientation.Horizontal)
+        splitter.addWidget(left)
+        splitter.addWidget(plots)
+        splitter.setSizes([450, 800])
+        layout = QVBoxLayout(self)
+        layout.addLayout(top)
+        layout.addWidget(splitter, 1)
+
+        self.run_button.clicked.connect(controller.run_diagnosis)
+        self.cancel_button.clicked.connect(lambda: controller.cancel_job("diagnose"))
+        self.export_button.clicked.connect(self._export)
+        self.play_button.clicked.connect(controller.play_improved_spec)
+        controller.job_running.connect(self._on_running)
+        controller.job_progress.connect(self._on_progress)
+        controller.diagnosis_changed.connect(self.show_diagnosis)
+
+    def _on_running(self, job: str, running: bool) -> None:
+        if job != "diagnose":
+            return
+        self.run_button.setEnabled(not running)
+        self.cancel_button.setEnabled(running)
+        self.progress.setVisible(running)
+
+    def _on_progress(self, job: str, fraction: float, text: str) -> None:
+        if job == "diagnose":
+            self.status.setText(text)
+
+    def show_diagnosis(self, diagnosis: Any) -> None:
+        self.findings.clear()
+        self.quality.clear()
+        self.details.clear()
+        self.overlay_plot.clear()
+        self.residual_plot.clear()
+        has_spec = diagnosis is not None and diagnosis.improved_spec is not None
+        self.export_button.setEnabled(has_spec)
+        self.play_button.setEnabled(has_spec)
+        if diagnosis is None:
+            self.summary.clear()
+            return
+        better = diagnosis.improvement_e
+        self.summary.setText(
+            f"<b>{diagnosis.verdict}</b> — RMS {diagnosis.rms_before / G:.3g} → {diagnosis.rms_after / G:.3g} g/N "
+            f"(E = {better:.1f} %), BIC {diagnosis.bic_before:.0f} → {diagnosis.bic_after:.0f}, "
+            f"{diagnosis.evidence.hit_count} hits, {diagnosis.wall_time_s:.1f} s"
+        )
+        for finding in diagnosis.findings:
+            item = QListWidgetItem(
+                f"{finding.effect}   {finding.band_hz[0]:.0f}–{finding.band_hz[1]:.0f} Hz   ({finding.hits})"
+            )
+            item.setData(Qt.ItemDataRole.UserRole, finding)
+            self.findings.addItem(item)
+        if not diagnosis.findings:
+            self.findings.addItem(
+                "Nothing left: the spec explains the recordings within the noise."
+                if diagnosis.verdict == "consistent"
+                else "No missing physics: the spec's own parameters needed correcting (see details)."
+            )
+            self.details.setHtml(self._recalibration_html(diagnosis))
+        for note in diagnosis.quality:
+            band = f" ({note.band_hz[0]:.0f}–{note.band_hz[1]:.0f} Hz)" if note.band_hz else ""
+            self.quality.addItem(f"{note.kind}{band}: {note.message}")
+        if self.findings.count():
+            self.findings.setCurrentRow(0)
+        self._plot(diagnosis)
+        self.status.setText("Diagnosis complete.")
+
+    def _show_finding(self, item: QListWidgetItem | None) -> None:
+        if item is None:
+            return
+        finding = item.data(Qt.ItemDataRole.UserRole)
+        if finding is None:
+            return
+        rows = "".join(
+            f"<tr><td>{name}</td><td align='right'>{values['value']:.4g}</td>"
+            f"<td align='right'>± {values['uncertainty']:.2g}</td><td>{values['unit']}</td></tr>"
+            for name, values in finding.parameters.items()
+        )
+        self.details.setHtml(
+            f"<h3>{finding.effect}</h3>"
+            f"<p><b>Where:</b> {finding.band_hz[0]:.0f}–{finding.band_hz[1]:.0f} Hz, {finding.hits}</p>"
+            f"<p><b>What:</b></p><table cellpadding='3'>{rows}</table>"
+            f"<p><b>Why:</b> {finding.evidence}</p>"
+            f"<p><b>In plain words:</b> {finding.explanation}</p>"
+            f"<p><b>How much better:</b> χ² gain {finding.chi2_gain:.0f}, on held-out hits {finding.held_out_gain:.0f}</p>"
+        )
+
+    @staticmethod
+    def _recalibration_html(diagnosis: Any) -> str:
+        rows = "".join(
+            f"<tr><td>{name}</td><td align='right'>{v['spec']:.4g}</td><td align='right'>{v['fitted']:.4g}</td>"
+            f"<td align='right'>± {v['uncertainty']:.2g}</td></tr>"
+            for name, v in diagnosis.recalibration.items()
+        )
+        return (
+            "<h3>Recalibrated spec parameters</h3><table cellpadding='3'>"
+            f"<tr><th>parameter</th><th>spec</th><th>fitted</th><th>uncertainty</th></tr>{rows}</table>"
+        )
+
+    def _plot(self, diagnosis: Any) -> None:
+        evidence = diagnosis.evidence
+        freq = evidence.freq_hz
+        sigma = evidence.decay_rate_1_s
+        measured, _ = evidence.spectra.mean()
+        before = diagnosis.given_model.accelerance(freq, sigma)
+        after = diagnosis.improved_model.accelerance(freq, sigma)
+        self.overlay_plot.plot(freq, np.abs(measured) / G, pen=pen(MEASURED_COLOR, 2.5), name="measured (mean of hits)")
+        self.overlay_plot.plot(
+            freq, np.abs(before) / G, pen=pen(PALETTE[1], 1.5, Qt.PenStyle.DashLine), name="rig spec (before)"
+        )
+        self.overlay_plot.plot(freq, np.abs(after) / G, pen=pen(PALETTE[0], 1.5), name="improved spec (after)")
+        self.residual_plot.plot(freq, np.abs(before - measured) / G, pen=pen(PALETTE[1], 1.5), name="before")
+        self.residual_plot.plot(freq, np.abs(after - measured) / G, pen=pen(PALETTE[0], 1.5), name="after")
+
+    def _export(self) -> None:
+        default = ""
+        if self.controller.session_path is not None:
+            default = str(self.controller.session_path.with_name(f"{self.controller.session_path.stem}-improved.toml"))
+        path, _ = QFileDialog.getSaveFileName(self, "Improved rig spec", default, "Rig spec (*.toml)")
+        if not path:
+            return
+        try:
+            self.controller.export_improved_spec(path)
+        except GasfilmError as error:
+            self.controller.message.emit(str(error), "error")
+            return
+        self.controller.message.emit(f"improved rig spec written to {path}", "info")

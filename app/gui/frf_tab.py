@@ -1,0 +1,169 @@
+"""FRF tab: magnitude (log) with its uncertainty band, phase, real and imaginary parts, coherence; fit band."""
+
+from __future__ import annotations
+
+import numpy as np
+import pyqtgraph as pg
+from PySide6.QtCore import Qt
+from PySide6.QtWidgets import QComboBox, QDoubleSpinBox, QGridLayout, QHBoxLayout, QLabel, QWidget
+
+from analysis.spectra import FrfResult
+from app.gui.controller import SessionController
+from app.gui.widgets import MEASURED_COLOR, PALETTE, make_plot, pen
+from drivers.interface import STANDARD_GRAVITY_M_S2
+
+UNITS = {"(m/s²)/N": 1.0, "g/N": 1.0 / STANDARD_GRAVITY_M_S2}
+UNCERTAINTY = {"from coherence (Bendat & Piersol)": "h1_std_coherence", "hit-to-hit scatter": "h1_std_scatter"}
+
+
+class FrfTab(QWidget):
+    """The averaged FRF of the accepted hits, the way a modal engineer reads it."""
+
+    def __init__(self, controller: SessionController, parent: QWidget | None = None) -> None:
+        super().__init__(parent)
+        self.controller = controller
+        self.frf: FrfResult | None = None
+
+        self.unit_combo = QComboBox()
+        self.unit_combo.addItems(list(UNITS))
+        self.uncertainty_combo = QComboBox()
+        self.uncertainty_combo.addItems(list(UNCERTAINTY))
+        self.band_low = QDoubleSpinBox()
+        self.band_high = QDoubleSpinBox()
+        for spin in (self.band_low, self.band_high):
+            spin.setRange(0.0, 30_000.0)
+            spin.setDecimals(1)
+            spin.setSuffix(" Hz")
+            spin.setKeyboardTracking(False)
+        self.band_low.setValue(controller.fit_band_hz[0])
+        self.band_high.setValue(controller.fit_band_hz[1])
+        self.summary = QLabel("No FRF yet: accept hits on the Measure tab or open a session.")
+        controls = QHBoxLayout()
+        controls.addWidget(QLabel("Units"))
+        controls.addWidget(self.unit_combo)
+        controls.addWidget(QLabel("Uncertainty band (±1σ)"))
+        controls.addWidget(self.uncertainty_combo)
+        controls.addWidget(QLabel("Fit band"))
+        controls.addWidget(self.band_low)
+        controls.addWidget(QLabel("to"))
+        controls.addWidget(self.band_high)
+        controls.addStretch(1)
+        controls.addWidget(self.summary)
+
+        self.magnitude_plot = make_plot("Accelerance magnitude |H|", ("|H|", "(m/s²)/N"), log_y=True)
+        self.phase_plot = make_plot("Phase", ("Phase", "°"))
+        self.real_plot = make_plot("Real part", ("Re H", "(m/s²)/N"))
+        self.imag_plot = make_plot("Imaginary part", ("Im H", "(m/s²)/N"))
+        self.coherence_plot = make_plot("Coherence", ("γ²", ""))
+        self.coherence_plot.setYRange(0, 1.05)
+        self.phase_plot.setYRange(-180, 180)
+        plots = (self.magnitude_plot, self.phase_plot, self.real_plot, self.imag_plot, self.coherence_plot)
+        for plot in plots[1:]:
+            plot.setXLink(self.magnitude_plot)
+
+        self.h1_curve = self.magnitude_plot.plot(pen=pen(MEASURED_COLOR), name="H1")
+        self.h2_curve = self.magnitude_plot.plot(pen=pen(PALETTE[4], 1.0, Qt.PenStyle.DashLine), name="H2")
+        self.upper_curve = pg.PlotDataItem(pen=pen(PALETTE[5], 0.5))
+        self.lower_curve = pg.PlotDataItem(pen=pen(PALETTE[5], 0.5))
+        self.band_fill = pg.FillBetweenItem(self.upper_curve, self.lower_curve, brush=pg.mkBrush(86, 180, 233, 80))
+        for item in (self.upper_curve, self.lower_curve, self.band_fill):
+            self.magnitude_plot.addItem(item)
+        legend = self.magnitude_plot.getPlotItem().legend
+        legend.addItem(self.band_fill, "±1σ")
+        self.phase_curve = self.phase_plot.plot(pen=pen(MEASURED_COLOR), name="H1")
+        self.real_curve = self.real_plot.plot(pen=pen(PALETTE[0]), name="Re H1")
+        self.imag_curve = self.imag_plot.plot(pen=pen(PALETTE[1]), name="Im H1")
+        self.coherence_curve = self.coherence_plot.plot(pen=pen(PALETTE[2]), name="γ²")
+        self.region = pg.LinearRegionItem(values=controller.fit_band_hz, brush=pg.mkBrush(0, 114, 178, 30))
+        self.region.setZValue(-10)
+        self.magnitude_plot.addItem(self.region)
+        self.coherence_region = pg.LinearRegionItem(
+            values=controller.fit_band_hz, brush=pg.mkBrush(0, 114, 178, 30), movable=False
+        )
+        self.coherence_plot.addItem(self.coherence_region)
+
+        grid = QGridLayout(self)
+        grid.addLayout(controls, 0, 0, 1, 2)
+        grid.addWidget(self.magnitude_plot, 1, 0, 2, 1)
+        grid.addWidget(self.phase_plot, 1, 1)
+        grid.addWidget(self.coherence_plot, 2, 1)
+        grid.addWidget(self.real_plot, 3, 0)
+        grid.addWidget(self.imag_plot, 3, 1)
+        grid.setRowStretch(1, 1)
+        grid.setRowStretch(2, 1)
+        grid.setRowStretch(3, 1)
+
+        self.region.sigRegionChangeFinished.connect(self._region_moved)
+        self.band_low.valueChanged.connect(self._band_typed)
+        self.band_high.valueChanged.connect(self._band_typed)
+        self.unit_combo.currentIndexChanged.connect(self.redraw)
+        self.uncertainty_combo.currentIndexChanged.connect(self.redraw)
+        controller.frf_changed.connect(self.set_frf)
+
+    @property
+    def unit(self) -> str:
+        return self.unit_combo.currentText()
+
+    def set_frf(self, frf: FrfResult | None) -> None:
+        self.frf = frf
+        self.redraw()
+
+    def redraw(self) -> None:
+        frf = self.frf
+        curves = (self.h1_curve, self.h2_curve, self.upper_curve, self.lower_curve, self.phase_curve,
+                  self.real_curve, self.imag_curve, self.coherence_curve)
+        if frf is None:
+            for curve in curves:
+                curve.setData([], [])
+            self.summary.setText("No FRF yet: accept hits on the Measure tab or open a session.")
+            return
+        scale = UNITS[self.unit]
+        for plot, label in ((self.magnitude_plot, "|H|"), (self.real_plot, "Re H"), (self.imag_plot, "Im H")):
+            plot.getPlotItem().setLabel("left", label, units=self.unit)
+        keep = frf.freq_hz > 0
+        freq = frf.freq_hz[keep]
+        h1 = frf.h1[keep] * scale
+        magnitude = np.abs(h1)
+        sigma = np.nan_to_num(getattr(frf, UNCERTAINTY[self.uncertainty_combo.currentText()])[keep] * scale)
+        floor = np.min(magnitude[magnitude > 0]) * 0.1 if np.any(magnitude > 0) else 1e-12
+        self.h1_curve.setData(freq, magnitude)
+        self.h2_curve.setData(freq, np.abs(frf.h2[keep] * scale))
+        self.upper_curve.setData(freq, magnitude + sigma)
+        self.lower_curve.setData(freq, np.maximum(magnitude - sigma, floor))
+        self.phase_curve.setData(freq, np.degrees(np.angle(h1)))
+        self.real_curve.setData(freq, h1.real)
+        self.imag_curve.setData(freq, h1.imag)
+        self.coherence_curve.setData(freq, frf.coherence[keep])
+        low, high = self.controller.fit_band_hz
+        band = (freq >= low) & (freq <= high)
+        mean_coherence = float(np.mean(frf.coherence[keep][band])) if np.any(band) else float("nan")
+        peak = int(np.argmax(np.where(band, magnitude, 0))) if np.any(band) else int(np.argmax(magnitude))
+        self.summary.setText(
+            f"{frf.n_averages} averages · {frf.sample_rate_hz:g} S/s · Δf {freq[0]:.3g} Hz · "
+            f"peak {freq[peak]:.1f} Hz · mean γ² in band {mean_coherence:.3f}"
+        )
+
+    def _region_moved(self) -> None:
+        low, high = self.region.getRegion()
+        self._set_band(low, high, move_region=False)
+
+    def _band_typed(self) -> None:
+        self._set_band(self.band_low.value(), self.band_high.value(), move_region=True)
+
+    def _set_band(self, low: float, high: float, move_region: bool) -> None:
+        low, high = sorted((max(0.0, low), max(0.0, high)))
+        self.controller.fit_band_hz = (low, high)
+        for spin, value in ((self.band_low, low), (self.band_high, high)):
+            spin.blockSignals(True)
+            spin.setValue(value)
+            spin.blockSignals(False)
+        if move_region:
+            self.region.blockSignals(True)
+            self.region.setRegion((low, high))
+            self.region.blockSignals(False)
+        self.coherence_region.setRegion((low, high))
+        self.redraw()
+
+    def show_band(self, band_hz: tuple[float, float]) -> None:
+        """Follow a band chosen elsewhere (a session's stored fits)."""
+        self._set_band(band_hz[0], band_hz[1], move_region=True)

@@ -1,0 +1,288 @@
+"""Identify tab: pick models and fitter, fit in the background with progress and cancel, Table 2, Figures 18/19."""
+
+from __future__ import annotations
+
+import numpy as np
+from PySide6.QtCore import Qt
+from PySide6.QtWidgets import (
+    QAbstractItemView,
+    QComboBox,
+    QGridLayout,
+    QGroupBox,
+    QHBoxLayout,
+    QLabel,
+    QLineEdit,
+    QListWidget,
+    QListWidgetItem,
+    QProgressBar,
+    QPushButton,
+    QSplitter,
+    QTableWidget,
+    QTableWidgetItem,
+    QTabWidget,
+    QVBoxLayout,
+    QWidget,
+)
+
+from analysis.identify import METHODS
+from analysis.models import PAPER_MODEL_ORDER, PAPER_MODEL_TEXT, get_model
+from app.gui.controller import SessionController
+from app.gui.widgets import MEASURED_COLOR, PALETTE, make_plot, pen
+from drivers.errors import GasfilmError
+from drivers.interface import STANDARD_GRAVITY_M_S2
+
+DEFAULT_MODELS = ("SD", "FOMGF")
+TABLE2_COLUMNS = ("#", "Model", "k", "RMS (g/N)", "E", "Peak error (g/N)", "E_m", "AIC", "BIC")
+METHOD_LABELS = {"default": "default (fast, multi-start least squares)", "gapso": "GA-PSO (the paper's)"}
+
+
+def _percent(value: float | None) -> str:
+    return "—" if value is None else f"{value:.2f} %"
+
+
+class IdentifyTab(QWidget):
+    """Fit gas-film models to the FRF in the chosen band and compare them like the paper."""
+
+    def __init__(self, controller: SessionController, parent: QWidget | None = None) -> None:
+        super().__init__(parent)
+        self.controller = controller
+
+        self.model_list = QListWidget()
+        for name in PAPER_MODEL_ORDER:
+            item = QListWidgetItem(f"{name} — {PAPER_MODEL_TEXT[name][1]}")
+            item.setData(Qt.ItemDataRole.UserRole, name)
+            item.setToolTip(PAPER_MODEL_TEXT[name][0])
+            item.setCheckState(Qt.CheckState.Checked if name in DEFAULT_MODELS else Qt.CheckState.Unchecked)
+            self.model_list.addItem(item)
+        self.custom_text = QLineEdit()
+        self.custom_text.setPlaceholderText("your network, e.g. k || pot(eta, alpha)")
+        add_custom = QPushButton("Add")
+        add_custom.clicked.connect(self._add_custom)
+        self.method_combo = QComboBox()
+        for method in METHODS:
+            self.method_combo.addItem(METHOD_LABELS.get(method, method), method)
+        self.band_label = QLabel()
+        self.run_button = QPushButton("Fit selected models")
+        self.run_button.setObjectName("fit")
+        self.cancel_button = QPushButton("Cancel")
+        self.cancel_button.setEnabled(False)
+        self.progress = QProgressBar()
+        self.progress.setRange(0, 1000)
+        self.status = QLabel()
+        self.status.setWordWrap(True)
+        left_box = QGroupBox("Models and fitter")
+        left = QVBoxLayout(left_box)
+        left.addWidget(self.model_list)
+        custom_row = QHBoxLayout()
+        custom_row.addWidget(self.custom_text, 1)
+        custom_row.addWidget(add_custom)
+        left.addLayout(custom_row)
+        left.addWidget(QLabel("Fitter"))
+        left.addWidget(self.method_combo)
+        left.addWidget(self.band_label)
+        buttons = QHBoxLayout()
+        buttons.addWidget(self.run_button)
+        buttons.addWidget(self.cancel_button)
+        left.addLayout(buttons)
+        left.addWidget(self.progress)
+        left.addWidget(self.status)
+
+        self.table = QTableWidget(0, len(TABLE2_COLUMNS))
+        self.table.setHorizontalHeaderLabels(TABLE2_COLUMNS)
+        self.table.verticalHeader().setVisible(False)
+        self.table.setEditTriggers(QAbstractItemView.EditTrigger.NoEditTriggers)
+        self.table.setSelectionBehavior(QAbstractItemView.SelectionBehavior.SelectRows)
+        self.table.itemSelectionChanged.connect(self._show_parameters)
+        self.parameters = QTableWidget(0, 4)
+        self.parameters.setHorizontalHeaderLabels(("Parameter", "Value", "Std error", "Unit"))
+        self.parameters.verticalHeader().setVisible(False)
+        self.parameters.setEditTriggers(QAbstractItemView.EditTrigger.NoEditTriggers)
+        self.flags_label = QLabel()
+        self.flags_label.setWordWrap(True)
+        table_panel = QWidget()
+        table_layout = QVBoxLayout(table_panel)
+        table_layout.setContentsMargins(0, 0, 0, 0)
+        table_layout.addWidget(QLabel("<b>Table 2</b> — RMS (eq. 33) and peak error in g/N; E, E_m against SD (eq. 35)"))
+        table_layout.addWidget(self.table, 2)
+        table_layout.addWidget(QLabel("<b>Parameters</b> of the selected model"))
+        table_layout.addWidget(self.parameters, 2)
+        table_layout.addWidget(self.flags_label)
+
+        self.fig18 = {
+            "magnitude": make_plot("Fig. 18a  log |H|", ("|H|", "g/N"), log_y=True),
+            "real": make_plot("Fig. 18b  Real part", ("Re H", "g/N")),
+            "imag": make_plot("Fig. 18c  Imaginary part", ("Im H", "g/N")),
+            "phase": make_plot("Fig. 18d  Phase", ("Phase", "°")),
+        }
+        self.fig19 = {
+            "magnitude": make_plot("Fig. 19a  Error of |H|", ("| |H| − |H_d| |", "g/N")),
+            "real": make_plot("Fig. 19b  Error of the real part", ("|Re H − Re H_d|", "g/N")),
+            "imag": make_plot("Fig. 19c  Error of the imaginary part", ("|Im H − Im H_d|", "g/N")),
+        }
+        figures = QTabWidget()
+        figures.addTab(self._grid(list(self.fig18.values()), 2), "Figure 18 — fits")
+        figures.addTab(self._grid(list(self.fig19.values()), 3), "Figure 19 — errors")
+        self.figures = figures
+
+        right = QSplitter(Qt.Orientation.Vertical)
+        right.addWidget(table_panel)
+        right.addWidget(figures)
+        right.setSizes([300, 500])
+        splitter = QSplitter(Qt.Orientation.Horizontal)
+        splitter.addWidget(left_box)
+        splitter.addWidget(right)
+        splitter.setSizes([300, 1000])
+        QVBoxLayout(self).addWidget(splitter)
+
+        self.run_button.clicked.connect(self.run_fits)
+        self.cancel_button.clicked.connect(lambda: controller.cancel_job("fit"))
+        controller.job_progress.connect(self._on_progress)
+        controller.job_running.connect(self._on_running)
+        controller.fits_changed.connect(self.show_fits)
+        controller.frf_changed.connect(lambda _frf: self._update_band_label())
+        self._update_band_label()
+
+    @staticmethod
+    def _grid(plots: list, columns: int) -> QWidget:
+        widget = QWidget()
+        grid = QGridLayout(widget)
+        for number, plot in enumerate(plots):
+            grid.addWidget(plot, number // columns, number % columns)
+            if number:
+                plot.setXLink(plots[0])
+        return widget
+
+    def selected_models(self) -> list[str]:
+        return [
+            self.model_list.item(i).data(Qt.ItemDataRole.UserRole)
+            for i in range(self.model_list.count())
+            if self.model_list.item(i).checkState() == Qt.CheckState.Checked
+        ]
+
+    def set_selected_models(self, names: list[str]) -> None:
+        for i in range(self.model_list.count()):
+            item = self.model_list.item(i)
+            checked = item.data(Qt.ItemDataRole.UserRole) in names
+            item.setCheckState(Qt.CheckState.Checked if checked else Qt.CheckState.Unchecked)
+
+    def _add_custom(self) -> None:
+        text = self.custom_text.text().strip()
+        try:
+            get_model(text)
+        except GasfilmError as error:
+            self.status.setText(f"<span style='color:#b3261e'>{error}</span>")
+            return
+        item = QListWidgetItem(f"custom — {text}")
+        item.setData(Qt.ItemDataRole.UserRole, text)
+        item.setCheckState(Qt.CheckState.Checked)
+        self.model_list.addItem(item)
+        self.custom_text.clear()
+
+    def _update_band_label(self) -> None:
+        low, high = self.controller.fit_band_hz
+        self.band_label.setText(f"Band {low:g}–{high:g} Hz (set it on the FRF tab)")
+
+    def run_fits(self) -> None:
+        models = self.selected_models()
+        if not models:
+            self.status.setText("Tick at least one model.")
+            return
+        self._update_band_label()
+        self.progress.setValue(0)
+        self.controller.run_fits(models, self.method_combo.currentData(), self.controller.fit_band_hz)
+
+    def _on_progress(self, job: str, fraction: float, text: str) -> None:
+        if job == "fit":
+            self.progress.setValue(int(1000 * fraction))
+            self.status.setText(text)
+
+    def _on_running(self, job: str, running: bool) -> None:
+        if job != "fit":
+            return
+        self.run_button.setEnabled(not running)
+        self.cancel_button.setEnabled(running)
+        if not running:
+            self.status.setText(f"{len(self.controller.fits)} model(s) fitted" if self.controller.fits else "")
+
+    # --- results -------------------------------------------------------------------------------------------------
+
+    def show_fits(self) -> None:
+        rows = self.controller.comparison
+        g = STANDARD_GRAVITY_M_S2
+        self.table.setRowCount(len(rows))
+        for r, row in enumerate(rows):
+            values = (
+                str(row.rank),
+                row.model_name,
+                str(row.n_parameters),
+                f"{row.rms / g:.5g}",
+                _percent(row.e_percent),
+                f"{row.peak_error / g:.4g}",
+                _percent(row.e_m_percent),
+                f"{row.aic:.1f}",
+                f"{row.bic:.1f}",
+            )
+            for c, value in enumerate(values):
+                item = QTableWidgetItem(value)
+                if c != 1:
+                    item.setTextAlignment(Qt.AlignmentFlag.AlignRight | Qt.AlignmentFlag.AlignVCenter)
+                self.table.setItem(r, c, item)
+        self.table.resizeColumnsToContents()
+        if rows:
+            self.table.selectRow(0)
+        else:
+            self.parameters.setRowCount(0)
+            self.flags_label.clear()
+        self._update_band_label()
+        self._draw_figures()
+
+    def _show_parameters(self) -> None:
+        selected = self.table.selectionModel().selectedRows()
+        if not selected:
+            return
+        name = self.table.item(selected[0].row(), 1).text()
+        fit = self.controller.fits.get(name)
+        if fit is None:
+            return
+        units = {p.name: p.unit for p in fit.model().parameters}
+        self.parameters.setRowCount(len(fit.params))
+        for r, (parameter, value) in enumerate(fit.params.items()):
+            std = fit.std_errors.get(parameter, float("nan"))
+            for c, text in enumerate((parameter, f"{value:.5g}", f"{std:.3g}", units.get(parameter, ""))):
+                self.parameters.setItem(r, c, QTableWidgetItem(text))
+        self.parameters.resizeColumnsToContents()
+        flags = "; ".join(fit.flags)
+        self.flags_label.setText(
+            f"{fit.model_name}: {fit.network} · {fit.method} fitter · {fit.evaluations} evaluations in "
+            f"{fit.wall_time_s:.2f} s" + (f"<br><span style='color:#a66300'>⚠ {flags}</span>" if flags else "")
+        )
+
+    def _draw_figures(self) -> None:
+        for plot in list(self.fig18.values()) + list(self.fig19.values()):
+            plot.clear()
+        frf = self.controller.frf
+        fits = self.controller.fits
+        if frf is None or not fits:
+            return
+        low, high = self.controller.fit_band_hz
+        band = (frf.freq_hz >= low) & (frf.freq_hz <= high)
+        freq = frf.freq_hz[band]
+        measured = frf.h1[band] / STANDARD_GRAVITY_M_S2
+        fig18 = self.fig18
+        fig18["magnitude"].plot(freq, np.abs(measured), pen=pen(MEASURED_COLOR, 2.5), name="measured")
+        fig18["real"].plot(freq, measured.real, pen=pen(MEASURED_COLOR, 2.5), name="measured")
+        fig18["imag"].plot(freq, measured.imag, pen=pen(MEASURED_COLOR, 2.5), name="measured")
+        fig18["phase"].plot(freq, np.degrees(np.angle(measured)), pen=pen(MEASURED_COLOR, 2.5), name="measured")
+        order = [row.model_name for row in self.controller.comparison] or list(fits)
+        for number, name in enumerate(order):
+            fit = fits[name]
+            model = fit.accelerance(freq) / STANDARD_GRAVITY_M_S2
+            style = pen(PALETTE[number % len(PALETTE)], 1.5, Qt.PenStyle.DashLine)
+            fig18["magnitude"].plot(freq, np.abs(model), pen=style, name=name)
+            fig18["real"].plot(freq, model.real, pen=style, name=name)
+            fig18["imag"].plot(freq, model.imag, pen=style, name=name)
+            fig18["phase"].plot(freq, np.degrees(np.angle(model)), pen=style, name=name)
+            solid = pen(PALETTE[number % len(PALETTE)], 1.5)
+            self.fig19["magnitude"].plot(freq, np.abs(np.abs(model) - np.abs(measured)), pen=solid, name=name)
+            self.fig19["real"].plot(freq, np.abs(model.real - measured.real), pen=solid, name=name)
+            self.fig19["imag"].plot(freq, np.abs(model.imag - measured.imag), pen=solid, name=name)

@@ -1,0 +1,373 @@
+"""Work that must not run on the GUI thread: acquisition (device → trigger → validation → session) and long jobs.
+
+Each worker is a QObject moved to its own QThread (PyMoDAQ's pattern). It talks to the GUI only through signals and
+never touches a widget; the GUI talks to it through queued signals. The acquisition worker polls its mailbox from
+a timer on its own thread, so queued requests (accept, reject, virtual hit, stop) are handled between chunks and a
+fast device can never flood the GUI's event loop: the GUI receives one signal per hit, not one per chunk.
+"""
+
+from __future__ import annotations
+
+import queue
+import threading
+import time
+from dataclasses import dataclass, field
+from typing import Any, Callable
+
+import numpy as np
+from PySide6.QtCore import QObject, QThread, QTimer, Signal, Slot
+
+from analysis.acquisition import AcquisitionLoop
+from analysis.capture import HitRecord, ImpactCapture, TriggerSettings
+from analysis.recording import HitEvent, HitRecorder
+from analysis.rig import RigSpec
+from analysis.session import Session
+from analysis.spectra import WindowSettings, frf_from_hits
+from analysis.validation import ValidationSettings, Verdict
+from drivers import SIMULATED_DEVICE_NAME, open_device
+from drivers.errors import GasfilmError
+from drivers.interface import ChannelKind, DaqConfig, DaqDevice
+
+POLL_INTERVAL_MS = 50
+PROGRESS_INTERVAL_S = 0.1
+SIM_HIT_INTERVAL_S = (1.5, 3.0)
+
+
+@dataclass(frozen=True)
+class AcquisitionPlan:
+    """Everything the acquisition worker needs, decided on the GUI thread before arming."""
+
+    device_name: str
+    config: DaqConfig
+    response_row: int
+    rig_spec: RigSpec
+    trigger: TriggerSettings
+    validation: ValidationSettings
+    window: WindowSettings
+    auto_accept: bool = True
+    auto_reject: bool = True
+    sim_auto_hammer: bool = False
+    sim_tip: str = "medium"
+    sim_seed: int = 1
+    sim_pacing: str = "realtime"
+    ring_seconds: float = 10.0
+
+
+@dataclass
+class HitEntry:
+    """A hit as the GUI shows it: the record, the automatic verdict and the decision in force."""
+
+    index: int
+    record: HitRecord
+    automatic: Verdict
+    verdict: Verdict
+    pending: bool = False
+
+    @property
+    def accepted(self) -> bool:
+        return self.verdict.accepted and not self.pending
+
+
+@dataclass
+class AcquisitionStats:
+    """Counters for the status bar and the benchmark."""
+
+    chunks_read: int = 0
+    samples_read: int = 0
+    dropped_chunks: int = 0
+    hits: int = 0
+    started_monotonic_s: float = field(default_factory=time.monotonic)
+
+
+class AcquisitionWorker(QObject):
+    """Runs device, trigger, validation and session writing; lives on its own thread."""
+
+    streaming = Signal(object)  # the AcquisitionLoop, once the device streams (its ring feeds the live view)
+    hit_recorded = Signal(object)  # HitEntry
+    verdict_changed = Signal(object)  # HitEntry after a decision
+    frf_updated = Signal(object)  # FrfResult of the accepted hits
+    trigger_state = Signal(str)  # "armed" | "triggered"
+    channel_warning = Signal(str)  # overload / open sensor flags, one line
+    device_fault = Signal(str)  # a DeviceError's message; acquisition has ended
+    finished = Signal()
+
+    def __init__(self, plan: AcquisitionPlan, session: Session, first_index: int = 0) -> None:
+        super().__init__()
+        self.plan = plan
+        self.session = session
+        self.first_index = first_index
+        self.device: DaqDevice | None = None
+        self.loop: AcquisitionLoop | None = None
+        self.recorder: HitRecorder | None = None
+        self.stats = AcquisitionStats()
+        self._mailbox = None
+        self._timer: QTimer | None = None
+        self._entries: dict[int, HitEntry] = {}
+        self._last_trigger_state = ""
+        self._last_flags = ""
+        self._stopping = False
+        self._capture: RecordKeepingCapture | None = None
+        self._record_samples = 0
+        self._force_row = 0
+        self._recording_until = 0
+
+    # --- life cycle (worker thread) ----------------------------------------------------------------------------------
+
+    @Slot()
+    def start(self) -> None:
+        plan = self.plan
+        try:
+            options: dict[str, Any] = {}
+            if plan.device_name == SIMULATED_DEVICE_NAME:
+                options = dict(
+                    rig=plan.rig_spec,
+                    seed=plan.sim_seed,
+                    pacing=plan.sim_pacing,
+                    hit_interval_s=SIM_HIT_INTERVAL_S if plan.sim_auto_hammer else None,
+                    tip=plan.sim_tip,
+                )
+            self.device = open_device(plan.device_name, **options)
+            self.device.configure(plan.config)
+            force_row = plan.config.channel_index(ChannelKind.FORCE)
+            capture = ImpactCapture(
+                plan.trigger, self.device.sample_rate_hz, len(plan.config.channels), force_row, plan.response_row
+            )
+            full_scale = tuple(channel.full_scale_si for channel in plan.config.channels)
+            self._capture = RecordKeepingCapture(capture)
+            self.recorder = HitRecorder(
+                self.session, self._capture, plan.validation, full_scale_si=full_scale, window=plan.window
+            )
+            self._record_samples = capture.record_samples
+            self._force_row = force_row
+            self.loop = AcquisitionLoop(self.device, ring_seconds=plan.ring_seconds)
+            self._mailbox = self.loop.subscribe("gui")
+            self.loop.start()
+        except GasfilmError as error:
+            self._close_device()
+            self.device_fault.emit(str(error))
+            self.finished.emit()
+            return
+        self.stats = AcquisitionStats()
+        self._timer = QTimer(self)
+        self._timer.timeout.connect(self._poll)
+        self._timer.start(POLL_INTERVAL_MS)
+        self.streaming.emit(self.loop)
+        self._set_trigger_state("armed")
+
+    @Slot()
+    def stop(self) -> None:
+        """Stop streaming, keep every hit already recorded, and end."""
+        if self._stopping:
+            return
+        self._stopping = True
+        if self._timer is not None:
+            self._timer.stop()
+        if self.loop is not None:
+            self.loop.stop()
+            self._drain()
+        self._close_device()
+        self.finished.emit()
+
+    def _close_device(self) -> None:
+        if self.device is not None:
+            try:
+                self.device.close()
+            except GasfilmError:
+                pass  # a removed device cannot be closed cleanly; the fault was already reported
+            self.device = None
+
+    # --- the poll: chunks → hits -------------------------------------------------------------------------------------
+
+    def _poll(self) -> None:
+        ended = self._drain()
+        if ended:
+            error = self.loop.error if self.loop is not None else None
+            if self._timer is not None:
+                self._timer.stop()
+            self._stopping = True
+            if error is not None:
+                self.device_fault.emit(str(error))
+            self._close_device()
+            self.finished.emit()
+
+    def _drain(self) -> bool:
+        """Feed every waiting chunk to the recorder; True when the stream has ended."""
+        if self._mailbox is None or self.recorder is None:
+            return True
+        while True:
+            try:
+                chunk = self._mailbox.get(timeout_s=0)
+            except queue.Empty:
+                return False
+            if chunk is None:
+                return True
+            self.stats.chunks_read += 1
+            self.stats.samples_read += chunk.data.shape[1]
+            self.stats.dropped_chunks = self._mailbox.dropped_chunks
+            self._report_flags(chunk.status)
+            self._watch_trigger(chunk.data[self._force_row], chunk.first_sample + chunk.data.shape[1])
+            events = self.recorder.feed(chunk.data, chunk.status.overload)
+            records = self._capture.take_records()
+            for event, record in zip(events, records):
+                self._on_hit(event, record)
+            if events and self._capture.samples_seen >= self._recording_until:
+                self._set_trigger_state("armed")
+
+    def _watch_trigger(self, force_n: np.ndarray, end_sample: int) -> None:
+        """Show "triggered" from a chunk that crosses the trigger level until its record is complete."""
+        trigger = self.plan.trigger
+        crossed = np.max(force_n) >= trigger.level_n if trigger.slope == "rising" else np.min(force_n) <= trigger.level_n
+        if crossed:
+            self._recording_until = end_sample + self._record_samples
+            self._set_trigger_state("triggered")
+        elif end_sample >= self._recording_until:
+            self._set_trigger_state("armed")
+
+    def _on_hit(self, event: HitEvent, record: HitRecord) -> None:
+        self.stats.hits += 1
+        automatic = event.verdict
+        decided = (automatic.accepted and self.plan.auto_accept) or (not automatic.accepted and self.plan.auto_reject)
+        entry = HitEntry(event.index, record, automatic, automatic, pending=not decided)
+        self._entries[entry.index] = entry
+        self.hit_recorded.emit(entry)
+        if entry.accepted:
+            self._emit_frf()
+
+    def _report_flags(self, status: Any) -> None:
+        names = [channel.physical_channel for channel in self.plan.config.channels]
+        parts = []
+        if status.overload is not None and np.any(status.overload):
+            parts.append("overload on " + ", ".join(n for n, f in zip(names, status.overload) if f))
+        if status.open_sensor is not None and np.any(status.open_sensor):
+            parts.append("open sensor (unplugged or broken cable) on " + ", ".join(
+                n for n, f in zip(names, status.open_sensor) if f
+            ))
+        text = "; ".join(parts)
+        if text != self._last_flags:
+            self._last_flags = text
+            if text:
+                self.channel_warning.emit(f"{self.plan.device_name}: {text}")
+
+    def _set_trigger_state(self, state: str) -> None:
+        if state != self._last_trigger_state:
+            self._last_trigger_state = state
+            self.trigger_state.emit(state)
+
+    def _emit_frf(self) -> None:
+        records = [entry.record for entry in self._entries.values() if entry.accepted]
+        if records:
+            self.frf_updated.emit(frf_from_hits(records, self.plan.window))
+
+    # --- requests from the GUI (queued onto this thread) -------------------------------------------------------------
+
+    @Slot(int, bool)
+    def decide(self, index: int, accepted: bool) -> None:
+        """The technician's Accept/Reject: stored in the session at once, the FRF follows."""
+        entry = self._entries.get(index)
+        if entry is None:
+            return
+        overridden = accepted != entry.automatic.accepted
+        entry.verdict = Verdict(accepted, entry.automatic.reasons, overridden=overridden)
+        entry.pending = False
+        self.session.set_verdict(index, entry.verdict)
+        self.verdict_changed.emit(entry)
+        self._emit_frf()
+
+    @Slot(str)
+    def virtual_hit(self, tip: str) -> None:
+        if self.device is not None and hasattr(self.device, "sim_hit"):
+            self.device.sim_hit(tip=tip)
+
+    @Slot(str)
+    def inject_fault(self, kind: str) -> None:
+        if self.device is not None and hasattr(self.device, "sim_inject_fault"):
+            self.device.sim_inject_fault(kind)
+
+
+class RecordKeepingCapture:
+    """Wraps an :class:`ImpactCapture` for a :class:`HitRecorder` and keeps the records it hands over, so the GUI can
+    show each stored hit's samples without reading them back from the file (events and records come in order)."""
+
+    def __init__(self, capture: ImpactCapture) -> None:
+        self.capture = capture
+        self._records: list[HitRecord] = []
+
+    @property
+    def samples_seen(self) -> int:
+        return self.capture.samples_seen
+
+    def feed(self, chunk: np.ndarray, overload: np.ndarray | None = None) -> list[HitRecord]:
+        records = self.capture.feed(chunk, overload)
+        self._records.extend(records)
+        return records
+
+    def take_records(self) -> list[HitRecord]:
+        records, self._records = self._records, []
+        return records
+
+
+class JobCancelled(GasfilmError):
+    """Raised inside a background job when the technician pressed Cancel."""
+
+
+Report = Callable[[float, str], None]
+
+
+class BackgroundJob(QObject):
+    """Run ``work(report, cancelled)`` on a worker thread; ``report(fraction, text)`` drives a progress bar and
+    raises :class:`JobCancelled` once Cancel was pressed; ``cancelled()`` can be polled by long computations."""
+
+    progress = Signal(float, str)
+    succeeded = Signal(object)
+    failed = Signal(str)
+    cancelled = Signal()
+    finished = Signal()
+
+    def __init__(self, work: Callable[[Report, Callable[[], bool]], Any]) -> None:
+        super().__init__()
+        self._work = work
+        self._cancel = threading.Event()
+
+    def cancel(self) -> None:
+        """Thread-safe: the job stops at its next check."""
+        self._cancel.set()
+
+    @Slot()
+    def run(self) -> None:
+        last_emit_s = [0.0]
+
+        def report(fraction: float, text: str) -> None:
+            if self._cancel.is_set():
+                raise JobCancelled("cancelled")
+            now = time.monotonic()
+            if now - last_emit_s[0] >= PROGRESS_INTERVAL_S or fraction >= 1.0:  # never flood the GUI's event loop
+                last_emit_s[0] = now
+                self.progress.emit(float(fraction), text)
+
+        try:
+            result = self._work(report, self._cancel.is_set)
+        except GasfilmError as error:
+            if self._cancel.is_set():
+                self.cancelled.emit()
+            else:
+                self.failed.emit(str(error))
+        except Exception as error:  # a bug in a job must reach the banner, not vanish with the thread
+            self.failed.emit(f"internal error: {type(error).__name__}: {error}")
+        else:
+            if self._cancel.is_set():
+                self.cancelled.emit()
+            else:
+                self.succeeded.emit(result)
+        self.finished.emit()
+
+
+def start_on_thread(worker: QObject, entry: Callable[[], None], parent: QObject) -> QThread:
+    """Move ``worker`` to a new thread, call ``entry`` there when it starts, and clean up when it finishes."""
+    thread = QThread(parent)
+    worker.moveToThread(thread)
+    thread.started.connect(entry)
+    worker.finished.connect(thread.quit)
+    thread.finished.connect(worker.deleteLater)
+    thread.finished.connect(thread.deleteLater)
+    thread.start()
+    return thread

@@ -1,0 +1,146 @@
+"""UFF 58 via pyuff: FRF/coherence export round trip, import of time records, errors naming the file."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import pyuff
+
+from analysis.session import Session
+from analysis.spectra import WindowSettings, compute_frf
+from analysis.uff import UffError, export_frf_uff, import_uff_session, read_uff_time_records
+from analysis.validation import ValidationSettings
+from drivers.interface import STANDARD_GRAVITY_M_S2
+from test_session import RATE_HZ, synthetic_hits
+
+
+def time_record(values, node, direction, data_type, units, ref=(1, 3), hit=0, binary=0):
+    """One dataset 58 time record as a UFF writer of another program would produce it."""
+    return pyuff.prepare_58(
+        binary=binary,
+        id1=f"hit {hit}",
+        func_type=1,
+        ver_num=hit,
+        rsp_node=node,
+        rsp_dir=direction,
+        ref_node=ref[0],
+        ref_dir=ref[1],
+        abscissa_spacing=1,
+        abscissa_spec_data_type=17,
+        abscissa_axis_units_lab="s",
+        ordinate_spec_data_type=data_type,
+        ordinate_axis_units_lab=units,
+        orddenom_spec_data_type=0,
+        data=np.asarray(values, dtype=float),
+        x=np.arange(len(values)) / RATE_HZ,
+    )
+
+
+def write_uff(path, datasets):
+    pyuff.UFF(str(path)).write_sets(datasets, mode="overwrite")
+    return path
+
+
+def test_frf_and_coherence_export_round_trip(tmp_path):
+    hits = synthetic_hits(4)
+    frf = compute_frf(np.stack([hit.data for hit in hits]), RATE_HZ, WindowSettings(exponential_end_fraction=0.2))
+    path = export_frf_uff(frf, tmp_path / "frf.uff", response_dof=(7, 3), reference_dof=(2, -3))
+    sets = pyuff.UFF(str(path)).read_sets()
+    assert [s["type"] for s in sets] == [164, 58, 58]
+    assert sets[0]["units_code"] == 1
+    h1_set, coherence_set = sets[1], sets[2]
+    assert (h1_set["func_type"], coherence_set["func_type"]) == (4, 6)
+    assert (h1_set["ordinate_spec_data_type"], h1_set["orddenom_spec_data_type"]) == (12, 13)
+    assert (h1_set["ordinate_axis_units_lab"], h1_set["orddenom_axis_units_lab"]) == ("m/s^2", "N")
+    assert (h1_set["rsp_node"], h1_set["rsp_dir"], h1_set["ref_node"], h1_set["ref_dir"]) == (7, 3, 2, -3)
+    np.testing.assert_allclose(h1_set["x"], frf.freq_hz, rtol=1e-5, atol=1e-9)
+    np.testing.assert_allclose(h1_set["data"], frf.h1, rtol=1e-11, atol=0)
+    np.testing.assert_allclose(coherence_set["data"], frf.coherence, rtol=1e-11, atol=0)
+    assert np.iscomplexobj(h1_set["data"]) and not np.iscomplexobj(coherence_set["data"])
+
+
+def test_import_time_records_by_data_type_and_units(tmp_path):
+    hits = synthetic_hits(3, seed=5)
+    datasets = []
+    for hit in hits:
+        # hit 1 comes in lbf and g, the others in SI; response first for hit 2 (order inside a hit is free)
+        force, response = hit.data
+        force_record = (time_record(force / 4.4482216152605, 1, 3, 13, "lbf", hit=hit.index) if hit.index == 1
+                        else time_record(force, 1, 3, 13, "N", hit=hit.index))
+        response_record = (time_record(response / STANDARD_GRAVITY_M_S2, 5, 3, 12, "g", hit=hit.index)
+                           if hit.index == 1 else time_record(response, 5, 3, 12, "m/s^2", hit=hit.index, binary=1))
+        datasets += [response_record, force_record] if hit.index == 2 else [force_record, response_record]
+    path = write_uff(tmp_path / "hits.uff", datasets)
+    records = read_uff_time_records(path)
+    assert records.sample_rate_hz == RATE_HZ  # snapped from the 5-digit abscissa increment
+    assert (records.force_dof, records.response_dof) == ((1, 3), (5, 3))
+    np.testing.assert_allclose(records.records, np.stack([hit.data for hit in hits]), rtol=1e-10, atol=1e-12)
+
+    session_path = import_uff_session(path, tmp_path / "hits.h5", ValidationSettings())
+    with Session.open(session_path) as session:
+        assert session.hit_count == 3 and session.sample_rate_hz == RATE_HZ
+        assert all(verdict.accepted for verdict in session.verdicts())  # UFF carries no overload flags
+        np.testing.assert_allclose(session.accepted_records(), records.records, rtol=0, atol=0)
+        assert session.settings["source"]["response_dof"] == [5, 3]
+
+
+def test_import_maps_untyped_records_by_node_and_direction(tmp_path):
+    hits = synthetic_hits(2, seed=2)
+    datasets = []
+    for hit in hits:
+        force, response = hit.data
+        datasets += [
+            time_record(response, 4, 2, 0, "NONE", ref=(1, 3), hit=hit.index),  # another response DOF
+            time_record(force, 1, 3, 0, "NONE", ref=(1, 3), hit=hit.index),  # measured at its reference: force
+            time_record(response, 5, 3, 0, "NONE", ref=(1, 3), hit=hit.index),
+        ]
+    path = write_uff(tmp_path / "untyped.uff", datasets)
+    with pytest.raises(UffError, match=r"response time records at several DOFs \(node 4 dir 2, node 5 dir 3\)"):
+        read_uff_time_records(path)
+    records = read_uff_time_records(path, response_dof=(5, 3))
+    assert (records.force_dof, records.response_dof) == ((1, 3), (5, 3))
+    np.testing.assert_allclose(records.records, np.stack([hit.data for hit in hits]), rtol=1e-10, atol=1e-12)
+    with pytest.raises(UffError, match="no response time record at node 9 dir 1"):
+        read_uff_time_records(path, response_dof=(9, 1))
+
+
+def test_uff_errors_name_the_file(tmp_path):
+    empty = tmp_path / "empty.uff"
+    empty.write_bytes(b"")
+    with pytest.raises(UffError, match=f"{empty}: empty UFF file"):
+        read_uff_time_records(empty)
+    with pytest.raises(UffError, match="no such UFF file"):
+        read_uff_time_records(tmp_path / "missing.uff")
+
+    hits = synthetic_hits(2)
+    frf = compute_frf(np.stack([hit.data for hit in hits]), RATE_HZ)
+    only_frf = export_frf_uff(frf, tmp_path / "frf.uff")
+    with pytest.raises(UffError, match=r"no time records \(dataset 58 with function type 1\) among 3 datasets"):
+        read_uff_time_records(only_frf)
+
+    force, response = hits[0].data
+    uneven = write_uff(tmp_path / "uneven.uff", [time_record(force, 1, 3, 13, "N"),
+                                                 time_record(response[:-10], 5, 3, 12, "m/s^2")])
+    with pytest.raises(UffError, match="inconsistent lengths \\(2550, 2560 samples\\)"):
+        read_uff_time_records(uneven)
+
+    unpaired = write_uff(tmp_path / "unpaired.uff", [time_record(force, 1, 3, 13, "N"),
+                                                     time_record(force, 1, 3, 13, "N", hit=1),
+                                                     time_record(response, 5, 3, 12, "m/s^2")])
+    with pytest.raises(UffError, match="2 force records but 1 response records"):
+        read_uff_time_records(unpaired)
+
+    marked = response.copy()
+    marked[50] = 123456.789  # pyuff writes NaN as 0, so the NaN is put into the text the way other writers do
+    nan_file = write_uff(tmp_path / "nan.uff", [time_record(force, 1, 3, 13, "N"),
+                                                time_record(marked, 5, 3, 12, "m/s^2")])
+    text = nan_file.read_text()
+    assert text.count("1.23456789000e+05") == 1
+    nan_file.write_text(text.replace("1.23456789000e+05", "NaN".rjust(17)))
+    with pytest.raises(UffError, match=r"nan.uff: dataset 2 \(response time record of hit 0\) has NaN samples"):
+        read_uff_time_records(nan_file)
+
+    odd_units = write_uff(tmp_path / "units.uff", [time_record(force, 1, 3, 13, "N"),
+                                                   time_record(response, 5, 3, 12, "in/s^2")])
+    with pytest.raises(UffError, match="units 'in/s\\^2', which gasfilm cannot convert"):
+        read_uff_time_records(odd_units)
