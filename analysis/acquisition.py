@@ -81,6 +81,8 @@ class RingBuffer:
     def write(self, block: np.ndarray) -> None:
         with self._lock:
             capacity = self._data.shape[1]
+            total = block.shape[1]
+            self._written += total - min(total, capacity)
             block = block[:, -capacity:]
             n = block.shape[1]
             start = self._written % capacity
@@ -122,7 +124,7 @@ class AcquisitionLoop:
         self._thread: threading.Thread | None = None
 
     def subscribe(self, name: str, capacity_chunks: int = 600) -> Consumer:
-        """A new mailbox receiving every chunk from now on (about a minute of data by default)."""
+        """A new mailbox receiving every chunk from now on; subscribe before :meth:`start` to get the first sample."""
         consumer = Consumer(name, capacity_chunks)
         self._consumers.append(consumer)
         return consumer

@@ -9,7 +9,8 @@ With these weights the weighted mean of the per-hit FRFs is exactly H1 (averaged
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
+from typing import Callable
 
 import numpy as np
 
@@ -35,7 +36,13 @@ class QualityNote:
 
 @dataclass
 class HitSpectra:
-    """Per-hit FRFs on the analysis grid with their measured noise variance."""
+    """Per-hit FRFs on the analysis grid with their measured noise variance, and what is needed to replay them.
+
+    ``h`` is what the diagnosis compares with the model. It starts as the measured ``X_i/F_i``; after
+    :meth:`correct_for_replay` it is the measured FRF divided by the replay ratio ``C_i = H_replay,i / H_model,i``
+    (the spec played with the hit's own recorded force through the same windows, over the model's plain Laplace
+    accelerance), so that comparing ``h`` with the plain model is comparing recording and replay hit by hit.
+    """
 
     freq_hz: np.ndarray  # (G,)
     decay_rate_1_s: float
@@ -43,10 +50,10 @@ class HitSpectra:
     variance: np.ndarray  # (hits, G) E|H_i − true|²: each of the real and imaginary parts carries half
     conditions: HitConditions
     hit_numbers: np.ndarray  # index of each used hit in the input
-    force_window_s: float
     sample_rate_hz: float
     n_samples: int
     quality: list[QualityNote] = field(default_factory=list)
+    replay: "Replay | None" = None
 
     @property
     def weight(self) -> np.ndarray:
@@ -59,6 +66,44 @@ class HitSpectra:
         weight = self.weight[rows]
         total = weight.sum(axis=0)
         return (weight * self.h[rows]).sum(axis=0) / total, total
+
+    def correct_for_replay(self, model_accelerance: Callable[[np.ndarray, float], np.ndarray]) -> "HitSpectra":
+        """A copy whose ``h`` and ``variance`` are divided by the replay ratio of ``model_accelerance``.
+
+        ``model_accelerance(freq_hz, decay_rate_1_s)`` returns (hits, frequencies) or (frequencies,)."""
+        if self.replay is None:
+            return self
+        ratio = self.replay.ratio(model_accelerance)
+        return replace(self, h=self.replay.measured_h / ratio,
+                       variance=self.replay.measured_variance / np.abs(ratio) ** 2)
+
+
+@dataclass
+class Replay:
+    """The recorded forces and windows, to play a model with them exactly as the recordings were processed."""
+
+    force_padded: np.ndarray  # (hits, n_fft//2+1) spectrum of each raw recorded force record, zero-padded
+    n_fft: int
+    exponential: np.ndarray  # (hits, samples)
+    force_windowed_grid: np.ndarray  # (hits, G) windowed force spectrum on the analysis grid
+    grid: np.ndarray  # (G,) rfft bins of the analysis grid
+    measured_h: np.ndarray
+    measured_variance: np.ndarray
+    n_samples: int
+    sample_rate_hz: float
+
+    def ratio(self, model_accelerance: Callable[[np.ndarray, float], np.ndarray]) -> np.ndarray:
+        """``H_replay,i / H_model,i`` on the grid: the response each hit's recorded force produces through the
+        model, windowed and transformed like the recording, over the model's windowed Laplace accelerance."""
+        padded_freq_hz = np.fft.rfftfreq(self.n_fft, 1.0 / self.sample_rate_hz)
+        padded_freq_hz[0] = 1e-9 * self.sample_rate_hz / self.n_fft
+        plain = np.broadcast_to(model_accelerance(padded_freq_hz, 0.0), self.force_padded.shape)
+        response = np.fft.irfft(self.force_padded * plain, self.n_fft, axis=1)[:, : self.n_samples]
+        replayed = np.fft.rfft(response * self.exponential, axis=1)[:, self.grid] / self.force_windowed_grid
+        decay_rate_1_s = float(-np.log(self.exponential[0, -1] / self.exponential[0, -2]) * self.sample_rate_hz)
+        laplace = model_accelerance(np.fft.rfftfreq(self.n_samples, 1.0 / self.sample_rate_hz)[self.grid],
+                                    decay_rate_1_s)
+        return replayed / laplace
 
 
 def _pulse_extent(force_n: np.ndarray, sample_rate_hz: float) -> tuple[int, int, int]:

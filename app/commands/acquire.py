@@ -12,6 +12,9 @@ import queue
 import sys
 import time
 from pathlib import Path
+from typing import Iterator
+
+import numpy as np
 
 from analysis.acquisition import AcquisitionLoop
 from analysis.capture import ImpactCapture, TriggerSettings
@@ -21,7 +24,7 @@ from analysis.spectra import WindowSettings, compute_frf
 from analysis.validation import ValidationSettings
 from drivers import SIMULATED_DEVICE_NAME, open_device
 from drivers.errors import DeviceError, SettingError
-from drivers.interface import ChannelKind, DaqConfig, default_hammer_and_accelerometer
+from drivers.interface import ChannelKind, DaqConfig, DaqDevice, default_hammer_and_accelerometer
 
 #: Longest wait for a chunk before the run is declared stuck (the reader has its own device timeout).
 CHUNK_WAIT_S = 30.0
@@ -124,6 +127,35 @@ class _Progress:
             sys.stderr.flush()
 
 
+def _stream(device: DaqDevice, synchronous: bool) -> Iterator[tuple[np.ndarray, np.ndarray, int]]:
+    """Chunks as (samples, overload flags, samples read so far). A device that waits for its samples is read on
+    the acquisition loop's thread; the simulator at fast pacing is read here, so nothing outruns the recorder."""
+    if synchronous:
+        device.start()
+        try:
+            read = 0
+            while True:
+                block = np.empty((len(device.config.channels), device.config.chunk_samples))
+                read += device.read(block)
+                yield block, device.status().overload, read
+        finally:
+            device.stop()
+    with AcquisitionLoop(device) as loop:
+        chunks = loop.subscribe("acquire")
+        while True:
+            try:
+                chunk = chunks.get(timeout_s=CHUNK_WAIT_S)
+            except queue.Empty:
+                raise DeviceError(f"device '{device.name}': no samples for {CHUNK_WAIT_S:.0f} s") from None
+            if chunk is None:
+                raise loop.error or DeviceError(f"device '{device.name}': the stream ended unexpectedly")
+            if chunks.dropped_chunks:
+                raise DeviceError(
+                    f"device '{device.name}': {chunks.dropped_chunks} chunks were lost because recording fell behind"
+                )
+            yield chunk.data, chunk.status.overload, chunk.first_sample + chunk.data.shape[1]
+
+
 def run(args: argparse.Namespace) -> int:
     _check_limits(args)
     rig_spec = None
@@ -157,26 +189,16 @@ def run(args: argparse.Namespace) -> int:
     started = time.monotonic()
     stream_s = 0.0
     try:
-        with device, AcquisitionLoop(device) as loop:
-            chunks = loop.subscribe("acquire")
-            while True:
+        with device:
+            for data, overload, end_sample in _stream(device, args.device == SIMULATED_DEVICE_NAME
+                                                      and args.pacing == "fast"):
+                recorder.feed(data, overload)
+                stream_s = end_sample / rate_hz
+                progress.counter(recorder.accepted_count, recorder.rejected_count, stream_s)
                 if args.hits is not None and recorder.accepted_count - accepted_before >= args.hits:
                     break
                 if args.seconds is not None and stream_s >= args.seconds:
                     break
-                try:
-                    chunk = chunks.get(timeout_s=CHUNK_WAIT_S)
-                except queue.Empty:
-                    raise DeviceError(f"device '{device.name}': no samples for {CHUNK_WAIT_S:.0f} s") from None
-                if chunk is None:
-                    raise loop.error or DeviceError(f"device '{device.name}': the stream ended unexpectedly")
-                recorder.feed(chunk.data, chunk.status.overload)
-                stream_s = (chunk.first_sample + chunk.data.shape[1]) / rate_hz
-                progress.counter(recorder.accepted_count, recorder.rejected_count, stream_s)
-            if chunks.dropped_chunks:
-                raise DeviceError(
-                    f"device '{device.name}': {chunks.dropped_chunks} chunks were lost because recording fell behind"
-                )
     except DeviceError as error:
         progress.done()
         session.close("aborted", str(error))

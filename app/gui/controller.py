@@ -17,7 +17,7 @@ from PySide6.QtCore import QObject, QStandardPaths, QThread, Signal
 
 from analysis.acquisition import AcquisitionLoop
 from analysis.capture import TriggerSettings
-from analysis.diagnose import diagnose
+import analysis.diagnose
 from analysis.identify import compare_models, fit_model
 from analysis.models import get_model
 from analysis.rig import RigSpec
@@ -393,7 +393,7 @@ class SessionController(QObject):
         session = self.session
 
         def work(report, cancelled):
-            return diagnose(session, spec, progress=report, cancel=cancelled)
+            return analysis.diagnose.diagnose(session, spec, progress=report, cancel=cancelled)
 
         self._start_job("diagnose", work, self._on_diagnosis_done)
 

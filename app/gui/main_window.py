@@ -1,0 +1,201 @@
+"""The main window: the error banner, the five tabs, the Session and Simulator menus, the status bar."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+from PySide6.QtCore import QSettings, QTimer
+from PySide6.QtGui import QAction, QCloseEvent, QKeySequence
+from PySide6.QtWidgets import QApplication, QFileDialog, QLabel, QMainWindow, QTabWidget, QVBoxLayout, QWidget
+
+from app.gui.controller import SessionController
+from app.gui.diagnose_tab import DiagnoseTab
+from app.gui.frf_tab import FrfTab
+from app.gui.identify_tab import IdentifyTab
+from app.gui.measure_tab import MeasureTab
+from app.gui.settings import SETTINGS_APPLICATION, SETTINGS_ORGANIZATION, load_setup, save_setup
+from app.gui.setup_tab import SetupTab
+from app.gui.widgets import Banner, configure_pyqtgraph
+from drivers.errors import GasfilmError
+
+SIM_FAULTS = {
+    "overflow": "Buffer overflow",
+    "device_removed": "Device removed (unplugged)",
+    "open_sensor": "Open sensor (cable pulled)",
+    "overload": "Overload on the next hit",
+}
+STATUS_INTERVAL_MS = 500
+
+
+class MainWindow(QMainWindow):
+    """Setup → Measure → FRF → Identify → Diagnose."""
+
+    def __init__(self, settings: QSettings | None = None, session_dir: Path | None = None) -> None:
+        super().__init__()
+        configure_pyqtgraph()
+        self.setWindowTitle("gasfilm — impact testing of gas films")
+        self.settings = settings or QSettings(SETTINGS_ORGANIZATION, SETTINGS_APPLICATION)
+        setup = load_setup(self.settings)
+        self.controller = SessionController(setup, session_dir, self)
+        self.banner = Banner()
+        self.setup_tab = SetupTab(setup)
+        self.controller.setup = self.setup_tab.state()
+        self.measure_tab = MeasureTab(self.controller)
+        self.frf_tab = FrfTab(self.controller)
+        self.identify_tab = IdentifyTab(self.controller)
+        self.diagnose_tab = DiagnoseTab(self.controller)
+        self.tabs = QTabWidget()
+        for tab, title in (
+            (self.setup_tab, "1  Setup"),
+            (self.measure_tab, "2  Measure"),
+            (self.frf_tab, "3  FRF"),
+            (self.identify_tab, "4  Identify"),
+            (self.diagnose_tab, "5  Diagnose"),
+        ):
+            self.tabs.addTab(tab, title)
+        central = QWidget()
+        layout = QVBoxLayout(central)
+        layout.setContentsMargins(6, 6, 6, 6)
+        layout.addWidget(self.banner)
+        layout.addWidget(self.tabs, 1)
+        self.setCentralWidget(central)
+
+        self.session_label = QLabel()
+        self.stream_label = QLabel()
+        self.statusBar().addWidget(self.session_label, 1)
+        self.statusBar().addPermanentWidget(self.stream_label)
+        self._build_menus()
+
+        self.setup_tab.changed.connect(self._setup_changed)
+        self.controller.message.connect(self.banner.show_message)
+        self.controller.session_changed.connect(self._session_changed)
+        self.controller.setup_replaced.connect(self._setup_replaced)
+        self.controller.acquisition_state.connect(self._acquisition_state)
+        self.controller.fits_changed.connect(lambda: self.frf_tab.show_band(self.controller.fit_band_hz))
+        self.status_timer = QTimer(self)
+        self.status_timer.setInterval(STATUS_INTERVAL_MS)
+        self.status_timer.timeout.connect(self._update_stream_status)
+        self.status_timer.start()
+        self._session_changed("")
+        self.resize(1500, 950)
+
+    # --- menus ----------------------------------------------------------------------------------------------------
+
+    def _build_menus(self) -> None:
+        session = self.menuBar().addMenu("&Session")
+        self._add_action(session, "&New session…", self.new_session, QKeySequence.StandardKey.New)
+        self._add_action(session, "&Open session…", self.open_session, QKeySequence.StandardKey.Open)
+        self._add_action(session, "&Save", self.controller.save_session, QKeySequence.StandardKey.Save)
+        self._add_action(session, "Save &as…", self.save_session_as, QKeySequence.StandardKey.SaveAs)
+        session.addSeparator()
+        self._add_action(session, "&Replay with the current Setup settings", self.controller.replay)
+        session.addSeparator()
+        self._add_action(session, "Export FRF as &UFF 58…", lambda: self._export("UFF 58 (*.uff)", self.controller.export_uff))
+        self._add_action(session, "Export FRF as &CSV…", lambda: self._export("CSV (*.csv)", self.controller.export_csv))
+        self._add_action(session, "Export this tab as &PNG…", lambda: self._export("PNG image (*.png)", self.export_png))
+        session.addSeparator()
+        self._add_action(session, "&Quit", self.close, QKeySequence.StandardKey.Quit)
+        simulator = self.menuBar().addMenu("Si&mulator")
+        faults = simulator.addMenu("Inject a device &fault")
+        for kind, label in SIM_FAULTS.items():
+            self._add_action(faults, label, lambda _=False, k=kind: self.controller.inject_fault(k))
+        self.simulator_menu = simulator
+
+    def _add_action(self, menu, text: str, slot, shortcut=None) -> QAction:
+        action = QAction(text, self)
+        if shortcut is not None:
+            action.setShortcut(shortcut)
+        action.triggered.connect(lambda _=False: slot())
+        menu.addAction(action)
+        return action
+
+    # --- sessions and exports ----------------------------------------------------------------------------------------
+
+    def new_session(self) -> None:
+        path, _ = QFileDialog.getSaveFileName(
+            self, "New session file", str(self.controller.session_dir), "gasfilm session (*.h5)"
+        )
+        if path:
+            self.controller.new_session(path)
+
+    def open_session(self) -> None:
+        path, _ = QFileDialog.getOpenFileName(
+            self, "Open session", str(self.controller.session_dir), "gasfilm session (*.h5)"
+        )
+        if path:
+            self.controller.open_session(path)
+
+    def save_session_as(self) -> None:
+        path, _ = QFileDialog.getSaveFileName(self, "Save session as", "", "gasfilm session (*.h5)")
+        if path:
+            self.controller.save_session_as(path)
+
+    def export_png(self, path: str | Path) -> Path:
+        """The visible tab as a PNG image."""
+        path = Path(path)
+        if not self.tabs.currentWidget().grab().save(str(path)):
+            raise GasfilmError(f"{path}: the image could not be written")
+        return path
+
+    def _export(self, file_filter: str, export) -> None:
+        path, _ = QFileDialog.getSaveFileName(self, "Export", "", file_filter)
+        if not path:
+            return
+        try:
+            written = export(path)
+        except GasfilmError as error:
+            self.banner.show_message(str(error), "error")
+            return
+        self.banner.show_message(f"exported {written}", "info")
+
+    # --- state ------------------------------------------------------------------------------------------------------
+
+    def _setup_changed(self) -> None:
+        state = self.setup_tab.state()
+        self.controller.setup = state
+        save_setup(self.settings, state)
+        self.simulator_menu.setEnabled(state.device == "sim")
+
+    def _setup_replaced(self, state) -> None:
+        self.setup_tab.set_state(state)
+
+    def _session_changed(self, path: str) -> None:
+        self.session_label.setText(f"Session: {path}" if path else "Session: none (the next Arm creates one)")
+
+    def _acquisition_state(self, state: str) -> None:
+        self.setup_tab.setEnabled(state == "idle")
+        if state == "starting":
+            self.tabs.setCurrentWidget(self.measure_tab)
+
+    def _update_stream_status(self) -> None:
+        loop = self.controller.loop
+        if loop is None:
+            self.stream_label.setText("not streaming")
+            return
+        seconds = loop.samples_read / loop.sample_rate_hz
+        self.stream_label.setText(
+            f"{loop.channel_count} ch · {loop.sample_rate_hz:g} S/s · "
+            f"{seconds:.1f} s streamed · view {self.measure_tab.redraw_rate_hz():.0f} fps"
+        )
+
+    def closeEvent(self, event: QCloseEvent) -> None:
+        save_setup(self.settings, self.setup_tab.state())
+        self.controller.shutdown()
+        super().closeEvent(event)
+
+
+def run_gui(device: str | None = None, session: str | Path | None = None) -> int:
+    """Start the GUI (``gasfilm gui``); ``device`` overrides the remembered device, ``session`` opens a file."""
+    app = QApplication.instance() or QApplication(sys.argv[:1])
+    app.setOrganizationName(SETTINGS_ORGANIZATION)
+    app.setApplicationName(SETTINGS_APPLICATION)
+    window = MainWindow()
+    if device:
+        state = window.setup_tab.state()
+        state.device = device
+        window.setup_tab.set_state(state)
+    if session:
+        window.controller.open_session(session)
+    window.show()
+    return app.exec()
