@@ -22,6 +22,9 @@ import numpy as np
 
 from analysis.diagnosis.catalog import CATALOG, CANDIDATE_ORDER, AugmentedModel, effect_slots, film_slots
 from analysis.diagnosis.measurement import HitSpectra, QualityNote, hit_spectra
+from analysis.diagnosis.rigspec import spec_from_model
+from analysis.rig import simulate_response
+from analysis.spectra import WindowSettings
 from analysis.diagnosis.selection import (
     BIC_MARGIN,
     HELD_OUT_THRESHOLD,
@@ -37,6 +40,7 @@ from analysis.diagnosis.selection import (
 
 G_M_S2 = 9.80665
 MAX_TERMS = 3
+NONLINEAR_ITERATIONS = 3
 
 
 @dataclass
@@ -129,10 +133,10 @@ def diagnose_spectra(
 ) -> Diagnosis:
     """Diagnose per-hit spectra against the augmented model of a rig spec."""
     started = time.monotonic()
-    evidence = Evidence(spectra)
+    evidence = _evidence_for(spectra, model)
     points = evidence.point_count
     chi2_given = evidence.chi2(model)
-    rms_given = evidence.rms(model)
+    rms_given = replay_rms(spectra, model)
     progress(f"compared {evidence.hit_count} hits on {len(evidence.freq_hz)} frequencies "
              f"{evidence.freq_hz[0]:.0f}–{evidence.freq_hz[-1]:.0f} Hz: χ²/point {chi2_given / points:.2f}")
 
@@ -142,6 +146,9 @@ def diagnose_spectra(
     recalibration_significant = recalibration_gain > len(own_slots) * np.log(points) + BIC_MARGIN
     current = recalibrated if recalibration_significant else FitOutcome(model, chi2_given, own_slots,
                                                                           recalibrated.covariance, 0)
+    if recalibration_significant:
+        evidence = _evidence_for(spectra, current.model)
+        current = fit(evidence, current.model, own_slots)
     progress(f"recalibrated {len(own_slots)} spec parameter(s): χ² {chi2_given:.0f} → {recalibrated.chi2:.0f}"
              + (" (significant)" if recalibration_significant else " (within the noise)"))
 
@@ -151,30 +158,31 @@ def diagnose_spectra(
         for identifier in CANDIDATE_ORDER:
             if identifier in current.model.effects:
                 continue
-            outcome = best_candidate_fit(evidence, current.model, identifier)
+            outcome, candidate_evidence = _candidate_fit(spectra, evidence, current.model, identifier)
             extra = len(CATALOG[identifier].parameters)
             gain = current.chi2 - outcome.chi2
-            trials.append((gain - extra * np.log(points), identifier, outcome))
+            trials.append((gain - extra * np.log(points), identifier, outcome, candidate_evidence))
         trials.sort(key=lambda trial: trial[0], reverse=True)
-        summary = ", ".join(f"{identifier} {score:+.0f}" for score, identifier, _ in trials[:4])
+        summary = ", ".join(f"{identifier} {score:+.0f}" for score, identifier, _, _ in trials[:4])
         progress(f"step {len(steps) + 1}: BIC gain of the best candidates: {summary}")
         accepted = None
-        for score, identifier, outcome in trials[:3]:
+        for score, identifier, outcome, candidate_evidence in trials[:3]:
             if score <= BIC_MARGIN:
                 break
-            gain_held_out = held_out_gain(evidence, current.model, outcome.model)
+            gain_held_out = held_out_gain(evidence, current.model, candidate_evidence, outcome.model)
             progress(f"  {identifier}: held-out χ² gain {gain_held_out:.0f} (needs > {HELD_OUT_THRESHOLD:.0f})")
             if gain_held_out > HELD_OUT_THRESHOLD:
-                accepted = (identifier, outcome, gain_held_out)
+                accepted = (identifier, outcome, gain_held_out, candidate_evidence)
                 break
         if accepted is None:
             break
-        identifier, outcome, gain_held_out = accepted
+        identifier, outcome, gain_held_out, evidence = accepted
         steps.append(
             Step(identifier, outcome, current.chi2, outcome.chi2, gain_held_out,
                  bic(current.chi2, len(current.slots), points), bic(outcome.chi2, len(outcome.slots), points))
         )
-        current = outcome
+        evidence = _evidence_for(spectra, outcome.model)
+        current = fit(evidence, outcome.model, outcome.slots)
 
     steps, current = _check_back(evidence, model, steps, current, progress)
     findings = [_finding(evidence, step, current) for step in steps]
@@ -192,8 +200,8 @@ def diagnose_spectra(
         quality=list(spectra.quality),
         recalibration=recalibration,
         rms_before=rms_given,
-        rms_recalibrated=evidence.rms(recalibrated.model),
-        rms_after=evidence.rms(current.model),
+        rms_recalibrated=replay_rms(spectra, recalibrated.model),
+        rms_after=replay_rms(spectra, current.model),
         bic_before=bic(chi2_given, 0, points),
         bic_after=bic(chi2_after, len(current.slots) if (steps or recalibration_significant) else 0, points),
         chi2_per_point_before=chi2_given / points,
@@ -203,6 +211,65 @@ def diagnose_spectra(
         evidence=evidence,
         wall_time_s=time.monotonic() - started,
     )
+
+
+def _model_function(model: AugmentedModel, spectra: HitSpectra) -> Callable[[np.ndarray, float], np.ndarray]:
+    return lambda freq_hz, decay_rate_1_s: model.accelerance(freq_hz, decay_rate_1_s, spectra.conditions)
+
+
+def _nonlinear_replay(spectra: HitSpectra, model: AugmentedModel) -> np.ndarray | None:
+    """Per-hit FRFs of the exact nonlinear simulation (cubic film spring) played with the recorded forces, or None
+    when the model is linear (or softening, which the rig cannot simulate)."""
+    replay = spectra.replay
+    delta_k = model.effects.get("amplitude-nonlinearity", {}).get("delta_k_at_reference_n_per_m", 0.0)
+    if replay is None or delta_k <= 0:
+        return None
+    spec, _ = spec_from_model(model, None, spectra.conditions.reference_impulse_ns)
+    forces = replay.forces_n
+    responses = np.array([
+        simulate_response(spec, force, replay.sample_rate_hz, time_s=float(time_s))
+        for force, time_s in zip(forces, spectra.conditions.time_s)
+    ])
+    return replay.windowed_frf(responses)
+
+
+def _evidence_for(spectra: HitSpectra, model: AugmentedModel) -> Evidence:
+    """Evidence whose per-hit FRFs are corrected by the replay of ``model`` (see :class:`HitSpectra`); the replay is
+    the exact nonlinear simulation when the model has a hardening film spring."""
+    return Evidence(spectra.correct_for_replay(_model_function(model, spectra), _nonlinear_replay(spectra, model)))
+
+
+def replay_rms(spectra: HitSpectra, model: AugmentedModel) -> float:
+    """Equation (33) under identical conditions: RMS over the analysis frequencies of |H1 recorded − H1 replayed|,
+    in (m/s²)/N (both averaged over hits the same way)."""
+    replay = spectra.replay
+    predicted = (replay.replayed(_model_function(model, spectra)) if replay is not None
+                 else np.broadcast_to(model.accelerance(spectra.freq_hz, spectra.decay_rate_1_s, spectra.conditions),
+                                      spectra.h.shape))
+    measured = replay.measured_h if replay is not None else spectra.h
+    weight = 1.0 / (replay.measured_variance if replay is not None else spectra.variance)
+    difference = (weight * (measured - predicted)).sum(axis=0) / weight.sum(axis=0)
+    return float(np.sqrt(np.mean(np.abs(difference) ** 2)))
+
+
+def _candidate_fit(
+    spectra: HitSpectra, evidence: Evidence, model: AugmentedModel, identifier: str
+) -> tuple[FitOutcome, Evidence]:
+    """Fit the model plus one candidate; a hardening film is refitted against its exact nonlinear replay until the
+    stiffness change settles (the equivalent linear fit only starts it)."""
+    outcome = best_candidate_fit(evidence, model, identifier)
+    if identifier != "amplitude-nonlinearity":
+        return outcome, evidence
+    key = "delta_k_at_reference_n_per_m"
+    for _ in range(NONLINEAR_ITERATIONS):
+        previous = outcome.model.effects[identifier][key]
+        if previous <= 0:
+            break
+        evidence = _evidence_for(spectra, outcome.model)
+        outcome = fit(evidence, outcome.model, outcome.slots)
+        if abs(outcome.model.effects[identifier][key] - previous) <= 0.02 * abs(previous):
+            break
+    return outcome, evidence
 
 
 def _check_back(
@@ -343,9 +410,8 @@ def diagnose_records(
     sample_rate_hz: float,
     model: AugmentedModel,
     *,
+    window: WindowSettings | None = None,
     hit_times_s: np.ndarray | None = None,
-    decay_rate_1_s: float | None = None,
-    force_window_s: float | None = None,
     overload: np.ndarray | None = None,
     band_hz: tuple[float, float] | None = None,
     progress: Callable[[str], None] = _silent,
@@ -355,8 +421,7 @@ def diagnose_records(
     spectra = hit_spectra(
         records,
         sample_rate_hz,
-        decay_rate_1_s=decay_rate_1_s,
-        force_window_s=force_window_s,
+        window,
         hit_times_s=hit_times_s,
         overload=overload,
         band_hz=band_hz,

@@ -18,10 +18,15 @@ import json
 import os
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Iterator, Mapping
+from typing import Any, Mapping
 
 import h5py
 import numpy as np
+
+try:
+    import fcntl
+except ImportError:  # Windows: HDF5's own file locking guards the file instead of :class:`_WriterLock`
+    fcntl = None
 
 from drivers.errors import GasfilmError
 from drivers.interface import ChannelConfig, ChannelKind, Coupling, DaqConfig
@@ -210,16 +215,64 @@ def _describe_open_failure(path: Path, error: OSError) -> SessionError:
     return SessionError(f"{path}: cannot open the HDF5 file ({text})")
 
 
+class _WriterLock:
+    """An exclusive ``flock`` on the session file, held by the one process that writes it.
+
+    HDF5's own file locking is switched off (``locking=False``) so SWMR readers can follow a recording; this lock
+    keeps a second writer (or a recovery) away from a session that a live process is still recording into. The
+    kernel drops it when the process ends, killed or not. Without ``fcntl`` (Windows) HDF5's locking stays on.
+    """
+
+    def __init__(self, path: Path) -> None:
+        self._fd = -1
+        if fcntl is None:
+            return
+        try:
+            self._fd = os.open(path, os.O_RDONLY)
+        except OSError as error:
+            raise SessionError(f"{path}: cannot open the session file ({error.strerror})") from None
+        try:
+            fcntl.flock(self._fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            self.release()
+            raise SessionError(
+                f"{path}: another process is writing this session; wait until it has finished"
+            ) from None
+
+    def release(self) -> None:
+        if self._fd >= 0:
+            os.close(self._fd)
+            self._fd = -1
+
+
+def _h5(path: Path, mode: str, **options: Any) -> h5py.File:
+    """Open with HDF5's file locking off where :class:`_WriterLock` replaces it."""
+    if mode != "r":
+        options.setdefault("libver", "latest")
+    if fcntl is not None:
+        options["locking"] = False
+    return h5py.File(path, mode, **options)
+
+
 class Session:
     """An open session file. Create with :meth:`create`, open with :meth:`open`; use as a context manager."""
 
-    def __init__(self, path: Path, file: h5py.File, writable: bool, recovered: bool = False) -> None:
+    def __init__(
+        self, path: Path, file: h5py.File, lock: _WriterLock | None = None, recovered: bool = False
+    ) -> None:
         self.path = path
         self._file = file
-        self.writable = writable
+        self._lock = lock
+        self.writable = lock is not None
         self.recovered = recovered
         self.sync_each_hit = True
-        self._check_layout()
+        try:
+            self._check_layout()
+        except SessionError:
+            self._file.close()
+            if lock is not None:
+                lock.release()
+            raise
 
     # ----- creating and opening -------------------------------------------------------------------------------
 
@@ -243,10 +296,14 @@ class Session:
         path = Path(path)
         if path.exists() and not overwrite:
             raise SessionError(f"{path}: the session file exists already (choose another name, or append to it)")
+        if path.is_dir():
+            raise SessionError(f"{path}: is a folder, not a session file")
         if not path.parent.is_dir():
             raise SessionError(f"{path}: the folder {path.parent} does not exist")
+        replaced = _WriterLock(path) if path.exists() else None  # never replace a session being recorded
         building = path.with_name(f".{path.name}.{os.getpid()}.creating")
-        file = h5py.File(building, "w", libver="latest")
+        file = _h5(building, "w")
+        lock = _WriterLock(building)
         try:
             file.attrs["format"] = FORMAT_NAME
             file.attrs["schema_version"] = SCHEMA_VERSION
@@ -289,9 +346,13 @@ class Session:
             os.replace(building, path)
         except BaseException:
             file.close()
+            lock.release()
             building.unlink(missing_ok=True)
             raise
-        session = cls(path, file, writable=True)
+        finally:
+            if replaced is not None:
+                replaced.release()
+        session = cls(path, file, lock)
         session.sync_each_hit = sync_each_hit
         return session
 
@@ -305,32 +366,35 @@ class Session:
             raise SessionError(f"{path}: no such session file")
         if path.is_dir():
             raise SessionError(f"{path}: is a folder, not a session file")
+        lock = _WriterLock(path) if mode == "a" else None
         try:
-            file = h5py.File(path, mode, libver="latest") if mode == "a" else h5py.File(path, "r")
+            file = _h5(path, mode)
         except OSError as error:
             if "already open for write" not in str(error):
+                if lock is not None:
+                    lock.release()
                 raise _describe_open_failure(path, error) from None
-            # Flags of a writer that ended without closing the file (killed, crashed, power loss).
+            # The flags of a writer that is still recording (mode "r" only: else the lock would have failed)
+            # or that ended without closing the file (killed, crashed, power lost).
             if mode == "r":
                 try:
-                    file = h5py.File(path, "r", swmr=True)
+                    file = _h5(path, "r", swmr=True)
                 except OSError as swmr_error:
                     raise _describe_open_failure(path, swmr_error) from None
-                return cls(path, file, writable=False, recovered=True)
-            _recover(path)
-            session = cls.open(path, "a")
-            session.recovered = True
-            return session
-        return cls(path, file, writable=mode == "a")
+                return cls(path, file, recovered=True)
+            try:
+                recovered_lock = _recover(path)
+            finally:
+                lock.release()
+            return cls(path, _h5(path, "a"), recovered_lock, recovered=True)
+        return cls(path, file, lock)
 
     def _check_layout(self) -> None:
         attrs = self._file.attrs
         if attrs.get("format") != FORMAT_NAME or "schema_version" not in attrs:
-            self._file.close()
             raise SessionError(f"{self.path}: an HDF5 file, but not a gasfilm session (no '{FORMAT_NAME}' format mark)")
         version = int(attrs["schema_version"])
         if version > SCHEMA_VERSION:
-            self._file.close()
             raise SessionError(
                 f"{self.path}: session schema_version {version} is newer than this gasfilm reads "
                 f"(up to {SCHEMA_VERSION}); update gasfilm"
@@ -339,7 +403,6 @@ class Session:
             self._table.shape
             self._data.shape
         except (KeyError, OSError) as error:
-            self._file.close()
             raise SessionError(f"{self.path}: damaged session: the hit datasets cannot be read ({error})") from None
 
     # ----- context manager and closing ----------------------------------------------------------------------
@@ -375,6 +438,8 @@ class Session:
                 self._set_status(status, reason)
                 self._file.attrs["closed_utc"] = _utc_now()
         self._file.close()
+        if self._lock is not None:
+            self._lock.release()
 
     def _set_status(self, status: str, reason: str) -> None:
         self._structural()
@@ -395,7 +460,7 @@ class Session:
         self._require_writable()
         if self._file.swmr_mode:
             self._file.close()
-            self._file = h5py.File(self.path, "a", libver="latest")
+            self._file = _h5(self.path, "a")
 
     def _appending(self) -> None:
         """Enter SWMR mode: from now on the file on disk is consistent after every flush."""
@@ -576,9 +641,6 @@ class Session:
             for index, row in zip(indices, rows)
         ]
 
-    def __iter__(self) -> Iterator[StoredHit]:
-        return iter(self.hits())
-
     def accepted_indices(self) -> np.ndarray:
         return np.flatnonzero(self._rows()["accepted"])
 
@@ -664,17 +726,18 @@ class Session:
         return self._read_result("diagnoses", name)
 
 
-def _recover(path: Path) -> None:
-    """Rewrite a session whose writer ended without closing it into a clean file, committed hits only."""
+def _recover(path: Path) -> _WriterLock:
+    """Rewrite a session whose writer ended without closing it into a clean file, committed hits only; return the
+    writer lock on the clean file (taken before it replaces the damaged one)."""
     clean = path.with_name(f".{path.name}.{os.getpid()}.recovering")
     try:
-        source = h5py.File(path, "r", swmr=True)
+        source = _h5(path, "r", swmr=True)
     except OSError as error:
         raise _describe_open_failure(path, error) from None
     try:
         if source.attrs.get("format") != FORMAT_NAME:
             raise SessionError(f"{path}: an HDF5 file, but not a gasfilm session (no '{FORMAT_NAME}' format mark)")
-        with h5py.File(clean, "w", libver="latest") as target:
+        with _h5(clean, "w") as target:
             for key, value in source.attrs.items():
                 target.attrs[key] = value
             for name in source:
@@ -689,6 +752,7 @@ def _recover(path: Path) -> None:
                 target.attrs["status_reason"] = (
                     f"the recording process ended without closing the session; {committed} hits recovered"
                 )
+        lock = _WriterLock(clean)
     except OSError as error:
         clean.unlink(missing_ok=True)
         raise SessionError(f"{path}: damaged session that cannot be recovered ({error})") from None
@@ -698,3 +762,4 @@ def _recover(path: Path) -> None:
     finally:
         source.close()
     os.replace(clean, path)
+    return lock

@@ -1,7 +1,7 @@
 """Windows, per-hit spectra and the averaged FRF of an impact test (formulas and references: docs/processing.md).
 
-For each hit ``i`` the force ``f`` and the response ``x`` (rows of a record) are windowed, transformed with one
-batched real FFT and scaled as one-sided spectral densities (Bendat & Piersol, *Random Data*, 4th ed., §11.5)::
+For each hit ``i`` the force ``f`` and the response ``x`` (rows of a record) are windowed, transformed with real FFTs
+batched over blocks of hits and scaled as one-sided spectral densities (Bendat & Piersol, *Random Data*, 4th ed., ch. 11)::
 
     F_i = rfft(f · w_force · w_exp),   X_i = rfft(x · w_exp)
     G_ff = 2/(fs·N) · mean_i |F_i|²,   G_xx = 2/(fs·N) · mean_i |X_i|²,   G_fx = 2/(fs·N) · mean_i conj(F_i)·X_i
@@ -9,7 +9,7 @@ batched real FFT and scaled as one-sided spectral densities (Bendat & Piersol, *
 (DC and, for even N, Nyquist not doubled: the same scaling as ``scipy.signal.csd`` and pyFRF for a rectangular
 window). The spectra are averaged over the hits, never the FRF ratios: ``H1 = G_fx/G_ff``, ``H2 = G_xx/G_xf``,
 ``γ² = |G_fx|²/(G_ff·G_xx)``. Uncertainty of |H1|: the random error from coherence,
-``|H1|·sqrt(1-γ²)/(|γ|·sqrt(2·n))`` (Bendat & Piersol eq. 9.90), and the hit-to-hit scatter, the standard deviation
+``|H1|·sqrt(1-γ²)/(|γ|·sqrt(2·n))`` (Bendat & Piersol, ch. 9), and the hit-to-hit scatter, the standard deviation
 of the per-hit FRFs ``X_i/F_i`` over ``sqrt(n)``.
 
 Windows: the force window is 1 from the record start to ``force_window_ms`` after the force peak, then falls to 0
@@ -33,6 +33,8 @@ from drivers.errors import SettingError
 from drivers.interface import STANDARD_GRAVITY_M_S2
 
 FRF_UNIT_SI = "(m/s^2)/N"
+#: Complex values per block of hits transformed at once (about 4 MB per array, so a block stays in cache).
+_BLOCK_VALUES = 1 << 18
 FRF_UNIT_G = "g/N"
 
 
@@ -177,9 +179,16 @@ class FrfResult:
         )
 
 
+def _squared_magnitude(spectra: np.ndarray) -> np.ndarray:
+    """|z|² of a complex array, without complex temporaries."""
+    power = np.square(spectra.real)
+    power += np.square(spectra.imag)
+    return power
+
+
 def _as_hits_array(records: Sequence[np.ndarray] | np.ndarray) -> np.ndarray:
     if isinstance(records, np.ndarray):
-        data = records
+        data = np.asarray(records, dtype=np.float64)
     else:
         if len(records) == 0:
             raise SettingError("records: no hits to average")
@@ -214,39 +223,58 @@ def compute_frf(
     for name, row in (("force_row", force_row), ("response_row", response_row)):
         if not 0 <= row < n_rows:
             raise SettingError(f"{name}: {row} is not a row of records with {n_rows} rows")
-    force = data[:, force_row, :]
-    response = data[:, response_row, :]
-    if window.force_window_ms is not None:
-        force = force * force_window(force, sample_rate_hz, window)
+    n_lines = n_samples // 2 + 1
+    decay = None
     if window.exponential_end_fraction is not None:
         decay = exponential_window(n_samples, window.exponential_end_fraction)
-        force = force * decay
-        response = response * decay
-
-    force_fft = scipy.fft.rfft(force, axis=-1, workers=-1)
-    response_fft = scipy.fft.rfft(response, axis=-1, workers=-1)
-    scale = np.full(force_fft.shape[-1], 2.0 / (sample_rate_hz * n_samples))
-    scale[0] /= 2.0
-    if n_samples % 2 == 0:
-        scale[-1] /= 2.0
-    gff = np.mean(force_fft.real**2 + force_fft.imag**2, axis=0) * scale
-    gxx = np.mean(response_fft.real**2 + response_fft.imag**2, axis=0) * scale
-    gfx = np.mean(np.conj(force_fft) * response_fft, axis=0) * scale
-    if not (np.all(np.isfinite(gff)) and np.all(np.isfinite(gxx))):
-        raise SettingError("records: the hits contain NaN or infinite samples")
-
+    # Hits are transformed in blocks that fit in cache; the sums over hits are accumulated block by block.
+    block = max(1, _BLOCK_VALUES // n_lines)
+    sum_ff = np.zeros(n_lines)
+    sum_xx = np.zeros(n_lines)
+    sum_fx = np.zeros(n_lines, complex)
+    h1_per_hit = np.empty((n_hits, n_lines), complex)
     with np.errstate(divide="ignore", invalid="ignore"):
+        for first in range(0, n_hits, block):
+            hits = slice(first, first + block)
+            force = data[hits, force_row, :]
+            response = data[hits, response_row, :]
+            if window.force_window_ms is not None:
+                force = force * force_window(force, sample_rate_hz, window)
+            if decay is not None:
+                force = force * decay
+                response = response * decay
+            force_fft = scipy.fft.rfft(force, axis=-1)
+            response_fft = scipy.fft.rfft(response, axis=-1)
+            force_power = _squared_magnitude(force_fft)
+            sum_ff += force_power.sum(axis=0)
+            sum_xx += _squared_magnitude(response_fft).sum(axis=0)
+            cross = np.conj(force_fft, out=force_fft)
+            cross *= response_fft  # conj(F_i)·X_i
+            sum_fx += cross.sum(axis=0)
+            np.divide(cross, force_power, out=h1_per_hit[hits])  # X_i/F_i = conj(F_i)·X_i/|F_i|²
+
+        scale = np.full(n_lines, 2.0 / (sample_rate_hz * n_samples * n_hits))
+        scale[0] /= 2.0
+        if n_samples % 2 == 0:
+            scale[-1] /= 2.0
+        gff = sum_ff * scale
+        gxx = sum_xx * scale
+        gfx = sum_fx * scale
+        if not (np.all(np.isfinite(gff)) and np.all(np.isfinite(gxx))):
+            raise SettingError("records: the hits contain NaN or infinite samples")
         h1 = gfx / gff
         h2 = gxx / np.conj(gfx)
-        coherence = (gfx.real**2 + gfx.imag**2) / (gff * gxx)
-        h1_per_hit = response_fft / force_fft
+        coherence = _squared_magnitude(gfx) / (gff * gxx)
         gamma_sq = np.clip(coherence, 0.0, 1.0)
         h1_std_coherence = np.abs(h1) * np.sqrt(1.0 - gamma_sq) / (np.sqrt(gamma_sq) * np.sqrt(2.0 * n_hits))
         if n_hits > 1:
-            spread = h1_per_hit - h1_per_hit.mean(axis=0)
-            h1_std_scatter = np.sqrt(np.sum(spread.real**2 + spread.imag**2, axis=0) / (n_hits - 1) / n_hits)
+            mean_per_hit = h1_per_hit.mean(axis=0)
+            sum_spread = np.zeros(n_lines)
+            for first in range(0, n_hits, block):
+                sum_spread += _squared_magnitude(h1_per_hit[first : first + block] - mean_per_hit).sum(axis=0)
+            h1_std_scatter = np.sqrt(sum_spread / (n_hits - 1) / n_hits)
         else:
-            h1_std_scatter = np.full(h1.shape, np.nan)
+            h1_std_scatter = np.full(n_lines, np.nan)
 
     decay_rate = window.decay_rate_1_s(n_samples, sample_rate_hz)
     return FrfResult(

@@ -124,15 +124,13 @@ def _first_pulse(force: np.ndarray, quiet_end: int, trigger_index: int) -> tuple
 
 def _has_double_hit(f: np.ndarray, peak_at: int, quiet_end: int, fraction: float) -> bool:
     peak = f[peak_at]
-    above_half = f >= 0.5 * peak
-    # width at half maximum of the first pulse, walking out from its peak
-    left = peak_at
-    while left > 0 and above_half[left - 1]:
-        left -= 1
-    right = peak_at
-    while right + 1 < f.size and above_half[right + 1]:
-        right += 1
-    smoothing = max(1, (right - left + 1) // 2)
+    below_half = f < 0.5 * peak
+    # width at half maximum of the first pulse: from the last sample below half before the peak to the first after
+    before_peak = np.flatnonzero(below_half[:peak_at])
+    after_peak = np.flatnonzero(below_half[peak_at:])
+    left = before_peak[-1] + 1 if before_peak.size else 0
+    right = peak_at + after_peak[0] if after_peak.size else f.size
+    smoothing = max(1, int(right - left) // 2)
     smooth = np.convolve(f, np.ones(smoothing) / smoothing, mode="same")
     threshold = fraction * peak
     before = max(0, quiet_end - smoothing)

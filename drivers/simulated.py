@@ -19,6 +19,7 @@ whatever the chunk sizes.
 
 from __future__ import annotations
 
+import threading
 import time
 import warnings
 from dataclasses import dataclass
@@ -53,6 +54,7 @@ from drivers.interface import (
     ChannelStatus,
     DaqConfig,
     check_read_buffer,
+    default_hammer_and_accelerometer,
     validate_config,
 )
 
@@ -169,15 +171,16 @@ class SimulatedNI9234:
         self.noise = noise
         self.quantize = quantize
         self.buffer_s = buffer_s
-        self._config: DaqConfig | None = None
+        self._config: DaqConfig = default_hammer_and_accelerometer()
         self._running = False
         self._closed = False
         self._fault: DeviceError | None = None
         self._device_removed = False
-        self._open_sensor: np.ndarray = np.zeros(0, bool)
+        self._open_sensor = np.zeros(len(self._config.channels), bool)
         self._overload_next_hit = False
-        self._status = ChannelStatus.clear(0)
+        self._status = ChannelStatus.clear(len(self._config.channels))
         self._hits: list[SimulatedHit] = []
+        self._lock = threading.RLock()  # the GUI's virtual hammer runs in another thread than the reader
 
     # --- DaqDevice -----------------------------------------------------------------------------------------------
 
@@ -192,8 +195,7 @@ class SimulatedNI9234:
 
     @property
     def config(self) -> DaqConfig:
-        if self._config is None:
-            raise SettingError("sim: not configured; call configure() first")
+        """The setup; until :meth:`configure` is called, the paper's hammer + accelerometer at 12.8 kS/s."""
         return self._config
 
     @property
@@ -261,8 +263,11 @@ class SimulatedNI9234:
         n_samples = out.shape[1]
         if self.pacing == "realtime":
             self._wait_for(n_samples, timeout_s)
-        overload = self._generate(out)
-        self._status = ChannelStatus(overload, self._open_sensor.copy())
+        with self._lock:
+            if self._fault is not None:
+                raise self._fault
+            overload = self._generate(out)
+            self._status = ChannelStatus(overload, self._open_sensor.copy())
         if overload.any():
             labels = ", ".join(self.config.channels[row].label for row in np.flatnonzero(overload))
             warnings.warn(ADCOverloadWarning(f"sim: ADC overload (±5 V clipped) on {labels}"), stacklevel=2)
@@ -298,31 +303,35 @@ class SimulatedNI9234:
             raise SettingError("sim: the device is not running; call start() first")
         tip = self.tip if tip is None else tip
         self._check_tip(tip)
-        hit_time_s = self._position / self.sample_rate_hz
-        pulses, double = self._draw_pulses(self._demand_rng, tip, force_n)
-        return self._synthesise_hit(hit_time_s, tip, pulses, double, on_demand=True)
+        with self._lock:
+            hit_time_s = self._position / self.sample_rate_hz
+            pulses, double = self._draw_pulses(self._demand_rng, tip, force_n)
+            return self._synthesise_hit(hit_time_s, tip, pulses, double, on_demand=True)
 
     def sim_inject_fault(self, kind: str, channel: int | None = None) -> None:
         """Make the next read fail like the real module: ``overflow``, ``device_removed``, ``open_sensor``
         (``channel`` index, default the first acceleration channel) or ``overload`` (the next hit clips)."""
         if kind not in FAULT_KINDS:
             raise SettingError(f"sim fault: '{kind}' is not known; allowed: {', '.join(FAULT_KINDS)}")
-        if kind == "overflow":
-            self._fault = BufferOverflowError("sim: the device buffer overflowed; the reader fell behind (DAQmx -200361)")
-        elif kind == "device_removed":
-            self._device_removed = True
-            self._fault = DeviceRemovedError("sim: the device was removed mid-stream (DAQmx -201003)")
-        elif kind == "open_sensor":
-            config = self.config
-            if channel is None:
-                kinds = [ChannelKind(c.kind) for c in config.channels]
-                channel = kinds.index(ChannelKind.ACCELERATION) if ChannelKind.ACCELERATION in kinds else 0
-            if not 0 <= channel < len(config.channels):
-                raise SettingError(f"sim fault channel: {channel} is not a configured channel index")
-            self._open_sensor[channel] = True
-            self._fault = self._open_sensor_error()
-        else:
-            self._overload_next_hit = True
+        with self._lock:
+            if kind == "overflow":
+                self._fault = BufferOverflowError(
+                    "sim: the device buffer overflowed; the reader fell behind (DAQmx -200361)"
+                )
+            elif kind == "device_removed":
+                self._device_removed = True
+                self._fault = DeviceRemovedError("sim: the device was removed mid-stream (DAQmx -201003)")
+            elif kind == "open_sensor":
+                config = self.config
+                if channel is None:
+                    kinds = [ChannelKind(c.kind) for c in config.channels]
+                    channel = kinds.index(ChannelKind.ACCELERATION) if ChannelKind.ACCELERATION in kinds else 0
+                if not 0 <= channel < len(config.channels):
+                    raise SettingError(f"sim fault channel: {channel} is not a configured channel index")
+                self._open_sensor[channel] = True
+                self._fault = self._open_sensor_error()
+            else:
+                self._overload_next_hit = True
 
     def _open_sensor_error(self) -> OpenSensorError:
         labels = ", ".join(self.config.channels[row].label for row in np.flatnonzero(self._open_sensor))
@@ -445,14 +454,13 @@ class SimulatedNI9234:
         self._contributions = remaining
         fs = self.sample_rate_hz
         time_s = np.arange(first, end) / fs
+        interference = {name: self._interference(name, time_s) for name in set(self._channel_names)}
         volts = np.zeros_like(out)
         for row, signal in enumerate(self._signal_of_channel):
             if signal is not None:
                 volts[row] = physical[signal]
-            for effect in self.rig.effects:
-                interference = effect.interference(self._channel_names[row], time_s)
-                if interference is not None:
-                    volts[row] += interference
+            if interference[self._channel_names[row]] is not None:
+                volts[row] += interference[self._channel_names[row]]
             volts[row] *= self._true_v_per_si[row]
             if self._open_sensor[row]:
                 volts[row] = 0.0
@@ -467,6 +475,15 @@ class SimulatedNI9234:
         np.divide(volts, self._configured_v_per_si[:, np.newaxis], out=out)
         self._position = end
         return overload
+
+    def _interference(self, channel: str, time_s: np.ndarray) -> np.ndarray | None:
+        """Sum of the spec's interference on one kind of channel (SI units), or ``None``."""
+        total = None
+        for effect in self.rig.effects:
+            signal = effect.interference(channel, time_s)
+            if signal is not None:
+                total = signal if total is None else total + signal
+        return total
 
     def _wait_for(self, n_samples: int, timeout_s: float) -> None:
         """Realtime pacing: overflow if the unread backlog exceeds the buffer, else wait until the samples exist."""

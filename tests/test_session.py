@@ -264,3 +264,45 @@ def test_writer_killed_without_closing_leaves_a_readable_appendable_session(tmp_
     with Session.open(path) as session:
         assert session.status == "complete" and not session.recovered
         np.testing.assert_array_equal(session.accepted_records(), np.stack([hits[i].data for i in (0, 2, 3)]))
+
+
+def test_live_session_can_be_read_but_not_taken_over(tmp_path):
+    path = tmp_path / "live.h5"
+    script = textwrap.dedent(
+        f"""
+        import sys
+        sys.path.insert(0, {str(Path(__file__).parent)!r})
+        from test_session import new_session, synthetic_hits
+        from analysis.validation import Verdict
+        hits = synthetic_hits(3)
+        with new_session({str(path)!r}) as session:
+            for hit in hits[:2]:
+                session.append_hit(hit, Verdict(True))
+            print("two", flush=True)
+            sys.stdin.readline()
+            session.append_hit(hits[2], Verdict(False, ("overload",)))
+            print("three", flush=True)
+            sys.stdin.readline()
+        """
+    )
+    writer = subprocess.Popen([sys.executable, "-c", script], stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+    try:
+        assert writer.stdout.readline().strip() == "two"
+        with pytest.raises(SessionError, match="another process is writing this session"):
+            Session.open(path, "a")
+        with pytest.raises(SessionError, match="another process is writing this session"):
+            new_session(path, overwrite=True)
+        with Session.open(path) as follower:
+            assert follower.hit_count == 2
+            writer.stdin.write("\n")
+            writer.stdin.flush()
+            assert writer.stdout.readline().strip() == "three"
+            assert follower.hit_count == 3  # followed live, SWMR
+            assert [v.accepted for v in follower.verdicts()] == [True, True, False]
+        writer.stdin.write("\n")
+        writer.stdin.flush()
+        assert writer.wait(30) == 0
+    finally:
+        writer.kill()
+    with Session.open(path, "a") as session:
+        assert session.status == "complete" and session.hit_count == 3 and not session.recovered

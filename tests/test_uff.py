@@ -14,7 +14,7 @@ from drivers.interface import STANDARD_GRAVITY_M_S2
 from test_session import RATE_HZ, synthetic_hits
 
 
-def time_record(values, node, direction, data_type, units, ref=(1, 3), hit=0, binary=0):
+def time_record(values, node, direction, data_type, units, ref=(1, 3), hit=0, binary=0, sample_rate_hz=RATE_HZ):
     """One dataset 58 time record as a UFF writer of another program would produce it."""
     return pyuff.prepare_58(
         binary=binary,
@@ -32,7 +32,7 @@ def time_record(values, node, direction, data_type, units, ref=(1, 3), hit=0, bi
         ordinate_axis_units_lab=units,
         orddenom_spec_data_type=0,
         data=np.asarray(values, dtype=float),
-        x=np.arange(len(values)) / RATE_HZ,
+        x=np.arange(len(values)) / sample_rate_hz,
     )
 
 

@@ -1,13 +1,17 @@
 """Hit checks: each reason on synthetic hits built to have (or not have) the fault, overrides, settings."""
 
+import warnings
+
 import numpy as np
 import pytest
 
-from analysis.capture import HitRecord
+from analysis.capture import HitRecord, ImpactCapture, TriggerSettings
 from analysis.models import PAPER_MODELS, PAPER_TABLE1, accelerance
 from analysis.spectra import WindowSettings
 from analysis.validation import REASONS, ValidationSettings, Verdict, validate_hit
 from drivers.errors import SettingError
+from drivers.interface import ChannelKind, default_hammer_and_accelerometer
+from drivers.simulated import SimulatedNI9234
 
 FS_HZ = 10_240.0
 PRE = 102  # 10 ms of pre-trigger
@@ -154,3 +158,45 @@ def test_override_keeps_the_reasons_and_round_trips():
 def test_bad_validation_settings_name_the_field(field, value):
     with pytest.raises(SettingError, match=field):
         ValidationSettings(**{field: value})
+
+
+@pytest.mark.parametrize("tip", ["soft", "medium", "hard"])
+def test_simulated_session_with_25_percent_double_hits(tip):
+    """Chunks from the simulated module through the capture and the checks, judged against the simulator's truth."""
+    device = SimulatedNI9234(seed=7, double_hit_rate=0.25, hit_interval_s=(0.4, 0.6), tip=tip)
+    config = default_hammer_and_accelerometer(12_800.0)
+    device.configure(config)
+    force_channel = config.channel_index(ChannelKind.FORCE)
+    response_channel = config.channel_index(ChannelKind.ACCELERATION)
+    full_scale = tuple(channel.full_scale_si for channel in config.channels)
+    capture = ImpactCapture(TriggerSettings(record_s=0.25), 12_800.0, 2, force_channel, response_channel)
+    buffer = np.empty((2, 1280))
+    judged = []
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # the ADC overload warnings of the clipping hits
+        device.start()
+        for read in range(1200):
+            if read % 200 == 100:
+                device.sim_inject_fault("overload")  # the next hit clips
+            n = device.read(buffer)
+            for hit in capture.feed(buffer[:, :n], device.status().overload):
+                judged.append((hit, validate_hit(hit, ValidationSettings(), full_scale)))
+    stream_end_s = capture.samples_seen / 12_800.0
+    truth = [t for t in device.sim_hits if t.time_s < stream_end_s - 0.25]  # hits whose record is complete
+    assert len(judged) == len(truth) > 200
+    doubles = clean = overloads = 0
+    caught_doubles = 0
+    for hit, verdict in judged:
+        true = min(truth, key=lambda t, when=hit.trigger_time_s: abs(t.time_s - when))
+        assert abs(true.time_s - hit.trigger_time_s) < 0.005
+        if true.overload:
+            overloads += 1
+            assert "overload" in verdict.reasons and not verdict.accepted
+        if true.double:
+            doubles += 1
+            caught_doubles += "double hit" in verdict.reasons
+        elif not true.overload:
+            clean += 1
+            assert verdict.accepted, verdict.reasons
+    assert doubles > 40 and overloads == 6 and clean > 100
+    assert caught_doubles >= 0.95 * doubles

@@ -1,10 +1,16 @@
 """What the recordings say, with their own uncertainty: per-hit windowed spectra, measured noise, quality checks.
 
-Each accepted hit is windowed the way the session's FRF is (a force window around the pulse with a short taper, and
-an exponential window of decay rate σ on both channels from the trigger on), so that ``X_i / F_i`` is the hit's FRF at
-``s = σ + jω``. The noise of that FRF is measured, not assumed: the noise spectrum of each channel comes from the
-quiet pre-trigger samples, and the variance of hit i's FRF at f is ``(P_x(f) Σw_x² + |H|² P_f(f) Σw_f²) / |F_i(f)|²``.
-With these weights the weighted mean of the per-hit FRFs is exactly H1 (averaged cross- over auto-spectrum).
+Each accepted hit is windowed the way the session's FRF is (:mod:`analysis.spectra`: a force window after the peak
+with a short taper, and an exponential window on both channels), so that ``X_i / F_i`` is the hit's FRF at
+``s = σ + jω``. The model is compared under the same conditions: it is *played with the hit's own recorded force*
+(the whole record, as the DAQ delivered it, AC coupling and anti-aliasing included) and the replayed response goes
+through the same windows (:class:`Replay`). Window truncation, the module's high-pass tail that the force window cuts,
+and leakage thus appear in the replay exactly as in the recording instead of passing for physics.
+
+The noise of each hit's FRF is measured, not assumed: the noise spectra of both channels come from the quiet
+pre-trigger samples, and the variance of hit i's FRF at f is ``(P_x(f) + |H|² P_f(f)) Σw² / |F_i(f)|²`` (the
+replayed response carries the recorded force's noise through the same window). With these weights the weighted mean
+of the per-hit FRFs is exactly H1 (averaged cross- over auto-spectrum).
 """
 
 from __future__ import annotations
@@ -13,8 +19,10 @@ from dataclasses import dataclass, field, replace
 from typing import Callable
 
 import numpy as np
+import scipy.fft
 
 from analysis.diagnosis.catalog import HitConditions
+from analysis.spectra import WindowSettings, exponential_window, force_window
 from drivers.errors import SettingError
 
 MAINS_BASES_HZ = (50.0, 60.0)
@@ -67,13 +75,16 @@ class HitSpectra:
         total = weight.sum(axis=0)
         return (weight * self.h[rows]).sum(axis=0) / total, total
 
-    def correct_for_replay(self, model_accelerance: Callable[[np.ndarray, float], np.ndarray]) -> "HitSpectra":
+    def correct_for_replay(
+        self, model_accelerance: Callable[[np.ndarray, float], np.ndarray], replayed: np.ndarray | None = None
+    ) -> "HitSpectra":
         """A copy whose ``h`` and ``variance`` are divided by the replay ratio of ``model_accelerance``.
 
-        ``model_accelerance(freq_hz, decay_rate_1_s)`` returns (hits, frequencies) or (frequencies,)."""
+        ``model_accelerance(freq_hz, decay_rate_1_s)`` returns (hits, frequencies) or (frequencies,); ``replayed``
+        gives the replayed per-hit FRFs when they come from an exact nonlinear simulation."""
         if self.replay is None:
             return self
-        ratio = self.replay.ratio(model_accelerance)
+        ratio = self.replay.ratio(model_accelerance, replayed)
         return replace(self, h=self.replay.measured_h / ratio,
                        variance=self.replay.measured_variance / np.abs(ratio) ** 2)
 
@@ -91,18 +102,34 @@ class Replay:
     measured_variance: np.ndarray
     n_samples: int
     sample_rate_hz: float
+    decay_rate_1_s: float
 
-    def ratio(self, model_accelerance: Callable[[np.ndarray, float], np.ndarray]) -> np.ndarray:
-        """``H_replay,i / H_model,i`` on the grid: the response each hit's recorded force produces through the
-        model, windowed and transformed like the recording, over the model's windowed Laplace accelerance."""
+    def replayed(self, model_accelerance: Callable[[np.ndarray, float], np.ndarray]) -> np.ndarray:
+        """Per-hit FRFs (hits, G) of the model played with each hit's recorded force, windowed like the recording."""
         padded_freq_hz = np.fft.rfftfreq(self.n_fft, 1.0 / self.sample_rate_hz)
         padded_freq_hz[0] = 1e-9 * self.sample_rate_hz / self.n_fft
         plain = np.broadcast_to(model_accelerance(padded_freq_hz, 0.0), self.force_padded.shape)
-        response = np.fft.irfft(self.force_padded * plain, self.n_fft, axis=1)[:, : self.n_samples]
-        replayed = np.fft.rfft(response * self.exponential, axis=1)[:, self.grid] / self.force_windowed_grid
-        decay_rate_1_s = float(-np.log(self.exponential[0, -1] / self.exponential[0, -2]) * self.sample_rate_hz)
+        response = scipy.fft.irfft(self.force_padded * plain, self.n_fft, axis=1)[:, : self.n_samples]
+        return scipy.fft.rfft(response * self.exponential, axis=1)[:, self.grid] / self.force_windowed_grid
+
+    def windowed_frf(self, responses: np.ndarray) -> np.ndarray:
+        """Per-hit FRFs on the grid of replayed response records (hits, samples), windowed like the recording."""
+        return scipy.fft.rfft(responses * self.exponential, axis=1)[:, self.grid] / self.force_windowed_grid
+
+    @property
+    def forces_n(self) -> np.ndarray:
+        """The recorded force records (hits, samples) as the DAQ delivered them."""
+        return scipy.fft.irfft(self.force_padded, self.n_fft, axis=1)[:, : self.n_samples]
+
+    def ratio(
+        self, model_accelerance: Callable[[np.ndarray, float], np.ndarray], replayed: np.ndarray | None = None
+    ) -> np.ndarray:
+        """``H_replay,i / H_model,i`` on the grid: the replayed FRF (linear replay of ``model_accelerance`` unless
+        given) over the model's windowed Laplace accelerance."""
+        if replayed is None:
+            replayed = self.replayed(model_accelerance)
         laplace = model_accelerance(np.fft.rfftfreq(self.n_samples, 1.0 / self.sample_rate_hz)[self.grid],
-                                    decay_rate_1_s)
+                                    self.decay_rate_1_s)
         return replayed / laplace
 
 
@@ -118,16 +145,6 @@ def _pulse_extent(force_n: np.ndarray, sample_rate_hz: float) -> tuple[int, int,
     while end < len(magnitude) - 1 and magnitude[end + 1] > threshold:
         end += 1
     return start, peak, end
-
-
-def _force_window(n_samples: int, end_index: int, taper_samples: int) -> np.ndarray:
-    window = np.zeros(n_samples)
-    window[: end_index + 1] = 1.0
-    taper_end = min(n_samples, end_index + 1 + taper_samples)
-    length = taper_end - (end_index + 1)
-    if length > 0:
-        window[end_index + 1 : taper_end] = 0.5 * (1 + np.cos(np.pi * np.arange(1, length + 1) / (taper_samples + 1)))
-    return window
 
 
 def _clipped(signal: np.ndarray, run: int = 3) -> bool:
@@ -147,18 +164,24 @@ def _band_text(low_hz: float, high_hz: float) -> str:
     return f"{low_hz:.0f}–{high_hz:.0f} Hz"
 
 
-def _contiguous_bands(mask: np.ndarray, freq_hz: np.ndarray, min_bins: int) -> list[tuple[int, int]]:
+def _contiguous_bands(mask: np.ndarray, min_bins: int) -> list[tuple[int, int]]:
     edges = np.diff(np.concatenate(([0], mask.astype(int), [0])))
     starts, stops = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
     return [(a, b - 1) for a, b in zip(starts, stops) if b - a >= min_bins]
 
 
+def default_window(records: np.ndarray, sample_rate_hz: float) -> WindowSettings:
+    """Windows for records that come without any: force window 1 ms past three pulse widths, 1 % exponential."""
+    widths = [end - start + 1 for start, _, end in (_pulse_extent(r[0], sample_rate_hz) for r in records)]
+    return WindowSettings(force_window_ms=1.0 + 3e3 * float(np.median(widths)) / sample_rate_hz,
+                          force_taper_ms=0.5, exponential_end_fraction=0.01)
+
+
 def hit_spectra(
     records: np.ndarray,
     sample_rate_hz: float,
+    window: WindowSettings | None = None,
     *,
-    decay_rate_1_s: float | None = None,
-    force_window_s: float | None = None,
     hit_times_s: np.ndarray | None = None,
     overload: np.ndarray | None = None,
     band_hz: tuple[float, float] | None = None,
@@ -167,7 +190,8 @@ def hit_spectra(
     """Window, transform and weigh the accepted hits; checks for double hits, clipping, mains lines, truncation.
 
     ``records``: (hits, 2, samples) with row 0 the force in N and row 1 the response in m/s², all hits aligned the
-    same way (pre-trigger then pulse). Hits failing a check are left out and named in ``quality``.
+    same way (pre-trigger then pulse). ``window``: the session's windows (None → :func:`default_window`). Hits
+    failing a check are left out and named in ``quality``.
     """
     records = np.asarray(records, dtype=float)
     if records.ndim != 3 or records.shape[1] != 2 or records.shape[0] < 2:
@@ -179,35 +203,23 @@ def hit_spectra(
     hit_count, _, n_samples = records.shape
     quality: list[QualityNote] = []
     extents = [_pulse_extent(record[0], sample_rate_hz) for record in records]
-    widths = np.array([end - start + 1 for start, _, end in extents])
-    pulse_samples = int(np.median(widths))
-    window_s = force_window_s if force_window_s else 3 * pulse_samples / sample_rate_hz + 0.001
-    taper = max(2, int(round(0.0005 * sample_rate_hz)))
+    pulse_samples = int(np.median([end - start + 1 for start, _, end in extents]))
 
-    keep = np.ones(hit_count, bool)
     double_hits, clipped_hits = [], []
     for index, (record, (start, peak, end)) in enumerate(zip(records, extents)):
         after = record[0, end + 1 + pulse_samples :]
         if after.size and np.max(np.abs(after)) > 0.1 * abs(record[0, peak]):
             double_hits.append(index)
-        is_clipped = _clipped(record[0]) or _clipped(record[1])
-        if overload is not None and np.any(overload[index]):
-            is_clipped = True
-        if is_clipped:
+        if _clipped(record[0]) or _clipped(record[1]) or (overload is not None and np.any(overload[index])):
             clipped_hits.append(index)
-    for index in double_hits:
-        keep[index] = False
-    for index in clipped_hits:
-        keep[index] = False
     if double_hits:
-        quality.append(
-            QualityNote("double hit", f"{len(double_hits)} hit(s) with a second impact were left out",
-                        hits=tuple(double_hits))
-        )
+        quality.append(QualityNote("double hit", f"{len(double_hits)} hit(s) with a second impact were left out",
+                                   hits=tuple(double_hits)))
     if clipped_hits:
-        quality.append(
-            QualityNote("overload", f"{len(clipped_hits)} clipped hit(s) were left out", hits=tuple(clipped_hits))
-        )
+        quality.append(QualityNote("overload", f"{len(clipped_hits)} clipped hit(s) were left out",
+                                   hits=tuple(clipped_hits)))
+    keep = np.ones(hit_count, bool)
+    keep[double_hits + clipped_hits] = False
     used = np.flatnonzero(keep)
     if used.size < 2:
         raise SettingError(f"diagnosis records: only {used.size} usable hit(s) after quality checks; at least 2 needed")
@@ -215,29 +227,27 @@ def hit_spectra(
     extents = [extents[i] for i in used]
 
     trigger = np.array([start for start, _, _ in extents])
-    quiet_end = trigger - int(QUIET_MARGIN_S * sample_rate_hz)
-    quiet_samples = int(np.min(quiet_end))
+    quiet_samples = int(np.min(trigger)) - int(QUIET_MARGIN_S * sample_rate_hz)
     if quiet_samples < 16:
         raise SettingError(
-            f"diagnosis records: only {max(quiet_samples, 0)} quiet pre-trigger samples; the noise cannot be "
-            f"measured (record at least 16 samples before the hit)"
+            f"diagnosis records: only {max(quiet_samples, 0)} quiet samples before the hit; the noise cannot be "
+            f"measured (record at least {16 / sample_rate_hz * 1e3 + QUIET_MARGIN_S * 1e3:.1f} ms before the hit)"
         )
-    if decay_rate_1_s is None:
-        decay_rate_1_s = np.log(100.0) / ((n_samples - int(np.median(trigger))) / sample_rate_hz)
-
-    time_s = np.arange(n_samples) / sample_rate_hz
-    force_spectra, response_spectra = [], []
-    sum_w2_force, sum_w2_response = [], []
-    for record, (start, _, end) in zip(records, extents):
-        exponential = np.exp(-decay_rate_1_s * np.clip(time_s - start / sample_rate_hz, 0.0, None))
-        force_end = min(n_samples - 1, start + int(round(window_s * sample_rate_hz)))
-        force_w = _force_window(n_samples, max(force_end, end), taper) * exponential
-        force_spectra.append(np.fft.rfft(record[0] * force_w))
-        response_spectra.append(np.fft.rfft(record[1] * exponential))
-        sum_w2_force.append(np.sum(force_w**2))
-        sum_w2_response.append(np.sum(exponential**2))
-    force_spectra = np.array(force_spectra)
-    response_spectra = np.array(response_spectra)
+    window = window or default_window(records, sample_rate_hz)
+    if window.force_window_ms is None or window.exponential_end_fraction is None:
+        fallback = default_window(records, sample_rate_hz)
+        window = WindowSettings(
+            force_window_ms=window.force_window_ms or fallback.force_window_ms,
+            force_taper_ms=window.force_taper_ms,
+            exponential_end_fraction=window.exponential_end_fraction or fallback.exponential_end_fraction,
+        )
+    decay_rate_1_s = window.decay_rate_1_s(n_samples, sample_rate_hz)
+    exponential = np.broadcast_to(exponential_window(n_samples, window.exponential_end_fraction),
+                                  (len(used), n_samples))
+    force_w = force_window(records[:, 0], sample_rate_hz, window) * exponential
+    force_spectra = np.fft.rfft(records[:, 0] * force_w, axis=1)
+    response_spectra = np.fft.rfft(records[:, 1] * exponential, axis=1)
+    sum_w2_response = np.sum(exponential**2, axis=1)
     full_freq_hz = np.fft.rfftfreq(n_samples, 1.0 / sample_rate_hz)
 
     noise_force = _noise_periodogram(records[:, 0], quiet_samples, full_freq_hz, sample_rate_hz)
@@ -247,20 +257,19 @@ def hit_spectra(
     h_full = response_spectra / (force_spectra + floor)
     cross = (response_spectra * np.conj(force_spectra)).sum(axis=0)
     h1_full = cross / force_power.sum(axis=0)
+    # the replayed response carries the recorded force's noise through the whole record: same window as the response
     variance_full = (
-        noise_response[np.newaxis, :] * np.array(sum_w2_response)[:, np.newaxis]
-        + np.abs(h1_full[np.newaxis, :]) ** 2 * noise_force[np.newaxis, :] * np.array(sum_w2_force)[:, np.newaxis]
-    ) / force_power
+        (noise_response[np.newaxis, :] + np.abs(h1_full[np.newaxis, :]) ** 2 * noise_force[np.newaxis, :])
+        * sum_w2_response[:, np.newaxis] / force_power
+    )
     variance_full = np.maximum(variance_full, (1e-7 * np.abs(h1_full)) ** 2 + 1e-30)
 
     # analysis band: where the hammer puts energy in (within 20 dB of its low-frequency level), below 0.4 fs
     mean_force_power = force_power.mean(axis=0)
     low, high = band_hz if band_hz else (10.0, 0.4 * sample_rate_hz)
-    reference = np.median(mean_force_power[(full_freq_hz >= low) & (full_freq_hz <= low + 50)]) if band_hz is None \
-        else np.max(mean_force_power)
     if band_hz is None:
-        strong = mean_force_power >= 0.01 * reference
-        beyond = np.flatnonzero((full_freq_hz > low) & ~strong)
+        reference = np.median(mean_force_power[(full_freq_hz >= low) & (full_freq_hz <= low + 50)])
+        beyond = np.flatnonzero((full_freq_hz > low) & (mean_force_power < 0.01 * reference))
         if beyond.size:
             high = min(high, full_freq_hz[beyond[0]])
     in_band = (full_freq_hz >= low) & (full_freq_hz <= high)
@@ -283,7 +292,7 @@ def hit_spectra(
             )
         )
     low_coherence = mask & (coherence < 0.9)
-    for a, b in _contiguous_bands(low_coherence, full_freq_hz, 3):
+    for a, b in _contiguous_bands(low_coherence, 3):
         quality.append(
             QualityNote(
                 "low coherence",
@@ -301,7 +310,7 @@ def hit_spectra(
             QualityNote(
                 "truncation",
                 f"the response has not decayed by the end of the record in {truncated.size} hit(s): leakage is "
-                f"controlled only by the exponential window",
+                f"controlled only by the exponential window (the replay goes through the same window)",
                 hits=tuple(int(used[i]) for i in truncated),
             )
         )
@@ -313,10 +322,20 @@ def hit_spectra(
     impulses = np.array(
         [np.sum(record[0, start : end + 1]) / sample_rate_hz for record, (start, _, end) in zip(records, extents)]
     )
-    if hit_times_s is None:
-        times = np.arange(hit_count, dtype=float)[used]
-    else:
-        times = np.asarray(hit_times_s, dtype=float)[used]
+    times = np.arange(hit_count, dtype=float)[used] if hit_times_s is None else np.asarray(hit_times_s, float)[used]
+    n_fft = int(scipy.fft.next_fast_len(2 * n_samples, real=True))
+    replay = Replay(
+        force_padded=np.fft.rfft(records[:, 0], n_fft, axis=1),
+        n_fft=n_fft,
+        exponential=np.ascontiguousarray(exponential),
+        force_windowed_grid=force_spectra[:, grid],
+        grid=grid,
+        measured_h=h_full[:, grid],
+        measured_variance=variance_full[:, grid],
+        n_samples=int(n_samples),
+        sample_rate_hz=float(sample_rate_hz),
+        decay_rate_1_s=float(decay_rate_1_s),
+    )
     return HitSpectra(
         freq_hz=full_freq_hz[grid],
         decay_rate_1_s=float(decay_rate_1_s),
@@ -324,10 +343,10 @@ def hit_spectra(
         variance=variance_full[:, grid],
         conditions=HitConditions(time_s=times, impulse_ns=np.abs(impulses)),
         hit_numbers=used,
-        force_window_s=float(window_s),
         sample_rate_hz=float(sample_rate_hz),
         n_samples=int(n_samples),
         quality=quality,
+        replay=replay,
     )
 
 
@@ -372,6 +391,8 @@ def _mains_lines(
             )
             if ring.size and near > 10 * max(np.median(ring), 1.0):
                 found.append(float(harmonic))
-        if len(found) >= 1 and (best is None or len(found) > len(best[1])):
+        # a lone line away from the fundamental is more likely a resonance whose hits scatter (drift, nonlinearity)
+        credible = len(found) >= 2 or (found and found[0] == base)
+        if credible and (best is None or len(found) > len(best[1])):
             best = (base, found)
     return best

@@ -8,9 +8,9 @@ records were processed, not of the rig; the improved spec says so in a comment.
 
 ``amplitude-nonlinearity`` is fitted as a stiffness change that grows with the square of the hit's impulse; the
 spec's ``cubic-stiffness`` term ``k3·x³`` is its cause. The two are linked by equivalent linearisation: a hit of
-impulse J starts the mover at ``x0 = J / (M ω0)`` and the windowed FRF sees on average ``Δk = c · k3 · x0²``; the
-constant c (about 1/4 for a free decay) is measured with the exact nonlinear simulation of one hit
-(:func:`cubic_stiffness_constant`).
+impulse J starts the mover at ``x0 = J / (M ω0)`` and the windowed FRF sees on average ``Δk = c · k3 · x0²`` with
+c ≈ 1/4. The constant only needs to be used consistently: the diagnosis replays a hardening model with the exact
+nonlinear simulation of :mod:`analysis.rig` at ``k3 = Δk / (c x0²)``, so what it fits is the spec's k3.
 """
 
 from __future__ import annotations
@@ -40,6 +40,9 @@ from analysis.rig import (
 )
 from drivers.errors import SettingError
 
+#: Equivalent linearisation of a cubic spring seen through an FRF of a free decay: ``Δk = c · k3 · x0²``
+#: (harmonic balance gives 3/4 at amplitude x0; the decaying amplitude weights it down to about 1/4).
+CUBIC_CONSTANT = 0.25
 MEMORY_ETA = "eta_memory"
 MEMORY_ALPHA = "alpha_memory"
 
@@ -83,7 +86,9 @@ def reference_displacement_m(model: AugmentedModel, impulse_ns: float) -> float:
     return impulse_ns / (mass_kg * _resonance_omega(model))
 
 
-def model_from_spec(spec: RigSpec, cubic_constant: float = 0.25, reference_impulse_ns: float = 1.0) -> AugmentedModel:
+def model_from_spec(
+    spec: RigSpec, reference_impulse_ns: float = 1.0, cubic_constant: float = CUBIC_CONSTANT
+) -> AugmentedModel:
     """The augmented model of a rig spec (``mains`` is measurement interference and plays no part in it)."""
     film = get_model(spec.film_model)
     model = AugmentedModel(film, dict(spec.film_parameters), spec.mass_kg, {})
@@ -120,13 +125,16 @@ def model_from_spec(spec: RigSpec, cubic_constant: float = 0.25, reference_impul
 
 def spec_from_model(
     model: AugmentedModel,
-    base: RigSpec,
+    base: RigSpec | None,
     reference_impulse_ns: float,
-    cubic_constant: float = 0.25,
+    cubic_constant: float = CUBIC_CONSTANT,
     name: str | None = None,
 ) -> tuple[RigSpec, list[str]]:
-    """The rig spec of an augmented model, keeping the base spec's sensors, hammer and mains; also notes for
-    what a spec cannot hold (``window-damping``)."""
+    """The rig spec of an augmented model, keeping the base spec's sensors, hammer and mains (defaults without a
+    base); also notes for what a spec cannot hold (``window-damping``, a softening film)."""
+    if base is None:
+        base = RigSpec(name="diagnosis model", mass_kg=model.mass_kg, film_model=model.film.text,
+                       film_parameters=dict(model.film_parameters))
     notes: list[str] = []
     film_text = model.film.name if model.film.name in PAPER_MODELS else model.film.text
     parameters = dict(model.film_parameters)
@@ -178,46 +186,5 @@ def spec_from_model(
     return spec, notes
 
 
-def cubic_stiffness_constant(
-    model: AugmentedModel, reference_impulse_ns: float, sample_rate_hz: float, n_samples: int, decay_rate_1_s: float,
-    pulse_s: float = 0.001,
-) -> float:
-    """Measure c in ``Δk = c · k3 · x0²`` with one exact nonlinear hit against the linear one."""
-    from analysis.diagnosis.selection import Evidence, fit
-    from analysis.diagnosis.catalog import ParameterSlot
-    from analysis.diagnosis.measurement import HitSpectra
-
-    linear = model.copy()
-    linear.effects.pop("amplitude-nonlinearity", None)
-    base_spec, _ = spec_from_model(linear, RigSpec.nominal("SD", mass_kg=model.mass_kg,
-                                                           parameters={"k": 1.0, "eta": 1.0}), reference_impulse_ns)
-    omega = _resonance_omega(linear)
-    x0 = reference_displacement_m(linear, reference_impulse_ns)
-    stiffness = linear.mass_kg * omega**2
-    k3 = 0.002 * stiffness / x0**2
-    time_s = np.arange(n_samples) / sample_rate_hz
-    start = int(0.01 * sample_rate_hz)
-    pulse = np.where((time_s >= time_s[start]) & (time_s < time_s[start] + pulse_s),
-                     np.sin(np.pi * (time_s - time_s[start]) / pulse_s), 0.0)
-    force = pulse * reference_impulse_ns / (np.sum(pulse) / sample_rate_hz)
-    cubic_spec = base_spec.with_effects(CubicStiffness(k3_n_per_m3=k3))
-    window = np.exp(-decay_rate_1_s * np.clip(time_s - time_s[start], 0.0, None))
-    spectra = []
-    for spec in (base_spec, cubic_spec):
-        response = simulate_response(spec, force, sample_rate_hz)
-        spectra.append(np.fft.rfft(response * window) / np.fft.rfft(force * window))
-    freq_hz = np.fft.rfftfreq(n_samples, 1.0 / sample_rate_hz)
-    band = (freq_hz > 0.5 * omega / (2 * np.pi)) & (freq_hz < 2.0 * omega / (2 * np.pi))
-    h = np.array([spectra[1][band]])
-    conditions = HitConditions(np.zeros(1), np.array([reference_impulse_ns]))
-    evidence = Evidence(HitSpectra(freq_hz[band], decay_rate_1_s, h, np.ones_like(h.real), conditions,
-                                   np.zeros(1, int), 0.0, sample_rate_hz, n_samples))
-    trial = linear.copy()
-    trial.effects["amplitude-nonlinearity"] = {"delta_k_at_reference_n_per_m": 0.0}
-    slot = ParameterSlot("amplitude-nonlinearity", "delta_k_at_reference_n_per_m", "linear", -stiffness, stiffness)
-    outcome = fit(evidence, trial, [slot])
-    return outcome.model.effects["amplitude-nonlinearity"]["delta_k_at_reference_n_per_m"] / (k3 * x0**2)
-
-
 __all__ = ["AcCoupling", "PneumaticLag", "CHANNELS", "model_from_spec", "spec_from_model",
-           "cubic_stiffness_constant", "reference_displacement_m"]
+           "reference_displacement_m"]

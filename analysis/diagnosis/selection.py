@@ -123,17 +123,24 @@ def fit(
     bounds = np.array([slot.search_bounds() for slot in slots]).T
 
     def residual(vector: np.ndarray) -> np.ndarray:
-        return evidence.residual(write_slots(model, slots, vector), hits)
+        return evidence.residual(write_slots(model, slots, np.clip(vector, bounds[0], bounds[1])), hits)
 
-    result = least_squares(residual, start, bounds=(bounds[0], bounds[1]), x_scale="jac", method="trf",
-                           max_nfev=60 * (len(slots) + 1), xtol=1e-10, ftol=1e-10)
-    fitted = write_slots(model, slots, result.x)
-    jacobian = result.jac
-    try:
-        covariance = np.linalg.pinv(jacobian.T @ jacobian)
-    except np.linalg.LinAlgError:
-        covariance = np.full((len(slots), len(slots)), np.inf)
+    # MINPACK's Levenberg-Marquardt (bounds by clipping inside the residual): several times faster than a
+    # bounded trust-region solver on these tall problems
+    result = least_squares(residual, start, x_scale="jac", method="lm", max_nfev=40 * (len(slots) + 1),
+                           xtol=1e-9, ftol=1e-9)
+    fitted = write_slots(model, slots, np.clip(result.x, bounds[0], bounds[1]))
+    covariance = _covariance(result.jac)
     return FitOutcome(fitted, evidence.chi2(fitted, hits), slots, covariance, int(result.nfev))
+
+
+def _covariance(jacobian: np.ndarray) -> np.ndarray:
+    """``(JᵀJ)⁻¹`` with the columns equilibrated first (parameters of very different sensitivity)."""
+    norms = np.linalg.norm(jacobian, axis=0)
+    norms[norms == 0] = 1.0
+    scaled = jacobian / norms
+    inverse = np.linalg.pinv(scaled.T @ scaled, rcond=1e-12)
+    return inverse / np.outer(norms, norms)
 
 
 def model_slots(model: AugmentedModel, free_film: bool = True) -> list[ParameterSlot]:
@@ -198,15 +205,18 @@ def _with_candidate(model: AugmentedModel, identifier: str, guess: dict[str, flo
     return candidate
 
 
-def held_out_gain(evidence: Evidence, base: AugmentedModel, augmented: AugmentedModel) -> float:
-    """χ² improvement of ``augmented`` over ``base`` on hits not used to fit either (two folds, summed)."""
-    hits = np.arange(evidence.hit_count)
+def held_out_gain(
+    base_evidence: Evidence, base: AugmentedModel, augmented_evidence: Evidence, augmented: AugmentedModel
+) -> float:
+    """χ² improvement of ``augmented`` over ``base`` on hits not used to fit either (two folds, summed); each model
+    is judged on the evidence replayed with it."""
+    hits = np.arange(base_evidence.hit_count)
     folds = (hits[0::2], hits[1::2])
     gain = 0.0
     for train, test in (folds, folds[::-1]):
-        base_fit = fit(evidence, base, model_slots(base), train)
-        augmented_fit = fit(evidence, augmented, model_slots(augmented), train)
-        gain += evidence.chi2(base_fit.model, test) - evidence.chi2(augmented_fit.model, test)
+        base_fit = fit(base_evidence, base, model_slots(base), train)
+        augmented_fit = fit(augmented_evidence, augmented, model_slots(augmented), train)
+        gain += base_evidence.chi2(base_fit.model, test) - augmented_evidence.chi2(augmented_fit.model, test)
     return gain
 
 

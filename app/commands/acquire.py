@@ -8,6 +8,7 @@ process leaves a session holding every hit it reported. A device error ends the 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import queue
 import sys
 import time
@@ -139,7 +140,10 @@ def _stream(device: DaqDevice, synchronous: bool) -> Iterator[tuple[np.ndarray, 
                 read += device.read(block)
                 yield block, device.status().overload, read
         finally:
-            device.stop()
+            try:
+                device.stop()
+            except DeviceError:
+                pass  # a removed device cannot be stopped; the read already raised why
     with AcquisitionLoop(device) as loop:
         chunks = loop.subscribe("acquire")
         while True:
@@ -168,6 +172,8 @@ def run(args: argparse.Namespace) -> int:
     window = WindowSettings(force_window_ms=args.force_window_ms, exponential_end_fraction=args.exp_end)
     config = default_hammer_and_accelerometer(args.rate)
     device = _open_device(args, rig_spec)
+    if args.device == SIMULATED_DEVICE_NAME:
+        rig_spec = device.rig  # the simulator's rig, also when it chose its default
     device.configure(config)
     rate_hz = device.sample_rate_hz
     settings = {"trigger": trigger, "validation": validation, "window": window}
@@ -189,9 +195,9 @@ def run(args: argparse.Namespace) -> int:
     started = time.monotonic()
     stream_s = 0.0
     try:
-        with device:
-            for data, overload, end_sample in _stream(device, args.device == SIMULATED_DEVICE_NAME
-                                                      and args.pacing == "fast"):
+        synchronous = args.device == SIMULATED_DEVICE_NAME and args.pacing == "fast"
+        with device, contextlib.closing(_stream(device, synchronous)) as chunks:
+            for data, overload, end_sample in chunks:
                 recorder.feed(data, overload)
                 stream_s = end_sample / rate_hz
                 progress.counter(recorder.accepted_count, recorder.rejected_count, stream_s)

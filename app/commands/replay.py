@@ -31,6 +31,9 @@ UFF_SUFFIXES = (".uff", ".unv")
 COHERENCE_BAND_EDGES_HZ = (0.0, 100.0, 300.0, 1000.0, 3000.0, 10000.0, 30000.0)
 #: Lines below this frequency are not searched for the peak (the DC line and the rigid-body rise).
 PEAK_SEARCH_FROM_HZ = 5.0
+#: Only lines with at least this coherence are searched for the peak (zeros of the hammer spectrum give noisy
+#: spikes in |H1|); when no line has it, all lines are searched.
+PEAK_MIN_COHERENCE = 0.9
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -187,6 +190,9 @@ def summarise(frf: FrfResult | None, verdicts: list[Verdict], dropped: int) -> d
     if frf is not None:
         magnitude = np.abs(frf.h1)
         search = (frf.freq_hz >= PEAK_SEARCH_FROM_HZ) & np.isfinite(magnitude)
+        coherent = search & (frf.coherence >= PEAK_MIN_COHERENCE)
+        if np.any(coherent):
+            search = coherent
         peak = int(np.flatnonzero(search)[np.argmax(magnitude[search])])
         summary.update(
             peak_frequency_hz=float(frf.freq_hz[peak]),

@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 from typing import Any, Callable
 
 import numpy as np
-from PySide6.QtCore import QObject, QThread, QTimer, Signal, Slot
+from PySide6.QtCore import QObject, Qt, QThread, QTimer, Signal, Slot
 
 from analysis.acquisition import AcquisitionLoop
 from analysis.capture import HitRecord, ImpactCapture, TriggerSettings
@@ -126,7 +126,8 @@ class AcquisitionWorker(QObject):
                     hit_interval_s=SIM_HIT_INTERVAL_S if plan.sim_auto_hammer else None,
                     tip=plan.sim_tip,
                 )
-            self.device = open_device(plan.device_name, **options)
+            device = open_device(plan.device_name, **options)
+            self.device = ReaderThreadHooks(device) if plan.device_name == SIMULATED_DEVICE_NAME else device
             self.device.configure(plan.config)
             force_row = plan.config.channel_index(ChannelKind.FORCE)
             capture = ImpactCapture(
@@ -275,13 +276,41 @@ class AcquisitionWorker(QObject):
 
     @Slot(str)
     def virtual_hit(self, tip: str) -> None:
-        if self.device is not None and hasattr(self.device, "sim_hit"):
-            self.device.sim_hit(tip=tip)
+        if isinstance(self.device, ReaderThreadHooks):
+            self.device.request(lambda device: device.sim_hit(tip=tip))
 
     @Slot(str)
     def inject_fault(self, kind: str) -> None:
-        if self.device is not None and hasattr(self.device, "sim_inject_fault"):
-            self.device.sim_inject_fault(kind)
+        if isinstance(self.device, ReaderThreadHooks):
+            self.device.request(lambda device: device.sim_inject_fault(kind))
+
+
+class ReaderThreadHooks:
+    """The simulated device with its ``sim_`` hooks run on the reader thread, just before the next read.
+
+    The simulator is not thread-safe: a hit synthesised while another thread is inside ``read`` can be dropped.
+    Requests are queued here and applied by the reader thread itself, so hooks and reads never overlap; a virtual
+    hit lands at the start of the next chunk (at most one chunk, about 0.1 s, later)."""
+
+    def __init__(self, device: DaqDevice) -> None:
+        self._device = device
+        self._requests: "queue.SimpleQueue[Callable[[Any], Any]]" = queue.SimpleQueue()
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self._device, name)
+
+    def request(self, action: Callable[[Any], Any]) -> None:
+        """Thread-safe: ``action(device)`` runs on the reader thread before its next read."""
+        self._requests.put(action)
+
+    def read(self, out: np.ndarray, timeout_s: float = 10.0) -> int:
+        while True:
+            try:
+                action = self._requests.get_nowait()
+            except queue.Empty:
+                break
+            action(self._device)
+        return self._device.read(out, timeout_s)
 
 
 class RecordKeepingCapture:
@@ -366,7 +395,8 @@ def start_on_thread(worker: QObject, entry: Callable[[], None], parent: QObject)
     thread = QThread(parent)
     worker.moveToThread(thread)
     thread.started.connect(entry)
-    worker.finished.connect(thread.quit)
+    # Direct: QThread.quit is thread-safe, and the GUI thread may be blocked in thread.wait() (closing the window).
+    worker.finished.connect(thread.quit, Qt.ConnectionType.DirectConnection)
     thread.finished.connect(worker.deleteLater)
     thread.finished.connect(thread.deleteLater)
     thread.start()

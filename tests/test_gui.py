@@ -1,0 +1,229 @@
+"""The technician's GUI driven like a person would, on the simulated rig (Qt offscreen, pytest-qt).
+
+Realtime pacing at 3200 S/s with 0.5 s records keeps a whole hammer session within seconds.
+"""
+
+import os
+
+os.environ.setdefault("QT_QPA_PLATFORM", "offscreen")
+
+import numpy as np
+import pytest
+from PySide6.QtCore import QSettings, Qt
+
+from analysis.session import Session
+from app.gui.main_window import MainWindow
+from app.gui.sensors import DEFAULT_SENSOR_LIBRARY, load_sensor_library
+from app.gui.settings import load_setup
+from drivers.errors import SettingError
+from drivers.interface import ChannelKind
+
+SAMPLE_RATE_HZ = 51200.0 / 16
+RECORD_S = 0.5
+
+
+def _settings(tmp_path) -> QSettings:
+    return QSettings(str(tmp_path / "gui-settings.ini"), QSettings.Format.IniFormat)
+
+
+@pytest.fixture
+def window(qtbot, tmp_path):
+    main = MainWindow(_settings(tmp_path), session_dir=tmp_path / "sessions")
+    qtbot.addWidget(main)
+    state = main.setup_tab.state()
+    state.device = "sim"
+    state.sample_rate_hz = SAMPLE_RATE_HZ
+    state.trigger = {**state.trigger, "record_s": RECORD_S, "pretrigger_s": 0.01}
+    state.window = {**state.window, "force_window_ms": None, "exponential_end_fraction": None}
+    state.sim_auto_hammer = False
+    state.auto_accept = True
+    state.auto_reject = True
+    main.setup_tab.set_state(state)
+    main.show()
+    yield main
+    main.controller.shutdown()
+
+
+def _arm(qtbot, window) -> None:
+    qtbot.mouseClick(window.measure_tab.arm_button, Qt.MouseButton.LeftButton)
+    qtbot.waitUntil(lambda: window.controller.state == "armed", timeout=10_000)
+
+
+def _hit(qtbot, window, tip: str = "medium") -> None:
+    controller = window.controller
+    before = len(controller.hits)
+    qtbot.mouseClick(window.measure_tab.hammer_buttons[tip], Qt.MouseButton.LeftButton)
+    try:
+        qtbot.waitUntil(lambda: len(controller.hits) == before + 1, timeout=10_000)
+    except Exception:
+        w = controller._worker
+        raise AssertionError(f"{controller.state} {window.banner.history} {w.stats if w else None} {w.device.sim_hits if w and w.device else None}")
+
+
+def _stop(qtbot, window) -> None:
+    qtbot.mouseClick(window.measure_tab.stop_button, Qt.MouseButton.LeftButton)
+    qtbot.waitUntil(lambda: window.controller.state == "idle", timeout=10_000)
+
+
+def test_full_hammer_session_through_the_gui(qtbot, window, tmp_path):
+    controller = window.controller
+    session_path = tmp_path / "hammer.h5"
+    controller.new_session(session_path)
+    _arm(qtbot, window)
+    assert window.measure_tab.hammer_box.isVisible() and window.measure_tab.hammer_box.isEnabled()
+    qtbot.waitUntil(lambda: window.measure_tab.redraw_count > 3, timeout=5_000)  # the live view draws
+
+    for number in range(6):
+        _hit(qtbot, window, ("soft", "medium", "hard")[number % 3] if number else "medium")
+        if number == 2:
+            rejected_index = controller.hits[-1].index
+            window.measure_tab.select_hit(rejected_index)
+            qtbot.mouseClick(window.measure_tab.reject_button, Qt.MouseButton.LeftButton)
+            qtbot.waitUntil(lambda: not controller.hits[rejected_index].verdict.accepted, timeout=5_000)
+    assert len(controller.hits) == 6
+    assert all(entry.automatic.accepted for entry in controller.hits), [e.automatic for e in controller.hits]
+    qtbot.waitUntil(lambda: controller.frf is not None and controller.frf.n_averages == 5, timeout=5_000)
+    assert "accepted 5" in window.measure_tab.counter_label.text()
+    assert "rejected 1" in window.measure_tab.counter_label.text()
+    _stop(qtbot, window)
+
+    # FRF and coherence shown
+    window.tabs.setCurrentWidget(window.frf_tab)
+    frf = controller.frf
+    shown_freq, shown_magnitude = window.frf_tab.h1_curve.xData, window.frf_tab.h1_curve.yData
+    np.testing.assert_allclose(shown_magnitude, np.abs(frf.h1[frf.freq_hz > 0]))
+    shown_coherence = window.frf_tab.coherence_curve.yData
+    band = (shown_freq >= 20) & (shown_freq <= 800)
+    assert np.mean(shown_coherence[band]) > 0.9
+
+    # identification of SD and FOMGF in the background
+    window.tabs.setCurrentWidget(window.identify_tab)
+    window.identify_tab.set_selected_models(["SD", "FOMGF"])
+    qtbot.mouseClick(window.identify_tab.run_button, Qt.MouseButton.LeftButton)
+    qtbot.waitUntil(lambda: not controller.job_active("fit") and len(controller.fits) == 2, timeout=60_000)
+    assert window.identify_tab.table.rowCount() == 2
+    assert window.identify_tab.table.item(0, 1).text() == "FOMGF"  # the simulated film is the paper's FOMGF
+
+    # diagnosis against the session's rig spec
+    window.tabs.setCurrentWidget(window.diagnose_tab)
+    qtbot.mouseClick(window.diagnose_tab.run_button, Qt.MouseButton.LeftButton)
+    qtbot.waitUntil(lambda: not controller.job_active("diagnose"), timeout=60_000)
+    assert controller.diagnosis is not None, window.banner.history
+    assert window.diagnose_tab.findings.count() >= 1
+
+    # save, reopen: the FRF is the one shown before saving
+    shown_h1 = frf.h1.copy()
+    shown_coherence_all = frf.coherence.copy()
+    assert controller.save_session() == session_path
+    controller.new_session()
+    assert controller.frf is None
+    controller.open_session(session_path)
+    np.testing.assert_array_equal(controller.frf.h1, shown_h1)
+    np.testing.assert_array_equal(controller.frf.coherence, shown_coherence_all)
+    assert set(controller.fits) == {"SD", "FOMGF"}
+    assert [entry.verdict.accepted for entry in controller.hits].count(False) == 1
+    assert controller.hits[rejected_index].verdict.overridden
+
+
+def test_device_fault_shows_banner_and_keeps_every_accepted_hit(qtbot, window, tmp_path):
+    controller = window.controller
+    session_path = tmp_path / "fault.h5"
+    controller.new_session(session_path)
+    _arm(qtbot, window)
+    for _ in range(3):
+        _hit(qtbot, window)
+    accepted = controller.accepted_count
+    assert accepted == 3
+    controller.inject_fault("device_removed")
+    qtbot.waitUntil(lambda: window.banner.isVisible() and window.banner.severity == "error", timeout=10_000)
+    qtbot.waitUntil(lambda: controller.state == "idle", timeout=10_000)
+    assert "removed" in window.banner.text
+    assert not window.banner.isWindow()  # non-modal: a strip inside the main window
+    assert window.measure_tab.arm_button.isEnabled()
+    with Session.open(session_path) as stored:
+        assert len(stored.accepted_indices()) == accepted
+
+
+def test_user_decides_pending_hits_when_auto_accept_is_off(qtbot, window, tmp_path):
+    state = window.setup_tab.state()
+    state.auto_accept = False
+    window.setup_tab.set_state(state)
+    controller = window.controller
+    controller.new_session(tmp_path / "manual.h5")
+    _arm(qtbot, window)
+    _hit(qtbot, window)
+    entry = controller.hits[0]
+    assert entry.pending and controller.frf is None
+    assert "waiting for you 1" in window.measure_tab.counter_label.text()
+    qtbot.mouseClick(window.measure_tab.accept_button, Qt.MouseButton.LeftButton)
+    qtbot.waitUntil(lambda: controller.frf is not None, timeout=5_000)
+    assert controller.hits[0].accepted and not controller.hits[0].pending
+    _stop(qtbot, window)
+
+
+def test_setup_is_remembered_between_runs(qtbot, tmp_path):
+    first = MainWindow(_settings(tmp_path), session_dir=tmp_path)
+    qtbot.addWidget(first)
+    state = first.setup_tab.state()
+    state.sample_rate_hz = 51200.0 / 8
+    state.trigger = {**state.trigger, "level_n": 35.0}
+    state.channels[2].enabled = True
+    state.channels[2].sensor_model = "PCB 352C33"
+    state.channels[2].sensitivity = 100.0
+    state.channels[2].units = "mV/g"
+    state.response_channel = "ai2"
+    first.setup_tab.set_state(state)
+    first.close()
+    second = MainWindow(_settings(tmp_path), session_dir=tmp_path)
+    qtbot.addWidget(second)
+    remembered = second.setup_tab.state()
+    assert remembered.sample_rate_hz == 51200.0 / 8
+    assert remembered.trigger["level_n"] == 35.0
+    assert remembered.channels[2].enabled and remembered.channels[2].sensor_model == "PCB 352C33"
+    assert remembered.response_channel == "ai2"
+    assert load_setup(_settings(tmp_path)) == remembered
+    second.close()
+
+
+def test_sensor_picked_from_library_sets_sensitivity_and_invalid_setup_is_named(qtbot, window):
+    tab = window.setup_tab
+    sensor_combo = tab._cell(0, "Sensor")
+    sensor_combo.setCurrentIndex(sensor_combo.findData("PCB 086C03"))
+    assert tab.state().channels[0].sensitivity == 2.25
+    coupling = tab._cell(1, "Coupling")
+    coupling.setCurrentText("DC")
+    assert "coupling" in tab.problem_label.text() and "IEPE" in tab.problem_label.text()
+    qtbot.mouseClick(window.measure_tab.arm_button, Qt.MouseButton.LeftButton)
+    assert window.banner.isVisible() and "coupling" in window.banner.text
+    assert window.controller.state == "idle"
+
+
+def test_sensor_library_holds_the_papers_sensors_and_rejects_bad_files(tmp_path):
+    sensors = {sensor.model: sensor for sensor in load_sensor_library(DEFAULT_SENSOR_LIBRARY)}
+    hammer, accelerometer = sensors["PCB 086C02"], sensors["PCB 352B"]
+    assert (hammer.kind, hammer.sensitivity, hammer.units) == (ChannelKind.FORCE, 11.2, "mV/N")
+    assert (accelerometer.kind, accelerometer.sensitivity, accelerometer.units) == (
+        ChannelKind.ACCELERATION, 10.2, "mV/(m/s^2)"
+    )
+    bad = tmp_path / "bad.toml"
+    bad.write_text('[[sensor]]\nmodel = "X"\ntype = "force"\nsensitivity = 1.0\nunits = "mV/g"\n')
+    with pytest.raises(SettingError) as caught:
+        load_sensor_library(bad)
+    assert "bad.toml" in str(caught.value) and "units" in str(caught.value) and "\n" not in str(caught.value)
+
+
+def test_exports_of_the_frf(qtbot, window, tmp_path):
+    controller = window.controller
+    controller.new_session(tmp_path / "export.h5")
+    _arm(qtbot, window)
+    for _ in range(2):
+        _hit(qtbot, window)
+    _stop(qtbot, window)
+    csv = controller.export_csv(tmp_path / "frf.csv")
+    table = np.loadtxt(csv, delimiter=",", skiprows=1)
+    np.testing.assert_allclose(table[:, 1] + 1j * table[:, 2], controller.frf.h1)
+    uff = controller.export_uff(tmp_path / "frf.uff")
+    assert uff.stat().st_size > 0
+    window.tabs.setCurrentWidget(window.frf_tab)
+    png = window.export_png(tmp_path / "frf.png")
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
