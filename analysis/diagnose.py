@@ -14,16 +14,20 @@ force and exponential windows, weighted by the measured noise, see :mod:`analysi
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Callable
 
 import numpy as np
 
 from analysis.diagnosis.catalog import CATALOG, CANDIDATE_ORDER, AugmentedModel, effect_slots, film_slots
 from analysis.diagnosis.measurement import HitSpectra, QualityNote, hit_spectra
-from analysis.diagnosis.rigspec import spec_from_model
-from analysis.rig import simulate_response
+from analysis.diagnosis.rigspec import model_from_spec, spec_from_model
+from analysis.models import PAPER_MASS_KG
+from analysis.rig import RigSpec, simulate_response
+from drivers.errors import SettingError
 from analysis.spectra import WindowSettings
 from analysis.diagnosis.selection import (
     BIC_MARGIN,
@@ -86,10 +90,27 @@ class Diagnosis:
     chi2_per_point_after: float
     given_model: AugmentedModel
     improved_model: AugmentedModel
+    spectra: HitSpectra
     evidence: Evidence
     wall_time_s: float
     improved_spec: str | None = None
+    spec_notes: list[str] = field(default_factory=list)
     figures: list[str] = field(default_factory=list)
+
+    def replayed_mean(self, model: AugmentedModel | None) -> np.ndarray:
+        """H1 of the recordings (``model`` None) or of ``model`` replayed with the recorded forces."""
+        return _replayed_mean(self.spectra, model)
+
+    def weighted_residual(self, model: AugmentedModel) -> np.ndarray:
+        """χ² per real number at each analysis frequency (replay of ``model`` against the recordings): 1 is noise."""
+        return _evidence_for(self.spectra, model).chi2_per_frequency(model) / (2 * self.evidence.hit_count)
+
+    def per_hit_residual(self, model: AugmentedModel) -> np.ndarray:
+        """χ² per point of each hit (replay of ``model`` against the recordings)."""
+        evidence = _evidence_for(self.spectra, model)
+        return np.array([evidence.chi2(model, np.array([hit])) for hit in range(evidence.hit_count)]) / (
+            2 * len(evidence.freq_hz)
+        )
 
     @property
     def improvement_e(self) -> float:
@@ -117,6 +138,7 @@ class Diagnosis:
             "hits_used": int(self.evidence.hit_count),
             "decay_rate_1_s": self.evidence.decay_rate_1_s,
             "improved_spec": self.improved_spec,
+            "improved_spec_notes": self.spec_notes,
             "figures": self.figures,
             "wall_time_s": self.wall_time_s,
         }
@@ -192,7 +214,7 @@ def diagnose_spectra(
         verdict = "parameters-only"
     else:
         verdict = "consistent"
-    recalibration = _recalibration_table(model, recalibrated) if recalibration_significant else {}
+    recalibration = _recalibration_table(model, current) if recalibration_significant else {}
     chi2_after = current.chi2
     return Diagnosis(
         verdict=verdict,
@@ -208,6 +230,7 @@ def diagnose_spectra(
         chi2_per_point_after=chi2_after / points,
         given_model=model,
         improved_model=current.model,
+        spectra=spectra,
         evidence=evidence,
         wall_time_s=time.monotonic() - started,
     )
@@ -217,13 +240,26 @@ def _model_function(model: AugmentedModel, spectra: HitSpectra) -> Callable[[np.
     return lambda freq_hz, decay_rate_1_s: model.accelerance(freq_hz, decay_rate_1_s, spectra.conditions)
 
 
+def _model_key(model: AugmentedModel) -> tuple:
+    return (model.film.text, model.mass_kg, tuple(sorted(model.film_parameters.items())),
+            tuple(sorted((name, tuple(sorted(values.items()))) for name, values in model.effects.items())))
+
+
 def _nonlinear_replay(spectra: HitSpectra, model: AugmentedModel) -> np.ndarray | None:
     """Per-hit FRFs of the exact nonlinear simulation (cubic film spring) played with the recorded forces, or None
-    when the model is linear (or softening, which the rig cannot simulate)."""
+    when the model is linear (or softening, which the rig cannot simulate). Remembered per model."""
     replay = spectra.replay
     delta_k = model.effects.get("amplitude-nonlinearity", {}).get("delta_k_at_reference_n_per_m", 0.0)
     if replay is None or delta_k <= 0:
         return None
+    key = _model_key(model)
+    if key not in replay.nonlinear_cache:
+        replay.nonlinear_cache[key] = _simulate_nonlinear(spectra, model)
+    return replay.nonlinear_cache[key]
+
+
+def _simulate_nonlinear(spectra: HitSpectra, model: AugmentedModel) -> np.ndarray:
+    replay = spectra.replay
     spec, _ = spec_from_model(model, None, spectra.conditions.reference_impulse_ns)
     forces = replay.forces_n
     responses = np.array([
@@ -239,16 +275,25 @@ def _evidence_for(spectra: HitSpectra, model: AugmentedModel) -> Evidence:
     return Evidence(spectra.correct_for_replay(_model_function(model, spectra), _nonlinear_replay(spectra, model)))
 
 
+def _replayed_mean(spectra: HitSpectra, model: AugmentedModel | None) -> np.ndarray:
+    """H1 (noise-weighted mean over hits) of the recordings, or of ``model`` replayed with the recorded forces."""
+    replay = spectra.replay
+    if replay is None:
+        raise SettingError("diagnosis: these spectra keep no recorded forces to replay a model with")
+    if model is None:
+        per_hit = replay.measured_h
+    else:
+        per_hit = _nonlinear_replay(spectra, model)
+        if per_hit is None:
+            per_hit = replay.replayed(_model_function(model, spectra))
+    weight = 1.0 / replay.measured_variance
+    return (weight * per_hit).sum(axis=0) / weight.sum(axis=0)
+
+
 def replay_rms(spectra: HitSpectra, model: AugmentedModel) -> float:
     """Equation (33) under identical conditions: RMS over the analysis frequencies of |H1 recorded − H1 replayed|,
     in (m/s²)/N (both averaged over hits the same way)."""
-    replay = spectra.replay
-    predicted = (replay.replayed(_model_function(model, spectra)) if replay is not None
-                 else np.broadcast_to(model.accelerance(spectra.freq_hz, spectra.decay_rate_1_s, spectra.conditions),
-                                      spectra.h.shape))
-    measured = replay.measured_h if replay is not None else spectra.h
-    weight = 1.0 / (replay.measured_variance if replay is not None else spectra.variance)
-    difference = (weight * (measured - predicted)).sum(axis=0) / weight.sum(axis=0)
+    difference = _replayed_mean(spectra, None) - _replayed_mean(spectra, model)
     return float(np.sqrt(np.mean(np.abs(difference) ** 2)))
 
 
@@ -260,6 +305,9 @@ def _candidate_fit(
     outcome = best_candidate_fit(evidence, model, identifier)
     if identifier != "amplitude-nonlinearity":
         return outcome, evidence
+    current_chi2 = evidence.chi2(fit(evidence, model, model_slots(model)).model)
+    if current_chi2 - outcome.chi2 < np.log(evidence.point_count):
+        return outcome, evidence  # not even the equivalent linear term pays for itself: no nonlinear replay
     key = "delta_k_at_reference_n_per_m"
     for _ in range(NONLINEAR_ITERATIONS):
         previous = outcome.model.effects[identifier][key]
@@ -304,6 +352,8 @@ def _check_back(
 def _recalibration_table(model: AugmentedModel, outcome: FitOutcome) -> dict[str, dict[str, float]]:
     table = {}
     for index, slot in enumerate(outcome.slots):
+        if slot.owner != "film" and slot.owner not in model.effects:
+            continue  # a term the diagnosis added: reported as a finding
         source = model.film_parameters if slot.owner == "film" else model.effects[slot.owner]
         target = outcome.model.film_parameters if slot.owner == "film" else outcome.model.effects[slot.owner]
         name = slot.name if slot.owner == "film" else f"{slot.owner}.{slot.name}"
@@ -431,4 +481,114 @@ def diagnose_records(
     return diagnosis
 
 
-__all__ = ["Diagnosis", "Finding", "diagnose_records", "diagnose_spectra", "film_slots"]
+@dataclass
+class Recordings:
+    """Hits to diagnose, from a session or a UFF file: records (hits, 2, samples) force N / response m/s²."""
+
+    records: np.ndarray
+    sample_rate_hz: float
+    hit_times_s: np.ndarray
+    window: WindowSettings | None
+    overload: np.ndarray | None
+    rig_spec_toml: str | None
+    source: str
+    quality: list[QualityNote] = field(default_factory=list)
+
+
+def load_recordings(path: str | Path) -> Recordings:
+    """Accepted hits of a gasfilm session (HDF5) or every hit of a UFF 58 file with time records."""
+    path = Path(path)
+    if path.suffix.lower() in (".uff", ".unv"):
+        from analysis.uff import read_uff_time_records
+
+        uff = read_uff_time_records(path)
+        return Recordings(uff.records, uff.sample_rate_hz, np.asarray(uff.start_times_s, float), None, None, None,
+                          str(path))
+    from analysis.session import Session
+
+    with Session.open(path) as session:
+        stored = session.hits()
+        accepted = [hit for hit in stored if hit.verdict.accepted]
+        rejected = [hit for hit in stored if not hit.verdict.accepted]
+        if len(accepted) < 2:
+            raise SettingError(f"{path}: {len(accepted)} accepted hit(s); the diagnosis needs at least 2")
+        records = np.stack([np.stack((hit.data[hit.force_channel], hit.data[hit.response_channel]))
+                            for hit in accepted])
+        times = np.array([hit.start_time_s + hit.trigger_index / hit.sample_rate_hz for hit in accepted])
+        overload = np.stack([hit.overload[[hit.force_channel, hit.response_channel]] for hit in accepted])
+        window_settings = session.settings.get("window")
+        window = None
+        if isinstance(window_settings, dict):
+            known = {key: window_settings[key] for key in ("force_window_ms", "force_taper_ms",
+                                                            "exponential_end_fraction") if key in window_settings}
+            window = WindowSettings(**known)
+        quality = []
+        if rejected:
+            reasons: dict[str, int] = {}
+            for hit in rejected:
+                for reason in hit.verdict.reasons:
+                    reasons[reason] = reasons.get(reason, 0) + 1
+            summary = ", ".join(f"{reason}: {count}" for reason, count in sorted(reasons.items()))
+            quality.append(QualityNote("rejected hits", f"{len(rejected)} hit(s) rejected in the session ({summary}); "
+                                       f"only accepted hits are compared", hits=tuple(h.index for h in rejected)))
+        return Recordings(records, session.sample_rate_hz, times, window, overload, session.rig_spec_toml,
+                          str(path), quality)
+
+
+def nominal_spec(recordings: Recordings, mass_kg: float) -> RigSpec:
+    """A spring-damper film on ``mass_kg`` with k and c read off the recordings' resonance (peak and height)."""
+    records = recordings.records
+    force = np.fft.rfft(records[:, 0], axis=1)
+    response = np.fft.rfft(records[:, 1], axis=1)
+    freq_hz = np.fft.rfftfreq(records.shape[-1], 1.0 / recordings.sample_rate_hz)
+    h1 = (response * np.conj(force)).sum(axis=0) / (np.abs(force) ** 2).sum(axis=0)
+    band = (freq_hz >= 5.0) & (freq_hz <= 0.4 * recordings.sample_rate_hz)
+    peak = np.flatnonzero(band)[np.argmax(np.abs(h1[band]))]
+    omega = 2 * np.pi * freq_hz[peak]
+    return RigSpec.nominal("SD", mass_kg=mass_kg,
+                           parameters={"k": mass_kg * omega**2, "eta": omega / np.abs(h1[peak])})
+
+
+def diagnose(
+    source: str | Path | Recordings,
+    rig_spec: RigSpec | None = None,
+    mass_kg: float | None = None,
+    out_dir: str | Path | None = None,
+    band_hz: tuple[float, float] | None = None,
+    progress: Callable[[str], None] = _silent,
+) -> Diagnosis:
+    """Diagnose a session or UFF file against a rig spec (default: a spring-damper film on ``mass_kg``, its k and c
+    then found by the recalibration). With ``out_dir``: writes the improved spec TOML and the figures there."""
+    started = time.monotonic()
+    recordings = source if isinstance(source, Recordings) else load_recordings(source)
+    if rig_spec is None:
+        rig_spec = nominal_spec(recordings, mass_kg if mass_kg is not None else PAPER_MASS_KG)
+        progress(f"no rig spec given: spring-damper film on {rig_spec.mass_kg:g} kg "
+                 f"(k ≈ {rig_spec.film_parameters['k']:.3g} N/m, c ≈ {rig_spec.film_parameters['eta']:.3g} N·s/m "
+                 f"from the resonance)")
+    elif mass_kg is not None:
+        rig_spec = dataclasses.replace(rig_spec, mass_kg=mass_kg)
+    spectra = hit_spectra(recordings.records, recordings.sample_rate_hz, recordings.window,
+                          hit_times_s=recordings.hit_times_s, overload=recordings.overload, band_hz=band_hz)
+    spectra.quality[:0] = recordings.quality
+    reference_impulse_ns = spectra.conditions.reference_impulse_ns
+    model = model_from_spec(rig_spec, reference_impulse_ns)
+    diagnosis = diagnose_spectra(spectra, model, progress)
+    improved, notes = spec_from_model(diagnosis.improved_model, rig_spec, reference_impulse_ns)
+    diagnosis.spec_notes = notes
+    if out_dir is not None:
+        out = Path(out_dir)
+        out.mkdir(parents=True, exist_ok=True)
+        spec_path = out / "improved-rig.toml"
+        header = "".join(f"# {note}\n" for note in notes)
+        spec_path.write_text(header + improved.to_toml(), encoding="utf-8")
+        diagnosis.improved_spec = str(spec_path)
+        from analysis.diagnosis.plots import write_figures
+
+        diagnosis.figures = write_figures(diagnosis, out)
+    diagnosis.wall_time_s = time.monotonic() - started
+    return diagnosis
+
+
+__all__ = ["Diagnosis", "Finding", "Recordings", "diagnose", "diagnose_records", "diagnose_spectra",
+           "load_recordings", "nominal_spec", "replay_rms"]

@@ -248,6 +248,12 @@ class HammerSpec:
     double_hit_rate: float = 0.0
 
 
+DEFAULT_FORCE_SENSOR = SensorSpec(DEFAULT_FORCE_SENSITIVITY_MV_PER_N, DEFAULT_FORCE_NOISE_N_PER_SQRT_HZ)
+DEFAULT_ACCELERATION_SENSOR = SensorSpec(
+    DEFAULT_ACCELERATION_SENSITIVITY_MV_PER_M_S2, DEFAULT_ACCELERATION_NOISE_M_S2_PER_SQRT_HZ
+)
+_DEFAULT_SENSORS = {"force": DEFAULT_FORCE_SENSOR, "acceleration": DEFAULT_ACCELERATION_SENSOR}
+
 _SENSOR_KEYS = {
     "force": ("sensitivity_mv_per_n", "noise_n_per_sqrt_hz"),
     "acceleration": ("sensitivity_mv_per_m_s2", "noise_m_s2_per_sqrt_hz"),
@@ -262,10 +268,8 @@ class RigSpec:
     mass_kg: float
     film_model: str
     film_parameters: Mapping[str, float]
-    force_sensor: SensorSpec = SensorSpec(DEFAULT_FORCE_SENSITIVITY_MV_PER_N, DEFAULT_FORCE_NOISE_N_PER_SQRT_HZ)
-    acceleration_sensor: SensorSpec = SensorSpec(
-        DEFAULT_ACCELERATION_SENSITIVITY_MV_PER_M_S2, DEFAULT_ACCELERATION_NOISE_M_S2_PER_SQRT_HZ
-    )
+    force_sensor: SensorSpec = DEFAULT_FORCE_SENSOR
+    acceleration_sensor: SensorSpec = DEFAULT_ACCELERATION_SENSOR
     hammer: HammerSpec | None = None
     effects: tuple[Effect, ...] = ()
     source: str = field(default="rig spec", compare=False)
@@ -285,7 +289,7 @@ class RigSpec:
         parameters: Mapping[str, float] | None = None,
         effects: Sequence[Effect] = (),
     ) -> "RigSpec":
-        """The paper's rig: ``film`` is a paper model name (Table 1 parameters) or a network text with ``parameters``."""
+        """The paper's rig: ``film`` is a paper model name (Table 1 parameters) or a network text + ``parameters``."""
         model = get_model(film)
         if parameters is None:
             if model.name not in PAPER_TABLE1:
@@ -429,10 +433,9 @@ def _spec_from_table(table: Mapping[str, Any], source: str) -> RigSpec:
     }
     sensors = _table(table, "sensors", source)
     _check_keys(sensors, CHANNELS, f"{source} [sensors]")
-    defaults = RigSpec.__dataclass_fields__
     sensor_specs = {}
     for channel in CHANNELS:
-        default: SensorSpec = defaults[f"{channel}_sensor"].default
+        default = _DEFAULT_SENSORS[channel]
         sensor = _table(sensors, channel, f"{source} [sensors]")
         sensitivity_key, noise_key = _SENSOR_KEYS[channel]
         _check_keys(sensor, (sensitivity_key, noise_key), f"{source} [sensors.{channel}]")
@@ -512,7 +515,8 @@ def _check_effect(effect: Effect, where: str) -> None:
     try:
         effect.validate()
     except EffectValueError as error:
-        raise SettingError(f"{where} ({type_name}) key '{error.key}' = {getattr(effect, error.key)!r}: {error}") from None
+        value = getattr(effect, error.key)
+        raise SettingError(f"{where} ({type_name}) key '{error.key}' = {value!r}: {error}") from None
 
 
 def _validate_spec(spec: RigSpec) -> None:
@@ -619,41 +623,65 @@ def mover_displacement_spectrum(
 ) -> np.ndarray:
     """The mover's displacement spectrum (rfft grid of ``n_samples``) for a force spectrum on the same grid.
 
-    Linear films: ``X = F / Z_total``. With cubic stiffness, the periodic problem
-    ``Z_total·X + FFT(k3·x³) = F`` is solved by Newton's method with BiCGSTAB on matrix-free Jacobian products
-    (``J v = v + R·FFT(3·k3·x²·v)``, ``R = 1/Z_total``); the grid must be long enough for the response to decay.
+    Linear films: ``X = F / Z_total``. With cubic stiffness, the periodic problem ``x + R*(k3·x³) = R*f``
+    (``R = 1/Z_total``, ``*`` a circular convolution done by FFT) is solved by damped Newton steps with BiCGSTAB on
+    matrix-free Jacobian products ``J v = v + R*(3·k3·x²·v)``, continued from the linear response in steps of k3
+    when the full hardening is too strong to reach at once. The grid must be long enough for the response to decay.
     """
     receptance = 1.0 / rig_dynamic_stiffness(spec, s, time_s)
     linear = force_spectrum * receptance
     k3 = spec.cubic_stiffness_n_per_m3
     if k3 == 0.0:
         return linear
-    x = scipy.fft.irfft(linear, n_samples)
-    scale = float(np.max(np.abs(x))) or 1.0
+    x_linear = scipy.fft.irfft(linear, n_samples)
+    scale = float(np.max(np.abs(x_linear))) or 1.0
 
     def apply_receptance(signal: np.ndarray) -> np.ndarray:
         return scipy.fft.irfft(receptance * scipy.fft.rfft(signal), n_samples)
 
-    def residual(displacement: np.ndarray) -> np.ndarray:
-        return displacement - x + apply_receptance(k3 * displacement**3)
+    def residual_norm(displacement: np.ndarray, k3_now: float) -> tuple[np.ndarray, float]:
+        residual = displacement - x_linear + apply_receptance(k3_now * displacement**3)
+        return residual, float(np.max(np.abs(residual))) / scale
 
-    displacement = x.copy()
-    for _ in range(30):
-        error = residual(displacement)
-        if np.max(np.abs(error)) <= 1e-12 * scale:
-            return scipy.fft.rfft(displacement)
-        local_stiffness = 3.0 * k3 * displacement**2
-        jacobian = LinearOperator(
-            (n_samples, n_samples), matvec=lambda v: v + apply_receptance(local_stiffness * v), dtype=float
-        )
-        step, _ = bicgstab(jacobian, -error / scale, rtol=1e-12, atol=0.0, maxiter=200)
-        displacement = displacement + step * scale
-        if not np.all(np.isfinite(displacement)):
-            break
-    raise GasfilmError(
-        f"{spec.source}: cubic-stiffness k3 = {k3:.3g} N/m³ is too strong for this force; the nonlinear response "
-        f"does not converge"
-    )
+    def newton(k3_now: float, displacement: np.ndarray) -> np.ndarray | None:
+        residual, norm = residual_norm(displacement, k3_now)
+        for _ in range(12):  # a good continuation step converges fast; a slow one is better halved
+            if norm <= 1e-12:
+                return displacement
+            local_stiffness = 3.0 * k3_now * displacement**2
+            jacobian = LinearOperator(
+                (n_samples, n_samples), matvec=lambda v: v + apply_receptance(local_stiffness * v), dtype=float
+            )
+            with np.errstate(all="ignore"):
+                step, _ = bicgstab(jacobian, -residual / scale, rtol=min(0.1, norm), atol=0.0, maxiter=200)
+            if not np.all(np.isfinite(step)):
+                return None
+            damping = 1.0
+            while damping >= 1 / 64:
+                trial = displacement + damping * scale * step
+                trial_residual, trial_norm = residual_norm(trial, k3_now)
+                if trial_norm < norm:
+                    break
+                damping /= 2
+            else:
+                return None
+            displacement, residual, norm = trial, trial_residual, trial_norm
+        return None
+
+    solved, fraction, increment = x_linear, 0.0, 1.0
+    while fraction < 1.0:
+        target = min(1.0, fraction + increment)
+        result = newton(target * k3, solved)
+        if result is None:
+            increment /= 2
+            if increment < 1 / 256:
+                raise GasfilmError(
+                    f"{spec.source}: cubic-stiffness k3 = {k3:.3g} N/m³ is too strong for this force; the nonlinear "
+                    f"response does not converge"
+                )
+            continue
+        solved, fraction, increment = result, target, 2 * increment
+    return scipy.fft.rfft(solved)
 
 
 def simulate_response(

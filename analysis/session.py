@@ -35,7 +35,6 @@ SCHEMA_VERSION = 1
 FORMAT_NAME = "gasfilm-session"
 REASONS_LENGTH = 256
 SAMPLES_PER_CHUNK = 16384
-STATUSES = ("recording", "complete", "aborted", "interrupted")
 
 
 class SessionError(GasfilmError):
@@ -56,6 +55,10 @@ class StoredHit:
     response_channel: int
     capture_index: int  # the hit's index as numbered by the capture that produced it
     verdict: Any  # analysis.validation.Verdict
+
+    @property
+    def trigger_time_s(self) -> float:
+        return self.start_time_s + self.trigger_index / self.sample_rate_hz
 
     def as_hit_record(self) -> Any:
         """The stored hit as an :class:`analysis.capture.HitRecord` (for re-validation)."""
@@ -92,6 +95,14 @@ def to_jsonable(value: Any) -> Any:
     if isinstance(value, Path):
         return str(value)
     return value
+
+
+def settings_from_json(values: Any, cls: type) -> Any:
+    """A settings dataclass from its stored JSON form; defaults for missing fields, unknown fields ignored."""
+    if not isinstance(values, Mapping):
+        return cls()
+    names = {field.name for field in dataclasses.fields(cls)}
+    return cls(**{name: value for name, value in values.items() if name in names})
 
 
 def _json_dumps(value: Any) -> str:
@@ -239,6 +250,15 @@ class _WriterLock:
                 f"{path}: another process is writing this session; wait until it has finished"
             ) from None
 
+    @staticmethod
+    def held_elsewhere(path: Path) -> bool:
+        """Whether a live process holds the writer lock of ``path`` (probed without keeping it)."""
+        try:
+            _WriterLock(path).release()
+        except SessionError:
+            return True
+        return False
+
     def release(self) -> None:
         if self._fd >= 0:
             os.close(self._fd)
@@ -303,8 +323,9 @@ class Session:
         replaced = _WriterLock(path) if path.exists() else None  # never replace a session being recorded
         building = path.with_name(f".{path.name}.{os.getpid()}.creating")
         file = _h5(building, "w")
-        lock = _WriterLock(building)
+        lock = None
         try:
+            lock = _WriterLock(building)
             file.attrs["format"] = FORMAT_NAME
             file.attrs["schema_version"] = SCHEMA_VERSION
             file.attrs["created_utc"] = _utc_now()
@@ -346,7 +367,8 @@ class Session:
             os.replace(building, path)
         except BaseException:
             file.close()
-            lock.release()
+            if lock is not None:
+                lock.release()
             building.unlink(missing_ok=True)
             raise
         finally:
@@ -381,7 +403,7 @@ class Session:
                     file = _h5(path, "r", swmr=True)
                 except OSError as swmr_error:
                     raise _describe_open_failure(path, swmr_error) from None
-                return cls(path, file, recovered=True)
+                return cls(path, file, recovered=not _WriterLock.held_elsewhere(path))
             try:
                 recovered_lock = _recover(path)
             finally:
@@ -529,6 +551,10 @@ class Session:
         """Processing settings as stored (plain JSON values)."""
         return {key: json.loads(value) for key, value in self._file["settings"].attrs.items()}
 
+    def settings_as(self, key: str, cls: type) -> Any:
+        """The stored settings under ``key`` as a ``cls`` dataclass (``cls()`` when none were stored)."""
+        return settings_from_json(self.settings.get(key), cls)
+
     def update_settings(self, settings: Mapping[str, Any]) -> None:
         """Store (or replace) processing settings by key."""
         self._structural()
@@ -540,10 +566,11 @@ class Session:
 
     @property
     def hit_count(self) -> int:
-        """Hits committed to the file (a row in the hit table, written after the hit's record)."""
-        if self._file.swmr_mode and not self.writable:
-            self._table.refresh()
-            self._data.refresh()
+        """Hits committed to the file (a row in the hit table, written after the hit's record).
+
+        A read-only view of a session being recorded shows the hits committed when it was opened; open it again to
+        see newer ones. (``Dataset.refresh`` is not used: with HDF5 2.0.0 it returned wrong table rows from a killed
+        writer's file after a partial read.)"""
         return min(self._table.shape[0], self._data.shape[0])
 
     @property
@@ -589,7 +616,10 @@ class Session:
         return index
 
     def _rows(self) -> np.ndarray:
-        return self._table[: self.hit_count]
+        try:
+            return self._table[: self.hit_count]
+        except OSError as error:
+            raise SessionError(f"{self.path}: damaged session: the hit table cannot be read ({error})") from None
 
     def _verdict(self, row: np.void) -> Any:
         from analysis.validation import Verdict

@@ -311,13 +311,15 @@ def import_uff_session(
     uff_path: str | Path,
     session_path: str | Path,
     validation: Any = None,
+    window: Any = None,
     force_dof: Dof | None = None,
     response_dof: Dof | None = None,
     trigger_level_n: float | None = None,
     overwrite: bool = False,
 ) -> Path:
     """Store the hits of a UFF file as a new session; each hit is validated with ``validation``
-    (:class:`analysis.validation.ValidationSettings`, default settings when None)."""
+    (:class:`analysis.validation.ValidationSettings`, default settings when None) and ``window``
+    (:class:`analysis.spectra.WindowSettings`, whose exponential counts in the decay check)."""
     from analysis.capture import HitRecord
     from analysis.session import Session
     from analysis.validation import ValidationSettings, validate_hit
@@ -329,6 +331,7 @@ def import_uff_session(
     config = default_hammer_and_accelerometer(time_records.sample_rate_hz)
     settings = {
         "validation": validation,
+        "window": window,
         "source": {
             "uff_file": str(time_records.path),
             "force_dof": time_records.force_dof,
@@ -348,5 +351,5 @@ def import_uff_session(
                 force_channel=0,
                 response_channel=1,
             )
-            session.append_hit(hit, validate_hit(hit, validation))
+            session.append_hit(hit, validate_hit(hit, validation, window=window))
     return Path(session_path)

@@ -10,11 +10,12 @@ exact. Sampling the continuous pulse directly would alias its high-frequency con
 into a several-percent FRF error at low frequency; that does not happen here.
 
 Each hit's decimated record (long enough to decay) is overlap-added into the stream, so signals are continuous
-across chunks and hits may overlap. Per channel, the stream then gets, in order: sensor noise and mains interference
-(in volts at the sensor's true sensitivity from the rig spec), the AC-coupling high-pass (first order, 0.5 Hz, state
-carried across chunks), the module noise floor, ±5 V clipping with the overload flag, 24-bit quantisation, and the
-conversion back to N or m/s² with the *configured* sensitivity (as the real module does). Same seed → same samples,
-whatever the chunk sizes.
+across chunks and hits may overlap. Per channel, the stream then gets, in order: mains interference, the conversion
+to volts with the sensor's true sensitivity (rig spec), the AC-coupling high-pass (first order, 0.5 Hz, the same on
+every channel, state carried across chunks), white sensor and module noise, ±5 V clipping with the overload flag,
+24-bit quantisation, and the conversion back to N or m/s² with the *configured* sensitivity (as the real module
+does). Same seed → same samples, whatever the chunk sizes: hits come from their own random stream and every channel's
+noise from its own.
 """
 
 from __future__ import annotations
@@ -80,7 +81,7 @@ DOUBLE_HIT_FRACTION = (0.2, 0.5)
 def half_sine_spectrum(freq_hz: np.ndarray, width_s: float) -> np.ndarray:
     """Fourier transform (N·s per N of peak) of a half-sine pulse ``sin(πt/T)`` on ``0 ≤ t ≤ T``, for ``f ≥ 0``.
 
-    ``P(ω) = πT·e^{-jωT/2}·cos(ωT/2)/(π² − ω²T²)·2``, written with ``sinc`` so it stays finite at ``ω = π/T``.
+    ``P(ω) = 2πT·e^{-jωT/2}·cos(ωT/2)/(π² − ω²T²)``, written with ``sinc`` so it stays finite at ``ω = π/T``.
     """
     u = np.pi * np.asarray(freq_hz, dtype=float) * width_s  # ωT/2
     return np.pi * width_s * np.exp(-1j * u) * np.sinc(0.5 - u / np.pi) / (np.pi + 2 * u)
@@ -98,7 +99,10 @@ def anti_alias_response(freq_hz: np.ndarray, sample_rate_hz: float) -> np.ndarra
 
 @dataclass(frozen=True)
 class SimulatedHit:
-    """A true impact: when the hammer touched (s since start), its peak force, tip, and whether it bounced."""
+    """A true impact: when the hammer touched (s since start), its peak force, tip, and whether it bounced.
+
+    The samples show the impact :attr:`SimulatedNI9234.sim_input_delay_s` later (the module's filter delay).
+    """
 
     time_s: float
     peak_force_n: float
@@ -120,10 +124,11 @@ class SimulatedNI9234:
 
     ``rig``: a spec, a TOML path, or ``None`` for the paper's FOMGF rig. ``pacing="realtime"`` makes ``read`` wait
     for the samples as the real module would; ``"fast"`` delivers at once. ``hit_interval_s=(lo, hi)`` hits at
-    uniformly random intervals, ``None`` only on demand (:meth:`sim_hit`). ``tip``, ``force_n``, ``force_spread``
-    (uniform ± fraction) and ``double_hit_rate`` default to the spec's ``[hammer]`` table, then to
-    medium / 200 N / 0.2 / 0. ``noise=False`` turns sensor and module noise off, ``quantize=False`` the 24-bit
-    quantisation. ``buffer_s`` is how much unread data the device holds before it overflows (realtime pacing).
+    uniformly random intervals (the first after half of one), ``None`` only on demand (:meth:`sim_hit`).
+    ``tip``, ``force_n``, ``force_spread`` (uniform ± fraction) and ``double_hit_rate`` default to the spec's
+    ``[hammer]`` table, then to medium / 200 N / 0.2 / 0. ``noise=False`` turns sensor and module noise off,
+    ``quantize=False`` the 24-bit quantisation. ``buffer_s`` is how much unread data the device holds before it
+    overflows (realtime pacing). Until :meth:`configure`, the setup is the paper's hammer + accelerometer.
     """
 
     name = "sim"
@@ -391,7 +396,8 @@ class SimulatedNI9234:
         aa = anti_alias_response(freq_hz, fs)
         records = np.empty((2, n_out))
         for row, (channel, spectrum) in enumerate((("force", force_spectrum), ("acceleration", acceleration_spectrum))):
-            measured = spectrum * aa * channel_transfer(self.rig, channel, s) * fs  # continuous → sampled scale
+            # × fs: from the continuous spectrum (N·s) to the DFT of the sampled signal
+            measured = spectrum * aa * channel_transfer(self.rig, channel, s) * fs
             records[row] = scipy.fft.irfft(self._fold_to_sample_rate(measured, n_out), n_out)
         self._contributions.append((start_index, records))
         hit = SimulatedHit(hit_time_s, max(p.peak_force_n for p in pulses), tip, double,

@@ -9,14 +9,12 @@ import sys
 
 import h5py
 import numpy as np
-import pytest
 import pyuff
 
 from analysis.rig import RigSpec, rig_accelerance
 from analysis.session import Session
 from analysis.spectra import compute_frf
 from app import cli
-from drivers.errors import DeviceError
 from drivers.simulated import SimulatedNI9234
 from test_uff import time_record, write_uff
 
@@ -76,10 +74,14 @@ def test_acquire_append_replay_export(tmp_path, capsys):
         assert session.status == "complete"
 
     retriggered = tmp_path / "retriggered.h5"
-    status, out, err = gasfilm(capsys, "replay", path, "--trigger-n", 60, "--record-s", 0.2, "--out", retriggered)
+    status, out, err = gasfilm(capsys, "replay", path, "--trigger-n", 60, "--out", retriggered, "--json")
     assert status == 0, err
-    with Session.open(retriggered) as session:
-        assert session.record_samples == int(0.2 * RATE_HZ)
+    assert json.loads(out)["records_without_trigger"] == 0
+    with Session.open(retriggered) as session, Session.open(path) as original:
+        assert session.hit_count == original.hit_count
+        assert session.record_samples == original.record_samples - int(0.01 * RATE_HZ)  # one pre-trigger shorter
+        for new, old in zip(session.hits(), original.hits()):
+            assert new.trigger_index == int(0.01 * RATE_HZ) and new.trigger_time_s >= old.trigger_time_s
         assert session.settings["trigger"]["level_n"] == 60
         replayed = session.read_frf()
         np.testing.assert_allclose(replayed.h1, compute_frf(session.accepted_records(), RATE_HZ).h1)

@@ -153,10 +153,11 @@ def test_linear_effects_in_the_accelerance():
     z_film = PAPER_MODELS["SD"].stiffness(1j * omega, PAPER_TABLE1["SD"])
     heavier = base.with_effects(AddedMass(0.5))
     np.testing.assert_allclose(rig_accelerance(heavier, FREQ_HZ), -(omega**2) / (z_film - 25.55 * omega**2))
+    plain = rig_accelerance(base, FREQ_HZ)
     late = base.with_effects(ChannelDelay("acceleration", 1e-4))
-    np.testing.assert_allclose(rig_accelerance(late, FREQ_HZ), rig_accelerance(base, FREQ_HZ) * np.exp(-1j * omega * 1e-4))
+    np.testing.assert_allclose(rig_accelerance(late, FREQ_HZ), plain * np.exp(-1j * omega * 1e-4))
     early = base.with_effects(ChannelDelay("force", 1e-4))
-    np.testing.assert_allclose(rig_accelerance(early, FREQ_HZ), rig_accelerance(base, FREQ_HZ) * np.exp(1j * omega * 1e-4))
+    np.testing.assert_allclose(rig_accelerance(early, FREQ_HZ), plain * np.exp(1j * omega * 1e-4))
     drifting = base.with_effects(Drift(-0.1))
     np.testing.assert_allclose(
         rig_accelerance(drifting, FREQ_HZ, time_s=1800.0), -(omega**2) / (0.95 * z_film - 25.05 * omega**2)

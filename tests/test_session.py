@@ -292,13 +292,14 @@ def test_live_session_can_be_read_but_not_taken_over(tmp_path):
             Session.open(path, "a")
         with pytest.raises(SessionError, match="another process is writing this session"):
             new_session(path, overwrite=True)
-        with Session.open(path) as follower:
-            assert follower.hit_count == 2
-            writer.stdin.write("\n")
-            writer.stdin.flush()
-            assert writer.stdout.readline().strip() == "three"
-            assert follower.hit_count == 3  # followed live, SWMR
-            assert [v.accepted for v in follower.verdicts()] == [True, True, False]
+        with Session.open(path) as reader:
+            assert reader.status == "recording" and not reader.recovered
+            assert reader.hit_count == 2 and reader.accepted_records().shape == (2, 2, 2560)
+        writer.stdin.write("\n")
+        writer.stdin.flush()
+        assert writer.stdout.readline().strip() == "three"
+        with Session.open(path) as reader:  # read while recording, in SWMR mode
+            assert [v.accepted for v in reader.verdicts()] == [True, True, False]
         writer.stdin.write("\n")
         writer.stdin.flush()
         assert writer.wait(30) == 0

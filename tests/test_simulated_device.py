@@ -7,6 +7,7 @@ import warnings
 
 import numpy as np
 import pytest
+import scipy.signal
 
 from analysis.models import PAPER_MASS_KG, PAPER_MODELS, PAPER_TABLE1, accelerance
 from analysis.rig import (
@@ -26,6 +27,7 @@ from drivers.errors import (
     BufferOverflowError,
     DeviceRemovedError,
     OpenSensorError,
+    ReadTimeoutError,
     SettingError,
 )
 from drivers.interface import (
@@ -111,6 +113,27 @@ def test_sampling_the_pulse_directly_would_fail_the_acceptance():
     np.testing.assert_allclose(np.abs(mid), width_s / 2)
 
 
+def test_module_chain_is_flat_to_045_fs_with_one_group_delay_on_both_channels():
+    """A hard-tip hit, noise-free: recorded force / true pulse spectrum is the AA filter (and the 0.5 Hz coupling)."""
+    spec = RigSpec.nominal("SD")
+    device = _device(spec, seed=1, hit_interval_s=None, noise=False, quantize=False, tip="hard")
+    _read_seconds(device, 0.1)
+    hit = device.sim_hit(force_n=100.0)
+    data = _read_seconds(device, 2.0)
+    freq_hz = np.fft.rfftfreq(data.shape[1], 1 / FS_HZ)
+    band = (freq_hz >= 50.0) & (freq_hz <= 0.45 * FS_HZ)
+    _, coupling = scipy.signal.freqz(*scipy.signal.butter(1, 0.5, "highpass", fs=FS_HZ), worN=freq_hz[band], fs=FS_HZ)
+    true_force = 100.0 * half_sine_spectrum(freq_hz[band], 0.25e-3) * FS_HZ * coupling
+    delay_s = (hit.time_s - 0.1) + device.sim_input_delay_s
+    chain = np.fft.rfft(data[0])[band] / true_force * np.exp(2j * np.pi * freq_hz[band] * delay_s)
+    np.testing.assert_allclose(chain, 1.0, atol=1e-6)  # flat, zero phase after the input delay 38.4/fs + 3 µs
+    response = np.fft.rfft(data[1])[band] / (true_force * rig_accelerance(spec, freq_hz[band]))
+    np.testing.assert_allclose(response * np.exp(2j * np.pi * freq_hz[band] * delay_s), 1.0, atol=1e-6)
+    stop = freq_hz >= 0.55 * FS_HZ  # above the stopband edge nothing is left but what aliased from beyond fs
+    assert np.abs(np.fft.rfft(data[0])[freq_hz >= 0.5 * FS_HZ - 1]).max() < 1e-12 * np.abs(true_force).max()
+    assert not stop.any()  # fs/2 < 0.55·fs: the record's spectrum ends at fs/2, inside the transition band
+
+
 def test_linear_effects_are_played_as_rig_accelerance_says():
     """A rig with an extra mode, added mass, a channel delay and drift: each hit's A/F is that hit's accelerance."""
     spec = RigSpec.nominal("FOMGF").with_effects(
@@ -184,6 +207,9 @@ def test_double_hit_rate_is_roughly_honoured_and_visible():
     assert len(hits) > 200
     fraction = np.mean([hit.double for hit in hits])
     assert 0.2 < fraction < 0.4
+    intervals = np.diff([hit.time_s for hit in hits])
+    assert intervals.min() >= 0.05 and intervals.max() <= 0.1
+    assert all(0.8 * 200.0 <= hit.peak_force_n <= 1.2 * 200.0 for hit in hits)
     never = _device(None, seed=4, hit_interval_s=(0.05, 0.1), double_hit_rate=0.0)
     _read_seconds(never, 5.0)
     assert not any(hit.double for hit in never.sim_hits)
@@ -252,6 +278,11 @@ def test_realtime_pacing_blocks_and_overflows_when_the_reader_falls_behind():
     time.sleep(0.5)
     with pytest.raises(BufferOverflowError, match="fell behind"):
         device.read(out)
+    patient = _device(None, pacing="realtime")
+    started = time.monotonic()
+    with pytest.raises(ReadTimeoutError, match="did not arrive"):
+        patient.read(np.empty((2, int(2 * FS_HZ))), timeout_s=0.1)
+    assert 0.09 < time.monotonic() - started < 1.0
 
 
 def test_noise_and_quantisation_of_the_module_chain():

@@ -27,6 +27,8 @@ from drivers.errors import SettingError
 
 MAINS_BASES_HZ = (50.0, 60.0)
 QUIET_MARGIN_S = 0.001
+TAIL_FRACTION = 0.25
+MAINS_HARMONICS = 20
 
 
 @dataclass
@@ -103,6 +105,7 @@ class Replay:
     n_samples: int
     sample_rate_hz: float
     decay_rate_1_s: float
+    nonlinear_cache: dict = field(default_factory=dict)  # model key → replayed FRFs of the exact nonlinear rig
 
     def replayed(self, model_accelerance: Callable[[np.ndarray, float], np.ndarray]) -> np.ndarray:
         """Per-hit FRFs (hits, G) of the model played with each hit's recorded force, windowed like the recording."""
@@ -233,6 +236,41 @@ def hit_spectra(
             f"diagnosis records: only {max(quiet_samples, 0)} quiet samples before the hit; the noise cannot be "
             f"measured (record at least {16 / sample_rate_hz * 1e3 + QUIET_MARGIN_S * 1e3:.1f} ms before the hit)"
         )
+    # quiet samples to measure the noise: the record tails when every response has decayed, else the pre-trigger
+    tail_start = int((1 - TAIL_FRACTION) * n_samples)
+    tail_rms = np.sqrt(np.mean(records[:, 1, tail_start:] ** 2, axis=1))
+    pretrigger_rms = np.sqrt(np.mean(records[:, 1, :quiet_samples] ** 2, axis=1)) + 1e-30
+    truncated = np.flatnonzero(tail_rms > 3 * pretrigger_rms)
+    mains_base: float | None = None
+    mains_harmonics: list[float] = []
+    if truncated.size:
+        quality.append(
+            QualityNote(
+                "truncation",
+                f"the response has not decayed by the end of the record in {truncated.size} hit(s): leakage is "
+                f"controlled only by the exponential window (the replay goes through the same window); the noise is "
+                f"measured before the hits",
+                hits=tuple(int(used[i]) for i in truncated),
+            )
+        )
+        quiet_slice = slice(0, quiet_samples)
+    else:
+        records, mains_base, mains_harmonics = _remove_mains(records, tail_start, sample_rate_hz,
+                                                             MAINS_HARMONICS * max(MAINS_BASES_HZ))
+        if mains_base is not None:
+            quality.append(
+                QualityNote(
+                    "interference",
+                    f"mains interference at {mains_base:.0f} Hz"
+                    + (f" and harmonics ({', '.join(f'{h:.0f}' for h in mains_harmonics[1:])} Hz)"
+                       if len(mains_harmonics) > 1 else "")
+                    + ": removed from every record, and the lines left out of the comparison",
+                    band_hz=(min(mains_harmonics), max(mains_harmonics)),
+                )
+            )
+        quiet_slice = slice(tail_start, n_samples)
+    quiet_force = records[:, 0, quiet_slice]
+    quiet_response = records[:, 1, quiet_slice]
     window = window or default_window(records, sample_rate_hz)
     if window.force_window_ms is None or window.exponential_end_fraction is None:
         fallback = default_window(records, sample_rate_hz)
@@ -250,8 +288,8 @@ def hit_spectra(
     sum_w2_response = np.sum(exponential**2, axis=1)
     full_freq_hz = np.fft.rfftfreq(n_samples, 1.0 / sample_rate_hz)
 
-    noise_force = _noise_periodogram(records[:, 0], quiet_samples, full_freq_hz, sample_rate_hz)
-    noise_response = _noise_periodogram(records[:, 1], quiet_samples, full_freq_hz, sample_rate_hz)
+    noise_force = _noise_spectrum(quiet_force, full_freq_hz, sample_rate_hz)
+    noise_response = _noise_spectrum(quiet_response, full_freq_hz, sample_rate_hz)
     floor = 1e-30
     force_power = np.abs(force_spectra) ** 2 + floor
     h_full = response_spectra / (force_spectra + floor)
@@ -276,21 +314,9 @@ def hit_spectra(
 
     coherence = np.abs(cross) ** 2 / (force_power.sum(axis=0) * (np.abs(response_spectra) ** 2).sum(axis=0) + floor)
     mask = in_band.copy()
-    line_width = int(np.ceil(2 + 2 * decay_rate_1_s * n_samples / sample_rate_hz))
-    mains = _mains_lines(h_full, h1_full, variance_full, full_freq_hz, in_band, line_width)
-    if mains:
-        base, harmonics = mains
-        for harmonic in harmonics:
-            centre = int(round(harmonic * n_samples / sample_rate_hz))
-            mask[max(0, centre - line_width) : centre + line_width + 1] = False
-        quality.append(
-            QualityNote(
-                "interference",
-                f"mains interference at {base:.0f} Hz and harmonics ({', '.join(f'{h:.0f}' for h in harmonics)} Hz): "
-                f"those lines are left out of the comparison",
-                band_hz=(min(harmonics), max(harmonics)),
-            )
-        )
+    for harmonic in mains_harmonics:
+        centre = int(round(harmonic * n_samples / sample_rate_hz))
+        mask[max(0, centre - 2) : centre + 3] = False
     low_coherence = mask & (coherence < 0.9)
     for a, b in _contiguous_bands(low_coherence, 3):
         quality.append(
@@ -301,20 +327,6 @@ def hit_spectra(
                 band_hz=(float(full_freq_hz[a]), float(full_freq_hz[b])),
             )
         )
-    tail = records[:, 1, -max(16, n_samples // 20) :]
-    tail_rms = np.sqrt(np.mean(tail**2, axis=1))
-    quiet_rms = np.sqrt(np.mean(records[:, 1, :quiet_samples] ** 2, axis=1)) + 1e-30
-    truncated = np.flatnonzero(tail_rms > 3 * quiet_rms)
-    if truncated.size:
-        quality.append(
-            QualityNote(
-                "truncation",
-                f"the response has not decayed by the end of the record in {truncated.size} hit(s): leakage is "
-                f"controlled only by the exponential window (the replay goes through the same window)",
-                hits=tuple(int(used[i]) for i in truncated),
-            )
-        )
-
     selected = np.flatnonzero(mask)
     correlation_step = int(np.ceil(decay_rate_1_s * n_samples / sample_rate_hz))
     step = max(1, correlation_step, int(np.ceil(selected.size / max_points)))
@@ -350,49 +362,57 @@ def hit_spectra(
     )
 
 
-def _noise_periodogram(
-    channel: np.ndarray, quiet_samples: int, freq_hz: np.ndarray, sample_rate_hz: float
-) -> np.ndarray:
-    """Noise power per sample at each frequency (white noise of variance σ² gives σ²), from the quiet samples."""
-    quiet = channel[:, :quiet_samples]
-    quiet = quiet - quiet.mean(axis=1, keepdims=True)
-    periodogram = np.mean(np.abs(np.fft.rfft(quiet, axis=1)) ** 2, axis=0) / quiet_samples
-    coarse_freq_hz = np.fft.rfftfreq(quiet_samples, 1.0 / sample_rate_hz)
-    # the mean removal empties the 0 Hz bin: use its neighbour there
-    if periodogram.size > 1:
-        periodogram[0] = periodogram[1]
-    smooth = np.convolve(periodogram, np.ones(3) / 3, mode="same") if periodogram.size > 3 else periodogram
-    smooth[0], smooth[-1] = periodogram[0], periodogram[-1]
-    return np.interp(freq_hz, coarse_freq_hz, smooth)
+def _noise_spectrum(segments: np.ndarray, freq_hz: np.ndarray, sample_rate_hz: float) -> np.ndarray:
+    """Noise power per sample at each frequency (white noise of variance σ² gives σ²) from quiet segments
+    (hits, samples): Hann-windowed periodograms averaged over hits, lightly smoothed, interpolated onto ``freq_hz``."""
+    length = segments.shape[1]
+    quiet = segments - segments.mean(axis=1, keepdims=True)
+    hann = np.hanning(length)
+    periodogram = np.mean(np.abs(np.fft.rfft(quiet * hann, axis=1)) ** 2, axis=0) / np.sum(hann**2)
+    coarse_freq_hz = np.fft.rfftfreq(length, 1.0 / sample_rate_hz)
+    if periodogram.size > 2:
+        periodogram[0] = periodogram[1]  # the mean removal empties the 0 Hz bin
+    if periodogram.size > 4:
+        smooth = np.convolve(periodogram, np.ones(3) / 3, mode="same")
+        smooth[0], smooth[-1] = periodogram[0], periodogram[-1]
+        periodogram = smooth
+    return np.interp(freq_hz, coarse_freq_hz, periodogram)
 
 
-def _mains_lines(
-    h: np.ndarray,
-    h1: np.ndarray,
-    variance: np.ndarray,
-    freq_hz: np.ndarray,
-    in_band: np.ndarray,
-    line_width: int,
-) -> tuple[float, list[float]] | None:
-    """Mains base frequency and harmonics whose hit-to-hit scatter stands far above the scatter around them."""
-    scatter = np.mean(np.abs(h - h1[np.newaxis, :]) ** 2 / variance, axis=0)
-    resolution = freq_hz[1] - freq_hz[0]
-    best: tuple[float, list[float]] | None = None
+def _remove_mains(
+    records: np.ndarray, tail_start: int, sample_rate_hz: float, top_hz: float
+) -> tuple[np.ndarray, float | None, list[float]]:
+    """Find mains lines (50 or 60 Hz and harmonics) in the quiet record tails and subtract them from every record.
+
+    Each hit and channel gets its own amplitudes and phases, fitted by least squares on the tail where nothing else
+    happens; a harmonic counts when its power over all hits stands 25 times above what noise alone gives."""
+    n_samples = records.shape[-1]
+    time_s = np.arange(n_samples) / sample_rate_hz
+    tail_time_s = time_s[tail_start:]
+    best: tuple[float, list[float], np.ndarray] | None = None
     for base in MAINS_BASES_HZ:
-        found = []
-        for harmonic in np.arange(base, freq_hz[in_band].max() if in_band.any() else 0, base):
-            centre = int(round(harmonic / resolution))
-            if not in_band[centre]:
-                continue
-            near = scatter[max(0, centre - 1) : centre + 2].max()
-            ring = np.concatenate(
-                (scatter[max(0, centre - 8 * line_width) : max(0, centre - 2 * line_width)],
-                 scatter[centre + 2 * line_width : centre + 8 * line_width])
-            )
-            if ring.size and near > 10 * max(np.median(ring), 1.0):
-                found.append(float(harmonic))
-        # a lone line away from the fundamental is more likely a resonance whose hits scatter (drift, nonlinearity)
-        credible = len(found) >= 2 or (found and found[0] == base)
-        if credible and (best is None or len(found) > len(best[1])):
-            best = (base, found)
-    return best
+        harmonics = np.arange(base, min(top_hz, 0.45 * sample_rate_hz) + 1e-9, base)[:MAINS_HARMONICS]
+        if harmonics.size == 0 or tail_time_s.size < 4 * harmonics.size + 8:
+            continue
+        phase = 2 * np.pi * np.outer(tail_time_s, harmonics)
+        design = np.hstack((np.cos(phase), np.sin(phase), np.ones((tail_time_s.size, 1))))
+        tails = records[:, :, tail_start:].reshape(-1, tail_time_s.size).T
+        coefficients, *_ = np.linalg.lstsq(design, tails, rcond=None)
+        residual_variance = np.mean((tails - design @ coefficients) ** 2, axis=0)
+        count = harmonics.size
+        power = coefficients[:count] ** 2 + coefficients[count : 2 * count] ** 2
+        noise_power = 4.0 * residual_variance / tail_time_s.size  # E(a² + b²) for noise alone
+        ratio = np.mean(power / noise_power[np.newaxis, :], axis=1)
+        found = [float(h) for h, r in zip(harmonics, ratio) if r > 25.0]
+        if found and (best is None or len(found) > len(best[1])):
+            best = (base, found, coefficients)
+    if best is None:
+        return records, None, []
+    base, found, coefficients = best
+    harmonics = np.arange(base, min(top_hz, 0.45 * sample_rate_hz) + 1e-9, base)[:MAINS_HARMONICS]
+    keep = np.isin(harmonics, found)
+    count = harmonics.size
+    phase = 2 * np.pi * np.outer(time_s, harmonics[keep])
+    lines = np.cos(phase) @ coefficients[:count][keep] + np.sin(phase) @ coefficients[count : 2 * count][keep]
+    cleaned = records - lines.T.reshape(records.shape)
+    return cleaned, base, found

@@ -61,8 +61,7 @@ def load_frf(session: Session, name: str | None) -> tuple[FrfResult, str]:
     records = session.accepted_records()
     if len(records) == 0:
         raise SessionError(f"{session.path}: no stored FRF and no accepted hits to average")
-    window_values = session.settings.get("window") or {}
-    window = WindowSettings(**{k: v for k, v in window_values.items() if k in WindowSettings.__dataclass_fields__})
+    window = session.settings_as("window", WindowSettings)
     hit = session.hits()[int(session.accepted_indices()[0])]
     frf = compute_frf(records, session.sample_rate_hz, window, hit.force_channel, hit.response_channel)
     return frf, f"FRF averaged now from {len(records)} accepted hits"

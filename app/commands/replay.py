@@ -2,7 +2,8 @@
 
 The stored records are validated again with the given validation and window settings; when a trigger setting is
 given, the trigger is first run again over each stored record (a record that no longer triggers is dropped, one that
-now triggers twice gives two hits if both fit). Hits a person accepted or rejected by hand keep that decision while
+now triggers twice gives two hits if both fit); the new records are one pre-trigger length shorter than the stored
+ones unless ``--record-s`` says otherwise, so a trigger that fires a little later still finds a whole record. Hits a person accepted or rejected by hand keep that decision while
 their records are unchanged. The result is summarised (hits and reasons, peak of |H1|, coherence by band) and
 written: as a new session with ``--out``, else as the FRF group "replay" of the input session.
 """
@@ -19,7 +20,7 @@ from typing import Any
 import numpy as np
 
 from analysis.capture import HitRecord, ImpactCapture, TriggerSettings
-from analysis.session import Session, SessionError
+from analysis.session import Session, SessionError, settings_from_json
 from analysis.spectra import FrfResult, WindowSettings, compute_frf
 from analysis.uff import read_uff_time_records, trigger_sample
 from analysis.validation import ValidationSettings, Verdict, validate_hit
@@ -115,33 +116,29 @@ def _load_source(path: Path, force_dof: Any, response_dof: Any) -> Source:
         )
 
 
-def _stored(settings: dict[str, Any], key: str, cls: type) -> Any:
-    values = settings.get(key)
-    if not isinstance(values, dict):
-        return cls()
-    known = {name: value for name, value in values.items() if name in cls.__dataclass_fields__}
-    return cls(**known)
-
-
 def _new_settings(args: argparse.Namespace, source: Source) -> tuple[TriggerSettings, bool, ValidationSettings,
                                                                        WindowSettings]:
     record_s = source.hits[0].n_samples / source.sample_rate_hz if source.hits else 1.0
-    trigger = _stored(source.settings, "trigger", TriggerSettings)
+    trigger = settings_from_json(source.settings.get("trigger"), TriggerSettings)
     if "trigger" not in source.settings:
         trigger = replace(trigger, record_s=record_s, pretrigger_s=min(trigger.pretrigger_s, record_s / 2))
     changes = {name: value for name, value in (("level_n", args.trigger_n), ("pretrigger_s", args.pretrigger_s),
                                                ("record_s", args.record_s)) if value is not None}
     retrigger = bool(changes)
+    if retrigger and args.record_s is None:
+        # room for the trigger to move later in the pulse by up to one pre-trigger length
+        pretrigger_s = changes.get("pretrigger_s", trigger.pretrigger_s)
+        changes["record_s"] = record_s - pretrigger_s
     trigger = replace(trigger, **changes)
     if trigger.record_s > record_s * (1 + 1e-9):
         raise SettingError(f"--record-s: {trigger.record_s} s is longer than the stored records ({record_s:g} s)")
     validation = replace(
-        _stored(source.settings, "validation", ValidationSettings),
+        settings_from_json(source.settings.get("validation"), ValidationSettings),
         **{name: value for name, value in (("double_hit_fraction", args.double_hit_fraction),
                                            ("min_force_snr", args.min_force_snr),
                                            ("decay_fraction", args.decay_fraction)) if value is not None},
     )
-    window = _stored(source.settings, "window", WindowSettings)
+    window = settings_from_json(source.settings.get("window"), WindowSettings)
     if args.rectangular:
         window = WindowSettings()
     window = replace(
@@ -173,7 +170,7 @@ def _bands(freq_hz: np.ndarray, coherence: np.ndarray) -> list[dict[str, float]]
     return bands
 
 
-def summarise(frf: FrfResult | None, verdicts: list[Verdict], dropped: int) -> dict[str, Any]:
+def summarise(frf: FrfResult | None, verdicts: list[Verdict], dropped: int, record_samples: int) -> dict[str, Any]:
     """Hits and reasons, peak frequency of |H1| and mean coherence by band."""
     reasons: dict[str, int] = {}
     for verdict in verdicts:
@@ -185,6 +182,7 @@ def summarise(frf: FrfResult | None, verdicts: list[Verdict], dropped: int) -> d
         "rejected": sum(not v.accepted for v in verdicts),
         "overridden": sum(v.overridden for v in verdicts),
         "records_without_trigger": dropped,
+        "record_samples": record_samples,
         "reasons": dict(sorted(reasons.items())),
     }
     if frf is not None:
@@ -205,14 +203,15 @@ def summarise(frf: FrfResult | None, verdicts: list[Verdict], dropped: int) -> d
 
 def _print_summary(summary: dict[str, Any], source: Path, written: str) -> None:
     print(f"replay of {source}")
-    print(f"  hits: {summary['hits']} ({summary['accepted']} accepted, {summary['rejected']} rejected"
+    print(f"  hits: {summary['hits']} of {summary['record_samples']} samples ({summary['accepted']} accepted, "
+          f"{summary['rejected']} rejected"
           f"{', %d overridden by hand' % summary['overridden'] if summary['overridden'] else ''})")
     if summary["records_without_trigger"]:
         print(f"  records that no longer trigger: {summary['records_without_trigger']}")
     for reason, count in summary["reasons"].items():
         print(f"    {reason}: {count}")
     if "peak_frequency_hz" in summary:
-        print(f"  peak of |H1|: {summary['peak_frequency_hz']:.2f} Hz, "
+        print(f"  peak of |H1| (lines with coherence >= {PEAK_MIN_COHERENCE}): {summary['peak_frequency_hz']:.2f} Hz, "
               f"{summary['peak_accelerance_m_s2_per_n']:.4g} (m/s^2)/N")
         for band in summary["coherence_bands"]:
             print(f"  coherence {band['low_hz']:.0f}-{band['high_hz']:.0f} Hz: mean {band['mean_coherence']:.4f}")
@@ -263,7 +262,7 @@ def run(args: argparse.Namespace) -> int:
         written = f"FRF group 'replay' in {args.source}"
     else:
         written = "nothing written (no accepted hits)"
-    summary = summarise(frf, verdicts, dropped)
+    summary = summarise(frf, verdicts, dropped, hits[0].n_samples if hits else 0)
     if args.json:
         json.dump({"source": str(args.source), "result": written, **summary}, sys.stdout, indent=2)
         print()

@@ -17,7 +17,7 @@ from PySide6.QtCore import QObject, QStandardPaths, QThread, Signal
 
 from analysis.acquisition import AcquisitionLoop
 from analysis.capture import TriggerSettings
-import analysis.diagnose
+from analysis.diagnose import diagnose, load_recordings
 from analysis.identify import compare_models, fit_model
 from analysis.models import get_model
 from analysis.rig import RigSpec
@@ -28,6 +28,7 @@ from analysis.validation import ValidationSettings, Verdict, validate_hit
 from app.gui.settings import SetupState, settings_from_dict, settings_to_dict
 from app.gui.workers import (
     AcquisitionPlan,
+    AcquisitionStats,
     AcquisitionWorker,
     BackgroundJob,
     HitEntry,
@@ -120,6 +121,11 @@ class SessionController(QObject):
     @property
     def acquiring(self) -> bool:
         return self._worker is not None
+
+    @property
+    def acquisition_stats(self) -> AcquisitionStats | None:
+        """Counters of the running acquisition (chunks, samples, dropped chunks, hits); ``None`` when idle."""
+        return self._worker.stats if self._worker is not None else None
 
     # --- acquisition -----------------------------------------------------------------------------------------------
 
@@ -265,6 +271,9 @@ class SessionController(QObject):
         self.message.emit(f"{text} — acquisition stopped; the {kept} accepted hits are safe in the session", "error")
 
     def _on_worker_finished(self) -> None:
+        if self._worker_thread is not None:
+            self._worker_thread.wait(5_000)
+            self._worker_thread.deleteLater()
         self._worker = None
         self._worker_thread = None
         self.loop = None
@@ -380,7 +389,8 @@ class SessionController(QObject):
 
     # --- diagnosis -----------------------------------------------------------------------------------------------------
 
-    def run_diagnosis(self) -> None:
+    def run_diagnosis(self, reference_spec_path: str | Path | None = None) -> None:
+        """Diagnose the session's accepted hits against ``reference_spec_path`` (default: the session's own spec)."""
         if self.session is None or self.accepted_count == 0:
             self.message.emit("nothing to diagnose: record or open a session with accepted hits", "warning")
             return
@@ -389,11 +399,20 @@ class SessionController(QObject):
             return
         if "diagnose" in self._jobs:
             return
-        spec = self.rig_spec_of_session()
-        session = self.session
+        try:
+            spec = RigSpec.load(reference_spec_path) if reference_spec_path else self.rig_spec_of_session()
+        except GasfilmError as error:
+            self.message.emit(f"diagnose: {error}", "error")
+            return
+        out_dir = self.session_path.with_name(f"{self.session_path.stem}-diagnosis")
+        try:
+            recordings = load_recordings(self.session_path)  # here, not on the job's thread: one file user at a time
+        except GasfilmError as error:
+            self.message.emit(f"diagnose: {error}", "error")
+            return
 
         def work(report, cancelled):
-            return analysis.diagnose.diagnose(session, spec, progress=report, cancel=cancelled)
+            return diagnose(recordings, spec, out_dir=out_dir, progress=lambda text: report(0.0, text))
 
         self._start_job("diagnose", work, self._on_diagnosis_done)
 
@@ -411,7 +430,7 @@ class SessionController(QObject):
         if self.diagnosis is None:
             raise SettingError("improved rig spec: run the diagnosis first")
         path = Path(path)
-        self.diagnosis.improved_spec.save(path)
+        shutil.copyfile(self.diagnosis.improved_spec, path)
         return path
 
     def play_improved_spec(self) -> None:
@@ -444,7 +463,10 @@ class SessionController(QObject):
         self.job_running.emit(name, True)
 
     def _job_finished(self, name: str) -> None:
-        self._jobs.pop(name, None)
+        job = self._jobs.pop(name, None)
+        if job is not None:
+            job[1].wait(5_000)
+            job[1].deleteLater()
         self.job_running.emit(name, False)
 
     def job_active(self, name: str) -> bool:
@@ -597,7 +619,10 @@ class SessionController(QObject):
         """Stop acquisition and jobs, store results, close the session (window closing)."""
         self.stop()
         self.wait_for_idle()
-        for job, thread in list(self._jobs.values()):
+        if self._worker is not None:
+            self._on_worker_finished()
+        for name, (job, thread) in list(self._jobs.items()):
             job.cancel()
             thread.wait(10_000)
+            self._job_finished(name)
         self.close_session()

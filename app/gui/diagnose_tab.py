@@ -11,6 +11,7 @@ from PySide6.QtWidgets import (
     QGroupBox,
     QHBoxLayout,
     QLabel,
+    QLineEdit,
     QListWidget,
     QListWidgetItem,
     QProgressBar,
@@ -50,22 +51,33 @@ class DiagnoseTab(QWidget):
         self.play_button.setObjectName("play_improved")
         for button in (self.export_button, self.play_button):
             button.setEnabled(False)
+        self.reference_path = QLineEdit()
+        self.reference_path.setPlaceholderText("the rig spec the session was recorded with")
+        self.reference_path.setToolTip("Diagnose against another spec, e.g. the design model of the rig")
+        reference_browse = QPushButton("Open…")
+        reference_browse.clicked.connect(self._choose_reference)
         top = QHBoxLayout()
+        top.addWidget(QLabel("Reference rig spec"))
+        top.addWidget(self.reference_path, 1)
+        top.addWidget(reference_browse)
         top.addWidget(self.run_button)
         top.addWidget(self.cancel_button)
         top.addWidget(self.progress)
-        top.addWidget(self.status, 1)
         top.addWidget(self.export_button)
         top.addWidget(self.play_button)
 
         self.summary = QLabel()
         self.summary.setWordWrap(True)
+        self.summary.setTextFormat(Qt.TextFormat.RichText)
         self.findings = QListWidget()
         self.findings.currentItemChanged.connect(self._show_finding)
         self.details = QTextBrowser()
         self.quality = QListWidget()
+        self.quality.setWordWrap(True)
+        self.findings.setWordWrap(True)
         findings_box = QGroupBox("Findings (physics the spec leaves out)")
         findings_layout = QVBoxLayout(findings_box)
+        findings_layout.addWidget(self.status)
         findings_layout.addWidget(self.summary)
         findings_layout.addWidget(self.findings, 1)
         findings_layout.addWidget(self.details, 2)
@@ -93,13 +105,18 @@ class DiagnoseTab(QWidget):
         layout.addLayout(top)
         layout.addWidget(splitter, 1)
 
-        self.run_button.clicked.connect(controller.run_diagnosis)
+        self.run_button.clicked.connect(lambda: controller.run_diagnosis(self.reference_path.text().strip() or None))
         self.cancel_button.clicked.connect(lambda: controller.cancel_job("diagnose"))
         self.export_button.clicked.connect(self._export)
         self.play_button.clicked.connect(controller.play_improved_spec)
         controller.job_running.connect(self._on_running)
         controller.job_progress.connect(self._on_progress)
         controller.diagnosis_changed.connect(self.show_diagnosis)
+
+    def _choose_reference(self) -> None:
+        path, _ = QFileDialog.getOpenFileName(self, "Reference rig spec", self.reference_path.text(), "Rig spec (*.toml)")
+        if path:
+            self.reference_path.setText(path)
 
     def _on_running(self, job: str, running: bool) -> None:
         if job != "diagnose":
@@ -126,7 +143,7 @@ class DiagnoseTab(QWidget):
             return
         better = diagnosis.improvement_e
         self.summary.setText(
-            f"<b>{diagnosis.verdict}</b> — RMS {diagnosis.rms_before / G:.3g} → {diagnosis.rms_after / G:.3g} g/N "
+            f"<b>Verdict: {diagnosis.verdict}</b> — RMS {diagnosis.rms_before / G:.3g} → {diagnosis.rms_after / G:.3g} g/N "
             f"(E = {better:.1f} %), BIC {diagnosis.bic_before:.0f} → {diagnosis.bic_after:.0f}, "
             f"{diagnosis.evidence.hit_count} hits, {diagnosis.wall_time_s:.1f} s"
         )
@@ -173,6 +190,8 @@ class DiagnoseTab(QWidget):
 
     @staticmethod
     def _recalibration_html(diagnosis: Any) -> str:
+        if not diagnosis.recalibration:
+            return "<p>The spec's own parameters needed no correction.</p>"
         rows = "".join(
             f"<tr><td>{name}</td><td align='right'>{v['spec']:.4g}</td><td align='right'>{v['fitted']:.4g}</td>"
             f"<td align='right'>± {v['uncertainty']:.2g}</td></tr>"

@@ -5,11 +5,12 @@ from __future__ import annotations
 import numpy as np
 import pyqtgraph as pg
 from PySide6.QtCore import Qt
+from PySide6.QtGui import QShowEvent
 from PySide6.QtWidgets import QComboBox, QDoubleSpinBox, QGridLayout, QHBoxLayout, QLabel, QWidget
 
 from analysis.spectra import FrfResult
 from app.gui.controller import SessionController
-from app.gui.widgets import MEASURED_COLOR, PALETTE, make_plot, pen
+from app.gui.widgets import MEASURED_COLOR, PALETTE, make_plot, pen, phase_deg
 from drivers.interface import STANDARD_GRAVITY_M_S2
 
 UNITS = {"(m/s²)/N": 1.0, "g/N": 1.0 / STANDARD_GRAVITY_M_S2}
@@ -23,6 +24,7 @@ class FrfTab(QWidget):
         super().__init__(parent)
         self.controller = controller
         self.frf: FrfResult | None = None
+        self._stale = False
 
         self.unit_combo = QComboBox()
         self.unit_combo.addItems(list(UNITS))
@@ -56,7 +58,7 @@ class FrfTab(QWidget):
         self.imag_plot = make_plot("Imaginary part", ("Im H", "(m/s²)/N"))
         self.coherence_plot = make_plot("Coherence", ("γ²", ""))
         self.coherence_plot.setYRange(0, 1.05)
-        self.phase_plot.setYRange(-180, 180)
+        self.phase_plot.setYRange(-90, 270)
         plots = (self.magnitude_plot, self.phase_plot, self.real_plot, self.imag_plot, self.coherence_plot)
         for plot in plots[1:]:
             plot.setXLink(self.magnitude_plot)
@@ -65,11 +67,13 @@ class FrfTab(QWidget):
         self.h2_curve = self.magnitude_plot.plot(pen=pen(PALETTE[4], 1.0, Qt.PenStyle.DashLine), name="H2")
         self.upper_curve = pg.PlotDataItem(pen=pen(PALETTE[5], 0.5))
         self.lower_curve = pg.PlotDataItem(pen=pen(PALETTE[5], 0.5))
-        self.band_fill = pg.FillBetweenItem(self.upper_curve, self.lower_curve, brush=pg.mkBrush(86, 180, 233, 80))
+        band_brush = pg.mkBrush(86, 180, 233, 80)
+        self.band_fill = pg.FillBetweenItem(self.upper_curve, self.lower_curve, brush=band_brush)
         for item in (self.upper_curve, self.lower_curve, self.band_fill):
             self.magnitude_plot.addItem(item)
-        legend = self.magnitude_plot.getPlotItem().legend
-        legend.addItem(self.band_fill, "±1σ")
+        # The legend shows a filled sample of a stand-in curve (a FillBetweenItem sample crashes pyqtgraph's legend).
+        self._band_legend_sample = pg.PlotDataItem(pen=pen(PALETTE[5], 0.5), fillLevel=0, fillBrush=band_brush)
+        self.magnitude_plot.getPlotItem().legend.addItem(self._band_legend_sample, "±1σ uncertainty")
         self.phase_curve = self.phase_plot.plot(pen=pen(MEASURED_COLOR), name="H1")
         self.real_curve = self.real_plot.plot(pen=pen(PALETTE[0]), name="Re H1")
         self.imag_curve = self.imag_plot.plot(pen=pen(PALETTE[1]), name="Im H1")
@@ -105,10 +109,19 @@ class FrfTab(QWidget):
         return self.unit_combo.currentText()
 
     def set_frf(self, frf: FrfResult | None) -> None:
+        """Keep the FRF; draw it now if the tab is visible, else when it is shown (hits arrive while measuring)."""
         self.frf = frf
-        self.redraw()
+        self._stale = True
+        if self.isVisible():
+            self.redraw()
+
+    def showEvent(self, event: QShowEvent) -> None:
+        if self._stale:
+            self.redraw()
+        super().showEvent(event)
 
     def redraw(self) -> None:
+        self._stale = False
         frf = self.frf
         curves = (self.h1_curve, self.h2_curve, self.upper_curve, self.lower_curve, self.phase_curve,
                   self.real_curve, self.imag_curve, self.coherence_curve)
@@ -130,7 +143,7 @@ class FrfTab(QWidget):
         self.h2_curve.setData(freq, np.abs(frf.h2[keep] * scale))
         self.upper_curve.setData(freq, magnitude + sigma)
         self.lower_curve.setData(freq, np.maximum(magnitude - sigma, floor))
-        self.phase_curve.setData(freq, np.degrees(np.angle(h1)))
+        self.phase_curve.setData(freq, phase_deg(h1))
         self.real_curve.setData(freq, h1.real)
         self.imag_curve.setData(freq, h1.imag)
         self.coherence_curve.setData(freq, frf.coherence[keep])

@@ -27,7 +27,7 @@ from PySide6.QtWidgets import (
 from analysis.identify import METHODS
 from analysis.models import PAPER_MODEL_ORDER, PAPER_MODEL_TEXT, get_model
 from app.gui.controller import SessionController
-from app.gui.widgets import MEASURED_COLOR, PALETTE, make_plot, pen
+from app.gui.widgets import MEASURED_COLOR, PALETTE, make_plot, pen, phase_deg
 from drivers.errors import GasfilmError
 from drivers.interface import STANDARD_GRAVITY_M_S2
 
@@ -99,25 +99,32 @@ class IdentifyTab(QWidget):
         self.parameters.setEditTriggers(QAbstractItemView.EditTrigger.NoEditTriggers)
         self.flags_label = QLabel()
         self.flags_label.setWordWrap(True)
-        table_panel = QWidget()
-        table_layout = QVBoxLayout(table_panel)
+        table_box = QWidget()
+        table_layout = QVBoxLayout(table_box)
         table_layout.setContentsMargins(0, 0, 0, 0)
         table_layout.addWidget(QLabel("<b>Table 2</b> — RMS (eq. 33) and peak error in g/N; E, E_m against SD (eq. 35)"))
-        table_layout.addWidget(self.table, 2)
-        table_layout.addWidget(QLabel("<b>Parameters</b> of the selected model"))
-        table_layout.addWidget(self.parameters, 2)
-        table_layout.addWidget(self.flags_label)
+        table_layout.addWidget(self.table)
+        parameters_box = QWidget()
+        parameters_layout = QVBoxLayout(parameters_box)
+        parameters_layout.setContentsMargins(0, 0, 0, 0)
+        parameters_layout.addWidget(QLabel("<b>Parameters</b> of the selected model (± standard error)"))
+        parameters_layout.addWidget(self.parameters)
+        parameters_layout.addWidget(self.flags_label)
+        table_panel = QSplitter(Qt.Orientation.Horizontal)
+        table_panel.addWidget(table_box)
+        table_panel.addWidget(parameters_box)
+        table_panel.setSizes([640, 460])
 
         self.fig18 = {
             "magnitude": make_plot("Fig. 18a  log |H|", ("|H|", "g/N"), log_y=True),
-            "real": make_plot("Fig. 18b  Real part", ("Re H", "g/N")),
-            "imag": make_plot("Fig. 18c  Imaginary part", ("Im H", "g/N")),
-            "phase": make_plot("Fig. 18d  Phase", ("Phase", "°")),
+            "real": make_plot("Fig. 18b  Real part", ("Re H", "g/N"), legend=False),
+            "imag": make_plot("Fig. 18c  Imaginary part", ("Im H", "g/N"), legend=False),
+            "phase": make_plot("Fig. 18d  Phase", ("Phase", "°"), legend=False),
         }
         self.fig19 = {
             "magnitude": make_plot("Fig. 19a  Error of |H|", ("| |H| − |H_d| |", "g/N")),
-            "real": make_plot("Fig. 19b  Error of the real part", ("|Re H − Re H_d|", "g/N")),
-            "imag": make_plot("Fig. 19c  Error of the imaginary part", ("|Im H − Im H_d|", "g/N")),
+            "real": make_plot("Fig. 19b  Error of the real part", ("|Re H − Re H_d|", "g/N"), legend=False),
+            "imag": make_plot("Fig. 19c  Error of the imaginary part", ("|Im H − Im H_d|", "g/N"), legend=False),
         }
         figures = QTabWidget()
         figures.addTab(self._grid(list(self.fig18.values()), 2), "Figure 18 — fits")
@@ -127,7 +134,7 @@ class IdentifyTab(QWidget):
         right = QSplitter(Qt.Orientation.Vertical)
         right.addWidget(table_panel)
         right.addWidget(figures)
-        right.setSizes([300, 500])
+        right.setSizes([330, 600])
         splitter = QSplitter(Qt.Orientation.Horizontal)
         splitter.addWidget(left_box)
         splitter.addWidget(right)
@@ -272,8 +279,10 @@ class IdentifyTab(QWidget):
         fig18["magnitude"].plot(freq, np.abs(measured), pen=pen(MEASURED_COLOR, 2.5), name="measured")
         fig18["real"].plot(freq, measured.real, pen=pen(MEASURED_COLOR, 2.5), name="measured")
         fig18["imag"].plot(freq, measured.imag, pen=pen(MEASURED_COLOR, 2.5), name="measured")
-        fig18["phase"].plot(freq, np.degrees(np.angle(measured)), pen=pen(MEASURED_COLOR, 2.5), name="measured")
+        fig18["phase"].plot(freq, phase_deg(measured), pen=pen(MEASURED_COLOR, 2.5), name="measured")
         order = [row.model_name for row in self.controller.comparison] or list(fits)
+        for plot in (fig18["magnitude"], self.fig19["magnitude"]):
+            plot.getPlotItem().legend.setColumnCount(1 if len(order) < 4 else 2)
         for number, name in enumerate(order):
             fit = fits[name]
             model = fit.accelerance(freq) / STANDARD_GRAVITY_M_S2
@@ -281,7 +290,7 @@ class IdentifyTab(QWidget):
             fig18["magnitude"].plot(freq, np.abs(model), pen=style, name=name)
             fig18["real"].plot(freq, model.real, pen=style, name=name)
             fig18["imag"].plot(freq, model.imag, pen=style, name=name)
-            fig18["phase"].plot(freq, np.degrees(np.angle(model)), pen=style, name=name)
+            fig18["phase"].plot(freq, phase_deg(model), pen=style, name=name)
             solid = pen(PALETTE[number % len(PALETTE)], 1.5)
             self.fig19["magnitude"].plot(freq, np.abs(np.abs(model) - np.abs(measured)), pen=solid, name=name)
             self.fig19["real"].plot(freq, np.abs(model.real - measured.real), pen=solid, name=name)

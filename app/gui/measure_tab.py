@@ -90,9 +90,17 @@ class MeasureTab(QWidget):
         top.addWidget(self.counter_label, 1)
         top.addWidget(hammer_box)
 
-        self.force_plot = make_plot("Live: force", ("Force", "N"), ("Time", "s"))
-        self.response_plot = make_plot("Live: response", ("Acceleration", "m/s²"), ("Time", "s"))
+        # Time runs to 0 = now on a fixed axis, and the live plots have no grid: their axes are then not redrawn
+        # with every frame, which keeps the view at 25 fps with 4 channels at 51.2 kS/s.
+        self.force_plot = make_plot("Live: force", ("Force", "N"), ("Time before now", "s"), grid=False)
+        self.response_plot = make_plot(
+            "Live: response", ("Acceleration", "m/s²"), ("Time before now", "s"), grid=False
+        )
         self.response_plot.setXLink(self.force_plot)
+        self.force_plot.getPlotItem().enableAutoRange(x=False)
+        self.response_plot.getPlotItem().enableAutoRange(x=False)
+        for plot in (self.force_plot, self.response_plot):
+            plot.getPlotItem().legend.setOffset((70, 10))  # top left, clear of the newest samples
         self._live_curves: list[pg.PlotDataItem] = []
         live = QWidget()
         live_layout = QVBoxLayout(live)
@@ -107,6 +115,7 @@ class MeasureTab(QWidget):
         self.hit_table.setSelectionMode(QAbstractItemView.SelectionMode.SingleSelection)
         self.hit_table.setEditTriggers(QAbstractItemView.EditTrigger.NoEditTriggers)
         self.hit_table.horizontalHeader().setStretchLastSection(True)
+        self.hit_table.verticalHeader().setDefaultSectionSize(22)
         self.hit_table.itemSelectionChanged.connect(self._show_selected_hit)
         self.verdict_label = QLabel("No hit yet")
         self.verdict_label.setWordWrap(True)
@@ -116,7 +125,13 @@ class MeasureTab(QWidget):
         self.reject_button.setObjectName("reject")
         self.accept_button.clicked.connect(lambda: self._decide(True))
         self.reject_button.clicked.connect(lambda: self._decide(False))
-        self.hit_plot = make_plot("Selected hit", ("Force", "N"), ("Time in record", "s"), legend=False)
+        self.hit_plot = make_plot(
+            "Selected hit: <span style='color:#0072B2'>force</span> · "
+            "<span style='color:#D55E00'>response</span>",
+            ("Force", "N"),
+            ("Time in record", "s"),
+            legend=False,
+        )
         self.hit_force_curve = self.hit_plot.plot(pen=pen(PALETTE[0]), name="force")
         self.hit_response_view = pg.ViewBox()
         hit_item = self.hit_plot.getPlotItem()
@@ -127,6 +142,8 @@ class MeasureTab(QWidget):
         hit_item.getAxis("right").enableAutoSIPrefix(False)
         self.hit_response_view.setXLink(hit_item)
         self.hit_response_curve = pg.PlotDataItem(pen=pen(PALETTE[1]))
+        self.hit_response_curve.setDownsampling(auto=True, method="peak")
+        self.hit_response_curve.setClipToView(True)
         self.hit_response_view.addItem(self.hit_response_curve)
         hit_item.vb.sigResized.connect(lambda: self.hit_response_view.setGeometry(hit_item.vb.sceneBoundingRect()))
         hits = QWidget()
@@ -195,6 +212,7 @@ class MeasureTab(QWidget):
             curve.setClipToView(True)
             curve.setSkipFiniteCheck(True)
             self._live_curves.append(curve)
+        self.force_plot.setXRange(-self.controller.setup.live_view_s, 0.0, padding=0.0)
         self.redraw_count = 0
         self.redraw_seconds = 0.0
         self._first_redraw_s = None
@@ -207,8 +225,9 @@ class MeasureTab(QWidget):
         if snapshot is None:
             return
         time_s, data = snapshot
+        before_now_s = time_s - time_s[-1]
         for curve, row in zip(self._live_curves, data):
-            curve.setData(time_s, row)
+            curve.setData(before_now_s, row)
         self.redraw_count += 1
         now = time.perf_counter()
         self.redraw_seconds += now - started
@@ -268,7 +287,7 @@ class MeasureTab(QWidget):
             f"{record.trigger_time_s:.2f}",
             f"{np.max(np.abs(record.force_n)):.0f}",
             verdict,
-            ", ".join(entry.automatic.reasons) or "all checks passed",
+            ", ".join(entry.automatic.reasons) or "—",
         )
         for column, value in enumerate(values):
             item = QTableWidgetItem(value)

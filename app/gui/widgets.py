@@ -7,6 +7,7 @@ import enum
 import re
 from typing import Any
 
+import numpy as np
 import pyqtgraph as pg
 from PySide6.QtCore import Qt, Signal
 from PySide6.QtWidgets import (
@@ -23,8 +24,8 @@ from PySide6.QtWidgets import (
     QWidget,
 )
 
-#: Curve colours (colour-blind safe, Okabe–Ito) in the order models and channels are drawn.
-PALETTE = ("#0072B2", "#D55E00", "#009E73", "#CC79A7", "#E69F00", "#56B4E9", "#F0E442", "#000000", "#999999")
+#: Curve colours (Okabe–Ito based, colour-blind safe; never the measured curve's near-black) in the order models and channels are drawn.
+PALETTE = ("#0072B2", "#D55E00", "#009E73", "#CC79A7", "#E69F00", "#56B4E9", "#882255", "#8C564B", "#999999")
 MEASURED_COLOR = "#222222"
 ACCEPTED_COLOR = "#1b7f3b"
 REJECTED_COLOR = "#b3261e"
@@ -244,8 +245,10 @@ def make_plot(
     bottom: tuple[str, str] = ("Frequency", "Hz"),
     log_y: bool = False,
     legend: bool = True,
+    grid: bool = True,
 ) -> pg.PlotWidget:
-    """A plot with labelled axes and units, a grid and (optionally) a legend."""
+    """A plot with labelled axes and units, a grid (off for live views: it is redrawn with every frame) and
+    (optionally) a legend."""
     widget = pg.PlotWidget(title=title)
     item = widget.getPlotItem()
     item.setLabel("left", left[0], units=left[1] or None)
@@ -253,14 +256,22 @@ def make_plot(
     for side, (_, unit) in (("left", left), ("bottom", bottom)):
         if "/" in unit or "°" in unit or unit in ("", "1"):
             item.getAxis(side).enableAutoSIPrefix(False)
-    item.showGrid(x=True, y=True, alpha=0.25)
+    if grid:
+        item.showGrid(x=True, y=True, alpha=0.25)
     if log_y:
         item.setLogMode(y=True)
     if legend:
-        item.addLegend(offset=(-10, 10), labelTextSize="9pt")
+        item.addLegend(
+            offset=(-10, 10), labelTextSize="9pt", brush=pg.mkBrush(255, 255, 255, 210), pen=pg.mkPen("#bbbbbb")
+        )
     item.setDownsampling(auto=True, mode="peak")
     item.setClipToView(True)
     return widget
+
+
+def phase_deg(h: np.ndarray) -> np.ndarray:
+    """Phase in degrees in [−90°, 270°): an accelerance's 180° (below resonance) and 0° (above) without wrapping."""
+    return (np.degrees(np.angle(h)) + 90.0) % 360.0 - 90.0
 
 
 def pen(color: str, width: float = 1.5, style: Qt.PenStyle = Qt.PenStyle.SolidLine) -> Any:

@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 from typing import Any, Callable
 
 import numpy as np
-from PySide6.QtCore import QObject, Qt, QThread, QTimer, Signal, Slot
+from PySide6.QtCore import QCoreApplication, QObject, Qt, QThread, QTimer, Signal, Slot
 
 from analysis.acquisition import AcquisitionLoop
 from analysis.capture import HitRecord, ImpactCapture, TriggerSettings
@@ -146,7 +146,7 @@ class AcquisitionWorker(QObject):
         except GasfilmError as error:
             self._close_device()
             self.device_fault.emit(str(error))
-            self.finished.emit()
+            self._finish()
             return
         self.stats = AcquisitionStats()
         self._timer = QTimer(self)
@@ -167,6 +167,10 @@ class AcquisitionWorker(QObject):
             self.loop.stop()
             self._drain()
         self._close_device()
+        self._finish()
+
+    def _finish(self) -> None:
+        hand_back(self)
         self.finished.emit()
 
     def _close_device(self) -> None:
@@ -189,7 +193,7 @@ class AcquisitionWorker(QObject):
             if error is not None:
                 self.device_fault.emit(str(error))
             self._close_device()
-            self.finished.emit()
+            self._finish()
 
     def _drain(self) -> bool:
         """Feed every waiting chunk to the recorder; True when the stream has ended."""
@@ -387,17 +391,24 @@ class BackgroundJob(QObject):
                 self.cancelled.emit()
             else:
                 self.succeeded.emit(result)
+        hand_back(self)
         self.finished.emit()
 
 
 def start_on_thread(worker: QObject, entry: Callable[[], None], parent: QObject) -> QThread:
-    """Move ``worker`` to a new thread, call ``entry`` there when it starts, and clean up when it finishes."""
+    """Move ``worker`` to a new thread and call ``entry`` there. The worker must call :func:`hand_back` just before
+    it emits ``finished``; the owner then waits for the thread and drops both (see the controller)."""
     thread = QThread(parent)
     worker.moveToThread(thread)
     thread.started.connect(entry)
     # Direct: QThread.quit is thread-safe, and the GUI thread may be blocked in thread.wait() (closing the window).
     worker.finished.connect(thread.quit, Qt.ConnectionType.DirectConnection)
-    thread.finished.connect(worker.deleteLater)
-    thread.finished.connect(thread.deleteLater)
     thread.start()
     return thread
+
+
+def hand_back(worker: QObject) -> None:
+    """Called on the worker's thread at its end: move it to the GUI thread, where its owner deletes it safely."""
+    application = QCoreApplication.instance()
+    if application is not None:
+        worker.moveToThread(application.thread())

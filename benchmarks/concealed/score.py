@@ -1,0 +1,129 @@
+"""Score the diagnosis on the concealed-data benchmark (run generate.py first).
+
+For every session: run the diagnosis with only the nominal spec, compare the reported effect set with the hidden one,
+and measure how visible the hidden physics was (the largest χ² excess of a single hit against the nominal spec, and
+the largest relative difference of the averaged FRFs an overlay plot would show) and the RMS (eq. 33) before → after.
+Prints the per-session table, the confusion table and the acceptance figures.
+
+    python benchmarks/concealed/score.py [--data out/concealed]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from collections import Counter
+from pathlib import Path
+
+import numpy as np
+
+from analysis.diagnose import _evidence_for, _nonlinear_replay, _replayed_mean, diagnose, load_recordings
+from analysis.diagnosis.measurement import hit_spectra
+from analysis.diagnosis.rigspec import model_from_spec
+from analysis.rig import RigSpec
+
+NO_PHYSICS = "(none)"
+MISSED = "(missed)"
+EXTRA = "(extra)"
+
+
+def _replayed(spectra, model) -> np.ndarray:
+    """Per-hit FRFs of ``model`` replayed with the recorded forces."""
+    nonlinear = _nonlinear_replay(spectra, model)
+    if nonlinear is not None:
+        return nonlinear
+    return spectra.replay.replayed(lambda f, s: model.accelerance(f, s, spectra.conditions))
+
+
+def visibility(recordings, nominal: RigSpec, truth: RigSpec) -> tuple[float, float, float]:
+    """(largest per-hit χ² excess of the nominal spec over the truth, the 99.9 % χ² fluctuation of one hit,
+    largest relative |H1 truth − H1 nominal| over the band, largest |H_truth − H_nominal| / σ at any point of any
+    single hit), all replayed with the recorded forces."""
+    spectra = hit_spectra(recordings.records, recordings.sample_rate_hz, recordings.window,
+                          hit_times_s=recordings.hit_times_s, overload=recordings.overload)
+    reference = spectra.conditions.reference_impulse_ns
+    given, true = model_from_spec(nominal, reference), model_from_spec(truth, reference)
+    excess = []
+    given_evidence, true_evidence = _evidence_for(spectra, given), _evidence_for(spectra, true)
+    for hit in range(given_evidence.hit_count):
+        rows = np.array([hit])
+        excess.append(given_evidence.chi2(given, rows) - true_evidence.chi2(true, rows))
+    points = 2 * len(spectra.freq_hz)
+    fluctuation = 3.1 * np.sqrt(2 * points)
+    true_mean, given_mean = _replayed_mean(spectra, true), _replayed_mean(spectra, given)
+    overlay = float(np.max(np.abs(true_mean - given_mean) / np.abs(true_mean)))
+    per_hit = np.abs(_replayed(spectra, true) - _replayed(spectra, given)) / np.sqrt(spectra.variance)
+    return float(max(excess)), float(fluctuation), overlay, float(per_hit.max())
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--data", type=Path, default=Path("out/concealed"))
+    parser.add_argument("--only", nargs="*", help="session names to score")
+    args = parser.parse_args()
+    manifest = json.loads((args.data / "manifest.json").read_text())
+    nominal = RigSpec.load(args.data / manifest["nominal_spec"])
+    rows = []
+    confusion: Counter = Counter()
+    for entry in manifest["sessions"]:
+        if args.only and entry["name"] not in args.only:
+            continue
+        recordings = load_recordings(args.data / entry["session"])
+        truth = RigSpec.load(args.data / entry["true_spec"])
+        started = time.monotonic()
+        result = diagnose(recordings, nominal, out_dir=args.data / "diagnoses" / entry["name"])
+        elapsed = time.monotonic() - started
+        found = sorted(f.effect for f in result.findings)
+        expected = sorted(entry["expected"])
+        excess, fluctuation, overlay, point_z = visibility(recordings, nominal, truth)
+        improvement = 100 * (1 - result.rms_after / result.rms_before)
+        rows.append({"name": entry["name"], "kind": entry["kind"], "expected": expected, "found": found,
+                     "exact": found == expected, "verdict": result.verdict, "rms_before": result.rms_before,
+                     "rms_after": result.rms_after, "improvement_percent": improvement, "time_s": elapsed,
+                     "hit_excess": excess, "hit_fluctuation": fluctuation, "overlay": overlay, "point_z": point_z,
+                     "quality": [q.kind for q in result.quality]})
+        for effect in expected:
+            confusion[(effect, effect if effect in found else MISSED)] += 1
+        for reported in found:
+            if reported not in expected:
+                confusion[(EXTRA if expected else NO_PHYSICS, reported)] += 1
+        if not expected and not found:
+            confusion[(NO_PHYSICS, NO_PHYSICS)] += 1
+        print(f"{entry['name']:18s} {entry['kind']:15s} expected {','.join(expected) or '-':40s} "
+              f"found {','.join(found) or '-':40s} {'OK ' if found == expected else 'XX '} "
+              f"RMS {result.rms_before:.3g}→{result.rms_after:.3g} ({improvement:5.1f} %) "
+              f"hit χ² excess {excess:8.0f} (noise {fluctuation:.0f}) max point z {point_z:5.1f} "
+              f"overlay {100 * overlay:.2f} % "
+              f"{elapsed:5.1f} s", flush=True)
+    (args.data / "scores.json").write_text(json.dumps(rows, indent=1))
+    _summary(rows, confusion)
+
+
+def _summary(rows: list[dict], confusion: Counter) -> None:
+    hidden_labels = sorted({pair[0] for pair in confusion})
+    reported_labels = sorted({pair[1] for pair in confusion})
+    width = max(len(label) for label in hidden_labels) + 2
+    print("\nconfusion table (rows: hidden effect, '(none)' for controls, '(extra)' for a claim beyond the hidden "
+          "set; columns: reported)")
+    print(" " * width + "".join(f"{label[:12]:>13s}" for label in reported_labels))
+    for hidden in hidden_labels:
+        print(f"{hidden:{width}s}" + "".join(f"{confusion.get((hidden, reported), 0):13d}"
+                                             for reported in reported_labels))
+    exact = sum(row["exact"] for row in rows)
+    controls = [row for row in rows if row["kind"] in ("clean", "parameters-only", "artefact")]
+    claimed = [row["name"] for row in controls if row["found"]]
+    with_effect = [row for row in rows if row["expected"]]
+    short = [row["name"] for row in with_effect if row["improvement_percent"] < 50]
+    hidden = [row for row in with_effect if row["hit_excess"] < row["hit_fluctuation"] and row["overlay"] < 0.01]
+    print(f"\nsessions: {len(rows)}; effect set exactly right: {exact}/{len(rows)} ({100 * exact / len(rows):.0f} %)")
+    print(f"controls and artefact sessions claiming physics: {len(claimed)} {claimed}")
+    print(f"sessions with an effect where RMS improved < 50 %: {len(short)} {short}")
+    print(f"effects hidden from a single hit's χ² test and below 1 % in the overlay: {len(hidden)}/{len(with_effect)}")
+    times = [row["time_s"] for row in rows]
+    print(f"diagnosis time per 20-hit session: median {np.median(times):.1f} s, max {max(times):.1f} s")
+
+
+if __name__ == "__main__":
+    sys.exit(main())

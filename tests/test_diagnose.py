@@ -1,0 +1,161 @@
+"""Mismatch diagnosis on sessions recorded from the simulated NI 9234: hidden physics found, controls left alone,
+the loop closed through the improved spec, UFF input with only the mass, and the catalog terms equal to the rig's."""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+import pyuff
+import pytest
+
+from analysis.capture import ImpactCapture, TriggerSettings
+from analysis.diagnose import diagnose
+from analysis.diagnosis.catalog import AugmentedModel
+from analysis.diagnosis.rigspec import AcCoupling, PneumaticLag, model_from_spec, spec_from_model
+from analysis.models import get_model
+from analysis.recording import HitRecorder
+from analysis.rig import AddedMass, ChannelDelay, Drift, ExtraMode, Mains, RigSpec, rig_accelerance
+from analysis.session import Session
+from analysis.spectra import WindowSettings
+from analysis.validation import ValidationSettings
+from app.cli import main as gasfilm
+from drivers.interface import ChannelKind, default_hammer_and_accelerometer
+from drivers.simulated import SimulatedNI9234
+
+RATE_HZ = 51200.0 / 8
+TRIGGER = TriggerSettings(level_n=20.0, pretrigger_s=0.01, record_s=0.5)
+WINDOW = WindowSettings(force_window_ms=4.0, force_taper_ms=0.5, exponential_end_fraction=0.01)
+NOMINAL = RigSpec.nominal("SD", parameters={"k": 3.78e7, "eta": 3.45e3})
+
+
+def record(spec: RigSpec, path: Path, hits: int = 12, seed: int = 0, **options) -> Path:
+    """A session of ``hits`` accepted hits from the simulated module playing ``spec``."""
+    config = default_hammer_and_accelerometer(RATE_HZ)
+    device = SimulatedNI9234(rig=spec, seed=seed, pacing="fast", hit_interval_s=(1.0, 1.5), **options)
+    device.configure(config)
+    force_row, response_row = config.channel_index(ChannelKind.FORCE), config.channel_index(ChannelKind.ACCELERATION)
+    with Session.create(path, config, spec.to_toml(), {"trigger": TRIGGER, "window": WINDOW},
+                        sync_each_hit=False) as session:
+        capture = ImpactCapture(TRIGGER, RATE_HZ, 2, force_row, response_row)
+        recorder = HitRecorder(session, capture, ValidationSettings(),
+                               full_scale_si=tuple(c.full_scale_si for c in config.channels))
+        buffer = np.empty((2, config.chunk_samples))
+        with device:
+            device.start()
+            while recorder.accepted_count < hits:
+                device.read(buffer)
+                recorder.feed(buffer, device.status().overload)
+    return path
+
+
+def effects_of(diagnosis) -> list[str]:
+    return sorted(finding.effect for finding in diagnosis.findings)
+
+
+def test_clean_session_has_nothing_to_report(tmp_path):
+    diagnosis = diagnose(record(NOMINAL, tmp_path / "clean.h5", seed=1), NOMINAL)
+    assert diagnosis.verdict == "consistent"
+    assert diagnosis.findings == []
+    assert 0.8 < diagnosis.chi2_per_point_after < 1.25  # the measured noise explains what is left
+
+
+def test_parameter_error_is_recalibrated_not_blamed_on_physics(tmp_path):
+    truth = RigSpec.nominal("SD", parameters={"k": 3.78e7 * 1.03, "eta": 3.45e3 * 0.96})
+    diagnosis = diagnose(record(truth, tmp_path / "params.h5", seed=2), NOMINAL)
+    assert diagnosis.verdict == "parameters-only"
+    assert diagnosis.findings == []
+    fitted_k = diagnosis.recalibration["k"]["fitted"]
+    assert abs(fitted_k - 3.78e7 * 1.03) < 5 * diagnosis.recalibration["k"]["uncertainty"] + 1e-4 * fitted_k
+
+
+def test_mains_interference_is_quality_not_physics(tmp_path):
+    truth = NOMINAL.with_effects(Mains(channel="acceleration", amplitude=0.02, harmonics=(1.0, 0.5)))
+    diagnosis = diagnose(record(truth, tmp_path / "mains.h5", seed=3), NOMINAL)
+    assert diagnosis.findings == []
+    assert "interference" in [note.kind for note in diagnosis.quality]
+
+
+def test_hidden_delay_is_found_and_the_improved_spec_closes_the_loop(tmp_path):
+    truth = NOMINAL.with_effects(ChannelDelay(channel="acceleration", delay_s=1.5e-6))
+    diagnosis = diagnose(record(truth, tmp_path / "delay.h5", seed=4), NOMINAL, out_dir=tmp_path / "out")
+    assert effects_of(diagnosis) == ["channel-delay"]
+    delay = diagnosis.findings[0].parameters["delay_s"]
+    assert abs(delay["value"] - 1.5e-6) < 4 * delay["uncertainty"] + 0.05e-6
+    assert diagnosis.rms_after < 0.5 * diagnosis.rms_before
+    assert all(Path(figure).stat().st_size > 0 for figure in diagnosis.figures)
+
+    improved = RigSpec.load(diagnosis.improved_spec)
+    replayed = record(improved, tmp_path / "replayed.h5", seed=5)
+    again = diagnose(replayed, improved)
+    assert again.findings == []
+    assert again.verdict in ("consistent", "parameters-only")
+
+
+def test_uff_time_records_with_only_the_mass(tmp_path, capsys):
+    truth = NOMINAL.with_effects(AddedMass(mass_kg=0.03))
+    session_path = record(truth, tmp_path / "for-uff.h5", hits=10, seed=6)
+    with Session.open(session_path) as session:
+        records = session.accepted_records()
+    datasets = []
+    for hit, (force, acceleration) in enumerate(records):
+        for values, data_type, units, direction in ((force, 13, "N", -3), (acceleration, 12, "m/s^2", 3)):
+            datasets.append(pyuff.prepare_58(
+                binary=0, id1=f"hit {hit}", func_type=1, ver_num=hit, rsp_node=1 if data_type == 13 else 2,
+                rsp_dir=direction, ref_node=1, ref_dir=-3, abscissa_spacing=1, abscissa_spec_data_type=17,
+                abscissa_axis_units_lab="s", ordinate_spec_data_type=data_type, ordinate_axis_units_lab=units,
+                orddenom_spec_data_type=0, data=np.asarray(values), x=np.arange(values.size) / RATE_HZ))
+    uff_path = tmp_path / "hits.uff"
+    pyuff.UFF(str(uff_path)).write_sets(datasets, mode="overwrite")
+
+    status = gasfilm(["diagnose", str(uff_path), "--mass", "25.05", "--json", "--out", str(tmp_path / "uff")])
+    assert status == 0
+    result = json.loads(capsys.readouterr().out)
+    for key in ("findings", "quality", "rms_before", "rms_after", "improved_spec"):
+        assert key in result
+    assert [finding["effect"] for finding in result["findings"]] == ["added-mass"]
+    added = result["findings"][0]["parameters"]["delta_mass_kg"]
+    assert abs(added["value"] - 0.03) < 4 * added["uncertainty"] + 0.003
+    assert Path(result["improved_spec"]).exists()
+
+
+def test_cli_names_a_missing_file_in_one_line(tmp_path, capsys):
+    assert gasfilm(["diagnose", str(tmp_path / "nothing.h5")]) == 2
+    error = capsys.readouterr().err.strip().splitlines()
+    assert len(error) == 1 and "nothing.h5" in error[0]
+
+
+@pytest.mark.parametrize("effects", [
+    (ExtraMode(freq_hz=600.0, damping_ratio=0.02, mass_kg=0.01),),
+    (ChannelDelay(channel="force", delay_s=3e-6), AddedMass(mass_kg=0.2)),
+    (Drift(fraction_per_hour=0.5),),
+    (PneumaticLag(k_lag=2e5, tau_lag=3e-4), AcCoupling(channel="acceleration", corner_hz=2.0)),
+])
+def test_catalog_terms_are_the_rig_physics(effects):
+    """The diagnosis's accelerance of a spec, and of the spec it writes back, equal :func:`rig_accelerance`."""
+    spec = RigSpec.nominal("FOMGF").with_effects(*effects)
+    freq_hz = np.linspace(5.0, 2000.0, 300)
+    hit_time_s = 1800.0
+    model = model_from_spec(spec)
+    from analysis.diagnosis.catalog import HitConditions
+
+    conditions = HitConditions(np.array([hit_time_s]), np.array([1.0]))
+    expected = rig_accelerance(spec, freq_hz, 3.0, hit_time_s)
+    assert np.allclose(model.accelerance(freq_hz, 3.0, conditions)[0], expected, rtol=1e-10, atol=0)
+    written, _ = spec_from_model(model, spec, 1.0)
+    assert np.allclose(rig_accelerance(written, freq_hz, 3.0, hit_time_s), expected, rtol=1e-10, atol=0)
+
+
+def test_film_memory_is_written_as_a_spring_pot_branch():
+    model = AugmentedModel(get_model("SD"), {"k": 3.78e7, "eta": 3.45e3}, 25.05,
+                           {"film-memory": {"eta_memory": 2e3, "alpha_memory": 0.5}})
+    spec, _ = spec_from_model(model, NOMINAL, 1.0)
+    assert "pot(eta_memory, alpha_memory)" in spec.film_model
+    freq_hz = np.linspace(10.0, 1000.0, 50)
+    assert np.allclose(rig_accelerance(spec, freq_hz), model.accelerance(freq_hz, 0.0), rtol=1e-12)
+
+
+if __name__ == "__main__":
+    sys.exit(pytest.main([__file__, "-q"]))
