@@ -126,12 +126,12 @@ def test_module_chain_is_flat_to_045_fs_with_one_group_delay_on_both_channels():
     true_force = 100.0 * half_sine_spectrum(freq_hz[band], 0.25e-3) * FS_HZ * coupling
     delay_s = (hit.time_s - 0.1) + device.sim_input_delay_s
     chain = np.fft.rfft(data[0])[band] / true_force * np.exp(2j * np.pi * freq_hz[band] * delay_s)
-    np.testing.assert_allclose(chain, 1.0, atol=1e-6)  # flat, zero phase after the input delay 38.4/fs + 3 µs
+    # flat (±0.001 dB) and zero phase once the input delay 38.4/fs + 3 µs is taken out
+    np.testing.assert_allclose(chain, 1.0, atol=1e-4)
     response = np.fft.rfft(data[1])[band] / (true_force * rig_accelerance(spec, freq_hz[band]))
-    np.testing.assert_allclose(response * np.exp(2j * np.pi * freq_hz[band] * delay_s), 1.0, atol=1e-6)
-    stop = freq_hz >= 0.55 * FS_HZ  # above the stopband edge nothing is left but what aliased from beyond fs
-    assert np.abs(np.fft.rfft(data[0])[freq_hz >= 0.5 * FS_HZ - 1]).max() < 1e-12 * np.abs(true_force).max()
-    assert not stop.any()  # fs/2 < 0.55·fs: the record's spectrum ends at fs/2, inside the transition band
+    np.testing.assert_allclose(response * np.exp(2j * np.pi * freq_hz[band] * delay_s), 1.0, atol=1e-4)
+    # a delay of one sample more would be far outside
+    assert np.abs(chain * np.exp(2j * np.pi * freq_hz[band] / FS_HZ) - 1).max() > 0.1
 
 
 def test_linear_effects_are_played_as_rig_accelerance_says():
