@@ -598,12 +598,17 @@ def _default_search(problem: _Problem, seed: int, progress: Callable[[float], No
         shapes = projection.start_lower + unit * (projection.start_upper - projection.start_lower)
         scores = np.mean(projection.project(shapes)[1] ** 2, axis=-1)
         scores = np.where(np.isfinite(scores), scores, np.inf)
+        # Half the local searches start from the best-scored shapes, half from random ones: the best score is
+        # a good guide for most films, and a misleading one when a wide local minimum surrounds the solution.
+        ranked = [int(i) for i in np.argsort(scores) if np.isfinite(scores[i])]
         chosen: list[int] = []
-        for start in np.argsort(scores):
-            if len(chosen) == _LOCAL_SEARCHES or not np.isfinite(scores[start]):
+        for start in ranked:
+            if len(chosen) == _LOCAL_SEARCHES // 2:
                 break
             if all(np.linalg.norm(unit[start] - unit[other]) > _START_SPACING for other in chosen):
-                chosen.append(int(start))
+                chosen.append(start)
+        others = [i for i in ranked if i not in chosen]
+        chosen += [int(i) for i in rng.permutation(others)[: _LOCAL_SEARCHES - len(chosen)]]
         for attempt, start in enumerate(chosen):
             if progress is not None:
                 progress(0.6 * attempt / len(chosen))

@@ -107,12 +107,20 @@ def test_full_hammer_session_through_the_gui(qtbot, window, tmp_path):
     assert controller.diagnosis is not None, window.banner.history
     assert window.diagnose_tab.findings.count() >= 1
 
-    # save, reopen: the FRF is the one shown before saving
+    # save; then play the improved spec on the simulated rig (a new session)
     shown_h1 = frf.h1.copy()
     shown_coherence_all = frf.coherence.copy()
     assert controller.save_session() == session_path
-    controller.new_session()
-    assert controller.frf is None
+    assert window.diagnose_tab.play_button.isEnabled()
+    qtbot.mouseClick(window.diagnose_tab.play_button, Qt.MouseButton.LeftButton)
+    qtbot.waitUntil(lambda: controller.state == "armed", timeout=10_000)
+    assert controller.session_path != session_path
+    assert controller.setup.rig_spec_path.endswith("-improved-rig.toml")
+    assert window.setup_tab.state().rig_spec_path == controller.setup.rig_spec_path
+    _hit(qtbot, window)
+    _stop(qtbot, window)
+
+    # reopen: the FRF is the one shown before saving
     controller.open_session(session_path)
     np.testing.assert_array_equal(controller.frf.h1, shown_h1)
     np.testing.assert_array_equal(controller.frf.coherence, shown_coherence_all)
@@ -208,13 +216,17 @@ def test_sensor_library_holds_the_papers_sensors_and_rejects_bad_files(tmp_path)
     assert "bad.toml" in str(caught.value) and "units" in str(caught.value) and "\n" not in str(caught.value)
 
 
-def test_exports_of_the_frf(qtbot, window, tmp_path):
-    controller = window.controller
-    controller.new_session(tmp_path / "export.h5")
+def _record(qtbot, window, path, hits: int) -> None:
+    window.controller.new_session(path)
     _arm(qtbot, window)
-    for _ in range(2):
+    for _ in range(hits):
         _hit(qtbot, window)
     _stop(qtbot, window)
+
+
+def test_exports_of_the_frf(qtbot, window, tmp_path):
+    controller = window.controller
+    _record(qtbot, window, tmp_path / "export.h5", 2)
     csv = controller.export_csv(tmp_path / "frf.csv")
     table = np.loadtxt(csv, delimiter=",", skiprows=1)
     np.testing.assert_allclose(table[:, 1] + 1j * table[:, 2], controller.frf.h1)
@@ -223,3 +235,36 @@ def test_exports_of_the_frf(qtbot, window, tmp_path):
     window.tabs.setCurrentWidget(window.frf_tab)
     png = window.export_png(tmp_path / "frf.png")
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_replay_with_other_validation_settings(qtbot, window, tmp_path):
+    controller = window.controller
+    _record(qtbot, window, tmp_path / "replay.h5", 2)
+    controller.decide(controller.hits[1].index, False)
+    state = window.setup_tab.state()
+    state.validation = {**state.validation, "min_force_snr": 1e12}
+    window.setup_tab.set_state(state)
+    controller.replay()
+    assert controller.hits[0].automatic.reasons == ("force too low",)
+    assert not controller.hits[0].verdict.accepted
+    assert not controller.hits[1].verdict.accepted and controller.hits[1].verdict.overridden  # kept as set by hand
+    assert controller.frf is None
+    with Session.open(tmp_path / "replay.h5") as stored:
+        assert [v.accepted for v in stored.verdicts()] == [False, False]
+        assert stored.verdicts()[0].reasons == ("force too low",)
+
+
+def test_fit_runs_in_the_background_and_can_be_cancelled(qtbot, window, tmp_path):
+    controller = window.controller
+    _record(qtbot, window, tmp_path / "cancel.h5", 2)
+    window.identify_tab.set_selected_models(["FOMGF", "FOBGF", "FOTGF"])
+    window.identify_tab.method_combo.setCurrentIndex(window.identify_tab.method_combo.findData("gapso"))
+    qtbot.mouseClick(window.identify_tab.run_button, Qt.MouseButton.LeftButton)
+    assert controller.job_active("fit") and window.identify_tab.cancel_button.isEnabled()
+    qtbot.waitUntil(lambda: window.identify_tab.progress.value() > 0, timeout=20_000)
+    assert window.measure_tab.arm_button.isEnabled()  # the GUI thread is free while the fit runs
+    qtbot.mouseClick(window.identify_tab.cancel_button, Qt.MouseButton.LeftButton)
+    qtbot.waitUntil(lambda: not controller.job_active("fit"), timeout=20_000)
+    assert controller.fits == {}
+    assert ("info", "fit: cancelled") in window.banner.history
+    assert window.identify_tab.run_button.isEnabled()
