@@ -22,7 +22,7 @@ from typing import Callable
 
 import numpy as np
 
-from analysis.diagnosis.catalog import CATALOG, CANDIDATE_ORDER, AugmentedModel, effect_slots, film_slots
+from analysis.diagnosis.catalog import CATALOG, CANDIDATE_ORDER, AugmentedModel, effect_slots
 from analysis.diagnosis.measurement import HitSpectra, QualityNote, hit_spectra
 from analysis.diagnosis.rigspec import model_from_spec, spec_from_model
 from analysis.models import PAPER_MASS_KG
@@ -93,7 +93,8 @@ class Diagnosis:
     spectra: HitSpectra
     evidence: Evidence
     wall_time_s: float
-    improved_spec: str | None = None
+    improved_spec: str | None = None  # path of the improved spec TOML when written
+    improved_rig_spec: RigSpec | None = None
     spec_notes: list[str] = field(default_factory=list)
     figures: list[str] = field(default_factory=list)
 
@@ -206,7 +207,7 @@ def diagnose_spectra(
         evidence = _evidence_for(spectra, outcome.model)
         current = fit(evidence, outcome.model, outcome.slots)
 
-    steps, current = _check_back(evidence, model, steps, current, progress)
+    steps, current = _check_back(evidence, steps, current, progress)
     findings = [_finding(evidence, step, current) for step in steps]
     if findings:
         verdict = "missing physics"
@@ -259,14 +260,20 @@ def _nonlinear_replay(spectra: HitSpectra, model: AugmentedModel) -> np.ndarray 
 
 
 def _simulate_nonlinear(spectra: HitSpectra, model: AugmentedModel) -> np.ndarray:
+    """Replay with the hardening film: the exact nonlinear simulation of the median hit gives the shape of the
+    nonlinear distortion beyond the equivalent linear stiffness; to first order in k3 it scales with the square of
+    each hit's impulse (``x0² ∝ J²``), which is how it is carried to the other hits' (exact) linear replays."""
     replay = spectra.replay
+    impulses = spectra.conditions.impulse_ns
+    reference = int(np.argmin(np.abs(impulses - np.median(impulses))))
     spec, _ = spec_from_model(model, None, spectra.conditions.reference_impulse_ns)
-    forces = replay.forces_n
-    responses = np.array([
-        simulate_response(spec, force, replay.sample_rate_hz, time_s=float(time_s))
-        for force, time_s in zip(forces, spectra.conditions.time_s)
-    ])
-    return replay.windowed_frf(responses)
+    response = simulate_response(spec, replay.forces_n[reference], replay.sample_rate_hz,
+                                 time_s=float(spectra.conditions.time_s[reference]))
+    exact = replay.single(reference).windowed_frf(response[np.newaxis, :])[0]
+    linear = replay.replayed(_model_function(model, spectra))
+    distortion = exact / linear[reference] - 1.0
+    scale = (impulses / impulses[reference]) ** 2
+    return linear * (1.0 + scale[:, np.newaxis] * distortion[np.newaxis, :])
 
 
 def _evidence_for(spectra: HitSpectra, model: AugmentedModel) -> Evidence:
@@ -322,7 +329,6 @@ def _candidate_fit(
 
 def _check_back(
     evidence: Evidence,
-    model: AugmentedModel,
     steps: list[Step],
     current: FitOutcome,
     progress: Callable[[str], None],
@@ -331,16 +337,14 @@ def _check_back(
     points = evidence.point_count
     while steps:
         noise_scale = max(1.0, current.chi2 / (points - len(current.slots)))
-        weakest = None
+        trials = []
         for step in steps:
             reduced = current.model.copy()
             del reduced.effects[step.identifier]
             refit = fit(evidence, reduced, model_slots(reduced))
             cost = (refit.chi2 - current.chi2) / noise_scale - len(CATALOG[step.identifier].parameters) * np.log(points)
-            if weakest is None or cost < weakest[0]:
-                weakest = (cost, step, refit)
-        assert weakest is not None
-        cost, step, refit = weakest
+            trials.append((cost, step, refit))
+        cost, step, refit = min(trials, key=lambda trial: trial[0])
         if cost > BIC_MARGIN:
             break
         progress(f"check back: {step.identifier} no longer significant (noise scale {noise_scale:.2f}); removed")
@@ -576,6 +580,7 @@ def diagnose(
     diagnosis = diagnose_spectra(spectra, model, progress)
     improved, notes = spec_from_model(diagnosis.improved_model, rig_spec, reference_impulse_ns)
     diagnosis.spec_notes = notes
+    diagnosis.improved_rig_spec = improved
     if out_dir is not None:
         out = Path(out_dir)
         out.mkdir(parents=True, exist_ok=True)

@@ -60,6 +60,14 @@ _ORDER_START = (0.05, 1.95)
 _MASS_BOX = (0.2, 5.0)
 #: local searches of the default fitter from the best distinct Latin-hypercube starts
 _LOCAL_SEARCHES = 8
+#: best local-search results polished on the accelerance
+_POLISHED = 2
+#: projected Latin-hypercube samples with the lowest accelerance residual that are polished as they are
+_ACCELERANCE_STARTS = 6
+#: iterations of the brief polish every local result gets
+_BRIEF_POLISH = 15
+#: Latin-hypercube shapes scored per shape coordinate
+_SAMPLES_PER_SHAPE = 32
 #: least distance between two starts of local searches, in the unit cube of the shapes
 _START_SPACING = 0.1
 #: mean squared log-stiffness residual at which the data are matched to round-off and the search stops
@@ -319,11 +327,16 @@ class _Problem:
         self.coords = _Coordinates(model, omega_ref, stiffness_ref, mass_kg, fit_mass)
         self.s_rel = self.s / omega_ref
         self.log_s_rel = np.log(self.s_rel)
-        # Log-stiffness residual weights: the square root of the accelerance sensitivity |dH/dlnZ| = |H|²|Z|/|s|²,
-        # so points where Z_d is buried in the mass line count less, without reducing the fit to the resonance.
         sensitivity = np.abs(self.h) ** 2 * np.abs(self.z_measured) / np.abs(self.s) ** 2
-        self.sqrt_w_log = self.sqrt_w * np.sqrt(sensitivity / np.max(sensitivity))
-        self.sqrt_w_log /= np.sqrt(np.mean(self.sqrt_w_log**2))
+        self.sensitivity = sensitivity / np.max(sensitivity)
+
+    def log_weights(self, power: float) -> np.ndarray:
+        """Weights of the log-stiffness residual: the accelerance sensitivity ``|dH/dlnZ| = |H|²|Z|/|s|²`` to a
+        power. Power 2 makes the log-stiffness residual the linearised accelerance residual (the RMS objective);
+        power 1 still lets points where Z_d is buried in the mass line count less, without reducing the fit to the
+        resonance, and finds the solution more often on data a model can fit."""
+        weights = self.sqrt_w * self.sensitivity ** (power / 2)
+        return weights / np.sqrt(np.mean(weights**2))
 
     def check_cancel(self) -> None:
         if self.cancel is not None and self.cancel():
@@ -332,27 +345,25 @@ class _Problem:
     def _z(self, theta, index, gradient):
         return self.coords.stiffness(theta, self.s_rel[index], self.log_s_rel[index], gradient)
 
-    def log_cost(self, thetas: np.ndarray, index: np.ndarray) -> np.ndarray:
+    def log_cost(self, thetas: np.ndarray, index: np.ndarray, weights: np.ndarray) -> np.ndarray:
         """Mean squared weighted log-stiffness residual for many coordinate sets at once."""
         self.evaluations += len(thetas)
         z, _ = self._z(thetas, index, False)
         with np.errstate(all="ignore"):
-            r = np.log(z / self.z_measured[index]) * self.sqrt_w_log[index]
+            r = np.log(z / self.z_measured[index]) * weights[index]
         cost = np.mean(np.abs(r) ** 2, axis=-1)
         return np.where(np.isfinite(cost), cost, np.inf)
 
-    def log_residual(self, theta, index):
-        self.check_cancel()
-        self.evaluations += 1
-        z, _ = self._z(theta, index, False)
-        r = np.log(z / self.z_measured[index]) * self.sqrt_w_log[index]
-        return _stack(np.nan_to_num(r, nan=1e6, posinf=1e6, neginf=-1e6))
-
-    def log_jacobian(self, theta, index):
-        self.evaluations += self.coords.size
-        z, grads = self._z(theta, index, True)
-        columns = [grads[name] / z * self.sqrt_w_log[index] for name in self.coords.names]
-        return _stack_columns(columns)
+    def acc_cost(self, thetas: np.ndarray, index: np.ndarray) -> np.ndarray:
+        """Mean squared weighted accelerance residual for many coordinate sets at once."""
+        self.evaluations += len(thetas)
+        z, _ = self._z(thetas, index, False)
+        _, mass = self.coords.to_params(thetas)
+        s = self.s[index]
+        with np.errstate(all="ignore"):
+            h_model = s**2 / (z + mass[..., np.newaxis] * s**2)
+            cost = np.mean(np.abs((h_model - self.h[index]) * self.sqrt_w[index]) ** 2, axis=-1)
+        return np.where(np.isfinite(cost), cost, np.inf)
 
     def acc_residual(self, theta):
         self.check_cancel()
@@ -407,7 +418,7 @@ class _Projection:
     residual, so the search runs over ψ only.
     """
 
-    def __init__(self, problem: _Problem, index: np.ndarray):
+    def __init__(self, problem: _Problem, index: np.ndarray, weights: np.ndarray):
         coords = problem.coords
         self.problem = problem
         self.index = index
@@ -435,7 +446,8 @@ class _Projection:
         self.start_lower = np.where(is_order, _ORDER_START[0], -2 * _LOG_START)
         self.start_upper = np.where(is_order, _ORDER_START[1], 2 * _LOG_START)
         z = problem.z_measured[index]
-        weight = problem.sqrt_w_log[index]
+        self.weights = weights
+        weight = weights[index]
         self.row_weight = weight * np.abs(z) if self.compliance else weight / np.abs(z)
         target = (1.0 / z if self.compliance else z) * self.row_weight
         self.target = np.concatenate([target.real, target.imag])
@@ -568,13 +580,13 @@ def _levenberg_marquardt(
     return x, cost
 
 
-def _default_search(problem: _Problem, seed: int, progress: Callable[[float], None] | None) -> np.ndarray:
-    """Latin-hypercube shapes → projected local searches → branch splits → polish on the accelerance."""
-    coords = problem.coords
-    rng = np.random.default_rng(seed)
-    index = _subsample(len(problem.freq_hz), 200)
-    projection = _Projection(problem, index)
-    candidates: list[tuple[float, np.ndarray, np.ndarray]] = []
+def _projected_searches(
+    projection: _Projection, searches: int, rng: np.random.Generator
+) -> list[tuple[float, np.ndarray, np.ndarray]]:
+    """Local searches over the branch shapes from the best-scored distinct Latin-hypercube shapes, then from
+    split branches; (log cost, coordinates, shape) of each, stopping early on an exact fit."""
+    problem, index = projection.problem, projection.index
+    found: list[tuple[float, np.ndarray, np.ndarray]] = []
 
     def local_search(start: np.ndarray) -> float:
         shape, _ = _levenberg_marquardt(
@@ -587,54 +599,75 @@ def _default_search(problem: _Problem, seed: int, progress: Callable[[float], No
             tolerance=1e-10,
         )
         theta = projection.project(shape)[0]
-        cost = float(problem.log_cost(theta[np.newaxis], index)[0])
-        candidates.append((cost, theta, shape))
+        cost = float(problem.log_cost(theta[np.newaxis], index, projection.weights)[0])
+        found.append((cost, theta, shape))
         return cost
 
     if projection.size == 0:
         local_search(np.zeros(0))
-    else:
-        unit = qmc.LatinHypercube(d=projection.size, seed=rng).random(32 * projection.size)
-        shapes = projection.start_lower + unit * (projection.start_upper - projection.start_lower)
-        scores = np.mean(projection.project(shapes)[1] ** 2, axis=-1)
-        scores = np.where(np.isfinite(scores), scores, np.inf)
-        # Half the local searches start from the best-scored shapes, half from random ones: the best score is
-        # a good guide for most films, and a misleading one when a wide local minimum surrounds the solution.
-        ranked = [int(i) for i in np.argsort(scores) if np.isfinite(scores[i])]
-        chosen: list[int] = []
-        for start in ranked:
-            if len(chosen) == _LOCAL_SEARCHES // 2:
-                break
-            if all(np.linalg.norm(unit[start] - unit[other]) > _START_SPACING for other in chosen):
-                chosen.append(start)
-        others = [i for i in ranked if i not in chosen]
-        chosen += [int(i) for i in rng.permutation(others)[: _LOCAL_SEARCHES - len(chosen)]]
-        for attempt, start in enumerate(chosen):
-            if progress is not None:
-                progress(0.6 * attempt / len(chosen))
-            if local_search(shapes[start]) <= _EXACT_LOG_COST:
-                break
-        best = min(candidates, key=lambda item: item[0])
-        if best[0] > _EXACT_LOG_COST:
-            for start in projection.split_starts(best[2]):
-                if local_search(start) <= _EXACT_LOG_COST:
-                    break
-    candidates.sort(key=lambda item: item[0])
-    polished = []
-    for _, theta, _ in candidates[:2]:
+        return found
+    unit = qmc.LatinHypercube(d=projection.size, seed=rng).random(_SAMPLES_PER_SHAPE * projection.size)
+    shapes = projection.start_lower + unit * (projection.start_upper - projection.start_lower)
+    thetas, residuals = projection.project(shapes)
+    scores = np.mean(residuals**2, axis=-1)
+    scores = np.where(np.isfinite(scores), scores, np.inf)
+    # The projected samples that best fit the accelerance itself join the polish: where the model cannot fit
+    # the data, the RMS optimum can lie in another basin than the log-stiffness optimum.
+    for start in np.argsort(problem.acc_cost(thetas, index))[:_ACCELERANCE_STARTS]:
+        found.append((np.inf, thetas[start], shapes[start]))
+    chosen: list[int] = []
+    for start in np.argsort(scores):
+        if len(chosen) == searches or not np.isfinite(scores[start]):
+            break
+        if all(np.linalg.norm(unit[start] - unit[other]) > _START_SPACING for other in chosen):
+            chosen.append(int(start))
+    for start in chosen:
+        if local_search(shapes[start]) <= _EXACT_LOG_COST:
+            return found
+    best = min(found, key=lambda item: item[0])
+    for start in projection.split_starts(best[2]):
+        if local_search(start) <= _EXACT_LOG_COST:
+            break
+    return found
+
+
+def _default_search(problem: _Problem, seed: int, progress: Callable[[float], None] | None) -> np.ndarray:
+    """Latin-hypercube shapes → projected local searches (two weightings) → branch splits → polish on the
+    accelerance."""
+    coords = problem.coords
+    rng = np.random.default_rng(seed)
+    index = _subsample(len(problem.freq_hz), 200)
+    candidates: list[tuple[float, np.ndarray]] = []
+    stages = ((1.0, _LOCAL_SEARCHES), (2.0, _LOCAL_SEARCHES // 2))
+    for stage, (power, searches) in enumerate(stages):
+        projection = _Projection(problem, index, problem.log_weights(power))
+        found = _projected_searches(projection, searches, rng)
+        candidates += [(cost, theta) for cost, theta, _ in found]
         if progress is not None:
-            progress(0.7 + 0.15 * len(polished))
-        theta, _ = _levenberg_marquardt(
-            problem.acc_residual,
-            problem.acc_jacobian,
-            theta,
-            coords.lower,
-            coords.upper,
-            max_iterations=200,
-            tolerance=1e-10,
+            progress(0.6 * (stage + 1) / len(stages))
+        if min(cost for cost, _, _ in found) <= _EXACT_LOG_COST:
+            break
+    # Every local result is polished briefly on the accelerance (the log-stiffness optimum is not the RMS
+    # optimum when the model cannot fit the data), the best ones to convergence.
+    def brief_polish(theta: np.ndarray) -> tuple[float, np.ndarray]:
+        theta, cost = _levenberg_marquardt(
+            problem.acc_residual, problem.acc_jacobian, theta, coords.lower, coords.upper, _BRIEF_POLISH, 1e-10
         )
-        polished.append((problem.weighted_cost(theta), theta))
-    return min(polished, key=lambda item: item[0])[1]
+        return cost, theta
+
+    polished = []
+    for count, (_, theta) in enumerate(candidates):
+        if progress is not None:
+            progress(0.6 + 0.3 * count / len(candidates))
+        polished.append(brief_polish(theta))
+    polished.sort(key=lambda item: item[0])
+    final = []
+    for _, theta in polished[:_POLISHED]:
+        theta, cost = _levenberg_marquardt(
+            problem.acc_residual, problem.acc_jacobian, theta, coords.lower, coords.upper, 200, 1e-10
+        )
+        final.append((cost, theta))
+    return min(final, key=lambda item: item[0])[1]
 
 
 # --- the paper's GA-PSO -------------------------------------------------------------------------------------------

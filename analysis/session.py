@@ -16,6 +16,8 @@ import datetime
 import enum
 import json
 import os
+import subprocess
+import sys
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Mapping
@@ -34,7 +36,26 @@ from drivers.interface import ChannelConfig, ChannelKind, Coupling, DaqConfig
 SCHEMA_VERSION = 1
 FORMAT_NAME = "gasfilm-session"
 REASONS_LENGTH = 256
-SAMPLES_PER_CHUNK = 16384
+MAX_SAMPLES_PER_CHUNK = 16384  # per channel: 128 KiB per channel and chunk
+DEFAULT_SAMPLES_PER_CHUNK = 4096  # when the record length is not known in advance
+#: How long the check of a file left open by a killed writer may take before it counts as damaged. HDF5 reading in
+#: SWMR mode retries (and sleeps) for minutes on metadata beyond the end of a truncated file, so the check runs in a
+#: child process that can be stopped.
+PROBE_TIMEOUT_S = 15.0
+PROBE_SCRIPT = """
+import os, sys, h5py
+path = sys.argv[1]
+size = os.path.getsize(path)
+with h5py.File(path, "r", swmr=True, locking=False) as f:
+    if f.attrs.get("format") != "gasfilm-session":
+        sys.exit(0)  # not a session: opening it says so
+    f.visit(lambda name: None)
+    f["hits/table"][()]
+    ends = []
+    for name in ("hits/table", "hits/data"):
+        f[name].id.chunk_iter(lambda chunk: ends.append(chunk.byte_offset + chunk.size))
+    sys.exit(3 if ends and max(ends) > size else 0)
+"""
 
 
 class SessionError(GasfilmError):
@@ -274,6 +295,23 @@ def _h5(path: Path, mode: str, **options: Any) -> h5py.File:
     return h5py.File(path, mode, **options)
 
 
+def _check_unclosed_file(path: Path) -> None:
+    """Raise unless a file left open by its writer can be read in SWMR mode without running past its end."""
+    try:
+        probe = subprocess.run(
+            [sys.executable, "-c", PROBE_SCRIPT, str(path)], capture_output=True, text=True, timeout=PROBE_TIMEOUT_S
+        )
+    except subprocess.TimeoutExpired:
+        raise SessionError(
+            f"{path}: truncated or damaged HDF5 file: left open by its writer, and reading it runs past its end"
+        ) from None
+    if probe.returncode == 3:
+        raise SessionError(f"{path}: truncated HDF5 file: left open by its writer, its hit records end early")
+    if probe.returncode != 0:
+        last_line = (probe.stderr.strip().splitlines() or ["no message"])[-1]
+        raise SessionError(f"{path}: damaged HDF5 file left open by its writer ({last_line})")
+
+
 class Session:
     """An open session file. Create with :meth:`create`, open with :meth:`open`; use as a context manager."""
 
@@ -307,11 +345,13 @@ class Session:
         actual_sample_rate_hz: float | None = None,
         device_name: str = "",
         sync_each_hit: bool = True,
+        record_samples: int | None = None,
     ) -> "Session":
         """A new session file holding the setup; it appears at ``path`` only once complete.
 
         ``actual_sample_rate_hz`` is the rate the device reports (the NI 9234 may coerce the requested rate);
-        ``sync_each_hit=False`` skips the fsync after each hit (for bulk imports, not for live acquisition).
+        ``sync_each_hit=False`` skips the fsync after each hit (for bulk imports, not for live acquisition);
+        ``record_samples``, the expected samples per record, sizes the storage chunks (any length can be stored).
         """
         path = Path(path)
         if path.exists() and not overwrite:
@@ -344,12 +384,13 @@ class Session:
             for key, value in settings.items():
                 settings_group.attrs[key] = _json_dumps(value)
             channel_count = len(daq_config.channels)
+            chunk_samples = min(record_samples or DEFAULT_SAMPLES_PER_CHUNK, MAX_SAMPLES_PER_CHUNK)
             hits = file.create_group("hits")
             hits.create_dataset(
                 "data",
                 shape=(0, channel_count, 0),
                 maxshape=(None, channel_count, None),
-                chunks=(1, channel_count, SAMPLES_PER_CHUNK),
+                chunks=(1, channel_count, chunk_samples),
                 dtype="<f8",
                 fillvalue=np.nan,
             )
@@ -398,6 +439,12 @@ class Session:
                 raise _describe_open_failure(path, error) from None
             # The flags of a writer that is still recording (mode "r" only: else the lock would have failed)
             # or that ended without closing the file (killed, crashed, power lost).
+            try:
+                _check_unclosed_file(path)
+            except SessionError:
+                if lock is not None:
+                    lock.release()
+                raise
             if mode == "r":
                 try:
                     file = _h5(path, "r", swmr=True)

@@ -339,7 +339,10 @@ def import_uff_session(
             "trigger_level_n": trigger_level_n,
         },
     }
-    with Session.create(session_path, config, None, settings, overwrite=overwrite, sync_each_hit=False) as session:
+    with Session.create(
+        session_path, config, None, settings, overwrite=overwrite, sync_each_hit=False,
+        record_samples=time_records.records.shape[2],
+    ) as session:
         for hit_index, record in enumerate(time_records.records):
             hit = HitRecord(
                 index=hit_index,

@@ -71,11 +71,18 @@ def test_parameter_error_is_recalibrated_not_blamed_on_physics(tmp_path):
     assert abs(fitted_k - 3.78e7 * 1.03) < 5 * diagnosis.recalibration["k"]["uncertainty"] + 1e-4 * fitted_k
 
 
-def test_mains_interference_is_quality_not_physics(tmp_path):
+def test_mains_interference_is_quality_not_physics_and_the_cli_stores_it(tmp_path, capsys):
     truth = NOMINAL.with_effects(Mains(channel="acceleration", amplitude=0.02, harmonics=(1.0, 0.5)))
-    diagnosis = diagnose(record(truth, tmp_path / "mains.h5", seed=3), NOMINAL)
-    assert diagnosis.findings == []
-    assert "interference" in [note.kind for note in diagnosis.quality]
+    session_path = record(truth, tmp_path / "mains.h5", seed=3)
+    NOMINAL.save(tmp_path / "nominal.toml")
+    status = gasfilm(["diagnose", str(session_path), "--rig", str(tmp_path / "nominal.toml"), "--json",
+                      "--out", str(tmp_path / "out")])
+    assert status == 0
+    result = json.loads(capsys.readouterr().out)
+    assert result["findings"] == []
+    assert "interference" in [note["kind"] for note in result["quality"]]
+    with Session.open(session_path) as session:
+        assert session.read_diagnosis("latest")["verdict"] == result["verdict"]
 
 
 def test_hidden_delay_is_found_and_the_improved_spec_closes_the_loop(tmp_path):
@@ -92,6 +99,16 @@ def test_hidden_delay_is_found_and_the_improved_spec_closes_the_loop(tmp_path):
     again = diagnose(replayed, improved)
     assert again.findings == []
     assert again.verdict in ("consistent", "parameters-only")
+
+
+def test_fractional_film_behind_a_spring_damper_spec_is_named_film_memory(tmp_path):
+    """The paper's FOMGF rig diagnosed with only the mass: its first fractional Maxwell arm is what is missing."""
+    diagnosis = diagnose(record(RigSpec.nominal("FOMGF"), tmp_path / "fomgf.h5", seed=7), None, 25.05)
+    assert effects_of(diagnosis) == ["film-memory"]
+    alpha = diagnosis.findings[0].parameters["alpha_memory"]
+    assert abs(alpha["value"] - 1.7472) < 4 * alpha["uncertainty"] + 0.02
+    assert diagnosis.rms_after < 0.05 * diagnosis.rms_before
+    assert diagnosis.chi2_per_point_after < 1.25
 
 
 def test_uff_time_records_with_only_the_mass(tmp_path, capsys):
@@ -148,11 +165,11 @@ def test_catalog_terms_are_the_rig_physics(effects):
     assert np.allclose(rig_accelerance(written, freq_hz, 3.0, hit_time_s), expected, rtol=1e-10, atol=0)
 
 
-def test_film_memory_is_written_as_a_spring_pot_branch():
+def test_film_memory_is_written_as_a_fractional_maxwell_branch():
     model = AugmentedModel(get_model("SD"), {"k": 3.78e7, "eta": 3.45e3}, 25.05,
-                           {"film-memory": {"eta_memory": 2e3, "alpha_memory": 0.5}})
+                           {"film-memory": {"k_memory": 3e6, "eta_memory": 20.0, "alpha_memory": 1.7}})
     spec, _ = spec_from_model(model, NOMINAL, 1.0)
-    assert "pot(eta_memory, alpha_memory)" in spec.film_model
+    assert "k_memory -- pot(eta_memory, alpha_memory)" in spec.film_model
     freq_hz = np.linspace(10.0, 1000.0, 50)
     assert np.allclose(rig_accelerance(spec, freq_hz), model.accelerance(freq_hz, 0.0), rtol=1e-12)
 

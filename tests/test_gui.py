@@ -148,6 +148,34 @@ def test_device_fault_shows_banner_and_keeps_every_accepted_hit(qtbot, window, t
         assert len(stored.accepted_indices()) == accepted
 
 
+@pytest.mark.parametrize("kind, words", [("overflow", "overflow"), ("open_sensor", "open IEPE sensor")])
+def test_other_device_faults_reach_the_banner(qtbot, window, tmp_path, kind, words):
+    controller = window.controller
+    controller.new_session(tmp_path / f"{kind}.h5")
+    _arm(qtbot, window)
+    _hit(qtbot, window)
+    controller.inject_fault(kind)
+    qtbot.waitUntil(lambda: controller.state == "idle", timeout=10_000)
+    assert window.banner.severity == "error" and words in window.banner.text
+    with Session.open(tmp_path / f"{kind}.h5") as stored:
+        assert len(stored.accepted_indices()) == 1
+
+
+@pytest.mark.filterwarnings("ignore::drivers.errors.ADCOverloadWarning")  # the simulator warns as DAQmx does
+def test_overload_rejects_the_clipped_hit_and_warns(qtbot, window, tmp_path):
+    controller = window.controller
+    controller.new_session(tmp_path / "overload.h5")
+    _arm(qtbot, window)
+    controller.inject_fault("overload")
+    _hit(qtbot, window)
+    entry = controller.hits[0]
+    assert not entry.verdict.accepted and "overload" in entry.automatic.reasons
+    qtbot.waitUntil(lambda: window.banner.isVisible(), timeout=5_000)
+    assert window.banner.severity == "warning" and "overload" in window.banner.text
+    assert controller.state == "armed"  # an overload taints one hit; acquisition goes on
+    _stop(qtbot, window)
+
+
 def test_user_decides_pending_hits_when_auto_accept_is_off(qtbot, window, tmp_path):
     state = window.setup_tab.state()
     state.auto_accept = False
@@ -191,10 +219,15 @@ def test_setup_is_remembered_between_runs(qtbot, tmp_path):
 
 def test_sensor_picked_from_library_sets_sensitivity_and_invalid_setup_is_named(qtbot, window):
     tab = window.setup_tab
-    sensor_combo = tab._cell(0, "Sensor")
+    sensor_combo = tab.channel_cell(0, "Sensor")
     sensor_combo.setCurrentIndex(sensor_combo.findData("PCB 086C03"))
     assert tab.state().channels[0].sensitivity == 2.25
-    coupling = tab._cell(1, "Coupling")
+    trigger = tab.trigger_form.values()
+    tab.trigger_form.set_values({**trigger, "pretrigger_s": 2.0})
+    tab.trigger_form.changed.emit()
+    assert "pretrigger_s" in tab.problem_label.text()
+    tab.trigger_form.set_values(trigger)
+    coupling = tab.channel_cell(1, "Coupling")
     coupling.setCurrentText("DC")
     assert "coupling" in tab.problem_label.text() and "IEPE" in tab.problem_label.text()
     qtbot.mouseClick(window.measure_tab.arm_button, Qt.MouseButton.LeftButton)

@@ -5,7 +5,8 @@ Laplace variable ``s = σ + jω`` of the session's exponential window (an expone
 accelerance there), with the terms of the effects found so far. Effects that change from hit to hit (drift with the
 hit's time, film stiffness with the hit's level) make the model differ per hit:
 
-* ``film-memory``: a spring-pot ``η s^α`` (0 < α < 1) in parallel with the film — viscoelastic memory;
+* ``film-memory``: a fractional Maxwell branch ``k_m -- pot(η, α)`` (complex stiffness ``k_m η s^α / (k_m + η s^α)``)
+  in parallel with the film — viscoelastic memory, the paper's FOMGF arms;
 * ``pneumatic-lag``: a lagged spring ``k_p / (1 + s τ)`` in parallel with the film — its damping is negative;
 * ``extra-mode``: a mass ``m_e`` on a spring and damper (``ω_e``, ``ζ_e``) riding on the mover, adding the dynamic
   stiffness ``m_e s² (k_e + c_e s) / (m_e s² + k_e + c_e s)`` (as :class:`analysis.rig.ExtraMode`);
@@ -54,11 +55,13 @@ CATALOG: dict[str, Effect] = {
         Effect(
             "film-memory",
             (
-                EffectParameter("eta_memory", "N·s^α/m", "log", 1e-2, 1e12),
-                EffectParameter("alpha_memory", "1", "linear", 0.05, 0.95),
+                EffectParameter("k_memory", "N/m", "log", 1e2, 1e12),
+                EffectParameter("eta_memory", "N·s^α/m", "log", 1e-2, 1e14),
+                EffectParameter("alpha_memory", "1", "linear", 0.05, 1.9),
             ),
             "The gas film is stiffer and damps differently at high frequency than at low frequency: it has a "
-            "viscoelastic memory that a plain spring and damper cannot describe (a spring-pot branch is added).",
+            "viscoelastic memory that a plain spring and damper cannot describe (a fractional Maxwell branch, a "
+            "spring in series with a spring-pot, is added to the film).",
         ),
         Effect(
             "pneumatic-lag",
@@ -170,7 +173,8 @@ class AugmentedModel:
         stiffness = self.film.stiffness(s, self.film_parameters)
         if "film-memory" in effects:
             memory = effects["film-memory"]
-            stiffness = stiffness + memory["eta_memory"] * s ** memory["alpha_memory"]
+            pot = memory["eta_memory"] * s ** memory["alpha_memory"]
+            stiffness = stiffness + memory["k_memory"] * pot / (memory["k_memory"] + pot)
         if "pneumatic-lag" in effects:
             lag = effects["pneumatic-lag"]
             stiffness = stiffness + lag["k_lag"] / (1.0 + s * lag["tau_lag"])

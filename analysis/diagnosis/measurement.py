@@ -115,6 +115,13 @@ class Replay:
         response = scipy.fft.irfft(self.force_padded * plain, self.n_fft, axis=1)[:, : self.n_samples]
         return scipy.fft.rfft(response * self.exponential, axis=1)[:, self.grid] / self.force_windowed_grid
 
+    def single(self, hit: int) -> "Replay":
+        """The replay of one hit only."""
+        rows = slice(hit, hit + 1)
+        return replace(self, force_padded=self.force_padded[rows], exponential=self.exponential[rows],
+                       force_windowed_grid=self.force_windowed_grid[rows], measured_h=self.measured_h[rows],
+                       measured_variance=self.measured_variance[rows], nonlinear_cache={})
+
     def windowed_frf(self, responses: np.ndarray) -> np.ndarray:
         """Per-hit FRFs on the grid of replayed response records (hits, samples), windowed like the recording."""
         return scipy.fft.rfft(responses * self.exponential, axis=1)[:, self.grid] / self.force_windowed_grid
@@ -136,7 +143,7 @@ class Replay:
         return replayed / laplace
 
 
-def _pulse_extent(force_n: np.ndarray, sample_rate_hz: float) -> tuple[int, int, int]:
+def _pulse_extent(force_n: np.ndarray) -> tuple[int, int, int]:
     """Start, peak and end sample of the main force pulse (where |F| exceeds 2 % of its peak)."""
     magnitude = np.abs(force_n)
     peak = int(np.argmax(magnitude))
@@ -175,7 +182,7 @@ def _contiguous_bands(mask: np.ndarray, min_bins: int) -> list[tuple[int, int]]:
 
 def default_window(records: np.ndarray, sample_rate_hz: float) -> WindowSettings:
     """Windows for records that come without any: force window 1 ms past three pulse widths, 1 % exponential."""
-    widths = [end - start + 1 for start, _, end in (_pulse_extent(r[0], sample_rate_hz) for r in records)]
+    widths = [end - start + 1 for start, _, end in (_pulse_extent(r[0]) for r in records)]
     return WindowSettings(force_window_ms=1.0 + 3e3 * float(np.median(widths)) / sample_rate_hz,
                           force_taper_ms=0.5, exponential_end_fraction=0.01)
 
@@ -205,7 +212,7 @@ def hit_spectra(
         raise SettingError("diagnosis records: the hit records contain NaN or infinite samples")
     hit_count, _, n_samples = records.shape
     quality: list[QualityNote] = []
-    extents = [_pulse_extent(record[0], sample_rate_hz) for record in records]
+    extents = [_pulse_extent(record[0]) for record in records]
     pulse_samples = int(np.median([end - start + 1 for start, _, end in extents]))
 
     double_hits, clipped_hits = [], []

@@ -3,7 +3,7 @@
 Two catalog terms have no effect type in :mod:`analysis.rig` yet; they are registered here with
 :func:`analysis.rig.register_effect` so that an improved spec holding them loads and plays in the simulator:
 ``pneumatic-lag`` (a lagged film spring) and ``ac-coupling`` (a high-pass on one channel). ``film-memory`` needs no
-type: it extends the film network itself with a spring-pot branch. ``window-damping`` is a property of how the
+type: it extends the film network itself with a fractional Maxwell branch ``k_memory -- pot(eta_memory, alpha_memory)``. ``window-damping`` is a property of how the
 records were processed, not of the rig; the improved spec says so in a comment.
 
 ``amplitude-nonlinearity`` is fitted as a stiffness change that grows with the square of the hit's impulse; the
@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from analysis.diagnosis.catalog import AugmentedModel, HitConditions
+from analysis.diagnosis.catalog import AugmentedModel
 from analysis.models import PAPER_MODELS, get_model
 from analysis.rig import (
     CHANNELS,
@@ -36,13 +36,13 @@ from analysis.rig import (
     _number,
     _positive,
     register_effect,
-    simulate_response,
 )
 from drivers.errors import SettingError
 
 #: Equivalent linearisation of a cubic spring seen through an FRF of a free decay: ``Δk = c · k3 · x0²``
 #: (harmonic balance gives 3/4 at amplitude x0; the decaying amplitude weights it down to about 1/4).
 CUBIC_CONSTANT = 0.25
+MEMORY_K = "k_memory"
 MEMORY_ETA = "eta_memory"
 MEMORY_ALPHA = "alpha_memory"
 
@@ -142,7 +142,8 @@ def spec_from_model(
     mass_kg = model.mass_kg
     for identifier, values in model.effects.items():
         if identifier == "film-memory":
-            film_text = f"({model.film.text}) || pot({MEMORY_ETA}, {MEMORY_ALPHA})"
+            film_text = f"({model.film.text}) || ({MEMORY_K} -- pot({MEMORY_ETA}, {MEMORY_ALPHA}))"
+            parameters[MEMORY_K] = values["k_memory"]
             parameters[MEMORY_ETA] = values["eta_memory"]
             parameters[MEMORY_ALPHA] = values["alpha_memory"]
         elif identifier == "added-mass":

@@ -104,11 +104,6 @@ class Evidence:
         weight = self.spectra.weight
         return (weight * predicted).sum(axis=0) / weight.sum(axis=0)
 
-    def rms(self, model: AugmentedModel) -> float:
-        """Equation (33): RMS of |H̄ − M| over the analysis frequencies, in (m/s²)/N."""
-        mean, _ = self.spectra.mean()
-        return float(np.sqrt(np.mean(np.abs(mean - self.mean_prediction(model)) ** 2)))
-
 
 def fit(
     evidence: Evidence,
@@ -157,9 +152,11 @@ def initial_guesses(identifier: str, evidence: Evidence, model: AugmentedModel) 
     s0 = 2j * np.pi * resonance_hz
     film_stiffness = float(np.abs(model.film.stiffness(np.array([s0]), model.film_parameters))[0])
     if identifier == "film-memory":
+        omega = 2 * np.pi * resonance_hz
         return [
-            {"eta_memory": 0.01 * film_stiffness / (2 * np.pi * resonance_hz) ** alpha, "alpha_memory": alpha}
-            for alpha in (0.2, 0.5, 0.8)
+            {"k_memory": k_factor * film_stiffness, "eta_memory": 0.01 * film_stiffness / omega**alpha,
+             "alpha_memory": alpha}
+            for alpha in (0.3, 0.8, 1.5) for k_factor in (0.1, 100.0)
         ]
     if identifier == "pneumatic-lag":
         return [
@@ -224,11 +221,8 @@ def best_candidate_fit(
     evidence: Evidence, model: AugmentedModel, identifier: str
 ) -> FitOutcome:
     """The best full-data fit of the current model plus one candidate term over its starting values."""
-    best: FitOutcome | None = None
+    outcomes = []
     for guess in initial_guesses(identifier, evidence, model):
         candidate = _with_candidate(model, identifier, guess)
-        outcome = fit(evidence, candidate, model_slots(candidate))
-        if best is None or outcome.chi2 < best.chi2:
-            best = outcome
-    assert best is not None
-    return best
+        outcomes.append(fit(evidence, candidate, model_slots(candidate)))
+    return min(outcomes, key=lambda outcome: outcome.chi2)

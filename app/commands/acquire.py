@@ -97,7 +97,8 @@ def _open_session(args: argparse.Namespace, config: DaqConfig, rate_hz: float, d
         return session
     if args.out.exists():
         raise SessionError(f"{args.out}: the session file exists already (use --append to add hits to it)")
-    return Session.create(args.out, config, rig_toml, settings, actual_sample_rate_hz=rate_hz, device_name=device_name)
+    return Session.create(args.out, config, rig_toml, settings, actual_sample_rate_hz=rate_hz,
+                          device_name=device_name, record_samples=settings["trigger"].record_samples(rate_hz))
 
 
 class _Progress:

@@ -14,7 +14,8 @@ from pathlib import Path
 
 from analysis.diagnose import Diagnosis, diagnose
 from analysis.rig import RigSpec
-from drivers.errors import SettingError
+from analysis.session import Session
+from drivers.errors import GasfilmError, SettingError
 
 G_M_S2 = 9.80665
 
@@ -90,6 +91,13 @@ def run(args: argparse.Namespace) -> int:
         print(f"  {message}", file=sys.stderr)
 
     diagnosis = diagnose(args.source, spec, args.mass, args.out, _band(args.band), progress)
+    if args.source.suffix.lower() not in (".uff", ".unv"):
+        try:
+            with Session.open(args.source, "a") as session:
+                session.write_diagnosis("latest", diagnosis.to_dict())
+            progress(f"diagnosis stored in {args.source} (diagnoses/latest)")
+        except GasfilmError as error:
+            progress(f"diagnosis not stored in the session: {error}")
     if args.json:
         print(json.dumps(diagnosis.to_dict(), indent=2))
     else:

@@ -249,7 +249,7 @@ def run(args: argparse.Namespace) -> int:
             raise SettingError(f"--out: {args.out} is the input; leave --out out to store the result in the input")
         with Session.create(args.out, source.config, source.rig_spec_toml, {**source.settings, **settings},
                             overwrite=args.overwrite, actual_sample_rate_hz=source.sample_rate_hz,
-                            sync_each_hit=False) as result:
+                            sync_each_hit=False, record_samples=hits[0].n_samples if hits else None) as result:
             for hit, verdict in zip(hits, verdicts):
                 result.append_hit(hit, verdict)
             if frf is not None:

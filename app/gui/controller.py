@@ -25,7 +25,7 @@ from analysis.session import Session
 from analysis.spectra import FrfResult, WindowSettings, frf_from_hits
 from analysis.uff import export_frf_uff
 from analysis.validation import ValidationSettings, Verdict, validate_hit
-from app.gui.settings import SetupState, settings_from_dict, settings_to_dict
+from app.gui.settings import SetupState, settings_from_dict
 from app.gui.workers import (
     AcquisitionPlan,
     AcquisitionStats,
@@ -411,7 +411,7 @@ class SessionController(QObject):
             self.message.emit(f"diagnose: {error}", "error")
             return
 
-        def work(report, cancelled):
+        def work(report, _cancelled):  # the diagnosis has no cancel hook: Cancel acts at its next progress report
             return diagnose(recordings, spec, out_dir=out_dir, progress=lambda text: report(0.0, text))
 
         self._start_job("diagnose", work, self._on_diagnosis_done)

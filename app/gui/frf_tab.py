@@ -25,6 +25,7 @@ class FrfTab(QWidget):
         self.controller = controller
         self.frf: FrfResult | None = None
         self._stale = False
+        self._view_set = False
 
         self.unit_combo = QComboBox()
         self.unit_combo.addItems(list(UNITS))
@@ -129,6 +130,7 @@ class FrfTab(QWidget):
             for curve in curves:
                 curve.setData([], [])
             self.summary.setText("No FRF yet: accept hits on the Measure tab or open a session.")
+            self._view_set = False
             return
         scale = UNITS[self.unit]
         for plot, label in ((self.magnitude_plot, "|H|"), (self.real_plot, "Re H"), (self.imag_plot, "Im H")):
@@ -148,6 +150,9 @@ class FrfTab(QWidget):
         self.imag_curve.setData(freq, h1.imag)
         self.coherence_curve.setData(freq, frf.coherence[keep])
         low, high = self.controller.fit_band_hz
+        if not self._view_set:  # open on the band of interest; zoom out for the rest up to Nyquist
+            self.magnitude_plot.setXRange(0.0, min(float(freq[-1]), 2.5 * high), padding=0.02)
+            self._view_set = True
         band = (freq >= low) & (freq <= high)
         mean_coherence = float(np.mean(frf.coherence[keep][band])) if np.any(band) else float("nan")
         peak = int(np.argmax(np.where(band, magnitude, 0))) if np.any(band) else int(np.argmax(magnitude))

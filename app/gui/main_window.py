@@ -17,6 +17,7 @@ from app.gui.measure_tab import MeasureTab
 from app.gui.settings import SETTINGS_APPLICATION, SETTINGS_ORGANIZATION, load_setup, save_setup
 from app.gui.setup_tab import SetupTab
 from app.gui.widgets import Banner, configure_pyqtgraph
+from drivers import SIMULATED_DEVICE_NAME
 from drivers.errors import GasfilmError
 
 SIM_FAULTS = {
@@ -155,7 +156,9 @@ class MainWindow(QMainWindow):
         state = self.setup_tab.state()
         self.controller.setup = state
         save_setup(self.settings, state)
-        self.simulator_menu.setEnabled(state.device == "sim")
+        self.simulator_menu.setEnabled(state.device == SIMULATED_DEVICE_NAME)
+        if not self.controller.acquiring:
+            self.measure_tab.hammer_box.setVisible(state.device == SIMULATED_DEVICE_NAME)
 
     def _setup_replaced(self, state) -> None:
         self.setup_tab.set_state(state)
@@ -174,9 +177,11 @@ class MainWindow(QMainWindow):
             self.stream_label.setText("not streaming")
             return
         seconds = loop.samples_read / loop.sample_rate_hz
+        stats = self.controller.acquisition_stats
+        dropped = f" · {stats.dropped_chunks} chunks dropped" if stats is not None and stats.dropped_chunks else ""
         self.stream_label.setText(
             f"{loop.channel_count} ch · {loop.sample_rate_hz:g} S/s · "
-            f"{seconds:.1f} s streamed · view {self.measure_tab.redraw_rate_hz():.0f} fps"
+            f"{seconds:.1f} s streamed · view {self.measure_tab.redraw_rate_hz():.0f} fps{dropped}"
         )
 
     def closeEvent(self, event: QCloseEvent) -> None:

@@ -155,14 +155,5 @@ def settings_from_dict(cls: type[T], values: dict[str, Any]) -> T:
     return dataclasses.replace(instance, **changes) if changes else instance
 
 
-def settings_to_dict(instance: Any) -> dict[str, Any]:
-    """JSON-able field values of a settings dataclass."""
-    out = {}
-    for f in dataclasses.fields(instance):
-        value = getattr(instance, f.name)
-        out[f.name] = value.value if isinstance(value, enum.Enum) else (list(value) if isinstance(value, tuple) else value)
-    return out
-
-
 def rig_spec_label(path: str) -> str:
     return Path(path).name if path else "nominal FOMGF film, 25.05 kg (paper)"

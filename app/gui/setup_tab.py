@@ -29,7 +29,7 @@ from analysis.rig import RigSpec
 from analysis.spectra import WindowSettings
 from analysis.validation import ValidationSettings
 from app.gui.sensors import DEFAULT_SENSOR_LIBRARY, Sensor, load_sensor_library
-from app.gui.settings import SIM_TIPS, ChannelSetup, SetupState, rig_spec_label
+from app.gui.settings import SIM_TIPS, ChannelSetup, SetupState, rig_spec_label, settings_from_dict
 from app.gui.widgets import DataclassForm
 from drivers.errors import GasfilmError
 from drivers.interface import NI9234_VALID_RATES_HZ, SENSITIVITY_UNITS, ChannelKind, Coupling
@@ -209,6 +209,9 @@ class SetupTab(QWidget):
         state = self.state()
         try:
             state.daq_config()
+            settings_from_dict(TriggerSettings, state.trigger)
+            settings_from_dict(WindowSettings, state.window)
+            settings_from_dict(ValidationSettings, state.validation)
             if state.rig_spec_path:
                 RigSpec.load(state.rig_spec_path)
         except GasfilmError as error:
@@ -255,25 +258,25 @@ class SetupTab(QWidget):
         coupling.currentIndexChanged.connect(self._emit_changed)
         self.table.resizeColumnsToContents()
 
-    def _cell(self, row: int, column: str) -> QWidget:
+    def channel_cell(self, row: int, column: str) -> QWidget:
         return self.table.cellWidget(row, _COLUMNS.index(column))
 
     def _read_row(self, row: int) -> ChannelSetup:
-        sensor = self._cell(row, "Sensor").currentData()
+        sensor = self.channel_cell(row, "Sensor").currentData()
         return ChannelSetup(
-            physical_channel=self._cell(row, "Channel").text(),
-            kind=self._cell(row, "Type").currentData(),
-            enabled=self._cell(row, "Use").isChecked(),
-            name=self._cell(row, "Name").text(),
+            physical_channel=self.channel_cell(row, "Channel").text(),
+            kind=self.channel_cell(row, "Type").currentData(),
+            enabled=self.channel_cell(row, "Use").isChecked(),
+            name=self.channel_cell(row, "Name").text(),
             sensor_model=sensor or "",
-            sensitivity=self._cell(row, "Sensitivity").value(),
-            units=self._cell(row, "Units").currentText(),
-            iepe=self._cell(row, "IEPE").isChecked(),
-            coupling=self._cell(row, "Coupling").currentText(),
+            sensitivity=self.channel_cell(row, "Sensitivity").value(),
+            units=self.channel_cell(row, "Units").currentText(),
+            iepe=self.channel_cell(row, "IEPE").isChecked(),
+            coupling=self.channel_cell(row, "Coupling").currentText(),
         )
 
     def _fill_sensor_choices(self, row: int, kind: str, selected: str) -> None:
-        combo: QComboBox = self._cell(row, "Sensor")
+        combo: QComboBox = self.channel_cell(row, "Sensor")
         combo.blockSignals(True)
         combo.clear()
         combo.addItem(TYPED_IN, "")
@@ -285,7 +288,7 @@ class SetupTab(QWidget):
         combo.blockSignals(False)
 
     def _fill_units(self, row: int, kind: str, selected: str) -> None:
-        combo: QComboBox = self._cell(row, "Units")
+        combo: QComboBox = self.channel_cell(row, "Units")
         combo.blockSignals(True)
         combo.clear()
         combo.addItems(list(SENSITIVITY_UNITS[ChannelKind(kind)]))
@@ -294,16 +297,16 @@ class SetupTab(QWidget):
         combo.blockSignals(False)
 
     def _kind_changed(self, row: int) -> None:
-        kind = self._cell(row, "Type").currentData()
+        kind = self.channel_cell(row, "Type").currentData()
         self._fill_sensor_choices(row, kind, "")
         self._fill_units(row, kind, "")
         self._channels_changed()
 
     def _sensor_picked(self, row: int) -> None:
-        model = self._cell(row, "Sensor").currentData()
+        model = self.channel_cell(row, "Sensor").currentData()
         sensor = next((s for s in self.sensors if s.model == model), None)
         if sensor is not None:
-            spin: QDoubleSpinBox = self._cell(row, "Sensitivity")
+            spin: QDoubleSpinBox = self.channel_cell(row, "Sensitivity")
             spin.blockSignals(True)
             spin.setValue(sensor.sensitivity)
             spin.blockSignals(False)
@@ -312,7 +315,7 @@ class SetupTab(QWidget):
 
     def _typed_in(self, row: int) -> None:
         """A sensitivity or unit edited by hand no longer matches the library entry."""
-        combo: QComboBox = self._cell(row, "Sensor")
+        combo: QComboBox = self.channel_cell(row, "Sensor")
         model = combo.currentData()
         sensor = next((s for s in self.sensors if s.model == model), None)
         current = self._read_row(row)

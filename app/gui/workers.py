@@ -11,7 +11,7 @@ from __future__ import annotations
 import queue
 import threading
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any, Callable
 
 import numpy as np
@@ -76,7 +76,6 @@ class AcquisitionStats:
     samples_read: int = 0
     dropped_chunks: int = 0
     hits: int = 0
-    started_monotonic_s: float = field(default_factory=time.monotonic)
 
 
 class AcquisitionWorker(QObject):

@@ -6,7 +6,8 @@ capture, validation and session code (:mod:`benchmarks.concealed.sessions`). The
 ``manifest.json`` for the scorer alone. Effect sizes are chosen so that a single hit's own goodness of fit against the
 nominal spec stays within its noise (the scorer measures and prints this) while the averaged statistics of 20 hits
 show it. Kinds: one hidden effect, two at once, clean controls, parameter-only controls (the film's own k and c off by
-a few %), and artefact sessions (mains interference, double hits that validation must reject).
+a few %), artefact sessions (mains interference, double hits that validation must reject), and a "subtle" tier with
+the six headline effects three times smaller (scored apart from the acceptance set).
 
     python benchmarks/concealed/generate.py [--out out/concealed]
 """
@@ -24,7 +25,6 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from sessions import record_session  # noqa: E402
 
-import analysis.diagnosis.rigspec  # noqa: E402,F401  (registers the diagnosis's effect types)
 from analysis.rig import (  # noqa: E402
     AddedMass,
     ChannelDelay,
@@ -35,7 +35,7 @@ from analysis.rig import (  # noqa: E402
     Mains,
     RigSpec,
 )
-from analysis.diagnosis.rigspec import AcCoupling, PneumaticLag  # noqa: E402
+from analysis.diagnosis.rigspec import AcCoupling, PneumaticLag  # noqa: E402  (also registers them in the rig)
 
 K_N_PER_M = 3.78e7
 C_NS_PER_M = 3.45e3
@@ -49,7 +49,7 @@ class Case:
     """One benchmark session: what is hidden in the true rig and what the diagnosis should report."""
 
     name: str
-    kind: str  # "effect", "two effects", "clean", "parameters-only", "artefact"
+    kind: str  # "effect", "two effects", "subtle", "clean", "parameters-only", "artefact"
     expected: tuple[str, ...]
     effects: tuple[Effect, ...] = ()
     memory: tuple[float, float] | None = None  # (eta_memory, alpha_memory) of a spring-pot branch
@@ -82,9 +82,9 @@ CASES: tuple[Case, ...] = (
     Case("mode-b", "effect", ("extra-mode",), (ExtraMode(freq_hz=420.0, damping_ratio=0.03, mass_kg=0.008),), seed=22),
     Case("mode-c", "effect", ("extra-mode",), (ExtraMode(freq_hz=950.0, damping_ratio=0.015, mass_kg=0.009),),
          seed=23),
-    Case("cubic-a", "effect", ("amplitude-nonlinearity",), (CubicStiffness(k3_n_per_m3=4.0e15),), seed=31),
-    Case("cubic-b", "effect", ("amplitude-nonlinearity",), (CubicStiffness(k3_n_per_m3=5.0e15),), seed=32),
-    Case("cubic-c", "effect", ("amplitude-nonlinearity",), (CubicStiffness(k3_n_per_m3=4.0e15),),
+    Case("cubic-a", "effect", ("amplitude-nonlinearity",), (CubicStiffness(k3_n_per_m3=5.5e15),), seed=31),
+    Case("cubic-b", "effect", ("amplitude-nonlinearity",), (CubicStiffness(k3_n_per_m3=6.0e15),), seed=32),
+    Case("cubic-c", "effect", ("amplitude-nonlinearity",), (CubicStiffness(k3_n_per_m3=5.5e15),),
          device={"force_spread": 0.3}, seed=33),
     Case("delay-a", "effect", ("channel-delay",), (ChannelDelay(channel="acceleration", delay_s=0.6e-6),), seed=41),
     Case("delay-b", "effect", ("channel-delay",), (ChannelDelay(channel="acceleration", delay_s=0.8e-6),), seed=42),
@@ -96,17 +96,27 @@ CASES: tuple[Case, ...] = (
     Case("drift-b", "effect", ("drift",), (Drift(fraction_per_hour=-0.12),), seed=62),
     Case("drift-c", "effect", ("drift",), (Drift(fraction_per_hour=0.15),), seed=63),
     # the rest of the catalog
-    Case("accoupling-a", "effect", ("ac-coupling",), (AcCoupling(channel="acceleration", corner_hz=0.45),), seed=71),
+    Case("accoupling-a", "effect", ("ac-coupling",), (AcCoupling(channel="acceleration", corner_hz=0.5),), seed=71),
     Case("accoupling-b", "effect", ("ac-coupling",), (AcCoupling(channel="acceleration", corner_hz=0.6),), seed=72),
-    Case("lag-a", "effect", ("pneumatic-lag",), (PneumaticLag(k_lag=6.0e4, tau_lag=2.0e-4),), seed=81),
+    Case("lag-a", "effect", ("pneumatic-lag",), (PneumaticLag(k_lag=6.0e4, tau_lag=5.0e-4),), seed=81),
     Case("lag-b", "effect", ("pneumatic-lag",), (PneumaticLag(k_lag=5.0e4, tau_lag=8.0e-4),), seed=82),
     # two hidden effects at once
     Case("two-delay-mass", "two effects", ("channel-delay", "added-mass"),
          (ChannelDelay(channel="acceleration", delay_s=0.7e-6), AddedMass(mass_kg=0.012)), seed=91),
     Case("two-mode-drift", "two effects", ("extra-mode", "drift"),
-         (ExtraMode(freq_hz=700.0, damping_ratio=0.02, mass_kg=0.010), Drift(fraction_per_hour=0.12)), seed=92),
+         (ExtraMode(freq_hz=700.0, damping_ratio=0.02, mass_kg=0.012), Drift(fraction_per_hour=0.14)), seed=92),
     Case("two-memory-cubic", "two effects", ("film-memory", "amplitude-nonlinearity"),
          (CubicStiffness(k3_n_per_m3=4.5e15),), memory=_memory(0.001, 0.5), seed=93),
+    # subtle: the six headline effects three times smaller, at or below what one hit's own statistics can see
+    Case("subtle-memory", "subtle", ("film-memory",), memory=_memory(0.0003, 0.5), seed=141),
+    Case("subtle-mode", "subtle", ("extra-mode",), (ExtraMode(freq_hz=600.0, damping_ratio=0.02, mass_kg=0.003),),
+         seed=142),
+    Case("subtle-cubic", "subtle", ("amplitude-nonlinearity",), (CubicStiffness(k3_n_per_m3=2.0e15),),
+         device={"force_spread": 0.3}, seed=143),
+    Case("subtle-delay", "subtle", ("channel-delay",), (ChannelDelay(channel="acceleration", delay_s=0.25e-6),),
+         seed=144),
+    Case("subtle-mass", "subtle", ("added-mass",), (AddedMass(mass_kg=0.004),), seed=145),
+    Case("subtle-drift", "subtle", ("drift",), (Drift(fraction_per_hour=0.035),), seed=146),
     # controls: nothing hidden, or only the film's own parameters off
     Case("clean-a", "clean", (), seed=101),
     Case("clean-b", "clean", (), seed=102),

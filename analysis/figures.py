@@ -1,0 +1,93 @@
+"""Figures like the paper's 18 (measured and fitted accelerance) and 19 (fit errors), written as PNG.
+
+Matplotlib figures drawn without pyplot (no backend or global state is touched, no Qt here; PNG goes through Agg);
+the GUI draws the same curves live with pyqtgraph. Every function takes plain arrays and
+:class:`analysis.identify.FitResult`\\ s and a path, and returns the path written.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Sequence
+
+import numpy as np
+from matplotlib.figure import Figure
+from numpy.typing import ArrayLike
+
+from analysis.identify import G_M_S2, FitResult
+from drivers.errors import SettingError
+
+UNITS = {"g/N": 1.0 / G_M_S2, "SI": 1.0}
+UNIT_LABEL = {"g/N": "g/N", "SI": "(m/s²)/N"}
+
+
+def _scale(units: str) -> float:
+    if units not in UNITS:
+        raise SettingError(f"figure units '{units}': choose 'g/N' or 'SI'")
+    return UNITS[units]
+
+
+def _save(figure: Figure, path: str | Path) -> Path:
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    figure.savefig(path, dpi=120, format="png")
+    return path
+
+
+def figure18(
+    path: str | Path, freq_hz: ArrayLike, h_measured: ArrayLike, fits: Sequence[FitResult], units: str = "g/N"
+) -> Path:
+    """Four panels like Figure 18: log10|H|, real part, imaginary part and phase, data and every model."""
+    scale = _scale(units)
+    freq = np.asarray(freq_hz, dtype=float)
+    h = np.asarray(h_measured, dtype=complex) * scale
+    curves = [("measured", h, {"color": "black", "linewidth": 2.0})]
+    curves += [(fit.model_name, fit.accelerance(freq) * scale, {"linewidth": 1.0}) for fit in fits]
+    figure = Figure(figsize=(12, 8), layout="tight")
+    axes = figure.subplots(2, 2, sharex=True)
+    panels = [
+        (axes[0, 0], lambda x: np.log10(np.abs(x)), f"log10 |H| ({UNIT_LABEL[units]})", "(a) log magnitude"),
+        (axes[0, 1], np.real, f"Re H ({UNIT_LABEL[units]})", "(b) real part"),
+        (axes[1, 0], np.imag, f"Im H ({UNIT_LABEL[units]})", "(c) imaginary part"),
+        (axes[1, 1], lambda x: np.degrees(np.angle(x)), "phase (°)", "(d) phase"),
+    ]
+    for axis, part, label, title in panels:
+        for name, values, style in curves:
+            axis.plot(freq, part(values), label=name, **style)
+        axis.set_ylabel(label)
+        axis.set_title(title)
+        axis.grid(True, alpha=0.3)
+    for axis in axes[1]:
+        axis.set_xlabel("frequency (Hz)")
+    axes[0, 0].legend(fontsize=8)
+    figure.suptitle("Accelerance: measured and fitted models")
+    return _save(figure, path)
+
+
+def figure19(
+    path: str | Path, freq_hz: ArrayLike, h_measured: ArrayLike, fits: Sequence[FitResult], units: str = "g/N"
+) -> Path:
+    """Three panels like Figure 19: |H_d − H|, and the errors of the real and of the imaginary part, per model."""
+    scale = _scale(units)
+    freq = np.asarray(freq_hz, dtype=float)
+    h = np.asarray(h_measured, dtype=complex) * scale
+    figure = Figure(figsize=(10, 10), layout="tight")
+    axes = figure.subplots(3, 1, sharex=True)
+    for fit in fits:
+        error = h - fit.accelerance(freq) * scale
+        axes[0].plot(freq, np.abs(error), label=fit.model_name, linewidth=1.0)
+        axes[1].plot(freq, error.real, label=fit.model_name, linewidth=1.0)
+        axes[2].plot(freq, error.imag, label=fit.model_name, linewidth=1.0)
+    unit = UNIT_LABEL[units]
+    for axis, label, title in zip(
+        axes,
+        (f"|H_d − H| ({unit})", f"Re(H_d − H) ({unit})", f"Im(H_d − H) ({unit})"),
+        ("(a) error of H", "(b) error of the real part", "(c) error of the imaginary part"),
+    ):
+        axis.set_ylabel(label)
+        axis.set_title(title)
+        axis.grid(True, alpha=0.3)
+    axes[2].set_xlabel("frequency (Hz)")
+    axes[0].legend(fontsize=8)
+    figure.suptitle("Fitting errors of the models")
+    return _save(figure, path)

@@ -1,0 +1,343 @@
+"""Fitters, uncertainties, the Table-2 comparison, the figures and ``gasfilm fit``."""
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+from analysis.figures import figure18, figure19
+from analysis.identify import (
+    G_M_S2,
+    FitCancelledError,
+    FitResult,
+    GapsoSettings,
+    compare_models,
+    fit_model,
+    format_table2,
+)
+from analysis.models import (
+    PAPER_MASS_KG,
+    PAPER_MODEL_ORDER,
+    PAPER_MODELS,
+    Dashpot,
+    Parallel,
+    Series,
+    SpringPot,
+    accelerance,
+    get_model,
+)
+from analysis.rig import RigSpec
+from analysis.spectra import compute_frf
+from app.cli import main as gasfilm
+from drivers.errors import SettingError
+from drivers.interface import default_hammer_and_accelerometer
+from drivers.simulated import SimulatedNI9234
+
+MASS_KG = PAPER_MASS_KG
+
+
+def _element_kinds(node, kinds):
+    if isinstance(node, (Parallel, Series)):
+        for child in node.children:
+            _element_kinds(child, kinds)
+    elif isinstance(node, SpringPot):
+        kinds[node.coefficient] = ("pot", node.order)
+    elif isinstance(node, Dashpot):
+        kinds[node.name] = ("dashpot", None)
+    return kinds
+
+
+def random_physical_frf(model, rng, points=240):
+    """Random parameters giving one resonance of the 25.05 kg mover at 50–1000 Hz with damping ratio 0.005–0.3
+    (orders uniform in 0.05–1.95, coefficients within ±2 decades of the resonance stiffness), and the noise-free
+    accelerance on ``points`` lines from f_n/4 to 4·f_n."""
+    kinds = _element_kinds(model.network, {})
+    for _ in range(20000):
+        fn_hz = math.exp(rng.uniform(math.log(50.0), math.log(1000.0)))
+        wn = 2 * math.pi * fn_hz
+        stiffness = MASS_KG * wn**2
+        params = {p.name: rng.uniform(0.05, 1.95) for p in model.parameters if p.scale == "linear"}
+        for p in model.parameters:
+            if p.scale == "linear":
+                continue
+            kind, order = kinds.get(p.name, ("spring", None))
+            value = stiffness * 10 ** rng.uniform(-2, 2)
+            params[p.name] = value / wn if kind == "dashpot" else value / wn ** params[order] if kind == "pot" else value
+        z = model.stiffness(np.array([1j * wn]), params)[0]
+        if not z.real > 0:
+            continue
+        scale = stiffness / z.real  # Z is homogeneous of degree one in the coefficients
+        params = {n: v if n in {p.name for p in model.parameters if p.scale == "linear"} else v * scale
+                  for n, v in params.items()}
+        if not 0.005 <= z.imag / z.real / 2 <= 0.3:
+            continue
+        freq_hz = np.linspace(fn_hz / 4, fn_hz * 4, points)
+        h = accelerance(model, params, freq_hz, MASS_KG)
+        peak = int(np.argmax(np.abs(h)))
+        inside = all(p.lower <= params[p.name] <= p.upper for p in model.parameters)
+        if 0 < peak < points - 1 and 50.0 <= freq_hz[peak] <= 1000.0 and inside:
+            return params, freq_hz, h
+    raise AssertionError(f"no physical parameters found for {model.name}")
+
+
+@pytest.mark.parametrize("name", PAPER_MODEL_ORDER)
+def test_default_fitter_reaches_noise_free_frfs_in_20_of_20_seeds(name):
+    model = PAPER_MODELS[name]
+    relative_rms = []
+    for seed in range(20):
+        _, freq_hz, h = random_physical_frf(model, np.random.default_rng(1000 + seed))
+        fit = fit_model(model, freq_hz, h, MASS_KG, seed=seed)
+        relative_rms.append(fit.rms / np.max(np.abs(h)))
+    assert max(relative_rms) <= 1e-6, [f"{r:.2e}" for r in relative_rms]
+
+
+def rig_frf(seed, hits=4, sample_rate_hz=2560.0, record_s=2.0, band_hz=(20.0, 800.0)):
+    """H1 of on-demand hammer hits on the simulated paper rig (FOMGF film of Table 1, 25.05 kg, sensor and
+    module noise)."""
+    device = SimulatedNI9234(RigSpec.nominal("FOMGF"), seed=seed, pacing="fast", hit_interval_s=None)
+    device.configure(default_hammer_and_accelerometer(sample_rate_hz))
+    buffer = np.empty((2, int(record_s * sample_rate_hz)))
+    records = []
+    with device:
+        device.start()
+        device.read(buffer)
+        for _ in range(hits):
+            device.sim_hit()
+            device.read(buffer)
+            records.append(buffer.copy())
+    return compute_frf(np.array(records), sample_rate_hz).band(*band_hz)
+
+
+def test_fomgf_rig_frf_ranks_fomgf_first_with_e_over_80_percent():
+    frf = rig_frf(seed=3)
+    fits = [fit_model(PAPER_MODELS[name], frf.freq_hz, frf.h1, MASS_KG) for name in PAPER_MODEL_ORDER]
+    rows = compare_models(fits, frf.freq_hz, frf.h1)
+    assert rows[0].model_name == "FOMGF", format_table2(rows)
+    assert rows[0].e_percent >= 80.0
+    assert rows[-1].model_name == "SD" and rows[-1].e_percent == 0.0
+    by_name = {row.model_name: row for row in rows}
+    # the nested models: FOMGF contains FOZGF (one arm off) and Maxwell contains Zener
+    assert by_name["FOMGF"].rms <= by_name["FOZGF"].rms
+    assert by_name["Zener"].rms <= by_name["SD"].rms
+
+
+def test_fit_reports_rms_peak_error_uncertainties_and_round_trips():
+    model = PAPER_MODELS["FOZGF"]
+    params = {"k1": 3e6, "k2": 3.5e7, "eta1": 2e4, "alpha": 0.8}
+    freq_hz = np.linspace(100.0, 400.0, 150)
+    rng = np.random.default_rng(5)
+    clean = accelerance(model, params, freq_hz, MASS_KG)
+    noise = 1e-3 * np.max(np.abs(clean)) * (rng.standard_normal(150) + 1j * rng.standard_normal(150))
+    fit = fit_model(model, freq_hz, clean + noise, MASS_KG)
+    residual = clean + noise - fit.accelerance(freq_hz)
+    assert fit.rms == pytest.approx(np.sqrt(np.mean(np.abs(residual) ** 2)), rel=1e-9)
+    assert fit.peak_error == pytest.approx(np.max(np.abs(residual)), rel=1e-9)
+    assert fit.rms < 1.2 * np.sqrt(np.mean(np.abs(noise) ** 2))
+    assert fit.correlation.shape == (4, 4) and fit.correlation_names == model.parameter_names
+    np.testing.assert_allclose(np.diag(fit.correlation), 1.0)
+    for name, value in params.items():
+        assert abs(fit.params[name] - value) <= 5 * fit.std_errors[name] + 1e-9 * value
+    assert fit.evaluations > 0 and fit.wall_time_s > 0 and fit.method == "default"
+    assert fit.band_hz == (100.0, 400.0) and fit.n_points == 150 and not fit.mass_fitted
+    again = FitResult.from_dict(json.loads(json.dumps(fit.to_dict())))
+    assert again.params == fit.params and again.flags == fit.flags
+    np.testing.assert_allclose(again.accelerance(freq_hz), fit.accelerance(freq_hz))
+
+
+def test_standard_errors_match_the_scatter_over_noise_realisations():
+    model = PAPER_MODELS["SD"]
+    params = {"k": 3.78e7, "eta": 3.45e3}
+    freq_hz = np.linspace(120.0, 300.0, 120)
+    clean = accelerance(model, params, freq_hz, MASS_KG)
+    level = 2e-3 * np.max(np.abs(clean))
+    rng = np.random.default_rng(9)
+    fits = [
+        fit_model(model, freq_hz, clean + level * (rng.standard_normal(120) + 1j * rng.standard_normal(120)), MASS_KG)
+        for _ in range(40)
+    ]
+    for name in params:
+        scatter = np.std([fit.params[name] for fit in fits], ddof=1)
+        reported = np.mean([fit.std_errors[name] for fit in fits])
+        assert 0.6 < reported / scatter < 1.6, (name, reported, scatter)
+
+
+def test_over_parameterised_fit_is_flagged():
+    sd = PAPER_MODELS["SD"]
+    freq_hz = np.linspace(100.0, 350.0, 200)
+    h = accelerance(sd, {"k": 3.78e7, "eta": 3.45e3}, freq_hz, MASS_KG)
+    h = h + 1e-4 * np.max(np.abs(h)) * np.random.default_rng(2).standard_normal(200)
+    fit = fit_model(PAPER_MODELS["FOMGF"], freq_hz, h, MASS_KG)
+    assert fit.rms <= 2e-4 * np.max(np.abs(h))
+    assert any("not identifiable" in flag or "correlated" in flag or "bound" in flag for flag in fit.flags)
+    clean = fit_model(sd, freq_hz, h, MASS_KG)
+    assert not clean.flags
+
+
+def test_windowed_frf_is_fitted_with_the_windowed_model():
+    model = PAPER_MODELS["FOZGF"]
+    params = {"k1": 3e6, "k2": 3.5e7, "eta1": 2e4, "alpha": 0.8}
+    freq_hz = np.linspace(80.0, 500.0, 200)
+    sigma = 15.0
+    h = accelerance(model, params, freq_hz, MASS_KG, decay_rate_1_s=sigma)
+    windowed = fit_model(model, freq_hz, h, MASS_KG, decay_rate_1_s=sigma)
+    plain = fit_model(model, freq_hz, h, MASS_KG)
+    assert windowed.rms <= 1e-6 * np.max(np.abs(h))
+    assert windowed.decay_rate_1_s == sigma
+    assert plain.rms > 100 * windowed.rms
+    for name, value in params.items():
+        assert windowed.params[name] == pytest.approx(value, rel=1e-4)
+
+
+def test_mass_can_be_fitted():
+    model = PAPER_MODELS["Zener"]
+    params = {"k1": 5e6, "k2": 3.8e7, "eta1": 4e3}
+    freq_hz = np.linspace(60.0, 600.0, 200)
+    h = accelerance(model, params, freq_hz, 24.0)
+    fixed = fit_model(model, freq_hz, h, 26.0)
+    fitted = fit_model(model, freq_hz, h, 26.0, fit_mass=True)
+    assert fitted.mass_fitted and fitted.mass_kg == pytest.approx(24.0, rel=1e-6)
+    assert "mass_kg" in fitted.std_errors and fitted.correlation.shape == (4, 4)
+    assert fitted.rms <= 1e-6 * np.max(np.abs(h)) < fixed.rms
+
+
+def test_gapso_is_seeded_converges_and_is_not_better_than_the_default():
+    model = PAPER_MODELS["Zener"]
+    params = {"k1": 5e6, "k2": 3.8e7, "eta1": 4e3}
+    freq_hz = np.linspace(100.0, 350.0, 60)
+    h = accelerance(model, params, freq_hz, MASS_KG)
+    settings = GapsoSettings(population=40, swarm_size=10, candidates=3, max_generations=300, max_iterations=600)
+    first = fit_model(model, freq_hz, h, MASS_KG, method="gapso", seed=4, gapso_settings=settings)
+    again = fit_model(model, freq_hz, h, MASS_KG, method="gapso", seed=4, gapso_settings=settings)
+    other = fit_model(model, freq_hz, h, MASS_KG, method="gapso", seed=5, gapso_settings=settings)
+    default = fit_model(model, freq_hz, h, MASS_KG)
+    assert first.params == again.params and first.evaluations == again.evaluations
+    assert other.params != first.params
+    assert first.method == "gapso" and first.rms < 0.05 * np.max(np.abs(h))
+    # 50 unchanged generations then 50 unchanged swarm iterations at least; below both caps
+    assert 50 * 38 + 50 * 30 <= first.evaluations < 300 * 38 + 600 * 30 + 100
+    assert default.rms <= first.rms
+    assert default.evaluations * 10 <= first.evaluations
+
+
+def test_progress_and_cancel():
+    model = PAPER_MODELS["FOZGF"]
+    freq_hz = np.linspace(100.0, 400.0, 100)
+    h = accelerance(model, {"k1": 3e6, "k2": 3.5e7, "eta1": 2e4, "alpha": 0.8}, freq_hz, MASS_KG)
+    seen = []
+    fit_model(model, freq_hz, h, MASS_KG, progress=seen.append)
+    assert seen[-1] == 1.0 and all(0.0 <= f <= 1.0 for f in seen) and seen == sorted(seen)
+    for method in ("default", "gapso"):
+        with pytest.raises(FitCancelledError):
+            fit_model(model, freq_hz, h, MASS_KG, method=method, cancel=lambda: True)
+
+
+@pytest.mark.parametrize(
+    "change, match",
+    [
+        ({"method": "newton"}, "fit method"),
+        ({"mass_kg": -1.0}, "mass_kg"),
+        ({"h_measured": np.full(50, np.nan + 0j)}, "non-finite"),
+        ({"freq_hz": np.linspace(0.0, 10.0, 50)}, "0 Hz"),
+        ({"freq_hz": np.linspace(1.0, 10.0, 49)}, "equal 1-D"),
+        ({"weights": -np.ones(50)}, "weights"),
+    ],
+)
+def test_bad_inputs_are_one_line_setting_errors(change, match):
+    arguments = dict(
+        model=PAPER_MODELS["SD"], freq_hz=np.linspace(50.0, 300.0, 50), h_measured=np.ones(50) * (1 + 1j),
+        mass_kg=MASS_KG,
+    )
+    arguments.update(change)
+    with pytest.raises(SettingError, match=match) as error:
+        fit_model(**arguments)
+    assert "\n" not in str(error.value)
+
+
+def test_compare_models_is_table_2_with_aic_bic():
+    freq_hz = np.linspace(100.0, 350.0, 120)
+    h = accelerance(PAPER_MODELS["FOZGF"], {"k1": 3e6, "k2": 3.5e7, "eta1": 2e4, "alpha": 0.8}, freq_hz, MASS_KG)
+    h = h + 1e-4 * np.random.default_rng(1).standard_normal(120)
+    fits = [fit_model(PAPER_MODELS[name], freq_hz, h, MASS_KG) for name in ("SD", "Zener", "FOZGF")]
+    rows = compare_models(fits, freq_hz, h)
+    assert [row.rank for row in rows] == [1, 2, 3]
+    assert rows[0].model_name == "FOZGF" and rows[-1].model_name == "SD"
+    sd = next(fit for fit in fits if fit.model_name == "SD")
+    for row in rows:
+        fit = next(f for f in fits if f.model_name == row.model_name)
+        residual = h - fit.accelerance(freq_hz)
+        assert row.rms == pytest.approx(np.sqrt(np.mean(np.abs(residual) ** 2)))
+        assert row.e_percent == pytest.approx(100 * (sd.rms - row.rms) / sd.rms, rel=1e-6, abs=1e-9)
+        assert row.e_m_percent == pytest.approx(100 * (sd.peak_error - row.peak_error) / sd.peak_error, abs=1e-6)
+        rss, n = np.sum(np.abs(residual) ** 2), 2 * len(freq_hz)
+        assert row.aic == pytest.approx(n * math.log(rss / n) + 2 * len(fit.params))
+        assert row.bic == pytest.approx(n * math.log(rss / n) + len(fit.params) * math.log(n))
+    g_table, si_table = format_table2(rows, "g/N"), format_table2(rows, "SI")
+    assert f"{rows[0].rms / G_M_S2:.6g}" in g_table and f"{rows[0].rms:.6g}" in si_table
+    assert "FOZGF" in g_table and "0.00%" in g_table
+    without_sd = compare_models(fits[1:], freq_hz, h)
+    assert all(row.e_percent is None for row in without_sd) and "—" in format_table2(without_sd)
+    with pytest.raises(SettingError):
+        format_table2(rows, "lbf")
+
+
+def test_figures_18_and_19_are_png_files(tmp_path):
+    freq_hz = np.linspace(100.0, 350.0, 80)
+    h = accelerance(PAPER_MODELS["SD"], {"k": 3.78e7, "eta": 3.45e3}, freq_hz, MASS_KG)
+    fits = [fit_model(PAPER_MODELS[name], freq_hz, h * 1.01, MASS_KG) for name in ("SD", "Zener")]
+    for draw, name in ((figure18, "f18.png"), (figure19, "sub/f19.png")):
+        path = draw(tmp_path / name, freq_hz, h, fits)
+        assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and path.stat().st_size > 10_000
+
+
+def _session_with_frf(tmp_path):
+    from analysis.session import Session
+
+    frf = rig_frf(seed=2, hits=3, band_hz=(0.0, 1280.0))
+    path = tmp_path / "hammer.h5"
+    spec = RigSpec.nominal("FOMGF")
+    with Session.create(path, default_hammer_and_accelerometer(2560.0), spec.to_toml(), {}) as session:
+        session.write_frf(frf)
+    return path
+
+
+def test_cli_fit_prints_table_writes_figures_and_stores_fits(tmp_path, capsys):
+    from analysis.session import Session
+
+    path = _session_with_frf(tmp_path)
+    status = gasfilm(["fit", str(path), "--models", "SD,FOZGF", "--band", "50:600", "--out", str(tmp_path / "fig")])
+    captured = capsys.readouterr()
+    assert status == 0, captured.err
+    assert "Table 2 (g/N)" in captured.out and "Table 2 (SI)" in captured.out and "FOZGF" in captured.out
+    assert "100%" in captured.err
+    assert (tmp_path / "fig" / "hammer-figure18.png").exists() and (tmp_path / "fig" / "hammer-figure19.png").exists()
+    with Session.open(path) as session:
+        stored = session.read_fit("FOZGF")
+    assert stored["model_name"] == "FOZGF" and stored["mass_kg"] == pytest.approx(MASS_KG)
+    assert stored["band_hz"][0] >= 50.0 and stored["band_hz"][1] <= 600.0
+
+    status = gasfilm(["fit", str(path), "--models", "SD", "--json", "--out", str(tmp_path)])
+    document = json.loads(capsys.readouterr().out)
+    assert status == 0 and document["fits"][0]["model_name"] == "SD" and document["table"][0]["e_percent"] == 0.0
+    assert document["band_hz"][0] >= 20.0 and document["band_hz"][1] <= 1000.0
+
+
+@pytest.mark.parametrize(
+    "arguments, message",
+    [
+        (["--models", "SD,FOXGF"], "FOXGF"),
+        (["--band", "600:50"], "--band"),
+        (["--band", "abc"], "--band"),
+        (["--band", "5000:6000"], "only 0 FRF lines"),
+        (["--mass", "-3"], "--mass"),
+    ],
+)
+def test_cli_fit_errors_are_one_line(tmp_path, capsys, arguments, message):
+    path = _session_with_frf(tmp_path)
+    status = gasfilm(["fit", str(path), *arguments])
+    error = capsys.readouterr().err.strip().splitlines()
+    assert status == 2 and len(error) == 1 and message in error[0]
+
+
+def test_get_model_accepts_the_names_the_cli_uses():
+    assert get_model("fomgf") is PAPER_MODELS["FOMGF"]
