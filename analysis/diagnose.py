@@ -25,10 +25,6 @@ import numpy as np
 from analysis.diagnosis.catalog import CATALOG, CANDIDATE_ORDER, AugmentedModel, effect_slots
 from analysis.diagnosis.measurement import HitSpectra, QualityNote, hit_spectra
 from analysis.diagnosis.rigspec import model_from_spec, spec_from_model
-from analysis.models import PAPER_MASS_KG
-from analysis.rig import RigSpec, simulate_response
-from drivers.errors import SettingError
-from analysis.spectra import WindowSettings
 from analysis.diagnosis.selection import (
     BIC_MARGIN,
     HELD_OUT_THRESHOLD,
@@ -41,6 +37,10 @@ from analysis.diagnosis.selection import (
     held_out_gain,
     model_slots,
 )
+from analysis.models import PAPER_MASS_KG
+from analysis.rig import RigSpec, simulate_response
+from analysis.spectra import WindowSettings
+from drivers.errors import SettingError
 
 G_M_S2 = 9.80665
 MAX_TERMS = 3

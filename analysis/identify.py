@@ -4,11 +4,13 @@ Objective (paper eq. 33): ``RMS = sqrt(mean |H_d(k) - H(k)|²)`` on the complex 
 ``H = s² / (Z(s) + m s²)`` at ``s = jω`` (or ``s = σ + jω`` when the FRF was measured through an exponential window
 of decay rate σ). Two fitters:
 
-* ``method="default"``: a multi-start local search in decorrelated coordinates. Every coefficient becomes the
-  element's stiffness at the reference frequency ω_r (the peak of |H|), relative to the measured dynamic stiffness
-  there, searched in log scale; orders stay linear. Starts come from a small Latin hypercube scored on the
-  *dynamic stiffness* ``Z_d = s²/H_d - m s²`` in log space (smooth, no resonance to hit), refined there with
-  ``scipy.optimize.least_squares`` and an analytic Jacobian, then polished on the accelerance residual itself.
+* ``method="default"``: variable projection and Levenberg–Marquardt in decorrelated coordinates. Every
+  coefficient becomes the element's stiffness at the reference frequency ω_r (the peak of |H|) relative to the
+  measured dynamic stiffness there, in log scale; orders stay linear. The search starts on the *dynamic stiffness*
+  ``Z_d = s²/H_d - m s²`` in log space (smooth, no resonance to hit): the scale of each top-level branch is linear
+  there and is solved by least squares for given branch shapes, so a small Latin hypercube, a few local searches
+  and branch splits run over the shapes only. The results, and the samples that best fit the accelerance, are
+  then polished on the accelerance residual itself with an analytic Jacobian.
 * ``method="gapso"``: the paper's GA-PSO (section 4): a genetic algorithm finds several "global optimal"
   candidates, particle swarms (eq. 32, scalar c1 per ERRATA item 6) refine around them; converged when the best
   RMS is unchanged for 50 iterations. Searches each parameter's unit interval (log or linear per its scale).
@@ -27,7 +29,6 @@ from typing import Callable, Mapping, Sequence
 
 import numpy as np
 from numpy.typing import ArrayLike
-from scipy.optimize import least_squares
 from scipy.stats import qmc
 
 from analysis.models import (
@@ -387,12 +388,6 @@ class _Problem:
             columns.append(-(h_model**2) * mass)
         weight = self.sqrt_w if weighted else 1.0
         return _stack_columns([c * weight for c in columns])
-
-    def rms(self, theta) -> float:
-        return float(np.sqrt(np.mean(np.abs(self.acc_complex_residual(theta)) ** 2)))
-
-    def weighted_cost(self, theta) -> float:
-        return float(np.mean(np.abs(self.acc_complex_residual(theta) * self.sqrt_w) ** 2))
 
 
 def _stack(r: np.ndarray) -> np.ndarray:

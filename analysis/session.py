@@ -38,15 +38,23 @@ FORMAT_NAME = "gasfilm-session"
 REASONS_LENGTH = 256
 MAX_SAMPLES_PER_CHUNK = 16384  # per channel: 128 KiB per channel and chunk
 DEFAULT_SAMPLES_PER_CHUNK = 4096  # when the record length is not known in advance
-#: How long the check of a file left open by a killed writer may take before it counts as damaged. HDF5 reading in
-#: SWMR mode retries (and sleeps) for minutes on metadata beyond the end of a truncated file, so the check runs in a
-#: child process that can be stopped.
-PROBE_TIMEOUT_S = 15.0
+#: A file left open by a killed writer is checked in a child process before it is read: HDF5 in SWMR mode retries
+#: (and sleeps) for minutes on metadata beyond the end of a truncated file. The child asks HDF5 for a single read
+#: attempt (H5Pset_metadata_read_attempts through ctypes, where h5py's HDF5 library can be found) and is stopped
+#: after this long in any case.
+PROBE_TIMEOUT_S = 30.0
 PROBE_SCRIPT = """
-import os, sys, h5py
+import ctypes, os, sys, h5py
 path = sys.argv[1]
 size = os.path.getsize(path)
-with h5py.File(path, "r", swmr=True, locking=False) as f:
+fapl = h5py.h5p.create(h5py.h5p.FILE_ACCESS)
+fapl.set_file_locking(False, True)
+libraries = [line.split()[-1] for line in open("/proc/self/maps") if "/libhdf5" in line] if os.path.exists(
+    "/proc/self/maps") else []
+if libraries:
+    ctypes.CDLL(libraries[0]).H5Pset_metadata_read_attempts(ctypes.c_int64(fapl.id), ctypes.c_uint(1))
+fid = h5py.h5f.open(os.fsencode(path), h5py.h5f.ACC_RDONLY | h5py.h5f.ACC_SWMR_READ, fapl=fapl)
+with h5py.File(fid) as f:
     if f.attrs.get("format") != "gasfilm-session":
         sys.exit(0)  # not a session: opening it says so
     f.visit(lambda name: None)
@@ -309,7 +317,10 @@ def _check_unclosed_file(path: Path) -> None:
         raise SessionError(f"{path}: truncated HDF5 file: left open by its writer, its hit records end early")
     if probe.returncode != 0:
         last_line = (probe.stderr.strip().splitlines() or ["no message"])[-1]
-        raise SessionError(f"{path}: damaged HDF5 file left open by its writer ({last_line})")
+        raise SessionError(
+            f"{path}: truncated or damaged HDF5 file: left open by its writer, and part of it cannot be read "
+            f"({last_line})"
+        )
 
 
 class Session:
@@ -439,18 +450,20 @@ class Session:
                 raise _describe_open_failure(path, error) from None
             # The flags of a writer that is still recording (mode "r" only: else the lock would have failed)
             # or that ended without closing the file (killed, crashed, power lost).
-            try:
-                _check_unclosed_file(path)
-            except SessionError:
-                if lock is not None:
-                    lock.release()
-                raise
+            live = lock is None and _WriterLock.held_elsewhere(path)
+            if not live:
+                try:
+                    _check_unclosed_file(path)
+                except SessionError:
+                    if lock is not None:
+                        lock.release()
+                    raise
             if mode == "r":
                 try:
                     file = _h5(path, "r", swmr=True)
                 except OSError as swmr_error:
                     raise _describe_open_failure(path, swmr_error) from None
-                return cls(path, file, recovered=not _WriterLock.held_elsewhere(path))
+                return cls(path, file, recovered=not live)
             try:
                 recovered_lock = _recover(path)
             finally:

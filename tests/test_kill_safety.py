@@ -16,6 +16,7 @@ import subprocess
 import sys
 import threading
 import time
+from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
@@ -71,23 +72,37 @@ def stored_hits(path, mode: str) -> tuple[str, list]:
 
 
 def test_sigkill_at_random_moments_keeps_every_reported_hit(tmp_path):
+    rng = np.random.default_rng(KILL_SEED)
+    delays_s = [float(rng.uniform(earliest_s, latest_s)) for _, earliest_s, latest_s in RUNS]
+    paths = [tmp_path / f"killed-{run}.h5" for run in range(len(RUNS))]
     reference_path = tmp_path / "reference.h5"
-    reference_run = acquire("--pacing", "fast", "--seconds", "120", "--out", str(reference_path))
-    assert reference_run.wait(120) == 0, reference_run.stderr.read()
+
+    def reference_run() -> None:
+        process = acquire("--pacing", "fast", "--seconds", "120", "--out", str(reference_path))
+        assert process.wait(120) == 0, process.stderr.read()
+
+    # realtime runs mostly wait for the simulated clock, so they run side by side (with the reference run);
+    # fast-paced runs keep a core busy and run one after the other
+    with ThreadPoolExecutor(max_workers=len(RUNS) + 1) as pool:
+        reference_done = pool.submit(reference_run)
+        realtime = {run: pool.submit(run_and_kill, paths[run], pacing, delays_s[run])
+                    for run, (pacing, _, _) in enumerate(RUNS) if pacing == "realtime"}
+        outputs = {run: future.result() for run, future in realtime.items()}
+        reference_done.result()
+    for run, (pacing, _, _) in enumerate(RUNS):
+        if pacing != "realtime":
+            outputs[run] = run_and_kill(paths[run], pacing, delays_s[run])
     reference = stored_hits(reference_path, "r")[1]
 
-    rng = np.random.default_rng(KILL_SEED)
     measured = []
-    for run, (pacing, earliest_s, latest_s) in enumerate(RUNS):
-        path = tmp_path / f"killed-{run}.h5"
-        delay_s = float(rng.uniform(earliest_s, latest_s))
-        lines, stderr = run_and_kill(path, pacing, delay_s)
+    for run, (pacing, _, _) in enumerate(RUNS):
+        lines, stderr = outputs[run]
         assert lines and lines[0].startswith("recording into"), (run, lines, stderr)
         assert not any(line.startswith("session ") for line in lines), "the run ended before it was killed"
         reported = reported_hits(lines)
         assert len(reference) > len(reported) + 1, "make the reference run longer"
         for mode in ("r", "a"):  # read as left by the kill, then recovered for appending
-            status, hits = stored_hits(path, mode)
+            status, hits = stored_hits(paths[run], mode)
             assert status == "interrupted", (run, mode)
             assert len(hits) >= len(reported), (run, mode)
             for number, accepted in reported.items():
@@ -97,6 +112,6 @@ def test_sigkill_at_random_moments_keeps_every_reported_hit(tmp_path):
                 assert np.array_equal(hit.data, same.data), (run, mode, hit.index)
                 assert (hit.verdict, hit.start_time_s, hit.trigger_index) == (
                     same.verdict, same.start_time_s, same.trigger_index), (run, mode, hit.index)
-        measured.append((pacing, round(delay_s, 2), sum(reported.values()), len(reported), len(hits)))
+        measured.append((pacing, round(delays_s[run], 2), sum(reported.values()), len(reported), len(hits)))
     print("\n(pacing, kill delay s, accepted hits reported, hits reported, hits stored):", *measured, sep="\n  ")
     assert sum(accepted for _, _, accepted, _, _ in measured) >= 20

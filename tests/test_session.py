@@ -257,6 +257,12 @@ def test_writer_killed_without_closing_leaves_a_readable_appendable_session(tmp_
     with Session.open(path) as session:
         assert session.status == "interrupted" and session.hit_count == 3
         np.testing.assert_array_equal(session.accepted_indices(), [0, 2])
+    cut = tmp_path / "killed-and-cut.h5"
+    cut.write_bytes(path.read_bytes()[: path.stat().st_size * 2 // 3])
+    for mode in ("r", "a"):
+        with pytest.raises(SessionError) as truncated:
+            Session.open(cut, mode)
+        assert "truncated or damaged HDF5 file: left open by its writer" in one_line_error(truncated)
     hits = synthetic_hits(4)
     with Session.open(path, "a") as session:
         assert session.recovered and session.status == "interrupted"

@@ -24,9 +24,29 @@ from analysis.diagnosis.measurement import hit_spectra
 from analysis.diagnosis.rigspec import model_from_spec
 from analysis.rig import RigSpec
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from sessions import record_session  # noqa: E402
+
 NO_PHYSICS = "(none)"
 MISSED = "(missed)"
 EXTRA = "(extra)"
+
+
+MAIN_FIELD = {"extra-mode": "freq_hz", "channel-delay": "delay_s", "added-mass": "mass_kg",
+              "drift": "fraction_per_hour", "cubic-stiffness": "k3_n_per_m3", "ac-coupling": "corner_hz"}
+
+
+def parameter_errors(truth: RigSpec, improved: RigSpec) -> dict[str, float]:
+    """Relative error of the improved spec's main parameter of every hidden effect type found in both specs."""
+    errors = {}
+    found = {type(effect).type_name: effect for effect in improved.effects}
+    for effect in truth.effects:
+        kind = type(effect).type_name
+        if kind in MAIN_FIELD and kind in found:
+            name = MAIN_FIELD[kind]
+            true_value, fitted = getattr(effect, name), getattr(found[kind], name)
+            errors[f"{kind}.{name}"] = fitted / true_value - 1
+    return errors
 
 
 def _replayed(spectra, model) -> np.ndarray:
@@ -62,6 +82,8 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--data", type=Path, default=Path("out/concealed"))
     parser.add_argument("--only", nargs="*", help="session names to score")
+    parser.add_argument("--loop", action=argparse.BooleanOptionalAction, default=True,
+                        help="record a session from each improved spec and check nothing is left (default on)")
     args = parser.parse_args()
     manifest = json.loads((args.data / "manifest.json").read_text())
     nominal = RigSpec.load(args.data / manifest["nominal_spec"])
@@ -79,11 +101,18 @@ def main() -> None:
         expected = sorted(entry["expected"])
         excess, fluctuation, overlay, point_z = visibility(recordings, nominal, truth)
         improvement = 100 * (1 - result.rms_after / result.rms_before)
+        accuracy = parameter_errors(truth, result.improved_rig_spec)
+        left = None
+        if args.loop and expected:
+            replayed = record_session(result.improved_rig_spec, args.data / "diagnoses" / entry["name"] / "replay.h5",
+                                      20, seed=1000 + len(rows))
+            left = sorted(f.effect for f in diagnose(replayed, result.improved_rig_spec).findings)
         rows.append({"name": entry["name"], "kind": entry["kind"], "expected": expected, "found": found,
                      "exact": found == expected, "verdict": result.verdict, "rms_before": result.rms_before,
                      "rms_after": result.rms_after, "improvement_percent": improvement, "time_s": elapsed,
                      "hit_excess": excess, "hit_fluctuation": fluctuation, "overlay": overlay, "point_z": point_z,
-                     "quality": [q.kind for q in result.quality]})
+                     "quality": [q.kind for q in result.quality], "parameter_errors": accuracy,
+                     "left_after_replay": left})
         for effect in expected:
             confusion[(effect, effect if effect in found else MISSED)] += 1
         for reported in found:
@@ -96,7 +125,10 @@ def main() -> None:
               f"RMS {result.rms_before:.3g}→{result.rms_after:.3g} ({improvement:5.1f} %) "
               f"hit χ² excess {excess:8.0f} (noise {fluctuation:.0f}) max point z {point_z:5.1f} "
               f"overlay {100 * overlay:.2f} % "
-              f"{elapsed:5.1f} s", flush=True)
+              f"{elapsed:5.1f} s"
+              + (f" | errors {', '.join(f'{k} {v:+.1%}' for k, v in accuracy.items())}" if accuracy else "")
+              + (f" | replay of improved spec: {','.join(left) or 'nothing left'}" if left is not None else ""),
+              flush=True)
     (args.data / "scores.json").write_text(json.dumps(rows, indent=1))
     _summary(rows, confusion)
 
@@ -131,6 +163,11 @@ def _summary(rows: list[dict], confusion: Counter) -> None:
     print(f"\nsessions: {len(rows)}; effect set exactly right: {exact}/{len(rows)} ({100 * exact / len(rows):.0f} %)")
     print(f"controls and artefact sessions claiming physics: {len(claimed)} {claimed}")
     print(f"sessions with an effect where RMS improved < 50 %: {len(short)} {short}")
+    looped = [row for row in with_effect if row["left_after_replay"] is not None]
+    if looped:
+        leftover = [row["name"] for row in looped if row["left_after_replay"]]
+        print(f"improved spec replayed on the simulator and diagnosed again: {len(looped) - len(leftover)}/"
+              f"{len(looped)} with nothing left {leftover}")
     print(f"effect sessions whose averaged FRFs (truth vs nominal) differ by < 1.25 % anywhere (overlay): "
           f"{len(faint)}/{len(with_effect)}; also hidden from every single hit's χ² test: {len(hidden)}")
     times = [row["time_s"] for row in rows + subtle]
