@@ -27,6 +27,12 @@ def _scale(units: str) -> float:
     return UNITS[units]
 
 
+def _phase_deg(h: np.ndarray) -> np.ndarray:
+    """Phase in degrees within (−90°, 270°]: an accelerance goes from 180° below resonance to 0° above without
+    wrapping."""
+    return (np.degrees(np.angle(h)) + 90.0) % 360.0 - 90.0
+
+
 def _save(figure: Figure, path: str | Path) -> Path:
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -49,7 +55,7 @@ def figure18(
         (axes[0, 0], lambda x: np.log10(np.abs(x)), f"log10 |H| ({UNIT_LABEL[units]})", "(a) log magnitude"),
         (axes[0, 1], np.real, f"Re H ({UNIT_LABEL[units]})", "(b) real part"),
         (axes[1, 0], np.imag, f"Im H ({UNIT_LABEL[units]})", "(c) imaginary part"),
-        (axes[1, 1], lambda x: np.degrees(np.angle(x)), "phase (°)", "(d) phase"),
+        (axes[1, 1], _phase_deg, "phase (°)", "(d) phase"),
     ]
     for axis, part, label, title in panels:
         for name, values, style in curves:

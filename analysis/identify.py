@@ -55,7 +55,7 @@ NOT_IDENTIFIABLE_RELATIVE_STD = 1.0
 CORRELATION_FLAG = 0.999
 #: search box of the default fitter for log coordinates, as a factor around the reference stiffness
 _LOG_BOX = math.log(1e8)
-#: where the Latin-hypercube starts are drawn, as a factor around the reference stiffness
+#: where the Latin-hypercube shapes are drawn: coefficient ratios within this factor squared, and orders
 _LOG_START = math.log(1e3)
 _ORDER_START = (0.05, 1.95)
 _MASS_BOX = (0.2, 5.0)
@@ -211,14 +211,6 @@ class _Coordinates:
             self.dashpots.add(node.name)
         elif not isinstance(node, Spring):
             raise SettingError(f"model {self.model.name}: element {type(node).__name__} is not supported by the fitter")
-
-    def start_box(self) -> tuple[np.ndarray, np.ndarray]:
-        """Where the Latin-hypercube starts are drawn."""
-        low = np.where(self.is_order, _ORDER_START[0], -_LOG_START)
-        high = np.where(self.is_order, _ORDER_START[1], _LOG_START)
-        if self.fit_mass:
-            low[-1], high[-1] = 0.0, 0.0
-        return np.clip(low, self.lower, self.upper), np.clip(high, self.lower, self.upper)
 
     def to_params(self, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Model parameter vectors (..., P) and masses (...) from coordinates (..., size)."""
@@ -377,7 +369,7 @@ class _Problem:
         h_model = self.s**2 / (z + mass * self.s**2)
         return np.nan_to_num(h_model - self.h, nan=1e6, posinf=1e6, neginf=-1e6)
 
-    def acc_jacobian(self, theta, weighted: bool = True):
+    def acc_jacobian(self, theta):
         self.evaluations += self.coords.size
         z, grads = self.coords.stiffness(theta, self.s_rel, self.log_s_rel, True)
         _, mass = self.coords.to_params(theta)
@@ -386,8 +378,7 @@ class _Problem:
         columns = [factor * grads[name] for name in self.coords.names]
         if self.coords.fit_mass:
             columns.append(-(h_model**2) * mass)
-        weight = self.sqrt_w if weighted else 1.0
-        return _stack_columns([c * weight for c in columns])
+        return _stack_columns([c * self.sqrt_w for c in columns])
 
 
 def _stack(r: np.ndarray) -> np.ndarray:
@@ -917,9 +908,10 @@ def _covariance(problem: _Problem, theta: np.ndarray) -> np.ndarray:
     problem.evaluations = evaluations
     dof = max(len(residual) - jac.shape[1], 1)
     variance = float(residual @ residual) / dof
-    _, singular, vt = np.linalg.svd(jac, full_matrices=False)
-    floor = max(float(singular[0]), 1e-300) * 1e-15
-    inverse = (vt.T / np.maximum(singular, floor) ** 2) @ vt
+    # (JᵀJ)⁻¹ from the small normal matrix; directions it cannot resolve get a huge (not a dropped) variance.
+    eigenvalues, vectors = np.linalg.eigh(jac.T @ jac)
+    floor = max(float(eigenvalues[-1]), 1e-300) * 1e-30
+    inverse = (vectors / np.maximum(eigenvalues, floor)) @ vectors.T
     to_params = problem.coords.params_jacobian(theta)
     return variance * to_params @ inverse @ to_params.T
 

@@ -561,11 +561,16 @@ class Session:
 
     @property
     def _data(self) -> h5py.Dataset:
-        return self._file["hits/data"]
+        return self._group("hits")["data"]
 
     @property
     def _table(self) -> h5py.Dataset:
-        return self._file["hits/table"]
+        return self._group("hits")["table"]
+
+    def _group(self, name: str) -> h5py.Group:
+        if not self.is_open:
+            raise SessionError(f"{self.path}: the session is closed")
+        return self._file[name]
 
     @property
     def schema_version(self) -> int:
@@ -585,31 +590,31 @@ class Session:
 
     @property
     def daq_config(self) -> DaqConfig:
-        return _config_from_dict(json.loads(self._file["daq"].attrs["config"]))
+        return _config_from_dict(json.loads(self._group("daq").attrs["config"]))
 
     @property
     def sample_rate_hz(self) -> float:
         """The sample rate the device actually ran at."""
-        return float(self._file["daq"].attrs["sample_rate_hz"])
+        return float(self._group("daq").attrs["sample_rate_hz"])
 
     @property
     def requested_sample_rate_hz(self) -> float:
-        return float(self._file["daq"].attrs["requested_sample_rate_hz"])
+        return float(self._group("daq").attrs["requested_sample_rate_hz"])
 
     @property
     def device_name(self) -> str:
-        return str(self._file["daq"].attrs["device"])
+        return str(self._group("daq").attrs["device"])
 
     @property
     def rig_spec_toml(self) -> str | None:
-        if not bool(self._file["rig"].attrs["present"]):
+        if not bool(self._group("rig").attrs["present"]):
             return None
-        return self._file["rig/spec_toml"].asstr()[()]
+        return self._group("rig")["spec_toml"].asstr()[()]
 
     @property
     def settings(self) -> dict[str, Any]:
         """Processing settings as stored (plain JSON values)."""
-        return {key: json.loads(value) for key, value in self._file["settings"].attrs.items()}
+        return {key: json.loads(value) for key, value in self._group("settings").attrs.items()}
 
     def settings_as(self, key: str, cls: type) -> Any:
         """The stored settings under ``key`` as a ``cls`` dataclass (``cls()`` when none were stored)."""
@@ -619,7 +624,7 @@ class Session:
         """Store (or replace) processing settings by key."""
         self._structural()
         for key, value in settings.items():
-            self._file["settings"].attrs[key] = _json_dumps(value)
+            self._group("settings").attrs[key] = _json_dumps(value)
         self._file.flush()
 
     # ----- hits ---------------------------------------------------------------------------------------------------
@@ -762,7 +767,7 @@ class Session:
 
     def _write_result(self, kind: str, name: str, values: Mapping[str, Any]) -> None:
         self._structural()
-        parent = self._file[kind]
+        parent = self._group(kind)
         if name in parent:
             del parent[name]
         group = parent.create_group(name)
@@ -771,16 +776,16 @@ class Session:
         self._file.flush()
 
     def _read_result(self, kind: str, name: str) -> dict[str, Any]:
-        if name not in self._file[kind]:
-            available = ", ".join(self._file[kind]) or "none"
+        if name not in self._group(kind):
+            available = ", ".join(self._group(kind)) or "none"
             raise SessionError(f"{self.path}: no {kind} result named '{name}' (available: {available})")
-        values = _read_mapping(self._file[kind][name])
+        values = _read_mapping(self._group(kind)[name])
         values.pop("written_utc", None)
         return values
 
     def result_names(self, kind: str) -> list[str]:
         """Names stored under ``"frf"``, ``"fits"`` or ``"diagnoses"``."""
-        return list(self._file[kind])
+        return list(self._group(kind))
 
     def write_frf(self, frf: Any, name: str = "frf", hit_indices: np.ndarray | None = None) -> None:
         """Store an :class:`analysis.spectra.FrfResult` field by field (optionally with the hits it averages)."""
@@ -798,7 +803,7 @@ class Session:
         return FrfResult.from_dict(values)
 
     def frf_hit_indices(self, name: str = "frf") -> np.ndarray | None:
-        group = self._file["frf"].get(name)
+        group = self._group("frf").get(name)
         return None if group is None or "hit_indices" not in group else group["hit_indices"][()]
 
     def write_fit(self, name: str, values: Mapping[str, Any]) -> None:

@@ -101,6 +101,15 @@ def test_hidden_delay_is_found_and_the_improved_spec_closes_the_loop(tmp_path):
     assert again.verdict in ("consistent", "parameters-only")
 
 
+def test_drift_over_the_session_is_a_per_hit_trend(tmp_path):
+    truth = NOMINAL.with_effects(Drift(fraction_per_hour=0.4))
+    diagnosis = diagnose(record(truth, tmp_path / "drift.h5", seed=9), NOMINAL)
+    assert effects_of(diagnosis) == ["drift"]
+    rate = diagnosis.findings[0].parameters["fraction_per_hour"]
+    assert abs(rate["value"] - 0.4) < 4 * rate["uncertainty"] + 0.02
+    assert "hit time" in diagnosis.findings[0].hits
+
+
 def test_fractional_film_behind_a_spring_damper_spec_is_named_film_memory(tmp_path):
     """The paper's FOMGF rig diagnosed with only the mass: its first fractional Maxwell arm is what is missing."""
     diagnosis = diagnose(record(RigSpec.nominal("FOMGF"), tmp_path / "fomgf.h5", seed=7), None, 25.05)

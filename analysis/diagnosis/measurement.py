@@ -276,6 +276,18 @@ def hit_spectra(
                 )
             )
         quiet_slice = slice(tail_start, n_samples)
+        tail_noise = np.median(np.std(records[:, 1, tail_start:], axis=1))
+        before_noise = np.median(np.std(records[:, 1, :quiet_samples], axis=1))
+        if tail_noise < 0.8 * before_noise:
+            quality.append(
+                QualityNote(
+                    "noise",
+                    f"the noise at the end of the records is {before_noise / tail_noise:.1f}× lower than before the "
+                    f"hits: the records look windowed already (or the noise is not steady); the noise is measured "
+                    f"before the hits, which makes the comparison conservative",
+                )
+            )
+            quiet_slice = slice(0, quiet_samples)
     quiet_force = records[:, 0, quiet_slice]
     quiet_response = records[:, 1, quiet_slice]
     window = window or default_window(records, sample_rate_hz)

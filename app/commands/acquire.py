@@ -13,7 +13,7 @@ import queue
 import sys
 import time
 from pathlib import Path
-from typing import Iterator
+from typing import Any, Iterator
 
 import numpy as np
 
@@ -63,7 +63,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.set_defaults(func=run)
 
 
-def _open_device(args: argparse.Namespace, rig_spec: object | None):
+def _open_device(args: argparse.Namespace, rig_spec: Any) -> DaqDevice:
     if args.device == SIMULATED_DEVICE_NAME:
         options = {"rig": rig_spec, "seed": args.seed, "pacing": args.pacing, "double_hit_rate": args.double_hit_rate}
         if args.hit_interval is not None:
@@ -92,6 +92,14 @@ def _open_session(args: argparse.Namespace, config: DaqConfig, rate_hz: float, d
             raise SessionError(
                 f"{args.out}: recorded with {len(stored.channels)} channels at {session.sample_rate_hz:g} S/s; "
                 f"cannot append {len(config.channels)} channels at {rate_hz:g} S/s"
+            )
+        record_samples = settings["trigger"].record_samples(rate_hz)
+        stored_samples = session.record_samples
+        if stored_samples not in (0, record_samples):
+            session.close()
+            raise SessionError(
+                f"{args.out}: holds records of {stored_samples} samples; --record-s {args.record_s} gives "
+                f"{record_samples}"
             )
         session.update_settings(settings)
         return session

@@ -1,6 +1,6 @@
 """``gasfilm demo``: a short hammer session on the simulated rig, summarised.
 
-The main job end to end on the simulated NI 9234: stream, trigger, validate, store every hit in an HDF5 session,
+The main job end to end on the simulated NI 9234, paced in real time: stream, trigger, validate, store every hit in an HDF5 session,
 average the FRF, identify the film (SD and FOMGF), and print what a technician would check first.
 """
 
@@ -23,6 +23,7 @@ from analysis.session import Session
 from analysis.spectra import WindowSettings, compute_frf
 from analysis.validation import ValidationSettings
 from drivers import open_device
+from drivers.errors import GasfilmError
 from drivers.interface import ChannelKind, default_hammer_and_accelerometer
 
 G_M_S2 = 9.80665
@@ -44,7 +45,7 @@ def run(args: argparse.Namespace) -> int:
     trigger = TriggerSettings(level_n=20.0, pretrigger_s=0.01, record_s=1.0)
     validation = ValidationSettings()
     args.out.parent.mkdir(parents=True, exist_ok=True)
-    device = open_device("sim", rig=spec, seed=args.seed, pacing="fast", hit_interval_s=(1.2, 2.0))
+    device = open_device("sim", rig=spec, seed=args.seed, pacing="realtime", hit_interval_s=(0.6, 1.0))
     device.configure(config)
     force_row = config.channel_index(ChannelKind.FORCE)
     response_row = config.channel_index(ChannelKind.ACCELERATION)
@@ -70,6 +71,8 @@ def run(args: argparse.Namespace) -> int:
                     print(f"  hit {event.index + 1:2d} at {event.start_time_s:6.2f} s  {verdict}", file=sys.stderr)
         if loop.error is not None:
             raise loop.error
+        if chunks.dropped_chunks:
+            raise GasfilmError(f"demo: the recorder fell behind and lost {chunks.dropped_chunks} chunk(s)")
         hits = session.hits()
         records = session.accepted_records()
         window = WindowSettings()

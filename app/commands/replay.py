@@ -1,11 +1,12 @@
 """``gasfilm replay``: reprocess the raw hits of a session or a UFF file with other settings, without the rig.
 
-The stored records are validated again with the given validation and window settings; when a trigger setting is
-given, the trigger is first run again over each stored record (a record that no longer triggers is dropped, one that
-now triggers twice gives two hits if both fit); the new records are one pre-trigger length shorter than the stored
-ones unless ``--record-s`` says otherwise, so a trigger that fires a little later still finds a whole record. Hits a person accepted or rejected by hand keep that decision while
-their records are unchanged. The result is summarised (hits and reasons, peak of |H1|, coherence by band) and
-written: as a new session with ``--out``, else as the FRF group "replay" of the input session.
+The stored records are validated again with the given validation and window settings. When a trigger setting is
+given, the trigger is first run again over each stored record: a record that no longer triggers is dropped, one that
+now triggers twice gives two hits if both fit, and the new records are one pre-trigger length shorter than the stored
+ones (unless ``--record-s`` says otherwise) so that a trigger firing a little later still finds a whole record. Hits a
+person accepted or rejected by hand keep that decision while their records are unchanged. The result is summarised
+(hits and reasons, peak of |H1|, coherence by band) and written: as a new session with ``--out``, else as the FRF
+group "replay" of the input session.
 """
 
 from __future__ import annotations
@@ -149,14 +150,20 @@ def _new_settings(args: argparse.Namespace, source: Source) -> tuple[TriggerSett
     return trigger, retrigger, validation, window
 
 
-def _retrigger(hits: list[HitRecord], trigger: TriggerSettings, sample_rate_hz: float) -> list[HitRecord]:
-    """Run the trigger over each stored record as its own stream."""
+def _retrigger(
+    hits: list[HitRecord], trigger: TriggerSettings, sample_rate_hz: float
+) -> tuple[list[HitRecord], int]:
+    """Run the trigger over each stored record as its own stream; return the new records and how many stored
+    records gave none."""
     found = []
+    silent = 0
     for hit in hits:
         capture = ImpactCapture(trigger, sample_rate_hz, hit.data.shape[0], hit.force_channel, hit.response_channel)
-        for record in capture.feed(hit.data, hit.overload):
+        records = capture.feed(hit.data, hit.overload)
+        silent += not records
+        for record in records:
             found.append(replace(record, index=len(found), start_time_s=hit.start_time_s + record.start_time_s))
-    return found
+    return found, silent
 
 
 def _bands(freq_hz: np.ndarray, coherence: np.ndarray) -> list[dict[str, float]]:
@@ -227,8 +234,7 @@ def run(args: argparse.Namespace) -> int:
     if not source.hits:
         raise SessionError(f"{args.source}: holds no hits to replay")
     trigger, retrigger, validation, window = _new_settings(args, source)
-    hits = _retrigger(source.hits, trigger, source.sample_rate_hz) if retrigger else source.hits
-    dropped = max(0, len(source.hits) - len(hits)) if retrigger else 0
+    hits, dropped = _retrigger(source.hits, trigger, source.sample_rate_hz) if retrigger else (source.hits, 0)
     verdicts = []
     for position, hit in enumerate(hits):
         previous = None if retrigger else source.verdicts[position]

@@ -23,7 +23,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from sessions import record_session  # noqa: E402
+from sessions import record_session, windowed_copy  # noqa: E402
 
 from analysis.rig import (  # noqa: E402
     AddedMass,
@@ -56,6 +56,7 @@ class Case:
     film_scale: tuple[float, float] = (1.0, 1.0)  # true k and c over the nominal ones
     device: dict = field(default_factory=dict)
     seed: int = 0
+    prewindow_1_s: float = 0.0  # records exported already multiplied by exp(-σ t)
 
     def true_spec(self) -> RigSpec:
         parameters = {"k": K_N_PER_M * self.film_scale[0], "eta": C_NS_PER_M * self.film_scale[1]}
@@ -100,6 +101,8 @@ CASES: tuple[Case, ...] = (
     Case("accoupling-b", "effect", ("ac-coupling",), (AcCoupling(channel="acceleration", corner_hz=0.6),), seed=72),
     Case("lag-a", "effect", ("pneumatic-lag",), (PneumaticLag(k_lag=6.0e4, tau_lag=5.0e-4),), seed=81),
     Case("lag-b", "effect", ("pneumatic-lag",), (PneumaticLag(k_lag=5.0e4, tau_lag=8.0e-4),), seed=82),
+    Case("window-a", "effect", ("window-damping",), prewindow_1_s=1.0, seed=83),
+    Case("window-b", "effect", ("window-damping",), prewindow_1_s=0.6, seed=84),
     # two hidden effects at once
     Case("two-delay-mass", "two effects", ("channel-delay", "added-mass"),
          (ChannelDelay(channel="acceleration", delay_s=0.7e-6), AddedMass(mass_kg=0.012)), seed=91),
@@ -141,7 +144,8 @@ def generate(out_dir: Path, names: set[str] | None = None) -> Path:
     manifest = []
     for case in CASES:
         entry = {"name": case.name, "kind": case.kind, "expected": list(case.expected),
-                 "session": f"{case.name}.h5", "true_spec": f"{case.name}-true.toml"}
+                 "session": f"{case.name}.h5", "true_spec": f"{case.name}-true.toml",
+                 "prewindow_1_s": case.prewindow_1_s}
         manifest.append(entry)
         if names and case.name not in names:
             continue
@@ -149,6 +153,11 @@ def generate(out_dir: Path, names: set[str] | None = None) -> Path:
         spec = case.true_spec()
         spec.save(out_dir / entry["true_spec"])
         record_session(spec, out_dir / entry["session"], 20, seed=case.seed, **case.device)
+        if case.prewindow_1_s:
+            plain = out_dir / f"{case.name}-plain.h5"
+            (out_dir / entry["session"]).rename(plain)
+            windowed_copy(plain, out_dir / entry["session"], case.prewindow_1_s)
+            plain.unlink()
         print(f"  {case.name:18s} {case.kind:16s} {time.monotonic() - started:5.1f} s", file=sys.stderr)
     path = out_dir / "manifest.json"
     path.write_text(json.dumps({"nominal_spec": "nominal-rig.toml", "sessions": manifest}, indent=1))

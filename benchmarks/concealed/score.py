@@ -2,8 +2,10 @@
 
 For every session: run the diagnosis with only the nominal spec, compare the reported effect set with the hidden one,
 and measure how visible the hidden physics was (the largest χ² excess of a single hit against the nominal spec, and
-the largest relative difference of the averaged FRFs an overlay plot would show) and the RMS (eq. 33) before → after.
-Prints the per-session table, the confusion table and the acceptance figures.
+the largest relative difference of the averaged FRFs an overlay plot would show), the RMS (eq. 33) before → after,
+the improved spec's parameter errors against the truth, and (``--loop``, default) whether a new session recorded from
+the improved spec and diagnosed against it has anything left. Prints the per-session table, the confusion table and
+the acceptance figures; writes ``scores.json``.
 
     python benchmarks/concealed/score.py [--data out/concealed]
 """
@@ -99,9 +101,16 @@ def main() -> None:
         elapsed = time.monotonic() - started
         found = sorted(f.effect for f in result.findings)
         expected = sorted(entry["expected"])
-        excess, fluctuation, overlay, point_z = visibility(recordings, nominal, truth)
+        prewindow = entry.get("prewindow_1_s", 0.0)
+        if prewindow:  # not a rig property: the true spec cannot replay it, so its visibility is not measured here
+            excess, fluctuation, overlay, point_z = (float("nan"),) * 4
+        else:
+            excess, fluctuation, overlay, point_z = visibility(recordings, nominal, truth)
         improvement = 100 * (1 - result.rms_after / result.rms_before)
         accuracy = parameter_errors(truth, result.improved_rig_spec)
+        for finding in result.findings:
+            if finding.effect == "window-damping" and prewindow:
+                accuracy["window-damping.decay_rate_1_s"] = finding.parameters["decay_rate_1_s"]["value"] / prewindow - 1
         left = None
         if args.loop and expected:
             replayed = record_session(result.improved_rig_spec, args.data / "diagnoses" / entry["name"] / "replay.h5",
@@ -158,8 +167,9 @@ def _summary(rows: list[dict], confusion: Counter) -> None:
     claimed = [row["name"] for row in controls if row["found"]]
     with_effect = [row for row in rows if row["expected"]]
     short = [row["name"] for row in with_effect if row["improvement_percent"] < 50]
-    hidden = [row for row in with_effect if row["hit_excess"] < row["hit_fluctuation"] and row["overlay"] < 0.01]
-    faint = [row for row in with_effect if row["overlay"] < 0.0125]
+    measured = [row for row in with_effect if np.isfinite(row["overlay"])]
+    hidden = [row for row in measured if row["hit_excess"] < row["hit_fluctuation"] and row["overlay"] < 0.01]
+    faint = [row for row in measured if row["overlay"] < 0.0125]
     print(f"\nsessions: {len(rows)}; effect set exactly right: {exact}/{len(rows)} ({100 * exact / len(rows):.0f} %)")
     print(f"controls and artefact sessions claiming physics: {len(claimed)} {claimed}")
     print(f"sessions with an effect where RMS improved < 50 %: {len(short)} {short}")
@@ -169,7 +179,7 @@ def _summary(rows: list[dict], confusion: Counter) -> None:
         print(f"improved spec replayed on the simulator and diagnosed again: {len(looped) - len(leftover)}/"
               f"{len(looped)} with nothing left {leftover}")
     print(f"effect sessions whose averaged FRFs (truth vs nominal) differ by < 1.25 % anywhere (overlay): "
-          f"{len(faint)}/{len(with_effect)}; also hidden from every single hit's χ² test: {len(hidden)}")
+          f"{len(faint)}/{len(measured)} measured; also hidden from every single hit's χ² test: {len(hidden)}")
     times = [row["time_s"] for row in rows + subtle]
     print(f"diagnosis time per 20-hit session: median {np.median(times):.1f} s, max {max(times):.1f} s")
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -50,3 +51,20 @@ def record_session(
                 device.read(buffer)
                 recorder.feed(buffer, device.status().overload)
     return Path(path)
+
+
+def windowed_copy(source: Path, target: Path, decay_rate_1_s: float) -> Path:
+    """A copy of a session whose every hit record (both channels) was multiplied by ``exp(-σ t)`` from its first
+    sample, as a program that exports already windowed time records would deliver them."""
+    with Session.open(source) as session:
+        hits = session.hits()
+        config = session.daq_config
+        settings = session.settings
+        spec_toml = session.rig_spec_toml
+        rate_hz = session.sample_rate_hz
+    with Session.create(target, config, spec_toml, settings, overwrite=True, sync_each_hit=False) as copy:
+        for stored in hits:
+            record = stored.as_hit_record()
+            window = np.exp(-decay_rate_1_s * np.arange(record.data.shape[1]) / rate_hz)
+            copy.append_hit(replace(record, data=record.data * window), stored.verdict)
+    return Path(target)
