@@ -854,7 +854,9 @@ def _check_inputs(model: FilmModel, freq: np.ndarray, h: np.ndarray, mass_kg: fl
     if freq.ndim != 1 or freq.shape != h.shape:
         raise SettingError(f"fit {model.name}: freq_hz {freq.shape} and accelerance {h.shape} must be equal 1-D arrays")
     if len(freq) <= len(model.parameters) + 1:
-        raise SettingError(f"fit {model.name}: {len(freq)} frequency points are too few for {len(model.parameters)} parameters")
+        raise SettingError(
+            f"fit {model.name}: {len(freq)} frequency points are too few for {len(model.parameters)} parameters"
+        )
     if not (np.all(np.isfinite(freq)) and np.all(np.isfinite(h)) and np.all(h != 0)):
         raise SettingError(f"fit {model.name}: the accelerance has non-finite or zero values")
     if np.any(freq <= 0):
@@ -922,10 +924,11 @@ def _flags(model: FilmModel, names, values, std, correlation, at_search_bound) -
     for name, value, sigma in zip(names, values, std):
         parameter = parameters.get(name)
         if parameter is not None:
-            u = float(parameter.to_unit_interval(np.asarray(value))) if value > 0 or parameter.scale == "linear" else 0.0
+            linear = parameter.scale == "linear"
+            u = float(parameter.to_unit_interval(np.asarray(value))) if value > 0 or linear else 0.0
             if u <= 1e-6 or u >= 1 - 1e-6:
                 flags.append(f"{name} at its {'lower' if u <= 0.5 else 'upper'} bound")
-            relative = sigma / (parameter.upper - parameter.lower) if parameter.scale == "linear" else sigma / abs(value)
+            relative = sigma / (parameter.upper - parameter.lower) if linear else sigma / abs(value)
         else:
             relative = sigma / abs(value)
         if not np.isfinite(relative) or relative > NOT_IDENTIFIABLE_RELATIVE_STD:
@@ -977,7 +980,8 @@ def compare_models(fits: Sequence[FitResult], freq_hz: ArrayLike, h: ArrayLike) 
         if reference is not None:
             e = 100.0 * (reference[1] - rms) / reference[1]
             e_m = 100.0 * (reference[2] - peak) / reference[2]
-        rows.append(ComparisonRow(rank, fit.model_name, k, rms, e, peak, e_m, term + 2 * k, term + k * math.log(n_real)))
+        aic, bic = term + 2 * k, term + k * math.log(n_real)
+        rows.append(ComparisonRow(rank, fit.model_name, k, rms, e, peak, e_m, aic, bic))
     return rows
 
 
@@ -990,11 +994,15 @@ def format_table2(rows: Sequence[ComparisonRow], units: str = "g/N") -> str:
     def percent(value: float | None) -> str:
         return "—" if value is None else f"{value:.2f}%"
 
-    header = f"{'#':>2}  {'Model':<10}{'k':>3}  {'RMS ' + label:>16}  {'E':>9}  {'Peak error ' + label:>22}  {'E_m':>9}  {'AIC':>10}  {'BIC':>10}"
+    header = (
+        f"{'#':>2}  {'Model':<10}{'k':>3}  {'RMS ' + label:>16}  {'E':>9}  {'Peak error ' + label:>22}  "
+        f"{'E_m':>9}  {'AIC':>10}  {'BIC':>10}"
+    )
     lines = [header, "-" * len(header)]
     for row in rows:
         lines.append(
-            f"{row.rank:>2}  {row.model_name:<10}{row.n_parameters:>3}  {row.rms * scale:>16.6g}  {percent(row.e_percent):>9}  "
+            f"{row.rank:>2}  {row.model_name:<10}{row.n_parameters:>3}  {row.rms * scale:>16.6g}  "
+            f"{percent(row.e_percent):>9}  "
             f"{row.peak_error * scale:>22.6g}  {percent(row.e_m_percent):>9}  {row.aic:>10.1f}  {row.bic:>10.1f}"
         )
     return "\n".join(lines)

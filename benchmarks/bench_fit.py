@@ -63,7 +63,8 @@ def fit_de(name: str, freq_hz: np.ndarray, h: np.ndarray, seed: int) -> tuple[fl
         polish=True,
     )
     params, _ = objective.to_params(result.x[np.newaxis, :])
-    rms = float(np.sqrt(np.mean(np.abs(problem.acc_complex_residual(problem.coords.from_params(params[0], PAPER_MASS_KG))) ** 2)))
+    residual = problem.acc_complex_residual(problem.coords.from_params(params[0], PAPER_MASS_KG))
+    rms = float(np.sqrt(np.mean(np.abs(residual) ** 2)))
     return time.perf_counter() - started, problem.evaluations, rms
 
 

@@ -63,7 +63,11 @@ def random_physical_frf(model, rng, points=240):
                 continue
             kind, order = kinds.get(p.name, ("spring", None))
             value = stiffness * 10 ** rng.uniform(-2, 2)
-            params[p.name] = value / wn if kind == "dashpot" else value / wn ** params[order] if kind == "pot" else value
+            if kind == "dashpot":
+                value /= wn
+            elif kind == "pot":
+                value /= wn ** params[order]
+            params[p.name] = value
         z = model.stiffness(np.array([1j * wn]), params)[0]
         if not z.real > 0:
             continue
@@ -315,6 +319,9 @@ def test_cli_fit_prints_table_writes_figures_and_stores_fits(tmp_path, capsys):
         stored = session.read_fit("FOZGF")
     assert stored["model_name"] == "FOZGF" and stored["mass_kg"] == pytest.approx(MASS_KG)
     assert stored["band_hz"][0] >= 50.0 and stored["band_hz"][1] <= 600.0
+    again = FitResult.from_dict(stored)
+    assert again.model_name == "FOZGF" and set(again.params) == {"k1", "k2", "eta1", "alpha"}
+    assert again.correlation.shape == (4, 4) and isinstance(again.flags, tuple)
 
     status = gasfilm(["fit", str(path), "--models", "SD", "--json", "--out", str(tmp_path)])
     document = json.loads(capsys.readouterr().out)

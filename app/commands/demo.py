@@ -42,10 +42,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     spec = RigSpec.load(args.rig) if args.rig else RigSpec.nominal("FOMGF")
     config = default_hammer_and_accelerometer(51200.0 / 4)
-    trigger = TriggerSettings(level_n=20.0, pretrigger_s=0.01, record_s=1.0)
+    trigger = TriggerSettings(level_n=20.0, pretrigger_s=0.01, record_s=0.5)
     validation = ValidationSettings()
     args.out.parent.mkdir(parents=True, exist_ok=True)
-    device = open_device("sim", rig=spec, seed=args.seed, pacing="realtime", hit_interval_s=(0.6, 1.0))
+    device = open_device("sim", rig=spec, seed=args.seed, pacing="realtime", hit_interval_s=(0.7, 1.0))
     device.configure(config)
     force_row = config.channel_index(ChannelKind.FORCE)
     response_row = config.channel_index(ChannelKind.ACCELERATION)
