@@ -200,10 +200,7 @@ def diagnose_spectra(
         if accepted is None:
             break
         identifier, outcome, gain_held_out, evidence = accepted
-        steps.append(
-            Step(identifier, outcome, current.chi2, outcome.chi2, gain_held_out,
-                 bic(current.chi2, len(current.slots), points), bic(outcome.chi2, len(outcome.slots), points))
-        )
+        steps.append(Step(identifier, current.chi2, outcome.chi2, gain_held_out))
         evidence = _evidence_for(spectra, outcome.model)
         current = fit(evidence, outcome.model, outcome.slots)
 
@@ -459,35 +456,10 @@ def _evidence_sentence(
             f"window the spec does not know about would make it; {scale}.")
 
 
-def diagnose_records(
-    records: np.ndarray,
-    sample_rate_hz: float,
-    model: AugmentedModel,
-    *,
-    window: WindowSettings | None = None,
-    hit_times_s: np.ndarray | None = None,
-    overload: np.ndarray | None = None,
-    band_hz: tuple[float, float] | None = None,
-    progress: Callable[[str], None] = _silent,
-) -> Diagnosis:
-    """Diagnose raw hit records (hits, 2, samples: force N, response m/s²) against an augmented model."""
-    started = time.monotonic()
-    spectra = hit_spectra(
-        records,
-        sample_rate_hz,
-        window,
-        hit_times_s=hit_times_s,
-        overload=overload,
-        band_hz=band_hz,
-    )
-    diagnosis = diagnose_spectra(spectra, model, progress)
-    diagnosis.wall_time_s = time.monotonic() - started
-    return diagnosis
-
-
 @dataclass
 class Recordings:
-    """Hits to diagnose, from a session or a UFF file: records (hits, 2, samples) force N / response m/s²."""
+    """Hits to diagnose: records (hits, 2, samples), force in N and response in m/s², with what is known about them.
+    :func:`load_recordings` reads them from a session or a UFF file; any other source can fill one in directly."""
 
     records: np.ndarray
     sample_rate_hz: float
@@ -595,5 +567,5 @@ def diagnose(
     return diagnosis
 
 
-__all__ = ["Diagnosis", "Finding", "Recordings", "diagnose", "diagnose_records", "diagnose_spectra",
+__all__ = ["Diagnosis", "Finding", "Recordings", "diagnose", "diagnose_spectra",
            "load_recordings", "nominal_spec", "replay_rms"]

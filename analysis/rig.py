@@ -223,6 +223,30 @@ class Mains(Effect):
         return self.amplitude * sum(h * np.sin((n + 1) * phase) for n, h in enumerate(self.harmonics))
 
 
+@register_effect("pneumatic-lag")
+@dataclass(frozen=True)
+class PneumaticLag(Effect):
+    """Part of the film force lags the motion by a first-order time constant: ``k_lag / (1 + s·tau_lag)``."""
+
+    k_lag: float = _number("N/m", _positive)
+    tau_lag: float = _number("s", _positive)
+
+    def added_stiffness(self, s: np.ndarray) -> np.ndarray:
+        return self.k_lag / (1.0 + s * self.tau_lag)
+
+
+@register_effect("ac-coupling")
+@dataclass(frozen=True)
+class AcCoupling(Effect):
+    """A first-order high-pass ``s / (s + 2π corner_hz)`` on one channel (beyond the module's own, equal on all)."""
+
+    channel: str = _channel_field()
+    corner_hz: float = _number("Hz", _positive)
+
+    def channel_transfer(self, channel: str, s: np.ndarray) -> np.ndarray | float:
+        return s / (s + 2 * np.pi * self.corner_hz) if channel == self.channel else 1.0
+
+
 # --- the spec ------------------------------------------------------------------------------------------------------
 
 

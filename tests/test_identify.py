@@ -348,3 +348,32 @@ def test_cli_fit_errors_are_one_line(tmp_path, capsys, arguments, message):
 
 def test_get_model_accepts_the_names_the_cli_uses():
     assert get_model("fomgf") is PAPER_MODELS["FOMGF"]
+
+
+def test_cli_fit_computes_the_frf_from_accepted_hits_with_the_sessions_window(tmp_path, capsys):
+    from analysis.capture import HitRecord
+    from analysis.session import Session
+    from analysis.spectra import WindowSettings
+    from analysis.validation import Verdict
+
+    rate_hz, samples = 2560.0, 5120
+    device = SimulatedNI9234(RigSpec.nominal("FOMGF"), seed=4, pacing="fast", hit_interval_s=None)
+    device.configure(default_hammer_and_accelerometer(rate_hz))
+    buffer = np.empty((2, samples))
+    window = WindowSettings(exponential_end_fraction=0.05)
+    path = tmp_path / "hits.h5"
+    with Session.create(path, device.config, RigSpec.nominal("FOMGF").to_toml(), {"window": window}) as session:
+        with device:
+            device.start()
+            for index in range(3):
+                device.sim_hit()
+                device.read(buffer)
+                hit = HitRecord(index, buffer.copy(), rate_hz, 0, 2.0 * index, overload=np.zeros(2, bool))
+                session.append_hit(hit, Verdict(True))
+    status = gasfilm(["fit", str(path), "--models", "SD,FOZGF", "--band", "50:600", "--json", "--out", str(tmp_path)])
+    document = json.loads(capsys.readouterr().out)
+    sigma = window.decay_rate_1_s(samples, rate_hz)
+    assert status == 0 and document["decay_rate_1_s"] == pytest.approx(sigma)
+    fozgf = next(fit for fit in document["fits"] if fit["model_name"] == "FOZGF")
+    assert fozgf["decay_rate_1_s"] == pytest.approx(sigma)
+    assert document["table"][0]["model_name"] == "FOZGF" and document["table"][0]["e_percent"] > 80.0

@@ -1,8 +1,7 @@
 """Between rig specs (:mod:`analysis.rig`) and the diagnosis's augmented model, both ways.
 
-Two catalog terms have no effect type in :mod:`analysis.rig` yet; they are registered here with
-:func:`analysis.rig.register_effect` so that an improved spec holding them loads and plays in the simulator:
-``pneumatic-lag`` (a lagged film spring) and ``ac-coupling`` (a high-pass on one channel). ``film-memory`` needs no
+Every catalog term that changes the rig has an effect type in :mod:`analysis.rig` (``pneumatic-lag`` and
+``ac-coupling`` included), so an improved spec loads and plays in the simulator in any process. ``film-memory`` needs no
 type: it extends the film network itself with a fractional Maxwell branch ``k_memory -- pot(eta_memory, alpha_memory)``. ``window-damping`` is a property of how the
 records were processed, not of the rig; the improved spec says so in a comment.
 
@@ -16,7 +15,6 @@ nonlinear simulation of :mod:`analysis.rig` at ``k3 = Δk / (c x0²)``, so what 
 from __future__ import annotations
 
 import dataclasses
-from dataclasses import dataclass
 
 import numpy as np
 
@@ -31,11 +29,9 @@ from analysis.rig import (
     Effect,
     ExtraMode,
     Mains,
+    AcCoupling,
+    PneumaticLag,
     RigSpec,
-    _channel_field,
-    _number,
-    _positive,
-    register_effect,
 )
 from drivers.errors import SettingError
 
@@ -45,30 +41,6 @@ CUBIC_CONSTANT = 0.25
 MEMORY_K = "k_memory"
 MEMORY_ETA = "eta_memory"
 MEMORY_ALPHA = "alpha_memory"
-
-
-@register_effect("pneumatic-lag")
-@dataclass(frozen=True)
-class PneumaticLag(Effect):
-    """Part of the film force lags the motion by a first-order time constant: ``k_lag / (1 + s·tau_lag)``."""
-
-    k_lag: float = _number("N/m", _positive)
-    tau_lag: float = _number("s", _positive)
-
-    def added_stiffness(self, s: np.ndarray) -> np.ndarray:
-        return self.k_lag / (1.0 + s * self.tau_lag)
-
-
-@register_effect("ac-coupling")
-@dataclass(frozen=True)
-class AcCoupling(Effect):
-    """A first-order high-pass ``s / (s + 2π corner_hz)`` on one channel (beyond the module's own, equal on all)."""
-
-    channel: str = _channel_field()
-    corner_hz: float = _number("Hz", _positive)
-
-    def channel_transfer(self, channel: str, s: np.ndarray) -> np.ndarray | float:
-        return s / (s + 2 * np.pi * self.corner_hz) if channel == self.channel else 1.0
 
 
 def _resonance_omega(model: AugmentedModel) -> float:

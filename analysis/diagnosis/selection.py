@@ -181,15 +181,12 @@ def initial_guesses(identifier: str, evidence: Evidence, model: AugmentedModel) 
 
 @dataclass
 class Step:
-    """One accepted term of the forward selection."""
+    """One accepted term of the forward selection: χ² before and after it, and its gain on held-out hits."""
 
     identifier: str
-    outcome: FitOutcome
     chi2_before: float
     chi2_after: float
     held_out_gain: float
-    bic_before: float
-    bic_after: float
 
 
 def bic(chi2: float, parameter_count: int, point_count: int) -> float:
