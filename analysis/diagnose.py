@@ -363,11 +363,16 @@ def _recalibration_table(model: AugmentedModel, outcome: FitOutcome) -> dict[str
     return table
 
 
-def _effect_band(evidence: Evidence, with_effect: AugmentedModel, identifier: str) -> tuple[float, float]:
-    """The band that holds 80 % of the χ² the term removes (computed without refitting the rest)."""
-    without = with_effect.copy()
-    del without.effects[identifier]
-    gain = np.clip(evidence.chi2_per_frequency(without) - evidence.chi2_per_frequency(with_effect), 0.0, None)
+def _effect_band(evidence: Evidence, final: AugmentedModel, identifier: str) -> tuple[float, float]:
+    """The band holding 80 % of the χ² the term removes once everything else has been refitted without it.
+
+    Refitting first matters: a term that also shifts the main resonance (an extra mode's mass, say) is partly
+    absorbed by the recalibrated film, and what is left is where the term itself is needed.
+    """
+    reduced = final.copy()
+    del reduced.effects[identifier]
+    without = fit(evidence, reduced, model_slots(reduced)).model
+    gain = np.clip(evidence.chi2_per_frequency(without) - evidence.chi2_per_frequency(final), 0.0, None)
     freq_hz = evidence.freq_hz
     if gain.sum() <= 0:
         return float(freq_hz[0]), float(freq_hz[-1])
@@ -502,7 +507,7 @@ def load_recordings(path: str | Path) -> Recordings:
         if rejected:
             reasons: dict[str, int] = {}
             for hit in rejected:
-                for reason in hit.verdict.reasons:
+                for reason in hit.verdict.reasons or ("by the user",):
                     reasons[reason] = reasons.get(reason, 0) + 1
             summary = ", ".join(f"{reason}: {count}" for reason, count in sorted(reasons.items()))
             quality.append(QualityNote("rejected hits", f"{len(rejected)} hit(s) rejected in the session ({summary}); "
