@@ -31,14 +31,7 @@ def open_device(name: str | None = None, **options: Any) -> DaqDevice:
 
 
 def list_devices() -> list[str]:
-    """Device names a user can pick: ``"sim"`` first, then the NI 9234 modules NI-DAQmx reports on this machine
-    (none when the NI driver is not installed). ``nidaqmx`` is reached only through :mod:`drivers.nidaqmx_backend`."""
-    names = [SIMULATED_DEVICE_NAME]
-    try:
-        from drivers import nidaqmx_backend
+    """Device names a user can pick: ``"sim"`` first, then the NI 9234 modules NI-DAQmx reports on this machine."""
+    from drivers.nidaqmx_backend import local_ni9234_names
 
-        devices = nidaqmx_backend.nidaqmx.system.System.local().devices
-        names += [device.name for device in devices if "9234" in str(device.product_type)]
-    except Exception:  # no NI-DAQmx installation (DaqNotFoundError), or a driver that cannot be queried
-        pass
-    return names
+    return [SIMULATED_DEVICE_NAME, *local_ni9234_names()]

@@ -431,3 +431,12 @@ class NidaqmxNI9234:
             ),
             stacklevel=5,
         )
+
+
+def local_ni9234_names() -> list[str]:
+    """Names of the NI 9234 modules NI-DAQmx reports on this machine; empty when the NI driver is absent."""
+    try:
+        devices = nidaqmx.system.System.local().devices
+        return [device.name for device in devices if "9234" in str(device.product_type)]
+    except (nidaqmx.errors.DaqNotFoundError, nidaqmx.errors.DaqNotSupportedError, nidaqmx.errors.DaqError):
+        return []

@@ -660,3 +660,15 @@ def test_close_failure_does_not_hide_the_error_that_left_the_with_block(daqmx: F
     with pytest.raises(DeviceRemovedError, match="closing"):
         with _configured(daqmx):
             pass
+
+
+def test_list_devices_offers_sim_and_the_ni9234_modules_daqmx_reports():
+    from types import SimpleNamespace
+
+    from drivers import list_devices
+
+    assert list_devices() == ["sim"]  # no NI-DAQmx runtime on this machine
+    modules = [SimpleNamespace(name="cDAQ1Mod1", product_type="NI 9234"),
+               SimpleNamespace(name="cDAQ1Mod2", product_type="NI 9263")]
+    with mock.patch("nidaqmx.system.System.local", return_value=SimpleNamespace(devices=modules)):
+        assert list_devices() == ["sim", "cDAQ1Mod1"]
