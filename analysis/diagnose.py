@@ -204,8 +204,8 @@ def diagnose_spectra(
         evidence = _evidence_for(spectra, outcome.model)
         current = fit(evidence, outcome.model, outcome.slots)
 
-    steps, current = _check_back(evidence, steps, current, progress)
-    findings = [_finding(evidence, step, current) for step in steps]
+    steps, current, refits_without = _check_back(evidence, steps, current, progress)
+    findings = [_finding(evidence, step, current, refits_without[step.identifier]) for step in steps]
     if findings:
         verdict = "missing physics"
     elif recalibration_significant:
@@ -329,8 +329,12 @@ def _check_back(
     steps: list[Step],
     current: FitOutcome,
     progress: Callable[[str], None],
-) -> tuple[list[Step], FitOutcome]:
-    """Drop terms that no longer pay for themselves once the final model's noise scale is known."""
+) -> tuple[list[Step], FitOutcome, dict[str, AugmentedModel]]:
+    """Drop terms that no longer pay for themselves once the final model's noise scale is known.
+
+    Also returns, for every term kept, the final model refitted without it (where the term is needed is where
+    that refit fails).
+    """
     points = evidence.point_count
     while steps:
         noise_scale = max(1.0, current.chi2 / (points - len(current.slots)))
@@ -343,11 +347,11 @@ def _check_back(
             trials.append((cost, step, refit))
         cost, step, refit = min(trials, key=lambda trial: trial[0])
         if cost > BIC_MARGIN:
-            break
+            return steps, current, {trial_step.identifier: trial_refit.model for _, trial_step, trial_refit in trials}
         progress(f"check back: {step.identifier} no longer significant (noise scale {noise_scale:.2f}); removed")
         steps = [s for s in steps if s is not step]
         current = refit
-    return steps, current
+    return steps, current, {}
 
 
 def _recalibration_table(model: AugmentedModel, outcome: FitOutcome) -> dict[str, dict[str, float]]:
@@ -363,15 +367,12 @@ def _recalibration_table(model: AugmentedModel, outcome: FitOutcome) -> dict[str
     return table
 
 
-def _effect_band(evidence: Evidence, final: AugmentedModel, identifier: str) -> tuple[float, float]:
-    """The band holding 80 % of the χ² the term removes once everything else has been refitted without it.
+def _effect_band(evidence: Evidence, final: AugmentedModel, without: AugmentedModel) -> tuple[float, float]:
+    """The band holding 80 % of the χ² the term removes against the rest refitted without it.
 
-    Refitting first matters: a term that also shifts the main resonance (an extra mode's mass, say) is partly
-    absorbed by the recalibrated film, and what is left is where the term itself is needed.
+    Refitting matters: a term that also shifts the main resonance (an extra mode's mass, say) is partly absorbed by
+    the recalibrated film, and what is left is where the term itself is needed.
     """
-    reduced = final.copy()
-    del reduced.effects[identifier]
-    without = fit(evidence, reduced, model_slots(reduced)).model
     gain = np.clip(evidence.chi2_per_frequency(without) - evidence.chi2_per_frequency(final), 0.0, None)
     freq_hz = evidence.freq_hz
     if gain.sum() <= 0:
@@ -382,7 +383,7 @@ def _effect_band(evidence: Evidence, final: AugmentedModel, identifier: str) -> 
     return float(low), float(high)
 
 
-def _finding(evidence: Evidence, step: Step, final: FitOutcome) -> Finding:
+def _finding(evidence: Evidence, step: Step, final: FitOutcome, without: AugmentedModel) -> Finding:
     identifier = step.identifier
     slots = effect_slots(identifier)
     parameters: dict[str, dict[str, float | str]] = {}
@@ -391,7 +392,7 @@ def _finding(evidence: Evidence, step: Step, final: FitOutcome) -> Finding:
         index = next(i for i, s in enumerate(final.slots) if s.owner == identifier and s.name == slot.name)
         parameters[slot.name] = {"value": values[slot.name], "uncertainty": final.uncertainty(index),
                                  "unit": spec.unit}
-    band = _effect_band(evidence, final.model, identifier)
+    band = _effect_band(evidence, final.model, without)
     gain = step.chi2_before - step.chi2_after
     hits = "all hits"
     if CATALOG[identifier].per_hit:

@@ -101,6 +101,16 @@ def test_hidden_delay_is_found_and_the_improved_spec_closes_the_loop(tmp_path):
     assert again.verdict in ("consistent", "parameters-only")
 
 
+def test_extra_mode_is_named_in_the_band_around_its_own_frequency(tmp_path):
+    truth = NOMINAL.with_effects(ExtraMode(freq_hz=600.0, damping_ratio=0.02, mass_kg=0.3))
+    diagnosis = diagnose(record(truth, tmp_path / "mode.h5", seed=6), NOMINAL)
+    assert effects_of(diagnosis) == ["extra-mode"]
+    finding = diagnosis.findings[0]
+    assert abs(finding.parameters["freq_hz"]["value"] - 600.0) < 3.0
+    low_hz, high_hz = finding.band_hz
+    assert low_hz < 600.0 < high_hz and low_hz > 300.0  # where the mode is, not at the film's resonance (199 Hz)
+
+
 def test_drift_over_the_session_is_a_per_hit_trend(tmp_path):
     truth = NOMINAL.with_effects(Drift(fraction_per_hour=0.4))
     diagnosis = diagnose(record(truth, tmp_path / "drift.h5", seed=9), NOMINAL)

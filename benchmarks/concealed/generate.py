@@ -6,8 +6,10 @@ capture, validation and session code (:mod:`benchmarks.concealed.sessions`). The
 ``manifest.json`` for the scorer alone. Effect sizes are chosen so that a single hit's own goodness of fit against the
 nominal spec stays within its noise (the scorer measures and prints this) while the averaged statistics of 20 hits
 show it. Kinds: one hidden effect, two at once, clean controls, parameter-only controls (the film's own k and c off by
-a few %), artefact sessions (mains interference, double hits that validation must reject), and a "subtle" tier with
-the six headline effects three times smaller (scored apart from the acceptance set).
+a few %), artefact sessions (mains interference, double hits that validation must reject), a "subtle" tier with
+the six headline effects three times smaller, and a "strict" tier with the six headline effects sized so that no
+frequency of any single hit differs from the truth by more than 3σ, recorded with 40–80 hits (both tiers scored
+apart from the acceptance set).
 
     python benchmarks/concealed/generate.py [--out out/concealed]
 """
@@ -49,7 +51,7 @@ class Case:
     """One benchmark session: what is hidden in the true rig and what the diagnosis should report."""
 
     name: str
-    kind: str  # "effect", "two effects", "subtle", "clean", "parameters-only", "artefact"
+    kind: str  # "effect", "two effects", "subtle", "strict", "clean", "parameters-only", "artefact"
     expected: tuple[str, ...]
     effects: tuple[Effect, ...] = ()
     memory: tuple[float, float] | None = None  # (eta_memory, alpha_memory) of a spring-pot branch
@@ -57,6 +59,7 @@ class Case:
     device: dict = field(default_factory=dict)
     seed: int = 0
     prewindow_1_s: float = 0.0  # records exported already multiplied by exp(-σ t)
+    hits: int = 20  # accepted hits to record
 
     def true_spec(self) -> RigSpec:
         parameters = {"k": K_N_PER_M * self.film_scale[0], "eta": C_NS_PER_M * self.film_scale[1]}
@@ -145,14 +148,14 @@ def generate(out_dir: Path, names: set[str] | None = None) -> Path:
     for case in CASES:
         entry = {"name": case.name, "kind": case.kind, "expected": list(case.expected),
                  "session": f"{case.name}.h5", "true_spec": f"{case.name}-true.toml",
-                 "prewindow_1_s": case.prewindow_1_s}
+                 "prewindow_1_s": case.prewindow_1_s, "hits": case.hits}
         manifest.append(entry)
         if names and case.name not in names:
             continue
         started = time.monotonic()
         spec = case.true_spec()
         spec.save(out_dir / entry["true_spec"])
-        record_session(spec, out_dir / entry["session"], 20, seed=case.seed, **case.device)
+        record_session(spec, out_dir / entry["session"], case.hits, seed=case.seed, **case.device)
         if case.prewindow_1_s:
             plain = out_dir / f"{case.name}-plain.h5"
             (out_dir / entry["session"]).rename(plain)
