@@ -14,7 +14,7 @@ from typing import Any, Callable, Sequence
 
 import numpy as np
 
-from analysis.capture import ImpactCapture
+from analysis.capture import HitRecord, ImpactCapture
 from analysis.session import Session
 from analysis.validation import ValidationSettings, Verdict, validate_hit
 
@@ -30,6 +30,7 @@ class HitEvent:
     peak_force_n: float
     accepted_count: int
     rejected_count: int
+    record: HitRecord  # the samples as captured (also in the session)
 
 
 class HitRecorder:
@@ -85,6 +86,7 @@ class HitRecorder:
                 peak_force_n=float(np.max(np.abs(hit.data[hit.force_channel]))),
                 accepted_count=self.accepted_count,
                 rejected_count=self.rejected_count,
+                record=hit,
             )
             events.append(event)
             if self.on_hit is not None:

@@ -105,7 +105,7 @@ class AcquisitionWorker(QObject):
         self._last_trigger_state = ""
         self._last_flags = ""
         self._stopping = False
-        self._capture: RecordKeepingCapture | None = None
+        self._capture: ImpactCapture | None = None
         self._record_samples = 0
         self._force_row = 0
         self._recording_until = 0
@@ -133,9 +133,9 @@ class AcquisitionWorker(QObject):
                 plan.trigger, self.device.sample_rate_hz, len(plan.config.channels), force_row, plan.response_row
             )
             full_scale = tuple(channel.full_scale_si for channel in plan.config.channels)
-            self._capture = RecordKeepingCapture(capture)
+            self._capture = capture
             self.recorder = HitRecorder(
-                self.session, self._capture, plan.validation, full_scale_si=full_scale, window=plan.window
+                self.session, capture, plan.validation, full_scale_si=full_scale, window=plan.window
             )
             self._record_samples = capture.record_samples
             self._force_row = force_row
@@ -211,9 +211,8 @@ class AcquisitionWorker(QObject):
             self._report_flags(chunk.status)
             self._watch_trigger(chunk.data[self._force_row], chunk.first_sample + chunk.data.shape[1])
             events = self.recorder.feed(chunk.data, chunk.status.overload)
-            records = self._capture.take_records()
-            for event, record in zip(events, records):
-                self._on_hit(event, record)
+            for event in events:
+                self._on_hit(event)
             if events and self._capture.samples_seen >= self._recording_until:
                 self._set_trigger_state("armed")
 
@@ -227,11 +226,11 @@ class AcquisitionWorker(QObject):
         elif end_sample >= self._recording_until:
             self._set_trigger_state("armed")
 
-    def _on_hit(self, event: HitEvent, record: HitRecord) -> None:
+    def _on_hit(self, event: HitEvent) -> None:
         self.stats.hits += 1
         automatic = event.verdict
         decided = (automatic.accepted and self.plan.auto_accept) or (not automatic.accepted and self.plan.auto_reject)
-        entry = HitEntry(event.index, record, automatic, automatic, pending=not decided)
+        entry = HitEntry(event.index, event.record, automatic, automatic, pending=not decided)
         self._entries[entry.index] = entry
         self.hit_recorded.emit(entry)
         if entry.accepted:
@@ -314,28 +313,6 @@ class ReaderThreadHooks:
                 break
             action(self._device)
         return self._device.read(out, timeout_s)
-
-
-class RecordKeepingCapture:
-    """Wraps an :class:`ImpactCapture` for a :class:`HitRecorder` and keeps the records it hands over, so the GUI can
-    show each stored hit's samples without reading them back from the file (events and records come in order)."""
-
-    def __init__(self, capture: ImpactCapture) -> None:
-        self.capture = capture
-        self._records: list[HitRecord] = []
-
-    @property
-    def samples_seen(self) -> int:
-        return self.capture.samples_seen
-
-    def feed(self, chunk: np.ndarray, overload: np.ndarray | None = None) -> list[HitRecord]:
-        records = self.capture.feed(chunk, overload)
-        self._records.extend(records)
-        return records
-
-    def take_records(self) -> list[HitRecord]:
-        records, self._records = self._records, []
-        return records
 
 
 class JobCancelled(GasfilmError):

@@ -11,7 +11,7 @@ the six headline effects three times smaller, and a "strict" tier with the six h
 frequency of any single hit differs from the truth by more than 3σ, recorded with 40–80 hits (both tiers scored
 apart from the acceptance set).
 
-    python benchmarks/concealed/generate.py [--out out/concealed]
+    python benchmarks/concealed/generate.py [--out out/concealed] [--kind strict] [--only NAME ...]
 """
 
 from __future__ import annotations
@@ -123,6 +123,32 @@ CASES: tuple[Case, ...] = (
          seed=144),
     Case("subtle-mass", "subtle", ("added-mass",), (AddedMass(mass_kg=0.004),), seed=145),
     Case("subtle-drift", "subtle", ("drift",), (Drift(fraction_per_hour=0.035),), seed=146),
+    # strict: sized so that no frequency of any single hit differs from the truth by more than 3σ (and no hit's χ²
+    # excess reaches its 3σ fluctuation), with 80 accepted hits, and 40 for those still found so (drift: the rate is
+    # doubled with half the hits, so that the last hit has drifted as far)
+    Case("strict-memory", "strict", ("film-memory",), memory=_memory(1.05e-4, 0.5), hits=80, seed=151),
+    Case("strict-memory-steep", "strict", ("film-memory",), memory=_memory(1.0e-4, 1.75), hits=80, seed=157),
+    Case("strict-mode", "strict", ("extra-mode",), (ExtraMode(freq_hz=600.0, damping_ratio=0.02, mass_kg=0.002),),
+         hits=80, seed=152),
+    Case("strict-cubic", "strict", ("amplitude-nonlinearity",), (CubicStiffness(k3_n_per_m3=6.5e14),),
+         device={"force_spread": 0.3}, hits=80, seed=153),
+    Case("strict-delay", "strict", ("channel-delay",), (ChannelDelay(channel="acceleration", delay_s=0.18e-6),),
+         hits=80, seed=154),
+    Case("strict-mass", "strict", ("added-mass",), (AddedMass(mass_kg=0.0025),), hits=80, seed=155),
+    Case("strict-drift", "strict", ("drift",), (Drift(fraction_per_hour=0.00225),), hits=80, seed=156),
+    Case("strict-mode-40", "strict", ("extra-mode",), (ExtraMode(freq_hz=600.0, damping_ratio=0.02, mass_kg=0.002),),
+         hits=40, seed=162),
+    Case("strict-cubic-40", "strict", ("amplitude-nonlinearity",), (CubicStiffness(k3_n_per_m3=6.5e14),),
+         device={"force_spread": 0.3}, hits=40, seed=163),
+    Case("strict-delay-40", "strict", ("channel-delay",), (ChannelDelay(channel="acceleration", delay_s=0.18e-6),),
+         hits=40, seed=164),
+    Case("strict-mass-40", "strict", ("added-mass",), (AddedMass(mass_kg=0.0025),), hits=40, seed=165),
+    Case("strict-drift-40", "strict", ("drift",), (Drift(fraction_per_hour=0.0045),), hits=40, seed=166),
+    # strict-tier controls: with 40 and 80 hits the diagnosis must still claim nothing in clean sessions, and only
+    # recalibrate a film whose own k and c are off by as little as the strict effects' equivalent
+    Case("strict-clean", "strict", (), hits=80, seed=167),
+    Case("strict-clean-40", "strict", (), hits=40, seed=168),
+    Case("strict-params", "strict", (), film_scale=(1.00008, 1.0005), hits=80, seed=169),
     # controls: nothing hidden, or only the film's own parameters off
     Case("clean-a", "clean", (), seed=101),
     Case("clean-b", "clean", (), seed=102),
@@ -171,8 +197,10 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, default=Path("out/concealed"))
     parser.add_argument("--only", nargs="*", help="case names to (re)record")
+    parser.add_argument("--kind", nargs="*", help="case kinds to (re)record (e.g. strict)")
     args = parser.parse_args()
-    print(generate(args.out, set(args.only) if args.only else None))
+    names = set(args.only or ()) | {case.name for case in CASES if args.kind and case.kind in args.kind}
+    print(generate(args.out, names or None))
 
 
 if __name__ == "__main__":

@@ -5,9 +5,10 @@ and measure how visible the hidden physics was (the largest χ² excess of a sin
 the largest relative difference of the averaged FRFs an overlay plot would show), the RMS (eq. 33) before → after,
 the improved spec's parameter errors against the truth, and (``--loop``, default) whether a new session recorded from
 the improved spec and diagnosed against it has anything left. Prints the per-session table, the confusion table and
-the acceptance figures; writes ``scores.json``.
+the acceptance figures; writes ``scores.json``. The "subtle" and "strict" tiers are scored apart from the acceptance
+set; the strict tier gets its own table (``--kind strict`` scores it alone, ``--only NAME ...`` named sessions).
 
-    python benchmarks/concealed/score.py [--data out/concealed]
+    python benchmarks/concealed/score.py [--data out/concealed] [--kind strict] [--only NAME ...]
 """
 
 from __future__ import annotations
@@ -34,6 +35,10 @@ MISSED = "(missed)"
 EXTRA = "(extra)"
 
 
+STANDARD_GRAVITY_M_S2 = 9.80665
+SEPARATE_TIERS = ("subtle", "strict")
+RESONANCE_HZ = 195.5  # of the nominal film on its mass, where the generator sizes a spring-pot
+
 MAIN_FIELD = {"extra-mode": "freq_hz", "channel-delay": "delay_s", "added-mass": "mass_kg",
               "drift": "fraction_per_hour", "cubic-stiffness": "k3_n_per_m3", "ac-coupling": "corner_hz"}
 
@@ -49,6 +54,18 @@ def parameter_errors(truth: RigSpec, improved: RigSpec) -> dict[str, float]:
             true_value, fitted = getattr(effect, name), getattr(found[kind], name)
             errors[f"{kind}.{name}"] = fitted / true_value - 1
     return errors
+
+
+def hidden_size(truth: RigSpec) -> str:
+    """The hidden physics of a true spec in one line: each effect's parameters, and a spring-pot's magnitude at the
+    film resonance as a fraction of the film's k (with its order α)."""
+    parts = [" ".join(f"{name} {value:.3g}" if isinstance(value, float) else f"{name} {value}"
+                      for name, value in effect.to_table().items() if name != "type") for effect in truth.effects]
+    film = truth.film_parameters
+    if "eta_memory" in film:
+        magnitude = film["eta_memory"] * (2 * np.pi * RESONANCE_HZ) ** film["alpha_memory"]
+        parts.append(f"spring-pot {magnitude / film['k']:.2g} k at {RESONANCE_HZ:.0f} Hz, α {film['alpha_memory']:g}")
+    return "; ".join(parts)
 
 
 def _replayed(spectra, model) -> np.ndarray:
@@ -84,6 +101,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--data", type=Path, default=Path("out/concealed"))
     parser.add_argument("--only", nargs="*", help="session names to score")
+    parser.add_argument("--kind", nargs="*", help="session kinds to score (e.g. strict)")
     parser.add_argument("--loop", action=argparse.BooleanOptionalAction, default=True,
                         help="record a session from each improved spec and check nothing is left (default on)")
     args = parser.parse_args()
@@ -92,7 +110,7 @@ def main() -> None:
     rows = []
     confusion: Counter = Counter()
     for entry in manifest["sessions"]:
-        if args.only and entry["name"] not in args.only:
+        if (args.only and entry["name"] not in args.only) or (args.kind and entry["kind"] not in args.kind):
             continue
         recordings = load_recordings(args.data / entry["session"])
         truth = RigSpec.load(args.data / entry["true_spec"])
@@ -114,14 +132,14 @@ def main() -> None:
         left = None
         if args.loop and expected:
             replayed = record_session(result.improved_rig_spec, args.data / "diagnoses" / entry["name"] / "replay.h5",
-                                      20, seed=1000 + len(rows))
+                                      entry.get("hits", 20), seed=1000 + len(rows))
             left = sorted(f.effect for f in diagnose(replayed, result.improved_rig_spec).findings)
         rows.append({"name": entry["name"], "kind": entry["kind"], "expected": expected, "found": found,
                      "exact": found == expected, "verdict": result.verdict, "rms_before": result.rms_before,
                      "rms_after": result.rms_after, "improvement_percent": improvement, "time_s": elapsed,
                      "hit_excess": excess, "hit_fluctuation": fluctuation, "overlay": overlay, "point_z": point_z,
                      "quality": [q.kind for q in result.quality], "parameter_errors": accuracy,
-                     "left_after_replay": left})
+                     "left_after_replay": left, "hits": len(recordings.records), "hidden_size": hidden_size(truth)})
         for effect in expected:
             confusion[(effect, effect if effect in found else MISSED)] += 1
         for reported in found:
@@ -138,7 +156,8 @@ def main() -> None:
               + (f" | errors {', '.join(f'{k} {v:+.1%}' for k, v in accuracy.items())}" if accuracy else "")
               + (f" | replay of improved spec: {','.join(left) or 'nothing left'}" if left is not None else ""),
               flush=True)
-    (args.data / "scores.json").write_text(json.dumps(rows, indent=1))
+    scores_name = f"scores-{'-'.join(args.kind)}.json" if args.kind else "scores.json"
+    (args.data / scores_name).write_text(json.dumps(rows, indent=1))
     _summary(rows, confusion)
 
 
@@ -153,13 +172,16 @@ def _summary(rows: list[dict], confusion: Counter) -> None:
         print(f"{hidden:{width}s}" + "".join(f"{confusion.get((hidden, reported), 0):13d}"
                                              for reported in reported_labels))
     subtle = [row for row in rows if row["kind"] == "subtle"]
-    rows = [row for row in rows if row["kind"] != "subtle"]
+    strict = [row for row in rows if row["kind"] == "strict"]
+    rows = [row for row in rows if row["kind"] not in SEPARATE_TIERS]
     if subtle:
         found = sum(row["exact"] for row in subtle)
         print(f"\nsubtle tier (not in the acceptance set): exactly right {found}/{len(subtle)}; "
               f"max single-point z per session {[round(row['point_z'], 1) for row in subtle]}; RMS improvement "
               f"{[round(row['improvement_percent']) for row in subtle]} %; missed "
               f"{[row['name'] for row in subtle if not row['exact']]}")
+    if strict:
+        _strict_table(strict)
     if not rows:
         return
     exact = sum(row["exact"] for row in rows)
@@ -182,6 +204,39 @@ def _summary(rows: list[dict], confusion: Counter) -> None:
           f"{len(faint)}/{len(measured)} measured; also hidden from every single hit's χ² test: {len(hidden)}")
     times = [row["time_s"] for row in rows + subtle]
     print(f"diagnosis time per 20-hit session: median {np.median(times):.1f} s, max {max(times):.1f} s")
+
+
+def _strict_table(strict: list[dict]) -> None:
+    """The strict tier: effects no single hit shows (point z ≤ 3, hit χ² excess below one hit's 3σ fluctuation)."""
+    effects = [row for row in strict if row["expected"]]
+    silent = [row for row in effects if row["point_z"] <= 3 and row["hit_excess"] < row["hit_fluctuation"]]
+    found = [row for row in effects if row["exact"]]
+    claimed = [row["name"] for row in strict if not row["expected"] and row["found"]]
+    print(f"\nstrict tier (not in the acceptance set): effect sessions silent in every single hit "
+          f"{len(silent)}/{len(effects)}; effect set exactly right {len(found)}/{len(effects)}; controls claiming "
+          f"physics {len(claimed)} {claimed}; RMS in g/N")
+    print("| session | hidden (size) | hits | reported | result | RMS before → after | RMS gain | point z "
+          "| hit χ² excess (3σ of one hit) | overlay | parameter error | replay of improved spec | time (s) |")
+    print("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |")
+    for row in strict:
+        if not row["expected"]:
+            result = "physics claimed" if row["found"] else "nothing claimed"
+        elif row["exact"]:
+            result = "found"
+        elif not row["found"]:
+            result = "missed"
+        else:
+            result = "wrong effect" if not set(row["expected"]) & set(row["found"]) else "wrong set"
+        errors = ", ".join(f"{name.split('.')[1]} {value:+.1%}" for name, value in row["parameter_errors"].items())
+        left = "—" if row["left_after_replay"] is None else (", ".join(row["left_after_replay"]) or "nothing")
+        hidden = f"{', '.join(row['expected'])} ({row['hidden_size']})" if row["expected"] else "— (control)"
+        print(f"| {row['name']} | {hidden} | {row['hits']} "
+              f"| {', '.join(row['found']) or '— (' + row['verdict'] + ')'} | {result} "
+              f"| {row['rms_before'] / STANDARD_GRAVITY_M_S2:.3g} → {row['rms_after'] / STANDARD_GRAVITY_M_S2:.3g} "
+              f"| {row['improvement_percent']:.0f} % | {row['point_z']:.2f} "
+              f"| {row['hit_excess']:.0f} ({row['hit_fluctuation']:.0f}) | {100 * row['overlay']:.3f} % "
+              f"| {errors or '—'} | {left} "
+              f"| {row['time_s']:.1f} |")
 
 
 if __name__ == "__main__":
