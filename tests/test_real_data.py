@@ -113,3 +113,45 @@ def test_modes_are_found_with_coherence_near_one(measured, window):
         assert result.coherence[around].min() > 0.99
         assert np.all(result.h1_std_coherence[around] < 0.05 * magnitude[around])  # γ² > 0.99, 5 hits
     assert result.n_averages == 5
+
+
+def test_real_hits_are_stored_replayed_and_exported_like_our_own(measured, tmp_path, capsys):
+    """The real recording goes through the same path as a live session: hit recorder → HDF5 session → `gasfilm
+    replay` with windows → `gasfilm export` as UFF 58, read back with pyuff."""
+    import json
+
+    import pyuff
+
+    from analysis.recording import HitRecorder
+    from analysis.session import Session
+    from app.cli import main as gasfilm
+    from drivers.interface import ChannelConfig, ChannelKind, DaqConfig
+
+    # 25.6 kS/s is an NI 9234 rate (51 200 / 2); sensitivities chosen so that ±5 V holds the recorded peaks
+    config = DaqConfig(
+        (ChannelConfig("ai0", ChannelKind.FORCE, 2.25, "mV/N"), ChannelConfig("ai1", ChannelKind.ACCELERATION, 1.0, "mV/g")),
+        FS_HZ,
+    )
+    trigger = TriggerSettings(level_n=20.0, pretrigger_s=0.01, record_s=0.9)
+    session_path = tmp_path / "real.h5"
+    stream = stream_of(measured)
+    with Session.create(session_path, config, None, {"trigger": trigger}, sync_each_hit=False) as session:
+        recorder = HitRecorder(session, ImpactCapture(trigger, FS_HZ, 2, 0, 1), ValidationSettings(),
+                               full_scale_si=tuple(c.full_scale_si for c in config.channels))
+        for start in range(0, stream.shape[1], 2560):
+            recorder.feed(np.ascontiguousarray(stream[:, start : start + 2560]))
+    assert recorder.accepted_count == 5 and recorder.rejected_count == 0
+
+    assert gasfilm(["replay", str(session_path), "--json", "--exp-end", "0.01", "--force-window-ms", "2"]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert summary["hits"] == 5 and summary["accepted"] == 5
+    assert min(abs(summary["peak_frequency_hz"] - mode) for mode in MODES_HZ) < 5.0
+    assert all(band["mean_coherence"] > 0.98 for band in summary["coherence_bands"] if band["high_hz"] <= 5000)
+
+    uff_path = tmp_path / "real-frf.uff"
+    assert gasfilm(["export", str(session_path), "--uff", str(uff_path), "--frf", "replay"]) == 0
+    with Session.open(session_path) as session:
+        frf = session.read_frf("replay")
+    exported = [s for s in pyuff.UFF(str(uff_path)).read_sets() if s.get("type") == 58 and s["func_type"] == 4]
+    assert len(exported) == 1
+    np.testing.assert_allclose(exported[0]["data"], frf.h1, rtol=1e-9)
