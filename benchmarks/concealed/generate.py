@@ -11,7 +11,7 @@ the six headline effects three times smaller, and a "strict" tier with the six h
 frequency of any single hit differs from the truth by more than 3σ, recorded with 40–80 hits (both tiers scored
 apart from the acceptance set).
 
-    python benchmarks/concealed/generate.py [--out out/concealed] [--kind strict] [--only NAME ...]
+    python benchmarks/concealed/generate.py [--out out/concealed] [--kind strict] [--only NAME ...] [--seed-offset N]
 """
 
 from __future__ import annotations
@@ -166,8 +166,9 @@ CASES: tuple[Case, ...] = (
 )
 
 
-def generate(out_dir: Path, names: set[str] | None = None) -> Path:
-    """Record every case (or the named ones) into ``out_dir``; returns the manifest path."""
+def generate(out_dir: Path, names: set[str] | None = None, seed_offset: int = 0) -> Path:
+    """Record every case (or the named ones) into ``out_dir``, each with its seed plus ``seed_offset`` (another
+    draw of the same cases); returns the manifest path."""
     out_dir.mkdir(parents=True, exist_ok=True)
     NOMINAL.save(out_dir / "nominal-rig.toml")
     manifest = []
@@ -181,7 +182,7 @@ def generate(out_dir: Path, names: set[str] | None = None) -> Path:
         started = time.monotonic()
         spec = case.true_spec()
         spec.save(out_dir / entry["true_spec"])
-        record_session(spec, out_dir / entry["session"], case.hits, seed=case.seed, **case.device)
+        record_session(spec, out_dir / entry["session"], case.hits, seed=case.seed + seed_offset, **case.device)
         if case.prewindow_1_s:
             plain = out_dir / f"{case.name}-plain.h5"
             (out_dir / entry["session"]).rename(plain)
@@ -198,9 +199,10 @@ def main() -> None:
     parser.add_argument("--out", type=Path, default=Path("out/concealed"))
     parser.add_argument("--only", nargs="*", help="case names to (re)record")
     parser.add_argument("--kind", nargs="*", help="case kinds to (re)record (e.g. strict)")
+    parser.add_argument("--seed-offset", type=int, default=0, help="added to every case's seed: another draw")
     args = parser.parse_args()
     names = set(args.only or ()) | {case.name for case in CASES if args.kind and case.kind in args.kind}
-    print(generate(args.out, names or None))
+    print(generate(args.out, names or None, args.seed_offset))
 
 
 if __name__ == "__main__":
