@@ -106,6 +106,7 @@ def test_full_hammer_session_through_the_gui(qtbot, window, tmp_path):
     qtbot.waitUntil(lambda: not controller.job_active("diagnose"), timeout=60_000)
     assert controller.diagnosis is not None, window.banner.history
     assert window.diagnose_tab.findings.count() >= 1
+    shown_findings = [window.diagnose_tab.findings.item(i).text() for i in range(window.diagnose_tab.findings.count())]
 
     # save; then play the improved spec on the simulated rig (a new session)
     shown_h1 = frf.h1.copy()
@@ -127,6 +128,10 @@ def test_full_hammer_session_through_the_gui(qtbot, window, tmp_path):
     assert set(controller.fits) == {"SD", "FOMGF"}
     assert [entry.verdict.accepted for entry in controller.hits].count(False) == 1
     assert controller.hits[rejected_index].verdict.overridden
+    # and the diagnosis tab shows the stored findings again
+    tab = window.diagnose_tab
+    assert [tab.findings.item(i).text() for i in range(tab.findings.count())] == shown_findings
+    assert "stored" in tab.summary.text() and "Stored diagnosis" in tab.status.text()
 
 
 def test_device_fault_shows_banner_and_keeps_every_accepted_hit(qtbot, window, tmp_path):

@@ -67,6 +67,7 @@ class SessionController(QObject):
     frf_changed = Signal(object)  # FrfResult or None
     fits_changed = Signal()
     diagnosis_changed = Signal(object)
+    stored_diagnosis_loaded = Signal(object)  # the diagnosis dict a reopened session holds (no live model behind it)
     job_progress = Signal(str, float, str)  # job name, fraction done, text
     job_running = Signal(str, bool)  # job name ("fit" | "diagnose"), running
     message = Signal(str, str)  # text, severity ("error" | "warning" | "info")
@@ -528,6 +529,10 @@ class SessionController(QObject):
         else:
             self._recompute_frf()
         self._load_fits(session)
+        for name in ("diagnosis", "latest"):  # the GUI's name, then the command line's
+            if name in session.result_names("diagnoses"):
+                self.stored_diagnosis_loaded.emit(session.read_diagnosis(name))
+                break
         if session.recovered:
             self.message.emit(f"{path.name}: recovered after an interrupted recording", "warning")
         self.session_changed.emit(str(path))

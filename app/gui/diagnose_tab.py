@@ -22,6 +22,7 @@ from PySide6.QtWidgets import (
     QWidget,
 )
 
+from analysis.diagnose import Finding
 from app.gui.controller import SessionController
 from app.gui.widgets import MEASURED_COLOR, PALETTE, make_plot, pen
 from drivers.errors import GasfilmError
@@ -112,6 +113,7 @@ class DiagnoseTab(QWidget):
         controller.job_running.connect(self._on_running)
         controller.job_progress.connect(self._on_progress)
         controller.diagnosis_changed.connect(self.show_diagnosis)
+        controller.stored_diagnosis_loaded.connect(self.show_stored_diagnosis)
 
     def _choose_reference(self) -> None:
         path, _ = QFileDialog.getOpenFileName(self, "Reference rig spec", self.reference_path.text(), "Rig spec (*.toml)")
@@ -154,12 +156,7 @@ class DiagnoseTab(QWidget):
             item.setData(Qt.ItemDataRole.UserRole, finding)
             self.findings.addItem(item)
         if not diagnosis.findings:
-            self.findings.addItem(
-                "Nothing left: the spec explains the recordings within the noise."
-                if diagnosis.verdict == "consistent"
-                else "No missing physics: the spec's own parameters needed correcting (see details)."
-            )
-            self.details.setHtml(self._recalibration_html(diagnosis))
+            self._show_no_findings(diagnosis.verdict, diagnosis.recalibration)
         for note in diagnosis.quality:
             band = f" ({note.band_hz[0]:.0f}–{note.band_hz[1]:.0f} Hz)" if note.band_hz else ""
             self.quality.addItem(f"{note.kind}{band}: {note.message}")
@@ -167,6 +164,30 @@ class DiagnoseTab(QWidget):
             self.findings.setCurrentRow(0)
         self._plot(diagnosis)
         self.status.setText("Diagnosis complete.")
+
+    def show_stored_diagnosis(self, stored: dict[str, Any]) -> None:
+        """What a reopened session's diagnosis said: verdict, findings and quality (the plots need a new run)."""
+        self.show_diagnosis(None)
+        self.summary.setText(
+            f"<b>Verdict: {stored['verdict']}</b> — RMS {stored['rms_before_g_per_n']:.3g} → "
+            f"{stored['rms_after_g_per_n']:.3g} g/N (E = {stored['e_percent']:.1f} %), "
+            f"BIC {stored['bic_before']:.0f} → {stored['bic_after']:.0f}, {stored['hits_used']} hits (stored)"
+        )
+        for values in stored["findings"]:
+            finding = Finding(**{**values, "band_hz": tuple(values["band_hz"])})
+            item = QListWidgetItem(
+                f"{finding.effect}   {finding.band_hz[0]:.0f}–{finding.band_hz[1]:.0f} Hz   ({finding.hits})"
+            )
+            item.setData(Qt.ItemDataRole.UserRole, finding)
+            self.findings.addItem(item)
+        if not stored["findings"]:
+            self._show_no_findings(stored["verdict"], stored["recalibration"])
+        for note in stored["quality"]:
+            band = f" ({note['band_hz'][0]:.0f}–{note['band_hz'][1]:.0f} Hz)" if note.get("band_hz") else ""
+            self.quality.addItem(f"{note['kind']}{band}: {note['message']}")
+        if self.findings.count():
+            self.findings.setCurrentRow(0)
+        self.status.setText("Stored diagnosis from the session file; run Diagnose to redraw the before/after plots.")
 
     def _show_finding(self, item: QListWidgetItem | None) -> None:
         if item is None:
@@ -188,14 +209,22 @@ class DiagnoseTab(QWidget):
             f"<p><b>How much better:</b> χ² gain {finding.chi2_gain:.0f}, on held-out hits {finding.held_out_gain:.0f}</p>"
         )
 
+    def _show_no_findings(self, verdict: str, recalibration: dict[str, dict[str, float]]) -> None:
+        self.findings.addItem(
+            "Nothing left: the spec explains the recordings within the noise."
+            if verdict == "consistent"
+            else "No missing physics: the spec's own parameters needed correcting (see details)."
+        )
+        self.details.setHtml(self._recalibration_html(recalibration))
+
     @staticmethod
-    def _recalibration_html(diagnosis: Any) -> str:
-        if not diagnosis.recalibration:
+    def _recalibration_html(recalibration: dict[str, dict[str, float]]) -> str:
+        if not recalibration:
             return "<p>The spec's own parameters needed no correction.</p>"
         rows = "".join(
             f"<tr><td>{name}</td><td align='right'>{v['spec']:.4g}</td><td align='right'>{v['fitted']:.4g}</td>"
             f"<td align='right'>± {v['uncertainty']:.2g}</td></tr>"
-            for name, v in diagnosis.recalibration.items()
+            for name, v in recalibration.items()
         )
         return (
             "<h3>Recalibrated spec parameters</h3><table cellpadding='3'>"
