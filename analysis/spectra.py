@@ -24,6 +24,7 @@ force and response, so it cancels in the FRF; this is where pyFRF and OpenModal 
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass, fields, replace
+from pathlib import Path
 from typing import Any, Mapping, Sequence
 
 import numpy as np
@@ -305,3 +306,46 @@ def frf_from_hits(hits: Sequence[Any], window: WindowSettings = WindowSettings()
         raise SettingError(f"hits: recorded at different sample rates ({', '.join(map(str, sorted(rates)))} Hz)")
     records = [np.stack((hit.data[hit.force_channel], hit.data[hit.response_channel])) for hit in hits]
     return compute_frf(records, rates.pop(), window)
+
+
+FRF_CSV_COLUMNS = (
+    "freq_hz",
+    "h1_real_m_s2_per_n",
+    "h1_imag_m_s2_per_n",
+    "h1_abs_m_s2_per_n",
+    "h1_abs_g_per_n",
+    "h1_phase_deg",
+    "h2_real_m_s2_per_n",
+    "h2_imag_m_s2_per_n",
+    "coherence",
+    "h1_std_coherence_m_s2_per_n",
+    "h1_std_scatter_m_s2_per_n",
+)
+
+
+def write_frf_csv(frf: FrfResult, path: str | Path) -> Path:
+    """The FRF as CSV with a header row (:data:`FRF_CSV_COLUMNS`): H1 in (m/s²)/N and g/N, H2, coherence and the
+    two uncertainties."""
+    path = Path(path)
+    if not path.parent.is_dir():
+        raise SettingError(f"{path}: the folder {path.parent} does not exist")
+    columns = np.column_stack(
+        (
+            frf.freq_hz,
+            frf.h1.real,
+            frf.h1.imag,
+            np.abs(frf.h1),
+            np.abs(frf.h1) / STANDARD_GRAVITY_M_S2,
+            np.degrees(np.angle(frf.h1)),
+            frf.h2.real,
+            frf.h2.imag,
+            frf.coherence,
+            frf.h1_std_coherence,
+            frf.h1_std_scatter,
+        )
+    )
+    try:
+        np.savetxt(path, columns, delimiter=",", header=",".join(FRF_CSV_COLUMNS), comments="", fmt="%.12g")
+    except OSError as error:
+        raise SettingError(f"{path}: cannot write the CSV ({error.strerror or error})") from None
+    return path

@@ -10,27 +10,12 @@ import argparse
 import sys
 from pathlib import Path
 
-import numpy as np
 
 from analysis.session import Session, SessionError
-from analysis.spectra import FrfResult, WindowSettings, compute_frf
+from analysis.spectra import FrfResult, WindowSettings, compute_frf, write_frf_csv
 from analysis.uff import export_frf_uff
 from drivers.errors import SettingError
-from drivers.interface import STANDARD_GRAVITY_M_S2
 
-CSV_COLUMNS = (
-    "freq_hz",
-    "h1_real_m_s2_per_n",
-    "h1_imag_m_s2_per_n",
-    "h1_abs_m_s2_per_n",
-    "h1_abs_g_per_n",
-    "h1_phase_deg",
-    "h2_real_m_s2_per_n",
-    "h2_imag_m_s2_per_n",
-    "coherence",
-    "h1_std_coherence_m_s2_per_n",
-    "h1_std_scatter_m_s2_per_n",
-)
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -67,30 +52,6 @@ def load_frf(session: Session, name: str | None) -> tuple[FrfResult, str]:
     return frf, f"FRF averaged now from {len(records)} accepted hits"
 
 
-def write_csv(frf: FrfResult, path: Path) -> None:
-    if not path.parent.is_dir():
-        raise SettingError(f"--csv: the folder {path.parent} does not exist")
-    columns = np.column_stack(
-        (
-            frf.freq_hz,
-            frf.h1.real,
-            frf.h1.imag,
-            np.abs(frf.h1),
-            np.abs(frf.h1) / STANDARD_GRAVITY_M_S2,
-            np.degrees(np.angle(frf.h1)),
-            frf.h2.real,
-            frf.h2.imag,
-            frf.coherence,
-            frf.h1_std_coherence,
-            frf.h1_std_scatter,
-        )
-    )
-    try:
-        np.savetxt(path, columns, delimiter=",", header=",".join(CSV_COLUMNS), comments="", fmt="%.12g")
-    except OSError as error:
-        raise SettingError(f"--csv: cannot write {path} ({error.strerror or error})") from None
-
-
 def run(args: argparse.Namespace) -> int:
     with Session.open(args.session, "r") as session:
         frf, what = load_frf(session, args.frf)
@@ -99,7 +60,7 @@ def run(args: argparse.Namespace) -> int:
                        description=f"gasfilm {args.session.name}")
         target = args.uff
     else:
-        write_csv(frf, args.csv)
+        write_frf_csv(frf, args.csv)
         target = args.csv
     print(f"{what} of {args.session} ({len(frf.freq_hz)} lines, {frf.n_averages} averages) written to {target}",
           file=sys.stdout)

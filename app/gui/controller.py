@@ -22,7 +22,7 @@ from analysis.identify import compare_models, fit_model
 from analysis.models import get_model
 from analysis.rig import RigSpec
 from analysis.session import Session
-from analysis.spectra import FrfResult, WindowSettings, frf_from_hits
+from analysis.spectra import FrfResult, WindowSettings, frf_from_hits, write_frf_csv
 from analysis.uff import export_frf_uff
 from analysis.validation import ValidationSettings, Verdict, validate_hit
 from app.gui.settings import SetupState, settings_from_dict
@@ -590,24 +590,8 @@ class SessionController(QObject):
     # --- exports ---------------------------------------------------------------------------------------------------------
 
     def export_csv(self, path: str | Path) -> Path:
-        """The FRF as CSV: frequency, H1 (real, imaginary, magnitude in (m/s²)/N and g/N, phase), coherence."""
-        frf = self._require_frf()
-        path = Path(path)
-        g = 9.80665
-        columns = [
-            frf.freq_hz,
-            frf.h1.real,
-            frf.h1.imag,
-            np.abs(frf.h1),
-            np.abs(frf.h1) / g,
-            np.degrees(np.angle(frf.h1)),
-            frf.coherence,
-            frf.h1_std_coherence,
-        ]
-        header = "freq_hz,h1_real_m_s2_per_n,h1_imag_m_s2_per_n,h1_abs_m_s2_per_n,h1_abs_g_per_n,h1_phase_deg," \
-                 "coherence,h1_std_m_s2_per_n"
-        np.savetxt(path, np.column_stack(columns), delimiter=",", header=header, comments="")
-        return path
+        """The FRF as CSV: frequency, H1 (real, imaginary, magnitude in (m/s²)/N and g/N, phase), H2, coherence."""
+        return write_frf_csv(self._require_frf(), path)
 
     def export_uff(self, path: str | Path) -> Path:
         frf = self._require_frf()
