@@ -32,16 +32,10 @@ def rig_frf(seed: int, hits: int = 4) -> tuple[np.ndarray, np.ndarray]:
     """H1 of ``hits`` on-demand hammer hits on the simulated paper rig, in the benchmark band."""
     device = SimulatedNI9234(RigSpec.nominal("FOMGF"), seed=seed, pacing="fast", hit_interval_s=None)
     device.configure(default_hammer_and_accelerometer(SAMPLE_RATE_HZ))
-    buffer = np.empty((2, int(RECORD_S * SAMPLE_RATE_HZ)))
-    records = []
     with device:
         device.start()
-        device.read(buffer)
-        for _ in range(hits):
-            device.sim_hit()
-            device.read(buffer)
-            records.append(buffer.copy())
-    frf = compute_frf(np.array(records), SAMPLE_RATE_HZ).band(*BAND_HZ)
+        records = device.sim_record_hits(hits, int(RECORD_S * SAMPLE_RATE_HZ))
+    frf = compute_frf(records, SAMPLE_RATE_HZ).band(*BAND_HZ)
     return frf.freq_hz, frf.h1
 
 

@@ -313,6 +313,18 @@ class SimulatedNI9234:
             pulses, double = self._draw_pulses(self._demand_rng, tip, force_n)
             return self._synthesise_hit(hit_time_s, tip, pulses, double, on_demand=True)
 
+    def sim_record_hits(self, hits: int, record_samples: int, tip: str | None = None) -> np.ndarray:
+        """Records of ``hits`` virtual-hammer impacts, each starting at its record's first sample: (hits, channels,
+        record_samples) in N and m/s². One record's worth of signal is read and dropped first so that the AC coupling
+        and noise are settled; the device must be running."""
+        buffer = np.empty((len(self.config.channels), record_samples))
+        self.read(buffer)
+        records = np.empty((hits, *buffer.shape))
+        for index in range(hits):
+            self.sim_hit(tip=tip)
+            self.read(records[index])
+        return records
+
     def sim_inject_fault(self, kind: str, channel: int | None = None) -> None:
         """Make the next read fail like the real module: ``overflow``, ``device_removed``, ``open_sensor``
         (``channel`` index, default the first acceleration channel) or ``overload`` (the next hit clips)."""

@@ -101,16 +101,10 @@ def rig_frf(seed, hits=4, sample_rate_hz=2560.0, record_s=2.0, band_hz=(20.0, 80
     module noise)."""
     device = SimulatedNI9234(RigSpec.nominal("FOMGF"), seed=seed, pacing="fast", hit_interval_s=None)
     device.configure(default_hammer_and_accelerometer(sample_rate_hz))
-    buffer = np.empty((2, int(record_s * sample_rate_hz)))
-    records = []
     with device:
         device.start()
-        device.read(buffer)
-        for _ in range(hits):
-            device.sim_hit()
-            device.read(buffer)
-            records.append(buffer.copy())
-    return compute_frf(np.array(records), sample_rate_hz).band(*band_hz)
+        records = device.sim_record_hits(hits, int(record_s * sample_rate_hz))
+    return compute_frf(records, sample_rate_hz).band(*band_hz)
 
 
 def test_fomgf_rig_frf_ranks_fomgf_first_with_e_over_80_percent():
