@@ -1,6 +1,6 @@
 """Continuous acquisition: a reader thread that never waits for the people it feeds.
 
-The reader pulls about ten chunks per second from a :class:`drivers.interface.DaqDevice` into a ring buffer and
+The reader pulls about ten chunks per second from a :class:`gasfilm.drivers.interface.DaqDevice` into a ring buffer and
 hands each chunk to every consumer through that consumer's own bounded queue. A consumer that cannot keep up loses
 chunks from *its* queue (counted in :attr:`Consumer.dropped_chunks`); the reader itself never blocks on a consumer,
 so the device buffer never overflows because of a slow plot. A device that falls behind raises in the reader;
@@ -16,8 +16,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from drivers.errors import DeviceError, GasfilmError
-from drivers.interface import ChannelStatus, DaqDevice
+from gasfilm.drivers.errors import DeviceError, GasfilmError
+from gasfilm.drivers.interface import ChannelStatus, DaqDevice
 
 
 @dataclass(frozen=True)

@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from drivers.errors import SettingError
+from gasfilm.drivers.errors import SettingError
 
 SLOPES = ("rising", "falling")
 

@@ -1,11 +1,11 @@
 """Mismatch diagnosis: where simulation and recordings differ, which physics is missing, and how much it helps.
 
 The rig spec is compared with the recordings under the recordings' own conditions (per-hit FRFs through the same
-force and exponential windows, weighted by the measured noise, see :mod:`analysis.diagnosis.measurement`). Then:
+force and exponential windows, weighted by the measured noise, see :mod:`gasfilm.analysis.diagnosis.measurement`). Then:
 
 1. **recalibrate** the spec's own parameters (film parameters and the parameters of effects it already has); a
    mismatch that this removes is ``parameters-only`` and never blamed on physics;
-2. **forward selection** over the catalog (:mod:`analysis.diagnosis.catalog`): each candidate term is fitted
+2. **forward selection** over the catalog (:mod:`gasfilm.analysis.diagnosis.catalog`): each candidate term is fitted
    together with the spec's parameters; the best one enters when it beats its BIC cost on all hits and improves the
    prediction of hits that were not used to fit it; repeat until nothing significant is left;
 3. **check back**: with the noise scale of the final model, every term must still pay for itself;
@@ -22,10 +22,10 @@ from typing import Callable
 
 import numpy as np
 
-from analysis.diagnosis.catalog import CATALOG, CANDIDATE_ORDER, AugmentedModel, effect_slots
-from analysis.diagnosis.measurement import HitSpectra, QualityNote, hit_spectra
-from analysis.diagnosis.rigspec import model_from_spec, spec_from_model
-from analysis.diagnosis.selection import (
+from gasfilm.analysis.diagnosis.catalog import CATALOG, CANDIDATE_ORDER, AugmentedModel, effect_slots
+from gasfilm.analysis.diagnosis.measurement import HitSpectra, QualityNote, hit_spectra
+from gasfilm.analysis.diagnosis.rigspec import model_from_spec, spec_from_model
+from gasfilm.analysis.diagnosis.selection import (
     BIC_MARGIN,
     HELD_OUT_THRESHOLD,
     Evidence,
@@ -37,10 +37,10 @@ from analysis.diagnosis.selection import (
     held_out_gain,
     model_slots,
 )
-from analysis.models import PAPER_MASS_KG
-from analysis.rig import RigSpec, simulate_response
-from analysis.spectra import WindowSettings
-from drivers.errors import SettingError
+from gasfilm.analysis.models import PAPER_MASS_KG
+from gasfilm.analysis.rig import RigSpec, simulate_response
+from gasfilm.analysis.spectra import WindowSettings
+from gasfilm.drivers.errors import SettingError
 
 G_M_S2 = 9.80665
 MAX_TERMS = 3
@@ -481,12 +481,12 @@ def load_recordings(path: str | Path) -> Recordings:
     """Accepted hits of a gasfilm session (HDF5) or every hit of a UFF 58 file with time records."""
     path = Path(path)
     if path.suffix.lower() in (".uff", ".unv"):
-        from analysis.uff import read_uff_time_records
+        from gasfilm.analysis.uff import read_uff_time_records
 
         uff = read_uff_time_records(path)
         return Recordings(uff.records, uff.sample_rate_hz, np.asarray(uff.start_times_s, float), None, None, None,
                           str(path))
-    from analysis.session import Session
+    from gasfilm.analysis.session import Session
 
     with Session.open(path) as session:
         stored = session.hits()
@@ -566,7 +566,7 @@ def diagnose(
         header = "".join(f"# {note}\n" for note in notes)
         spec_path.write_text(header + improved.to_toml(), encoding="utf-8")
         diagnosis.improved_spec = str(spec_path)
-        from analysis.diagnosis.plots import write_figures
+        from gasfilm.analysis.diagnosis.plots import write_figures
 
         diagnosis.figures = write_figures(diagnosis, out)
     diagnosis.wall_time_s = time.monotonic() - started

@@ -31,7 +31,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 from scipy.stats import qmc
 
-from analysis.models import (
+from gasfilm.analysis.models import (
     Dashpot,
     FilmModel,
     Node,
@@ -44,7 +44,7 @@ from analysis.models import (
     laplace_variable,
     parse_network,
 )
-from drivers.errors import GasfilmError, SettingError
+from gasfilm.drivers.errors import GasfilmError, SettingError
 
 G_M_S2 = 9.80665
 METHODS = ("default", "gapso")

@@ -26,7 +26,7 @@ from typing import Mapping, Sequence
 import numpy as np
 from numpy.typing import ArrayLike
 
-from drivers.errors import SettingError
+from gasfilm.drivers.errors import SettingError
 
 
 @dataclass(frozen=True)

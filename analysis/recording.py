@@ -1,7 +1,7 @@
 """Live recording: chunks in, every hit captured, validated and on disk before anyone is told about it.
 
-:class:`HitRecorder` joins the software trigger (:class:`analysis.capture.ImpactCapture`), the hit checks
-(:func:`analysis.validation.validate_hit`) and a :class:`analysis.session.Session`. Each hit, accepted or rejected,
+:class:`HitRecorder` joins the software trigger (:class:`gasfilm.analysis.capture.ImpactCapture`), the hit checks
+(:func:`gasfilm.analysis.validation.validate_hit`) and a :class:`gasfilm.analysis.session.Session`. Each hit, accepted or rejected,
 is appended to the session (flushed) as soon as its record is complete; only then is it reported, through the
 return value of :meth:`HitRecorder.feed` and the optional callback. No printing, no Qt: the command line and the GUI
 present the events.
@@ -14,9 +14,9 @@ from typing import Any, Callable, Sequence
 
 import numpy as np
 
-from analysis.capture import HitRecord, ImpactCapture
-from analysis.session import Session
-from analysis.validation import ValidationSettings, Verdict, validate_hit
+from gasfilm.analysis.capture import HitRecord, ImpactCapture
+from gasfilm.analysis.session import Session
+from gasfilm.analysis.validation import ValidationSettings, Verdict, validate_hit
 
 
 @dataclass(frozen=True)

@@ -1,6 +1,6 @@
 """The rig behind the NI 9234: a TOML rig spec and its physics.
 
-A rig spec (``docs/rig-spec.md``) describes the mover (mass), the gas film (a model of :mod:`analysis.models` with
+A rig spec (``docs/rig-spec.md``) describes the mover (mass), the gas film (a model of :mod:`gasfilm.analysis.models` with
 its parameters), the sensors, optional hammer defaults and a list of **effects** that make a real rig differ from
 the ideal mass-on-a-film: an extra mode, cubic hardening, a channel delay, added mass, drift, mains interference.
 The simulated module plays a spec; the mismatch diagnosis reads one and writes an improved one.
@@ -30,8 +30,8 @@ import numpy as np
 import scipy.fft
 from scipy.sparse.linalg import LinearOperator, bicgstab
 
-from analysis.models import PAPER_MASS_KG, PAPER_MODELS, PAPER_TABLE1, FilmModel, get_model, laplace_variable
-from drivers.errors import GasfilmError, SettingError
+from gasfilm.analysis.models import PAPER_MASS_KG, PAPER_MODELS, PAPER_TABLE1, FilmModel, get_model, laplace_variable
+from gasfilm.drivers.errors import GasfilmError, SettingError
 
 CHANNELS = ("force", "acceleration")
 TIPS_PULSE_WIDTH_S: dict[str, float] = {"soft": 2.0e-3, "medium": 0.8e-3, "hard": 0.25e-3}

@@ -30,8 +30,8 @@ try:
 except ImportError:  # Windows: HDF5's own file locking guards the file instead of :class:`_WriterLock`
     fcntl = None
 
-from drivers.errors import GasfilmError
-from drivers.interface import ChannelConfig, ChannelKind, Coupling, DaqConfig
+from gasfilm.drivers.errors import GasfilmError
+from gasfilm.drivers.interface import ChannelConfig, ChannelKind, Coupling, DaqConfig
 
 SCHEMA_VERSION = 1
 FORMAT_NAME = "gasfilm-session"
@@ -90,8 +90,8 @@ class StoredHit:
         return self.start_time_s + self.trigger_index / self.sample_rate_hz
 
     def as_hit_record(self) -> Any:
-        """The stored hit as an :class:`analysis.capture.HitRecord` (for re-validation)."""
-        from analysis.capture import HitRecord
+        """The stored hit as an :class:`gasfilm.analysis.capture.HitRecord` (for re-validation)."""
+        from gasfilm.analysis.capture import HitRecord
 
         return HitRecord(
             index=self.index,
@@ -687,7 +687,7 @@ class Session:
             raise SessionError(f"{self.path}: damaged session: the hit table cannot be read ({error})") from None
 
     def _verdict(self, row: np.void) -> Any:
-        from analysis.validation import Verdict
+        from gasfilm.analysis.validation import Verdict
 
         return Verdict(
             accepted=bool(row["accepted"]),
@@ -788,15 +788,15 @@ class Session:
         return list(self._group(kind))
 
     def write_frf(self, frf: Any, name: str = "frf", hit_indices: np.ndarray | None = None) -> None:
-        """Store an :class:`analysis.spectra.FrfResult` field by field (optionally with the hits it averages)."""
+        """Store an :class:`gasfilm.analysis.spectra.FrfResult` field by field (optionally with the hits it averages)."""
         values = dict(frf.to_dict())
         if hit_indices is not None:
             values["hit_indices"] = np.asarray(hit_indices, dtype=np.int64)
         self._write_result("frf", name, values)
 
     def read_frf(self, name: str = "frf") -> Any:
-        """The :class:`analysis.spectra.FrfResult` stored under ``name``."""
-        from analysis.spectra import FrfResult
+        """The :class:`gasfilm.analysis.spectra.FrfResult` stored under ``name``."""
+        from gasfilm.analysis.spectra import FrfResult
 
         values = self._read_result("frf", name)
         values.pop("hit_indices", None)

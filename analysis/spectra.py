@@ -16,7 +16,7 @@ Windows: the force window is 1 from the record start to ``force_window_ms`` afte
 with a half-cosine taper of ``force_taper_ms``; the exponential window ``exp(-σ t)`` reaches
 ``exponential_end_fraction`` at the last sample and multiplies force and response alike. The FRF of the windowed
 signals is then the Laplace accelerance at ``s = σ + jω``; σ is stored as ``FrfResult.decay_rate_1_s`` so a fit can
-use ``analysis.models.accelerance(..., decay_rate_1_s=σ)`` or remove the damping the window adds
+use ``gasfilm.analysis.models.accelerance(..., decay_rate_1_s=σ)`` or remove the damping the window adds
 (``Δζ = σ/ω_n``, :func:`remove_window_damping`). No window-amplitude correction is applied (the same weighting is on
 force and response, so it cancels in the FRF; this is where pyFRF and OpenModal go wrong).
 """
@@ -30,8 +30,8 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 import scipy.fft
 
-from drivers.errors import SettingError
-from drivers.interface import STANDARD_GRAVITY_M_S2
+from gasfilm.drivers.errors import SettingError
+from gasfilm.drivers.interface import STANDARD_GRAVITY_M_S2
 
 FRF_UNIT_SI = "(m/s^2)/N"
 #: Complex values per block of hits transformed at once (about 4 MB per array, so a block stays in cache).
@@ -298,7 +298,7 @@ def compute_frf(
 
 
 def frf_from_hits(hits: Sequence[Any], window: WindowSettings = WindowSettings()) -> FrfResult:
-    """:func:`compute_frf` of :class:`analysis.capture.HitRecord`\\ s, using each hit's force and response channel."""
+    """:func:`compute_frf` of :class:`gasfilm.analysis.capture.HitRecord`\\ s, using each hit's force and response channel."""
     if len(hits) == 0:
         raise SettingError("hits: no accepted hits to average")
     rates = {hit.sample_rate_hz for hit in hits}

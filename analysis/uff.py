@@ -20,8 +20,8 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 import pyuff
 
-from drivers.errors import GasfilmError
-from drivers.interface import NI9234_VALID_RATES_HZ, STANDARD_GRAVITY_M_S2
+from gasfilm.drivers.errors import GasfilmError
+from gasfilm.drivers.interface import NI9234_VALID_RATES_HZ, STANDARD_GRAVITY_M_S2
 
 FUNCTION_TIME_RESPONSE = 1
 FUNCTION_FRF = 4
@@ -318,13 +318,13 @@ def import_uff_session(
     overwrite: bool = False,
 ) -> Path:
     """Store the hits of a UFF file as a new session; each hit is validated with ``validation``
-    (:class:`analysis.validation.ValidationSettings`, default settings when None) and ``window``
-    (:class:`analysis.spectra.WindowSettings`, whose exponential counts in the decay check)."""
-    from analysis.capture import HitRecord
-    from analysis.session import Session
-    from analysis.validation import ValidationSettings, validate_hit
+    (:class:`gasfilm.analysis.validation.ValidationSettings`, default settings when None) and ``window``
+    (:class:`gasfilm.analysis.spectra.WindowSettings`, whose exponential counts in the decay check)."""
+    from gasfilm.analysis.capture import HitRecord
+    from gasfilm.analysis.session import Session
+    from gasfilm.analysis.validation import ValidationSettings, validate_hit
 
-    from drivers.interface import default_hammer_and_accelerometer
+    from gasfilm.drivers.interface import default_hammer_and_accelerometer
 
     time_records = read_uff_time_records(uff_path, force_dof, response_dof)
     validation = validation or ValidationSettings()

@@ -26,9 +26,9 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from analysis.capture import HitRecord
-from analysis.spectra import WindowSettings, exponential_window
-from drivers.errors import SettingError
+from gasfilm.analysis.capture import HitRecord
+from gasfilm.analysis.spectra import WindowSettings, exponential_window
+from gasfilm.drivers.errors import SettingError
 
 DOUBLE_HIT = "double hit"
 OVERLOAD = "overload"

@@ -1,6 +1,6 @@
 """The ``gasfilm`` command line: a thin shell over :mod:`drivers` and :mod:`analysis`.
 
-Each sub-command lives in :mod:`app.commands` as a module with ``register(subparsers)``, which adds its parser and
+Each sub-command lives in :mod:`gasfilm.app.commands` as a module with ``register(subparsers)``, which adds its parser and
 sets ``func`` (called with the parsed arguments, returning the exit status). Errors that gasfilm raises on purpose
 are printed as one line and exit with status 2; nothing ever prints a traceback unless ``GASFILM_DEBUG=1``.
 """
@@ -13,7 +13,7 @@ import os
 import sys
 from typing import Sequence
 
-from drivers.errors import GasfilmError
+from gasfilm.drivers.errors import GasfilmError
 
 COMMAND_MODULES = ("demo", "acquire", "replay", "export", "fit", "diagnose", "gui")
 
@@ -26,9 +26,9 @@ def build_parser() -> argparse.ArgumentParser:
     subparsers = parser.add_subparsers(dest="command", metavar="COMMAND")
     for name in COMMAND_MODULES:
         try:
-            module = importlib.import_module(f"app.commands.{name}")
+            module = importlib.import_module(f"gasfilm.app.commands.{name}")
         except ModuleNotFoundError as missing:
-            if missing.name != f"app.commands.{name}":
+            if missing.name != f"gasfilm.app.commands.{name}":
                 raise
             continue
         module.register(subparsers)

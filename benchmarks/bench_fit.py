@@ -16,12 +16,12 @@ import time
 import numpy as np
 from scipy.optimize import differential_evolution
 
-from analysis.identify import G_M_S2, _Problem, _UnitObjective, fit_model
-from analysis.models import PAPER_MASS_KG, PAPER_MODEL_ORDER, PAPER_MODELS
-from analysis.rig import RigSpec
-from analysis.spectra import compute_frf
-from drivers.interface import default_hammer_and_accelerometer
-from drivers.simulated import SimulatedNI9234
+from gasfilm.analysis.identify import G_M_S2, _Problem, _UnitObjective, fit_model
+from gasfilm.analysis.models import PAPER_MASS_KG, PAPER_MODEL_ORDER, PAPER_MODELS
+from gasfilm.analysis.rig import RigSpec
+from gasfilm.analysis.spectra import compute_frf
+from gasfilm.drivers.interface import default_hammer_and_accelerometer
+from gasfilm.drivers.simulated import SimulatedNI9234
 
 SAMPLE_RATE_HZ = 2560.0
 RECORD_S = 2.0

@@ -25,7 +25,7 @@ os.environ.setdefault("QT_QPA_PLATFORM", "offscreen")
 from PySide6.QtCore import QSettings, QTimer  # noqa: E402
 from PySide6.QtWidgets import QApplication  # noqa: E402
 
-from app.gui.main_window import MainWindow  # noqa: E402
+from gasfilm.app.gui.main_window import MainWindow  # noqa: E402
 
 SAMPLE_RATE_HZ = 51200.0
 CHANNELS = 4

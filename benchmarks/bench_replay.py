@@ -13,8 +13,8 @@ import time
 import numpy as np
 from pyFRF import FRF
 
-from analysis.models import PAPER_MASS_KG, PAPER_MODELS, PAPER_TABLE1, accelerance
-from analysis.spectra import compute_frf
+from gasfilm.analysis.models import PAPER_MASS_KG, PAPER_MODELS, PAPER_TABLE1, accelerance
+from gasfilm.analysis.spectra import compute_frf
 
 SAMPLE_RATE_HZ = 51_200.0 / 4
 

@@ -19,10 +19,10 @@ from pathlib import Path
 
 import numpy as np
 
-from analysis.rig import RigSpec
-from drivers.errors import ADCOverloadWarning
-from drivers.interface import ChannelConfig, ChannelKind, DaqConfig
-from drivers.simulated import SimulatedNI9234
+from gasfilm.analysis.rig import RigSpec
+from gasfilm.drivers.errors import ADCOverloadWarning
+from gasfilm.drivers.interface import ChannelConfig, ChannelKind, DaqConfig
+from gasfilm.drivers.simulated import SimulatedNI9234
 
 RIGS = Path(__file__).resolve().parents[1] / "fixtures" / "rigs"
 

@@ -5,8 +5,8 @@ from __future__ import annotations
 import os
 from typing import Any
 
-from drivers.errors import SettingError
-from drivers.interface import DaqDevice
+from gasfilm.drivers.errors import SettingError
+from gasfilm.drivers.interface import DaqDevice
 
 SIMULATED_DEVICE_NAME = "sim"
 
@@ -15,23 +15,23 @@ def open_device(name: str | None = None, **options: Any) -> DaqDevice:
     """Open an acquisition backend by name.
 
     ``"sim"`` opens the simulated NI 9234 with its rig (options go to
-    :class:`drivers.simulated.SimulatedNI9234`); any other name is an NI-DAQmx device name such as ``"cDAQ1Mod1"``.
+    :class:`gasfilm.drivers.simulated.SimulatedNI9234`); any other name is an NI-DAQmx device name such as ``"cDAQ1Mod1"``.
     Without a name, the ``GASFILM_DEVICE`` environment variable is used, then ``"sim"``.
     """
     name = name or os.environ.get("GASFILM_DEVICE", SIMULATED_DEVICE_NAME)
     if name == SIMULATED_DEVICE_NAME:
-        from drivers.simulated import SimulatedNI9234
+        from gasfilm.drivers.simulated import SimulatedNI9234
 
         return SimulatedNI9234(**options)
     if options:
         raise SettingError(f"device '{name}': options {sorted(options)} only apply to the simulated device 'sim'")
-    from drivers.nidaqmx_backend import NidaqmxNI9234
+    from gasfilm.drivers.nidaqmx_backend import NidaqmxNI9234
 
     return NidaqmxNI9234(name)
 
 
 def list_devices() -> list[str]:
     """Device names a user can pick: ``"sim"`` first, then the NI 9234 modules NI-DAQmx reports on this machine."""
-    from drivers.nidaqmx_backend import local_ni9234_names
+    from gasfilm.drivers.nidaqmx_backend import local_ni9234_names
 
     return [SIMULATED_DEVICE_NAME, *local_ni9234_names()]

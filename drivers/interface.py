@@ -1,6 +1,6 @@
 """The small interface every acquisition backend implements, and the NI 9234's rules.
 
-A backend is opened by name with :func:`drivers.open_device`; the rest of gasfilm sees only :class:`DaqDevice`.
+A backend is opened by name with :func:`gasfilm.drivers.open_device`; the rest of gasfilm sees only :class:`DaqDevice`.
 Samples are delivered in physical units: newtons for force channels, m/s² for acceleration channels.
 """
 
@@ -12,7 +12,7 @@ from typing import Protocol, runtime_checkable
 
 import numpy as np
 
-from drivers.errors import SettingError
+from gasfilm.drivers.errors import SettingError
 
 #: Base clock of the NI 9234's delta-sigma ADC, divided by n = 1…31 to give the valid sample rates.
 NI9234_BASE_RATE_HZ = 51_200.0
@@ -177,7 +177,7 @@ class DaqDevice(Protocol):
     Life cycle: ``configure`` → ``start`` → ``read`` … → ``stop`` → ``close`` (or use it as a context manager).
     ``read`` fills a preallocated ``(channels, samples)`` float64 array in physical units (N, m/s²), blocking until
     that many samples per channel have arrived, and returns the number of samples per channel written. Faults raise
-    :class:`drivers.errors.DeviceError` subclasses; samples delivered before a fault stay delivered.
+    :class:`gasfilm.drivers.errors.DeviceError` subclasses; samples delivered before a fault stay delivered.
     """
 
     name: str

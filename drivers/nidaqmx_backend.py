@@ -32,7 +32,7 @@ from nidaqmx.constants import (
 )
 from nidaqmx.constants import Coupling as DaqmxCoupling
 
-from drivers.errors import (
+from gasfilm.drivers.errors import (
     ADCOverloadWarning,
     BufferOverflowError,
     DeviceError,
@@ -44,7 +44,7 @@ from drivers.errors import (
     ReadTimeoutError,
     SettingError,
 )
-from drivers.interface import (
+from gasfilm.drivers.interface import (
     STANDARD_GRAVITY_M_S2,
     ChannelConfig,
     ChannelKind,
@@ -173,8 +173,8 @@ class _CallRecord:
 class NidaqmxNI9234:
     """An NI 9234 in a CompactDAQ chassis (or any NI-DAQmx device name), driven through ``nidaqmx``.
 
-    ``device_name`` is the DAQmx device, e.g. ``"cDAQ1Mod1"``. Faults raise :class:`drivers.errors.DeviceError`
-    subclasses; an ADC overload warns :class:`drivers.errors.ADCOverloadWarning` and sets the overload flag.
+    ``device_name`` is the DAQmx device, e.g. ``"cDAQ1Mod1"``. Faults raise :class:`gasfilm.drivers.errors.DeviceError`
+    subclasses; an ADC overload warns :class:`gasfilm.drivers.errors.ADCOverloadWarning` and sets the overload flag.
     """
 
     def __init__(self, device_name: str) -> None:

@@ -3,10 +3,10 @@
 import numpy as np
 import pytest
 
-from analysis.acquisition import AcquisitionLoop, RingBuffer
-from drivers import open_device
-from drivers.errors import DeviceRemovedError
-from drivers.interface import default_hammer_and_accelerometer
+from gasfilm.analysis.acquisition import AcquisitionLoop, RingBuffer
+from gasfilm.drivers import open_device
+from gasfilm.drivers.errors import DeviceRemovedError
+from gasfilm.drivers.interface import default_hammer_and_accelerometer
 
 RATE_HZ = 51200.0 / 8
 

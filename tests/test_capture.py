@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-from analysis.capture import HitRecord, ImpactCapture, TriggerSettings
-from drivers.errors import SettingError
+from gasfilm.analysis.capture import HitRecord, ImpactCapture, TriggerSettings
+from gasfilm.drivers.errors import SettingError
 
 FS_HZ = 5120.0
 SETTINGS = TriggerSettings(level_n=20.0, hysteresis_n=5.0, pretrigger_s=0.01, record_s=0.2, holdoff_s=0.05)

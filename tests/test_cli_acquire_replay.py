@@ -11,11 +11,11 @@ import h5py
 import numpy as np
 import pyuff
 
-from analysis.rig import RigSpec, rig_accelerance
-from analysis.session import Session
-from analysis.spectra import compute_frf
-from app import cli
-from drivers.simulated import SimulatedNI9234
+from gasfilm.analysis.rig import RigSpec, rig_accelerance
+from gasfilm.analysis.session import Session
+from gasfilm.analysis.spectra import compute_frf
+from gasfilm.app import cli
+from gasfilm.drivers.simulated import SimulatedNI9234
 from test_uff import time_record, write_uff
 
 RATE_HZ = 51200.0 / 8  # 6400 S/s: the film's 199 Hz mode and its coherence band well resolved, small files
@@ -128,7 +128,7 @@ class FailingSimulator(SimulatedNI9234):
 
 
 def test_device_error_mid_session_aborts_and_keeps_every_hit(tmp_path, capsys, monkeypatch):
-    from app.commands import acquire
+    from gasfilm.app.commands import acquire
 
     monkeypatch.setattr(acquire, "open_device", lambda name, **options: FailingSimulator(**options))
     path = tmp_path / "removed.h5"
@@ -144,7 +144,7 @@ def test_device_error_mid_session_aborts_and_keeps_every_hit(tmp_path, capsys, m
 
 def run_cli_subprocess(*argv) -> subprocess.Popen:
     environment = {**os.environ, "GASFILM_DEBUG": "0"}
-    return subprocess.Popen([sys.executable, "-m", "app.cli", *map(str, argv)], stdout=subprocess.PIPE,
+    return subprocess.Popen([sys.executable, "-m", "gasfilm.app.cli", *map(str, argv)], stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True, env=environment)
 
 

@@ -2,8 +2,8 @@
 
 import numpy as np
 
-from analysis.session import Session
-from app.cli import main
+from gasfilm.analysis.session import Session
+from gasfilm.app.cli import main
 
 
 def test_demo_prints_hits_peak_force_and_response_and_stores_the_session(tmp_path, capsys):

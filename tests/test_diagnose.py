@@ -11,19 +11,19 @@ import numpy as np
 import pyuff
 import pytest
 
-from analysis.capture import ImpactCapture, TriggerSettings
-from analysis.diagnose import diagnose
-from analysis.diagnosis.catalog import AugmentedModel
-from analysis.diagnosis.rigspec import AcCoupling, PneumaticLag, model_from_spec, spec_from_model
-from analysis.models import get_model
-from analysis.recording import HitRecorder
-from analysis.rig import AddedMass, ChannelDelay, Drift, ExtraMode, Mains, RigSpec, rig_accelerance
-from analysis.session import Session
-from analysis.spectra import WindowSettings
-from analysis.validation import ValidationSettings
-from app.cli import main as gasfilm
-from drivers.interface import ChannelKind, default_hammer_and_accelerometer
-from drivers.simulated import SimulatedNI9234
+from gasfilm.analysis.capture import ImpactCapture, TriggerSettings
+from gasfilm.analysis.diagnose import diagnose
+from gasfilm.analysis.diagnosis.catalog import AugmentedModel
+from gasfilm.analysis.diagnosis.rigspec import AcCoupling, PneumaticLag, model_from_spec, spec_from_model
+from gasfilm.analysis.models import get_model
+from gasfilm.analysis.recording import HitRecorder
+from gasfilm.analysis.rig import AddedMass, ChannelDelay, Drift, ExtraMode, Mains, RigSpec, rig_accelerance
+from gasfilm.analysis.session import Session
+from gasfilm.analysis.spectra import WindowSettings
+from gasfilm.analysis.validation import ValidationSettings
+from gasfilm.app.cli import main as gasfilm
+from gasfilm.drivers.interface import ChannelKind, default_hammer_and_accelerometer
+from gasfilm.drivers.simulated import SimulatedNI9234
 
 RATE_HZ = 51200.0 / 8
 TRIGGER = TriggerSettings(level_n=20.0, pretrigger_s=0.01, record_s=0.5)
@@ -175,7 +175,7 @@ def test_catalog_terms_are_the_rig_physics(effects):
     freq_hz = np.linspace(5.0, 2000.0, 300)
     hit_time_s = 1800.0
     model = model_from_spec(spec)
-    from analysis.diagnosis.catalog import HitConditions
+    from gasfilm.analysis.diagnosis.catalog import HitConditions
 
     conditions = HitConditions(np.array([hit_time_s]), np.array([1.0]))
     expected = rig_accelerance(spec, freq_hz, 3.0, hit_time_s)

@@ -11,12 +11,12 @@ import numpy as np
 import pytest
 from PySide6.QtCore import QSettings, Qt
 
-from analysis.session import Session
-from app.gui.main_window import MainWindow
-from app.gui.sensors import DEFAULT_SENSOR_LIBRARY, load_sensor_library
-from app.gui.settings import load_setup
-from drivers.errors import SettingError
-from drivers.interface import ChannelKind
+from gasfilm.analysis.session import Session
+from gasfilm.app.gui.main_window import MainWindow
+from gasfilm.app.gui.sensors import DEFAULT_SENSOR_LIBRARY, load_sensor_library
+from gasfilm.app.gui.settings import load_setup
+from gasfilm.drivers.errors import SettingError
+from gasfilm.drivers.interface import ChannelKind
 
 SAMPLE_RATE_HZ = 51200.0 / 16
 RECORD_S = 0.5

@@ -6,8 +6,8 @@ import math
 import numpy as np
 import pytest
 
-from analysis.figures import figure18, figure19
-from analysis.identify import (
+from gasfilm.analysis.figures import figure18, figure19
+from gasfilm.analysis.identify import (
     G_M_S2,
     FitCancelledError,
     FitResult,
@@ -16,7 +16,7 @@ from analysis.identify import (
     fit_model,
     format_table2,
 )
-from analysis.models import (
+from gasfilm.analysis.models import (
     PAPER_MASS_KG,
     PAPER_MODEL_ORDER,
     PAPER_MODELS,
@@ -27,12 +27,12 @@ from analysis.models import (
     accelerance,
     get_model,
 )
-from analysis.rig import RigSpec
-from analysis.spectra import compute_frf
-from app.cli import main as gasfilm
-from drivers.errors import SettingError
-from drivers.interface import default_hammer_and_accelerometer
-from drivers.simulated import SimulatedNI9234
+from gasfilm.analysis.rig import RigSpec
+from gasfilm.analysis.spectra import compute_frf
+from gasfilm.app.cli import main as gasfilm
+from gasfilm.drivers.errors import SettingError
+from gasfilm.drivers.interface import default_hammer_and_accelerometer
+from gasfilm.drivers.simulated import SimulatedNI9234
 
 MASS_KG = PAPER_MASS_KG
 
@@ -289,7 +289,7 @@ def test_figures_18_and_19_are_png_files(tmp_path):
 
 
 def _session_with_frf(tmp_path):
-    from analysis.session import Session
+    from gasfilm.analysis.session import Session
 
     frf = rig_frf(seed=2, hits=3, band_hz=(0.0, 1280.0))
     path = tmp_path / "hammer.h5"
@@ -300,7 +300,7 @@ def _session_with_frf(tmp_path):
 
 
 def test_cli_fit_prints_table_writes_figures_and_stores_fits(tmp_path, capsys):
-    from analysis.session import Session
+    from gasfilm.analysis.session import Session
 
     path = _session_with_frf(tmp_path)
     status = gasfilm(["fit", str(path), "--models", "SD,FOZGF", "--band", "50:600", "--out", str(tmp_path / "fig")])
@@ -345,10 +345,10 @@ def test_get_model_accepts_the_names_the_cli_uses():
 
 
 def test_cli_fit_computes_the_frf_from_accepted_hits_with_the_sessions_window(tmp_path, capsys):
-    from analysis.capture import HitRecord
-    from analysis.session import Session
-    from analysis.spectra import WindowSettings
-    from analysis.validation import Verdict
+    from gasfilm.analysis.capture import HitRecord
+    from gasfilm.analysis.session import Session
+    from gasfilm.analysis.spectra import WindowSettings
+    from gasfilm.analysis.validation import Verdict
 
     rate_hz, samples = 2560.0, 5120
     device = SimulatedNI9234(RigSpec.nominal("FOMGF"), seed=4, pacing="fast", hit_interval_s=None)

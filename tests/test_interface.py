@@ -4,9 +4,9 @@ import dataclasses
 
 import pytest
 
-from drivers import open_device
-from drivers.errors import SettingError
-from drivers.interface import (
+from gasfilm.drivers import open_device
+from gasfilm.drivers.errors import SettingError
+from gasfilm.drivers.interface import (
     NI9234_VALID_RATES_HZ,
     ChannelConfig,
     ChannelKind,

@@ -20,7 +20,7 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
-from analysis.session import Session
+from gasfilm.analysis.session import Session
 
 KILL_SEED = 20261121
 SIM_SEED = 6
@@ -41,7 +41,7 @@ def reported_hits(lines: list[str]) -> dict[int, bool]:
 
 
 def acquire(*argv: str) -> subprocess.Popen:
-    return subprocess.Popen([sys.executable, "-m", "app.cli", *ACQUIRE, *argv], stdout=subprocess.PIPE,
+    return subprocess.Popen([sys.executable, "-m", "gasfilm.app.cli", *ACQUIRE, *argv], stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True)
 
 

@@ -3,14 +3,14 @@
 import numpy as np
 import pytest
 
-from analysis.models import (
+from gasfilm.analysis.models import (
     PAPER_MODEL_ORDER,
     PAPER_MODELS,
     accelerance,
     get_model,
     parse_network,
 )
-from drivers.errors import SettingError
+from gasfilm.drivers.errors import SettingError
 
 RTOL = 1e-12
 C = np.cos

@@ -36,8 +36,8 @@ from nidaqmx.task import InStream, Timing
 from nidaqmx.task.channels import AIChannel
 from nidaqmx.task.collections import AIChannelCollection
 
-from drivers import open_device
-from drivers.errors import (
+from gasfilm.drivers import open_device
+from gasfilm.drivers.errors import (
     ADCOverloadWarning,
     BufferOverflowError,
     DeviceError,
@@ -49,14 +49,14 @@ from drivers.errors import (
     ReadTimeoutError,
     SettingError,
 )
-from drivers.interface import (
+from gasfilm.drivers.interface import (
     SENSITIVITY_UNITS,
     ChannelKind,
     Coupling,
     DaqDevice,
     default_hammer_and_accelerometer,
 )
-from drivers.nidaqmx_backend import DAQMX_SENSITIVITY_FACTORS, NidaqmxNI9234
+from gasfilm.drivers.nidaqmx_backend import DAQMX_SENSITIVITY_FACTORS, NidaqmxNI9234
 
 DEVICE = "cDAQ1Mod1"
 RATE_HZ = 51200.0 / 4
@@ -665,7 +665,7 @@ def test_close_failure_does_not_hide_the_error_that_left_the_with_block(daqmx: F
 def test_list_devices_offers_sim_and_the_ni9234_modules_daqmx_reports():
     from types import SimpleNamespace
 
-    from drivers import list_devices
+    from gasfilm.drivers import list_devices
 
     assert list_devices() == ["sim"]  # no NI-DAQmx runtime on this machine
     modules = [SimpleNamespace(name="cDAQ1Mod1", product_type="NI 9234"),

@@ -11,9 +11,9 @@ import pytest
 import scipy.signal
 from pyFRF import FRF
 
-from analysis.capture import HitRecord, ImpactCapture, TriggerSettings
-from analysis.spectra import WindowSettings, compute_frf, frf_from_hits
-from analysis.validation import ValidationSettings, validate_hit
+from gasfilm.analysis.capture import HitRecord, ImpactCapture, TriggerSettings
+from gasfilm.analysis.spectra import WindowSettings, compute_frf, frf_from_hits
+from gasfilm.analysis.validation import ValidationSettings, validate_hit
 
 FIXTURE = Path(__file__).resolve().parents[1] / "fixtures" / "real-data" / "pyfrf-5-hits"
 FS_HZ = 25_600.0
@@ -122,10 +122,10 @@ def test_real_hits_are_stored_replayed_and_exported_like_our_own(measured, tmp_p
 
     import pyuff
 
-    from analysis.recording import HitRecorder
-    from analysis.session import Session
-    from app.cli import main as gasfilm
-    from drivers.interface import ChannelConfig, ChannelKind, DaqConfig
+    from gasfilm.analysis.recording import HitRecorder
+    from gasfilm.analysis.session import Session
+    from gasfilm.app.cli import main as gasfilm
+    from gasfilm.drivers.interface import ChannelConfig, ChannelKind, DaqConfig
 
     # 25.6 kS/s is an NI 9234 rate (51 200 / 2); sensitivities chosen so that ±5 V holds the recorded peaks
     config = DaqConfig(

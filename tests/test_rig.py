@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from analysis.models import PAPER_MASS_KG, PAPER_MODELS, PAPER_TABLE1, accelerance
-from analysis.rig import (
+from gasfilm.analysis.models import PAPER_MASS_KG, PAPER_MODELS, PAPER_TABLE1, accelerance
+from gasfilm.analysis.rig import (
     EFFECT_TYPES,
     AddedMass,
     ChannelDelay,
@@ -27,7 +27,7 @@ from analysis.rig import (
     rig_accelerance,
     simulate_response,
 )
-from drivers.errors import SettingError
+from gasfilm.drivers.errors import SettingError
 
 RIGS = Path(__file__).resolve().parents[1] / "fixtures" / "rigs"
 FREQ_HZ = np.linspace(20.0, 800.0, 157)

@@ -12,12 +12,12 @@ import numpy as np
 import pytest
 import scipy.signal
 
-from analysis.capture import HitRecord, ImpactCapture, TriggerSettings
-from analysis.recording import HitRecorder
-from analysis.session import SCHEMA_VERSION, Session, SessionError
-from analysis.spectra import WindowSettings, compute_frf
-from analysis.validation import ValidationSettings, Verdict, validate_hit
-from drivers.interface import default_hammer_and_accelerometer
+from gasfilm.analysis.capture import HitRecord, ImpactCapture, TriggerSettings
+from gasfilm.analysis.recording import HitRecorder
+from gasfilm.analysis.session import SCHEMA_VERSION, Session, SessionError
+from gasfilm.analysis.spectra import WindowSettings, compute_frf
+from gasfilm.analysis.validation import ValidationSettings, Verdict, validate_hit
+from gasfilm.drivers.interface import default_hammer_and_accelerometer
 
 RATE_HZ = 51200.0 / 20  # 2560 S/s: small records, the physics still resolved (mode at 100 Hz)
 MASS_KG = 25.0
@@ -243,7 +243,7 @@ def test_writer_killed_without_closing_leaves_a_readable_appendable_session(tmp_
         import os, signal, sys
         sys.path.insert(0, {str(Path(__file__).parent)!r})
         from test_session import new_session, synthetic_hits
-        from analysis.validation import Verdict
+        from gasfilm.analysis.validation import Verdict
         session = new_session({str(path)!r})
         for hit in synthetic_hits(3):
             session.append_hit(hit, Verdict(hit.index != 1, () if hit.index != 1 else ("overload",)))
@@ -279,7 +279,7 @@ def test_live_session_can_be_read_but_not_taken_over(tmp_path):
         import sys
         sys.path.insert(0, {str(Path(__file__).parent)!r})
         from test_session import new_session, synthetic_hits
-        from analysis.validation import Verdict
+        from gasfilm.analysis.validation import Verdict
         hits = synthetic_hits(3)
         with new_session({str(path)!r}) as session:
             for hit in hits[:2]:

@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 import scipy.signal
 
-from analysis.models import PAPER_MASS_KG, PAPER_MODELS, PAPER_TABLE1, accelerance
-from analysis.rig import (
+from gasfilm.analysis.models import PAPER_MASS_KG, PAPER_MODELS, PAPER_TABLE1, accelerance
+from gasfilm.analysis.rig import (
     AddedMass,
     ChannelDelay,
     CubicStiffness,
@@ -21,8 +21,8 @@ from analysis.rig import (
     rig_accelerance,
     simulate_response,
 )
-from drivers import open_device
-from drivers.errors import (
+from gasfilm.drivers import open_device
+from gasfilm.drivers.errors import (
     ADCOverloadWarning,
     BufferOverflowError,
     DeviceRemovedError,
@@ -30,14 +30,14 @@ from drivers.errors import (
     ReadTimeoutError,
     SettingError,
 )
-from drivers.interface import (
+from gasfilm.drivers.interface import (
     ChannelConfig,
     ChannelKind,
     DaqConfig,
     DaqDevice,
     default_hammer_and_accelerometer,
 )
-from drivers.simulated import LSB_V, PRE_HIT_SAMPLES, SimulatedNI9234, half_sine_spectrum
+from gasfilm.drivers.simulated import LSB_V, PRE_HIT_SAMPLES, SimulatedNI9234, half_sine_spectrum
 
 FS_HZ = 51200.0 / 8  # 6400 S/s: alias-free band to 2880 Hz, plenty for 20–800 Hz
 BAND_HZ = (20.0, 800.0)

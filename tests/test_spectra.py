@@ -5,8 +5,8 @@ import numpy as np
 import pytest
 from pyFRF import FRF
 
-from analysis.models import PAPER_MODELS, PAPER_TABLE1, accelerance
-from analysis.spectra import (
+from gasfilm.analysis.models import PAPER_MODELS, PAPER_TABLE1, accelerance
+from gasfilm.analysis.spectra import (
     FrfResult,
     WindowSettings,
     compute_frf,
@@ -15,13 +15,13 @@ from analysis.spectra import (
     frf_from_hits,
     remove_window_damping,
 )
-from analysis.capture import HitRecord, ImpactCapture, TriggerSettings
-from analysis.rig import RigSpec
-from analysis.validation import validate_hit
-from drivers.errors import SettingError
-from drivers.interface import default_hammer_and_accelerometer
-from drivers.simulated import SimulatedNI9234
-from drivers.interface import STANDARD_GRAVITY_M_S2
+from gasfilm.analysis.capture import HitRecord, ImpactCapture, TriggerSettings
+from gasfilm.analysis.rig import RigSpec
+from gasfilm.analysis.validation import validate_hit
+from gasfilm.drivers.errors import SettingError
+from gasfilm.drivers.interface import default_hammer_and_accelerometer
+from gasfilm.drivers.simulated import SimulatedNI9234
+from gasfilm.drivers.interface import STANDARD_GRAVITY_M_S2
 
 SD = PAPER_MODELS["SD"]
 SD_PARAMS = PAPER_TABLE1["SD"]  # k = 3.78e7 N/m, eta = c = 3.45e3 N·s/m

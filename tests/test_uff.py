@@ -6,11 +6,11 @@ import numpy as np
 import pytest
 import pyuff
 
-from analysis.session import Session
-from analysis.spectra import WindowSettings, compute_frf
-from analysis.uff import UffError, export_frf_uff, import_uff_session, read_uff_time_records
-from analysis.validation import ValidationSettings
-from drivers.interface import STANDARD_GRAVITY_M_S2
+from gasfilm.analysis.session import Session
+from gasfilm.analysis.spectra import WindowSettings, compute_frf
+from gasfilm.analysis.uff import UffError, export_frf_uff, import_uff_session, read_uff_time_records
+from gasfilm.analysis.validation import ValidationSettings
+from gasfilm.drivers.interface import STANDARD_GRAVITY_M_S2
 from test_session import RATE_HZ, synthetic_hits
 
 

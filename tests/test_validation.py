@@ -5,13 +5,13 @@ import warnings
 import numpy as np
 import pytest
 
-from analysis.capture import HitRecord, ImpactCapture, TriggerSettings
-from analysis.models import PAPER_MODELS, PAPER_TABLE1, accelerance
-from analysis.spectra import WindowSettings
-from analysis.validation import REASONS, ValidationSettings, Verdict, validate_hit
-from drivers.errors import SettingError
-from drivers.interface import ChannelKind, default_hammer_and_accelerometer
-from drivers.simulated import SimulatedNI9234
+from gasfilm.analysis.capture import HitRecord, ImpactCapture, TriggerSettings
+from gasfilm.analysis.models import PAPER_MODELS, PAPER_TABLE1, accelerance
+from gasfilm.analysis.spectra import WindowSettings
+from gasfilm.analysis.validation import REASONS, ValidationSettings, Verdict, validate_hit
+from gasfilm.drivers.errors import SettingError
+from gasfilm.drivers.interface import ChannelKind, default_hammer_and_accelerometer
+from gasfilm.drivers.simulated import SimulatedNI9234
 
 FS_HZ = 10_240.0
 PRE = 102  # 10 ms of pre-trigger

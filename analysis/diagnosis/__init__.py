@@ -1,1 +1,1 @@
-"""The parts of the mismatch diagnosis (:mod:`analysis.diagnose` is the entry point)."""
+"""The parts of the mismatch diagnosis (:mod:`gasfilm.analysis.diagnose` is the entry point)."""

@@ -1,6 +1,6 @@
 """What the recordings say, with their own uncertainty: per-hit windowed spectra, measured noise, quality checks.
 
-Each accepted hit is windowed the way the session's FRF is (:mod:`analysis.spectra`: a force window after the peak
+Each accepted hit is windowed the way the session's FRF is (:mod:`gasfilm.analysis.spectra`: a force window after the peak
 with a short taper, and an exponential window on both channels), so that ``X_i / F_i`` is the hit's FRF at
 ``s = σ + jω``. The model is compared under the same conditions: it is *played with the hit's own recorded force*
 (the whole record, as the DAQ delivered it, AC coupling and anti-aliasing included) and the replayed response goes
@@ -21,9 +21,9 @@ from typing import Callable
 import numpy as np
 import scipy.fft
 
-from analysis.diagnosis.catalog import HitConditions
-from analysis.spectra import WindowSettings, exponential_window, force_window
-from drivers.errors import SettingError
+from gasfilm.analysis.diagnosis.catalog import HitConditions
+from gasfilm.analysis.spectra import WindowSettings, exponential_window, force_window
+from gasfilm.drivers.errors import SettingError
 
 MAINS_BASES_HZ = (50.0, 60.0)
 QUIET_MARGIN_S = 0.001

@@ -10,7 +10,7 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
 if TYPE_CHECKING:
-    from analysis.diagnose import Diagnosis
+    from gasfilm.analysis.diagnose import Diagnosis
 
 G_M_S2 = 9.80665
 

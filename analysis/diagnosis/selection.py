@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import least_squares
 
-from analysis.diagnosis.catalog import (
+from gasfilm.analysis.diagnosis.catalog import (
     CATALOG,
     AugmentedModel,
     HitConditions,
@@ -24,7 +24,7 @@ from analysis.diagnosis.catalog import (
     read_slots,
     write_slots,
 )
-from analysis.diagnosis.measurement import HitSpectra
+from gasfilm.analysis.diagnosis.measurement import HitSpectra
 
 #: Held-out improvement (χ² units, both folds together) a new term must reach.
 HELD_OUT_THRESHOLD = 25.0

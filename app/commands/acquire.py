@@ -17,15 +17,15 @@ from typing import Any, Iterator
 
 import numpy as np
 
-from analysis.acquisition import AcquisitionLoop
-from analysis.capture import ImpactCapture, TriggerSettings
-from analysis.recording import HitEvent, HitRecorder
-from analysis.session import Session, SessionError
-from analysis.spectra import WindowSettings, compute_frf
-from analysis.validation import ValidationSettings
-from drivers import SIMULATED_DEVICE_NAME, open_device
-from drivers.errors import DeviceError, SettingError
-from drivers.interface import ChannelKind, DaqConfig, DaqDevice, default_hammer_and_accelerometer
+from gasfilm.analysis.acquisition import AcquisitionLoop
+from gasfilm.analysis.capture import ImpactCapture, TriggerSettings
+from gasfilm.analysis.recording import HitEvent, HitRecorder
+from gasfilm.analysis.session import Session, SessionError
+from gasfilm.analysis.spectra import WindowSettings, compute_frf
+from gasfilm.analysis.validation import ValidationSettings
+from gasfilm.drivers import SIMULATED_DEVICE_NAME, open_device
+from gasfilm.drivers.errors import DeviceError, SettingError
+from gasfilm.drivers.interface import ChannelKind, DaqConfig, DaqDevice, default_hammer_and_accelerometer
 
 #: Longest wait for a chunk before the run is declared stuck (the reader has its own device timeout).
 CHUNK_WAIT_S = 30.0
@@ -173,7 +173,7 @@ def run(args: argparse.Namespace) -> int:
     _check_limits(args)
     rig_spec = None
     if args.rig is not None:
-        from analysis.rig import RigSpec
+        from gasfilm.analysis.rig import RigSpec
 
         rig_spec = RigSpec.load(args.rig)
     trigger = TriggerSettings(level_n=args.trigger_n, pretrigger_s=args.pretrigger_s, record_s=args.record_s)

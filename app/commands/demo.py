@@ -13,18 +13,18 @@ from pathlib import Path
 
 import numpy as np
 
-from analysis.acquisition import AcquisitionLoop
-from analysis.capture import ImpactCapture, TriggerSettings
-from analysis.identify import fit_model
-from analysis.models import PAPER_MODELS
-from analysis.recording import HitRecorder
-from analysis.rig import RigSpec
-from analysis.session import Session
-from analysis.spectra import WindowSettings, compute_frf
-from analysis.validation import ValidationSettings
-from drivers import open_device
-from drivers.errors import GasfilmError
-from drivers.interface import ChannelKind, default_hammer_and_accelerometer
+from gasfilm.analysis.acquisition import AcquisitionLoop
+from gasfilm.analysis.capture import ImpactCapture, TriggerSettings
+from gasfilm.analysis.identify import fit_model
+from gasfilm.analysis.models import PAPER_MODELS
+from gasfilm.analysis.recording import HitRecorder
+from gasfilm.analysis.rig import RigSpec
+from gasfilm.analysis.session import Session
+from gasfilm.analysis.spectra import WindowSettings, compute_frf
+from gasfilm.analysis.validation import ValidationSettings
+from gasfilm.drivers import open_device
+from gasfilm.drivers.errors import GasfilmError
+from gasfilm.drivers.interface import ChannelKind, default_hammer_and_accelerometer
 
 G_M_S2 = 9.80665
 

@@ -1,7 +1,7 @@
 """``gasfilm diagnose``: where the rig spec and the recordings differ, which physics is missing, and the fix.
 
 Reads a session (HDF5) or UFF 58 time records, compares them with the rig spec played under identical conditions,
-recalibrates the spec's own parameters, then names and fits the missing physics (:mod:`analysis.diagnose`). Writes
+recalibrates the spec's own parameters, then names and fits the missing physics (:mod:`gasfilm.analysis.diagnose`). Writes
 the improved rig spec and before/after figures into ``--out``; ``--json`` prints one JSON object instead of text.
 """
 
@@ -12,10 +12,10 @@ import json
 import sys
 from pathlib import Path
 
-from analysis.diagnose import Diagnosis, diagnose
-from analysis.rig import RigSpec
-from analysis.session import Session
-from drivers.errors import GasfilmError, SettingError
+from gasfilm.analysis.diagnose import Diagnosis, diagnose
+from gasfilm.analysis.rig import RigSpec
+from gasfilm.analysis.session import Session
+from gasfilm.drivers.errors import GasfilmError, SettingError
 
 G_M_S2 = 9.80665
 

@@ -11,10 +11,10 @@ import sys
 from pathlib import Path
 
 
-from analysis.session import Session, SessionError
-from analysis.spectra import FrfResult, WindowSettings, compute_frf, write_frf_csv
-from analysis.uff import export_frf_uff
-from drivers.errors import SettingError
+from gasfilm.analysis.session import Session, SessionError
+from gasfilm.analysis.spectra import FrfResult, WindowSettings, compute_frf, write_frf_csv
+from gasfilm.analysis.uff import export_frf_uff
+from gasfilm.drivers.errors import SettingError
 
 
 

@@ -15,9 +15,9 @@ from pathlib import Path
 
 import numpy as np
 
-from analysis.identify import METHODS, compare_models, fit_model, format_table2
-from analysis.models import PAPER_MASS_KG, PAPER_MODEL_ORDER, get_model
-from drivers.errors import SettingError
+from gasfilm.analysis.identify import METHODS, compare_models, fit_model, format_table2
+from gasfilm.analysis.models import PAPER_MASS_KG, PAPER_MODEL_ORDER, get_model
+from gasfilm.drivers.errors import SettingError
 
 DEFAULT_BAND_HZ = (20.0, 1000.0)
 MIN_BAND_LINES = 10
@@ -69,8 +69,8 @@ def parse_models(text: str) -> list:
 
 def _session_frf(session):
     """The stored FRF, or one computed from the accepted hits with the session's window settings."""
-    from analysis.spectra import WindowSettings, compute_frf
-    from drivers.interface import ChannelKind
+    from gasfilm.analysis.spectra import WindowSettings, compute_frf
+    from gasfilm.drivers.interface import ChannelKind
 
     if "frf" in session.result_names("frf"):
         return session.read_frf()
@@ -90,7 +90,7 @@ def _session_frf(session):
 
 
 def _session_mass_kg(session) -> float:
-    from analysis.rig import RigSpec
+    from gasfilm.analysis.rig import RigSpec
 
     toml = session.rig_spec_toml
     return RigSpec.from_toml(toml, f"{session.path} rig spec").mass_kg if toml else PAPER_MASS_KG
@@ -105,8 +105,8 @@ def _progress_printer(name: str, index: int, count: int):
 
 
 def run(args: argparse.Namespace) -> int:
-    from analysis.figures import figure18, figure19
-    from analysis.session import Session
+    from gasfilm.analysis.figures import figure18, figure19
+    from gasfilm.analysis.session import Session
 
     models = parse_models(args.models)
     if args.mass is not None and not args.mass > 0:

@@ -14,6 +14,6 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from app.gui.main_window import run_gui
+    from gasfilm.app.gui.main_window import run_gui
 
     return run_gui(device=args.device, session=args.session)

@@ -20,13 +20,13 @@ from typing import Any
 
 import numpy as np
 
-from analysis.capture import HitRecord, ImpactCapture, TriggerSettings
-from analysis.session import Session, SessionError, settings_from_json
-from analysis.spectra import FrfResult, WindowSettings, compute_frf
-from analysis.uff import read_uff_time_records, trigger_sample
-from analysis.validation import ValidationSettings, Verdict, validate_hit
-from drivers.errors import SettingError
-from drivers.interface import DaqConfig, default_hammer_and_accelerometer
+from gasfilm.analysis.capture import HitRecord, ImpactCapture, TriggerSettings
+from gasfilm.analysis.session import Session, SessionError, settings_from_json
+from gasfilm.analysis.spectra import FrfResult, WindowSettings, compute_frf
+from gasfilm.analysis.uff import read_uff_time_records, trigger_sample
+from gasfilm.analysis.validation import ValidationSettings, Verdict, validate_hit
+from gasfilm.drivers.errors import SettingError
+from gasfilm.drivers.interface import DaqConfig, default_hammer_and_accelerometer
 
 UFF_SUFFIXES = (".uff", ".unv")
 #: Band edges (Hz) for the coherence summary; bands above the Nyquist frequency are left out.

@@ -15,18 +15,18 @@ from typing import Any, Sequence
 import numpy as np
 from PySide6.QtCore import QObject, QStandardPaths, QThread, Signal
 
-from analysis.acquisition import AcquisitionLoop
-from analysis.capture import TriggerSettings
-from analysis.diagnose import diagnose, load_recordings
-from analysis.identify import compare_models, fit_model
-from analysis.models import get_model
-from analysis.rig import RigSpec
-from analysis.session import Session
-from analysis.spectra import FrfResult, WindowSettings, frf_from_hits, write_frf_csv
-from analysis.uff import export_frf_uff
-from analysis.validation import ValidationSettings, Verdict, validate_hit
-from app.gui.settings import SetupState, settings_from_dict
-from app.gui.workers import (
+from gasfilm.analysis.acquisition import AcquisitionLoop
+from gasfilm.analysis.capture import TriggerSettings
+from gasfilm.analysis.diagnose import diagnose, load_recordings
+from gasfilm.analysis.identify import compare_models, fit_model
+from gasfilm.analysis.models import get_model
+from gasfilm.analysis.rig import RigSpec
+from gasfilm.analysis.session import Session
+from gasfilm.analysis.spectra import FrfResult, WindowSettings, frf_from_hits, write_frf_csv
+from gasfilm.analysis.uff import export_frf_uff
+from gasfilm.analysis.validation import ValidationSettings, Verdict, validate_hit
+from gasfilm.app.gui.settings import SetupState, settings_from_dict
+from gasfilm.app.gui.workers import (
     AcquisitionPlan,
     AcquisitionStats,
     AcquisitionWorker,
@@ -34,9 +34,9 @@ from app.gui.workers import (
     HitEntry,
     start_on_thread,
 )
-from drivers import SIMULATED_DEVICE_NAME
-from drivers.errors import GasfilmError, SettingError
-from drivers.interface import DaqConfig
+from gasfilm.drivers import SIMULATED_DEVICE_NAME
+from gasfilm.drivers.errors import GasfilmError, SettingError
+from gasfilm.drivers.interface import DaqConfig
 
 DEFAULT_FIT_BAND_HZ = (20.0, 800.0)
 
@@ -538,7 +538,7 @@ class SessionController(QObject):
         self.session_changed.emit(str(path))
 
     def _load_fits(self, session: Session) -> None:
-        from analysis.identify import FitResult
+        from gasfilm.analysis.identify import FitResult
 
         names = session.result_names("fits")
         self.fits = {name: FitResult.from_dict(session.read_fit(name)) for name in names}

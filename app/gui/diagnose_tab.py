@@ -22,11 +22,11 @@ from PySide6.QtWidgets import (
     QWidget,
 )
 
-from analysis.diagnose import Finding
-from app.gui.controller import SessionController
-from app.gui.widgets import MEASURED_COLOR, PALETTE, make_plot, pen
-from drivers.errors import GasfilmError
-from drivers.interface import STANDARD_GRAVITY_M_S2
+from gasfilm.analysis.diagnose import Finding
+from gasfilm.app.gui.controller import SessionController
+from gasfilm.app.gui.widgets import MEASURED_COLOR, PALETTE, make_plot, pen
+from gasfilm.drivers.errors import GasfilmError
+from gasfilm.drivers.interface import STANDARD_GRAVITY_M_S2
 
 G = STANDARD_GRAVITY_M_S2
 

@@ -8,10 +8,10 @@ from PySide6.QtCore import Qt
 from PySide6.QtGui import QShowEvent
 from PySide6.QtWidgets import QComboBox, QDoubleSpinBox, QGridLayout, QHBoxLayout, QLabel, QWidget
 
-from analysis.spectra import FrfResult
-from app.gui.controller import SessionController
-from app.gui.widgets import MEASURED_COLOR, PALETTE, make_plot, pen, phase_deg
-from drivers.interface import STANDARD_GRAVITY_M_S2
+from gasfilm.analysis.spectra import FrfResult
+from gasfilm.app.gui.controller import SessionController
+from gasfilm.app.gui.widgets import MEASURED_COLOR, PALETTE, make_plot, pen, phase_deg
+from gasfilm.drivers.interface import STANDARD_GRAVITY_M_S2
 
 UNITS = {"(m/s²)/N": 1.0, "g/N": 1.0 / STANDARD_GRAVITY_M_S2}
 UNCERTAINTY = {"from coherence (Bendat & Piersol)": "h1_std_coherence", "hit-to-hit scatter": "h1_std_scatter"}

@@ -24,12 +24,12 @@ from PySide6.QtWidgets import (
     QWidget,
 )
 
-from analysis.identify import METHODS
-from analysis.models import PAPER_MODEL_ORDER, PAPER_MODEL_TEXT, get_model
-from app.gui.controller import SessionController
-from app.gui.widgets import MEASURED_COLOR, PALETTE, make_plot, pen, phase_deg
-from drivers.errors import GasfilmError
-from drivers.interface import STANDARD_GRAVITY_M_S2
+from gasfilm.analysis.identify import METHODS
+from gasfilm.analysis.models import PAPER_MODEL_ORDER, PAPER_MODEL_TEXT, get_model
+from gasfilm.app.gui.controller import SessionController
+from gasfilm.app.gui.widgets import MEASURED_COLOR, PALETTE, make_plot, pen, phase_deg
+from gasfilm.drivers.errors import GasfilmError
+from gasfilm.drivers.interface import STANDARD_GRAVITY_M_S2
 
 DEFAULT_MODELS = ("SD", "FOMGF")
 TABLE2_COLUMNS = ("#", "Model", "k", "RMS (g/N)", "E", "Peak error (g/N)", "E_m", "AIC", "BIC")

@@ -9,16 +9,16 @@ from PySide6.QtCore import QSettings, QTimer
 from PySide6.QtGui import QAction, QCloseEvent, QKeySequence
 from PySide6.QtWidgets import QApplication, QFileDialog, QLabel, QMainWindow, QTabWidget, QVBoxLayout, QWidget
 
-from app.gui.controller import SessionController
-from app.gui.diagnose_tab import DiagnoseTab
-from app.gui.frf_tab import FrfTab
-from app.gui.identify_tab import IdentifyTab
-from app.gui.measure_tab import MeasureTab
-from app.gui.settings import SETTINGS_APPLICATION, SETTINGS_ORGANIZATION, load_setup, save_setup
-from app.gui.setup_tab import SetupTab
-from app.gui.widgets import Banner, configure_pyqtgraph
-from drivers import SIMULATED_DEVICE_NAME
-from drivers.errors import GasfilmError
+from gasfilm.app.gui.controller import SessionController
+from gasfilm.app.gui.diagnose_tab import DiagnoseTab
+from gasfilm.app.gui.frf_tab import FrfTab
+from gasfilm.app.gui.identify_tab import IdentifyTab
+from gasfilm.app.gui.measure_tab import MeasureTab
+from gasfilm.app.gui.settings import SETTINGS_APPLICATION, SETTINGS_ORGANIZATION, load_setup, save_setup
+from gasfilm.app.gui.setup_tab import SetupTab
+from gasfilm.app.gui.widgets import Banner, configure_pyqtgraph
+from gasfilm.drivers import SIMULATED_DEVICE_NAME
+from gasfilm.drivers.errors import GasfilmError
 
 SIM_FAULTS = {
     "overflow": "Buffer overflow",

@@ -21,9 +21,9 @@ from PySide6.QtWidgets import (
     QWidget,
 )
 
-from app.gui.controller import SessionController
-from app.gui.settings import SIM_TIPS
-from app.gui.widgets import (
+from gasfilm.app.gui.controller import SessionController
+from gasfilm.app.gui.settings import SIM_TIPS
+from gasfilm.app.gui.widgets import (
     ACCEPTED_COLOR,
     MEASURED_COLOR,
     PALETTE,
@@ -32,8 +32,8 @@ from app.gui.widgets import (
     make_plot,
     pen,
 )
-from app.gui.workers import HitEntry
-from drivers.interface import ChannelKind
+from gasfilm.app.gui.workers import HitEntry
+from gasfilm.drivers.interface import ChannelKind
 
 REDRAW_INTERVAL_MS = 40  # 25 frames per second
 _STATE_STYLE = {

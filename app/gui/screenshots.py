@@ -1,4 +1,4 @@
-"""Screenshots of every tab after a simulated hammer session: ``python -m app.gui.screenshots [--out DIR]``.
+"""Screenshots of every tab after a simulated hammer session: ``python -m gasfilm.app.gui.screenshots [--out DIR]``.
 
 Runs the real GUI offscreen on the simulated rig: the paper's FOMGF film on 25.05 kg with a small extra mode of the
 mover that the design spec leaves out. It arms, hits with the virtual hammer, rejects one hit by hand, fits the
@@ -21,9 +21,9 @@ os.environ.setdefault("QT_QPA_PLATFORM", "offscreen")
 from PySide6.QtCore import QSettings  # noqa: E402
 from PySide6.QtWidgets import QApplication  # noqa: E402
 
-from analysis.models import PAPER_MODEL_ORDER  # noqa: E402
-from analysis.rig import ExtraMode, RigSpec  # noqa: E402
-from app.gui.main_window import MainWindow  # noqa: E402
+from gasfilm.analysis.models import PAPER_MODEL_ORDER  # noqa: E402
+from gasfilm.analysis.rig import ExtraMode, RigSpec  # noqa: E402
+from gasfilm.app.gui.main_window import MainWindow  # noqa: E402
 
 DEFAULT_OUT = Path(__file__).resolve().parents[2] / "docs" / "screenshots"
 WINDOW_SIZE = (1600, 1000)

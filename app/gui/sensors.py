@@ -16,8 +16,8 @@ import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 
-from drivers.errors import SettingError
-from drivers.interface import SENSITIVITY_UNITS, ChannelKind
+from gasfilm.drivers.errors import SettingError
+from gasfilm.drivers.interface import SENSITIVITY_UNITS, ChannelKind
 
 DEFAULT_SENSOR_LIBRARY = Path(__file__).resolve().parents[2] / "fixtures" / "sensors.toml"
 

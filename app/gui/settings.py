@@ -11,8 +11,8 @@ from typing import Any, TypeVar
 
 from PySide6.QtCore import QSettings
 
-from drivers.errors import SettingError
-from drivers.interface import (
+from gasfilm.drivers.errors import SettingError
+from gasfilm.drivers.interface import (
     NI9234_IEPE_CURRENT_A,
     ChannelConfig,
     ChannelKind,

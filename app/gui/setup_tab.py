@@ -23,16 +23,16 @@ from PySide6.QtWidgets import (
     QWidget,
 )
 
-import drivers
-from analysis.capture import SLOPES, TriggerSettings
-from analysis.rig import RigSpec
-from analysis.spectra import WindowSettings
-from analysis.validation import ValidationSettings
-from app.gui.sensors import DEFAULT_SENSOR_LIBRARY, Sensor, load_sensor_library
-from app.gui.settings import SIM_TIPS, ChannelSetup, SetupState, rig_spec_label, settings_from_dict
-from app.gui.widgets import DataclassForm
-from drivers.errors import GasfilmError
-from drivers.interface import NI9234_VALID_RATES_HZ, SENSITIVITY_UNITS, ChannelKind, Coupling
+import gasfilm.drivers as drivers
+from gasfilm.analysis.capture import SLOPES, TriggerSettings
+from gasfilm.analysis.rig import RigSpec
+from gasfilm.analysis.spectra import WindowSettings
+from gasfilm.analysis.validation import ValidationSettings
+from gasfilm.app.gui.sensors import DEFAULT_SENSOR_LIBRARY, Sensor, load_sensor_library
+from gasfilm.app.gui.settings import SIM_TIPS, ChannelSetup, SetupState, rig_spec_label, settings_from_dict
+from gasfilm.app.gui.widgets import DataclassForm
+from gasfilm.drivers.errors import GasfilmError
+from gasfilm.drivers.interface import NI9234_VALID_RATES_HZ, SENSITIVITY_UNITS, ChannelKind, Coupling
 
 TYPED_IN = "typed in"
 _COLUMNS = ("Use", "Channel", "Name", "Type", "Sensor", "Sensitivity", "Units", "IEPE", "Coupling")

@@ -17,16 +17,16 @@ from typing import Any, Callable
 import numpy as np
 from PySide6.QtCore import QCoreApplication, QObject, Qt, QThread, QTimer, Signal, Slot
 
-from analysis.acquisition import AcquisitionLoop
-from analysis.capture import HitRecord, ImpactCapture, TriggerSettings
-from analysis.recording import HitEvent, HitRecorder
-from analysis.rig import RigSpec
-from analysis.session import Session
-from analysis.spectra import WindowSettings, frf_from_hits
-from analysis.validation import ValidationSettings, Verdict
-from drivers import SIMULATED_DEVICE_NAME, open_device
-from drivers.errors import GasfilmError
-from drivers.interface import ChannelKind, DaqConfig, DaqDevice
+from gasfilm.analysis.acquisition import AcquisitionLoop
+from gasfilm.analysis.capture import HitRecord, ImpactCapture, TriggerSettings
+from gasfilm.analysis.recording import HitEvent, HitRecorder
+from gasfilm.analysis.rig import RigSpec
+from gasfilm.analysis.session import Session
+from gasfilm.analysis.spectra import WindowSettings, frf_from_hits
+from gasfilm.analysis.validation import ValidationSettings, Verdict
+from gasfilm.drivers import SIMULATED_DEVICE_NAME, open_device
+from gasfilm.drivers.errors import GasfilmError
+from gasfilm.drivers.interface import ChannelKind, DaqConfig, DaqDevice
 
 POLL_INTERVAL_MS = 50
 PROGRESS_INTERVAL_S = 0.1

@@ -1,6 +1,6 @@
 """Generate the concealed-data benchmark: sessions recorded on the simulated NI 9234 with hidden physics.
 
-Every session is recorded by :class:`drivers.simulated.SimulatedNI9234` playing a *true* rig spec, through the real
+Every session is recorded by :class:`gasfilm.drivers.simulated.SimulatedNI9234` playing a *true* rig spec, through the real
 capture, validation and session code (:mod:`benchmarks.concealed.sessions`). The diagnosis is later given only the
 *nominal* spec (a spring-damper film on 25.05 kg); what the true spec adds is hidden and written to
 ``manifest.json`` for the scorer alone. Effect sizes are chosen so that a single hit's own goodness of fit against the
@@ -27,7 +27,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from sessions import record_session, windowed_copy  # noqa: E402
 
-from analysis.rig import (  # noqa: E402
+from gasfilm.analysis.rig import (  # noqa: E402
     AddedMass,
     ChannelDelay,
     CubicStiffness,
@@ -37,7 +37,7 @@ from analysis.rig import (  # noqa: E402
     Mains,
     RigSpec,
 )
-from analysis.diagnosis.rigspec import AcCoupling, PneumaticLag  # noqa: E402  (also registers them in the rig)
+from gasfilm.analysis.diagnosis.rigspec import AcCoupling, PneumaticLag  # noqa: E402  (also registers them in the rig)
 
 K_N_PER_M = 3.78e7
 C_NS_PER_M = 3.45e3

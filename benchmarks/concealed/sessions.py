@@ -7,14 +7,14 @@ from pathlib import Path
 
 import numpy as np
 
-from analysis.capture import ImpactCapture, TriggerSettings
-from analysis.recording import HitRecorder
-from analysis.rig import RigSpec
-from analysis.session import Session
-from analysis.spectra import WindowSettings
-from analysis.validation import ValidationSettings
-from drivers.interface import ChannelKind, default_hammer_and_accelerometer
-from drivers.simulated import SimulatedNI9234
+from gasfilm.analysis.capture import ImpactCapture, TriggerSettings
+from gasfilm.analysis.recording import HitRecorder
+from gasfilm.analysis.rig import RigSpec
+from gasfilm.analysis.session import Session
+from gasfilm.analysis.spectra import WindowSettings
+from gasfilm.analysis.validation import ValidationSettings
+from gasfilm.drivers.interface import ChannelKind, default_hammer_and_accelerometer
+from gasfilm.drivers.simulated import SimulatedNI9234
 
 SAMPLE_RATE_HZ = 51200.0 / 4
 TRIGGER = TriggerSettings(level_n=20.0, pretrigger_s=0.01, record_s=1.0)

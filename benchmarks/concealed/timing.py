@@ -16,8 +16,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from generate import NOMINAL  # noqa: E402
 from sessions import record_session  # noqa: E402
 
-from analysis.diagnose import diagnose  # noqa: E402
-from analysis.rig import AddedMass, ChannelDelay, CubicStiffness, Drift, ExtraMode  # noqa: E402
+from gasfilm.analysis.diagnose import diagnose  # noqa: E402
+from gasfilm.analysis.rig import AddedMass, ChannelDelay, CubicStiffness, Drift, ExtraMode  # noqa: E402
 
 SESSIONS = {
     "clean": (),
