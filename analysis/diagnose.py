@@ -37,8 +37,9 @@ from gasfilm.analysis.diagnosis.selection import (
     held_out_gain,
     model_slots,
 )
-from gasfilm.analysis.models import PAPER_MASS_KG
-from gasfilm.analysis.rig import RigSpec, simulate_response
+from gasfilm.analysis.physics.elements import PAPER_MASS_KG
+from gasfilm.analysis.physics.response import simulate_response
+from gasfilm.analysis.physics.spec import RigSpec
 from gasfilm.analysis.spectra import WindowSettings
 from gasfilm.drivers.errors import SettingError
 

@@ -31,7 +31,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 from scipy.stats import qmc
 
-from gasfilm.analysis.models import (
+from gasfilm.analysis.physics.elements import (
     Dashpot,
     FilmModel,
     Node,

@@ -16,7 +16,7 @@ Windows: the force window is 1 from the record start to ``force_window_ms`` afte
 with a half-cosine taper of ``force_taper_ms``; the exponential window ``exp(-σ t)`` reaches
 ``exponential_end_fraction`` at the last sample and multiplies force and response alike. The FRF of the windowed
 signals is then the Laplace accelerance at ``s = σ + jω``; σ is stored as ``FrfResult.decay_rate_1_s`` so a fit can
-use ``gasfilm.analysis.models.accelerance(..., decay_rate_1_s=σ)`` or remove the damping the window adds
+use ``gasfilm.analysis.physics.elements.accelerance(..., decay_rate_1_s=σ)`` or remove the damping the window adds
 (``Δζ = σ/ω_n``, :func:`remove_window_damping`). No window-amplitude correction is applied (the same weighting is on
 force and response, so it cancels in the FRF; this is where pyFRF and OpenModal go wrong).
 """

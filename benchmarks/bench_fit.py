@@ -17,8 +17,8 @@ import numpy as np
 from scipy.optimize import differential_evolution
 
 from gasfilm.analysis.identify import G_M_S2, _Problem, _UnitObjective, fit_model
-from gasfilm.analysis.models import PAPER_MASS_KG, PAPER_MODEL_ORDER, PAPER_MODELS
-from gasfilm.analysis.rig import RigSpec
+from gasfilm.analysis.physics.elements import PAPER_MASS_KG, PAPER_MODEL_ORDER, PAPER_MODELS
+from gasfilm.analysis.physics.spec import RigSpec
 from gasfilm.analysis.spectra import compute_frf
 from gasfilm.drivers.interface import default_hammer_and_accelerometer
 from gasfilm.drivers.simulated import SimulatedNI9234

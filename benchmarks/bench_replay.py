@@ -13,7 +13,7 @@ import time
 import numpy as np
 from pyFRF import FRF
 
-from gasfilm.analysis.models import PAPER_MASS_KG, PAPER_MODELS, PAPER_TABLE1, accelerance
+from gasfilm.analysis.physics.elements import PAPER_MASS_KG, PAPER_MODELS, PAPER_TABLE1, accelerance
 from gasfilm.analysis.spectra import compute_frf
 
 SAMPLE_RATE_HZ = 51_200.0 / 4

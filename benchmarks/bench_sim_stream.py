@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from gasfilm.analysis.rig import RigSpec
+from gasfilm.analysis.physics.spec import RigSpec
 from gasfilm.drivers.errors import ADCOverloadWarning
 from gasfilm.drivers.interface import ChannelConfig, ChannelKind, DaqConfig
 from gasfilm.drivers.simulated import SimulatedNI9234

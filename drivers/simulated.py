@@ -2,7 +2,7 @@
 
 Each impact is synthesised exactly in the frequency domain. The hammer pulse (a half-sine whose width is set by the
 tip) has a closed-form spectrum; the response is that spectrum times the rig's accelerance
-(:mod:`gasfilm.analysis.rig`; the nonlinear cubic path solves the equation of motion on a ×2 grid). Both channels then pass
+(:mod:`gasfilm.analysis.physics`; the nonlinear cubic path solves the equation of motion on a ×2 grid). Both channels then pass
 through the SAME anti-aliasing filter of the module — linear phase, flat to 0.45·fs, raised-cosine transition to
 zero at 0.55·fs, input delay 38.4/fs + 3 µs — evaluated on a grid twice as fine as the sample rate and decimated
 (spectral folding), so 0.50–0.55·fs aliases into 0.45–0.50·fs as on the real module while the alias-free band is
@@ -30,15 +30,11 @@ import numpy as np
 import scipy.fft
 import scipy.signal
 
-from gasfilm.analysis.rig import (
-    TIPS_PULSE_WIDTH_S,
-    HammerSpec,
-    RigSpec,
-    channel_transfer,
-    mover_displacement_spectrum,
-    response_duration_s,
-    rig_dynamic_stiffness,
-)
+from gasfilm.analysis.physics.effects import TIPS_PULSE_WIDTH_S
+
+from gasfilm.analysis.physics.response import channel_transfer, mover_displacement_spectrum, response_duration_s, rig_dynamic_stiffness
+
+from gasfilm.analysis.physics.spec import HammerSpec, RigSpec
 from gasfilm.drivers.errors import (
     ADCOverloadWarning,
     BufferOverflowError,
@@ -120,7 +116,7 @@ class _Pulse:
 
 
 class SimulatedNI9234:
-    """The simulated NI 9234 (device name ``"sim"``) with the rig of a :class:`gasfilm.analysis.rig.RigSpec` behind it.
+    """The simulated NI 9234 (device name ``"sim"``) with the rig of a :class:`gasfilm.analysis.physics.spec.RigSpec` behind it.
 
     ``rig``: a spec, a TOML path, or ``None`` for the paper's FOMGF rig. ``pacing="realtime"`` makes ``read`` wait
     for the samples as the real module would; ``"fast"`` delivers at once. ``hit_interval_s=(lo, hi)`` hits at

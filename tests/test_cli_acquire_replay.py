@@ -11,7 +11,9 @@ import h5py
 import numpy as np
 import pyuff
 
-from gasfilm.analysis.rig import RigSpec, rig_accelerance
+from gasfilm.analysis.physics.response import rig_accelerance
+
+from gasfilm.analysis.physics.spec import RigSpec
 from gasfilm.analysis.session import Session
 from gasfilm.analysis.spectra import compute_frf
 from gasfilm.app import cli

@@ -15,9 +15,11 @@ from gasfilm.analysis.capture import ImpactCapture, TriggerSettings
 from gasfilm.analysis.diagnose import diagnose
 from gasfilm.analysis.diagnosis.catalog import AugmentedModel
 from gasfilm.analysis.diagnosis.rigspec import AcCoupling, PneumaticLag, model_from_spec, spec_from_model
-from gasfilm.analysis.models import get_model
+from gasfilm.analysis.physics.elements import get_model
 from gasfilm.analysis.recording import HitRecorder
-from gasfilm.analysis.rig import AddedMass, ChannelDelay, Drift, ExtraMode, Mains, RigSpec, rig_accelerance
+from gasfilm.analysis.physics.effects import AddedMass, ChannelDelay, Drift, ExtraMode, Mains
+from gasfilm.analysis.physics.response import rig_accelerance
+from gasfilm.analysis.physics.spec import RigSpec
 from gasfilm.analysis.session import Session
 from gasfilm.analysis.spectra import WindowSettings
 from gasfilm.analysis.validation import ValidationSettings

@@ -16,7 +16,7 @@ from gasfilm.analysis.identify import (
     fit_model,
     format_table2,
 )
-from gasfilm.analysis.models import (
+from gasfilm.analysis.physics.elements import (
     PAPER_MASS_KG,
     PAPER_MODEL_ORDER,
     PAPER_MODELS,
@@ -27,7 +27,7 @@ from gasfilm.analysis.models import (
     accelerance,
     get_model,
 )
-from gasfilm.analysis.rig import RigSpec
+from gasfilm.analysis.physics.spec import RigSpec
 from gasfilm.analysis.spectra import compute_frf
 from gasfilm.app.cli import main as gasfilm
 from gasfilm.drivers.errors import SettingError

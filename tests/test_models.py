@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from gasfilm.analysis.models import (
+from gasfilm.analysis.physics.elements import (
     PAPER_MODEL_ORDER,
     PAPER_MODELS,
     accelerance,

@@ -9,24 +9,10 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from gasfilm.analysis.models import PAPER_MASS_KG, PAPER_MODELS, PAPER_TABLE1, accelerance
-from gasfilm.analysis.rig import (
-    EFFECT_TYPES,
-    AddedMass,
-    ChannelDelay,
-    CubicStiffness,
-    Drift,
-    Effect,
-    ExtraMode,
-    Mains,
-    RigSpec,
-    _number,
-    _positive,
-    register_effect,
-    response_duration_s,
-    rig_accelerance,
-    simulate_response,
-)
+from gasfilm.analysis.physics.elements import PAPER_MASS_KG, PAPER_MODELS, PAPER_TABLE1, accelerance
+from gasfilm.analysis.physics.effects import EFFECT_TYPES, AddedMass, ChannelDelay, CubicStiffness, Drift, Effect, ExtraMode, Mains, _number, _positive, register_effect
+from gasfilm.analysis.physics.response import response_duration_s, rig_accelerance, simulate_response
+from gasfilm.analysis.physics.spec import RigSpec
 from gasfilm.drivers.errors import SettingError
 
 RIGS = Path(__file__).resolve().parents[1] / "fixtures" / "rigs"

@@ -9,18 +9,10 @@ import numpy as np
 import pytest
 import scipy.signal
 
-from gasfilm.analysis.models import PAPER_MASS_KG, PAPER_MODELS, PAPER_TABLE1, accelerance
-from gasfilm.analysis.rig import (
-    AddedMass,
-    ChannelDelay,
-    CubicStiffness,
-    Drift,
-    ExtraMode,
-    Mains,
-    RigSpec,
-    rig_accelerance,
-    simulate_response,
-)
+from gasfilm.analysis.physics.elements import PAPER_MASS_KG, PAPER_MODELS, PAPER_TABLE1, accelerance
+from gasfilm.analysis.physics.effects import AddedMass, ChannelDelay, CubicStiffness, Drift, ExtraMode, Mains
+from gasfilm.analysis.physics.response import rig_accelerance, simulate_response
+from gasfilm.analysis.physics.spec import RigSpec
 from gasfilm.drivers import open_device
 from gasfilm.drivers.errors import (
     ADCOverloadWarning,

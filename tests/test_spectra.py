@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 from pyFRF import FRF
 
-from gasfilm.analysis.models import PAPER_MODELS, PAPER_TABLE1, accelerance
+from gasfilm.analysis.physics.elements import PAPER_MODELS, PAPER_TABLE1, accelerance
 from gasfilm.analysis.spectra import (
     FrfResult,
     WindowSettings,
@@ -16,7 +16,7 @@ from gasfilm.analysis.spectra import (
     remove_window_damping,
 )
 from gasfilm.analysis.capture import HitRecord, ImpactCapture, TriggerSettings
-from gasfilm.analysis.rig import RigSpec
+from gasfilm.analysis.physics.spec import RigSpec
 from gasfilm.analysis.validation import validate_hit
 from gasfilm.drivers.errors import SettingError
 from gasfilm.drivers.interface import default_hammer_and_accelerometer

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from gasfilm.analysis.capture import HitRecord, ImpactCapture, TriggerSettings
-from gasfilm.analysis.models import PAPER_MODELS, PAPER_TABLE1, accelerance
+from gasfilm.analysis.physics.elements import PAPER_MODELS, PAPER_TABLE1, accelerance
 from gasfilm.analysis.spectra import WindowSettings
 from gasfilm.analysis.validation import REASONS, ValidationSettings, Verdict, validate_hit
 from gasfilm.drivers.errors import SettingError

@@ -9,7 +9,7 @@ hit's time, film stiffness with the hit's level) make the model differ per hit:
   in parallel with the film — viscoelastic memory, the paper's FOMGF arms;
 * ``pneumatic-lag``: a lagged spring ``k_p / (1 + s τ)`` in parallel with the film — its damping is negative;
 * ``extra-mode``: a mass ``m_e`` on a spring and damper (``ω_e``, ``ζ_e``) riding on the mover, adding the dynamic
-  stiffness ``m_e s² (k_e + c_e s) / (m_e s² + k_e + c_e s)`` (as :class:`gasfilm.analysis.rig.ExtraMode`);
+  stiffness ``m_e s² (k_e + c_e s) / (m_e s² + k_e + c_e s)`` (as :class:`gasfilm.analysis.physics.effects.ExtraMode`);
 * ``added-mass``: the moving mass is ``m + Δm``;
 * ``drift``: the film's stiffness scales with ``1 + fraction_per_hour · t / 3600 s`` (t the hit's session time);
 * ``amplitude-nonlinearity``: the film stiffness gains ``Δk (J / J_ref)²`` (J the hit's impulse) — the equivalent
@@ -25,7 +25,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 import numpy as np
 
-from gasfilm.analysis.models import FilmModel, laplace_variable
+from gasfilm.analysis.physics.elements import FilmModel, laplace_variable
 
 
 @dataclass(frozen=True)

@@ -1,6 +1,6 @@
-"""Between rig specs (:mod:`gasfilm.analysis.rig`) and the diagnosis's augmented model, both ways.
+"""Between rig specs (:mod:`gasfilm.analysis.physics`) and the diagnosis's augmented model, both ways.
 
-Every catalog term that changes the rig has an effect type in :mod:`gasfilm.analysis.rig` (``pneumatic-lag`` and
+Every catalog term that changes the rig has an effect type in :mod:`gasfilm.analysis.physics` (``pneumatic-lag`` and
 ``ac-coupling`` included), so an improved spec loads and plays in the simulator in any process. ``film-memory`` needs no
 type: it extends the film network itself with a fractional Maxwell branch ``k_memory -- pot(eta_memory, alpha_memory)``. ``window-damping`` is a property of how the
 records were processed, not of the rig; the improved spec says so in a comment.
@@ -9,7 +9,7 @@ records were processed, not of the rig; the improved spec says so in a comment.
 spec's ``cubic-stiffness`` term ``k3·x³`` is its cause. The two are linked by equivalent linearisation: a hit of
 impulse J starts the mover at ``x0 = J / (M ω0)`` and the windowed FRF sees on average ``Δk = c · k3 · x0²`` with
 c ≈ 1/4. The constant only needs to be used consistently: the diagnosis replays a hardening model with the exact
-nonlinear simulation of :mod:`gasfilm.analysis.rig` at ``k3 = Δk / (c x0²)``, so what it fits is the spec's k3.
+nonlinear simulation of :mod:`gasfilm.analysis.physics` at ``k3 = Δk / (c x0²)``, so what it fits is the spec's k3.
 """
 
 from __future__ import annotations
@@ -19,20 +19,9 @@ import dataclasses
 import numpy as np
 
 from gasfilm.analysis.diagnosis.catalog import AugmentedModel
-from gasfilm.analysis.models import PAPER_MODELS, get_model
-from gasfilm.analysis.rig import (
-    CHANNELS,
-    AddedMass,
-    ChannelDelay,
-    CubicStiffness,
-    Drift,
-    Effect,
-    ExtraMode,
-    Mains,
-    AcCoupling,
-    PneumaticLag,
-    RigSpec,
-)
+from gasfilm.analysis.physics.elements import PAPER_MODELS, get_model
+from gasfilm.analysis.physics.effects import CHANNELS, AddedMass, ChannelDelay, CubicStiffness, Drift, Effect, ExtraMode, Mains, AcCoupling, PneumaticLag
+from gasfilm.analysis.physics.spec import RigSpec
 from gasfilm.drivers.errors import SettingError
 
 #: Equivalent linearisation of a cubic spring seen through an FRF of a free decay: ``Δk = c · k3 · x0²``

@@ -173,7 +173,7 @@ def run(args: argparse.Namespace) -> int:
     _check_limits(args)
     rig_spec = None
     if args.rig is not None:
-        from gasfilm.analysis.rig import RigSpec
+        from gasfilm.analysis.physics.spec import RigSpec
 
         rig_spec = RigSpec.load(args.rig)
     trigger = TriggerSettings(level_n=args.trigger_n, pretrigger_s=args.pretrigger_s, record_s=args.record_s)

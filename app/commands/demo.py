@@ -16,9 +16,9 @@ import numpy as np
 from gasfilm.analysis.acquisition import AcquisitionLoop
 from gasfilm.analysis.capture import ImpactCapture, TriggerSettings
 from gasfilm.analysis.identify import fit_model
-from gasfilm.analysis.models import PAPER_MODELS
+from gasfilm.analysis.physics.elements import PAPER_MODELS
 from gasfilm.analysis.recording import HitRecorder
-from gasfilm.analysis.rig import RigSpec
+from gasfilm.analysis.physics.spec import RigSpec
 from gasfilm.analysis.session import Session
 from gasfilm.analysis.spectra import WindowSettings, compute_frf
 from gasfilm.analysis.validation import ValidationSettings

@@ -13,7 +13,7 @@ import sys
 from pathlib import Path
 
 from gasfilm.analysis.diagnose import Diagnosis, diagnose
-from gasfilm.analysis.rig import RigSpec
+from gasfilm.analysis.physics.spec import RigSpec
 from gasfilm.analysis.session import Session
 from gasfilm.drivers.errors import GasfilmError, SettingError
 

@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from gasfilm.analysis.identify import METHODS, compare_models, fit_model, format_table2
-from gasfilm.analysis.models import PAPER_MASS_KG, PAPER_MODEL_ORDER, get_model
+from gasfilm.analysis.physics.elements import PAPER_MASS_KG, PAPER_MODEL_ORDER, get_model
 from gasfilm.drivers.errors import SettingError
 
 DEFAULT_BAND_HZ = (20.0, 1000.0)
@@ -90,7 +90,7 @@ def _session_frf(session):
 
 
 def _session_mass_kg(session) -> float:
-    from gasfilm.analysis.rig import RigSpec
+    from gasfilm.analysis.physics.spec import RigSpec
 
     toml = session.rig_spec_toml
     return RigSpec.from_toml(toml, f"{session.path} rig spec").mass_kg if toml else PAPER_MASS_KG

@@ -19,8 +19,8 @@ from gasfilm.analysis.acquisition import AcquisitionLoop
 from gasfilm.analysis.capture import TriggerSettings
 from gasfilm.analysis.diagnose import diagnose, load_recordings
 from gasfilm.analysis.identify import compare_models, fit_model
-from gasfilm.analysis.models import get_model
-from gasfilm.analysis.rig import RigSpec
+from gasfilm.analysis.physics.elements import get_model
+from gasfilm.analysis.physics.spec import RigSpec
 from gasfilm.analysis.session import Session
 from gasfilm.analysis.spectra import FrfResult, WindowSettings, frf_from_hits, write_frf_csv
 from gasfilm.analysis.uff import export_frf_uff

@@ -21,8 +21,9 @@ os.environ.setdefault("QT_QPA_PLATFORM", "offscreen")
 from PySide6.QtCore import QSettings  # noqa: E402
 from PySide6.QtWidgets import QApplication  # noqa: E402
 
-from gasfilm.analysis.models import PAPER_MODEL_ORDER  # noqa: E402
-from gasfilm.analysis.rig import ExtraMode, RigSpec  # noqa: E402
+from gasfilm.analysis.physics.elements import PAPER_MODEL_ORDER  # noqa: E402
+from gasfilm.analysis.physics.effects import ExtraMode  # noqa: E402
+from gasfilm.analysis.physics.spec import RigSpec  # noqa: E402
 from gasfilm.app.gui.main_window import MainWindow  # noqa: E402
 
 DEFAULT_OUT = Path(__file__).resolve().parents[2] / "docs" / "screenshots"

@@ -25,7 +25,7 @@ from PySide6.QtWidgets import (
 
 import gasfilm.drivers as drivers
 from gasfilm.analysis.capture import SLOPES, TriggerSettings
-from gasfilm.analysis.rig import RigSpec
+from gasfilm.analysis.physics.spec import RigSpec
 from gasfilm.analysis.spectra import WindowSettings
 from gasfilm.analysis.validation import ValidationSettings
 from gasfilm.app.gui.sensors import DEFAULT_SENSOR_LIBRARY, Sensor, load_sensor_library

@@ -20,7 +20,7 @@ from PySide6.QtCore import QCoreApplication, QObject, Qt, QThread, QTimer, Signa
 from gasfilm.analysis.acquisition import AcquisitionLoop
 from gasfilm.analysis.capture import HitRecord, ImpactCapture, TriggerSettings
 from gasfilm.analysis.recording import HitEvent, HitRecorder
-from gasfilm.analysis.rig import RigSpec
+from gasfilm.analysis.physics.spec import RigSpec
 from gasfilm.analysis.session import Session
 from gasfilm.analysis.spectra import WindowSettings, frf_from_hits
 from gasfilm.analysis.validation import ValidationSettings, Verdict

@@ -27,16 +27,10 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from sessions import record_session, windowed_copy  # noqa: E402
 
-from gasfilm.analysis.rig import (  # noqa: E402
-    AddedMass,
-    ChannelDelay,
-    CubicStiffness,
-    Drift,
-    Effect,
-    ExtraMode,
-    Mains,
-    RigSpec,
+from gasfilm.analysis.physics.effects import (  # noqa: E402
+    AddedMass, ChannelDelay, CubicStiffness, Drift, Effect, ExtraMode, Mains,
 )
+from gasfilm.analysis.physics.spec import RigSpec  # noqa: E402
 from gasfilm.analysis.diagnosis.rigspec import AcCoupling, PneumaticLag  # noqa: E402  (also registers them in the rig)
 
 K_N_PER_M = 3.78e7

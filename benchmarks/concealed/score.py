@@ -25,7 +25,7 @@ import numpy as np
 from gasfilm.analysis.diagnose import _evidence_for, _nonlinear_replay, _replayed_mean, diagnose, load_recordings
 from gasfilm.analysis.diagnosis.measurement import hit_spectra
 from gasfilm.analysis.diagnosis.rigspec import model_from_spec
-from gasfilm.analysis.rig import RigSpec
+from gasfilm.analysis.physics.spec import RigSpec
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from sessions import record_session  # noqa: E402

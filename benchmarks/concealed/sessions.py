@@ -9,7 +9,7 @@ import numpy as np
 
 from gasfilm.analysis.capture import ImpactCapture, TriggerSettings
 from gasfilm.analysis.recording import HitRecorder
-from gasfilm.analysis.rig import RigSpec
+from gasfilm.analysis.physics.spec import RigSpec
 from gasfilm.analysis.session import Session
 from gasfilm.analysis.spectra import WindowSettings
 from gasfilm.analysis.validation import ValidationSettings

@@ -17,7 +17,7 @@ from generate import NOMINAL  # noqa: E402
 from sessions import record_session  # noqa: E402
 
 from gasfilm.analysis.diagnose import diagnose  # noqa: E402
-from gasfilm.analysis.rig import AddedMass, ChannelDelay, CubicStiffness, Drift, ExtraMode  # noqa: E402
+from gasfilm.analysis.physics.effects import AddedMass, ChannelDelay, CubicStiffness, Drift, ExtraMode  # noqa: E402
 
 SESSIONS = {
     "clean": (),

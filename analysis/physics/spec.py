@@ -1,0 +1,360 @@
+"""The rig spec: mover mass, film model and parameters, sensors, hammer defaults and effects, read from TOML
+(``docs/rig-spec.md``) and written back.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Callable, Mapping, Sequence
+
+
+from gasfilm.analysis.physics.elements import PAPER_MASS_KG, PAPER_MODELS, PAPER_TABLE1, FilmModel, get_model
+from gasfilm.drivers.errors import SettingError
+
+from gasfilm.analysis.physics.effects import (
+    CHANNELS,
+    DEFAULT_ACCELERATION_NOISE_M_S2_PER_SQRT_HZ,
+    DEFAULT_ACCELERATION_SENSITIVITY_MV_PER_M_S2,
+    DEFAULT_FORCE_NOISE_N_PER_SQRT_HZ,
+    DEFAULT_FORCE_SENSITIVITY_MV_PER_N,
+    EFFECT_TYPES,
+    TIPS_PULSE_WIDTH_S,
+    Effect,
+    EffectValueError,
+    _any_number,
+    _fraction,
+    _non_negative,
+    _positive,
+)
+# --- the spec ------------------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class SensorSpec:
+    """A sensor's true sensitivity (mV per SI unit) and noise density (SI unit per √Hz)."""
+
+    sensitivity_mv: float
+    noise_per_sqrt_hz: float
+
+    @property
+    def sensitivity_v_per_si(self) -> float:
+        return self.sensitivity_mv * 1e-3
+
+
+@dataclass(frozen=True)
+class HammerSpec:
+    """Defaults for the simulated hammer."""
+
+    tip: str = "medium"
+    force_n: float = 200.0
+    force_spread: float = 0.2
+    double_hit_rate: float = 0.0
+
+
+DEFAULT_FORCE_SENSOR = SensorSpec(DEFAULT_FORCE_SENSITIVITY_MV_PER_N, DEFAULT_FORCE_NOISE_N_PER_SQRT_HZ)
+DEFAULT_ACCELERATION_SENSOR = SensorSpec(
+    DEFAULT_ACCELERATION_SENSITIVITY_MV_PER_M_S2, DEFAULT_ACCELERATION_NOISE_M_S2_PER_SQRT_HZ
+)
+_DEFAULT_SENSORS = {"force": DEFAULT_FORCE_SENSOR, "acceleration": DEFAULT_ACCELERATION_SENSOR}
+
+_SENSOR_KEYS = {
+    "force": ("sensitivity_mv_per_n", "noise_n_per_sqrt_hz"),
+    "acceleration": ("sensitivity_mv_per_m_s2", "noise_m_s2_per_sqrt_hz"),
+}
+
+
+@dataclass(frozen=True)
+class RigSpec:
+    """A rig: mass, film model and parameters, sensors, hammer defaults and effects (``docs/rig-spec.md``)."""
+
+    name: str
+    mass_kg: float
+    film_model: str
+    film_parameters: Mapping[str, float]
+    force_sensor: SensorSpec = DEFAULT_FORCE_SENSOR
+    acceleration_sensor: SensorSpec = DEFAULT_ACCELERATION_SENSOR
+    hammer: HammerSpec | None = None
+    effects: tuple[Effect, ...] = ()
+    source: str = field(default="rig spec", compare=False)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "film_parameters", {k: float(v) for k, v in self.film_parameters.items()})
+        object.__setattr__(self, "effects", tuple(self.effects))
+        _validate_spec(self)
+
+    # construction ---------------------------------------------------------------------------------------------
+
+    @classmethod
+    def nominal(
+        cls,
+        film: str = "FOMGF",
+        mass_kg: float = PAPER_MASS_KG,
+        parameters: Mapping[str, float] | None = None,
+        effects: Sequence[Effect] = (),
+    ) -> "RigSpec":
+        """The paper's rig: ``film`` is a paper model name (Table 1 parameters) or a network text + ``parameters``."""
+        model = get_model(film)
+        if parameters is None:
+            if model.name not in PAPER_TABLE1:
+                raise SettingError(f"rig spec: film '{film}' has no Table 1 parameters; pass parameters=")
+            parameters = PAPER_TABLE1[model.name]
+        model_text = model.name if model.name in PAPER_MODELS else model.text
+        return cls(
+            name=f"nominal {model_text} film on {mass_kg:g} kg",
+            mass_kg=mass_kg,
+            film_model=model_text,
+            film_parameters=dict(parameters),
+            effects=tuple(effects),
+            source="nominal rig spec",
+        )
+
+    @classmethod
+    def from_toml(cls, text: str, source: str = "rig spec") -> "RigSpec":
+        """Parse TOML text; errors name ``source`` (a file name) and the key at fault."""
+        try:
+            table = tomllib.loads(text)
+        except tomllib.TOMLDecodeError as error:
+            raise SettingError(f"{source}: not valid TOML: {error}") from None
+        return _spec_from_table(table, source)
+
+    @classmethod
+    def load(cls, path: str | Path) -> "RigSpec":
+        path = Path(path)
+        try:
+            text = path.read_text(encoding="utf-8")
+        except OSError as error:
+            raise SettingError(f"{path}: cannot read the rig spec ({error.strerror or error})") from None
+        return cls.from_toml(text, source=str(path))
+
+    def save(self, path: str | Path) -> None:
+        Path(path).write_text(self.to_toml(), encoding="utf-8")
+
+    def to_toml(self) -> str:
+        lines = ["# gasfilm rig spec (docs/rig-spec.md)", f"name = {_toml_value(self.name)}",
+                 f"mass_kg = {_toml_value(self.mass_kg)}", "", "[film]", f"model = {_toml_value(self.film_model)}",
+                 "", "[film.parameters]"]
+        lines += [f"{key} = {_toml_value(value)}" for key, value in self.film_parameters.items()]
+        for channel, sensor in (("force", self.force_sensor), ("acceleration", self.acceleration_sensor)):
+            sensitivity_key, noise_key = _SENSOR_KEYS[channel]
+            lines += ["", f"[sensors.{channel}]", f"{sensitivity_key} = {_toml_value(sensor.sensitivity_mv)}",
+                      f"{noise_key} = {_toml_value(sensor.noise_per_sqrt_hz)}"]
+        if self.hammer is not None:
+            lines += ["", "[hammer]"]
+            lines += [f"{k} = {_toml_value(v)}" for k, v in dataclasses.asdict(self.hammer).items()]
+        for effect in self.effects:
+            lines += ["", "[[effects]]"]
+            lines += [f"{k} = {_toml_value(v)}" for k, v in effect.to_table().items()]
+        return "\n".join(lines) + "\n"
+
+    # derived --------------------------------------------------------------------------------------------------
+
+    @property
+    def film(self) -> FilmModel:
+        return get_model(self.film_model)
+
+    @property
+    def moving_mass_kg(self) -> float:
+        return self.mass_kg + sum(effect.added_mass_kg() for effect in self.effects)
+
+    @property
+    def cubic_stiffness_n_per_m3(self) -> float:
+        return sum(effect.cubic_stiffness_n_per_m3() for effect in self.effects)
+
+    @property
+    def is_linear(self) -> bool:
+        return self.cubic_stiffness_n_per_m3 == 0.0
+
+    def sensor(self, channel: str) -> SensorSpec:
+        return self.force_sensor if channel == "force" else self.acceleration_sensor
+
+    def film_scale(self, time_s: float) -> float:
+        scale = 1.0
+        for effect in self.effects:
+            scale *= effect.film_scale(time_s)
+        return scale
+
+    def with_effects(self, *effects: Effect) -> "RigSpec":
+        """A copy with more effects appended."""
+        return dataclasses.replace(self, effects=self.effects + tuple(effects))
+
+
+def _toml_value(value: Any) -> str:
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, (int, float)):
+        return repr(float(value))
+    if isinstance(value, str):
+        return json.dumps(value, ensure_ascii=False)
+    if isinstance(value, (list, tuple)):
+        return "[" + ", ".join(_toml_value(item) for item in value) + "]"
+    raise TypeError(f"cannot write {value!r} to TOML")
+
+
+def _check_keys(table: Mapping[str, Any], allowed: Sequence[str], where: str) -> None:
+    for key in table:
+        if key not in allowed:
+            raise SettingError(f"{where}: unknown key '{key}'; allowed: {', '.join(allowed)}")
+
+
+def _float_value(value: Any, where: str, rule: Callable[[float], str | None], unit: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        raise SettingError(f"{where} = {value!r}: must be a finite number ({unit})")
+    problem = rule(float(value))
+    if problem:
+        raise SettingError(f"{where} = {value!r}: {problem} ({unit})")
+    return float(value)
+
+
+def _table(table: Mapping[str, Any], key: str, where: str) -> Mapping[str, Any]:
+    value = table.get(key, {})
+    if not isinstance(value, Mapping):
+        raise SettingError(f"{where} key '{key}': must be a table")
+    return value
+
+
+def _spec_from_table(table: Mapping[str, Any], source: str) -> RigSpec:
+    _check_keys(table, ("name", "mass_kg", "film", "sensors", "hammer", "effects"), source)
+    if "mass_kg" not in table:
+        raise SettingError(f"{source}: key 'mass_kg' is missing (the mover's mass in kg)")
+    mass_kg = _float_value(table["mass_kg"], f"{source} key 'mass_kg'", _positive, "kg")
+    name = table.get("name", Path(source).stem)
+    if not isinstance(name, str):
+        raise SettingError(f"{source} key 'name': must be a string")
+    film = _table(table, "film", source)
+    _check_keys(film, ("model", "parameters"), f"{source} [film]")
+    model_text = film.get("model")
+    if not isinstance(model_text, str):
+        raise SettingError(f"{source} key 'film.model': missing; a paper model name or a network such as "
+                           f"'k || dashpot(eta)'")
+    try:
+        get_model(model_text)
+    except SettingError as error:
+        raise SettingError(f"{source} key 'film.model': {error}") from None
+    parameters = {
+        key: _float_value(value, f"{source} key 'film.parameters.{key}'", _any_number, "SI")
+        for key, value in _table(film, "parameters", f"{source} [film]").items()
+    }
+    sensors = _table(table, "sensors", source)
+    _check_keys(sensors, CHANNELS, f"{source} [sensors]")
+    sensor_specs = {}
+    for channel in CHANNELS:
+        default = _DEFAULT_SENSORS[channel]
+        sensor = _table(sensors, channel, f"{source} [sensors]")
+        sensitivity_key, noise_key = _SENSOR_KEYS[channel]
+        _check_keys(sensor, (sensitivity_key, noise_key), f"{source} [sensors.{channel}]")
+        sensor_specs[channel] = SensorSpec(
+            _float_value(sensor.get(sensitivity_key, default.sensitivity_mv),
+                         f"{source} key 'sensors.{channel}.{sensitivity_key}'", _positive, "mV per SI unit"),
+            _float_value(sensor.get(noise_key, default.noise_per_sqrt_hz),
+                         f"{source} key 'sensors.{channel}.{noise_key}'", _non_negative, "SI unit/√Hz"),
+        )
+    hammer = None
+    if "hammer" in table:
+        hammer_table = _table(table, "hammer", source)
+        _check_keys(hammer_table, [f.name for f in dataclasses.fields(HammerSpec)], f"{source} [hammer]")
+        tip = hammer_table.get("tip", HammerSpec.tip)
+        if tip not in TIPS_PULSE_WIDTH_S:
+            raise SettingError(f"{source} key 'hammer.tip' = {tip!r}: allowed: {', '.join(TIPS_PULSE_WIDTH_S)}")
+        hammer = HammerSpec(
+            tip=tip,
+            force_n=_float_value(hammer_table.get("force_n", HammerSpec.force_n), f"{source} key 'hammer.force_n'",
+                                 _positive, "N"),
+            force_spread=_float_value(hammer_table.get("force_spread", HammerSpec.force_spread),
+                                      f"{source} key 'hammer.force_spread'", _fraction, "fraction"),
+            double_hit_rate=_float_value(hammer_table.get("double_hit_rate", HammerSpec.double_hit_rate),
+                                         f"{source} key 'hammer.double_hit_rate'", _fraction, "fraction of hits"),
+        )
+    effect_tables = table.get("effects", [])
+    if not isinstance(effect_tables, list):
+        raise SettingError(f"{source} key 'effects': must be an array of tables ([[effects]])")
+    effects = tuple(_effect_from_table(item, f"{source} effects[{index}]") for index, item in
+                    enumerate(effect_tables))
+    return RigSpec(name, mass_kg, model_text, parameters, sensor_specs["force"], sensor_specs["acceleration"],
+                   hammer, effects, source)
+
+
+def _effect_from_table(table: Any, where: str) -> Effect:
+    if not isinstance(table, Mapping):
+        raise SettingError(f"{where}: must be a table")
+    type_name = table.get("type")
+    if type_name not in EFFECT_TYPES:
+        raise SettingError(f"{where}: unknown effect type {type_name!r}; known: {', '.join(EFFECT_TYPES)}")
+    cls = EFFECT_TYPES[type_name]
+    fields = {f.name: f for f in dataclasses.fields(cls)}
+    _check_keys(table, ("type", *fields), f"{where} ({type_name})")
+    values: dict[str, Any] = {}
+    for name, item in fields.items():
+        key_where = f"{where} ({type_name}) key '{name}'"
+        if name not in table:
+            if item.default is dataclasses.MISSING:
+                raise SettingError(f"{key_where}: missing ({item.metadata.get('unit', '')})")
+            continue
+        value = table[name]
+        if item.metadata.get("list"):
+            if not isinstance(value, list):
+                raise SettingError(f"{key_where} = {value!r}: must be a list of numbers")
+            values[name] = tuple(value)
+        else:
+            values[name] = value
+    effect = cls(**values)
+    _check_effect(effect, where)
+    return effect
+
+
+def _check_effect(effect: Effect, where: str) -> None:
+    """Apply the field rules (numbers, units, choices) and the effect's own ``validate``."""
+    type_name = type(effect).type_name
+    for item in dataclasses.fields(effect):
+        value = getattr(effect, item.name)
+        key_where = f"{where} ({type_name}) key '{item.name}'"
+        if "choices" in item.metadata:
+            if value not in item.metadata["choices"]:
+                raise SettingError(f"{key_where} = {value!r}: allowed: {', '.join(item.metadata['choices'])}")
+        elif item.metadata.get("list"):
+            for entry in value:
+                _float_value(entry, key_where, _any_number, item.metadata["unit"])
+        elif "rule" in item.metadata:
+            _float_value(value, key_where, item.metadata["rule"], item.metadata["unit"])
+    try:
+        effect.validate()
+    except EffectValueError as error:
+        value = getattr(effect, error.key)
+        raise SettingError(f"{where} ({type_name}) key '{error.key}' = {value!r}: {error}") from None
+
+
+def _validate_spec(spec: RigSpec) -> None:
+    source = spec.source
+    _float_value(spec.mass_kg, f"{source} key 'mass_kg'", _positive, "kg")
+    try:
+        model = get_model(spec.film_model)
+    except SettingError as error:
+        raise SettingError(f"{source} key 'film.model': {error}") from None
+    for parameter in model.parameters:
+        key = f"{source} key 'film.parameters.{parameter.name}'"
+        if parameter.name not in spec.film_parameters:
+            raise SettingError(f"{key}: missing; {model.name} needs {', '.join(model.parameter_names)}")
+        value = spec.film_parameters[parameter.name]
+        if parameter.scale == "log":
+            _float_value(value, key, _positive, parameter.unit)
+        elif not 0.0 <= value <= 2.0:
+            raise SettingError(f"{key} = {value!r}: an order must be between 0 and 2")
+    for name in spec.film_parameters:
+        if name not in model.parameter_names:
+            raise SettingError(f"{source} key 'film.parameters.{name}': not a parameter of {model.name} "
+                               f"({', '.join(model.parameter_names)})")
+    for index, effect in enumerate(spec.effects):
+        if type(effect).type_name not in EFFECT_TYPES:
+            raise SettingError(f"{source} effects[{index}]: {type(effect).__name__} is not a registered effect")
+        _check_effect(effect, f"{source} effects[{index}]")
+    for channel in CHANNELS:
+        sensor = spec.sensor(channel)
+        sensitivity_key, noise_key = _SENSOR_KEYS[channel]
+        _float_value(sensor.sensitivity_mv, f"{source} key 'sensors.{channel}.{sensitivity_key}'", _positive, "mV")
+        _float_value(sensor.noise_per_sqrt_hz, f"{source} key 'sensors.{channel}.{noise_key}'", _non_negative, "SI")
+
+
