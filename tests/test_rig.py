@@ -102,8 +102,10 @@ def test_bad_effect_gives_one_line_error_naming_file_and_key(effect, key, tmp_pa
 
 
 def test_effects_made_in_code_are_checked_too():
-    with pytest.raises(SettingError, match=r"effects\[0\] \(added-mass\) key 'mass_kg' = -1.0: must be > 0"):
-        RigSpec.nominal("SD").with_effects(AddedMass(-1.0))
+    with pytest.raises(SettingError, match=r"effects\[0\] \(added-mass\) key 'mass_kg' = 0.0: must not be 0"):
+        RigSpec.nominal("SD").with_effects(AddedMass(0.0))
+    with pytest.raises(SettingError, match="moving mass with the added masses is -4.95 kg"):
+        RigSpec.nominal("SD").with_effects(AddedMass(-30.0))
     with pytest.raises(SettingError, match="allowed: force, acceleration"):
         RigSpec.nominal("SD").with_effects(ChannelDelay("velocity", 1e-5))
 

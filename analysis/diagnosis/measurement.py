@@ -21,7 +21,7 @@ from typing import Callable
 import numpy as np
 import scipy.fft
 
-from gasfilm.analysis.diagnosis.catalog import HitConditions
+from gasfilm.analysis.physics.response import HitConditions
 from gasfilm.analysis.spectra import WindowSettings, exponential_window, force_window
 from gasfilm.drivers.errors import SettingError
 

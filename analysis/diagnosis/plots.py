@@ -1,29 +1,27 @@
-"""Before/after figures of a diagnosis (matplotlib, PNG, headless)."""
+"""What a caller keeps of a diagnosis: the improved spec (exactly the spec that was fitted) and before/after figures
+(matplotlib, PNG, headless)."""
 
 from __future__ import annotations
 
 from pathlib import Path
-from typing import TYPE_CHECKING
-
 import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-if TYPE_CHECKING:
-    from gasfilm.analysis.diagnose import Diagnosis
+from gasfilm.analysis.diagnosis.pipeline import per_frequency_residual, per_hit_residual, replayed_mean
+from gasfilm.analysis.diagnosis.result import Diagnosis
+from gasfilm.drivers.interface import STANDARD_GRAVITY_M_S2 as G_M_S2
 
-G_M_S2 = 9.80665
 
-
-def write_figures(diagnosis: "Diagnosis", out_dir: Path) -> list[str]:
+def write_figures(diagnosis: Diagnosis, out_dir: Path) -> list[str]:
     """``diagnosis-overlay.png`` (H1 recorded, spec as given and improved spec, replayed the same way) and
     ``diagnosis-residual.png`` (noise-weighted residual per frequency before/after, and per hit)."""
     out_dir.mkdir(parents=True, exist_ok=True)
     spectra = diagnosis.spectra
     freq_hz = spectra.freq_hz
-    measured = diagnosis.replayed_mean(None)
-    given = diagnosis.replayed_mean(diagnosis.given_model)
-    improved = diagnosis.replayed_mean(diagnosis.improved_model)
+    measured = replayed_mean(spectra, None)
+    given = replayed_mean(spectra, diagnosis.given)
+    improved = replayed_mean(spectra, diagnosis.improved)
 
     figure = Figure(figsize=(9, 7))
     FigureCanvasAgg(figure)
@@ -48,17 +46,18 @@ def write_figures(diagnosis: "Diagnosis", out_dir: Path) -> list[str]:
     figure = Figure(figsize=(9, 7))
     FigureCanvasAgg(figure)
     axes = figure.subplots(2, 1)
-    for model, label, colour in ((diagnosis.given_model, "spec as given", "C3"),
-                                 (diagnosis.improved_model, "improved spec", "C0")):
-        axes[0].plot(freq_hz, diagnosis.weighted_residual(model), color=colour, lw=1.0, label=label)
+    for spec, label, colour in ((diagnosis.given, "spec as given", "C3"), (diagnosis.improved, "improved spec", "C0")):
+        axes[0].plot(freq_hz, per_frequency_residual(diagnosis, spec), color=colour, lw=1.0, label=label)
+    for item in diagnosis.unexplained:
+        axes[0].axvspan(*item.band_hz, color="C3", alpha=0.10)
     axes[0].axhline(1.0, color="k", lw=0.6, ls="--")
     axes[0].set_yscale("log")
     axes[0].set_xlabel("frequency (Hz)")
     axes[0].set_ylabel("χ² per point (1 = noise)")
     axes[0].legend(fontsize=8)
-    per_hit = diagnosis.per_hit_residual(diagnosis.improved_model)
+    per_hit = per_hit_residual(diagnosis, diagnosis.improved)
     hit_numbers = spectra.hit_numbers
-    axes[1].plot(hit_numbers, diagnosis.per_hit_residual(diagnosis.given_model), "o", color="C3",
+    axes[1].plot(hit_numbers, per_hit_residual(diagnosis, diagnosis.given), "o", color="C3",
                  label="spec as given")
     axes[1].plot(hit_numbers, per_hit, "s", color="C0", label="improved spec")
     axes[1].axhline(1.0, color="k", lw=0.6, ls="--")
@@ -69,3 +68,14 @@ def write_figures(diagnosis: "Diagnosis", out_dir: Path) -> list[str]:
     residual = out_dir / "diagnosis-residual.png"
     figure.savefig(residual, dpi=110)
     return [str(overlay), str(residual)]
+
+
+def write_outputs(diagnosis: Diagnosis, out_dir: Path) -> None:
+    """Write the improved spec (the spec that was fitted, exactly) and the figures into ``out_dir``; the paths are
+    kept in ``diagnosis.improved_spec_path`` and ``diagnosis.figures``."""
+    out_dir.mkdir(parents=True, exist_ok=True)
+    spec_path = out_dir / "improved-rig.toml"
+    header = "".join(f"# {note}\n" for note in diagnosis.notes)
+    spec_path.write_text(header + diagnosis.improved.to_toml(), encoding="utf-8")
+    diagnosis.improved_spec_path = str(spec_path)
+    diagnosis.figures = write_figures(diagnosis, out_dir)

@@ -1,42 +1,49 @@
-"""Weighted fits of the augmented model and forward selection of effects on held-out hits.
+"""Weighted fits of rig specs to the recordings and the statistics that decide whether a term earns its place.
 
-The misfit of a model is ``χ² = Σ_i Σ_f |H_i(f) − M_i(f)|² / v_i(f)`` over hits i and analysis frequencies f, with
-``v_i`` the measured noise variance of hit i's FRF. When no effect varies from hit to hit it equals
+The misfit of a spec is ``χ² = Σ_i Σ_f |H_i(f) − M_i(f)|² / v_i(f)`` over hits i and analysis frequencies f, with
+``v_i`` the measured noise variance of hit i's FRF and ``M_i`` the spec's accelerance for that hit
+(:func:`gasfilm.analysis.physics.response.rig_accelerance`). When the spec is the same for every hit it equals
 ``Σ_f W(f) |H̄(f) − M(f)|²`` plus a constant (H̄ the weighted mean = H1, W the summed weight), which is what is fitted
-then: twenty times fewer numbers. A term enters the model only when it lowers χ² by more than its BIC cost on all
-hits *and* lowers it on hits that were not used to fit it (odd hits predict even hits and the reverse).
+then: twenty times fewer numbers. A term enters only when it lowers χ² by more than its BIC cost on all hits *and*
+lowers it on hits that were not used to fit it (odd hits predict even hits and the reverse).
 """
 
 from __future__ import annotations
 
+import logging
 from dataclasses import dataclass
+from typing import Callable
 
 import numpy as np
 from scipy.optimize import least_squares
 
-from gasfilm.analysis.diagnosis.catalog import (
-    CATALOG,
-    AugmentedModel,
-    HitConditions,
-    ParameterSlot,
-    effect_slots,
-    film_slots,
-    read_slots,
-    write_slots,
-)
+from gasfilm.analysis.diagnosis.fitspace import Slot, read_vector, spec_slots, with_effect, write_vector
+from gasfilm.analysis.diagnosis.candidates import starting_effects
 from gasfilm.analysis.diagnosis.measurement import HitSpectra
+from gasfilm.analysis.physics.effects import FitContext
+from gasfilm.analysis.physics.response import HitConditions, rig_accelerance
+from gasfilm.analysis.physics.spec import RigSpec
 
-#: Held-out improvement (χ² units, both folds together) a new term must reach.
+logger = logging.getLogger(__name__)
+
+#: Held-out improvement (χ² units, both folds together, in units of the noise scale) a new term must reach.
 HELD_OUT_THRESHOLD = 25.0
 #: Extra χ² margin on top of the BIC penalty p·ln(N).
 BIC_MARGIN = 10.0
 
 
+def model_function(spec: RigSpec, conditions: HitConditions) -> Callable[[np.ndarray, float], np.ndarray]:
+    """``(freq_hz, σ) → accelerance`` of the spec: per hit when the spec differs between hits, else one curve."""
+    if spec.is_per_hit:
+        return lambda freq_hz, decay_rate_1_s: rig_accelerance(spec, freq_hz, decay_rate_1_s, conditions=conditions)
+    return lambda freq_hz, decay_rate_1_s: rig_accelerance(spec, freq_hz, decay_rate_1_s)
+
+
 @dataclass
 class FitOutcome:
-    model: AugmentedModel
+    spec: RigSpec
     chi2: float
-    slots: list[ParameterSlot]
+    slots: list[Slot]
     covariance: np.ndarray  # in search space
     evaluations: int
 
@@ -44,8 +51,7 @@ class FitOutcome:
         """One standard deviation of a slot in its natural unit."""
         slot = self.slots[slot_index]
         sigma = float(np.sqrt(max(self.covariance[slot_index, slot_index], 0.0)))
-        value = read_slots(self.model, [slot])[0]
-        return float(slot.from_search(value) * sigma) if slot.scale == "log" else sigma
+        return float(slot.value(self.spec) * sigma) if slot.range.scale == "log" else sigma
 
 
 class Evidence:
@@ -61,72 +67,68 @@ class Evidence:
     def _subset(self, hits: np.ndarray | None) -> np.ndarray:
         return np.arange(self.hit_count) if hits is None else hits
 
-    def conditions(self, hits: np.ndarray) -> HitConditions:
-        c = self.spectra.conditions
-        return HitConditions(c.time_s[hits], c.impulse_ns[hits]) if len(hits) != len(c.time_s) else c
+    def predicted(self, spec: RigSpec, hits: np.ndarray | None = None) -> np.ndarray:
+        """The spec's accelerance on the grid: (hits, G) when it differs between hits, else (G,)."""
+        if not spec.is_per_hit:
+            return rig_accelerance(spec, self.freq_hz, self.decay_rate_1_s)
+        conditions = self.spectra.conditions
+        if hits is not None:
+            conditions = conditions.subset(hits)
+        return rig_accelerance(spec, self.freq_hz, self.decay_rate_1_s, conditions=conditions)
 
-    def per_hit(self, model: AugmentedModel) -> bool:
-        return any(CATALOG[e].per_hit for e in model.effects)
-
-    def residual(self, model: AugmentedModel, hits: np.ndarray | None = None) -> np.ndarray:
+    def residual(self, spec: RigSpec, hits: np.ndarray | None = None) -> np.ndarray:
         """Weighted residual vector (real and imaginary parts) whose squared norm is χ² up to a constant."""
-        hits = self._subset(hits)
-        if self.per_hit(model):
-            predicted = model.accelerance(self.freq_hz, self.decay_rate_1_s, self.spectra.conditions)[hits]
-            difference = (self.spectra.h[hits] - predicted) * np.sqrt(self.spectra.weight[hits])
+        rows = self._subset(hits)
+        if spec.is_per_hit:
+            difference = (self.spectra.h[rows] - self.predicted(spec, rows)) * np.sqrt(self.spectra.weight[rows])
         else:
-            mean, total = self.spectra.mean(hits)
-            difference = (mean - model.accelerance(self.freq_hz, self.decay_rate_1_s)) * np.sqrt(total)
+            mean, total = self.spectra.mean(rows)
+            difference = (mean - self.predicted(spec)) * np.sqrt(total)
         return np.concatenate((difference.real.ravel(), difference.imag.ravel()))
 
     def scatter_constant(self, hits: np.ndarray | None = None) -> float:
         """``Σ_i w_i |H_i − H̄|²``: the part of χ² no hit-independent model can remove."""
-        hits = self._subset(hits)
-        mean, _ = self.spectra.mean(hits)
-        return float(np.sum(self.spectra.weight[hits] * np.abs(self.spectra.h[hits] - mean) ** 2))
+        rows = self._subset(hits)
+        mean, _ = self.spectra.mean(rows)
+        return float(np.sum(self.spectra.weight[rows] * np.abs(self.spectra.h[rows] - mean) ** 2))
 
-    def chi2(self, model: AugmentedModel, hits: np.ndarray | None = None) -> float:
-        value = float(np.sum(self.residual(model, hits) ** 2))
-        return value if self.per_hit(model) else value + self.scatter_constant(hits)
+    def chi2(self, spec: RigSpec, hits: np.ndarray | None = None) -> float:
+        value = float(np.sum(self.residual(spec, hits) ** 2))
+        return value if spec.is_per_hit else value + self.scatter_constant(hits)
 
-    def chi2_per_frequency(self, model: AugmentedModel) -> np.ndarray:
+    def chi2_per_hit_and_frequency(self, spec: RigSpec) -> np.ndarray:
+        """χ² contribution of every hit at every analysis frequency (hits, G)."""
+        return self.spectra.weight * np.abs(self.spectra.h - self.predicted(spec)) ** 2
+
+    def chi2_per_frequency(self, spec: RigSpec) -> np.ndarray:
         """χ² contribution of every analysis frequency (summed over hits)."""
-        predicted = model.accelerance(self.freq_hz, self.decay_rate_1_s, self.spectra.conditions)
-        if predicted.ndim == 1:
-            predicted = predicted[np.newaxis, :]
-        return np.sum(self.spectra.weight * np.abs(self.spectra.h - predicted) ** 2, axis=0)
+        return self.chi2_per_hit_and_frequency(spec).sum(axis=0)
 
-    def mean_prediction(self, model: AugmentedModel) -> np.ndarray:
-        """The model's FRF averaged over hits the way H1 averages the measurement."""
-        predicted = model.accelerance(self.freq_hz, self.decay_rate_1_s, self.spectra.conditions)
+    def mean_prediction(self, spec: RigSpec) -> np.ndarray:
+        """The spec's FRF averaged over hits the way H1 averages the measurement."""
+        predicted = self.predicted(spec)
         if predicted.ndim == 1:
             return predicted
         weight = self.spectra.weight
         return (weight * predicted).sum(axis=0) / weight.sum(axis=0)
 
 
-def fit(
-    evidence: Evidence,
-    model: AugmentedModel,
-    slots: list[ParameterSlot],
-    hits: np.ndarray | None = None,
-) -> FitOutcome:
-    """Weighted least squares of the slots (scaled search space) from the model's current values."""
+def fit(evidence: Evidence, spec: RigSpec, slots: list[Slot], hits: np.ndarray | None = None) -> FitOutcome:
+    """Weighted least squares of the slots (scaled search space) from the spec's current values."""
     if not slots:
-        return FitOutcome(model, evidence.chi2(model, hits), [], np.zeros((0, 0)), 1)
-    start = read_slots(model, slots)
+        return FitOutcome(spec, evidence.chi2(spec, hits), [], np.zeros((0, 0)), 1)
+    start = read_vector(spec, slots)
     bounds = np.array([slot.search_bounds() for slot in slots]).T
 
     def residual(vector: np.ndarray) -> np.ndarray:
-        return evidence.residual(write_slots(model, slots, np.clip(vector, bounds[0], bounds[1])), hits)
+        return evidence.residual(write_vector(spec, slots, np.clip(vector, bounds[0], bounds[1])), hits)
 
     # MINPACK's Levenberg-Marquardt (bounds by clipping inside the residual): several times faster than a
     # bounded trust-region solver on these tall problems
     result = least_squares(residual, start, x_scale="jac", method="lm", max_nfev=40 * (len(slots) + 1),
                            xtol=1e-9, ftol=1e-9)
-    fitted = write_slots(model, slots, np.clip(result.x, bounds[0], bounds[1]))
-    covariance = _covariance(result.jac)
-    return FitOutcome(fitted, evidence.chi2(fitted, hits), slots, covariance, int(result.nfev))
+    fitted = write_vector(spec, slots, np.clip(result.x, bounds[0], bounds[1]))
+    return FitOutcome(fitted, evidence.chi2(fitted, hits), slots, _covariance(result.jac), int(result.nfev))
 
 
 def _covariance(jacobian: np.ndarray) -> np.ndarray:
@@ -138,88 +140,33 @@ def _covariance(jacobian: np.ndarray) -> np.ndarray:
     return inverse / np.outer(norms, norms)
 
 
-def model_slots(model: AugmentedModel, free_film: bool = True) -> list[ParameterSlot]:
-    slots = film_slots(model) if free_film else []
-    for identifier in model.effects:
-        slots.extend(effect_slots(identifier))
-    return slots
-
-
-def initial_guesses(identifier: str, evidence: Evidence, model: AugmentedModel) -> list[dict[str, float]]:
-    """Starting values for a candidate term, chosen from the current model and the shape of the residual."""
-    freq_hz = evidence.freq_hz
-    resonance_hz = float(freq_hz[np.argmax(np.abs(evidence.mean_prediction(model)))])
-    s0 = 2j * np.pi * resonance_hz
-    film_stiffness = float(np.abs(model.film.stiffness(np.array([s0]), model.film_parameters))[0])
-    if identifier == "film-memory":
-        omega = 2 * np.pi * resonance_hz
-        return [
-            {"k_memory": k_factor * film_stiffness, "eta_memory": 0.01 * film_stiffness / omega**alpha,
-             "alpha_memory": alpha}
-            for alpha in (0.3, 0.8, 1.5) for k_factor in (0.1, 100.0)
-        ]
-    if identifier == "pneumatic-lag":
-        return [
-            {"k_lag": 0.01 * film_stiffness, "tau_lag": factor / (2 * np.pi * resonance_hz)}
-            for factor in (0.3, 1.0, 3.0)
-        ]
-    if identifier == "extra-mode":
-        excess = evidence.chi2_per_frequency(model)
-        smooth = np.convolve(excess, np.ones(5) / 5, mode="same")
-        order = np.argsort(smooth)[::-1]
-        picks: list[float] = []
-        for index in order:
-            if all(abs(freq_hz[index] - p) > 0.05 * p for p in picks) and abs(freq_hz[index] - resonance_hz) > 0.1 * resonance_hz:
-                picks.append(float(freq_hz[index]))
-            if len(picks) == 3:
-                break
-        return [{"freq_hz": f, "damping_ratio": 0.02, "mass_kg": 0.002 * model.mass_kg} for f in picks]
-    if identifier == "ac-coupling":
-        return [{"corner_hz": factor * float(freq_hz[0])} for factor in (0.05, 0.3)]
-    return [{parameter.name: 0.0 for parameter in CATALOG[identifier].parameters}]
-
-
-@dataclass
-class Step:
-    """One accepted term of the forward selection: χ² before and after it, and its gain on held-out hits."""
-
-    identifier: str
-    chi2_before: float
-    chi2_after: float
-    held_out_gain: float
-
-
 def bic(chi2: float, parameter_count: int, point_count: int) -> float:
     return chi2 + parameter_count * np.log(point_count)
 
 
-def _with_candidate(model: AugmentedModel, identifier: str, guess: dict[str, float]) -> AugmentedModel:
-    candidate = model.copy()
-    candidate.effects[identifier] = dict(guess)
-    return candidate
-
-
 def held_out_gain(
-    base_evidence: Evidence, base: AugmentedModel, augmented_evidence: Evidence, augmented: AugmentedModel
+    base_evidence: Evidence, base: RigSpec, augmented_evidence: Evidence, augmented: RigSpec, context: FitContext
 ) -> float:
-    """χ² improvement of ``augmented`` over ``base`` on hits not used to fit either (two folds, summed); each model
+    """χ² improvement of ``augmented`` over ``base`` on hits not used to fit either (two folds, summed); each spec
     is judged on the evidence replayed with it."""
     hits = np.arange(base_evidence.hit_count)
     folds = (hits[0::2], hits[1::2])
     gain = 0.0
     for train, test in (folds, folds[::-1]):
-        base_fit = fit(base_evidence, base, model_slots(base), train)
-        augmented_fit = fit(augmented_evidence, augmented, model_slots(augmented), train)
-        gain += base_evidence.chi2(base_fit.model, test) - augmented_evidence.chi2(augmented_fit.model, test)
+        base_fit = fit(base_evidence, base, spec_slots(base, context), train)
+        augmented_fit = fit(augmented_evidence, augmented, spec_slots(augmented, context), train)
+        gain += base_evidence.chi2(base_fit.spec, test) - augmented_evidence.chi2(augmented_fit.spec, test)
     return gain
 
 
-def best_candidate_fit(
-    evidence: Evidence, model: AugmentedModel, identifier: str
-) -> FitOutcome:
-    """The best full-data fit of the current model plus one candidate term over its starting values."""
+def best_candidate_fit(evidence: Evidence, spec: RigSpec, identifier: str, context: FitContext) -> FitOutcome | None:
+    """The best full-data fit of the spec plus one candidate term over its starting values (None: no start)."""
     outcomes = []
-    for guess in initial_guesses(identifier, evidence, model):
-        candidate = _with_candidate(model, identifier, guess)
-        outcomes.append(fit(evidence, candidate, model_slots(candidate)))
-    return min(outcomes, key=lambda outcome: outcome.chi2)
+    for effect in starting_effects(identifier, spec, evidence, context):
+        candidate = with_effect(spec, effect)
+        outcomes.append(fit(evidence, candidate, spec_slots(candidate, context)))
+    if not outcomes:
+        return None
+    best = min(outcomes, key=lambda outcome: outcome.chi2)
+    logger.debug("candidate %s: χ² %.1f after %d starts", identifier, best.chi2, len(outcomes))
+    return best

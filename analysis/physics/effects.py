@@ -1,5 +1,13 @@
-"""Effects: the ways a real rig departs from the ideal mass on a film (extra mode, hardening, delays, added mass,
-drift, mains, pneumatic lag, AC coupling). Each effect is one small class registered with :func:`register_effect`.
+"""Effects: the ways a real rig or its measurement chain departs from the ideal mass on a film.
+
+Each effect is defined here once: its parameters (units, and the physical ranges a fit may explore, derived from the
+rig and the session rather than fixed per-hour rates), its frequency-domain term (hooks of :class:`Effect`), its
+time-domain form where it is nonlinear (``cubic_stiffness_n_per_m3``, solved by :mod:`.response`), its spec entry
+(``to_table``), its plain-language explanation and its evidence sentence. The simulator, the replay, identification
+and the diagnosis all evaluate effects through :mod:`.response`, so what the diagnosis fits is what a spec plays.
+
+Kinds: ``rig`` (physics of the mover and film), ``measurement`` (the sensor/DAQ chain: reported as measurement, never
+as rig physics) and ``interference`` (additive signals such as mains, never fitted).
 """
 
 from __future__ import annotations
@@ -7,7 +15,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import dataclass, field
-from typing import Any, Callable, ClassVar
+from typing import Any, Callable, ClassVar, Mapping
 
 import numpy as np
 
@@ -59,6 +67,14 @@ def _number(unit: str, rule: Callable[[float], str | None] = _any_number, defaul
     return field(default=default, metadata={"unit": unit, "rule": rule})
 
 
+def _finite(value: float) -> str | None:
+    return None if math.isfinite(value) else "must be finite"
+
+
+def _order(value: float) -> str | None:
+    return None if 0.0 < value < 2.0 else "must be between 0 and 2"
+
+
 def _channel_field(default: Any = dataclasses.MISSING) -> Any:
     return field(default=default, metadata={"unit": "", "choices": CHANNELS})
 
@@ -67,19 +83,49 @@ def _channel_field(default: Any = dataclasses.MISSING) -> Any:
 
 
 @dataclass(frozen=True)
+class FitRange:
+    """Where a fit may look for one effect parameter: ``scale`` "log" (> 0) or "linear", and physical bounds."""
+
+    scale: str
+    lower: float
+    upper: float
+
+
+@dataclass(frozen=True)
+class FitContext:
+    """What bounds a term physically in one session: the mover, the film near resonance, the band and the hits."""
+
+    mass_kg: float
+    film_stiffness_n_per_m: float  # |Z_film| at the resonance
+    resonance_hz: float
+    band_hz: tuple[float, float]
+    session_span_s: float  # last hit time − first hit time
+    max_displacement_m: float  # initial displacement amplitude of the hardest hit, J / (M ω0)
+
+
+@dataclass(frozen=True)
 class Effect:
     """One departure from the ideal mass on a film. Subclasses set ``type_name`` and override the hooks they need."""
 
     type_name: ClassVar[str] = ""
+    kind: ClassVar[str] = "rig"  # "rig", "measurement" or "interference"
+    explanation: ClassVar[str] = ""
+    per_hit: ClassVar[bool] = False  # the term differs from hit to hit (session time, hit level)
 
     def validate(self) -> None:
         """Cross-field checks; raise :class:`EffectValueError` naming the key."""
 
+    # physics hooks ------------------------------------------------------------------------------------------------
+
     def added_mass_kg(self) -> float:
         return 0.0
 
-    def film_scale(self, time_s: float) -> float:
-        """Factor on the film's complex stiffness at session time ``time_s``."""
+    def film_scale(self, time_s: np.ndarray | float) -> np.ndarray | float:
+        """Factor on the film's whole complex stiffness at session time(s) ``time_s``."""
+        return 1.0
+
+    def viscous_scale(self, time_s: np.ndarray | float) -> np.ndarray | float:
+        """Extra factor on the film's viscous coefficients (dashpots, spring-pots) at session time(s) ``time_s``."""
         return 1.0
 
     def added_stiffness(self, s: np.ndarray) -> np.ndarray | float:
@@ -90,12 +136,30 @@ class Effect:
         """Multiplicative transfer applied to a channel's signal (``channel`` is "force" or "acceleration")."""
         return 1.0
 
+    def force_leak_m_s2_per_n(self) -> float:
+        """Part of the force signal that leaks into the acceleration channel, in (m/s²)/N (electrical cross-talk)."""
+        return 0.0
+
     def cubic_stiffness_n_per_m3(self) -> float:
         return 0.0
 
     def interference(self, channel: str, time_s: np.ndarray) -> np.ndarray | None:
         """An additive signal in the channel's SI unit at the given times, or ``None``."""
         return None
+
+    # diagnosis hooks ----------------------------------------------------------------------------------------------
+
+    def fit_ranges(self, context: FitContext) -> dict[str, FitRange]:
+        """The parameters a fit varies, with the physical ranges it may explore in this session."""
+        return {}
+
+    def implausible(self, context: FitContext) -> str | None:
+        """Why fitted values are physically absurd (then the term is no finding), or None."""
+        return None
+
+    def evidence(self, sigma: Mapping[str, float], where: str, context: FitContext) -> str:
+        """What the recordings show, in words, with this term's values; ``where`` names the band."""
+        return f"the term improves the fit in {where}"
 
     def to_table(self) -> dict[str, Any]:
         table: dict[str, Any] = {"type": self.type_name}
@@ -119,10 +183,21 @@ def register_effect(type_name: str) -> Callable[[type[Effect]], type[Effect]]:
     return register
 
 
+def _band_excitable(freq_hz: float, context: FitContext) -> str | None:
+    low, high = context.band_hz
+    if freq_hz < low or freq_hz > high:
+        return f"its frequency {freq_hz:.1f} Hz lies outside the analysis band {low:.0f}–{high:.0f} Hz"
+    return None
+
+
 @register_effect("extra-mode")
 @dataclass(frozen=True)
 class ExtraMode(Effect):
     """A mass–spring–damper attached to the mover (natural frequency measured with the mover held still)."""
+
+    explanation: ClassVar[str] = (
+        "Something on the mover (a plate, the sensor mount, the fixture) has its own resonance that adds a small "
+        "peak and dip to the measured FRF.")
 
     freq_hz: float = _number("Hz", _positive)
     damping_ratio: float = _number("1", _positive)
@@ -133,59 +208,212 @@ class ExtraMode(Effect):
         spring_damper = self.mass_kg * omega**2 + 2 * self.damping_ratio * self.mass_kg * omega * s
         return self.mass_kg * s**2 * spring_damper / (self.mass_kg * s**2 + spring_damper)
 
+    def fit_ranges(self, context: FitContext) -> dict[str, FitRange]:
+        low, high = context.band_hz
+        return {"freq_hz": FitRange("log", 0.5 * low, 1.5 * high), "damping_ratio": FitRange("log", 1e-4, 0.5),
+                "mass_kg": FitRange("log", 1e-6 * context.mass_kg, context.mass_kg)}
+
+    def implausible(self, context: FitContext) -> str | None:
+        if self.mass_kg > 0.2 * context.mass_kg:
+            return (f"its mass {self.mass_kg:.3g} kg is comparable to the mover's {context.mass_kg:.3g} kg: that is "
+                    f"not a part riding on the mover")
+        return _band_excitable(self.freq_hz, context)
+
+    def evidence(self, sigma: Mapping[str, float], where: str, context: FitContext) -> str:
+        return (f"a localised peak/dip pattern near {self.freq_hz:.1f} ± {sigma['freq_hz']:.1f} Hz that the film "
+                f"model cannot produce: an additional resonance of {self.mass_kg * 1e3:.3g} g "
+                f"(damping ratio {self.damping_ratio:.3g})")
+
 
 @register_effect("cubic-stiffness")
 @dataclass(frozen=True)
 class CubicStiffness(Effect):
-    """Hardening of the film: the restoring force gains ``k3·x³`` (nonlinear)."""
+    """The film spring depends on the amplitude: the restoring force gains ``k3·x³`` (k3 > 0 hardening, < 0
+    softening; nonlinear, solved in the time domain)."""
 
-    k3_n_per_m3: float = _number("N/m³", _positive)
+    explanation: ClassVar[str] = (
+        "The film stiffness depends on how hard the mover is hit: harder hits resonate at a different frequency "
+        "than softer ones (a nonlinear, cubic-type film spring).")
+    per_hit: ClassVar[bool] = True
+
+    k3_n_per_m3: float = _number("N/m³", _finite)
+
+    def validate(self) -> None:
+        if self.k3_n_per_m3 == 0:
+            raise EffectValueError("k3_n_per_m3", "must not be 0")
 
     def cubic_stiffness_n_per_m3(self) -> float:
         return self.k3_n_per_m3
+
+    def fit_ranges(self, context: FitContext) -> dict[str, FitRange]:
+        # the equivalent stiffness change of the hardest hit stays within ±50 % of the film's
+        limit = 0.5 * context.film_stiffness_n_per_m / (CUBIC_EQUIVALENT * context.max_displacement_m**2)
+        return {"k3_n_per_m3": FitRange("linear", -limit, limit)}
+
+    def evidence(self, sigma: Mapping[str, float], where: str, context: FitContext) -> str:
+        change = CUBIC_EQUIVALENT * self.k3_n_per_m3 * context.max_displacement_m**2 / context.film_stiffness_n_per_m
+        kind = "stiffer" if self.k3_n_per_m3 > 0 else "softer"
+        return (f"harder hits resonate differently from softer ones: the film is {kind} at large amplitude "
+                f"(k3 = {self.k3_n_per_m3:.3g} ± {sigma['k3_n_per_m3']:.2g} N/m³, {100 * change:+.2f} % stiffness at "
+                f"the hardest hit), in {where}")
+
+
+#: Equivalent linearisation of a cubic spring seen through the FRF of a free decay: ``Δk = c · k3 · x0²`` (harmonic
+#: balance gives 3/4 at amplitude x0; the decaying amplitude weights it down to about 1/4). Used only to start and
+#: bound fits; what is compared with the recordings is the exact nonlinear response.
+CUBIC_EQUIVALENT = 0.25
 
 
 @register_effect("channel-delay")
 @dataclass(frozen=True)
 class ChannelDelay(Effect):
-    """One channel's signal arrives ``delay_s`` late (cable, conditioning, a mismatched module)."""
+    """One channel's signal arrives ``delay_s`` late (negative: early) — cable, conditioning, a mismatched module."""
+
+    kind: ClassVar[str] = "measurement"
+    explanation: ClassVar[str] = (
+        "The response channel is shifted in time against the force channel: the phase error grows in proportion to "
+        "frequency while the magnitude is right.")
 
     channel: str = _channel_field()
-    delay_s: float = _number("s", _positive)
+    delay_s: float = _number("s", _finite)
+
+    def validate(self) -> None:
+        if not 0 < abs(self.delay_s) <= 0.1:
+            raise EffectValueError("delay_s", "must be non-zero and at most 0.1 s in size")
 
     def channel_transfer(self, channel: str, s: np.ndarray) -> np.ndarray | float:
         return np.exp(-s * self.delay_s) if channel == self.channel else 1.0
+
+    def fit_ranges(self, context: FitContext) -> dict[str, FitRange]:
+        # more than a quarter period at the top of the band would be a phase wrap, not a delay
+        limit = 0.25 / context.band_hz[1]
+        return {"delay_s": FitRange("linear", -limit, limit)}
+
+    def evidence(self, sigma: Mapping[str, float], where: str, context: FitContext) -> str:
+        top_hz = context.band_hz[1]
+        lag = self.delay_s if self.channel == "acceleration" else -self.delay_s
+        return (f"the phase error grows linearly with frequency while the magnitude matches: the response lags the "
+                f"force by {lag * 1e6:.1f} ± {sigma['delay_s'] * 1e6:.1f} µs ({360 * top_hz * lag:.2f}° at "
+                f"{top_hz:.0f} Hz)")
 
 
 @register_effect("added-mass")
 @dataclass(frozen=True)
 class AddedMass(Effect):
-    """Mass moving with the mover that the nominal mass leaves out (sensor, fixture, cable)."""
+    """Mass moving with the mover that the nominal mass leaves out (sensor, cable, fixture); negative: the nominal
+    mass was too large."""
 
-    mass_kg: float = _number("kg", _positive)
+    explanation: ClassVar[str] = (
+        "The moving mass is not the nominal one (sensor, cable, fixture or a wrong nominal value): the "
+        "high-frequency level 1/m and the resonance both move as a mass change predicts.")
+
+    mass_kg: float = _number("kg", _finite)
+
+    def validate(self) -> None:
+        if self.mass_kg == 0:
+            raise EffectValueError("mass_kg", "must not be 0")
 
     def added_mass_kg(self) -> float:
         return self.mass_kg
+
+    def fit_ranges(self, context: FitContext) -> dict[str, FitRange]:
+        return {"mass_kg": FitRange("linear", -0.5 * context.mass_kg, 0.5 * context.mass_kg)}
+
+    def implausible(self, context: FitContext) -> str | None:
+        if abs(self.mass_kg) > 0.3 * context.mass_kg:
+            return f"a mass change of {self.mass_kg:+.3g} kg is comparable to the mover's {context.mass_kg:.3g} kg"
+        return None
+
+    def evidence(self, sigma: Mapping[str, float], where: str, context: FitContext) -> str:
+        return (f"the high-frequency level and the resonance both move as a mass change of {self.mass_kg * 1e3:+.0f} "
+                f"± {sigma['mass_kg'] * 1e3:.0f} g predicts ({where})")
 
 
 @register_effect("drift")
 @dataclass(frozen=True)
 class Drift(Effect):
-    """The film's stiffness changes linearly over the session: ``Z·(1 + fraction_per_hour·t/3600 s)``."""
+    """The film changes steadily over the session: its complex stiffness scales with ``1 + fraction_per_hour·t/3600``
+    and its viscous coefficients additionally with ``1 + damping_fraction_per_hour·t/3600`` (t = session time)."""
 
-    fraction_per_hour: float = _number("1/h", _any_number)
+    explanation: ClassVar[str] = (
+        "The rig changed steadily during the session (for example the supply pressure): the film follows the hit "
+        "time, so early and late hits resonate at slightly different frequencies or damp differently.")
+    per_hit: ClassVar[bool] = True
 
-    def film_scale(self, time_s: float) -> float:
-        scale = 1.0 + self.fraction_per_hour * time_s / 3600.0
-        if scale <= 0:
-            raise GasfilmError(f"drift: the film stiffness scale reaches {scale:.3g} at t = {time_s:.0f} s")
-        return scale
+    fraction_per_hour: float = _number("1/h", _finite)
+    damping_fraction_per_hour: float = _number("1/h", _finite, 0.0)
+
+    def film_scale(self, time_s: np.ndarray | float) -> np.ndarray | float:
+        return _positive_scale(1.0 + self.fraction_per_hour * np.asarray(time_s) / 3600.0, "drift", time_s)
+
+    def viscous_scale(self, time_s: np.ndarray | float) -> np.ndarray | float:
+        return _positive_scale(1.0 + self.damping_fraction_per_hour * np.asarray(time_s) / 3600.0, "drift", time_s)
+
+    def fit_ranges(self, context: FitContext) -> dict[str, FitRange]:
+        # at most ±50 % change over the session, whatever its length
+        limit = 0.5 * 3600.0 / max(context.session_span_s, 1e-3)
+        return {"fraction_per_hour": FitRange("linear", -limit, limit),
+                "damping_fraction_per_hour": FitRange("linear", -limit, limit)}
+
+    def evidence(self, sigma: Mapping[str, float], where: str, context: FitContext) -> str:
+        span_h = context.session_span_s / 3600.0
+        return (f"the resonance moves steadily from early to late hits: over the {context.session_span_s:.0f} s "
+                f"session the film stiffness changes by {100 * self.fraction_per_hour * span_h:+.2f} ± "
+                f"{100 * sigma['fraction_per_hour'] * span_h:.2f} % and its damping by a further "
+                f"{100 * self.damping_fraction_per_hour * span_h:+.2f} ± "
+                f"{100 * sigma['damping_fraction_per_hour'] * span_h:.2f} %, in {where}")
+
+
+def _positive_scale(scale: np.ndarray, name: str, time_s: np.ndarray | float) -> np.ndarray | float:
+    if np.any(scale <= 0):
+        raise GasfilmError(f"{name}: the film scale reaches {np.min(scale):.3g} at t = {np.max(time_s):.0f} s")
+    return scale if scale.ndim else float(scale)
+
+
+@register_effect("step-change")
+@dataclass(frozen=True)
+class StepChange(Effect):
+    """The film changes at one moment of the session: from ``at_time_s`` on, its complex stiffness is scaled by
+    ``1 + fraction`` and its viscous coefficients further by ``1 + damping_fraction``."""
+
+    explanation: ClassVar[str] = (
+        "The rig changed at one moment during the session (a pressure step, a re-seated part): hits before and after "
+        "that moment resonate or damp differently, with no trend within each group.")
+    per_hit: ClassVar[bool] = True
+
+    at_time_s: float = _number("s", _non_negative)
+    fraction: float = _number("1", _finite)
+    damping_fraction: float = _number("1", _finite, 0.0)
+
+    def validate(self) -> None:
+        if not (-1 < self.fraction and -1 < self.damping_fraction):
+            raise EffectValueError("fraction", "the film must keep a positive stiffness and damping (> -1)")
+
+    def film_scale(self, time_s: np.ndarray | float) -> np.ndarray | float:
+        scale = np.where(np.asarray(time_s) >= self.at_time_s, 1.0 + self.fraction, 1.0)
+        return scale if scale.ndim else float(scale)
+
+    def viscous_scale(self, time_s: np.ndarray | float) -> np.ndarray | float:
+        scale = np.where(np.asarray(time_s) >= self.at_time_s, 1.0 + self.damping_fraction, 1.0)
+        return scale if scale.ndim else float(scale)
+
+    def fit_ranges(self, context: FitContext) -> dict[str, FitRange]:
+        # the moment itself is chosen among the gaps between hits, not fitted continuously
+        return {"fraction": FitRange("linear", -0.5, 0.5), "damping_fraction": FitRange("linear", -0.5, 0.5)}
+
+    def evidence(self, sigma: Mapping[str, float], where: str, context: FitContext) -> str:
+        return (f"hits before and after t = {self.at_time_s:.1f} s form two groups with no trend inside either: the "
+                f"film stiffness steps by {100 * self.fraction:+.2f} ± {100 * sigma['fraction']:.2f} % and its damping "
+                f"by a further {100 * self.damping_fraction:+.2f} ± {100 * sigma['damping_fraction']:.2f} %, "
+                f"in {where}")
 
 
 @register_effect("mains")
 @dataclass(frozen=True)
 class Mains(Effect):
     """Mains interference on one channel: ``amplitude·Σ h_n·sin(2π n f t)`` with ``harmonics = [h_1, h_2, …]``."""
+
+    kind: ClassVar[str] = "interference"
 
     channel: str = _channel_field()
     amplitude: float = _number("N or m/s²", _positive)
@@ -203,10 +431,20 @@ class Mains(Effect):
         return self.amplitude * sum(h * np.sin((n + 1) * phase) for n, h in enumerate(self.harmonics))
 
 
+def _time_constant_range(context: FitContext) -> FitRange:
+    """Time constants the band can see: a tenth of the shortest to ten times the longest period."""
+    low, high = context.band_hz
+    return FitRange("log", 0.1 / (2 * np.pi * high), 10.0 / (2 * np.pi * low))
+
+
 @register_effect("pneumatic-lag")
 @dataclass(frozen=True)
 class PneumaticLag(Effect):
     """Part of the film force lags the motion by a first-order time constant: ``k_lag / (1 + s·tau_lag)``."""
+
+    explanation: ClassVar[str] = (
+        "Air in the orifices and pockets reacts with a delay: part of the film force lags the motion, which lowers "
+        "(or even reverses) the film's damping near the resonance.")
 
     k_lag: float = _number("N/m", _positive)
     tau_lag: float = _number("s", _positive)
@@ -214,11 +452,56 @@ class PneumaticLag(Effect):
     def added_stiffness(self, s: np.ndarray) -> np.ndarray:
         return self.k_lag / (1.0 + s * self.tau_lag)
 
+    def fit_ranges(self, context: FitContext) -> dict[str, FitRange]:
+        return {"k_lag": FitRange("log", 1e-4 * context.film_stiffness_n_per_m, 2.0 * context.film_stiffness_n_per_m),
+                "tau_lag": _time_constant_range(context)}
+
+    def evidence(self, sigma: Mapping[str, float], where: str, context: FitContext) -> str:
+        return (f"near the resonance the film damps less than a spring-damper can explain: a lagged film force "
+                f"(k = {self.k_lag:.3g} N/m, time constant {self.tau_lag * 1e3:.3f} ± {sigma['tau_lag'] * 1e3:.3f} "
+                f"ms), in {where}")
+
+
+@register_effect("film-memory")
+@dataclass(frozen=True)
+class FilmMemory(Effect):
+    """Viscoelastic memory of the film: a fractional Maxwell branch ``k_memory -- pot(eta_memory, alpha_memory)``
+    (complex stiffness ``k η s^α / (k + η s^α)``) in parallel with the film — the paper's FOMGF arms."""
+
+    explanation: ClassVar[str] = (
+        "The gas film is stiffer and damps differently at high frequency than at low frequency: it has a "
+        "viscoelastic memory that a plain spring and damper cannot describe (a fractional Maxwell branch, a spring "
+        "in series with a spring-pot, in parallel with the film).")
+
+    k_memory: float = _number("N/m", _positive)
+    eta_memory: float = _number("N·s^α/m", _positive)
+    alpha_memory: float = _number("1", _order)
+
+    def added_stiffness(self, s: np.ndarray) -> np.ndarray:
+        pot = self.eta_memory * s**self.alpha_memory
+        return self.k_memory * pot / (self.k_memory + pot)
+
+    def fit_ranges(self, context: FitContext) -> dict[str, FitRange]:
+        k = context.film_stiffness_n_per_m
+        omega = 2 * np.pi * context.resonance_hz
+        return {"k_memory": FitRange("log", 1e-4 * k, 1e3 * k),
+                "eta_memory": FitRange("log", 1e-6 * k / omega**1.9, 1e3 * k / omega**0.05),
+                "alpha_memory": FitRange("linear", 0.05, 1.9)}
+
+    def evidence(self, sigma: Mapping[str, float], where: str, context: FitContext) -> str:
+        return (f"the residual changes smoothly across {where} the way a frequency-dependent stiffness and damping "
+                f"does (spring-pot order {self.alpha_memory:.2f} ± {sigma['alpha_memory']:.2f})")
+
 
 @register_effect("ac-coupling")
 @dataclass(frozen=True)
 class AcCoupling(Effect):
     """A first-order high-pass ``s / (s + 2π corner_hz)`` on one channel (beyond the module's own, equal on all)."""
+
+    kind: ClassVar[str] = "measurement"
+    explanation: ClassVar[str] = (
+        "A high-pass in the sensor or DAQ chain (AC coupling) removes low frequencies from the response only: the "
+        "phase leads and the magnitude drops at the low end of the band.")
 
     channel: str = _channel_field()
     corner_hz: float = _number("Hz", _positive)
@@ -226,4 +509,68 @@ class AcCoupling(Effect):
     def channel_transfer(self, channel: str, s: np.ndarray) -> np.ndarray | float:
         return s / (s + 2 * np.pi * self.corner_hz) if channel == self.channel else 1.0
 
+    def fit_ranges(self, context: FitContext) -> dict[str, FitRange]:
+        return {"corner_hz": FitRange("log", 1e-3 * context.band_hz[0], context.band_hz[0])}
 
+    def evidence(self, sigma: Mapping[str, float], where: str, context: FitContext) -> str:
+        return (f"at the low end of the band the {self.channel} phase leads and its magnitude drops like a high-pass "
+                f"at {self.corner_hz:.2f} ± {sigma['corner_hz']:.2f} Hz")
+
+
+@register_effect("sensitivity-error")
+@dataclass(frozen=True)
+class SensitivityError(Effect):
+    """A channel's true sensitivity differs from the configured one: its signal reads ``1 + fraction`` times the
+    truth."""
+
+    kind: ClassVar[str] = "measurement"
+    explanation: ClassVar[str] = (
+        "The sensitivity entered for a sensor is not its true sensitivity: the whole FRF is scaled by a constant "
+        "factor at every frequency.")
+
+    channel: str = _channel_field()
+    fraction: float = _number("1", _finite)
+
+    def validate(self) -> None:
+        if not -0.5 < self.fraction < 0.5 or self.fraction == 0:
+            raise EffectValueError("fraction", "must be non-zero and between -0.5 and 0.5")
+
+    def channel_transfer(self, channel: str, s: np.ndarray) -> np.ndarray | float:
+        return 1.0 + self.fraction if channel == self.channel else 1.0
+
+    def fit_ranges(self, context: FitContext) -> dict[str, FitRange]:
+        return {"fraction": FitRange("linear", -0.3, 0.3)}
+
+    def evidence(self, sigma: Mapping[str, float], where: str, context: FitContext) -> str:
+        return (f"the FRF is {100 * self.fraction:+.2f} ± {100 * sigma['fraction']:.2f} % off at every frequency, as a "
+                f"wrong {self.channel} sensitivity makes it")
+
+
+@register_effect("cross-talk")
+@dataclass(frozen=True)
+class CrossTalk(Effect):
+    """Electrical cross-talk: the acceleration channel also carries ``leak_m_s2_per_n`` times the force signal."""
+
+    kind: ClassVar[str] = "measurement"
+    explanation: ClassVar[str] = (
+        "The response channel picks up a copy of the hammer signal (cabling, a shared ground, the module): a "
+        "constant is added to the FRF, which shows most where the true FRF is small (low frequencies, "
+        "anti-resonances).")
+
+    leak_m_s2_per_n: float = _number("(m/s²)/N", _finite)
+
+    def validate(self) -> None:
+        if self.leak_m_s2_per_n == 0:
+            raise EffectValueError("leak_m_s2_per_n", "must not be 0")
+
+    def force_leak_m_s2_per_n(self) -> float:
+        return self.leak_m_s2_per_n
+
+    def fit_ranges(self, context: FitContext) -> dict[str, FitRange]:
+        limit = 0.5 / context.mass_kg  # half the mass line
+        return {"leak_m_s2_per_n": FitRange("linear", -limit, limit)}
+
+    def evidence(self, sigma: Mapping[str, float], where: str, context: FitContext) -> str:
+        share = 100 * self.leak_m_s2_per_n * context.mass_kg
+        return (f"a constant {self.leak_m_s2_per_n:.3g} ± {sigma['leak_m_s2_per_n']:.2g} (m/s²)/N is added to the "
+                f"FRF ({share:+.2f} % of the mass line), most visible where the true FRF is small, in {where}")

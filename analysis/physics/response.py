@@ -1,23 +1,17 @@
-"""The rig behind the NI 9234: a TOML rig spec and its physics.
+"""The response of a rig spec: the linear accelerance at ``s = σ + jω`` and the time-domain response to a force.
 
-A rig spec (``docs/rig-spec.md``) describes the mover (mass), the gas film (a model of :mod:`gasfilm.analysis.models` with
-its parameters), the sensors, optional hammer defaults and a list of **effects** that make a real rig differ from
-the ideal mass-on-a-film: an extra mode, cubic hardening, a channel delay, added mass, drift, mains interference.
-The simulated module plays a spec; the mismatch diagnosis reads one and writes an improved one.
-
-Physics (SI units throughout). With ``s = σ + j2πf`` and ``M = m + Σ added mass``, the mover obeys
-``(Z_film(s)·drift(t) + Σ Z_effect(s) + M s²)·X(s) = F(s)`` plus, with ``cubic-stiffness``, the force ``k3·x³``.
-The linear accelerance the channels see is ``s² / (Z_film·drift + Σ Z_effect + M s²) · T_a(s) / T_f(s)`` where
-``T_a``, ``T_f`` are the per-channel transfers (``channel-delay`` gives ``exp(-sτ)`` on the delayed channel).
-
-Adding an effect type is one small class registered with :func:`register_effect`; it overrides the hooks of
-:class:`Effect` it needs (added mass, film scale, added dynamic stiffness, channel transfer, cubic stiffness,
-interference).
+Physics (SI units throughout). With ``M = m + Σ added mass``, the mover obeys
+``(Z_film(s, t) + Σ Z_effect(s) + M s²)·X(s) = F(s)``, plus the force ``k3·x³`` with ``cubic-stiffness``.
+``Z_film(s, t)`` is the film network at the hit's session time (drift and step changes scale it). The channels see
+``(s² / (Z_film + Σ Z_effect + M s²) + leak) · T_a(s) / T_f(s)``: ``T_a``, ``T_f`` the per-channel transfers
+(delays, AC coupling, sensitivity errors), ``leak`` the force cross-talk into the acceleration channel.
+The simulated device (through its plant), the replay, identification and the diagnosis all evaluate a spec here.
 """
 
 from __future__ import annotations
 
 import functools
+from dataclasses import dataclass
 
 import numpy as np
 import scipy.fft
@@ -26,21 +20,58 @@ from scipy.sparse.linalg import LinearOperator, bicgstab
 from gasfilm.analysis.physics.elements import laplace_variable
 from gasfilm.drivers.errors import GasfilmError
 
-from gasfilm.analysis.physics.effects import DECAY_TOLERANCE, MAX_RESPONSE_DURATION_S
+from gasfilm.analysis.physics.effects import CUBIC_EQUIVALENT, DECAY_TOLERANCE, MAX_RESPONSE_DURATION_S
 from gasfilm.analysis.physics.spec import RigSpec
 # --- physics -------------------------------------------------------------------------------------------------------
 
 
-def rig_dynamic_stiffness(
-    spec: RigSpec, s: np.ndarray, time_s: float = 0.0, *, film_scale: float | None = None
-) -> np.ndarray:
-    """Linear dynamic stiffness of the mover on its film, ``Z_film·drift + Σ Z_effect + M s²`` (N/m).
+@dataclass(frozen=True)
+class HitConditions:
+    """What differs between the hits of a session: each hit's session time (s) and force impulse (N·s)."""
 
-    The film's scale is the spec's at ``time_s`` unless ``film_scale`` gives it.
+    time_s: np.ndarray
+    impulse_ns: np.ndarray
+
+    @property
+    def reference_impulse_ns(self) -> float:
+        return float(np.median(self.impulse_ns))
+
+    def subset(self, hits: np.ndarray) -> "HitConditions":
+        return HitConditions(self.time_s[hits], self.impulse_ns[hits])
+
+
+def film_stiffness(spec: RigSpec, s: np.ndarray, time_s: np.ndarray | float = 0.0) -> np.ndarray:
+    """The film's complex stiffness Z(s) in N/m at session time(s): (G,) for one time, (hits, G) for an array.
+
+    The whole film scales with :meth:`RigSpec.film_scale` (drift, step changes); its viscous coefficients (dashpot and
+    spring-pot coefficients) further with :meth:`RigSpec.viscous_scale`.
     """
     s = np.asarray(s, dtype=complex)
-    scale = spec.film_scale(time_s) if film_scale is None else film_scale
-    total = spec.film.stiffness(s, spec.film_parameters) * scale + spec.moving_mass_kg * s**2
+    model = spec.film
+    vector = model.vector(spec.film_parameters)
+    viscous = np.asarray(spec.viscous_scale(time_s), dtype=float)
+    if np.any(viscous != 1.0):
+        columns = [i for i, parameter in enumerate(model.parameters) if parameter.unit.startswith("N·s")]
+        vector = np.broadcast_to(vector, viscous.shape + vector.shape).copy()
+        vector[..., columns] *= viscous[..., np.newaxis]
+    whole = np.asarray(spec.film_scale(time_s), dtype=float)
+    stiffness = model.stiffness(s, vector)
+    return stiffness * whole[..., np.newaxis] if whole.ndim else stiffness * float(whole)
+
+
+def rig_dynamic_stiffness(
+    spec: RigSpec, s: np.ndarray, time_s: np.ndarray | float = 0.0, *, film_scale: float | None = None
+) -> np.ndarray:
+    """Linear dynamic stiffness of the mover on its film, ``Z_film(t) + Σ Z_effect + M s²`` (N/m).
+
+    The film is the spec's at ``time_s`` (one time or an array of hit times) unless ``film_scale`` gives its scale.
+    """
+    s = np.asarray(s, dtype=complex)
+    if film_scale is None:
+        total = film_stiffness(spec, s, time_s)
+    else:
+        total = spec.film.stiffness(s, spec.film_parameters) * film_scale
+    total = total + spec.moving_mass_kg * s**2
     for effect in spec.effects:
         total = total + effect.added_stiffness(s)
     return total
@@ -55,13 +86,46 @@ def channel_transfer(spec: RigSpec, channel: str, s: np.ndarray) -> np.ndarray:
     return transfer
 
 
+def resonance_omega_rad_s(spec: RigSpec) -> float:
+    """Undamped natural frequency (rad/s) of the moving mass on the real part of the film stiffness (fixed point)."""
+    mass_kg = spec.moving_mass_kg
+    omega = float(np.sqrt(abs(spec.film.stiffness(np.array([1j]), spec.film_parameters)[0]) / mass_kg))
+    for _ in range(20):
+        stiffness = spec.film.stiffness(np.array([1j * omega]), spec.film_parameters)[0].real
+        omega = float(np.sqrt(max(stiffness, 1e-9) / mass_kg))
+    return omega
+
+
+def hit_displacement_m(spec: RigSpec, impulse_ns: np.ndarray | float) -> np.ndarray | float:
+    """Initial displacement amplitude ``J / (M ω0)`` of a hit of impulse J (N·s)."""
+    return np.asarray(impulse_ns) / (spec.moving_mass_kg * resonance_omega_rad_s(spec))
+
+
 def rig_accelerance(
-    spec: RigSpec, freq_hz: np.ndarray, decay_rate_1_s: float = 0.0, time_s: float = 0.0
+    spec: RigSpec,
+    freq_hz: np.ndarray,
+    decay_rate_1_s: float = 0.0,
+    time_s: float = 0.0,
+    conditions: HitConditions | None = None,
 ) -> np.ndarray:
-    """Linear accelerance (m/s²)/N the channels of ``spec`` show at ``s = σ + j2πf`` (cubic stiffness left out)."""
+    """Accelerance (m/s²)/N the channels of ``spec`` show at ``s = σ + j2πf``: (G,), or (hits, G) with ``conditions``.
+
+    Measurement-chain effects are included (channel transfers, force cross-talk). With ``conditions``, every hit sees
+    the film at its own session time, and a cubic film spring enters by equivalent linearisation at the hit's level
+    (``Δk = CUBIC_EQUIVALENT·k3·x0²``); the exact nonlinear response is :func:`simulate_response`'s.
+    """
     s = laplace_variable(freq_hz, decay_rate_1_s)
-    accelerance = s**2 / rig_dynamic_stiffness(spec, s, time_s)
-    return accelerance * channel_transfer(spec, "acceleration", s) / channel_transfer(spec, "force", s)
+    if conditions is None:
+        stiffness = rig_dynamic_stiffness(spec, s, time_s)
+    else:
+        stiffness = rig_dynamic_stiffness(spec, s, conditions.time_s)
+        k3 = spec.cubic_stiffness_n_per_m3
+        if k3:
+            stiffness = stiffness + (CUBIC_EQUIVALENT * k3 * hit_displacement_m(spec, conditions.impulse_ns) ** 2)[
+                :, np.newaxis]
+        stiffness = np.broadcast_to(stiffness, (len(conditions.time_s), s.size))
+    return (s**2 / stiffness + spec.force_leak_m_s2_per_n) * (
+        channel_transfer(spec, "acceleration", s) / channel_transfer(spec, "force", s))
 
 
 def _grid_laplace(n_samples: int, sample_rate_hz: float) -> np.ndarray:
@@ -179,8 +243,9 @@ def simulate_response(
     force_spectrum = scipy.fft.rfft(force, n_fft)
     s = _grid_laplace(n_fft, sample_rate_hz)
     delays = channel_transfer(spec, "acceleration", s) / channel_transfer(spec, "force", s)
+    leak = spec.force_leak_m_s2_per_n
     if spec.is_linear:
-        response = force_spectrum * (s**2 / rig_dynamic_stiffness(spec, s, time_s)) * delays
+        response = force_spectrum * (s**2 / rig_dynamic_stiffness(spec, s, time_s) + leak) * delays
         return scipy.fft.irfft(response, n_fft)[..., :n_record]
     oversampling = 2
     n_fine = oversampling * n_fft
@@ -192,6 +257,6 @@ def simulate_response(
         fine_force[: spectrum.size] = spectrum * oversampling
         fine_force[spectrum.size - 1] *= 0.5 if n_fft % 2 == 0 else 1.0
         displacement = mover_displacement_spectrum(spec, fine_force, s_fine, n_fine, time_s)
-        acceleration = (s_fine**2 * displacement)[: spectrum.size] / oversampling * delays
+        acceleration = ((s_fine**2 * displacement)[: spectrum.size] / oversampling + leak * spectrum) * delays
         out[row] = scipy.fft.irfft(acceleration, n_fft)[:n_record]
     return out.reshape(force.shape)

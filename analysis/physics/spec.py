@@ -4,13 +4,17 @@
 
 from __future__ import annotations
 
+import copy
 import dataclasses
-import json
+import functools
 import math
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable, Mapping, Sequence
+
+import numpy as np
+import tomli_w
 
 
 from gasfilm.analysis.physics.elements import PAPER_MASS_KG, PAPER_MODELS, PAPER_TABLE1, FilmModel, get_model
@@ -86,6 +90,9 @@ class RigSpec:
         object.__setattr__(self, "film_parameters", {k: float(v) for k, v in self.film_parameters.items()})
         object.__setattr__(self, "effects", tuple(self.effects))
         _validate_spec(self)
+        if not self.moving_mass_kg > 0:
+            raise SettingError(f"{self.source}: the moving mass with the added masses is {self.moving_mass_kg:.4g} kg; "
+                               f"it must be > 0")
 
     # construction ---------------------------------------------------------------------------------------------
 
@@ -135,27 +142,35 @@ class RigSpec:
         Path(path).write_text(self.to_toml(), encoding="utf-8")
 
     def to_toml(self) -> str:
-        lines = ["# gasfilm rig spec (docs/rig-spec.md)", f"name = {_toml_value(self.name)}",
-                 f"mass_kg = {_toml_value(self.mass_kg)}", "", "[film]", f"model = {_toml_value(self.film_model)}",
-                 "", "[film.parameters]"]
-        lines += [f"{key} = {_toml_value(value)}" for key, value in self.film_parameters.items()]
-        for channel, sensor in (("force", self.force_sensor), ("acceleration", self.acceleration_sensor)):
-            sensitivity_key, noise_key = _SENSOR_KEYS[channel]
-            lines += ["", f"[sensors.{channel}]", f"{sensitivity_key} = {_toml_value(sensor.sensitivity_mv)}",
-                      f"{noise_key} = {_toml_value(sensor.noise_per_sqrt_hz)}"]
+        """The spec as TOML text (written by tomli-w; floats round-trip exactly)."""
+        table: dict[str, Any] = {"name": self.name, "mass_kg": self.mass_kg,
+                                 "film": {"model": self.film_model, "parameters": dict(self.film_parameters)}}
+        table["sensors"] = {
+            channel: {_SENSOR_KEYS[channel][0]: sensor.sensitivity_mv, _SENSOR_KEYS[channel][1]: sensor.noise_per_sqrt_hz}
+            for channel, sensor in (("force", self.force_sensor), ("acceleration", self.acceleration_sensor))
+        }
         if self.hammer is not None:
-            lines += ["", "[hammer]"]
-            lines += [f"{k} = {_toml_value(v)}" for k, v in dataclasses.asdict(self.hammer).items()]
-        for effect in self.effects:
-            lines += ["", "[[effects]]"]
-            lines += [f"{k} = {_toml_value(v)}" for k, v in effect.to_table().items()]
-        return "\n".join(lines) + "\n"
+            table["hammer"] = dataclasses.asdict(self.hammer)
+        if self.effects:
+            table["effects"] = [effect.to_table() for effect in self.effects]
+        return "# gasfilm rig spec (docs/rig-spec.md)\n" + tomli_w.dumps(table, multiline_strings=False)
+
+    def with_values(self, film_parameters: Mapping[str, float] | None = None,
+                    effects: Sequence[Effect] | None = None) -> "RigSpec":
+        """A copy with other film parameter values and/or effects, not re-validated: for fits that stay inside the
+        effects' physical ranges. What a fit returns is such a spec, and what it writes is that same spec."""
+        updated = copy.copy(self)
+        if film_parameters is not None:
+            object.__setattr__(updated, "film_parameters", dict(film_parameters))
+        if effects is not None:
+            object.__setattr__(updated, "effects", tuple(effects))
+        return updated
 
     # derived --------------------------------------------------------------------------------------------------
 
     @property
     def film(self) -> FilmModel:
-        return get_model(self.film_model)
+        return _film_model(self.film_model)
 
     @property
     def moving_mass_kg(self) -> float:
@@ -169,13 +184,30 @@ class RigSpec:
     def is_linear(self) -> bool:
         return self.cubic_stiffness_n_per_m3 == 0.0
 
+    @property
+    def is_per_hit(self) -> bool:
+        """Whether hits of one session see different linear rigs (session time, hit level)."""
+        return any(effect.per_hit for effect in self.effects)
+
+    @property
+    def force_leak_m_s2_per_n(self) -> float:
+        return sum(effect.force_leak_m_s2_per_n() for effect in self.effects)
+
     def sensor(self, channel: str) -> SensorSpec:
         return self.force_sensor if channel == "force" else self.acceleration_sensor
 
-    def film_scale(self, time_s: float) -> float:
-        scale = 1.0
+    def film_scale(self, time_s: np.ndarray | float) -> np.ndarray | float:
+        """Factor on the film's whole complex stiffness at session time(s) ``time_s`` (drift, step changes)."""
+        scale: np.ndarray | float = 1.0
         for effect in self.effects:
-            scale *= effect.film_scale(time_s)
+            scale = scale * effect.film_scale(time_s)
+        return scale
+
+    def viscous_scale(self, time_s: np.ndarray | float) -> np.ndarray | float:
+        """Further factor on the film's viscous coefficients at session time(s) ``time_s``."""
+        scale: np.ndarray | float = 1.0
+        for effect in self.effects:
+            scale = scale * effect.viscous_scale(time_s)
         return scale
 
     def with_effects(self, *effects: Effect) -> "RigSpec":
@@ -183,16 +215,10 @@ class RigSpec:
         return dataclasses.replace(self, effects=self.effects + tuple(effects))
 
 
-def _toml_value(value: Any) -> str:
-    if isinstance(value, bool):
-        return "true" if value else "false"
-    if isinstance(value, (int, float)):
-        return repr(float(value))
-    if isinstance(value, str):
-        return json.dumps(value, ensure_ascii=False)
-    if isinstance(value, (list, tuple)):
-        return "[" + ", ".join(_toml_value(item) for item in value) + "]"
-    raise TypeError(f"cannot write {value!r} to TOML")
+@functools.lru_cache(maxsize=256)
+def _film_model(text: str) -> FilmModel:
+    """The film model of a spec's ``film.model`` text (parsed once per text)."""
+    return get_model(text)
 
 
 def _check_keys(table: Mapping[str, Any], allowed: Sequence[str], where: str) -> None:

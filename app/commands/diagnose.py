@@ -1,7 +1,7 @@
 """``gasfilm diagnose``: where the rig spec and the recordings differ, which physics is missing, and the fix.
 
 Reads a session (HDF5) or UFF 58 time records, compares them with the rig spec played under identical conditions,
-recalibrates the spec's own parameters, then names and fits the missing physics (:mod:`gasfilm.analysis.diagnose`). Writes
+recalibrates the spec's own parameters, then names and fits the missing physics (:mod:`gasfilm.analysis.diagnosis`). Writes
 the improved rig spec and before/after figures into ``--out``; ``--json`` prints one JSON object instead of text.
 """
 
@@ -12,13 +12,12 @@ import json
 import sys
 from pathlib import Path
 
-from gasfilm.analysis.diagnose import Diagnosis, diagnose
+from gasfilm.analysis.diagnosis import diagnose
+from gasfilm.analysis.diagnosis.plots import write_outputs
+from gasfilm.analysis.diagnosis.report import report_text
 from gasfilm.analysis.physics.spec import RigSpec
 from gasfilm.analysis.session import Session
 from gasfilm.drivers.errors import GasfilmError, SettingError
-
-G_M_S2 = 9.80665
-
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     parser = subparsers.add_parser(
@@ -47,41 +46,6 @@ def _band(text: str | None) -> tuple[float, float] | None:
     return low, high
 
 
-def _report(diagnosis: Diagnosis) -> str:
-    lines = [f"gasfilm diagnose — verdict: {diagnosis.verdict}"]
-    evidence = diagnosis.evidence
-    lines.append(f"  compared {evidence.hit_count} hits, {evidence.freq_hz[0]:.0f}–{evidence.freq_hz[-1]:.0f} Hz, "
-                 f"replayed with the recorded forces through the same windows")
-    if diagnosis.recalibration:
-        lines.append("  recalibrated spec parameters:")
-        for name, row in diagnosis.recalibration.items():
-            lines.append(f"    {name:28s} {row['spec']:.6g} → {row['fitted']:.6g} ± {row['uncertainty']:.2g}")
-    if diagnosis.findings:
-        lines.append("  missing physics:")
-        for finding in diagnosis.findings:
-            lines.append(f"    {finding.effect}  ({finding.band_hz[0]:.0f}–{finding.band_hz[1]:.0f} Hz, {finding.hits})")
-            for name, row in finding.parameters.items():
-                lines.append(f"      {name:28s} {row['value']:.6g} ± {row['uncertainty']:.2g} {row['unit']}")
-            lines.append(f"      why:  {finding.evidence}")
-            lines.append(f"      what: {finding.explanation}")
-    elif diagnosis.verdict == "parameters-only":
-        lines.append("  no missing physics: the recalibrated parameters explain the recordings within the noise")
-    else:
-        lines.append("  no missing physics: the spec explains the recordings within the noise")
-    if diagnosis.quality:
-        lines.append("  measurement quality (not physics):")
-        lines.extend(f"    {note.kind}: {note.message}" for note in diagnosis.quality)
-    lines.append(f"  RMS {diagnosis.rms_before / G_M_S2:.4g} → {diagnosis.rms_after / G_M_S2:.4g} g/N "
-                 f"(E = {diagnosis.improvement_e:.1f} %), χ²/point {diagnosis.chi2_per_point_before:.3f} → "
-                 f"{diagnosis.chi2_per_point_after:.3f}, BIC {diagnosis.bic_before:.0f} → {diagnosis.bic_after:.0f}")
-    lines.extend(f"  note: {note}" for note in diagnosis.spec_notes)
-    if diagnosis.improved_spec:
-        lines.append(f"  improved spec: {diagnosis.improved_spec}")
-    lines.extend(f"  figure: {figure}" for figure in diagnosis.figures)
-    lines.append(f"  time: {diagnosis.wall_time_s:.1f} s")
-    return "\n".join(lines)
-
-
 def run(args: argparse.Namespace) -> int:
     spec = RigSpec.load(args.rig) if args.rig else None
     if args.mass is not None and not args.mass > 0:
@@ -90,7 +54,8 @@ def run(args: argparse.Namespace) -> int:
     def progress(message: str) -> None:
         print(f"  {message}", file=sys.stderr)
 
-    diagnosis = diagnose(args.source, spec, args.mass, args.out, _band(args.band), progress)
+    diagnosis = diagnose(args.source, spec, args.mass, _band(args.band), progress)
+    write_outputs(diagnosis, args.out)
     if args.source.suffix.lower() not in (".uff", ".unv"):
         try:
             with Session.open(args.source, "a") as session:
@@ -101,5 +66,5 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         print(json.dumps(diagnosis.to_dict(), indent=2))
     else:
-        print(_report(diagnosis))
+        print(report_text(diagnosis))
     return 0

@@ -17,7 +17,8 @@ from PySide6.QtCore import QObject, QStandardPaths, QThread, Signal
 
 from gasfilm.analysis.acquisition import AcquisitionLoop
 from gasfilm.analysis.capture import TriggerSettings
-from gasfilm.analysis.diagnose import diagnose, load_recordings
+from gasfilm.analysis.diagnosis import diagnose, load_recordings
+from gasfilm.analysis.diagnosis.plots import write_outputs
 from gasfilm.analysis.identify import compare_models, fit_model
 from gasfilm.analysis.physics.elements import get_model
 from gasfilm.analysis.physics.spec import RigSpec
@@ -413,7 +414,9 @@ class SessionController(QObject):
             return
 
         def work(report, _cancelled):  # the diagnosis has no cancel hook: Cancel acts at its next progress report
-            return diagnose(recordings, spec, out_dir=out_dir, progress=lambda text: report(0.0, text))
+            diagnosis = diagnose(recordings, spec, progress=lambda text: report(0.0, text))
+            write_outputs(diagnosis, out_dir)
+            return diagnosis
 
         self._start_job("diagnose", work, self._on_diagnosis_done)
 
@@ -431,7 +434,7 @@ class SessionController(QObject):
         if self.diagnosis is None:
             raise SettingError("improved rig spec: run the diagnosis first")
         path = Path(path)
-        shutil.copyfile(self.diagnosis.improved_spec, path)
+        shutil.copyfile(self.diagnosis.improved_spec_path, path)
         return path
 
     def play_improved_spec(self) -> None:

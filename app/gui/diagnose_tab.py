@@ -22,7 +22,8 @@ from PySide6.QtWidgets import (
     QWidget,
 )
 
-from gasfilm.analysis.diagnose import Finding
+from gasfilm.analysis.diagnosis import Finding
+from gasfilm.analysis.diagnosis.pipeline import replayed_mean
 from gasfilm.app.gui.controller import SessionController
 from gasfilm.app.gui.widgets import MEASURED_COLOR, PALETTE, make_plot, pen
 from gasfilm.drivers.errors import GasfilmError
@@ -137,7 +138,7 @@ class DiagnoseTab(QWidget):
         self.details.clear()
         self.overlay_plot.clear()
         self.residual_plot.clear()
-        has_spec = diagnosis is not None and diagnosis.improved_spec is not None
+        has_spec = diagnosis is not None and diagnosis.improved_spec_path is not None
         self.export_button.setEnabled(has_spec)
         self.play_button.setEnabled(has_spec)
         if diagnosis is None:
@@ -174,7 +175,7 @@ class DiagnoseTab(QWidget):
             f"BIC {stored['bic_before']:.0f} → {stored['bic_after']:.0f}, {stored['hits_used']} hits (stored)"
         )
         for values in stored["findings"]:
-            finding = Finding(**{**values, "band_hz": tuple(values["band_hz"])})
+            finding = Finding.from_dict(values)
             item = QListWidgetItem(
                 f"{finding.effect}   {finding.band_hz[0]:.0f}–{finding.band_hz[1]:.0f} Hz   ({finding.hits})"
             )
@@ -202,7 +203,7 @@ class DiagnoseTab(QWidget):
         )
         self.details.setHtml(
             f"<h3>{finding.effect}</h3>"
-            f"<p><b>Where:</b> {finding.band_hz[0]:.0f}–{finding.band_hz[1]:.0f} Hz, {finding.hits}</p>"
+            f"<p><b>Where:</b> {finding.where}, {finding.hits}</p>"
             f"<p><b>What:</b></p><table cellpadding='3'>{rows}</table>"
             f"<p><b>Why:</b> {finding.evidence}</p>"
             f"<p><b>In plain words:</b> {finding.explanation}</p>"
@@ -232,12 +233,11 @@ class DiagnoseTab(QWidget):
         )
 
     def _plot(self, diagnosis: Any) -> None:
-        evidence = diagnosis.evidence
-        freq = evidence.freq_hz
-        sigma = evidence.decay_rate_1_s
-        measured, _ = evidence.spectra.mean()
-        before = diagnosis.given_model.accelerance(freq, sigma)
-        after = diagnosis.improved_model.accelerance(freq, sigma)
+        # the recordings and both specs replayed with the recorded forces: the "after" curve is the written spec's
+        freq = diagnosis.spectra.freq_hz
+        measured = replayed_mean(diagnosis.spectra, None)
+        before = replayed_mean(diagnosis.spectra, diagnosis.given)
+        after = replayed_mean(diagnosis.spectra, diagnosis.improved)
         self.overlay_plot.plot(freq, np.abs(measured) / G, pen=pen(MEASURED_COLOR, 2.5), name="measured (mean of hits)")
         self.overlay_plot.plot(
             freq, np.abs(before) / G, pen=pen(PALETTE[1], 1.5, Qt.PenStyle.DashLine), name="rig spec (before)"

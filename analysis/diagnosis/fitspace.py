@@ -1,0 +1,128 @@
+"""The free parameters of a rig spec as a fit sees them: one slot per film parameter or effect field.
+
+A fit varies a vector in search space (logarithm of log-scaled values) and every evaluation is a real
+:class:`~gasfilm.analysis.physics.spec.RigSpec` built from it (:meth:`RigSpec.with_values`), so the spec a fit
+returns is the spec that is written and replayed: there is no second model of the rig.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+import numpy as np
+
+from gasfilm.analysis.physics.effects import Effect, FitContext, FitRange
+from gasfilm.analysis.physics.response import HitConditions, hit_displacement_m, resonance_omega_rad_s
+from gasfilm.analysis.physics.spec import RigSpec
+
+#: Relative distance (in the search space's span) within which a fitted value counts as sitting at its bound.
+AT_BOUND_FRACTION = 1e-3
+
+
+@dataclass(frozen=True)
+class Slot:
+    """One free parameter: ``effect`` None for a film parameter, else the index of the effect in the spec."""
+
+    effect: int | None
+    name: str
+    range: FitRange
+
+    def label(self, spec: RigSpec) -> str:
+        return self.name if self.effect is None else f"{spec.effects[self.effect].type_name}.{self.name}"
+
+    def to_search(self, value: float) -> float:
+        return float(np.log(value)) if self.range.scale == "log" else float(value)
+
+    def from_search(self, value: float) -> float:
+        return float(np.exp(value)) if self.range.scale == "log" else float(value)
+
+    def search_bounds(self) -> tuple[float, float]:
+        return self.to_search(self.range.lower), self.to_search(self.range.upper)
+
+    def value(self, spec: RigSpec) -> float:
+        if self.effect is None:
+            return float(spec.film_parameters[self.name])
+        return float(getattr(spec.effects[self.effect], self.name))
+
+    def at_bound(self, spec: RigSpec) -> bool:
+        low, high = self.search_bounds()
+        position = self.to_search(self.value(spec)) if self.range.scale != "log" or self.value(spec) > 0 else low
+        return min(position - low, high - position) <= AT_BOUND_FRACTION * (high - low)
+
+
+def fit_context(spec: RigSpec, conditions: HitConditions, band_hz: tuple[float, float]) -> FitContext:
+    """The physical scales that bound every term in this session (from the spec as given and the hits)."""
+    omega = resonance_omega_rad_s(spec)
+    film = abs(spec.film.stiffness(np.array([1j * omega]), spec.film_parameters)[0])
+    return FitContext(
+        mass_kg=spec.moving_mass_kg,
+        film_stiffness_n_per_m=float(film),
+        resonance_hz=omega / (2 * np.pi),
+        band_hz=(float(band_hz[0]), float(band_hz[1])),
+        session_span_s=float(np.ptp(conditions.time_s)) if len(conditions.time_s) else 0.0,
+        max_displacement_m=float(np.max(hit_displacement_m(spec, conditions.impulse_ns))),
+    )
+
+
+def film_slots(spec: RigSpec) -> list[Slot]:
+    """The film model's own parameters (element bounds; orders linear, everything else log-scaled)."""
+    return [Slot(None, p.name, FitRange(p.scale, max(p.lower, 1e-12) if p.scale == "log" else p.lower, p.upper))
+            for p in spec.film.parameters]
+
+
+def effect_slots(spec: RigSpec, index: int, context: FitContext) -> list[Slot]:
+    """The continuously fitted fields of effect ``index`` with their physical ranges in this session."""
+    return [Slot(index, name, fit_range) for name, fit_range in spec.effects[index].fit_ranges(context).items()]
+
+
+def spec_slots(spec: RigSpec, context: FitContext) -> list[Slot]:
+    """Every free parameter of a spec: the film's, then each effect's (ranges widened to hold the current values, so
+    a spec a diagnosis wrote is recalibrated from exactly where it is)."""
+    slots = film_slots(spec)
+    for index in range(len(spec.effects)):
+        slots.extend(effect_slots(spec, index, context))
+    return [_holding_value(slot, slot.value(spec)) for slot in slots]
+
+
+def _holding_value(slot: Slot, value: float) -> Slot:
+    fit_range = slot.range
+    if fit_range.scale == "log" and value <= 0:
+        return slot
+    if fit_range.lower <= value <= fit_range.upper:
+        return slot
+    return Slot(slot.effect, slot.name, FitRange(fit_range.scale, min(fit_range.lower, value),
+                                                  max(fit_range.upper, value)))
+
+
+def read_vector(spec: RigSpec, slots: list[Slot]) -> np.ndarray:
+    """The search-space vector of the slots' current values, clipped into their bounds."""
+    values = []
+    for slot in slots:
+        low, high = slot.search_bounds()
+        value = slot.value(spec)
+        search = low if slot.range.scale == "log" and value <= 0 else slot.to_search(value)
+        values.append(float(np.clip(search, low, high)))
+    return np.array(values)
+
+
+def write_vector(spec: RigSpec, slots: list[Slot], vector: np.ndarray) -> RigSpec:
+    """The spec with the slots set from a search-space vector (not re-validated: the ranges keep it physical)."""
+    film = dict(spec.film_parameters)
+    changes: dict[int, dict[str, float]] = {}
+    for slot, value in zip(slots, vector):
+        if slot.effect is None:
+            film[slot.name] = slot.from_search(value)
+        else:
+            changes.setdefault(slot.effect, {})[slot.name] = slot.from_search(value)
+    effects = [dataclasses.replace(effect, **changes[index]) if index in changes else effect
+               for index, effect in enumerate(spec.effects)]
+    return spec.with_values(film_parameters=film, effects=effects)
+
+
+def with_effect(spec: RigSpec, effect: Effect) -> RigSpec:
+    return spec.with_values(effects=(*spec.effects, effect))
+
+
+def without_effect(spec: RigSpec, index: int) -> RigSpec:
+    return spec.with_values(effects=[e for i, e in enumerate(spec.effects) if i != index])

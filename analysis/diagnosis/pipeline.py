@@ -1,0 +1,591 @@
+"""The diagnosis itself: where the spec and the recordings differ, what is missing, and what is still not explained.
+
+1. **compare** the spec with the recordings under the recordings' own conditions (the spec played with each hit's
+   recorded force through the same windows, weighted by the measured noise, :mod:`.measurement`);
+2. **recalibrate** the spec's own parameters; a mismatch this removes is ``parameters-only``, never physics;
+3. **forward selection** over the candidate effects (:mod:`.candidates`): each is fitted with the spec's parameters;
+   the best enters when its χ² gain, in units of the current model's noise scale, beats its BIC cost on all hits and
+   on hits left out of the fit, and when its parameters are physical and not at a bound;
+4. **check back**: with the final noise scale every term must still pay for itself;
+5. **adequacy**: the final spec is tested against the measured noise per band and per hit; what is beyond the noise
+   is reported as ``unexplained`` with its character, and the verdict says so.
+
+The pipeline writes no files: callers write ``Diagnosis.improved`` and the figures.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+import time
+from dataclasses import dataclass, field
+from typing import Callable
+
+import numpy as np
+
+from gasfilm.analysis.diagnosis.candidates import CANDIDATES, EQUIVALENT, separating_measurement
+from gasfilm.analysis.diagnosis.fitspace import fit_context, spec_slots, without_effect
+from gasfilm.analysis.diagnosis.measurement import HitSpectra
+from gasfilm.analysis.diagnosis.result import Alternative, Diagnosis, Finding, Unexplained, weighted_mean
+from gasfilm.analysis.diagnosis.selection import (
+    BIC_MARGIN,
+    HELD_OUT_THRESHOLD,
+    Evidence,
+    FitOutcome,
+    best_candidate_fit,
+    bic,
+    fit,
+    held_out_gain,
+    model_function,
+)
+from gasfilm.analysis.physics.effects import Effect, FitContext
+from gasfilm.analysis.physics.response import simulate_response
+from gasfilm.analysis.physics.spec import RigSpec
+from gasfilm.drivers.errors import GasfilmError
+
+logger = logging.getLogger(__name__)
+
+MAX_TERMS = 3
+NONLINEAR_ITERATIONS = 3
+#: χ² per point above which the final spec does not explain the recordings (1 is the measured noise; the noise
+#: estimate itself is uncertain by some 10–20 %).
+ADEQUATE_CHI2_PER_POINT = 1.5
+#: A band whose own χ² per point exceeds this is listed as unexplained even when the whole is adequate.
+LOCAL_CHI2_PER_POINT = 4.0
+#: Terms whose BIC score lies within this margin of the chosen one's are reported as alternatives.
+ALTERNATIVE_MARGIN = 10.0
+
+
+@dataclass
+class Step:
+    """One accepted term: its type, χ² before and after, its held-out gain and the close alternatives."""
+
+    identifier: str
+    chi2_before: float
+    chi2_after: float
+    held_out_gain: float
+    alternatives: list[str] = field(default_factory=list)
+
+
+@dataclass
+class Rejected:
+    """A term that fitted better but is not a finding (at a bound, physically absurd): reported as unexplained."""
+
+    identifier: str
+    reason: str
+    band_hz: tuple[float, float]
+
+
+def _silent(message: str) -> None:
+    del message
+
+
+def diagnose_spectra(spectra: HitSpectra, spec: RigSpec, progress: Callable[[str], None] = _silent) -> Diagnosis:
+    """Diagnose per-hit spectra against a rig spec."""
+    started = time.monotonic()
+    context = fit_context(spec, spectra.conditions, (float(spectra.freq_hz[0]), float(spectra.freq_hz[-1])))
+    evidence = evidence_for(spectra, spec)
+    points = evidence.point_count
+    chi2_given = evidence.chi2(spec)
+    rms_given = replay_rms(spectra, spec)
+    progress(f"compared {evidence.hit_count} hits on {len(evidence.freq_hz)} frequencies "
+             f"{evidence.freq_hz[0]:.0f}–{evidence.freq_hz[-1]:.0f} Hz: χ²/point {chi2_given / points:.2f}")
+
+    own_slots = spec_slots(spec, context)
+    recalibrated = fit(evidence, spec, own_slots)
+    recalibration_significant = chi2_given - recalibrated.chi2 > len(own_slots) * np.log(points) + BIC_MARGIN
+    if recalibration_significant:
+        evidence = evidence_for(spectra, recalibrated.spec)
+        current = fit(evidence, recalibrated.spec, own_slots)
+    else:
+        current = FitOutcome(spec, chi2_given, own_slots, recalibrated.covariance, 0)
+    recalibrated_spec = current.spec
+    progress(f"recalibrated {len(own_slots)} spec parameter(s): χ² {chi2_given:.0f} → {recalibrated.chi2:.0f}"
+             + (" (significant)" if recalibration_significant else " (within the noise)"))
+
+    steps: list[Step] = []
+    rejected: list[Rejected] = []
+    while len(steps) < MAX_TERMS:
+        accepted = _select_one(spectra, evidence, current, context, points, rejected, progress)
+        if accepted is None:
+            break
+        step, outcome, evidence = accepted
+        steps.append(step)
+        current = fit(evidence, outcome.spec, outcome.slots)
+
+    steps, current, evidence, refits_without = _check_back(spectra, evidence, steps, current, context, progress)
+    rms_recalibrated = replay_rms(spectra, recalibrated_spec)
+    findings = [_finding(spectra, evidence, step, current, refits_without[step.identifier], spec, rms_recalibrated,
+                         context) for step in steps]
+    unexplained = _unexplained(spectra, evidence, current.spec, rejected)
+    chi2_after = current.chi2
+    if unexplained:
+        verdict = "partly explained" if findings else "not explained"
+    elif findings:
+        verdict = "missing physics"
+    elif recalibration_significant:
+        verdict = "parameters-only"
+    else:
+        verdict = "consistent"
+    recalibration = _recalibration_table(spec, current) if recalibration_significant else {}
+    free = len(current.slots) if (steps or recalibration_significant) else 0
+    diagnosis = Diagnosis(
+        verdict=verdict,
+        findings=findings,
+        unexplained=unexplained,
+        quality=list(spectra.quality),
+        recalibration=recalibration,
+        rms_before=rms_given,
+        rms_recalibrated=rms_recalibrated,
+        rms_after=replay_rms(spectra, current.spec),
+        bic_before=bic(chi2_given, 0, points),
+        bic_after=bic(chi2_after, free, points),
+        chi2_per_point_before=chi2_given / points,
+        chi2_per_point_after=chi2_after / points,
+        given=spec,
+        recalibrated=recalibrated_spec,
+        improved=current.spec,
+        spectra=spectra,
+        evidence=evidence,
+        wall_time_s=time.monotonic() - started,
+    )
+    logger.info("diagnosis: %s, %d finding(s), %d unexplained band(s), χ²/point %.2f → %.2f", verdict, len(findings),
+                len(unexplained), diagnosis.chi2_per_point_before, diagnosis.chi2_per_point_after)
+    return diagnosis
+
+
+# --- forward selection ---------------------------------------------------------------------------------------------
+
+
+def _noise_scale(outcome: FitOutcome, points: int) -> float:
+    """χ² per degree of freedom of a fit, at least 1: gains are judged in units of what is left unexplained."""
+    return max(1.0, outcome.chi2 / max(points - len(outcome.slots), 1))
+
+
+def _select_one(
+    spectra: HitSpectra,
+    evidence: Evidence,
+    current: FitOutcome,
+    context: FitContext,
+    points: int,
+    rejected: list[Rejected],
+    progress: Callable[[str], None],
+) -> tuple[Step, FitOutcome, Evidence] | None:
+    """The next term of the forward selection, or None when no candidate earns its place."""
+    present = {effect.type_name for effect in current.spec.effects}
+    noise_scale = _noise_scale(current, points)
+    trials = []
+    for identifier in CANDIDATES:
+        if identifier in present or (identifier in ("drift", "step-change") and context.session_span_s <= 0):
+            continue
+        try:
+            outcome, candidate_evidence = _candidate_fit(spectra, evidence, current.spec, identifier, context)
+        except GasfilmError as error:  # a nonlinear replay that does not converge is no candidate
+            logger.info("candidate %s skipped: %s", identifier, error)
+            continue
+        if outcome is None:
+            continue
+        extra = len(outcome.slots) - len(current.slots)
+        score = (current.chi2 - outcome.chi2) / noise_scale - extra * np.log(points)
+        trials.append((score, identifier, outcome, candidate_evidence))
+    trials.sort(key=lambda trial: trial[0], reverse=True)
+    summary = ", ".join(f"{identifier} {score:+.0f}" for score, identifier, _, _ in trials[:4])
+    progress(f"BIC gain of the best candidates (noise scale {noise_scale:.2f}): {summary}")
+    for rank, (score, identifier, outcome, candidate_evidence) in enumerate(trials[:4]):
+        if score <= BIC_MARGIN:
+            return None
+        index = len(outcome.spec.effects) - 1
+        reason = _not_a_finding(outcome, index, context)
+        if reason is not None:
+            band = _term_band(candidate_evidence, outcome.spec, current.spec)
+            rejected.append(Rejected(identifier, reason, band))
+            progress(f"  {identifier}: not a finding ({reason})")
+            continue
+        gain_held_out = held_out_gain(evidence, current.spec, candidate_evidence, outcome.spec, context) / noise_scale
+        progress(f"  {identifier}: held-out χ² gain {gain_held_out:.0f} (needs > {HELD_OUT_THRESHOLD:.0f})")
+        if gain_held_out <= HELD_OUT_THRESHOLD:
+            continue
+        close = [other for other_score, other, _, _ in trials if other != identifier
+                 and score - other_score < ALTERNATIVE_MARGIN and other_score > BIC_MARGIN]
+        step = Step(identifier, current.chi2, outcome.chi2, gain_held_out, close)
+        return step, outcome, evidence_for(spectra, outcome.spec)
+    return None
+
+
+def _not_a_finding(outcome: FitOutcome, index: int, context: FitContext) -> str | None:
+    """Why the term at ``index`` is not a measurement of anything: a parameter at its bound, or absurd values."""
+    spec = outcome.spec
+    at_bound = [slot.name for slot in outcome.slots if slot.effect == index and slot.at_bound(spec)]
+    if at_bound:
+        return f"{', '.join(at_bound)} ran into the edge of the physical range"
+    return spec.effects[index].implausible(context)
+
+
+def _candidate_fit(
+    spectra: HitSpectra, evidence: Evidence, spec: RigSpec, identifier: str, context: FitContext
+) -> tuple[FitOutcome | None, Evidence]:
+    """Fit the spec plus one candidate; a cubic film spring is refitted against its exact nonlinear replay until
+    k3 settles (the equivalent-linear fit only starts it)."""
+    outcome = best_candidate_fit(evidence, spec, identifier, context)
+    if outcome is None or identifier != "cubic-stiffness":
+        return outcome, evidence
+    if evidence.chi2(spec) - outcome.chi2 < np.log(evidence.point_count):
+        return outcome, evidence  # not even the equivalent linear term pays for itself: no nonlinear replay
+    for _ in range(NONLINEAR_ITERATIONS):
+        previous = outcome.spec.cubic_stiffness_n_per_m3
+        evidence = evidence_for(spectra, outcome.spec)
+        outcome = fit(evidence, outcome.spec, outcome.slots)
+        if abs(outcome.spec.cubic_stiffness_n_per_m3 - previous) <= 0.02 * abs(previous):
+            break
+    return outcome, evidence
+
+
+def _check_back(
+    spectra: HitSpectra,
+    evidence: Evidence,
+    steps: list[Step],
+    current: FitOutcome,
+    context: FitContext,
+    progress: Callable[[str], None],
+) -> tuple[list[Step], FitOutcome, Evidence, dict[str, RigSpec]]:
+    """Drop terms that no longer pay for themselves once the final model's noise scale is known.
+
+    Also returns, for every term kept, the final spec refitted without it (where the term is needed is where that
+    refit fails).
+    """
+    points = evidence.point_count
+    while steps:
+        noise_scale = _noise_scale(current, points)
+        trials = []
+        for step in steps:
+            index = _effect_index(current.spec, step.identifier)
+            reduced = without_effect(current.spec, index)
+            refit = fit(evidence, reduced, spec_slots(reduced, context))
+            extra = len(current.slots) - len(refit.slots)
+            trials.append(((refit.chi2 - current.chi2) / noise_scale - extra * np.log(points), step, refit))
+        cost, step, refit = min(trials, key=lambda trial: trial[0])
+        if cost > BIC_MARGIN:
+            return steps, current, evidence, {trial_step.identifier: trial_refit.spec
+                                              for _, trial_step, trial_refit in trials}
+        progress(f"check back: {step.identifier} no longer significant (noise scale {noise_scale:.2f}); removed")
+        steps = [s for s in steps if s is not step]
+        evidence = evidence_for(spectra, refit.spec)
+        current = fit(evidence, refit.spec, refit.slots)
+    return steps, current, evidence, {}
+
+
+def _effect_index(spec: RigSpec, identifier: str) -> int:
+    return next(i for i, effect in enumerate(spec.effects) if effect.type_name == identifier)
+
+
+# --- reporting ------------------------------------------------------------------------------------------------------
+
+
+def _recalibration_table(given: RigSpec, outcome: FitOutcome) -> dict[str, dict[str, float]]:
+    table = {}
+    for index, slot in enumerate(outcome.slots):
+        if slot.effect is not None and slot.effect >= len(given.effects):
+            continue  # a term the diagnosis added: reported as a finding
+        table[slot.label(outcome.spec)] = {"spec": slot.value(given), "fitted": slot.value(outcome.spec),
+                                           "uncertainty": outcome.uncertainty(index)}
+    return table
+
+
+def _term_band(evidence: Evidence, final: RigSpec, without: RigSpec) -> tuple[float, float]:
+    """The band holding 80 % of the χ² a term removes against the rest refitted without it."""
+    gain = np.clip(evidence.chi2_per_frequency(without) - evidence.chi2_per_frequency(final), 0.0, None)
+    freq_hz = evidence.freq_hz
+    if gain.sum() <= 0:
+        return float(freq_hz[0]), float(freq_hz[-1])
+    cumulative = np.cumsum(gain) / gain.sum()
+    low = freq_hz[min(np.searchsorted(cumulative, 0.1), len(freq_hz) - 1)]
+    high = freq_hz[min(np.searchsorted(cumulative, 0.9), len(freq_hz) - 1)]
+    return float(low), float(high)
+
+
+def _where(identifier: str, spec: RigSpec, band: tuple[float, float]) -> str:
+    """A finding's location in words: its own signature's frequency first, consequences elsewhere as such."""
+    band_text = f"{band[0]:.0f}–{band[1]:.0f} Hz"
+    if identifier == "extra-mode":
+        mode_hz = spec.effects[_effect_index(spec, identifier)].freq_hz
+        own = f"near {mode_hz:.0f} Hz (its own peak/dip)"
+        if band[0] <= mode_hz <= band[1]:
+            return own
+        return f"{own}; its mass also moves the main resonance, where most of its χ² gain lies ({band_text})"
+    return band_text
+
+
+def _finding(
+    spectra: HitSpectra,
+    evidence: Evidence,
+    step: Step,
+    final: FitOutcome,
+    without: RigSpec,
+    given: RigSpec,
+    rms_recalibrated: float,
+    context: FitContext,
+) -> Finding:
+    identifier = step.identifier
+    index = _effect_index(final.spec, identifier)
+    effect = final.spec.effects[index]
+    sigma: dict[str, float] = {}
+    parameters: dict[str, dict[str, float | str]] = {}
+    for slot_index, slot in enumerate(final.slots):
+        if slot.effect == index:
+            sigma[slot.name] = final.uncertainty(slot_index)
+            unit = next(f.metadata.get("unit", "") for f in dataclasses.fields(effect) if f.name == slot.name)
+            parameters[slot.name] = {"value": slot.value(final.spec), "uncertainty": sigma[slot.name], "unit": unit}
+    band = _term_band(evidence, final.spec, without)
+    where = _where(identifier, final.spec, band)
+    gain = step.chi2_before - step.chi2_after
+    hits = f"all {evidence.hit_count} hits"
+    if identifier in ("drift", "step-change"):
+        hits += ", changing with the hit's session time"
+    elif identifier == "cubic-stiffness":
+        hits += ", changing with the hit's force level"
+    sentence = effect.evidence(sigma, where, context)
+    sentence = (f"{sentence[0].upper()}{sentence[1:]}; χ² falls by {gain:.0f} on all hits and by "
+                f"{step.held_out_gain:.0f} (noise units) on hits left out of the fit.")
+    return Finding(
+        effect=identifier,
+        kind=effect.kind,
+        band_hz=band,
+        where=where,
+        parameters=parameters,
+        evidence=sentence,
+        explanation=type(effect).explanation,
+        hits=hits,
+        chi2_gain=gain,
+        held_out_gain=step.held_out_gain,
+        gain_over_recalibrated=_gain_over_recalibrated(spectra, final.spec, given, index, rms_recalibrated, context),
+        alternatives=_alternatives(identifier, step.alternatives, final.spec, index),
+    )
+
+
+def _gain_over_recalibrated(
+    spectra: HitSpectra, final: RigSpec, given: RigSpec, index: int, rms_recalibrated: float, context: FitContext
+) -> float:
+    """RMS reduction (%) over the recalibrated spec of the final spec keeping only this one of the added terms
+    (everything refitted from the final values; a refit from the recalibrated film can miss the minimum)."""
+    if rms_recalibrated <= 0:
+        return 0.0
+    added = range(len(given.effects), len(final.effects))
+    spec = final.with_values(effects=[e for i, e in enumerate(final.effects) if i == index or i not in added])
+    if len(spec.effects) != len(final.effects):
+        evidence = evidence_for(spectra, spec)
+        spec = fit(evidence, spec, spec_slots(spec, context)).spec
+    return 100.0 * (rms_recalibrated - replay_rms(spectra, spec)) / rms_recalibrated
+
+
+def _alternatives(identifier: str, close: list[str], spec: RigSpec, index: int) -> list[Alternative]:
+    alternatives = []
+    if identifier in EQUIVALENT:
+        other, measurement = EQUIVALENT[identifier]
+        mass_kg = getattr(spec.effects[index], "mass_kg", 0.0)
+        fraction = -mass_kg / (spec.moving_mass_kg) if mass_kg else 0.0
+        alternatives.append(Alternative(
+            other, f"exactly equivalent: a uniform accelerometer sensitivity error of {100 * fraction:+.2f} % with a "
+                   f"recalibrated film scales the FRF the same way; these data cannot tell them apart — {measurement}"))
+    for other in close:
+        alternatives.append(Alternative(
+            other, f"fits almost as well (BIC within {ALTERNATIVE_MARGIN:.0f}); these data cannot tell it from "
+                   f"{identifier} — {separating_measurement(identifier, other)} would"))
+    return alternatives
+
+
+# --- adequacy ---------------------------------------------------------------------------------------------------------
+
+
+def _unexplained(
+    spectra: HitSpectra, evidence: Evidence, spec: RigSpec, rejected: list[Rejected]
+) -> list[Unexplained]:
+    """Bands and hits where the final spec is beyond the measured noise, with their character."""
+    per_point = evidence.chi2_per_hit_and_frequency(spec) / 2.0  # χ² per real number: 1 is noise
+    overall = float(per_point.mean())
+    per_frequency = per_point.mean(axis=0)
+    smooth = np.convolve(per_frequency, np.ones(5) / 5, mode="same")
+    threshold = LOCAL_CHI2_PER_POINT if overall <= ADEQUATE_CHI2_PER_POINT else max(2.0, 0.5 * overall)
+    excess = np.clip(per_frequency - 1.0, 0.0, None)
+    total_excess = float(excess.sum()) or 1.0
+    freq_hz = evidence.freq_hz
+    items: list[Unexplained] = []
+    for low, high in _runs(smooth > threshold, 2):
+        share = float(excess[low : high + 1].sum()) / total_excess
+        if overall <= ADEQUATE_CHI2_PER_POINT and share < 0.05:
+            continue
+        band = (float(freq_hz[low]), float(freq_hz[high]))
+        items.append(Unexplained(band, _hits_in(spectra, per_point[:, low : high + 1]), share,
+                                 _character(spectra, evidence, spec, low, high)))
+    if overall > ADEQUATE_CHI2_PER_POINT and not items:
+        items.append(Unexplained((float(freq_hz[0]), float(freq_hz[-1])), _hits_in(spectra, per_point), 1.0,
+                                 _character(spectra, evidence, spec, 0, len(freq_hz) - 1)))
+    for term in rejected:
+        if any(a.band_hz[0] <= term.band_hz[1] and term.band_hz[0] <= a.band_hz[1] for a in items):
+            for item in items:
+                if item.band_hz[0] <= term.band_hz[1] and term.band_hz[0] <= item.band_hz[1]:
+                    item.character += f"; a {term.identifier} term fitted here is not a finding: {term.reason}"
+    return items
+
+
+def _runs(mask: np.ndarray, min_length: int) -> list[tuple[int, int]]:
+    edges = np.diff(np.concatenate(([0], mask.astype(int), [0])))
+    starts, stops = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
+    return [(a, b - 1) for a, b in zip(starts, stops) if b - a >= min_length]
+
+
+def _hits_in(spectra: HitSpectra, per_point: np.ndarray) -> list[int]:
+    """Hit numbers whose χ² per point in the band stands out (all hits when none does)."""
+    per_hit = per_point.mean(axis=1)
+    outliers = np.flatnonzero(per_hit > 3.0 * max(np.median(per_hit), 1.0))
+    chosen = outliers if outliers.size else np.arange(per_hit.size)
+    return [int(spectra.hit_numbers[i]) for i in chosen]
+
+
+def _character(spectra: HitSpectra, evidence: Evidence, spec: RigSpec, low: int, high: int) -> str:
+    """What the unexplained residual looks like, in words that point at its cause."""
+    freq_hz = evidence.freq_hz
+    resonance_hz = float(freq_hz[np.argmax(np.abs(evidence.mean_prediction(spec)))])
+    band = (freq_hz[low], freq_hz[high])
+    residual = evidence.spectra.h[:, low : high + 1] - _per_hit(evidence.predicted(spec), evidence.hit_count)[
+        :, low : high + 1]
+    weight = evidence.spectra.weight[:, low : high + 1]
+    per_hit_mean = (weight * residual).sum(axis=1) / weight.sum(axis=1)
+    order = np.argsort(spectra.conditions.time_s, kind="stable")
+    change = _change_in_session(per_hit_mean[order], np.sqrt(1.0 / weight.sum(axis=1))[order])
+    if change is not None:
+        kind, split = change
+        if kind == "step":
+            first, second = spectra.hit_numbers[order[split - 1]], spectra.hit_numbers[order[split]]
+            return (f"a jump between hits {first} and {second}: the rig changed at one point during the session, "
+                    f"which no term explained")
+        return "a steady trend from early to late hits: the rig changed during the session, which no term explained"
+    harmonics = [n * resonance_hz for n in (2, 3)]
+    if any(band[0] <= h <= band[1] for h in harmonics) and band[0] > 1.3 * resonance_hz:
+        return (f"at a harmonic of the resonance ({resonance_hz:.0f} Hz): the response is distorted by a "
+                f"nonlinearity")
+    amplitude_trend = _level_trend(per_hit_mean, spectra.conditions.impulse_ns)
+    if amplitude_trend:
+        return ("changing with the hit level: the film's stiffness or damping depends on the amplitude (friction, "
+                "quadratic damping or a nonlinear spring)")
+    centre = 0.5 * (band[0] + band[1])
+    if band[1] - band[0] < 0.3 * centre:
+        return f"a localised peak/dip near {centre:.0f} Hz that no term explained"
+    return "a broadband excess over the measured noise: an effect no term describes, or the noise model"
+
+
+def _per_hit(predicted: np.ndarray, hit_count: int) -> np.ndarray:
+    return np.broadcast_to(predicted, (hit_count, predicted.shape[-1])) if predicted.ndim == 1 else predicted
+
+
+def _change_in_session(values: np.ndarray, sigma: np.ndarray) -> tuple[str, int] | None:
+    """A significant step or trend of a per-hit quantity in time order: ("step", split) or ("trend", 0), or None."""
+    count = values.size
+    if count < 6:
+        return None
+    scatter = float(np.sum((values - values.mean()) ** 2 / sigma**2).real)
+    if scatter < 4.0 * count:  # the hits agree within their noise: nothing changes
+        return None
+    position = np.arange(count, dtype=float)
+    best_step, best_split = np.inf, 0
+    for split in range(2, count - 1):
+        before, after = values[:split], values[split:]
+        cost = float(np.sum(np.abs(before - before.mean()) ** 2 / sigma[:split] ** 2)
+                     + np.sum(np.abs(after - after.mean()) ** 2 / sigma[split:] ** 2))
+        if cost < best_step:
+            best_step, best_split = cost, split
+    design = np.vstack((np.ones(count), position)).T / sigma[:, np.newaxis]
+    trend_cost = 0.0
+    for part in (values.real, values.imag):
+        coefficients, *_ = np.linalg.lstsq(design, part / sigma, rcond=None)
+        trend_cost += float(np.sum((part / sigma - design @ coefficients) ** 2))
+    if min(best_step, trend_cost) > 0.5 * scatter:
+        return None
+    return ("step", best_split) if best_step < 0.7 * trend_cost else ("trend", 0)
+
+
+def _level_trend(values: np.ndarray, impulse_ns: np.ndarray) -> bool:
+    """Whether the per-hit residual follows the hit level strongly (rank correlation of its size with the impulse)."""
+    if values.size < 6 or np.ptp(impulse_ns) <= 0.1 * np.median(impulse_ns):
+        return False
+    size = np.abs(values)
+    ranks_size = np.argsort(np.argsort(size))
+    ranks_level = np.argsort(np.argsort(impulse_ns))
+    correlation = np.corrcoef(ranks_size, ranks_level)[0, 1]
+    return bool(abs(correlation) > 0.7)
+
+
+# --- replay -------------------------------------------------------------------------------------------------------
+
+
+def evidence_for(spectra: HitSpectra, spec: RigSpec) -> Evidence:
+    """Evidence whose per-hit FRFs are corrected by the replay of ``spec`` (see :class:`HitSpectra`); the replay is
+    the exact nonlinear simulation when the spec has a cubic film spring."""
+    return Evidence(spectra.correct_for_replay(model_function(spec, spectra.conditions),
+                                               _nonlinear_replay(spectra, spec)))
+
+
+def _nonlinear_replay(spectra: HitSpectra, spec: RigSpec) -> np.ndarray | None:
+    """Per-hit FRFs of the exact nonlinear response played with the recorded forces, or None for a linear spec.
+    Remembered per spec."""
+    replay = spectra.replay
+    if replay is None or spec.is_linear:
+        return None
+    key = spec.to_toml()
+    if key not in replay.nonlinear_cache:
+        replay.nonlinear_cache[key] = _simulate_nonlinear(spectra, spec)
+    return replay.nonlinear_cache[key]
+
+
+def _simulate_nonlinear(spectra: HitSpectra, spec: RigSpec) -> np.ndarray:
+    """Replay with the cubic film spring: the exact nonlinear simulation of the median hit gives the shape of the
+    distortion beyond the equivalent linear stiffness; to first order in k3 it scales with the square of each hit's
+    impulse (``x0² ∝ J²``), which is how it is carried to the other hits' (exact) linear replays."""
+    replay = spectra.replay
+    impulses = spectra.conditions.impulse_ns
+    reference = int(np.argmin(np.abs(impulses - np.median(impulses))))
+    response = simulate_response(spec, replay.forces_n[reference], replay.sample_rate_hz,
+                                 time_s=float(spectra.conditions.time_s[reference]))
+    exact = replay.single(reference).windowed_frf(response[np.newaxis, :])[0]
+    linear = replay.replayed(model_function(spec, spectra.conditions))
+    distortion = exact / linear[reference] - 1.0
+    scale = (impulses / impulses[reference]) ** 2
+    return linear * (1.0 + scale[:, np.newaxis] * distortion[np.newaxis, :])
+
+
+def replayed_mean(spectra: HitSpectra, spec: RigSpec | None) -> np.ndarray:
+    """H1 (noise-weighted mean over hits) of the recordings (``spec`` None), or of ``spec`` replayed with the
+    recorded forces through the same windows."""
+    replay = spectra.replay
+    if replay is None:
+        raise GasfilmError("diagnosis: these spectra keep no recorded forces to replay a spec with")
+    if spec is None:
+        per_hit = replay.measured_h
+    else:
+        per_hit = _nonlinear_replay(spectra, spec)
+        if per_hit is None:
+            per_hit = np.broadcast_to(replay.replayed(model_function(spec, spectra.conditions)),
+                                      replay.measured_h.shape)
+    return weighted_mean(per_hit, replay.measured_variance)
+
+
+def replay_rms(spectra: HitSpectra, spec: RigSpec) -> float:
+    """Equation (33) under identical conditions: RMS over the analysis frequencies of |H1 recorded − H1 replayed|,
+    in (m/s²)/N (both averaged over hits the same way)."""
+    difference = replayed_mean(spectra, None) - replayed_mean(spectra, spec)
+    return float(np.sqrt(np.mean(np.abs(difference) ** 2)))
+
+
+def per_frequency_residual(diagnosis: Diagnosis, spec: RigSpec) -> np.ndarray:
+    """χ² per real number at each analysis frequency (``spec`` replayed against the recordings): 1 is noise."""
+    evidence = evidence_for(diagnosis.spectra, spec)
+    return evidence.chi2_per_frequency(spec) / (2 * evidence.hit_count)
+
+
+def per_hit_residual(diagnosis: Diagnosis, spec: RigSpec) -> np.ndarray:
+    """χ² per point of each hit (``spec`` replayed against the recordings)."""
+    evidence = evidence_for(diagnosis.spectra, spec)
+    return evidence.chi2_per_hit_and_frequency(spec).sum(axis=1) / (2 * len(evidence.freq_hz))
+
+
+__all__ = ["diagnose_spectra", "evidence_for", "replay_rms", "replayed_mean", "per_frequency_residual",
+           "per_hit_residual"]

@@ -1,0 +1,54 @@
+"""The diagnosis in words for a terminal or a report: verdict, findings, what is not explained, quality notes."""
+
+from __future__ import annotations
+
+from gasfilm.analysis.diagnosis.result import Diagnosis
+from gasfilm.drivers.interface import STANDARD_GRAVITY_M_S2 as G_M_S2
+
+_VERDICT_LINES = {
+    "consistent": "no missing physics: the spec explains the recordings within the noise",
+    "parameters-only": "no missing physics: the recalibrated parameters explain the recordings within the noise",
+    "missing physics": "the spec with the terms above explains the recordings within the noise",
+    "partly explained": "the terms above explain part of the mismatch; the rest is NOT explained (below)",
+    "not explained": "no term of the catalog explains the mismatch: it is NOT explained (below)",
+}
+
+
+def report_text(diagnosis: Diagnosis) -> str:
+    """A plain-text report, every number with its unit."""
+    lines = [f"gasfilm diagnose — verdict: {diagnosis.verdict}"]
+    evidence = diagnosis.evidence
+    lines.append(f"  compared {evidence.hit_count} hits, {evidence.freq_hz[0]:.0f}–{evidence.freq_hz[-1]:.0f} Hz, "
+                 f"replayed with the recorded forces through the same windows")
+    if diagnosis.recalibration:
+        lines.append("  recalibrated spec parameters:")
+        for name, row in diagnosis.recalibration.items():
+            lines.append(f"    {name:34s} {row['spec']:.6g} → {row['fitted']:.6g} ± {row['uncertainty']:.2g}")
+    for finding in diagnosis.findings:
+        label = "measurement chain" if finding.kind == "measurement" else "missing physics"
+        lines.append(f"  {label}: {finding.effect}  (where: {finding.where}; {finding.hits})")
+        for name, row in finding.parameters.items():
+            lines.append(f"      {name:30s} {row['value']:.6g} ± {row['uncertainty']:.2g} {row['unit']}")
+        lines.append(f"      why:  {finding.evidence}")
+        lines.append(f"      what: {finding.explanation}")
+        lines.append(f"      gain over the recalibrated spec: {finding.gain_over_recalibrated:.1f} % RMS")
+        for alternative in finding.alternatives:
+            lines.append(f"      or:   {alternative.effect} — {alternative.note}")
+    lines.append(f"  {_VERDICT_LINES[diagnosis.verdict]}")
+    for item in diagnosis.unexplained:
+        hits = "all hits" if len(item.hits) == diagnosis.evidence.hit_count else f"hits {item.hits}"
+        lines.append(f"  NOT explained: {item.band_hz[0]:.0f}–{item.band_hz[1]:.0f} Hz, {hits}, "
+                     f"{100 * item.chi2_share:.0f} % of the excess χ²: {item.character}")
+    if diagnosis.quality:
+        lines.append("  measurement quality (not physics):")
+        lines.extend(f"    {note.kind}: {note.message}" for note in diagnosis.quality)
+    lines.append(f"  RMS {diagnosis.rms_before / G_M_S2:.4g} g/N as given → {diagnosis.rms_recalibrated / G_M_S2:.4g} "
+                 f"recalibrated → {diagnosis.rms_after / G_M_S2:.4g} g/N improved spec (E = "
+                 f"{diagnosis.improvement_e:.1f} %); χ²/point {diagnosis.chi2_per_point_before:.3f} → "
+                 f"{diagnosis.chi2_per_point_after:.3f} (1 = noise)")
+    lines.extend(f"  note: {note}" for note in diagnosis.notes)
+    if diagnosis.improved_spec_path:
+        lines.append(f"  improved spec: {diagnosis.improved_spec_path}")
+    lines.extend(f"  figure: {figure}" for figure in diagnosis.figures)
+    lines.append(f"  time: {diagnosis.wall_time_s:.1f} s")
+    return "\n".join(lines)

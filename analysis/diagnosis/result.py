@@ -1,0 +1,163 @@
+"""What a diagnosis returns: findings, what is not explained, measurement notes, and the improved spec.
+
+The JSON form (:meth:`Diagnosis.to_dict`) is the contract documented in ``docs/diagnosis.md``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from gasfilm.analysis.diagnosis.measurement import HitSpectra, QualityNote
+from gasfilm.analysis.diagnosis.selection import Evidence
+from gasfilm.analysis.physics.spec import RigSpec
+from gasfilm.drivers.interface import STANDARD_GRAVITY_M_S2
+
+VERDICTS = ("consistent", "parameters-only", "missing physics", "partly explained", "not explained")
+
+
+@dataclass
+class Alternative:
+    """Another explanation that fits the recordings as well (or exactly as well) as a finding."""
+
+    effect: str
+    note: str
+
+    def to_dict(self) -> dict:
+        return {"effect": self.effect, "note": self.note}
+
+
+@dataclass
+class Finding:
+    """A missing piece of physics (or of the measurement chain), named, located, fitted and explained."""
+
+    effect: str
+    kind: str  # "rig" or "measurement"
+    band_hz: tuple[float, float]
+    where: str
+    parameters: dict[str, dict[str, float | str]]  # name → {"value", "uncertainty", "unit"}
+    evidence: str
+    explanation: str
+    hits: str
+    chi2_gain: float
+    held_out_gain: float
+    gain_over_recalibrated: float  # RMS reduction (%) of the recalibrated spec with this term alone
+    alternatives: list[Alternative] = field(default_factory=list)
+
+    def to_dict(self) -> dict:
+        return {
+            "effect": self.effect,
+            "kind": self.kind,
+            "band_hz": [round(self.band_hz[0], 1), round(self.band_hz[1], 1)],
+            "where": self.where,
+            "parameters": self.parameters,
+            "evidence": self.evidence,
+            "explanation": self.explanation,
+            "hits": self.hits,
+            "chi2_gain": round(self.chi2_gain, 1),
+            "held_out_gain": round(self.held_out_gain, 1),
+            "gain_over_recalibrated": round(self.gain_over_recalibrated, 2),
+            "alternatives": [alternative.to_dict() for alternative in self.alternatives],
+        }
+
+    @classmethod
+    def from_dict(cls, values: dict) -> "Finding":
+        """A finding as stored in a session (older sessions lack the newer fields)."""
+        band = tuple(values.get("band_hz", (0.0, 0.0)))
+        return cls(
+            effect=values["effect"], kind=values.get("kind", "rig"), band_hz=band,
+            where=values.get("where", f"{band[0]:.0f}–{band[1]:.0f} Hz"), parameters=values.get("parameters", {}),
+            evidence=values.get("evidence", ""), explanation=values.get("explanation", ""),
+            hits=values.get("hits", ""), chi2_gain=values.get("chi2_gain", 0.0),
+            held_out_gain=values.get("held_out_gain", 0.0),
+            gain_over_recalibrated=values.get("gain_over_recalibrated", 0.0),
+            alternatives=[Alternative(a["effect"], a["note"]) for a in values.get("alternatives", [])],
+        )
+
+
+@dataclass
+class Unexplained:
+    """A part of the recordings the final spec does not explain within the noise."""
+
+    band_hz: tuple[float, float]
+    hits: list[int]  # hit numbers of the recordings (0-based, as loaded)
+    chi2_share: float  # fraction of the final χ² excess over the noise that lies here
+    character: str  # in words: harmonics → nonlinearity, a jump → a change during the session, ...
+
+    def to_dict(self) -> dict:
+        return {"band_hz": [round(self.band_hz[0], 1), round(self.band_hz[1], 1)], "hits": self.hits,
+                "chi2_share": round(self.chi2_share, 3), "character": self.character}
+
+
+@dataclass
+class Diagnosis:
+    """Everything the diagnosis found. ``improved`` is the spec that was fitted; it is what a caller writes, and
+    every "after" figure is of it replayed."""
+
+    verdict: str
+    findings: list[Finding]
+    unexplained: list[Unexplained]
+    quality: list[QualityNote]
+    recalibration: dict[str, dict[str, float]]  # name → {"spec", "fitted", "uncertainty"}
+    rms_before: float
+    rms_recalibrated: float
+    rms_after: float
+    bic_before: float
+    bic_after: float
+    chi2_per_point_before: float
+    chi2_per_point_after: float
+    given: RigSpec
+    recalibrated: RigSpec
+    improved: RigSpec
+    spectra: HitSpectra
+    evidence: Evidence
+    wall_time_s: float
+    notes: list[str] = field(default_factory=list)
+    improved_spec_path: str | None = None  # where a caller wrote ``improved``
+    figures: list[str] = field(default_factory=list)
+
+    @property
+    def improvement_e(self) -> float:
+        """Equation (35) with the given spec as the reference: RMS reduction in %."""
+        return 100.0 * (self.rms_before - self.rms_after) / self.rms_before if self.rms_before > 0 else 0.0
+
+    @property
+    def adequate(self) -> bool:
+        return not self.unexplained
+
+    def to_dict(self) -> dict:
+        g = STANDARD_GRAVITY_M_S2
+        return {
+            "verdict": self.verdict,
+            "findings": [finding.to_dict() for finding in self.findings],
+            "unexplained": [item.to_dict() for item in self.unexplained],
+            "quality": [note.to_dict() for note in self.quality],
+            "recalibration": self.recalibration,
+            "rms_before": self.rms_before,
+            "rms_recalibrated": self.rms_recalibrated,
+            "rms_after": self.rms_after,
+            "rms_unit": "(m/s^2)/N",
+            "rms_before_g_per_n": self.rms_before / g,
+            "rms_recalibrated_g_per_n": self.rms_recalibrated / g,
+            "rms_after_g_per_n": self.rms_after / g,
+            "e_percent": self.improvement_e,
+            "bic_before": self.bic_before,
+            "bic_after": self.bic_after,
+            "chi2_per_point_before": self.chi2_per_point_before,
+            "chi2_per_point_after": self.chi2_per_point_after,
+            "band_hz": [float(self.evidence.freq_hz[0]), float(self.evidence.freq_hz[-1])],
+            "hits_used": int(self.evidence.hit_count),
+            "hit_numbers_used": [int(n) for n in self.spectra.hit_numbers],
+            "decay_rate_1_s": self.evidence.decay_rate_1_s,
+            "improved_spec": self.improved_spec_path,
+            "notes": self.notes,
+            "figures": self.figures,
+            "wall_time_s": self.wall_time_s,
+        }
+
+
+def weighted_mean(per_hit: np.ndarray, variance: np.ndarray) -> np.ndarray:
+    """Noise-weighted mean over hits (H1 for measured FRFs)."""
+    weight = 1.0 / variance
+    return (weight * per_hit).sum(axis=0) / weight.sum(axis=0)
