@@ -79,11 +79,8 @@ def starting_effects(identifier: str, spec: RigSpec, evidence: "Evidence", conte
     if identifier == "drift":
         return [Drift(fraction_per_hour=0.0, damping_fraction_per_hour=0.0)]
     if identifier == "step-change":
-        times = np.unique(evidence.spectra.conditions.time_s)
-        if times.size < 4:
-            return []
-        return [StepChange(at_time_s=float(0.5 * (a + b)), fraction=0.0, damping_fraction=0.0)
-                for a, b in zip(times[1:-2], times[2:-1])]
+        return [StepChange(at_time_s=at_time_s, fraction=0.0, damping_fraction=0.0)
+                for at_time_s in _likely_step_times(spec, evidence)]
     if identifier == "cubic-stiffness":
         limit = film / (CUBIC_EQUIVALENT * context.max_displacement_m**2)
         return [CubicStiffness(k3_n_per_m3=sign * 1e-3 * limit) for sign in (1.0, -1.0)]
@@ -94,7 +91,7 @@ def starting_effects(identifier: str, spec: RigSpec, evidence: "Evidence", conte
     if identifier == "film-memory":
         omega = 2 * np.pi * resonance_hz
         return [FilmMemory(k_memory=k_factor * film, eta_memory=0.01 * film / omega**alpha, alpha_memory=alpha)
-                for alpha in (0.3, 0.8, 1.5) for k_factor in (0.1, 100.0)]
+                for alpha, k_factor in ((0.3, 0.1), (0.8, 1.0), (1.5, 100.0))]
     if identifier == "pneumatic-lag":
         return [PneumaticLag(k_lag=0.01 * film, tau_lag=factor / (2 * np.pi * resonance_hz)) for factor in (0.3, 1, 3)]
     if identifier == "extra-mode":
@@ -111,3 +108,24 @@ def starting_effects(identifier: str, spec: RigSpec, evidence: "Evidence", conte
         return [ExtraMode(freq_hz=f, damping_ratio=0.02, mass_kg=0.002 * context.mass_kg) for f in picks]
     raise KeyError(identifier)
 
+
+
+def _likely_step_times(spec: RigSpec, evidence: "Evidence", count: int = 3) -> list[float]:
+    """Moments between hits where a step best explains how the hits' residuals differ (a least-squares two-level fit
+    of each hit's mean residual, in time order), best first; at least two hits on each side."""
+    conditions = evidence.spectra.conditions
+    order = np.argsort(conditions.time_s, kind="stable")
+    times = conditions.time_s[order]
+    if times.size < 4:
+        return []
+    predicted = evidence.predicted(spec)
+    weight = evidence.spectra.weight[order]
+    residual = (evidence.spectra.h[order] - (predicted[order] if predicted.ndim == 2 else predicted)) * np.sqrt(weight)
+    costs = []
+    for split in range(2, times.size - 1):
+        if times[split] == times[split - 1]:
+            continue
+        before, after = residual[:split], residual[split:]
+        cost = float(np.sum(np.abs(before - before.mean(axis=0)) ** 2) + np.sum(np.abs(after - after.mean(axis=0)) ** 2))
+        costs.append((cost, float(0.5 * (times[split - 1] + times[split]))))
+    return [at_time_s for _, at_time_s in sorted(costs)[:count]]

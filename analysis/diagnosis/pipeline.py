@@ -38,7 +38,7 @@ from gasfilm.analysis.diagnosis.selection import (
     held_out_gain,
     model_function,
 )
-from gasfilm.analysis.physics.effects import Effect, FitContext
+from gasfilm.analysis.physics.effects import FitContext
 from gasfilm.analysis.physics.response import simulate_response
 from gasfilm.analysis.physics.spec import RigSpec
 from gasfilm.drivers.errors import GasfilmError

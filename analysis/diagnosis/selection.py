@@ -126,7 +126,7 @@ def fit(evidence: Evidence, spec: RigSpec, slots: list[Slot], hits: np.ndarray |
     # MINPACK's Levenberg-Marquardt (bounds by clipping inside the residual): several times faster than a
     # bounded trust-region solver on these tall problems
     result = least_squares(residual, start, x_scale="jac", method="lm", max_nfev=40 * (len(slots) + 1),
-                           xtol=1e-9, ftol=1e-9)
+                           xtol=1e-7, ftol=1e-7)
     fitted = write_vector(spec, slots, np.clip(result.x, bounds[0], bounds[1]))
     return FitOutcome(fitted, evidence.chi2(fitted, hits), slots, _covariance(result.jac), int(result.nfev))
 
