@@ -28,10 +28,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from sessions import record_session, windowed_copy  # noqa: E402
 
 from gasfilm.analysis.physics.effects import (  # noqa: E402
-    AddedMass, ChannelDelay, CubicStiffness, Drift, Effect, ExtraMode, Mains,
+    AcCoupling, AddedMass, ChannelDelay, CubicStiffness, Drift, Effect, ExtraMode, Mains, PneumaticLag,
 )
 from gasfilm.analysis.physics.spec import RigSpec  # noqa: E402
-from gasfilm.analysis.diagnosis.rigspec import AcCoupling, PneumaticLag  # noqa: E402  (also registers them in the rig)
 
 K_N_PER_M = 3.78e7
 C_NS_PER_M = 3.45e3
@@ -80,9 +79,9 @@ CASES: tuple[Case, ...] = (
     Case("mode-b", "effect", ("extra-mode",), (ExtraMode(freq_hz=420.0, damping_ratio=0.03, mass_kg=0.008),), seed=22),
     Case("mode-c", "effect", ("extra-mode",), (ExtraMode(freq_hz=950.0, damping_ratio=0.015, mass_kg=0.009),),
          seed=23),
-    Case("cubic-a", "effect", ("amplitude-nonlinearity",), (CubicStiffness(k3_n_per_m3=5.5e15),), seed=31),
-    Case("cubic-b", "effect", ("amplitude-nonlinearity",), (CubicStiffness(k3_n_per_m3=6.0e15),), seed=32),
-    Case("cubic-c", "effect", ("amplitude-nonlinearity",), (CubicStiffness(k3_n_per_m3=5.5e15),),
+    Case("cubic-a", "effect", ("cubic-stiffness",), (CubicStiffness(k3_n_per_m3=5.5e15),), seed=31),
+    Case("cubic-b", "effect", ("cubic-stiffness",), (CubicStiffness(k3_n_per_m3=6.0e15),), seed=32),
+    Case("cubic-c", "effect", ("cubic-stiffness",), (CubicStiffness(k3_n_per_m3=5.5e15),),
          device={"force_spread": 0.3}, seed=33),
     Case("delay-a", "effect", ("channel-delay",), (ChannelDelay(channel="acceleration", delay_s=0.6e-6),), seed=41),
     Case("delay-b", "effect", ("channel-delay",), (ChannelDelay(channel="acceleration", delay_s=0.8e-6),), seed=42),
@@ -105,13 +104,13 @@ CASES: tuple[Case, ...] = (
          (ChannelDelay(channel="acceleration", delay_s=0.7e-6), AddedMass(mass_kg=0.012)), seed=91),
     Case("two-mode-drift", "two effects", ("extra-mode", "drift"),
          (ExtraMode(freq_hz=700.0, damping_ratio=0.02, mass_kg=0.012), Drift(fraction_per_hour=0.14)), seed=92),
-    Case("two-memory-cubic", "two effects", ("film-memory", "amplitude-nonlinearity"),
+    Case("two-memory-cubic", "two effects", ("film-memory", "cubic-stiffness"),
          (CubicStiffness(k3_n_per_m3=4.5e15),), memory=_memory(0.001, 0.5), seed=93),
     # subtle: the six headline effects three times smaller, at or below what one hit's own statistics can see
     Case("subtle-memory", "subtle", ("film-memory",), memory=_memory(0.0003, 0.5), seed=141),
     Case("subtle-mode", "subtle", ("extra-mode",), (ExtraMode(freq_hz=600.0, damping_ratio=0.02, mass_kg=0.003),),
          seed=142),
-    Case("subtle-cubic", "subtle", ("amplitude-nonlinearity",), (CubicStiffness(k3_n_per_m3=2.0e15),),
+    Case("subtle-cubic", "subtle", ("cubic-stiffness",), (CubicStiffness(k3_n_per_m3=2.0e15),),
          device={"force_spread": 0.3}, seed=143),
     Case("subtle-delay", "subtle", ("channel-delay",), (ChannelDelay(channel="acceleration", delay_s=0.25e-6),),
          seed=144),
@@ -124,7 +123,7 @@ CASES: tuple[Case, ...] = (
     Case("strict-memory-steep", "strict", ("film-memory",), memory=_memory(1.0e-4, 1.75), hits=80, seed=157),
     Case("strict-mode", "strict", ("extra-mode",), (ExtraMode(freq_hz=600.0, damping_ratio=0.02, mass_kg=0.002),),
          hits=80, seed=152),
-    Case("strict-cubic", "strict", ("amplitude-nonlinearity",), (CubicStiffness(k3_n_per_m3=6.5e14),),
+    Case("strict-cubic", "strict", ("cubic-stiffness",), (CubicStiffness(k3_n_per_m3=6.5e14),),
          device={"force_spread": 0.3}, hits=80, seed=153),
     Case("strict-delay", "strict", ("channel-delay",), (ChannelDelay(channel="acceleration", delay_s=0.18e-6),),
          hits=80, seed=154),
@@ -132,7 +131,7 @@ CASES: tuple[Case, ...] = (
     Case("strict-drift", "strict", ("drift",), (Drift(fraction_per_hour=0.00225),), hits=80, seed=156),
     Case("strict-mode-40", "strict", ("extra-mode",), (ExtraMode(freq_hz=600.0, damping_ratio=0.02, mass_kg=0.002),),
          hits=40, seed=162),
-    Case("strict-cubic-40", "strict", ("amplitude-nonlinearity",), (CubicStiffness(k3_n_per_m3=6.5e14),),
+    Case("strict-cubic-40", "strict", ("cubic-stiffness",), (CubicStiffness(k3_n_per_m3=6.5e14),),
          device={"force_spread": 0.3}, hits=40, seed=163),
     Case("strict-delay-40", "strict", ("channel-delay",), (ChannelDelay(channel="acceleration", delay_s=0.18e-6),),
          hits=40, seed=164),
