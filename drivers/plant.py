@@ -56,7 +56,8 @@ class Plant(Protocol):
     def acceleration_spectrum(
         self, force_spectrum: np.ndarray, s: np.ndarray, sample_rate_hz: float, time_s: float
     ) -> np.ndarray:
-        """The mover's acceleration spectrum (m/s²·s) for a force spectrum (N·s) on the same grid.
+        """The acceleration the accelerometer senses (m/s²·s: the mover's, plus anything the plant adds such as
+        force cross-talk) for a force spectrum (N·s) on the same grid.
 
         ``s`` is the rfft grid of a periodic record of ``2·(len(s) − 1)`` samples at ``sample_rate_hz`` (its DC bin
         nudged just off zero), long enough for the response to decay, over which a nonlinear plant solves the motion;
