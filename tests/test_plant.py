@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -20,18 +20,10 @@ from gasfilm.drivers.simulated import SimulatedNI9234
 FS_HZ = 51200.0 / 8
 
 
-@dataclass(frozen=True)
-class _Hammer:
-    tip: str = "soft"
-    force_n: float = 50.0
-    force_spread: float = 0.0
-    double_hit_rate: float = 0.0
-
-
 class FreeMass:
     """A plant that is no rig spec: a free mass hit by a hammer, with ideal sensors and 10 mN of 50 Hz on the force."""
 
-    hammer = _Hammer()
+    hammer = SimpleNamespace(tip="soft", force_n=50.0, force_spread=0.0, double_hit_rate=0.0)
     is_linear = True
 
     def __init__(self, mass_kg: float) -> None:
