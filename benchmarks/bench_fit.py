@@ -18,8 +18,8 @@ from scipy.optimize import differential_evolution
 
 from gasfilm.analysis.identify import G_M_S2, _Problem, _UnitObjective, fit_model
 from gasfilm.analysis.physics.elements import PAPER_MASS_KG, PAPER_MODEL_ORDER, PAPER_MODELS
-from gasfilm.analysis.physics.spec import RigSpec
 from gasfilm.analysis.spectra import compute_frf
+from gasfilm.analysis.physics.plant import RigPlant
 from gasfilm.drivers.interface import default_hammer_and_accelerometer
 from gasfilm.drivers.simulated import SimulatedNI9234
 
@@ -30,7 +30,7 @@ BAND_HZ = (50.0, 549.5)
 
 def rig_frf(seed: int, hits: int = 4) -> tuple[np.ndarray, np.ndarray]:
     """H1 of ``hits`` on-demand hammer hits on the simulated paper rig, in the benchmark band."""
-    device = SimulatedNI9234(RigSpec.nominal("FOMGF"), seed=seed, pacing="fast", hit_interval_s=None)
+    device = SimulatedNI9234(RigPlant.nominal("FOMGF"), seed=seed, pacing="fast", hit_interval_s=None)
     device.configure(default_hammer_and_accelerometer(SAMPLE_RATE_HZ))
     with device:
         device.start()

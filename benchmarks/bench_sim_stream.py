@@ -19,6 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
+from gasfilm.analysis.physics.plant import RigPlant
 from gasfilm.analysis.physics.spec import RigSpec
 from gasfilm.drivers.errors import ADCOverloadWarning
 from gasfilm.drivers.interface import ChannelConfig, ChannelKind, DaqConfig
@@ -39,8 +40,8 @@ def four_channels(sample_rate_hz: float) -> DaqConfig:
     )
 
 
-def stream(label: str, seconds: float, sample_rate_hz: float = 51200.0, **options) -> None:
-    device = SimulatedNI9234(seed=1, pacing="fast", **options)
+def stream(label: str, seconds: float, sample_rate_hz: float = 51200.0, rig: RigSpec | None = None, **options) -> None:
+    device = SimulatedNI9234(RigPlant.from_spec(rig), seed=1, pacing="fast", **options)
     config = four_channels(sample_rate_hz)
     device.configure(config)
     buffer = np.empty((4, config.chunk_samples))

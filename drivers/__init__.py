@@ -14,8 +14,9 @@ SIMULATED_DEVICE_NAME = "sim"
 def open_device(name: str | None = None, **options: Any) -> DaqDevice:
     """Open an acquisition backend by name.
 
-    ``"sim"`` opens the simulated NI 9234 with its rig (options go to
-    :class:`gasfilm.drivers.simulated.SimulatedNI9234`); any other name is an NI-DAQmx device name such as ``"cDAQ1Mod1"``.
+    ``"sim"`` opens the simulated NI 9234 (options go to :class:`gasfilm.drivers.simulated.SimulatedNI9234`;
+    ``plant=`` the rig behind it, a :class:`gasfilm.drivers.plant.Plant` the caller builds); any other name is an
+    NI-DAQmx device name such as ``"cDAQ1Mod1"``.
     Without a name, the ``GASFILM_DEVICE`` environment variable is used, then ``"sim"``.
     """
     name = name or os.environ.get("GASFILM_DEVICE", SIMULATED_DEVICE_NAME)

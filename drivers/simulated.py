@@ -1,9 +1,9 @@
 """A simulated NI 9234 with the rig behind it: hammer, mover on a gas film, sensors and the module's signal chain.
 
 Each impact is synthesised exactly in the frequency domain. The hammer pulse (a half-sine whose width is set by the
-tip) has a closed-form spectrum; the response is that spectrum times the rig's accelerance
-(:mod:`gasfilm.analysis.physics`; the nonlinear cubic path solves the equation of motion on a ×2 grid). Both channels then pass
-through the SAME anti-aliasing filter of the module — linear phase, flat to 0.45·fs, raised-cosine transition to
+tip) has a closed-form spectrum; the mover's acceleration spectrum for it comes from the rig the caller hands in
+(a :class:`~gasfilm.drivers.plant.Plant`, asked on a ×2 grid so that a nonlinear plant can solve the equation of
+motion). Both channels then pass through the SAME anti-aliasing filter of the module — linear phase, flat to 0.45·fs, raised-cosine transition to
 zero at 0.55·fs, input delay 38.4/fs + 3 µs — evaluated on a grid twice as fine as the sample rate and decimated
 (spectral folding), so 0.50–0.55·fs aliases into 0.45–0.50·fs as on the real module while the alias-free band is
 exact. Sampling the continuous pulse directly would alias its high-frequency content, which the mass line turns
@@ -11,7 +11,7 @@ into a several-percent FRF error at low frequency; that does not happen here.
 
 Each hit's decimated record (long enough to decay) is overlap-added into the stream, so signals are continuous
 across chunks and hits may overlap. Per channel, the stream then gets, in order: mains interference, the conversion
-to volts with the sensor's true sensitivity (rig spec), the AC-coupling high-pass (first order, 0.5 Hz, the same on
+to volts with the sensor's true sensitivity (the plant's), the AC-coupling high-pass (first order, 0.5 Hz, the same on
 every channel, state carried across chunks), white sensor and module noise, ±5 V clipping with the overload flag,
 24-bit quantisation, and the conversion back to N or m/s² with the *configured* sensitivity (as the real module
 does). Same seed → same samples, whatever the chunk sizes: hits come from their own random stream and every channel's
@@ -24,17 +24,11 @@ import threading
 import time
 import warnings
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 import scipy.fft
 import scipy.signal
 
-from gasfilm.analysis.physics.effects import TIPS_PULSE_WIDTH_S
-
-from gasfilm.analysis.physics.response import channel_transfer, mover_displacement_spectrum, response_duration_s, rig_dynamic_stiffness
-
-from gasfilm.analysis.physics.spec import HammerSpec, RigSpec
 from gasfilm.drivers.errors import (
     ADCOverloadWarning,
     BufferOverflowError,
@@ -54,6 +48,7 @@ from gasfilm.drivers.interface import (
     default_hammer_and_accelerometer,
     validate_config,
 )
+from gasfilm.drivers.plant import TIPS_PULSE_WIDTH_S, Plant
 
 #: The module's signal chain (NI 9234 data sheet figures).
 AA_PASSBAND_FRACTION = 0.45
@@ -116,22 +111,23 @@ class _Pulse:
 
 
 class SimulatedNI9234:
-    """The simulated NI 9234 (device name ``"sim"``) with the rig of a :class:`gasfilm.analysis.physics.spec.RigSpec` behind it.
+    """The simulated NI 9234 (device name ``"sim"``) with a rig behind it.
 
-    ``rig``: a spec, a TOML path, or ``None`` for the paper's FOMGF rig. ``pacing="realtime"`` makes ``read`` wait
-    for the samples as the real module would; ``"fast"`` delivers at once. ``hit_interval_s=(lo, hi)`` hits at
-    uniformly random intervals (the first after half of one), ``None`` only on demand (:meth:`sim_hit`).
-    ``tip``, ``force_n``, ``force_spread`` (uniform ± fraction) and ``double_hit_rate`` default to the spec's
-    ``[hammer]`` table, then to medium / 200 N / 0.2 / 0. ``noise=False`` turns sensor and module noise off,
-    ``quantize=False`` the 24-bit quantisation. ``buffer_s`` is how much unread data the device holds before it
-    overflows (realtime pacing). Until :meth:`configure`, the setup is the paper's hammer + accelerometer.
+    ``plant``: the rig behind it (a :class:`~gasfilm.drivers.plant.Plant`; for a rig spec, the caller builds a
+    :class:`gasfilm.analysis.physics.plant.RigPlant`). ``pacing="realtime"`` makes ``read`` wait for the samples as
+    the real module would; ``"fast"`` delivers at once. ``hit_interval_s=(lo, hi)`` hits at uniformly random
+    intervals (the first after half of one), ``None`` only on demand (:meth:`sim_hit`). ``tip``, ``force_n``,
+    ``force_spread`` (uniform ± fraction) and ``double_hit_rate`` default to the plant's hammer. ``noise=False``
+    turns sensor and module noise off, ``quantize=False`` the 24-bit quantisation. ``buffer_s`` is how much unread
+    data the device holds before it overflows (realtime pacing). Until :meth:`configure`, the setup is the paper's
+    hammer + accelerometer.
     """
 
     name = "sim"
 
     def __init__(
         self,
-        rig: RigSpec | str | Path | None = None,
+        plant: Plant,
         seed: int = 0,
         pacing: str = "fast",
         hit_interval_s: tuple[float, float] | None = (1.5, 3.0),
@@ -143,12 +139,10 @@ class SimulatedNI9234:
         quantize: bool = True,
         buffer_s: float = 5.0,
     ) -> None:
-        if rig is None:
-            rig = RigSpec.nominal("FOMGF")
-        elif not isinstance(rig, RigSpec):
-            rig = RigSpec.load(rig)
-        self.rig: RigSpec = rig
-        hammer = rig.hammer or HammerSpec()
+        if not isinstance(plant, Plant):
+            raise SettingError(f"sim plant: {plant!r} is not a Plant (gasfilm.drivers.plant)")
+        self.plant = plant
+        hammer = plant.hammer
         self.tip = hammer.tip if tip is None else tip
         self.force_n = hammer.force_n if force_n is None else float(force_n)
         self.force_spread = hammer.force_spread if force_spread is None else float(force_spread)
@@ -225,11 +219,11 @@ class SimulatedNI9234:
             for row, kind in enumerate(kinds)
         ]
         self._channel_names = [kind.value for kind in kinds]
-        self._true_v_per_si = np.array([self.rig.sensor(kind.value).sensitivity_v_per_si for kind in kinds])
+        self._true_v_per_si = np.array([self.plant.sensitivity_v_per_si(kind.value) for kind in kinds])
         self._configured_v_per_si = np.array([channel.sensitivity_v_per_si for channel in config.channels])
         nyquist_bandwidth = np.sqrt(fs / 2)
         sensor_noise_v = np.array(
-            [self.rig.sensor(kind.value).noise_per_sqrt_hz * sensitivity for kind, sensitivity in
+            [self.plant.noise_per_sqrt_hz(kind.value) * sensitivity for kind, sensitivity in
              zip(kinds, self._true_v_per_si)]
         )
         module_noise_v = MODULE_NOISE_V_PER_SQRT_HZ
@@ -241,7 +235,7 @@ class SimulatedNI9234:
         self._schedule_rng = np.random.default_rng(schedule_seq)
         self._demand_rng = np.random.default_rng(demand_seq)
         self._noise_rngs = [np.random.default_rng(seq) for seq in noise_seqs]
-        tail_s = response_duration_s(self.rig, fs)
+        tail_s = self.plant.response_duration_s(fs)
         self._segment_samples = scipy.fft.next_fast_len(PRE_HIT_SAMPLES + int(np.ceil(tail_s * fs)), real=True)
         self._contributions: list[tuple[int, np.ndarray]] = []
         self._hits = []
@@ -370,7 +364,7 @@ class SimulatedNI9234:
         amplitude_jitter, double_draw, gap_draw, fraction_draw = rng.uniform(size=4)
         peak_n = self.force_n * (1 + self.force_spread * (2 * amplitude_jitter - 1)) if force_n is None else force_n
         if self._overload_next_hit:
-            peak_n = OVERLOAD_HIT_FULL_SCALE * NI9234_INPUT_RANGE_V / self.rig.force_sensor.sensitivity_v_per_si
+            peak_n = OVERLOAD_HIT_FULL_SCALE * NI9234_INPUT_RANGE_V / self.plant.sensitivity_v_per_si("force")
         width_s = TIPS_PULSE_WIDTH_S[tip]
         pulses = [_Pulse(0.0, peak_n, width_s)]
         double = bool(double_draw < self.double_hit_rate)
@@ -388,24 +382,22 @@ class SimulatedNI9234:
         n_out = self._segment_samples
         start_index = int(np.floor(hit_time_s * fs)) - PRE_HIT_SAMPLES
         offset_s = hit_time_s - start_index / fs
-        # frequencies up to the AA stopband on a grid twice as fine as the sample rate (bin spacing fs / n_out)
-        n_band = int(np.floor(AA_STOPBAND_FRACTION * n_out)) + 1
-        freq_hz = np.arange(n_band) * fs / n_out
+        # a grid twice as fine as the sample rate (2·n_out samples at 2·fs, bin spacing fs / n_out); the module keeps
+        # the bins up to its AA stopband, and a nonlinear plant solves the motion over the whole grid
+        band = slice(0, int(np.floor(AA_STOPBAND_FRACTION * n_out)) + 1)
+        freq_hz = np.arange(band.stop if self.plant.is_linear else n_out + 1) * fs / n_out
         s = 2j * np.pi * freq_hz
         s[0] = 2j * np.pi * 1e-9 * fs / n_out
         force_spectrum = sum(
             p.peak_force_n * half_sine_spectrum(freq_hz, p.width_s) * np.exp(-s * (offset_s + p.delay_s))
             for p in pulses
         )
-        if self.rig.is_linear:
-            acceleration_spectrum = force_spectrum * s**2 / rig_dynamic_stiffness(self.rig, s, hit_time_s)
-        else:
-            acceleration_spectrum = self._nonlinear_acceleration(pulses, offset_s, hit_time_s)[:n_band]
-        aa = anti_alias_response(freq_hz, fs)
+        acceleration_spectrum = self.plant.acceleration_spectrum(force_spectrum, s, 2 * fs, hit_time_s)
+        aa = anti_alias_response(freq_hz[band], fs)
         records = np.empty((2, n_out))
         for row, (channel, spectrum) in enumerate((("force", force_spectrum), ("acceleration", acceleration_spectrum))):
             # × fs: from the continuous spectrum (N·s) to the DFT of the sampled signal
-            measured = spectrum * aa * channel_transfer(self.rig, channel, s) * fs
+            measured = spectrum[band] * aa * self.plant.channel_transfer(channel, s[band]) * fs
             records[row] = scipy.fft.irfft(self._fold_to_sample_rate(measured, n_out), n_out)
         self._contributions.append((start_index, records))
         hit = SimulatedHit(hit_time_s, max(p.peak_force_n for p in pulses), tip, double,
@@ -428,21 +420,6 @@ class SimulatedNI9234:
         inside = mirror < spectrum.size
         folded[inside] += np.conj(spectrum[mirror[inside]])
         return folded
-
-    def _nonlinear_acceleration(self, pulses: list[_Pulse], offset_s: float, hit_time_s: float) -> np.ndarray:
-        """Acceleration spectrum (continuous scale, bins k·fs/n_out) with cubic stiffness, on the full ×2 grid."""
-        fs = self.sample_rate_hz
-        n_fine = 2 * self._segment_samples
-        freq_hz = scipy.fft.rfftfreq(n_fine, 1.0 / (2 * fs))
-        s = 2j * np.pi * freq_hz
-        s[0] = 2j * np.pi * 1e-9 * fs / self._segment_samples
-        force_spectrum = sum(
-            p.peak_force_n * half_sine_spectrum(freq_hz, p.width_s) * np.exp(-s * (offset_s + p.delay_s))
-            for p in pulses
-        )
-        grid_scale = 2 * fs  # the discrete solver works on sampled signals: continuous spectrum × sample rate
-        displacement = mover_displacement_spectrum(self.rig, force_spectrum * grid_scale, s, n_fine, hit_time_s)
-        return s**2 * displacement / grid_scale
 
     def _schedule_hits_until(self, end_index: int) -> None:
         """Synthesise every automatic hit whose record starts before sample ``end_index``."""
@@ -468,7 +445,7 @@ class SimulatedNI9234:
         self._contributions = remaining
         fs = self.sample_rate_hz
         time_s = np.arange(first, end) / fs
-        interference = {name: self._interference(name, time_s) for name in set(self._channel_names)}
+        interference = {name: self.plant.interference(name, time_s) for name in set(self._channel_names)}
         volts = np.zeros_like(out)
         for row, signal in enumerate(self._signal_of_channel):
             if signal is not None:
@@ -489,15 +466,6 @@ class SimulatedNI9234:
         np.divide(volts, self._configured_v_per_si[:, np.newaxis], out=out)
         self._position = end
         return overload
-
-    def _interference(self, channel: str, time_s: np.ndarray) -> np.ndarray | None:
-        """Sum of the spec's interference on one kind of channel (SI units), or ``None``."""
-        total = None
-        for effect in self.rig.effects:
-            signal = effect.interference(channel, time_s)
-            if signal is not None:
-                total = signal if total is None else total + signal
-        return total
 
     def _wait_for(self, n_samples: int, timeout_s: float) -> None:
         """Realtime pacing: overflow if the unread backlog exceeds the buffer, else wait until the samples exist."""

@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 
 from gasfilm.analysis.acquisition import AcquisitionLoop, RingBuffer
+from gasfilm.analysis.physics.plant import RigPlant
 from gasfilm.drivers import open_device
 from gasfilm.drivers.errors import DeviceRemovedError
 from gasfilm.drivers.interface import default_hammer_and_accelerometer
@@ -12,7 +13,7 @@ RATE_HZ = 51200.0 / 8
 
 
 def _device(seed: int = 3):
-    device = open_device("sim", seed=seed, pacing="fast", hit_interval_s=(0.5, 0.8))
+    device = open_device("sim", plant=RigPlant.nominal(), seed=seed, pacing="fast", hit_interval_s=(0.5, 0.8))
     device.configure(default_hammer_and_accelerometer(RATE_HZ))
     return device
 

@@ -21,6 +21,7 @@ from gasfilm.analysis.session import Session
 from gasfilm.analysis.spectra import WindowSettings
 from gasfilm.analysis.validation import ValidationSettings
 from gasfilm.app.cli import main as gasfilm
+from gasfilm.analysis.physics.plant import RigPlant
 from gasfilm.drivers.interface import ChannelKind, default_hammer_and_accelerometer
 from gasfilm.drivers.simulated import SimulatedNI9234
 
@@ -33,7 +34,7 @@ NOMINAL = RigSpec.nominal("SD", parameters={"k": 3.78e7, "eta": 3.45e3})
 def record(spec: RigSpec, path: Path, hits: int = 12, seed: int = 0, **options) -> Path:
     """A session of ``hits`` accepted hits from the simulated module playing ``spec``."""
     config = default_hammer_and_accelerometer(RATE_HZ)
-    device = SimulatedNI9234(rig=spec, seed=seed, pacing="fast", hit_interval_s=(1.0, 1.5), **options)
+    device = SimulatedNI9234(RigPlant(spec), seed=seed, pacing="fast", hit_interval_s=(1.0, 1.5), **options)
     device.configure(config)
     force_row, response_row = config.channel_index(ChannelKind.FORCE), config.channel_index(ChannelKind.ACCELERATION)
     with Session.create(path, config, spec.to_toml(), {"trigger": TRIGGER, "window": WINDOW},

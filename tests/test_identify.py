@@ -30,6 +30,7 @@ from gasfilm.analysis.physics.elements import (
 from gasfilm.analysis.physics.spec import RigSpec
 from gasfilm.analysis.spectra import compute_frf
 from gasfilm.app.cli import main as gasfilm
+from gasfilm.analysis.physics.plant import RigPlant
 from gasfilm.drivers.errors import SettingError
 from gasfilm.drivers.interface import default_hammer_and_accelerometer
 from gasfilm.drivers.simulated import SimulatedNI9234
@@ -99,7 +100,7 @@ def test_default_fitter_reaches_noise_free_frfs_in_20_of_20_seeds(name):
 def rig_frf(seed, hits=4, sample_rate_hz=2560.0, record_s=2.0, band_hz=(20.0, 800.0)):
     """H1 of on-demand hammer hits on the simulated paper rig (FOMGF film of Table 1, 25.05 kg, sensor and
     module noise)."""
-    device = SimulatedNI9234(RigSpec.nominal("FOMGF"), seed=seed, pacing="fast", hit_interval_s=None)
+    device = SimulatedNI9234(RigPlant.nominal("FOMGF"), seed=seed, pacing="fast", hit_interval_s=None)
     device.configure(default_hammer_and_accelerometer(sample_rate_hz))
     with device:
         device.start()
@@ -351,7 +352,7 @@ def test_cli_fit_computes_the_frf_from_accepted_hits_with_the_sessions_window(tm
     from gasfilm.analysis.validation import Verdict
 
     rate_hz, samples = 2560.0, 5120
-    device = SimulatedNI9234(RigSpec.nominal("FOMGF"), seed=4, pacing="fast", hit_interval_s=None)
+    device = SimulatedNI9234(RigPlant.nominal("FOMGF"), seed=4, pacing="fast", hit_interval_s=None)
     device.configure(default_hammer_and_accelerometer(rate_hz))
     buffer = np.empty((2, samples))
     window = WindowSettings(exponential_end_fraction=0.05)

@@ -10,6 +10,7 @@ import pytest
 import scipy.signal
 
 from gasfilm.analysis.physics.elements import PAPER_MASS_KG, PAPER_MODELS, PAPER_TABLE1, accelerance
+from gasfilm.analysis.physics.plant import RigPlant
 from gasfilm.analysis.physics.effects import AddedMass, ChannelDelay, CubicStiffness, Drift, ExtraMode, Mains
 from gasfilm.analysis.physics.response import rig_accelerance, simulate_response
 from gasfilm.analysis.physics.spec import RigSpec
@@ -36,7 +37,7 @@ BAND_HZ = (20.0, 800.0)
 
 
 def _device(spec=None, fs=FS_HZ, **options) -> SimulatedNI9234:
-    device = SimulatedNI9234(spec, **options)
+    device = SimulatedNI9234(RigPlant.from_spec(spec), **options)
     device.configure(default_hammer_and_accelerometer(fs))
     device.start()
     return device
@@ -281,7 +282,7 @@ def test_realtime_pacing_blocks_and_overflows_when_the_reader_falls_behind():
 def test_noise_and_quantisation_of_the_module_chain():
     device = _device(None, seed=6, hit_interval_s=None)
     data = _read_seconds(device, 2.0)[:, int(0.5 * FS_HZ) :]  # after the coupling's start-up
-    spec = device.rig
+    spec = device.plant.spec
     for row, channel in enumerate(("force", "acceleration")):
         sensor = spec.sensor(channel)
         configured = device.config.channels[row].sensitivity_v_per_si
@@ -313,7 +314,7 @@ def test_four_channels_extra_acceleration_gets_the_response_extra_force_only_noi
         ),
         sample_rate_hz=FS_HZ,
     )
-    device = SimulatedNI9234(None, seed=1, hit_interval_s=None, noise=False, quantize=False)
+    device = SimulatedNI9234(RigPlant.nominal(), seed=1, hit_interval_s=None, noise=False, quantize=False)
     device.configure(config)
     device.start()
     device.sim_hit(force_n=200.0)
@@ -322,7 +323,7 @@ def test_four_channels_extra_acceleration_gets_the_response_extra_force_only_noi
     np.testing.assert_allclose(data[2], data[1] * 10.2e-3 / (0.1 / 9.80665), rtol=1e-12, atol=1e-12)
     assert np.abs(data[1]).max() > 1.0 and np.abs(data[0]).max() > 100.0
     assert np.abs(data[3]).max() == 0.0
-    noisy = SimulatedNI9234(None, seed=1, hit_interval_s=None)
+    noisy = SimulatedNI9234(RigPlant.nominal(), seed=1, hit_interval_s=None)
     noisy.configure(config)
     noisy.start()
     noisy_data = _read_seconds(noisy, 0.5)
@@ -330,7 +331,7 @@ def test_four_channels_extra_acceleration_gets_the_response_extra_force_only_noi
 
 
 def test_it_is_a_daq_device_opened_by_name_and_validates_its_setup():
-    device = open_device("sim", seed=2, hit_interval_s=None)
+    device = open_device("sim", plant=RigPlant.nominal(), seed=2, hit_interval_s=None)
     assert isinstance(device, SimulatedNI9234) and isinstance(device, DaqDevice)
     assert device.config == default_hammer_and_accelerometer()  # the paper's setup until configured
     with pytest.raises(SettingError, match="sample_rate_hz"):
@@ -339,9 +340,9 @@ def test_it_is_a_daq_device_opened_by_name_and_validates_its_setup():
     with pytest.raises(SettingError, match="start"):
         device.read(np.empty((2, 10)))
     with pytest.raises(SettingError, match="pacing"):
-        SimulatedNI9234(pacing="slow")
+        SimulatedNI9234(RigPlant.nominal(), pacing="slow")
     with pytest.raises(SettingError, match="tip"):
-        SimulatedNI9234(tip="rubber")
+        SimulatedNI9234(RigPlant.nominal(), tip="rubber")
     with pytest.raises(SettingError, match="fault"):
         device.sim_inject_fault("fire")
     with device:

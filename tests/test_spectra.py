@@ -16,8 +16,8 @@ from gasfilm.analysis.spectra import (
     remove_window_damping,
 )
 from gasfilm.analysis.capture import HitRecord, ImpactCapture, TriggerSettings
-from gasfilm.analysis.physics.spec import RigSpec
 from gasfilm.analysis.validation import validate_hit
+from gasfilm.analysis.physics.plant import RigPlant
 from gasfilm.drivers.errors import SettingError
 from gasfilm.drivers.interface import default_hammer_and_accelerometer
 from gasfilm.drivers.simulated import SimulatedNI9234
@@ -167,7 +167,7 @@ def test_simulated_rig_through_capture_and_windows_gives_the_windowed_acceleranc
     short 0.05 s records, validate them with the window, average; the magnitude matches the windowed model."""
     fs = 12_800.0
     window = WindowSettings(force_window_ms=3.0, exponential_end_fraction=0.01)
-    device = SimulatedNI9234(rig=RigSpec.nominal("SD"), seed=3, hit_interval_s=(0.3, 0.4))
+    device = SimulatedNI9234(RigPlant.nominal("SD"), seed=3, hit_interval_s=(0.3, 0.4))
     device.configure(default_hammer_and_accelerometer(fs))
     capture = ImpactCapture(TriggerSettings(record_s=0.05, pretrigger_s=0.005), fs, 2)
     buffer = np.empty((2, 1280))

@@ -9,6 +9,7 @@ from gasfilm.analysis.capture import HitRecord, ImpactCapture, TriggerSettings
 from gasfilm.analysis.physics.elements import PAPER_MODELS, PAPER_TABLE1, accelerance
 from gasfilm.analysis.spectra import WindowSettings
 from gasfilm.analysis.validation import REASONS, ValidationSettings, Verdict, validate_hit
+from gasfilm.analysis.physics.plant import RigPlant
 from gasfilm.drivers.errors import SettingError
 from gasfilm.drivers.interface import ChannelKind, default_hammer_and_accelerometer
 from gasfilm.drivers.simulated import SimulatedNI9234
@@ -163,7 +164,7 @@ def test_bad_validation_settings_name_the_field(field, value):
 @pytest.mark.parametrize("tip", ["soft", "medium", "hard"])
 def test_simulated_session_with_25_percent_double_hits(tip):
     """Chunks from the simulated module through the capture and the checks, judged against the simulator's truth."""
-    device = SimulatedNI9234(seed=7, double_hit_rate=0.25, hit_interval_s=(0.4, 0.6), tip=tip)
+    device = SimulatedNI9234(RigPlant.nominal(), seed=7, double_hit_rate=0.25, hit_interval_s=(0.4, 0.6), tip=tip)
     config = default_hammer_and_accelerometer(12_800.0)
     device.configure(config)
     force_channel = config.channel_index(ChannelKind.FORCE)

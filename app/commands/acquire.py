@@ -13,12 +13,14 @@ import queue
 import sys
 import time
 from pathlib import Path
-from typing import Any, Iterator
+from typing import Iterator
 
 import numpy as np
 
 from gasfilm.analysis.acquisition import AcquisitionLoop
 from gasfilm.analysis.capture import ImpactCapture, TriggerSettings
+from gasfilm.analysis.physics.plant import RigPlant
+from gasfilm.analysis.physics.spec import RigSpec
 from gasfilm.analysis.recording import HitEvent, HitRecorder
 from gasfilm.analysis.session import Session, SessionError
 from gasfilm.analysis.spectra import WindowSettings, compute_frf
@@ -63,9 +65,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.set_defaults(func=run)
 
 
-def _open_device(args: argparse.Namespace, rig_spec: Any) -> DaqDevice:
+def _open_device(args: argparse.Namespace, rig_spec: RigSpec | None) -> DaqDevice:
     if args.device == SIMULATED_DEVICE_NAME:
-        options = {"rig": rig_spec, "seed": args.seed, "pacing": args.pacing, "double_hit_rate": args.double_hit_rate}
+        options = {"plant": RigPlant(rig_spec), "seed": args.seed, "pacing": args.pacing,
+                   "double_hit_rate": args.double_hit_rate}
         if args.hit_interval is not None:
             low, high = sorted(args.hit_interval)
             if low <= 0:
@@ -173,16 +176,14 @@ def run(args: argparse.Namespace) -> int:
     _check_limits(args)
     rig_spec = None
     if args.rig is not None:
-        from gasfilm.analysis.physics.spec import RigSpec
-
         rig_spec = RigSpec.load(args.rig)
+    elif args.device == SIMULATED_DEVICE_NAME:
+        rig_spec = RigSpec.nominal("FOMGF")  # the simulated rig's default
     trigger = TriggerSettings(level_n=args.trigger_n, pretrigger_s=args.pretrigger_s, record_s=args.record_s)
     validation = ValidationSettings(double_hit_fraction=args.double_hit_fraction)
     window = WindowSettings(force_window_ms=args.force_window_ms, exponential_end_fraction=args.exp_end)
     config = default_hammer_and_accelerometer(args.rate)
     device = _open_device(args, rig_spec)
-    if args.device == SIMULATED_DEVICE_NAME:
-        rig_spec = device.rig  # the simulator's rig, also when it chose its default
     device.configure(config)
     rate_hz = device.sample_rate_hz
     settings = {"trigger": trigger, "validation": validation, "window": window}

@@ -17,6 +17,7 @@ from gasfilm.analysis.acquisition import AcquisitionLoop
 from gasfilm.analysis.capture import ImpactCapture, TriggerSettings
 from gasfilm.analysis.identify import fit_model
 from gasfilm.analysis.physics.elements import PAPER_MODELS
+from gasfilm.analysis.physics.plant import RigPlant
 from gasfilm.analysis.recording import HitRecorder
 from gasfilm.analysis.physics.spec import RigSpec
 from gasfilm.analysis.session import Session
@@ -45,7 +46,7 @@ def run(args: argparse.Namespace) -> int:
     trigger = TriggerSettings(level_n=20.0, pretrigger_s=0.01, record_s=0.5)
     validation = ValidationSettings()
     args.out.parent.mkdir(parents=True, exist_ok=True)
-    device = open_device("sim", rig=spec, seed=args.seed, pacing="realtime", hit_interval_s=(0.7, 1.0))
+    device = open_device("sim", plant=RigPlant(spec), seed=args.seed, pacing="realtime", hit_interval_s=(0.7, 1.0))
     device.configure(config)
     force_row = config.channel_index(ChannelKind.FORCE)
     response_row = config.channel_index(ChannelKind.ACCELERATION)

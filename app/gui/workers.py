@@ -19,6 +19,7 @@ from PySide6.QtCore import QCoreApplication, QObject, Qt, QThread, QTimer, Signa
 
 from gasfilm.analysis.acquisition import AcquisitionLoop
 from gasfilm.analysis.capture import HitRecord, ImpactCapture, TriggerSettings
+from gasfilm.analysis.physics.plant import RigPlant
 from gasfilm.analysis.recording import HitEvent, HitRecorder
 from gasfilm.analysis.physics.spec import RigSpec
 from gasfilm.analysis.session import Session
@@ -119,7 +120,7 @@ class AcquisitionWorker(QObject):
             options: dict[str, Any] = {}
             if plan.device_name == SIMULATED_DEVICE_NAME:
                 options = dict(
-                    rig=plan.rig_spec,
+                    plant=RigPlant(plan.rig_spec),
                     seed=plan.sim_seed,
                     pacing=plan.sim_pacing,
                     hit_interval_s=SIM_HIT_INTERVAL_S if plan.sim_auto_hammer else None,

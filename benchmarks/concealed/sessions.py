@@ -13,6 +13,7 @@ from gasfilm.analysis.physics.spec import RigSpec
 from gasfilm.analysis.session import Session
 from gasfilm.analysis.spectra import WindowSettings
 from gasfilm.analysis.validation import ValidationSettings
+from gasfilm.analysis.physics.plant import RigPlant
 from gasfilm.drivers.interface import ChannelKind, default_hammer_and_accelerometer
 from gasfilm.drivers.simulated import SimulatedNI9234
 
@@ -33,7 +34,7 @@ def record_session(
 ) -> Path:
     """Stream the simulated module until ``accepted_hits`` hits are accepted; every hit is stored in ``path``."""
     config = default_hammer_and_accelerometer(sample_rate_hz)
-    device = SimulatedNI9234(rig=spec, seed=seed, pacing="fast", hit_interval_s=(1.5, 2.5), **device_options)
+    device = SimulatedNI9234(RigPlant(spec), seed=seed, pacing="fast", hit_interval_s=(1.5, 2.5), **device_options)
     device.configure(config)
     force_row = config.channel_index(ChannelKind.FORCE)
     response_row = config.channel_index(ChannelKind.ACCELERATION)

@@ -1,0 +1,82 @@
+"""A rig spec as the plant of the simulated NI 9234 (:class:`gasfilm.drivers.plant.Plant`).
+
+:class:`RigPlant` answers the simulator's questions from a :class:`~gasfilm.analysis.physics.spec.RigSpec` with the
+functions of :mod:`gasfilm.analysis.physics.response`; it satisfies the Protocol structurally, so the physics layer
+imports nothing from drivers/ but its error types.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from gasfilm.analysis.physics import response
+from gasfilm.analysis.physics.spec import HammerSpec, RigSpec
+
+
+class RigPlant:
+    """The rig of ``spec`` behind the simulated module: its hammer, sensors, mover, channel effects and interference."""
+
+    def __init__(self, spec: RigSpec) -> None:
+        self.spec = spec
+
+    @classmethod
+    def nominal(cls, film: str = "FOMGF") -> "RigPlant":
+        """The paper's rig: the ``film`` model (Table 1 parameters) on the 25.05 kg mover."""
+        return cls(RigSpec.nominal(film))
+
+    @classmethod
+    def from_spec(cls, spec: RigSpec | str | Path | None) -> "RigPlant":
+        """The plant of a spec, of a rig spec TOML file, or (``None``) of the paper's FOMGF rig."""
+        if spec is None:
+            return cls.nominal()
+        return cls(spec if isinstance(spec, RigSpec) else RigSpec.load(spec))
+
+    def __repr__(self) -> str:
+        return f"RigPlant({self.spec.name!r})"
+
+    @property
+    def hammer(self) -> HammerSpec:
+        """The spec's ``[hammer]`` table, else medium tip, 200 N ± 20 %, no double hits."""
+        return self.spec.hammer or HammerSpec()
+
+    @property
+    def is_linear(self) -> bool:
+        """False when the spec has cubic stiffness."""
+        return self.spec.is_linear
+
+    def sensitivity_v_per_si(self, channel: str) -> float:
+        return self.spec.sensor(channel).sensitivity_v_per_si
+
+    def noise_per_sqrt_hz(self, channel: str) -> float:
+        return self.spec.sensor(channel).noise_per_sqrt_hz
+
+    def response_duration_s(self, sample_rate_hz: float) -> float:
+        return response.response_duration_s(self.spec, sample_rate_hz)
+
+    def acceleration_spectrum(
+        self, force_spectrum: np.ndarray, s: np.ndarray, sample_rate_hz: float, time_s: float
+    ) -> np.ndarray:
+        """Linear specs: ``F·s²/Z(s, t)`` bin by bin. Cubic stiffness: the periodic equation of motion solved on the
+        grid's samples (:func:`~gasfilm.analysis.physics.response.mover_displacement_spectrum`)."""
+        if self.spec.is_linear:
+            return force_spectrum * s**2 / response.rig_dynamic_stiffness(self.spec, s, time_s)
+        n_samples = 2 * (len(s) - 1)
+        # the solver works on sampled signals, whose DFT is the continuous spectrum × the sample rate
+        displacement = response.mover_displacement_spectrum(
+            self.spec, force_spectrum * sample_rate_hz, s, n_samples, time_s
+        )
+        return s**2 * displacement / sample_rate_hz
+
+    def channel_transfer(self, channel: str, s: np.ndarray) -> np.ndarray:
+        return response.channel_transfer(self.spec, channel, s)
+
+    def interference(self, channel: str, time_s: np.ndarray) -> np.ndarray | None:
+        """Sum of the spec's effects' interference on the channel, or ``None`` if none has any."""
+        total = None
+        for effect in self.spec.effects:
+            signal = effect.interference(channel, time_s)
+            if signal is not None:
+                total = signal if total is None else total + signal
+        return total
