@@ -67,7 +67,8 @@ class Plant(Protocol):
         ...
 
     def channel_transfer(self, channel: str, s: np.ndarray) -> np.ndarray:
-        """The transfer (1) a ``channel`` kind's signal passes through before the sensor, at ``s``."""
+        """The transfer (1) on a ``channel`` kind's signal between the rig and the module (a delay, an extra
+        coupling, ...), at ``s``; the module's own filters are the simulator's."""
         ...
 
     def interference(self, channel: str, time_s: np.ndarray) -> np.ndarray | None:

@@ -20,11 +20,12 @@ from gasfilm.drivers.interface import (
     DaqConfig,
     validate_config,
 )
+from gasfilm.drivers.plant import TIPS_PULSE_WIDTH_S
 
 SETTINGS_KEY = "setup/state"
 SETTINGS_ORGANIZATION = "gasfilm"
 SETTINGS_APPLICATION = "gasfilm-gui"
-SIM_TIPS = ("soft", "medium", "hard")
+SIM_TIPS = tuple(TIPS_PULSE_WIDTH_S)  # the simulated hammer's tips
 
 T = TypeVar("T")
 
