@@ -7,7 +7,6 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from gasfilm.analysis.physics import effects
 from gasfilm.analysis.physics.effects import ChannelDelay, Drift, ExtraMode, Mains
 from gasfilm.analysis.physics.plant import RigPlant
 from gasfilm.analysis.physics.response import rig_accelerance
@@ -89,4 +88,8 @@ def test_rig_plant_answers_with_the_specs_physics():
 
 
 def test_the_tips_a_spec_accepts_are_the_simulated_hammers():
-    assert effects.TIPS_PULSE_WIDTH_S == TIPS_PULSE_WIDTH_S
+    base = "mass_kg = 25.05\n[film]\nmodel = 'SD'\n[film.parameters]\nk = 3.78e7\neta = 3.45e3\n"
+    for tip in TIPS_PULSE_WIDTH_S:
+        assert RigSpec.from_toml(base + f"[hammer]\ntip = '{tip}'\n").hammer.tip == tip
+    with pytest.raises(SettingError, match="hammer.tip"):
+        RigSpec.from_toml(base + "[hammer]\ntip = 'rubber'\n")

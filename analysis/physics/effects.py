@@ -22,7 +22,6 @@ import numpy as np
 from gasfilm.drivers.errors import GasfilmError
 
 CHANNELS = ("force", "acceleration")
-TIPS_PULSE_WIDTH_S: dict[str, float] = {"soft": 2.0e-3, "medium": 0.8e-3, "hard": 0.25e-3}
 
 #: PCB 086C02 hammer and PCB 352B accelerometer as in the paper; noise densities from their broadband resolution.
 DEFAULT_FORCE_SENSITIVITY_MV_PER_N = 11.2

@@ -58,16 +58,17 @@ class RigPlant:
     def acceleration_spectrum(
         self, force_spectrum: np.ndarray, s: np.ndarray, sample_rate_hz: float, time_s: float
     ) -> np.ndarray:
-        """Linear specs: ``F·s²/Z(s, t)`` bin by bin. Cubic stiffness: the periodic equation of motion solved on the
+        """Linear specs: ``F·s²/Z(s, t)`` bin by bin (plus the force cross-talk). Cubic stiffness: the periodic equation of motion solved on the
         grid's samples (:func:`~gasfilm.analysis.physics.response.mover_displacement_spectrum`)."""
+        leak = self.spec.force_leak_m_s2_per_n * force_spectrum  # electrical cross-talk of the force signal
         if self.spec.is_linear:
-            return force_spectrum * s**2 / response.rig_dynamic_stiffness(self.spec, s, time_s)
+            return force_spectrum * s**2 / response.rig_dynamic_stiffness(self.spec, s, time_s) + leak
         n_samples = 2 * (len(s) - 1)
         # the solver works on sampled signals, whose DFT is the continuous spectrum × the sample rate
         displacement = response.mover_displacement_spectrum(
             self.spec, force_spectrum * sample_rate_hz, s, n_samples, time_s
         )
-        return s**2 * displacement / sample_rate_hz
+        return s**2 * displacement / sample_rate_hz + leak
 
     def channel_transfer(self, channel: str, s: np.ndarray) -> np.ndarray:
         return response.channel_transfer(self.spec, channel, s)

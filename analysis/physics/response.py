@@ -25,6 +25,11 @@ from gasfilm.analysis.physics.spec import RigSpec
 # --- physics -------------------------------------------------------------------------------------------------------
 
 
+#: How closely two discretisations of the nonlinear response agree (fraction of the peak, in the module's pass band):
+#: the simulator's periodic ×2 grid and the replay's zero-padded grid, each solved to a residual of 1e-12.
+NONLINEAR_TOLERANCE = 1e-5
+
+
 @dataclass(frozen=True)
 class HitConditions:
     """What differs between the hits of a session: each hit's session time (s) and force impulse (N·s)."""

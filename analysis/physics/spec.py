@@ -19,6 +19,7 @@ import tomli_w
 
 from gasfilm.analysis.physics.elements import PAPER_MASS_KG, PAPER_MODELS, PAPER_TABLE1, FilmModel, get_model
 from gasfilm.drivers.errors import SettingError
+from gasfilm.drivers.plant import TIPS_PULSE_WIDTH_S
 
 from gasfilm.analysis.physics.effects import (
     CHANNELS,
@@ -27,7 +28,6 @@ from gasfilm.analysis.physics.effects import (
     DEFAULT_FORCE_NOISE_N_PER_SQRT_HZ,
     DEFAULT_FORCE_SENSITIVITY_MV_PER_N,
     EFFECT_TYPES,
-    TIPS_PULSE_WIDTH_S,
     Effect,
     EffectValueError,
     _any_number,
