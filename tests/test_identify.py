@@ -7,8 +7,7 @@ import numpy as np
 import pytest
 
 from gasfilm.analysis.figures import figure18, figure19
-from gasfilm.analysis.identify import (
-    G_M_S2,
+from gasfilm.analysis.identification import (
     FitCancelledError,
     FitResult,
     GapsoSettings,
@@ -31,7 +30,7 @@ from gasfilm.analysis.physics.spec import RigSpec
 from gasfilm.analysis.spectra import compute_frf
 from gasfilm.app.cli import main as gasfilm
 from gasfilm.drivers.errors import SettingError
-from gasfilm.drivers.interface import default_hammer_and_accelerometer
+from gasfilm.drivers.interface import STANDARD_GRAVITY_M_S2, default_hammer_and_accelerometer
 from gasfilm.drivers.simulated import SimulatedNI9234
 
 MASS_KG = PAPER_MASS_KG
@@ -271,7 +270,7 @@ def test_compare_models_is_table_2_with_aic_bic():
         assert row.aic == pytest.approx(n * math.log(rss / n) + 2 * len(fit.params))
         assert row.bic == pytest.approx(n * math.log(rss / n) + len(fit.params) * math.log(n))
     g_table, si_table = format_table2(rows, "g/N"), format_table2(rows, "SI")
-    assert f"{rows[0].rms / G_M_S2:.6g}" in g_table and f"{rows[0].rms:.6g}" in si_table
+    assert f"{rows[0].rms / STANDARD_GRAVITY_M_S2:.6g}" in g_table and f"{rows[0].rms:.6g}" in si_table
     assert "FOZGF" in g_table and "0.00%" in g_table
     without_sd = compare_models(fits[1:], freq_hz, h)
     assert all(row.e_percent is None for row in without_sd) and "—" in format_table2(without_sd)

@@ -13,7 +13,9 @@ write a new one in the short text form parsed by :func:`parse_network`, e.g.
 ``"k3 || (k1 -- pot(eta1, alpha)) || (k2 -- pot(eta2, beta))"``.
 
 Evaluation is vectorised: a parameter array of shape ``(..., n_parameters)`` gives stiffnesses of shape
-``(..., n_frequencies)``.
+``(..., n_frequencies)``. One evaluator, :meth:`Node.evaluate`, gives Z and, on request, its analytic derivative
+with respect to every parameter (spring ``dZ/dk = 1``, dashpot ``dZ/dη = s``, spring-pot ``dZ/dη = s^α`` and
+``dZ/dα = η s^α ln s``; parallel derivatives add, a series branch's derivative is scaled by ``(Z/Z_branch)²``).
 """
 
 from __future__ import annotations
@@ -58,6 +60,10 @@ SPRINGPOT_BOUNDS = (1e-4, 1e13)
 ORDER_BOUNDS = (0.0, 2.0)
 
 
+#: derivatives of a node's stiffness, one array per parameter name (N/m per unit of the parameter)
+Gradient = dict[str, np.ndarray]
+
+
 class Node(abc.ABC):
     """A network of elements with a complex stiffness."""
 
@@ -66,12 +72,17 @@ class Node(abc.ABC):
         """The parameters of this node and everything below it, in reading order."""
 
     @abc.abstractmethod
-    def stiffness(self, s: np.ndarray, values: Mapping[str, np.ndarray]) -> np.ndarray:
-        """Complex stiffness in N/m at the Laplace variable ``s``."""
+    def evaluate(self, s: np.ndarray, values: Mapping[str, np.ndarray], gradient: bool) -> tuple[np.ndarray, Gradient]:
+        """Complex stiffness in N/m at the Laplace variable ``s`` and, when ``gradient``, its derivative with respect
+        to each parameter below this node (an empty mapping otherwise)."""
 
     @abc.abstractmethod
     def text(self) -> str:
         """The node in the short text form."""
+
+    def stiffness(self, s: np.ndarray, values: Mapping[str, np.ndarray]) -> np.ndarray:
+        """Complex stiffness in N/m at the Laplace variable ``s``."""
+        return self.evaluate(s, values, False)[0]
 
 
 @dataclass(frozen=True)
@@ -81,8 +92,9 @@ class Spring(Node):
     def parameters(self) -> list[Parameter]:
         return [Parameter(self.name, "N/m", *SPRING_BOUNDS_N_PER_M, "log")]
 
-    def stiffness(self, s: np.ndarray, values: Mapping[str, np.ndarray]) -> np.ndarray:
-        return values[self.name] * np.ones_like(s)
+    def evaluate(self, s: np.ndarray, values: Mapping[str, np.ndarray], gradient: bool) -> tuple[np.ndarray, Gradient]:
+        z = values[self.name] * np.ones_like(s)
+        return z, {self.name: np.ones_like(z)} if gradient else {}
 
     def text(self) -> str:
         return self.name
@@ -95,8 +107,9 @@ class Dashpot(Node):
     def parameters(self) -> list[Parameter]:
         return [Parameter(self.name, "N·s/m", *DASHPOT_BOUNDS_NS_PER_M, "log")]
 
-    def stiffness(self, s: np.ndarray, values: Mapping[str, np.ndarray]) -> np.ndarray:
-        return values[self.name] * s
+    def evaluate(self, s: np.ndarray, values: Mapping[str, np.ndarray], gradient: bool) -> tuple[np.ndarray, Gradient]:
+        z = values[self.name] * s
+        return z, {self.name: np.broadcast_to(s, z.shape)} if gradient else {}
 
     def text(self) -> str:
         return f"dashpot({self.name})"
@@ -113,8 +126,10 @@ class SpringPot(Node):
             Parameter(self.order, "1", *ORDER_BOUNDS, "linear"),
         ]
 
-    def stiffness(self, s: np.ndarray, values: Mapping[str, np.ndarray]) -> np.ndarray:
-        return values[self.coefficient] * s ** values[self.order]
+    def evaluate(self, s: np.ndarray, values: Mapping[str, np.ndarray], gradient: bool) -> tuple[np.ndarray, Gradient]:
+        power = s ** values[self.order]  # principal branch
+        z = values[self.coefficient] * power
+        return z, {self.coefficient: power, self.order: z * np.log(s)} if gradient else {}
 
     def text(self) -> str:
         return f"pot({self.coefficient}, {self.order})"
@@ -127,8 +142,9 @@ class Parallel(Node):
     def parameters(self) -> list[Parameter]:
         return [p for child in self.children for p in child.parameters()]
 
-    def stiffness(self, s: np.ndarray, values: Mapping[str, np.ndarray]) -> np.ndarray:
-        return sum(child.stiffness(s, values) for child in self.children)
+    def evaluate(self, s: np.ndarray, values: Mapping[str, np.ndarray], gradient: bool) -> tuple[np.ndarray, Gradient]:
+        parts = [child.evaluate(s, values, gradient) for child in self.children]
+        return sum(z for z, _ in parts), {name: g for _, grads in parts for name, g in grads.items()}
 
     def text(self) -> str:
         return " || ".join(_grouped(child) for child in self.children)
@@ -141,8 +157,11 @@ class Series(Node):
     def parameters(self) -> list[Parameter]:
         return [p for child in self.children for p in child.parameters()]
 
-    def stiffness(self, s: np.ndarray, values: Mapping[str, np.ndarray]) -> np.ndarray:
-        return 1.0 / sum(1.0 / child.stiffness(s, values) for child in self.children)
+    def evaluate(self, s: np.ndarray, values: Mapping[str, np.ndarray], gradient: bool) -> tuple[np.ndarray, Gradient]:
+        parts = [child.evaluate(s, values, gradient) for child in self.children]
+        z = 1.0 / sum(1.0 / part for part, _ in parts)
+        # compliances add: d(1/Z) = Σ d(1/Z_i), so dZ/dp = (Z/Z_i)² dZ_i/dp for a parameter of branch i
+        return z, {name: (z / part) ** 2 * g for part, grads in parts for name, g in grads.items()}
 
     def text(self) -> str:
         return " -- ".join(_grouped(child) for child in self.children)
@@ -190,7 +209,21 @@ class FilmModel:
 
     def stiffness(self, s: ArrayLike, params: ArrayLike | Mapping[str, float]) -> np.ndarray:
         """Complex stiffness Z(s) in N/m; ``params`` of shape (..., P) gives a result of shape (..., len(s))."""
-        s = np.asarray(s, dtype=complex)
+        return self.network.evaluate(*self._arguments(s, params), False)[0]
+
+    def stiffness_and_gradient(
+        self, s: ArrayLike, params: ArrayLike | Mapping[str, float]
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Z(s) in N/m, shape (..., len(s)), and its analytic derivative dZ/dθ with respect to the parameters in
+        :attr:`parameter_names` order, shape (..., len(s), P), in N/m per unit of each parameter."""
+        s, values = self._arguments(s, params)
+        z, grads = self.network.evaluate(s, values, True)
+        return z, np.stack([np.broadcast_to(grads[name], z.shape) for name in self.parameter_names], axis=-1)
+
+    def _arguments(
+        self, s: ArrayLike, params: ArrayLike | Mapping[str, float]
+    ) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+        """``s`` as a complex array and the name → value (..., 1) mapping the network evaluates."""
         vector = self.vector(params) if isinstance(params, Mapping) else np.asarray(params, dtype=float)
         if vector.shape[-1] != len(self.parameters):
             raise SettingError(
@@ -198,7 +231,7 @@ class FilmModel:
                 f"({', '.join(self.parameter_names)}), got {vector.shape[-1]}"
             )
         values = {n: vector[..., i, np.newaxis] for i, n in enumerate(self.parameter_names)}
-        return self.network.stiffness(s, values)
+        return np.asarray(s, dtype=complex), values
 
 
 def laplace_variable(freq_hz: ArrayLike, decay_rate_1_s: float = 0.0) -> np.ndarray:

@@ -24,7 +24,7 @@ from PySide6.QtWidgets import (
     QWidget,
 )
 
-from gasfilm.analysis.identify import METHODS
+from gasfilm.analysis.identification import METHODS
 from gasfilm.analysis.physics.elements import PAPER_MODEL_ORDER, PAPER_MODEL_TEXT, get_model
 from gasfilm.app.gui.controller import SessionController
 from gasfilm.app.gui.widgets import MEASURED_COLOR, PALETTE, make_plot, pen, phase_deg
