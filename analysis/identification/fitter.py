@@ -81,7 +81,7 @@ def fit_model(
         film.name, result.rms, result.peak_error, result.evaluations, result.wall_time_s,
     )
     if at_bound:
-        logger.warning("fit %s: %s ended at a bound (not measured)", film.name, ", ".join(at_bound))
+        logger.info("fit %s: %s ended at a bound (not measured)", film.name, ", ".join(at_bound))
     return result
 
 
