@@ -71,7 +71,8 @@ def main() -> None:
     args = parser.parse_args()
     names = args.models.split(",")
     freq_hz, h = rig_frf(args.seed)
-    print(f"FRF: {len(freq_hz)} lines, {freq_hz[0]:g}–{freq_hz[-1]:g} Hz, peak {np.max(np.abs(h)) / STANDARD_GRAVITY_M_S2:.4f} g/N")
+    peak_g_per_n = np.max(np.abs(h)) / STANDARD_GRAVITY_M_S2
+    print(f"FRF: {len(freq_hz)} lines, {freq_hz[0]:g}–{freq_hz[-1]:g} Hz, peak {peak_g_per_n:.4f} g/N")
     header = f"{'model':<8}" + "".join(f"{m:>36}" for m in ("default: s / evals / RMS g/N", "GA-PSO", "DE"))
     print(header)
     totals = {"default": [0.0, 0], "gapso": [0.0, 0], "de": [0.0, 0]}
@@ -87,7 +88,8 @@ def main() -> None:
             totals[method][1] += evaluations
         best = min(r[2] for r in row.values())
         worst_gap = max(worst_gap, row["default"][2] / best - 1.0)
-        print(f"{name:<8}" + "".join(f"{w:>10.2f} {e:>10d} {r / STANDARD_GRAVITY_M_S2:>14.6e}" for w, e, r in row.values()))
+        cells = (f"{w:>10.2f} {e:>10d} {r / STANDARD_GRAVITY_M_S2:>14.6e}" for w, e, r in row.values())
+        print(f"{name:<8}" + "".join(cells))
     print(f"{'total':<8}" + "".join(f"{w:>10.2f} {e:>10d} {'':>14}" for w, e in totals.values()))
     print(
         f"default: {totals['default'][0]:.2f} s for all (goal ≤ 3 s); RMS at most {100 * worst_gap:.3f} % above the "
