@@ -100,11 +100,11 @@ class _Projection:
         coords, problem = self.problem.coords, self.problem
         theta = np.zeros(psi.shape[:-1] + (coords.size,))
         theta[..., self.free] = psi
-        params, _ = coords.to_params(theta)
-        values = {name: params[..., i, np.newaxis] for i, name in enumerate(coords.names)}
-        s = problem.s[self.index]
+        reference_values, _ = coords.reference_values(theta)
+        values = {name: reference_values[..., i, np.newaxis] for i, name in enumerate(coords.names)}
+        s_rel = problem.s_rel[self.index]
         with np.errstate(all="ignore"):
-            basis = [branch.stiffness(s, values) for branch in self.branches]
+            basis = [branch.stiffness(s_rel, values) for branch in self.branches]
             basis = np.stack([1.0 / b if self.compliance else b for b in basis], axis=-1)
             basis = basis * self.row_weight[:, np.newaxis]
             a = np.concatenate([basis.real, basis.imag], axis=-2)
@@ -254,7 +254,7 @@ def _projected_searches(
     scores = np.where(np.isfinite(scores), scores, np.inf)
     # The projected samples that best fit the accelerance itself join the polish: where the model cannot fit
     # the data, the RMS optimum can lie in another basin than the log-stiffness optimum.
-    for start in np.argsort(problem.acc_cost(*problem.coords.to_params(thetas), index))[:_ACCELERANCE_STARTS]:
+    for start in np.argsort(problem.acc_cost(thetas, index))[:_ACCELERANCE_STARTS]:
         found.append((np.inf, thetas[start], shapes[start]))
     chosen: list[int] = []
     for start in np.argsort(scores):

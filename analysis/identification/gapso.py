@@ -59,7 +59,8 @@ class UnitObjective:
     def __call__(self, u: np.ndarray) -> np.ndarray:
         problem = self.problem
         problem.check_cancel()
-        return np.sqrt(problem.acc_cost(*self.to_params(u)))
+        params, mass = self.to_params(u)
+        return np.sqrt(problem.accelerance_cost(problem.model.stiffness(problem.s, params), mass))
 
 
 def _unchanged(previous: float, current: float, tolerance: float) -> bool:

@@ -41,6 +41,10 @@ class Coordinates:
     frequency ω_r (spring ``k = g``, dashpot ``η = g/ω_r``, spring-pot ``η = g/ω_r^α``), so an element reads
     ``Z = g·(s/ω_r)^α`` and a coefficient no longer trades off against its order. Orders are searched as they are.
     With ``fit_mass`` a last coordinate ``θ_m = ln(m/m0)`` is appended.
+
+    The network evaluated at ``s/ω_r`` with the *reference values* (every coefficient replaced by its g) is the
+    network at ``s`` with the physical parameters, so the fitter evaluates the model there
+    (:meth:`reference_values`) and converts to physical parameters only for the result (:meth:`to_params`).
     """
 
     def __init__(self, model: FilmModel, omega_ref: float, stiffness_ref: float, mass_kg: float, fit_mass: bool):
@@ -87,21 +91,27 @@ class Coordinates:
         elif not isinstance(node, Spring):
             raise SettingError(f"model {self.model.name}: element {type(node).__name__} is not supported by the fitter")
 
-    def to_params(self, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Model parameter vectors (..., P) and masses (...) in kg from coordinates (..., size)."""
+    def reference_values(self, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Parameter vectors (..., P) for the network at ``s/ω_r`` (coefficients g in N/m, orders) and masses (...)
+        in kg from coordinates (..., size)."""
         theta = np.asarray(theta, dtype=float)
-        params = np.empty(theta.shape[:-1] + (len(self.names),))
+        values = np.empty(theta.shape[:-1] + (len(self.names),))
         for i, name in enumerate(self.names):
             if name in self.orders:
-                params[..., i] = theta[..., i]
+                values[..., i] = theta[..., i]
             else:
-                params[..., i] = self.stiffness_ref * np.exp(theta[..., i])
+                values[..., i] = self.stiffness_ref * np.exp(theta[..., i])
+        mass = self.mass_ref * np.exp(theta[..., -1]) if self.fit_mass else np.full(theta.shape[:-1], self.mass_ref)
+        return values, mass
+
+    def to_params(self, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Model parameter vectors (..., P) and masses (...) in kg from coordinates (..., size)."""
+        params, mass = self.reference_values(theta)
         for i, name in enumerate(self.names):
             if name in self.dashpots:
                 params[..., i] /= self.omega_ref
             elif name in self.order_of:
                 params[..., i] /= self.omega_ref ** params[..., self.names.index(self.order_of[name])]
-        mass = self.mass_ref * np.exp(theta[..., -1]) if self.fit_mass else np.full(theta.shape[:-1], self.mass_ref)
         return params, mass
 
     def from_params(self, params: np.ndarray, mass_kg: float) -> np.ndarray:
@@ -168,6 +178,7 @@ class Problem:
             omega_ref = float(np.exp(np.mean(np.log(np.abs(self.s)))))
             stiffness_ref = float(np.median(np.abs(self.z_measured)))
         self.coords = Coordinates(model, omega_ref, stiffness_ref, mass_kg, fit_mass)
+        self.s_rel = self.s / omega_ref  # where the network is evaluated with the coordinates' reference values
         sensitivity = np.abs(self.h) ** 2 * np.abs(self.z_measured) / np.abs(self.s) ** 2
         self.sensitivity = sensitivity / np.max(sensitivity)
 
@@ -183,26 +194,34 @@ class Problem:
         if self.cancel is not None and self.cancel():
             raise FitCancelledError(f"fit of {self.model.name} cancelled")
 
+    def stiffness(self, thetas: np.ndarray, index: np.ndarray | slice = slice(None)) -> np.ndarray:
+        """Film stiffness Z in N/m on the lines ``index`` for coordinate sets (..., size) at once."""
+        values, _ = self.coords.reference_values(thetas)
+        return self.model.stiffness(self.s_rel[index], values)
+
     def log_cost(self, thetas: np.ndarray, index: np.ndarray, weights: np.ndarray) -> np.ndarray:
         """Mean squared weighted log-stiffness residual for many coordinate sets at once."""
         self.evaluations += len(thetas)
-        params, _ = self.coords.to_params(thetas)
         with np.errstate(all="ignore"):
-            z = self.model.stiffness(self.s[index], params)
-            r = np.log(z / self.z_measured[index]) * weights[index]
+            r = np.log(self.stiffness(thetas, index) / self.z_measured[index]) * weights[index]
         cost = np.mean(np.abs(r) ** 2, axis=-1)
         return np.where(np.isfinite(cost), cost, np.inf)
 
-    def acc_cost(
-        self, params: np.ndarray, mass_kg: np.ndarray, index: np.ndarray | slice = slice(None)
+    def acc_cost(self, thetas: np.ndarray, index: np.ndarray) -> np.ndarray:
+        """Mean squared weighted accelerance residual for many coordinate sets at once."""
+        _, mass = self.coords.reference_values(thetas)
+        with np.errstate(all="ignore"):
+            return self.accelerance_cost(self.stiffness(thetas, index), mass, index)
+
+    def accelerance_cost(
+        self, stiffness: np.ndarray, mass_kg: np.ndarray, index: np.ndarray | slice = slice(None)
     ) -> np.ndarray:
-        """Mean squared weighted accelerance residual ((m/s²)/N)² of parameter sets (..., P) with masses (...) at
-        once, on the lines ``index``."""
-        self.evaluations += int(np.prod(params.shape[:-1]))
-        mass = np.asarray(mass_kg)
+        """Mean squared weighted accelerance residual ((m/s²)/N)² of film stiffnesses (..., lines) in N/m with
+        masses (...) in kg, on the lines ``index``; one evaluation per stiffness set."""
+        self.evaluations += int(np.prod(stiffness.shape[:-1]))
         s = self.s[index]
         with np.errstate(all="ignore"):
-            h_model = s**2 / (self.model.stiffness(s, params) + mass[..., np.newaxis] * s**2)
+            h_model = s**2 / (stiffness + mass_kg[..., np.newaxis] * s**2)
             cost = np.mean(np.abs((h_model - self.h[index]) * self.sqrt_w[index]) ** 2, axis=-1)
         return np.where(np.isfinite(cost), cost, np.inf)
 
@@ -214,24 +233,25 @@ class Problem:
 
     def acc_complex_residual(self, theta: np.ndarray) -> np.ndarray:
         """``H(θ) - H_d`` in (m/s²)/N, unweighted; non-finite values become large finite ones."""
-        params, mass = self.coords.to_params(theta)
+        _, mass = self.coords.reference_values(theta)
         with np.errstate(all="ignore"):
-            h_model = self.s**2 / (self.model.stiffness(self.s, params) + mass * self.s**2)
+            h_model = self.s**2 / (self.stiffness(theta) + mass * self.s**2)
         return np.nan_to_num(h_model - self.h, nan=1e6, posinf=1e6, neginf=-1e6)
 
     def acc_jacobian(self, theta: np.ndarray) -> np.ndarray:
-        """Jacobian of :meth:`acc_residual` with respect to the coordinates: the model's analytic dZ/dparameters,
-        chained through the coordinates; shape (2·lines, size)."""
+        """Jacobian of :meth:`acc_residual` with respect to the coordinates, shape (2·lines, size): the model's
+        analytic dZ/d(reference values) times ``g`` for a coefficient ``g = K0·e^θ`` (1 for an order), and
+        ``H = s²/(Z + m s²)`` gives ``dH = -H²/s² · dZ`` and ``dH/dθ_m = -H² m``."""
         self.evaluations += self.coords.size
-        params, mass = self.coords.to_params(theta)
-        z, dz_dparams = self.model.stiffness_and_gradient(self.s, params)
+        values, mass = self.coords.reference_values(theta)
+        z, dz_dvalues = self.model.stiffness_and_gradient(self.s_rel, values)
+        dz_dtheta = dz_dvalues * np.where(self.coords.is_order[: len(values)], 1.0, values)
         with np.errstate(all="ignore"):
             h_model = self.s**2 / (z + mass * self.s**2)
-        # d(Z + m s²)/d(parameters[, mass]); H = s²/(Z + m s²) gives dH = -H²/s² · d(Z + m s²)
-        d_denominator = np.column_stack([dz_dparams, self.s**2]) if self.coords.fit_mass else dz_dparams
-        jac = (-(h_model**2) / self.s**2 * self.sqrt_w)[:, np.newaxis] * (
-            d_denominator @ self.coords.params_jacobian(theta)
-        )
+        columns = (-(h_model**2) / self.s**2)[:, np.newaxis] * dz_dtheta
+        if self.coords.fit_mass:
+            columns = np.column_stack([columns, -(h_model**2) * mass])
+        jac = columns * self.sqrt_w[:, np.newaxis]
         return np.concatenate([jac.real, jac.imag], axis=0)
 
 
