@@ -208,6 +208,9 @@ def test_gradient_equals_finite_differences(name):
             z, gradient = model.stiffness_and_gradient(s, vector)
             assert gradient.shape == (40, len(vector))
             np.testing.assert_array_equal(z, model.stiffness(s, vector))
+            z_log, gradient_log = model.stiffness_and_gradient(s, vector, np.log(s))  # the fitters' fast path
+            np.testing.assert_allclose(z_log, z, rtol=1e-13)
+            np.testing.assert_allclose(gradient_log, gradient, rtol=1e-13, atol=1e-13 * np.max(np.abs(gradient)))
             scale = np.where([p.scale == "log" for p in model.parameters], vector, 1.0)
             error = np.abs((gradient - central_differences(model, s, vector)) * scale) / np.abs(z)[:, np.newaxis]
             assert np.max(error) <= 1e-6, (name, sigma, np.max(error, axis=0))

@@ -102,9 +102,9 @@ class _Projection:
         theta[..., self.free] = psi
         reference_values, _ = coords.reference_values(theta)
         values = {name: reference_values[..., i, np.newaxis] for i, name in enumerate(coords.names)}
-        s_rel = problem.s_rel[self.index]
+        s_rel, log_s_rel = problem.s_rel[self.index], problem.log_s_rel[self.index]
         with np.errstate(all="ignore"):
-            basis = [branch.stiffness(s_rel, values) for branch in self.branches]
+            basis = [branch.stiffness(s_rel, values, log_s_rel) for branch in self.branches]
             basis = np.stack([1.0 / b if self.compliance else b for b in basis], axis=-1)
             basis = basis * self.row_weight[:, np.newaxis]
             a = np.concatenate([basis.real, basis.imag], axis=-2)

@@ -179,6 +179,7 @@ class Problem:
             stiffness_ref = float(np.median(np.abs(self.z_measured)))
         self.coords = Coordinates(model, omega_ref, stiffness_ref, mass_kg, fit_mass)
         self.s_rel = self.s / omega_ref  # where the network is evaluated with the coordinates' reference values
+        self.log_s_rel = np.log(self.s_rel)
         sensitivity = np.abs(self.h) ** 2 * np.abs(self.z_measured) / np.abs(self.s) ** 2
         self.sensitivity = sensitivity / np.max(sensitivity)
 
@@ -194,24 +195,24 @@ class Problem:
         if self.cancel is not None and self.cancel():
             raise FitCancelledError(f"fit of {self.model.name} cancelled")
 
-    def stiffness(self, thetas: np.ndarray, index: np.ndarray | slice = slice(None)) -> np.ndarray:
-        """Film stiffness Z in N/m on the lines ``index`` for coordinate sets (..., size) at once."""
-        values, _ = self.coords.reference_values(thetas)
-        return self.model.stiffness(self.s_rel[index], values)
+    def stiffness(self, values: np.ndarray, index: np.ndarray | slice = slice(None)) -> np.ndarray:
+        """Film stiffness Z in N/m on the lines ``index`` for reference-value sets (..., P) at once."""
+        return self.model.stiffness(self.s_rel[index], values, self.log_s_rel[index])
 
     def log_cost(self, thetas: np.ndarray, index: np.ndarray, weights: np.ndarray) -> np.ndarray:
         """Mean squared weighted log-stiffness residual for many coordinate sets at once."""
         self.evaluations += len(thetas)
+        values, _ = self.coords.reference_values(thetas)
         with np.errstate(all="ignore"):
-            r = np.log(self.stiffness(thetas, index) / self.z_measured[index]) * weights[index]
+            r = np.log(self.stiffness(values, index) / self.z_measured[index]) * weights[index]
         cost = np.mean(np.abs(r) ** 2, axis=-1)
         return np.where(np.isfinite(cost), cost, np.inf)
 
     def acc_cost(self, thetas: np.ndarray, index: np.ndarray) -> np.ndarray:
         """Mean squared weighted accelerance residual for many coordinate sets at once."""
-        _, mass = self.coords.reference_values(thetas)
+        values, mass = self.coords.reference_values(thetas)
         with np.errstate(all="ignore"):
-            return self.accelerance_cost(self.stiffness(thetas, index), mass, index)
+            return self.accelerance_cost(self.stiffness(values, index), mass, index)
 
     def accelerance_cost(
         self, stiffness: np.ndarray, mass_kg: np.ndarray, index: np.ndarray | slice = slice(None)
@@ -233,9 +234,9 @@ class Problem:
 
     def acc_complex_residual(self, theta: np.ndarray) -> np.ndarray:
         """``H(θ) - H_d`` in (m/s²)/N, unweighted; non-finite values become large finite ones."""
-        _, mass = self.coords.reference_values(theta)
+        values, mass = self.coords.reference_values(theta)
         with np.errstate(all="ignore"):
-            h_model = self.s**2 / (self.stiffness(theta) + mass * self.s**2)
+            h_model = self.s**2 / (self.stiffness(values) + mass * self.s**2)
         return np.nan_to_num(h_model - self.h, nan=1e6, posinf=1e6, neginf=-1e6)
 
     def acc_jacobian(self, theta: np.ndarray) -> np.ndarray:
@@ -244,7 +245,7 @@ class Problem:
         ``H = s²/(Z + m s²)`` gives ``dH = -H²/s² · dZ`` and ``dH/dθ_m = -H² m``."""
         self.evaluations += self.coords.size
         values, mass = self.coords.reference_values(theta)
-        z, dz_dvalues = self.model.stiffness_and_gradient(self.s_rel, values)
+        z, dz_dvalues = self.model.stiffness_and_gradient(self.s_rel, values, self.log_s_rel)
         dz_dtheta = dz_dvalues * np.where(self.coords.is_order[: len(values)], 1.0, values)
         with np.errstate(all="ignore"):
             h_model = self.s**2 / (z + mass * self.s**2)
