@@ -179,7 +179,12 @@ class Series(Node):
         parts = [child.evaluate(s, values, gradient, log_s) for child in self.children]
         z = 1.0 / sum(1.0 / part for part, _ in parts)
         # compliances add: d(1/Z) = Σ d(1/Z_i), so dZ/dp = (Z/Z_i)² dZ_i/dp for a parameter of branch i
-        return z, {name: (z / part) ** 2 * g for part, grads in parts for name, g in grads.items()}
+        gradients: Gradient = {}
+        for part, part_gradients in parts:
+            if part_gradients:
+                factor = (z / part) ** 2
+                gradients.update({name: factor * g for name, g in part_gradients.items()})
+        return z, gradients
 
     def text(self) -> str:
         return " -- ".join(_grouped(child) for child in self.children)
@@ -239,7 +244,10 @@ class FilmModel:
         :attr:`parameter_names` order, shape (..., len(s), P), in N/m per unit of each parameter."""
         s, values = self._arguments(s, params)
         z, grads = self.network.evaluate(s, values, True, log_s)
-        return z, np.stack([np.broadcast_to(grads[name], z.shape) for name in self.parameter_names], axis=-1)
+        gradient = np.empty(z.shape + (len(self.parameters),), dtype=complex)
+        for i, name in enumerate(self.parameter_names):
+            gradient[..., i] = grads[name]
+        return z, gradient
 
     def _arguments(
         self, s: ArrayLike, params: ArrayLike | Mapping[str, float]
