@@ -1,7 +1,8 @@
 """One fit's data and search coordinates: the weighted accelerance residual, its Jacobian and evaluation counting.
 
-The model is evaluated only through :meth:`FilmModel.stiffness` and :meth:`FilmModel.stiffness_and_gradient`; this
-module maps the search coordinates onto the model's parameters and chains their derivative.
+The model is evaluated only through the element algebra's one evaluator (:meth:`FilmModel.stiffness`,
+:meth:`FilmModel.stiffness_and_gradient`), at ``s/ω_r`` with the coordinates' reference values; this module maps the
+search coordinates onto those values and the physical parameters, and chains the derivative.
 """
 
 from __future__ import annotations
