@@ -2,7 +2,7 @@
 
 Matplotlib figures drawn without pyplot (no backend or global state is touched, no Qt here; PNG goes through Agg);
 the GUI draws the same curves live with pyqtgraph. Every function takes plain arrays and
-:class:`gasfilm.analysis.identify.FitResult`\\ s and a path, and returns the path written.
+:class:`gasfilm.analysis.identification.FitResult`\\ s and a path, and returns the path written.
 """
 
 from __future__ import annotations
@@ -14,10 +14,11 @@ import numpy as np
 from matplotlib.figure import Figure
 from numpy.typing import ArrayLike
 
-from gasfilm.analysis.identify import G_M_S2, FitResult
+from gasfilm.analysis.identification import FitResult
 from gasfilm.drivers.errors import SettingError
+from gasfilm.drivers.interface import STANDARD_GRAVITY_M_S2
 
-UNITS = {"g/N": 1.0 / G_M_S2, "SI": 1.0}
+UNITS = {"g/N": 1.0 / STANDARD_GRAVITY_M_S2, "SI": 1.0}
 UNIT_LABEL = {"g/N": "g/N", "SI": "(m/s²)/N"}
 
 

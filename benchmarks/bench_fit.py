@@ -16,11 +16,13 @@ import time
 import numpy as np
 from scipy.optimize import differential_evolution
 
-from gasfilm.analysis.identify import G_M_S2, _Problem, _UnitObjective, fit_model
+from gasfilm.analysis.identification import fit_model
+from gasfilm.analysis.identification.gapso import UnitObjective
+from gasfilm.analysis.identification.problem import Problem
 from gasfilm.analysis.physics.elements import PAPER_MASS_KG, PAPER_MODEL_ORDER, PAPER_MODELS
 from gasfilm.analysis.spectra import compute_frf
 from gasfilm.analysis.physics.plant import RigPlant
-from gasfilm.drivers.interface import default_hammer_and_accelerometer
+from gasfilm.drivers.interface import STANDARD_GRAVITY_M_S2, default_hammer_and_accelerometer
 from gasfilm.drivers.simulated import SimulatedNI9234
 
 SAMPLE_RATE_HZ = 2560.0
@@ -44,8 +46,8 @@ def fit_de(name: str, freq_hz: np.ndarray, h: np.ndarray, seed: int) -> tuple[fl
     the same unit-interval objective as GA-PSO: (wall s, evaluations, RMS)."""
     started = time.perf_counter()
     model = PAPER_MODELS[name]
-    problem = _Problem(model, freq_hz, h, PAPER_MASS_KG, 0.0, False, None, None)
-    objective = _UnitObjective(problem, PAPER_MASS_KG, False)
+    problem = Problem(model, freq_hz, h, PAPER_MASS_KG, 0.0, False, None, None)
+    objective = UnitObjective(problem, PAPER_MASS_KG, False)
     result = differential_evolution(
         lambda u: objective(np.asarray(u).T),
         [(0.0, 1.0)] * objective.dimension,
@@ -69,7 +71,8 @@ def main() -> None:
     args = parser.parse_args()
     names = args.models.split(",")
     freq_hz, h = rig_frf(args.seed)
-    print(f"FRF: {len(freq_hz)} lines, {freq_hz[0]:g}–{freq_hz[-1]:g} Hz, peak {np.max(np.abs(h)) / G_M_S2:.4f} g/N")
+    peak_g_per_n = np.max(np.abs(h)) / STANDARD_GRAVITY_M_S2
+    print(f"FRF: {len(freq_hz)} lines, {freq_hz[0]:g}–{freq_hz[-1]:g} Hz, peak {peak_g_per_n:.4f} g/N")
     header = f"{'model':<8}" + "".join(f"{m:>36}" for m in ("default: s / evals / RMS g/N", "GA-PSO", "DE"))
     print(header)
     totals = {"default": [0.0, 0], "gapso": [0.0, 0], "de": [0.0, 0]}
@@ -85,7 +88,8 @@ def main() -> None:
             totals[method][1] += evaluations
         best = min(r[2] for r in row.values())
         worst_gap = max(worst_gap, row["default"][2] / best - 1.0)
-        print(f"{name:<8}" + "".join(f"{w:>10.2f} {e:>10d} {r / G_M_S2:>14.6e}" for w, e, r in row.values()))
+        cells = (f"{w:>10.2f} {e:>10d} {r / STANDARD_GRAVITY_M_S2:>14.6e}" for w, e, r in row.values())
+        print(f"{name:<8}" + "".join(cells))
     print(f"{'total':<8}" + "".join(f"{w:>10.2f} {e:>10d} {'':>14}" for w, e in totals.values()))
     print(
         f"default: {totals['default'][0]:.2f} s for all (goal ≤ 3 s); RMS at most {100 * worst_gap:.3f} % above the "

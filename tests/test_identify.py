@@ -7,8 +7,7 @@ import numpy as np
 import pytest
 
 from gasfilm.analysis.figures import figure18, figure19
-from gasfilm.analysis.identify import (
-    G_M_S2,
+from gasfilm.analysis.identification import (
     FitCancelledError,
     FitResult,
     GapsoSettings,
@@ -16,6 +15,7 @@ from gasfilm.analysis.identify import (
     fit_model,
     format_table2,
 )
+from gasfilm.analysis.identification.problem import Problem
 from gasfilm.analysis.physics.elements import (
     PAPER_MASS_KG,
     PAPER_MODEL_ORDER,
@@ -32,7 +32,7 @@ from gasfilm.analysis.spectra import compute_frf
 from gasfilm.app.cli import main as gasfilm
 from gasfilm.analysis.physics.plant import RigPlant
 from gasfilm.drivers.errors import SettingError
-from gasfilm.drivers.interface import default_hammer_and_accelerometer
+from gasfilm.drivers.interface import STANDARD_GRAVITY_M_S2, default_hammer_and_accelerometer
 from gasfilm.drivers.simulated import SimulatedNI9234
 
 MASS_KG = PAPER_MASS_KG
@@ -188,6 +188,42 @@ def test_windowed_frf_is_fitted_with_the_windowed_model():
         assert windowed.params[name] == pytest.approx(value, rel=1e-4)
 
 
+@pytest.mark.parametrize("name", PAPER_MODEL_ORDER)
+def test_fitter_jacobian_is_the_models_gradient_chained_through_the_coordinates(name):
+    """The Levenberg–Marquardt Jacobian (mass fitted too) against central differences of the residual."""
+    model = PAPER_MODELS[name]
+    params, freq_hz, h = random_physical_frf(model, np.random.default_rng(77), points=60)
+    problem = Problem(model, freq_hz, h, MASS_KG, 9.0, True, None, None)
+    near_truth = problem.coords.from_params(model.vector(params), 1.05 * MASS_KG)
+    theta = near_truth + np.random.default_rng(3).normal(0.0, 0.05, problem.coords.size)
+    jacobian = problem.acc_jacobian(theta)
+    rounding = 1e-8 * np.max(np.abs(problem.acc_residual(theta)))  # ≈ ε·|r|/step of the differences
+    for i in range(problem.coords.size):
+        step = np.zeros(problem.coords.size)
+        step[i] = 1e-6
+        column = (problem.acc_residual(theta + step) - problem.acc_residual(theta - step)) / 2e-6
+        assert np.max(np.abs(column)) > 100 * rounding, (name, i)  # the column is resolved: the check can fail
+        assert np.max(np.abs(jacobian[:, i] - column)) <= 1e-5 * np.max(np.abs(column)) + rounding, (name, i)
+
+
+def test_a_parameter_at_its_bound_is_named_not_measured_and_marked_in_table_2():
+    """A spring-damper fitted with the Zener model: the series spring k1 runs to its upper bound (1e12 N/m)."""
+    freq_hz = np.linspace(100.0, 350.0, 200)
+    h = accelerance(PAPER_MODELS["SD"], {"k": 3.78e7, "eta": 3.45e3}, freq_hz, MASS_KG)
+    zener = fit_model(PAPER_MODELS["Zener"], freq_hz, h, MASS_KG)
+    assert zener.at_bound == ("k1",) and zener.params["k1"] == pytest.approx(1e12, rel=1e-6)
+    assert set(zener.std_errors) == {"k2", "eta1"}
+    assert any(flag.startswith("k1 at a bound") for flag in zener.flags)
+    sd = fit_model(PAPER_MODELS["SD"], freq_hz, h * 1.001, MASS_KG)
+    assert sd.at_bound == () and set(sd.std_errors) == {"k", "eta"}
+    rows = compare_models([zener, sd], freq_hz, h)
+    assert [row.at_bound for row in rows] == [("k1",), ()]
+    lines = format_table2(rows).splitlines()
+    assert "At bound" in lines[0] and lines[2].endswith("k1") and lines[3].endswith(f"{rows[1].bic:.1f}")
+    again = FitResult.from_dict(json.loads(json.dumps(zener.to_dict())))
+    assert again.at_bound == ("k1",) and again.std_errors == zener.std_errors
+
+
 def test_mass_can_be_fitted():
     model = PAPER_MODELS["Zener"]
     params = {"k1": 5e6, "k2": 3.8e7, "eta1": 4e3}
@@ -272,7 +308,7 @@ def test_compare_models_is_table_2_with_aic_bic():
         assert row.aic == pytest.approx(n * math.log(rss / n) + 2 * len(fit.params))
         assert row.bic == pytest.approx(n * math.log(rss / n) + len(fit.params) * math.log(n))
     g_table, si_table = format_table2(rows, "g/N"), format_table2(rows, "SI")
-    assert f"{rows[0].rms / G_M_S2:.6g}" in g_table and f"{rows[0].rms:.6g}" in si_table
+    assert f"{rows[0].rms / STANDARD_GRAVITY_M_S2:.6g}" in g_table and f"{rows[0].rms:.6g}" in si_table
     assert "FOZGF" in g_table and "0.00%" in g_table
     without_sd = compare_models(fits[1:], freq_hz, h)
     assert all(row.e_percent is None for row in without_sd) and "—" in format_table2(without_sd)

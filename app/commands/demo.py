@@ -15,7 +15,7 @@ import numpy as np
 
 from gasfilm.analysis.acquisition import AcquisitionLoop
 from gasfilm.analysis.capture import ImpactCapture, TriggerSettings
-from gasfilm.analysis.identify import fit_model
+from gasfilm.analysis.identification import fit_model
 from gasfilm.analysis.physics.elements import PAPER_MODELS
 from gasfilm.analysis.physics.plant import RigPlant
 from gasfilm.analysis.recording import HitRecorder

@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from gasfilm.analysis.identify import METHODS, compare_models, fit_model, format_table2
+from gasfilm.analysis.identification import METHODS, compare_models, fit_model, format_table2
 from gasfilm.analysis.physics.elements import PAPER_MASS_KG, PAPER_MODEL_ORDER, get_model
 from gasfilm.drivers.errors import SettingError
 

@@ -19,7 +19,7 @@ from gasfilm.analysis.acquisition import AcquisitionLoop
 from gasfilm.analysis.capture import TriggerSettings
 from gasfilm.analysis.diagnosis import diagnose, load_recordings
 from gasfilm.analysis.diagnosis.plots import write_outputs
-from gasfilm.analysis.identify import compare_models, fit_model
+from gasfilm.analysis.identification import compare_models, fit_model
 from gasfilm.analysis.physics.elements import get_model
 from gasfilm.analysis.physics.spec import RigSpec
 from gasfilm.analysis.session import Session
@@ -541,7 +541,7 @@ class SessionController(QObject):
         self.session_changed.emit(str(path))
 
     def _load_fits(self, session: Session) -> None:
-        from gasfilm.analysis.identify import FitResult
+        from gasfilm.analysis.identification import FitResult
 
         names = session.result_names("fits")
         self.fits = {name: FitResult.from_dict(session.read_fit(name)) for name in names}

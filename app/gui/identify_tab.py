@@ -24,7 +24,7 @@ from PySide6.QtWidgets import (
     QWidget,
 )
 
-from gasfilm.analysis.identify import METHODS
+from gasfilm.analysis.identification import METHODS
 from gasfilm.analysis.physics.elements import PAPER_MODEL_ORDER, PAPER_MODEL_TEXT, get_model
 from gasfilm.app.gui.controller import SessionController
 from gasfilm.app.gui.widgets import MEASURED_COLOR, PALETTE, make_plot, pen, phase_deg
@@ -255,7 +255,8 @@ class IdentifyTab(QWidget):
         self.parameters.setRowCount(len(fit.params))
         for r, (parameter, value) in enumerate(fit.params.items()):
             std = fit.std_errors.get(parameter, float("nan"))
-            for c, text in enumerate((parameter, f"{value:.5g}", f"{std:.3g}", units.get(parameter, ""))):
+            std_text = "at bound" if parameter in fit.at_bound else f"{std:.3g}"  # at a bound: not a measurement
+            for c, text in enumerate((parameter, f"{value:.5g}", std_text, units.get(parameter, ""))):
                 self.parameters.setItem(r, c, QTableWidgetItem(text))
         self.parameters.resizeColumnsToContents()
         flags = "; ".join(fit.flags)

@@ -1,0 +1,321 @@
+"""The default fitter: variable projection on the log dynamic stiffness, then Levenberg–Marquardt on the accelerance.
+
+Every coefficient is searched as the element's stiffness at the reference frequency ω_r relative to the measured
+dynamic stiffness there, in log scale (:class:`~gasfilm.analysis.identification.problem.Coordinates`); orders stay
+linear. The search starts on the *dynamic stiffness* ``Z_d = s²/H_d - m s²`` in log space (smooth, no resonance to
+hit): the scale of each top-level branch is linear there and is solved by least squares for given branch shapes, so
+a small Latin hypercube, a few local searches and branch splits run over the shapes only. The results, and the
+samples that best fit the accelerance, are then polished on the accelerance residual itself with the model's
+analytic Jacobian.
+"""
+
+from __future__ import annotations
+
+import itertools
+import logging
+import math
+import re
+from typing import Callable
+
+import numpy as np
+from scipy.stats import qmc
+
+from gasfilm.analysis.identification.problem import LOG_BOX, Problem
+from gasfilm.analysis.physics.elements import Parallel, Series
+
+logger = logging.getLogger(__name__)
+
+#: where the Latin-hypercube shapes are drawn: coefficient ratios within this factor squared, and orders
+_LOG_START = math.log(1e3)
+_ORDER_START = (0.05, 1.95)
+#: local searches of the default fitter from the best distinct Latin-hypercube starts
+_LOCAL_SEARCHES = 8
+#: best local-search results polished on the accelerance
+_POLISHED = 2
+#: projected Latin-hypercube samples with the lowest accelerance residual that are polished as they are
+_ACCELERANCE_STARTS = 6
+#: iterations of the brief polish every local result gets
+_BRIEF_POLISH = 15
+#: Latin-hypercube shapes scored per shape coordinate
+_SAMPLES_PER_SHAPE = 32
+#: least distance between two starts of local searches, in the unit cube of the shapes
+_START_SPACING = 0.1
+#: mean squared log-stiffness residual at which the data are matched to round-off and the search stops
+_EXACT_LOG_COST = 1e-20
+
+
+def _subsample(n: int, count: int) -> np.ndarray:
+    return np.arange(n) if n <= count else np.unique(np.linspace(0, n - 1, count).round().astype(int))
+
+
+class _Projection:
+    """Variable projection of the log-stiffness problem onto the branch shapes.
+
+    The top of a network is a parallel (``Z = Σ c_b φ_b``) or series (``1/Z = Σ φ_b⁻¹ / c_b``) combination of
+    branches, and a branch is homogeneous of degree one in its coefficients: scaling them all by ``c_b`` scales its
+    stiffness by ``c_b``. With the branch *shapes* ψ fixed (each coefficient relative to the branch's first one, and
+    the orders) the scales solve a small linear least-squares problem weighted like the relative stiffness
+    residual, so the search runs over ψ only.
+    """
+
+    def __init__(self, problem: Problem, index: np.ndarray, weights: np.ndarray):
+        coords = problem.coords
+        self.problem = problem
+        self.index = index
+        top = coords.model.network
+        self.compliance = isinstance(top, Series)
+        self.branches = top.children if isinstance(top, (Parallel, Series)) else (top,)
+        position = {name: i for i, name in enumerate(coords.names)}
+        self.anchors: list[int] = []
+        self.members: list[list[int]] = []
+        for branch in self.branches:
+            names = [p.name for p in branch.parameters() if p.name not in coords.orders]
+            self.anchors.append(position[names[0]])
+            self.members.append([position[name] for name in names[1:]])
+        self.free = np.array([i for i in range(len(coords.names)) if i not in self.anchors], dtype=int)
+        free_position = {int(index): k for k, index in enumerate(self.free)}
+        self.branch_free = [
+            [free_position[position[p.name]] for p in branch.parameters() if position[p.name] in free_position]
+            for branch in self.branches
+        ]
+        self.signatures = [re.sub(r"\b[A-Za-z_]\w*\b(?!\()", "x", branch.text()) for branch in self.branches]
+        self.size = len(self.free)
+        is_order = coords.is_order[self.free]
+        self.lower = np.where(is_order, coords.lower[self.free], -2 * LOG_BOX)
+        self.upper = np.where(is_order, coords.upper[self.free], 2 * LOG_BOX)
+        self.start_lower = np.where(is_order, _ORDER_START[0], -2 * _LOG_START)
+        self.start_upper = np.where(is_order, _ORDER_START[1], 2 * _LOG_START)
+        z = problem.z_measured[index]
+        self.weights = weights
+        weight = weights[index]
+        self.row_weight = weight * np.abs(z) if self.compliance else weight / np.abs(z)
+        target = (1.0 / z if self.compliance else z) * self.row_weight
+        self.target = np.concatenate([target.real, target.imag])
+
+    def project(self, psi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Coordinates (..., size) from shapes (..., free), the branch scales solved by least squares, and the
+        weighted relative stiffness residual (..., 2n) those coordinates leave."""
+        self.problem.check_cancel()
+        self.problem.evaluations += int(np.prod(psi.shape[:-1]))
+        coords, problem = self.problem.coords, self.problem
+        theta = np.zeros(psi.shape[:-1] + (coords.size,))
+        theta[..., self.free] = psi
+        reference_values, _ = coords.reference_values(theta)
+        values = {name: reference_values[..., i, np.newaxis] for i, name in enumerate(coords.names)}
+        s_rel, log_s_rel = problem.s_rel[self.index], problem.log_s_rel[self.index]
+        with np.errstate(all="ignore"):
+            basis = [branch.stiffness(s_rel, values, log_s_rel) for branch in self.branches]
+            basis = np.stack([1.0 / b if self.compliance else b for b in basis], axis=-1)
+            basis = basis * self.row_weight[:, np.newaxis]
+            a = np.concatenate([basis.real, basis.imag], axis=-2)
+            a = np.nan_to_num(a, nan=0.0, posinf=0.0, neginf=0.0)
+            coefficients = self._solve(a)
+            # A branch whose best coefficient is negative is dropped and the others solved again.
+            a = a * (coefficients > 0)[..., np.newaxis, :]
+            coefficients = self._solve(a)
+            valid = np.isfinite(coefficients) & (coefficients > 0)
+            residual = (a @ np.where(valid, coefficients, 0.0)[..., np.newaxis])[..., 0] - self.target
+            log_coefficients = np.log(np.where(valid, coefficients, 1.0))
+            # Series: the branch scale is 1/coefficient and a dropped branch becomes infinitely stiff;
+            # parallel: the scale is the coefficient and a dropped branch becomes infinitely soft.
+            if self.compliance:
+                log_scales = np.where(valid, -log_coefficients, LOG_BOX)
+            else:
+                log_scales = np.where(valid, log_coefficients, -LOG_BOX)
+        for b, anchor in enumerate(self.anchors):
+            theta[..., anchor] = log_scales[..., b]
+            for member in self.members[b]:
+                theta[..., member] += log_scales[..., b]
+        return np.clip(theta, coords.lower, coords.upper), residual
+
+    def _solve(self, a: np.ndarray) -> np.ndarray:
+        normal = np.swapaxes(a, -1, -2) @ a
+        ridge = 1e-12 * np.trace(normal, axis1=-2, axis2=-1)[..., np.newaxis, np.newaxis] + 1e-300
+        right = (np.swapaxes(a, -1, -2) @ self.target)[..., np.newaxis]
+        return np.linalg.solve(normal + ridge * np.eye(len(self.branches)), right)[..., 0]
+
+    def residual(self, psi: np.ndarray) -> np.ndarray:
+        return self.project(psi)[1]
+
+    def split_starts(self, psi: np.ndarray) -> list[np.ndarray]:
+        """Starts that copy one branch's shape onto another branch of the same structure, orders pulled apart.
+
+        Two similar relaxations in parallel are fitted well by one of them: a local search then parks the second
+        branch where it does nothing, and no gradient brings it back. Splitting the fitted branch in two does.
+        """
+        starts = []
+        for a, b in itertools.combinations(range(len(self.branches)), 2):
+            if self.signatures[a] != self.signatures[b] or not self.branch_free[a]:
+                continue
+            for source, target in ((a, b), (b, a)):
+                start = psi.copy()
+                for i, j in zip(self.branch_free[source], self.branch_free[target]):
+                    shift = 0.1 if self.problem.coords.is_order[self.free[i]] else 0.5
+                    start[i] = psi[i] - shift
+                    start[j] = psi[i] + shift
+                starts.append(np.clip(start, self.lower, self.upper))
+        return starts
+
+    def jacobian(self, psi: np.ndarray) -> np.ndarray:
+        """Forward differences of :meth:`residual`, all shifted shapes projected in one call."""
+        step = 1e-7 * np.maximum(1.0, np.abs(psi))
+        step = np.where(psi + step > self.upper, -step, step)
+        points = np.vstack([psi, psi + np.diag(step)])
+        residuals = self.project(points)[1]
+        return ((residuals[1:] - residuals[0]) / step[:, np.newaxis]).T
+
+
+def _levenberg_marquardt(
+    residual: Callable[[np.ndarray], np.ndarray],
+    jacobian: Callable[[np.ndarray], np.ndarray],
+    x0: np.ndarray,
+    lower: np.ndarray,
+    upper: np.ndarray,
+    max_iterations: int,
+    tolerance: float,
+) -> tuple[np.ndarray, float]:
+    """Box-constrained Levenberg–Marquardt (Nielsen's damping update, steps projected onto the box).
+
+    Solves the small scaled normal equations instead of factorising the tall Jacobian: with a few parameters and
+    thousands of residuals this is an order of magnitude faster than a QR/SVD per step, and the damping keeps it
+    stable where the normal equations are ill-conditioned. Stops when a successful step lowers the cost by less
+    than ``tolerance`` (relative) and the local model predicted no more (MINPACK's ftol test), after
+    ``max_iterations``, or when no damping gives a lower cost. Returns (x, sum of squared residuals).
+    """
+    x = np.clip(np.asarray(x0, dtype=float), lower, upper)
+    r = residual(x)
+    cost = float(r @ r)
+    jac = jacobian(x)
+    damping, growth = 1e-3, 2.0
+    for _ in range(max_iterations):
+        normal = jac.T @ jac
+        gradient = jac.T @ r
+        scale = np.sqrt(np.diag(normal))
+        scale[~(scale > 0)] = 1.0
+        scaled = normal / np.outer(scale, scale)
+        try:
+            step = -np.linalg.solve(scaled + damping * np.eye(len(x)), gradient / scale) / scale
+        except np.linalg.LinAlgError:
+            damping *= growth
+            growth *= 2.0
+            continue
+        trial = np.clip(x + step, lower, upper)
+        r_trial = residual(trial)
+        cost_trial = float(r_trial @ r_trial)
+        linear = r + jac @ (trial - x)
+        predicted = cost - float(linear @ linear)
+        if np.isfinite(cost_trial) and cost_trial < cost:
+            gain = (cost - cost_trial) / predicted if predicted > 0 else 0.0
+            converged = cost - cost_trial <= tolerance * cost and predicted <= tolerance * cost
+            x, r, cost = trial, r_trial, cost_trial
+            if converged or cost == 0.0:
+                break
+            jac = jacobian(x)
+            damping *= max(1.0 / 3.0, 1.0 - (2.0 * gain - 1.0) ** 3)
+            growth = 2.0
+        else:
+            damping *= growth
+            growth *= 2.0
+            if damping > 1e16:
+                break
+    return x, cost
+
+
+def _projected_searches(
+    projection: _Projection, searches: int, rng: np.random.Generator
+) -> list[tuple[float, np.ndarray, np.ndarray]]:
+    """Local searches over the branch shapes from the best-scored distinct Latin-hypercube shapes, then from
+    split branches; (log cost, coordinates, shape) of each, stopping early on an exact fit."""
+    problem, index = projection.problem, projection.index
+    found: list[tuple[float, np.ndarray, np.ndarray]] = []
+
+    def local_search(start: np.ndarray) -> float:
+        shape, _ = _levenberg_marquardt(
+            projection.residual,
+            projection.jacobian,
+            start,
+            projection.lower,
+            projection.upper,
+            max_iterations=50 * projection.size,
+            tolerance=1e-10,
+        )
+        theta = projection.project(shape)[0]
+        cost = float(problem.log_cost(theta[np.newaxis], index, projection.weights)[0])
+        found.append((cost, theta, shape))
+        return cost
+
+    if projection.size == 0:
+        local_search(np.zeros(0))
+        return found
+    unit = qmc.LatinHypercube(d=projection.size, seed=rng).random(_SAMPLES_PER_SHAPE * projection.size)
+    shapes = projection.start_lower + unit * (projection.start_upper - projection.start_lower)
+    thetas, residuals = projection.project(shapes)
+    scores = np.mean(residuals**2, axis=-1)
+    scores = np.where(np.isfinite(scores), scores, np.inf)
+    # The projected samples that best fit the accelerance itself join the polish: where the model cannot fit
+    # the data, the RMS optimum can lie in another basin than the log-stiffness optimum.
+    for start in np.argsort(problem.acc_cost(thetas, index))[:_ACCELERANCE_STARTS]:
+        found.append((np.inf, thetas[start], shapes[start]))
+    chosen: list[int] = []
+    for start in np.argsort(scores):
+        if len(chosen) == searches or not np.isfinite(scores[start]):
+            break
+        if all(np.linalg.norm(unit[start] - unit[other]) > _START_SPACING for other in chosen):
+            chosen.append(int(start))
+    for start in chosen:
+        if local_search(shapes[start]) <= _EXACT_LOG_COST:
+            return found
+    best = min(found, key=lambda item: item[0])
+    for start in projection.split_starts(best[2]):
+        if local_search(start) <= _EXACT_LOG_COST:
+            break
+    return found
+
+
+def default_search(problem: Problem, seed: int, progress: Callable[[float], None] | None) -> np.ndarray:
+    """Latin-hypercube shapes → projected local searches (two weightings) → branch splits → polish on the
+    accelerance."""
+    coords = problem.coords
+    rng = np.random.default_rng(seed)
+    index = _subsample(len(problem.freq_hz), 200)
+    candidates: list[tuple[float, np.ndarray]] = []
+    stages = ((1.0, _LOCAL_SEARCHES), (2.0, _LOCAL_SEARCHES // 2))
+    for stage, (power, searches) in enumerate(stages):
+        projection = _Projection(problem, index, problem.log_weights(power))
+        found = _projected_searches(projection, searches, rng)
+        candidates += [(cost, theta) for cost, theta, _ in found]
+        if progress is not None:
+            progress(0.6 * (stage + 1) / len(stages))
+        best_log_cost = min(cost for cost, _, _ in found)
+        logger.debug(
+            "%s: log-stiffness stage (weight power %g): %d candidates, best log cost %.3g, %d evaluations so far",
+            problem.model.name, power, len(found), best_log_cost, problem.evaluations,
+        )
+        if best_log_cost <= _EXACT_LOG_COST:
+            break
+    # Every local result is polished briefly on the accelerance (the log-stiffness optimum is not the RMS
+    # optimum when the model cannot fit the data), the best ones to convergence.
+    def brief_polish(theta: np.ndarray) -> tuple[float, np.ndarray]:
+        theta, cost = _levenberg_marquardt(
+            problem.acc_residual, problem.acc_jacobian, theta, coords.lower, coords.upper, _BRIEF_POLISH, 1e-10
+        )
+        return cost, theta
+
+    polished = []
+    for count, (_, theta) in enumerate(candidates):
+        if progress is not None:
+            progress(0.6 + 0.3 * count / len(candidates))
+        polished.append(brief_polish(theta))
+    polished.sort(key=lambda item: item[0])
+    final = []
+    for _, theta in polished[:_POLISHED]:
+        theta, cost = _levenberg_marquardt(
+            problem.acc_residual, problem.acc_jacobian, theta, coords.lower, coords.upper, 200, 1e-10
+        )
+        final.append((cost, theta))
+    best_cost, best_theta = min(final, key=lambda item: item[0])
+    logger.debug(
+        "%s: %d candidates polished on the accelerance, best weighted sum of squares %.4g",
+        problem.model.name, len(candidates), best_cost,
+    )
+    return best_theta

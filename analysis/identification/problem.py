@@ -1,0 +1,262 @@
+"""One fit's data and search coordinates: the weighted accelerance residual, its Jacobian and evaluation counting.
+
+The model is evaluated only through the element algebra's one evaluator (:meth:`FilmModel.stiffness`,
+:meth:`FilmModel.stiffness_and_gradient`), at ``s/ω_r`` with the coordinates' reference values; this module maps the
+search coordinates onto those values and the physical parameters, and chains the derivative.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Callable
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from gasfilm.analysis.physics.elements import (
+    Dashpot,
+    FilmModel,
+    Node,
+    Parallel,
+    Series,
+    Spring,
+    SpringPot,
+    laplace_variable,
+)
+from gasfilm.drivers.errors import GasfilmError, SettingError
+
+#: search box of the default fitter for log coordinates, as a factor around the reference stiffness
+LOG_BOX = math.log(1e8)
+#: search box of a fitted mass, as factors of the starting mass
+MASS_BOX = (0.2, 5.0)
+
+
+class FitCancelledError(GasfilmError):
+    """The caller cancelled a running fit."""
+
+
+class Coordinates:
+    """Search coordinates of the default fitter.
+
+    Each coefficient is written as ``g = K0·exp(θ)``, the element's stiffness magnitude at the reference angular
+    frequency ω_r (spring ``k = g``, dashpot ``η = g/ω_r``, spring-pot ``η = g/ω_r^α``), so an element reads
+    ``Z = g·(s/ω_r)^α`` and a coefficient no longer trades off against its order. Orders are searched as they are.
+    With ``fit_mass`` a last coordinate ``θ_m = ln(m/m0)`` is appended.
+
+    The network evaluated at ``s/ω_r`` with the *reference values* (every coefficient replaced by its g) is the
+    network at ``s`` with the physical parameters, so the fitter evaluates the model there
+    (:meth:`reference_values`) and converts to physical parameters only for the result (:meth:`to_params`).
+    """
+
+    def __init__(self, model: FilmModel, omega_ref: float, stiffness_ref: float, mass_kg: float, fit_mass: bool):
+        self.model = model
+        self.omega_ref = omega_ref
+        self.stiffness_ref = stiffness_ref
+        self.mass_ref = mass_kg
+        self.fit_mass = fit_mass
+        self.names = model.parameter_names
+        self.order_of: dict[str, str] = {}
+        self.dashpots: set[str] = set()
+        self.orders: set[str] = set()
+        self._collect(model.network)
+        self.size = len(self.names) + int(fit_mass)
+        lower, upper = [], []
+        for parameter in model.parameters:
+            if parameter.name in self.orders:
+                lower.append(parameter.lower)
+                upper.append(parameter.upper)
+                continue
+            low, high = -LOG_BOX, LOG_BOX
+            if parameter.name not in self.order_of:
+                scale = stiffness_ref / omega_ref if parameter.name in self.dashpots else stiffness_ref
+                low = max(low, math.log(parameter.lower / scale))
+                high = min(high, math.log(parameter.upper / scale))
+            lower.append(low)
+            upper.append(high)
+        if fit_mass:
+            lower.append(math.log(MASS_BOX[0]))
+            upper.append(math.log(MASS_BOX[1]))
+        self.lower = np.array(lower)
+        self.upper = np.array(upper)
+        self.is_order = np.array([n in self.orders for n in self.names] + [False] * int(fit_mass))
+
+    def _collect(self, node: Node) -> None:
+        if isinstance(node, (Parallel, Series)):
+            for child in node.children:
+                self._collect(child)
+        elif isinstance(node, SpringPot):
+            self.order_of[node.coefficient] = node.order
+            self.orders.add(node.order)
+        elif isinstance(node, Dashpot):
+            self.dashpots.add(node.name)
+        elif not isinstance(node, Spring):
+            raise SettingError(f"model {self.model.name}: element {type(node).__name__} is not supported by the fitter")
+
+    def reference_values(self, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Parameter vectors (..., P) for the network at ``s/ω_r`` (coefficients g in N/m, orders) and masses (...)
+        in kg from coordinates (..., size)."""
+        theta = np.asarray(theta, dtype=float)
+        values = np.empty(theta.shape[:-1] + (len(self.names),))
+        for i, name in enumerate(self.names):
+            if name in self.orders:
+                values[..., i] = theta[..., i]
+            else:
+                values[..., i] = self.stiffness_ref * np.exp(theta[..., i])
+        mass = self.mass_ref * np.exp(theta[..., -1]) if self.fit_mass else np.full(theta.shape[:-1], self.mass_ref)
+        return values, mass
+
+    def to_params(self, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Model parameter vectors (..., P) and masses (...) in kg from coordinates (..., size)."""
+        params, mass = self.reference_values(theta)
+        for i, name in enumerate(self.names):
+            if name in self.dashpots:
+                params[..., i] /= self.omega_ref
+            elif name in self.order_of:
+                params[..., i] /= self.omega_ref ** params[..., self.names.index(self.order_of[name])]
+        return params, mass
+
+    def from_params(self, params: np.ndarray, mass_kg: float) -> np.ndarray:
+        """Coordinates of one parameter vector (inverse of :meth:`to_params`)."""
+        theta = np.empty(self.size)
+        for i, name in enumerate(self.names):
+            value = params[i]
+            if name in self.orders:
+                theta[i] = value
+                continue
+            if name in self.dashpots:
+                value = value * self.omega_ref
+            elif name in self.order_of:
+                value = value * self.omega_ref ** params[self.names.index(self.order_of[name])]
+            theta[i] = math.log(value / self.stiffness_ref)
+        if self.fit_mass:
+            theta[-1] = math.log(mass_kg / self.mass_ref)
+        return theta
+
+    def params_jacobian(self, theta: np.ndarray) -> np.ndarray:
+        """d(model parameters, mass)/dθ at one point, shape (P [+1], size)."""
+        params, mass = self.to_params(theta)
+        n = len(self.names)
+        jac = np.zeros((self.size, self.size))
+        for i, name in enumerate(self.names):
+            if name in self.orders:
+                jac[i, i] = 1.0
+            else:
+                jac[i, i] = params[i]
+            if name in self.order_of:
+                jac[i, self.names.index(self.order_of[name])] = -params[i] * math.log(self.omega_ref)
+        if self.fit_mass:
+            jac[n, n] = mass
+        return jac
+
+
+class Problem:
+    """Data, weights, coordinates and evaluation counting of one fit."""
+
+    def __init__(
+        self,
+        model: FilmModel,
+        freq_hz: ArrayLike,
+        h_measured: ArrayLike,
+        mass_kg: float,
+        decay_rate_1_s: float,
+        fit_mass: bool,
+        weights: ArrayLike | None,
+        cancel: Callable[[], bool] | None,
+    ):
+        self.model = model
+        self.freq_hz = np.asarray(freq_hz, dtype=float)
+        self.h = np.asarray(h_measured, dtype=complex)
+        self.s = laplace_variable(self.freq_hz, decay_rate_1_s)
+        self.weights = np.ones(len(self.freq_hz)) if weights is None else np.asarray(weights, dtype=float)
+        self.sqrt_w = np.sqrt(self.weights / np.mean(self.weights))
+        self.cancel = cancel
+        self.evaluations = 0
+        self.z_measured = self.s**2 / self.h - mass_kg * self.s**2
+        peak = int(np.argmax(np.abs(self.h) * self.weights))
+        omega_ref = abs(self.s[peak].imag)
+        stiffness_ref = abs(self.z_measured[peak])
+        if not (omega_ref > 0 and np.isfinite(stiffness_ref) and stiffness_ref > 0):
+            omega_ref = float(np.exp(np.mean(np.log(np.abs(self.s)))))
+            stiffness_ref = float(np.median(np.abs(self.z_measured)))
+        self.coords = Coordinates(model, omega_ref, stiffness_ref, mass_kg, fit_mass)
+        self.s_rel = self.s / omega_ref  # where the network is evaluated with the coordinates' reference values
+        self.log_s_rel = np.log(self.s_rel)
+        sensitivity = np.abs(self.h) ** 2 * np.abs(self.z_measured) / np.abs(self.s) ** 2
+        self.sensitivity = sensitivity / np.max(sensitivity)
+
+    def log_weights(self, power: float) -> np.ndarray:
+        """Weights of the log-stiffness residual: the accelerance sensitivity ``|dH/dlnZ| = |H|²|Z|/|s|²`` to a
+        power. Power 2 makes the log-stiffness residual the linearised accelerance residual (the RMS objective);
+        power 1 still lets points where Z_d is buried in the mass line count less, without reducing the fit to the
+        resonance, and finds the solution more often on data a model can fit."""
+        weights = self.sqrt_w * self.sensitivity ** (power / 2)
+        return weights / np.sqrt(np.mean(weights**2))
+
+    def check_cancel(self) -> None:
+        if self.cancel is not None and self.cancel():
+            raise FitCancelledError(f"fit of {self.model.name} cancelled")
+
+    def stiffness(self, values: np.ndarray, index: np.ndarray | slice = slice(None)) -> np.ndarray:
+        """Film stiffness Z in N/m on the lines ``index`` for reference-value sets (..., P) at once."""
+        return self.model.stiffness(self.s_rel[index], values, self.log_s_rel[index])
+
+    def log_cost(self, thetas: np.ndarray, index: np.ndarray, weights: np.ndarray) -> np.ndarray:
+        """Mean squared weighted log-stiffness residual for many coordinate sets at once."""
+        self.evaluations += len(thetas)
+        values, _ = self.coords.reference_values(thetas)
+        with np.errstate(all="ignore"):
+            r = np.log(self.stiffness(values, index) / self.z_measured[index]) * weights[index]
+        cost = np.mean(np.abs(r) ** 2, axis=-1)
+        return np.where(np.isfinite(cost), cost, np.inf)
+
+    def acc_cost(self, thetas: np.ndarray, index: np.ndarray) -> np.ndarray:
+        """Mean squared weighted accelerance residual for many coordinate sets at once."""
+        values, mass = self.coords.reference_values(thetas)
+        with np.errstate(all="ignore"):
+            return self.accelerance_cost(self.stiffness(values, index), mass, index)
+
+    def accelerance_cost(
+        self, stiffness: np.ndarray, mass_kg: np.ndarray, index: np.ndarray | slice = slice(None)
+    ) -> np.ndarray:
+        """Mean squared weighted accelerance residual ((m/s²)/N)² of film stiffnesses (..., lines) in N/m with
+        masses (...) in kg, on the lines ``index``; one evaluation per stiffness set."""
+        self.evaluations += int(np.prod(stiffness.shape[:-1]))
+        s = self.s[index]
+        with np.errstate(all="ignore"):
+            h_model = s**2 / (stiffness + mass_kg[..., np.newaxis] * s**2)
+            cost = np.mean(np.abs((h_model - self.h[index]) * self.sqrt_w[index]) ** 2, axis=-1)
+        return np.where(np.isfinite(cost), cost, np.inf)
+
+    def acc_residual(self, theta: np.ndarray) -> np.ndarray:
+        """Weighted accelerance residual at one point, real and imaginary parts stacked."""
+        self.check_cancel()
+        self.evaluations += 1
+        return stack(self.acc_complex_residual(theta) * self.sqrt_w)
+
+    def acc_complex_residual(self, theta: np.ndarray) -> np.ndarray:
+        """``H(θ) - H_d`` in (m/s²)/N, unweighted; non-finite values become large finite ones."""
+        values, mass = self.coords.reference_values(theta)
+        with np.errstate(all="ignore"):
+            h_model = self.s**2 / (self.stiffness(values) + mass * self.s**2)
+        return np.nan_to_num(h_model - self.h, nan=1e6, posinf=1e6, neginf=-1e6)
+
+    def acc_jacobian(self, theta: np.ndarray) -> np.ndarray:
+        """Jacobian of :meth:`acc_residual` with respect to the coordinates, shape (2·lines, size): the model's
+        analytic dZ/d(reference values) times ``g`` for a coefficient ``g = K0·e^θ`` (1 for an order), and
+        ``H = s²/(Z + m s²)`` gives ``dH = -H²/s² · dZ`` and ``dH/dθ_m = -H² m``."""
+        self.evaluations += self.coords.size
+        values, mass = self.coords.reference_values(theta)
+        z, dz_dvalues = self.model.stiffness_and_gradient(self.s_rel, values, self.log_s_rel)
+        dz_dtheta = dz_dvalues * np.where(self.coords.is_order[: len(values)], 1.0, values)
+        with np.errstate(all="ignore"):
+            h_model = self.s**2 / (z + mass * self.s**2)
+        columns = (-(h_model**2) / self.s**2)[:, np.newaxis] * dz_dtheta
+        if self.coords.fit_mass:
+            columns = np.column_stack([columns, -(h_model**2) * mass])
+        jac = columns * self.sqrt_w[:, np.newaxis]
+        return np.concatenate([jac.real, jac.imag], axis=0)
+
+
+def stack(r: np.ndarray) -> np.ndarray:
+    """Real and imaginary parts of a complex residual as one real vector."""
+    return np.concatenate([r.real, r.imag])
