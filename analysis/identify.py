@@ -45,8 +45,9 @@ from gasfilm.analysis.physics.elements import (
     parse_network,
 )
 from gasfilm.drivers.errors import GasfilmError, SettingError
+from gasfilm.drivers.units import STANDARD_GRAVITY_M_S2
 
-G_M_S2 = 9.80665
+G_M_S2 = STANDARD_GRAVITY_M_S2
 METHODS = ("default", "gapso")
 
 #: relative standard error above which a parameter is flagged as not identifiable

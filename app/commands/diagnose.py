@@ -11,13 +11,14 @@ import argparse
 import json
 import sys
 from pathlib import Path
+from typing import Any
 
-from gasfilm.analysis.diagnose import Diagnosis, diagnose
-from gasfilm.analysis.physics.spec import RigSpec
-from gasfilm.analysis.session import Session
+from gasfilm.app.commands.common import check_output_folder
 from gasfilm.drivers.errors import GasfilmError, SettingError
+from gasfilm.drivers.units import STANDARD_GRAVITY_M_S2 as G_M_S2
 
-G_M_S2 = 9.80665
+#: The files the diagnosis writes into ``--out`` (names chosen by gasfilm.analysis.diagnose and its plots).
+DIAGNOSIS_FILES = ("improved-rig.toml", "diagnosis-overlay.png", "diagnosis-residual.png")
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -32,6 +33,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--json", action="store_true", help="print one JSON object instead of the report")
     parser.add_argument("--out", type=Path, default=Path("out/diagnosis"),
                         help="folder for the improved spec and the figures (default out/diagnosis)")
+    parser.add_argument("--overwrite", action="store_true", help="replace an improved spec or figures in --out")
     parser.set_defaults(func=run)
 
 
@@ -47,7 +49,7 @@ def _band(text: str | None) -> tuple[float, float] | None:
     return low, high
 
 
-def _report(diagnosis: Diagnosis) -> str:
+def _report(diagnosis: Any) -> str:
     lines = [f"gasfilm diagnose — verdict: {diagnosis.verdict}"]
     evidence = diagnosis.evidence
     lines.append(f"  compared {evidence.hit_count} hits, {evidence.freq_hz[0]:.0f}–{evidence.freq_hz[-1]:.0f} Hz, "
@@ -83,14 +85,20 @@ def _report(diagnosis: Diagnosis) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
-    spec = RigSpec.load(args.rig) if args.rig else None
+    from gasfilm.analysis.diagnose import diagnose
+    from gasfilm.analysis.physics.spec import RigSpec
+    from gasfilm.analysis.session import Session
+
     if args.mass is not None and not args.mass > 0:
         raise SettingError(f"--mass: {args.mass} kg must be positive")
+    band = _band(args.band)
+    check_output_folder(args.out, "--out", DIAGNOSIS_FILES, args.overwrite)
+    spec = RigSpec.load(args.rig) if args.rig else None
 
     def progress(message: str) -> None:
         print(f"  {message}", file=sys.stderr)
 
-    diagnosis = diagnose(args.source, spec, args.mass, args.out, _band(args.band), progress)
+    diagnosis = diagnose(args.source, spec, args.mass, args.out, band, progress)
     if args.source.suffix.lower() not in (".uff", ".unv"):
         try:
             with Session.open(args.source, "a") as session:
