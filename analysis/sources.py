@@ -138,9 +138,6 @@ def load_source(paths: Path | Sequence[Path], force_dof: Any = None, response_do
     if not paths:
         raise SettingError("no input file given")
     suffixes = {path.suffix.lower() for path in paths}
-    for path in paths:
-        if not path.is_file():
-            raise SettingError(f"{path}: no such file")
     if suffixes == {NPY_SUFFIX}:
         return _load_npy(paths)
     if len(paths) > 1:

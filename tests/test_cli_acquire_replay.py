@@ -130,9 +130,7 @@ class FailingSimulator(SimulatedNI9234):
 
 
 def test_device_error_mid_session_aborts_and_keeps_every_hit(tmp_path, capsys, monkeypatch):
-    from gasfilm.app.commands import acquire
-
-    monkeypatch.setattr(acquire, "open_device", lambda name, **options: FailingSimulator(**options))
+    monkeypatch.setattr("gasfilm.drivers.open_device", lambda name, **options: FailingSimulator(**options))
     path = tmp_path / "removed.h5"
     status, out, err = gasfilm(capsys, "acquire", *FAST_SIM, "--out", path, "--seconds", 60)
     assert status == 2
