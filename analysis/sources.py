@@ -86,15 +86,16 @@ def _load_npy(paths: Sequence[Path]) -> Source:
         step = float(np.median(steps))
         if not step > 0 or np.max(np.abs(steps - step)) > 1e-6 * step:
             raise SettingError(f"{path}: row 0 is not an evenly spaced time in s")
-        hit_rate_hz = round(1.0 / step, 6)
+        hit_rate_hz = (record.shape[1] - 1) / float(record[0, -1] - record[0, 0])
         if rate_hz is not None and abs(hit_rate_hz - rate_hz) > 1e-6 * rate_hz:
             raise SettingError(f"{path}: sampled at {hit_rate_hz:g} S/s, the other files at {rate_hz:g} S/s")
-        rate_hz = hit_rate_hz
+        rate_hz = hit_rate_hz if rate_hz is None else rate_hz  # one rate for all the files
         hits.append(_hit_from_rows(len(hits), record[1], record[2], rate_hz, float(len(hits))))
     lengths = {hit.n_samples for hit in hits}
     if len(lengths) != 1:
         raise SettingError(f"{paths[0].parent}: the .npy records have different lengths ({sorted(lengths)} samples)")
     settings = {"source": {"npy_files": [str(path) for path in paths]}}
+    logger.info("read %d .npy hit records at %g S/s from %s", len(hits), rate_hz, paths[0].parent)
     return Source(paths[0], "npy", default_hammer_and_accelerometer(rate_hz), rate_hz, None, settings, hits,
                   [None] * len(hits), None)
 
