@@ -13,6 +13,7 @@ from gasfilm.analysis.session import Session
 from gasfilm.analysis.spectra import WindowSettings, compute_frf
 from gasfilm.app.cli import main
 from test_uff import time_record, write_uff
+from test_cli_acquire_replay import FAST_SIM, gasfilm
 
 REAL = Path(__file__).resolve().parents[1] / "fixtures" / "real-data" / "pyfrf-5-hits"
 REAL_FILES = sorted(REAL.glob("measurements_*.npy"))
@@ -20,14 +21,6 @@ REAL_RATE_HZ = 25_600.0
 #: The README's import command: the lightly damped structure still rings at 1 s, so it is windowed as
 #: tests/test_real_data.py does.
 REAL_WINDOW = ["--force-window-ms", "2", "--exp-end", "0.01"]
-FAST_SIM = ["--device", "sim", "--pacing", "fast", "--rate", "6400", "--record-s", "0.25",
-            "--hit-interval", "0.3", "0.45"]
-
-
-def gasfilm(capsys, *argv) -> tuple[int, str, str]:
-    status = main([str(arg) for arg in argv])
-    captured = capsys.readouterr()
-    return status, captured.out, captured.err
 
 
 def real_records() -> np.ndarray:
@@ -48,7 +41,7 @@ def hits_uff(tmp_path_factory) -> tuple[Path, np.ndarray]:
     return write_uff(folder / "hits.uff", datasets), records
 
 
-def test_replay_of_a_uff_file_prints_without_out(tmp_path, capsys, hits_uff):
+def test_replay_of_a_uff_file_prints_without_out(capsys, hits_uff):
     path, records = hits_uff
     status, out, err = gasfilm(capsys, "replay", path, "--json")
     assert status == 0, err

@@ -13,17 +13,10 @@ import warnings
 import pytest
 
 from gasfilm.app import cli
+from test_cli_acquire_replay import FAST_SIM, gasfilm
 
-FAST_SIM = ["--device", "sim", "--pacing", "fast", "--rate", "6400", "--record-s", "0.25",
-            "--hit-interval", "0.3", "0.45"]
 FIELD_NAMES = ("record_s", "level_n", "pretrigger_s", "hysteresis_n", "double_hit_fraction", "force_window_ms",
                "exponential_end_fraction", "hit_interval_s")
-
-
-def gasfilm(capsys, *argv) -> tuple[int, str, str]:
-    status = cli.main([str(arg) for arg in argv])
-    captured = capsys.readouterr()
-    return status, captured.out, captured.err
 
 
 @pytest.mark.parametrize("flags, named", [

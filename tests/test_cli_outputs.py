@@ -10,15 +10,7 @@ import pytest
 
 from gasfilm.analysis.session import Session
 from gasfilm.app.cli import main
-
-FAST_SIM = ["--device", "sim", "--pacing", "fast", "--rate", "6400", "--record-s", "0.25",
-            "--hit-interval", "0.3", "0.45"]
-
-
-def gasfilm(capsys, *argv) -> tuple[int, str, str]:
-    status = main([str(arg) for arg in argv])
-    captured = capsys.readouterr()
-    return status, captured.out, captured.err
+from test_cli_acquire_replay import FAST_SIM, gasfilm
 
 
 @pytest.fixture(scope="module")
