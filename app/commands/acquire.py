@@ -128,6 +128,8 @@ def _open_session(args: argparse.Namespace, config: Any, rate_hz: float, device_
 
     if args.append:
         session = Session.open(args.out, "a")
+        if session.recovered:
+            logger.warning("%s: recovered before appending (%s)", args.out, session.status_reason)
         stored = session.daq_config
         if len(stored.channels) != len(config.channels) or abs(session.sample_rate_hz - rate_hz) > 1e-6:
             session.close()
