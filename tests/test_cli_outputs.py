@@ -95,3 +95,16 @@ def test_replay_out_with_overwrite_replaces_a_session(tmp_path, capsys, session_
     with Session.open(target) as session:
         assert session.read_frf().window["exponential_end_fraction"] == 0.1
     assert not any(name.endswith(".probe") for name in os.listdir(tmp_path))  # the write test leaves nothing
+
+
+def test_demo_without_out_never_replaces_an_earlier_demo(tmp_path, capsys, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    earlier = tmp_path / "out" / "demo-session.h5"
+    earlier.parent.mkdir()
+    earlier.write_text("an earlier demo\n")
+    status, out, err = gasfilm(capsys, "demo", "--hits", 1, "--no-fit")
+    assert status == 0, err
+    assert "out/demo-session-2.h5" in out
+    assert earlier.read_text() == "an earlier demo\n"
+    with Session.open(tmp_path / "out" / "demo-session-2.h5") as session:
+        assert len(session.accepted_indices()) == 1

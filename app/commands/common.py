@@ -114,9 +114,8 @@ def load_frf(paths: list[Path], name: str | None = None) -> tuple[Any, str, str 
             hits = [hit for hit in session.hits() if hit.verdict.accepted]
             if not hits:
                 raise SessionError(f"{session.path}: no stored FRF and no accepted hits to average")
-            window = decode_setting(session.settings, "window", WindowSettings, str(session.path))
-            return session_frf(hits, window), f"FRF averaged now from {len(hits)} accepted hits", \
-                session.rig_spec_toml
+            frf = session_frf(hits, session.settings_as("window", WindowSettings))
+            return frf, f"FRF averaged now from {len(hits)} accepted hits", session.rig_spec_toml
     if name is not None:
         raise SettingError(f"--frf: {paths[0]} is not a session; only sessions store named FRFs")
     source = load_source(paths)

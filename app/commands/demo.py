@@ -2,7 +2,7 @@
 
 The main job end to end on the simulated NI 9234, paced in real time: stream, trigger, validate, store every hit in an
 HDF5 session, average the FRF, identify the film (SD and FOMGF), and print what a technician would check first. An
-existing ``--out`` file is replaced only with ``--overwrite``.
+existing ``--out`` file is replaced only with ``--overwrite``; without ``--out`` a new file is chosen.
 """
 
 from __future__ import annotations
@@ -14,16 +14,28 @@ from pathlib import Path
 
 from gasfilm.app.commands.common import check_output_file, positive_flag
 
+DEFAULT_OUT = Path("out/demo-session.h5")
+
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     parser = subparsers.add_parser("demo", help="run a short hammer session on the simulated rig and summarise it")
     parser.add_argument("--hits", type=int, default=8, help="accepted hits to collect (default 8)")
     parser.add_argument("--rig", type=Path, help="rig spec TOML (default: the paper's FOMGF film on 25.05 kg)")
-    parser.add_argument("--out", type=Path, default=Path("out/demo-session.h5"), help="session file to write")
+    parser.add_argument("--out", type=Path, help="session file to write (default: out/demo-session.h5, or the next "
+                        "free out/demo-session-N.h5: an earlier demo is never replaced)")
     parser.add_argument("--overwrite", action="store_true", help="replace --out if it exists")
     parser.add_argument("--seed", type=int, default=1, help="simulator seed")
     parser.add_argument("--no-fit", action="store_true", help="skip the film identification")
     parser.set_defaults(func=run)
+
+
+def _free_default_path() -> Path:
+    """out/demo-session.h5, else the first out/demo-session-N.h5 that does not exist."""
+    path, number = DEFAULT_OUT, 1
+    while path.exists() or path.is_symlink():
+        number += 1
+        path = DEFAULT_OUT.with_name(f"{DEFAULT_OUT.stem}-{number}{DEFAULT_OUT.suffix}")
+    return path
 
 
 def run(args: argparse.Namespace) -> int:
@@ -44,6 +56,8 @@ def run(args: argparse.Namespace) -> int:
     from gasfilm.drivers.units import STANDARD_GRAVITY_M_S2 as G_M_S2
 
     positive_flag("--hits", args.hits)
+    if args.out is None:
+        args.out = _free_default_path()
     check_output_file(args.out, "--out", args.overwrite, make_parent=True)
     spec = RigSpec.load(args.rig) if args.rig else RigSpec.nominal("FOMGF")
     config = default_hammer_and_accelerometer(51200.0 / 4)

@@ -1,8 +1,8 @@
 """``gasfilm fit SOURCE``: identify gas-film models from an FRF, compare them like Table 2, list the identified
 parameters with units and uncertainties, draw Figures 18 and 19, and store the fits in a session.
 
-The FRF is a session's stored one (``frf``), or one averaged from its accepted hits when none is stored yet, or the
-average of UFF / .npy time records. The mass is ``--mass``, else the rig spec's mover mass stored in the session,
+The FRF is a session's stored one (``--frf NAME``; by default "frf" or the only one), or one averaged from its accepted
+hits when none is stored yet, or the average of UFF / .npy time records. The mass is ``--mass``, else the rig spec's mover mass stored in the session,
 else the paper's 25.05 kg. A structure that is not a mass on a film (its accelerance far above the resonance does
 not approach 1/m) is warned about: its fits mean little.
 """
@@ -35,6 +35,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     parser.add_argument("source", type=Path, nargs="+", metavar="SESSION.h5|FILE.uff|HIT.npy",
                         help="a session, UFF 58 time records, or .npy hit records")
+    parser.add_argument("--frf", metavar="NAME", help="which stored FRF of a session (default: 'frf' or the only one)")
     parser.add_argument("--models", default="all", help="comma-separated model names (SD, FOMGF, ...) or 'all'")
     parser.add_argument("--method", default="default", help="fitter: 'default' (the fast one) or 'gapso'")
     parser.add_argument("--band", help="frequency band LO:HI in Hz (default 20:1000, capped at 0.45·fs)")
@@ -146,7 +147,7 @@ def run(args: argparse.Namespace) -> int:
     stem = args.source[0].stem
     figure_paths = check_output_folder(out, "--out", (f"{stem}-figure18.png", f"{stem}-figure19.png"),
                                        args.overwrite)
-    frf, what, rig_spec_toml = load_frf(args.source)
+    frf, what, rig_spec_toml = load_frf(args.source, args.frf)
     low, high = parse_band(args.band, frf.sample_rate_hz)
     keep = (frf.freq_hz >= max(low, 1e-9)) & (frf.freq_hz <= high)
     if np.count_nonzero(keep) < MIN_BAND_LINES:
