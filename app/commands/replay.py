@@ -33,7 +33,7 @@ PEAK_MIN_COHERENCE = 0.9
 def register(subparsers: argparse._SubParsersAction) -> None:
     parser = subparsers.add_parser(
         "replay",
-        help="reprocess the hits of a session or UFF file with other trigger/window/validation settings",
+        help="reprocess the hits of a session, UFF or .npy files with other trigger/window/validation settings",
         description="Validate the stored hits again (and re-trigger them if a trigger setting is given), average "
         "the FRF, print a summary and store the result.",
     )
