@@ -21,8 +21,8 @@ def check_output_file(path: Path, flag: str, overwrite: bool, make_parent: bool 
 
     An existing file is replaced only with ``--overwrite``; a symbolic link is never written through (with
     ``--overwrite`` the link itself is removed, its target untouched); the folder must exist (or is made with
-    ``make_parent``) and accept a new file."""
-    where = f"{flag} {path}"
+    ``make_parent``) and accept a new file. ``flag`` is empty for a path the user did not type (a default)."""
+    where = f"{flag} {path}" if flag else str(path)
     if path.is_symlink():
         if not overwrite:
             raise SettingError(f"{where}: is a symbolic link; gasfilm does not write through links "
@@ -59,7 +59,7 @@ def check_output_folder(folder: Path, flag: str, names: tuple[str, ...], overwri
     """May this command write the files ``names`` into ``folder`` (made if missing)? Same rules as
     :func:`check_output_file` for each file."""
     if folder.exists() and not folder.is_dir():
-        raise SettingError(f"{flag} {folder}: is a file, not a folder")
+        raise SettingError(f"{flag + ' ' if flag else ''}{folder}: is a file, not a folder")
     return [check_output_file(folder / name, flag, overwrite, make_parent=True) for name in names]
 
 

@@ -145,8 +145,8 @@ def run(args: argparse.Namespace) -> int:
         raise SettingError(f"--mass {args.mass}: must be a positive mass in kg")
     out = args.out if args.out is not None else args.source[0].parent
     stem = args.source[0].stem
-    figure_paths = check_output_folder(out, "--out", (f"{stem}-figure18.png", f"{stem}-figure19.png"),
-                                       args.overwrite)
+    figure_paths = check_output_folder(out, "--out" if args.out is not None else "",
+                                       (f"{stem}-figure18.png", f"{stem}-figure19.png"), args.overwrite)
     frf, what, rig_spec_toml = load_frf(args.source, args.frf)
     low, high = parse_band(args.band, frf.sample_rate_hz)
     keep = (frf.freq_hz >= max(low, 1e-9)) & (frf.freq_hz <= high)
