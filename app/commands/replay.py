@@ -71,8 +71,7 @@ def _new_settings(args: argparse.Namespace, source: Any) -> tuple[Any, bool, Any
     trigger = stored.trigger
     if "trigger" not in source.settings:
         trigger = TriggerSettings(record_s=record_s, pretrigger_s=min(trigger.pretrigger_s, record_s / 2))
-    if args.trigger_n is not None:
-        positive_flag("--trigger-n", args.trigger_n, "N")
+    positive_flag("--trigger-n", args.trigger_n, "N")
     retrigger = any(value is not None for value in (args.trigger_n, args.pretrigger_s, args.record_s))
     new_record_s = args.record_s
     if retrigger and new_record_s is None:
