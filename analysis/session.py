@@ -126,14 +126,6 @@ def to_jsonable(value: Any) -> Any:
     return value
 
 
-def settings_from_json(values: Any, cls: type) -> Any:
-    """A settings dataclass from its stored JSON form; defaults for missing fields, unknown fields ignored."""
-    if not isinstance(values, Mapping):
-        return cls()
-    names = {field.name for field in dataclasses.fields(cls)}
-    return cls(**{name: value for name, value in values.items() if name in names})
-
-
 def _json_dumps(value: Any) -> str:
     return json.dumps(to_jsonable(value), allow_nan=True)
 
@@ -618,7 +610,9 @@ class Session:
 
     def settings_as(self, key: str, cls: type) -> Any:
         """The stored settings under ``key`` as a ``cls`` dataclass (``cls()`` when none were stored)."""
-        return settings_from_json(self.settings.get(key), cls)
+        from gasfilm.analysis.settings import decode_setting
+
+        return decode_setting(self.settings, key, cls, str(self.path))
 
     def update_settings(self, settings: Mapping[str, Any]) -> None:
         """Store (or replace) processing settings by key."""

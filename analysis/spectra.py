@@ -31,7 +31,7 @@ import numpy as np
 import scipy.fft
 
 from gasfilm.drivers.errors import SettingError
-from gasfilm.drivers.interface import STANDARD_GRAVITY_M_S2
+from gasfilm.drivers.units import STANDARD_GRAVITY_M_S2
 
 FRF_UNIT_SI = "(m/s^2)/N"
 #: Complex values per block of hits transformed at once (about 4 MB per array, so a block stays in cache).
@@ -208,6 +208,120 @@ def _as_hits_array(records: Sequence[np.ndarray] | np.ndarray) -> np.ndarray:
     return data
 
 
+class FrfAccumulator:
+    """Running sums of an averaged FRF: add hits one at a time (or a block at a time) and read the averaged
+    result whenever wanted, without transforming the earlier hits again.
+
+    All hits share the sample rate, the record length and the window; force in N, response in m/s²."""
+
+    def __init__(
+        self, sample_rate_hz: float, n_samples: int, window: WindowSettings = WindowSettings(), capacity_hits: int = 8
+    ) -> None:
+        if not sample_rate_hz > 0:
+            raise SettingError(f"sample_rate_hz: {sample_rate_hz} must be positive")
+        if n_samples < 2:
+            raise SettingError(f"records: {n_samples} sample(s) per hit is too short")
+        self.sample_rate_hz = float(sample_rate_hz)
+        self.n_samples = int(n_samples)
+        self.window = window
+        n_lines = self.n_samples // 2 + 1
+        self._decay = None
+        if window.exponential_end_fraction is not None:
+            self._decay = exponential_window(self.n_samples, window.exponential_end_fraction)
+        self._sum_ff = np.zeros(n_lines)
+        self._sum_xx = np.zeros(n_lines)
+        self._sum_fx = np.zeros(n_lines, complex)
+        self._h1_per_hit = np.empty((max(1, capacity_hits), n_lines), complex)
+        self.n_averages = 0
+
+    def add(self, force_n: np.ndarray, response: np.ndarray) -> None:
+        """Add one hit (rows of ``n_samples``) or a block of hits (arrays of shape (hits, ``n_samples``))."""
+        force = np.atleast_2d(np.asarray(force_n, dtype=np.float64))
+        response = np.atleast_2d(np.asarray(response, dtype=np.float64))
+        if force.shape != response.shape or force.shape[-1] != self.n_samples:
+            raise SettingError(
+                f"records: force {force.shape} and response {response.shape} do not match {self.n_samples} samples"
+            )
+        if self.window.force_window_ms is not None:
+            force = force * force_window(force, self.sample_rate_hz, self.window)
+        if self._decay is not None:
+            force = force * self._decay
+            response = response * self._decay
+        force_fft = scipy.fft.rfft(force, axis=-1)
+        response_fft = scipy.fft.rfft(response, axis=-1)
+        force_power = _squared_magnitude(force_fft)
+        first, count = self.n_averages, force.shape[0]
+        if first + count > len(self._h1_per_hit):
+            grown = np.empty((max(first + count, 2 * len(self._h1_per_hit)), self._h1_per_hit.shape[1]), complex)
+            grown[:first] = self._h1_per_hit[:first]
+            self._h1_per_hit = grown
+        with np.errstate(divide="ignore", invalid="ignore"):
+            self._sum_ff += force_power.sum(axis=0)
+            self._sum_xx += _squared_magnitude(response_fft).sum(axis=0)
+            cross = np.conj(force_fft, out=force_fft)
+            cross *= response_fft  # conj(F_i)·X_i
+            self._sum_fx += cross.sum(axis=0)
+            np.divide(cross, force_power, out=self._h1_per_hit[first : first + count])  # X_i/F_i
+        self.n_averages += count
+
+    def add_hit(self, hit: Any) -> None:
+        """Add a :class:`gasfilm.analysis.capture.HitRecord` (or stored hit) through its OWN force and response
+        channels."""
+        if abs(hit.sample_rate_hz - self.sample_rate_hz) > 1e-9 * self.sample_rate_hz:
+            raise SettingError(f"hits: recorded at {hit.sample_rate_hz:g} and {self.sample_rate_hz:g} S/s")
+        self.add(hit.data[hit.force_channel], hit.data[hit.response_channel])
+
+    def result(self) -> FrfResult:
+        """H1, H2, coherence and the two uncertainties of |H1| averaged over the hits added so far."""
+        n_hits, n_samples = self.n_averages, self.n_samples
+        if n_hits == 0:
+            raise SettingError("records: no hits to average")
+        n_lines = len(self._sum_ff)
+        h1_per_hit = self._h1_per_hit[:n_hits]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            scale = np.full(n_lines, 2.0 / (self.sample_rate_hz * n_samples * n_hits))
+            scale[0] /= 2.0
+            if n_samples % 2 == 0:
+                scale[-1] /= 2.0
+            gff = self._sum_ff * scale
+            gxx = self._sum_xx * scale
+            gfx = self._sum_fx * scale
+            if not (np.all(np.isfinite(gff)) and np.all(np.isfinite(gxx))):
+                raise SettingError("records: the hits contain NaN or infinite samples")
+            h1 = gfx / gff
+            h2 = gxx / np.conj(gfx)
+            coherence = _squared_magnitude(gfx) / (gff * gxx)
+            gamma_sq = np.clip(coherence, 0.0, 1.0)
+            h1_std_coherence = np.abs(h1) * np.sqrt(1.0 - gamma_sq) / (np.sqrt(gamma_sq) * np.sqrt(2.0 * n_hits))
+            if n_hits > 1:
+                mean_per_hit = h1_per_hit.mean(axis=0)
+                block = max(1, _BLOCK_VALUES // n_lines)
+                sum_spread = np.zeros(n_lines)
+                for first in range(0, n_hits, block):
+                    sum_spread += _squared_magnitude(h1_per_hit[first : first + block] - mean_per_hit).sum(axis=0)
+                h1_std_scatter = np.sqrt(sum_spread / (n_hits - 1) / n_hits)
+            else:
+                h1_std_scatter = np.full(n_lines, np.nan)
+        decay_rate = self.window.decay_rate_1_s(n_samples, self.sample_rate_hz)
+        return FrfResult(
+            freq_hz=np.fft.rfftfreq(n_samples, 1.0 / self.sample_rate_hz),
+            h1=h1,
+            h2=h2,
+            coherence=coherence,
+            gff=gff,
+            gxx=gxx,
+            gfx=gfx,
+            h1_per_hit=h1_per_hit.copy() if len(self._h1_per_hit) > n_hits else h1_per_hit,
+            n_averages=n_hits,
+            sample_rate_hz=self.sample_rate_hz,
+            n_samples=n_samples,
+            decay_rate_1_s=float(decay_rate),
+            h1_std_coherence=h1_std_coherence,
+            h1_std_scatter=h1_std_scatter,
+            window={**self.window.to_dict(), "decay_rate_1_s": float(decay_rate)},
+        )
+
+
 def compute_frf(
     records: Sequence[np.ndarray] | np.ndarray,
     sample_rate_hz: float,
@@ -224,88 +338,35 @@ def compute_frf(
     for name, row in (("force_row", force_row), ("response_row", response_row)):
         if not 0 <= row < n_rows:
             raise SettingError(f"{name}: {row} is not a row of records with {n_rows} rows")
-    n_lines = n_samples // 2 + 1
-    decay = None
-    if window.exponential_end_fraction is not None:
-        decay = exponential_window(n_samples, window.exponential_end_fraction)
-    # Hits are transformed in blocks that fit in cache; the sums over hits are accumulated block by block.
-    block = max(1, _BLOCK_VALUES // n_lines)
-    sum_ff = np.zeros(n_lines)
-    sum_xx = np.zeros(n_lines)
-    sum_fx = np.zeros(n_lines, complex)
-    h1_per_hit = np.empty((n_hits, n_lines), complex)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        for first in range(0, n_hits, block):
-            hits = slice(first, first + block)
-            force = data[hits, force_row, :]
-            response = data[hits, response_row, :]
-            if window.force_window_ms is not None:
-                force = force * force_window(force, sample_rate_hz, window)
-            if decay is not None:
-                force = force * decay
-                response = response * decay
-            force_fft = scipy.fft.rfft(force, axis=-1)
-            response_fft = scipy.fft.rfft(response, axis=-1)
-            force_power = _squared_magnitude(force_fft)
-            sum_ff += force_power.sum(axis=0)
-            sum_xx += _squared_magnitude(response_fft).sum(axis=0)
-            cross = np.conj(force_fft, out=force_fft)
-            cross *= response_fft  # conj(F_i)·X_i
-            sum_fx += cross.sum(axis=0)
-            np.divide(cross, force_power, out=h1_per_hit[hits])  # X_i/F_i = conj(F_i)·X_i/|F_i|²
-
-        scale = np.full(n_lines, 2.0 / (sample_rate_hz * n_samples * n_hits))
-        scale[0] /= 2.0
-        if n_samples % 2 == 0:
-            scale[-1] /= 2.0
-        gff = sum_ff * scale
-        gxx = sum_xx * scale
-        gfx = sum_fx * scale
-        if not (np.all(np.isfinite(gff)) and np.all(np.isfinite(gxx))):
-            raise SettingError("records: the hits contain NaN or infinite samples")
-        h1 = gfx / gff
-        h2 = gxx / np.conj(gfx)
-        coherence = _squared_magnitude(gfx) / (gff * gxx)
-        gamma_sq = np.clip(coherence, 0.0, 1.0)
-        h1_std_coherence = np.abs(h1) * np.sqrt(1.0 - gamma_sq) / (np.sqrt(gamma_sq) * np.sqrt(2.0 * n_hits))
-        if n_hits > 1:
-            mean_per_hit = h1_per_hit.mean(axis=0)
-            sum_spread = np.zeros(n_lines)
-            for first in range(0, n_hits, block):
-                sum_spread += _squared_magnitude(h1_per_hit[first : first + block] - mean_per_hit).sum(axis=0)
-            h1_std_scatter = np.sqrt(sum_spread / (n_hits - 1) / n_hits)
-        else:
-            h1_std_scatter = np.full(n_lines, np.nan)
-
-    decay_rate = window.decay_rate_1_s(n_samples, sample_rate_hz)
-    return FrfResult(
-        freq_hz=np.fft.rfftfreq(n_samples, 1.0 / sample_rate_hz),
-        h1=h1,
-        h2=h2,
-        coherence=coherence,
-        gff=gff,
-        gxx=gxx,
-        gfx=gfx,
-        h1_per_hit=h1_per_hit,
-        n_averages=n_hits,
-        sample_rate_hz=float(sample_rate_hz),
-        n_samples=n_samples,
-        decay_rate_1_s=float(decay_rate),
-        h1_std_coherence=h1_std_coherence,
-        h1_std_scatter=h1_std_scatter,
-        window={**window.to_dict(), "decay_rate_1_s": float(decay_rate)},
-    )
+    accumulator = FrfAccumulator(sample_rate_hz, n_samples, window, capacity_hits=n_hits)
+    block = max(1, _BLOCK_VALUES // (n_samples // 2 + 1))  # hits transformed at once, so a block stays in cache
+    for first in range(0, n_hits, block):
+        accumulator.add(data[first : first + block, force_row, :], data[first : first + block, response_row, :])
+    return accumulator.result()
 
 
-def frf_from_hits(hits: Sequence[Any], window: WindowSettings = WindowSettings()) -> FrfResult:
-    """:func:`compute_frf` of :class:`gasfilm.analysis.capture.HitRecord`\\ s, using each hit's force and response channel."""
+def session_frf(hits: Sequence[Any], window: WindowSettings = WindowSettings()) -> FrfResult:
+    """The averaged FRF of a session's hits (:class:`gasfilm.analysis.capture.HitRecord` or stored hits), each
+    taken from its OWN force and response channels (a session whose response is on ai2 is averaged on ai2)."""
     if len(hits) == 0:
         raise SettingError("hits: no accepted hits to average")
-    rates = {hit.sample_rate_hz for hit in hits}
+    rates = {float(hit.sample_rate_hz) for hit in hits}
     if len(rates) != 1:
         raise SettingError(f"hits: recorded at different sample rates ({', '.join(map(str, sorted(rates)))} Hz)")
-    records = [np.stack((hit.data[hit.force_channel], hit.data[hit.response_channel])) for hit in hits]
-    return compute_frf(records, rates.pop(), window)
+    lengths = {hit.data.shape[-1] for hit in hits}
+    if len(lengths) != 1:
+        raise SettingError(f"hits: records of different lengths ({', '.join(map(str, sorted(lengths)))} samples)")
+    accumulator = FrfAccumulator(rates.pop(), lengths.pop(), window, capacity_hits=len(hits))
+    block = max(1, _BLOCK_VALUES // (accumulator.n_samples // 2 + 1))
+    for first in range(0, len(hits), block):
+        chunk = hits[first : first + block]
+        accumulator.add(np.stack([hit.data[hit.force_channel] for hit in chunk]),
+                        np.stack([hit.data[hit.response_channel] for hit in chunk]))
+    return accumulator.result()
+
+
+#: The former name of :func:`session_frf`, still imported by app/gui until it adds hits to a :class:`FrfAccumulator`.
+frf_from_hits = session_frf
 
 
 FRF_CSV_COLUMNS = (

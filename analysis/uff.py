@@ -21,7 +21,8 @@ import numpy as np
 import pyuff
 
 from gasfilm.drivers.errors import GasfilmError
-from gasfilm.drivers.interface import NI9234_VALID_RATES_HZ, STANDARD_GRAVITY_M_S2
+from gasfilm.drivers.interface import NI9234_VALID_RATES_HZ
+from gasfilm.drivers.units import STANDARD_GRAVITY_M_S2
 
 FUNCTION_TIME_RESPONSE = 1
 FUNCTION_FRF = 4

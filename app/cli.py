@@ -1,21 +1,32 @@
 """The ``gasfilm`` command line: a thin shell over :mod:`drivers` and :mod:`analysis`.
 
 Each sub-command lives in :mod:`gasfilm.app.commands` as a module with ``register(subparsers)``, which adds its parser and
-sets ``func`` (called with the parsed arguments, returning the exit status). Errors that gasfilm raises on purpose
-are printed as one line and exit with status 2; nothing ever prints a traceback unless ``GASFILM_DEBUG=1``.
+sets ``func`` (called with the parsed arguments, returning the exit status). Registering imports no heavy library
+(numpy, scipy, h5py, matplotlib, Qt): each command imports those when it runs, so ``gasfilm --help`` answers at once.
+
+Errors that gasfilm raises on purpose are printed as one line and exit with status 2; nothing ever prints a traceback
+unless ``GASFILM_DEBUG=1``. Python warnings (ADC overload, numpy floating-point warnings) become one clean
+``warning:`` line each; a closed output pipe (``gasfilm ... --json | head``) ends the command quietly.
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import importlib
+import logging
 import os
 import sys
-from typing import Sequence
+import warnings
+from typing import Iterator, Sequence
 
 from gasfilm.drivers.errors import GasfilmError
 
 COMMAND_MODULES = ("demo", "acquire", "replay", "export", "fit", "diagnose", "gui")
+#: Exit status of a command whose output pipe was closed by the reader (128 + SIGPIPE, as a shell reports it).
+BROKEN_PIPE_STATUS = 141
+
+logger = logging.getLogger(__name__)
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -32,17 +43,62 @@ def build_parser() -> argparse.ArgumentParser:
                 raise
             continue
         module.register(subparsers)
+    parser.set_defaults(subparsers=subparsers)
     return parser
+
+
+@contextlib.contextmanager
+def _user_messages(command: str) -> Iterator[None]:
+    """While a command runs: gasfilm's warnings and Python warnings reach the user as one line each on stderr."""
+    handler = logging.StreamHandler(sys.stderr)
+    handler.addFilter(lambda record: record.levelno == logging.WARNING)  # errors reach the user as raised errors
+    handler.setFormatter(logging.Formatter(f"gasfilm {command}: %(levelname)s: %(message)s"))
+    package_logger = logging.getLogger("gasfilm")
+    package_logger.addHandler(handler)
+    if package_logger.level == logging.NOTSET:
+        package_logger.setLevel(logging.INFO)  # INFO reaches file handlers (the acquire log); stderr shows WARNING+
+    shown = set()
+
+    def show_warning(message, category, filename, lineno, file=None, line=None) -> None:  # noqa: ANN001
+        text = f"{category.__name__}: {message}"
+        if text not in shown:  # once per distinct warning, not once per hit
+            shown.add(text)
+            logger.warning(text)
+
+    previous = warnings.showwarning
+    warnings.showwarning = show_warning
+    try:
+        yield
+    finally:
+        warnings.showwarning = previous
+        package_logger.removeHandler(handler)
+
+
+def _silence_stdout() -> None:
+    """After the reader closed stdout: point it at /dev/null so the interpreter's final flush cannot fail."""
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+    except (OSError, ValueError, AttributeError):
+        pass  # stdout is not a real file (e.g. captured by a test): nothing will be flushed to a pipe
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
-    args = parser.parse_args(argv)
+    args, unknown = parser.parse_known_args(argv)
+    if unknown:
+        # the usage of the command the user typed, not the top-level one
+        command_parser = args.subparsers.choices.get(args.command, parser)
+        command_parser.error(f"unrecognized arguments: {' '.join(unknown)}")
     if not getattr(args, "func", None):
         parser.print_help()
         return 2
     try:
-        return int(args.func(args) or 0)
+        with _user_messages(args.command):
+            return int(args.func(args) or 0)
+    except BrokenPipeError:
+        _silence_stdout()
+        return BROKEN_PIPE_STATUS
     except GasfilmError as error:
         print(f"gasfilm {args.command}: error: {error}", file=sys.stderr)
         return 2

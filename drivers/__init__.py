@@ -3,10 +3,12 @@
 from __future__ import annotations
 
 import os
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from gasfilm.drivers.errors import SettingError
-from gasfilm.drivers.interface import DaqDevice
+
+if TYPE_CHECKING:  # numpy is imported with the device, not with the package (the command line starts fast)
+    from gasfilm.drivers.interface import DaqDevice
 
 SIMULATED_DEVICE_NAME = "sim"
 

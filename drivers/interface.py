@@ -13,6 +13,7 @@ from typing import Protocol, runtime_checkable
 import numpy as np
 
 from gasfilm.drivers.errors import SettingError
+from gasfilm.drivers.units import STANDARD_GRAVITY_M_S2
 
 #: Base clock of the NI 9234's delta-sigma ADC, divided by n = 1…31 to give the valid sample rates.
 NI9234_BASE_RATE_HZ = 51_200.0
@@ -22,7 +23,6 @@ NI9234_CHANNELS = ("ai0", "ai1", "ai2", "ai3")
 NI9234_INPUT_RANGE_V = 5.0
 NI9234_IEPE_CURRENT_A = 0.002
 NI9234_ADC_BITS = 24
-STANDARD_GRAVITY_M_S2 = 9.80665
 
 
 class ChannelKind(str, enum.Enum):

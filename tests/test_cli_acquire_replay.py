@@ -130,9 +130,7 @@ class FailingSimulator(SimulatedNI9234):
 
 
 def test_device_error_mid_session_aborts_and_keeps_every_hit(tmp_path, capsys, monkeypatch):
-    from gasfilm.app.commands import acquire
-
-    monkeypatch.setattr(acquire, "open_device", lambda name, **options: FailingSimulator(**options))
+    monkeypatch.setattr("gasfilm.drivers.open_device", lambda name, **options: FailingSimulator(**options))
     path = tmp_path / "removed.h5"
     status, out, err = gasfilm(capsys, "acquire", *FAST_SIM, "--out", path, "--seconds", 60)
     assert status == 2
@@ -142,6 +140,8 @@ def test_device_error_mid_session_aborts_and_keeps_every_hit(tmp_path, capsys, m
     with Session.open(path) as session:
         assert session.status == "aborted" and "removed mid-stream" in session.status_reason
         assert [i + 1 for i in session.accepted_indices()] == reported
+    log = path.with_suffix(".log").read_text()  # the fault is also in the log next to the session
+    assert "device fault" in log and "removed mid-stream" in log and f"{len(reported)} accepted hits kept" in log
 
 
 def run_cli_subprocess(*argv) -> subprocess.Popen:

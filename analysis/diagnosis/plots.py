@@ -13,6 +13,13 @@ from gasfilm.analysis.diagnosis.result import Diagnosis
 from gasfilm.drivers.interface import STANDARD_GRAVITY_M_S2 as G_M_S2
 
 
+#: The files :func:`write_outputs` writes into its folder.
+SPEC_FILE = "improved-rig.toml"
+OVERLAY_FILE = "diagnosis-overlay.png"
+RESIDUAL_FILE = "diagnosis-residual.png"
+OUTPUT_FILES = (SPEC_FILE, OVERLAY_FILE, RESIDUAL_FILE)
+
+
 def write_figures(diagnosis: Diagnosis, out_dir: Path) -> list[str]:
     """``diagnosis-overlay.png`` (H1 recorded, spec as given and improved spec, replayed the same way) and
     ``diagnosis-residual.png`` (noise-weighted residual per frequency before/after, and per hit)."""
@@ -40,7 +47,7 @@ def write_figures(diagnosis: Diagnosis, out_dir: Path) -> list[str]:
     axes[0].set_title(f"diagnosis: {diagnosis.verdict} — RMS {diagnosis.rms_before / G_M_S2:.3g} → "
                       f"{diagnosis.rms_after / G_M_S2:.3g} g/N")
     figure.tight_layout()
-    overlay = out_dir / "diagnosis-overlay.png"
+    overlay = out_dir / OVERLAY_FILE
     figure.savefig(overlay, dpi=110)
 
     figure = Figure(figsize=(9, 7))
@@ -65,7 +72,7 @@ def write_figures(diagnosis: Diagnosis, out_dir: Path) -> list[str]:
     axes[1].set_ylabel("χ² per point")
     axes[1].legend(fontsize=8)
     figure.tight_layout()
-    residual = out_dir / "diagnosis-residual.png"
+    residual = out_dir / RESIDUAL_FILE
     figure.savefig(residual, dpi=110)
     return [str(overlay), str(residual)]
 
@@ -74,7 +81,7 @@ def write_outputs(diagnosis: Diagnosis, out_dir: Path) -> None:
     """Write the improved spec (the spec that was fitted, exactly) and the figures into ``out_dir``; the paths are
     kept in ``diagnosis.improved_spec_path`` and ``diagnosis.figures``."""
     out_dir.mkdir(parents=True, exist_ok=True)
-    spec_path = out_dir / "improved-rig.toml"
+    spec_path = out_dir / SPEC_FILE
     header = "".join(f"# {note}\n" for note in diagnosis.notes)
     spec_path.write_text(header + diagnosis.improved.to_toml(), encoding="utf-8")
     diagnosis.improved_spec_path = str(spec_path)

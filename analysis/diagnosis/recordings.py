@@ -66,12 +66,7 @@ def load_recordings(path: str | Path) -> Recordings:
                             for hit in accepted])
         times = np.array([hit.start_time_s + hit.trigger_index / hit.sample_rate_hz for hit in accepted])
         overload = np.stack([hit.overload[[hit.force_channel, hit.response_channel]] for hit in accepted])
-        window_settings = session.settings.get("window")
-        window = None
-        if isinstance(window_settings, dict):
-            known = {key: window_settings[key] for key in ("force_window_ms", "force_taper_ms",
-                                                            "exponential_end_fraction") if key in window_settings}
-            window = WindowSettings(**known)
+        window = session.settings_as("window", WindowSettings)  # missing windows are filled in by hit_spectra
         quality = []
         if rejected:
             reasons: dict[str, int] = {}

@@ -9,26 +9,22 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import logging
 import queue
 import sys
 import time
 from pathlib import Path
-from typing import Iterator
+from typing import Any, Iterator
 
-import numpy as np
-
-from gasfilm.analysis.acquisition import AcquisitionLoop
-from gasfilm.analysis.capture import ImpactCapture, TriggerSettings
-from gasfilm.analysis.physics.plant import RigPlant
-from gasfilm.analysis.physics.spec import RigSpec
-from gasfilm.analysis.recording import HitEvent, HitRecorder
-from gasfilm.analysis.session import Session, SessionError
-from gasfilm.analysis.spectra import WindowSettings, compute_frf
-from gasfilm.analysis.validation import ValidationSettings
-from gasfilm.drivers import SIMULATED_DEVICE_NAME, open_device
+from gasfilm.app.commands.common import check_output_file, is_terminal, positive_flag, settings_from_flags
 from gasfilm.drivers.errors import DeviceError, SettingError
-from gasfilm.drivers.interface import ChannelKind, DaqConfig, DaqDevice, default_hammer_and_accelerometer
 
+logger = logging.getLogger(__name__)
+
+SIMULATED_DEVICE_NAME = "sim"  # gasfilm.drivers.SIMULATED_DEVICE_NAME, without importing the drivers to register
+#: Longest record accepted per hit in s: a hammer test's response has decayed long before (a 100 s record
+#: at 51.2 kS/s is 80 MB per hit, and the session fills the disk with rejected hits).
+MAX_RECORD_S = 20.0
 #: Longest wait for a chunk before the run is declared stuck (the reader has its own device timeout).
 CHUNK_WAIT_S = 30.0
 
@@ -52,8 +48,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--pretrigger-s", type=float, default=0.01, help="pre-trigger length in s (default 0.01)")
     parser.add_argument("--force-window-ms", type=float, help="force window width after the peak in ms")
     parser.add_argument("--exp-end", type=float, help="exponential window: value at the record end, e.g. 0.01")
-    parser.add_argument("--double-hit-fraction", type=float, default=ValidationSettings().double_hit_fraction,
-                        help="a second impact above this fraction of the first rejects the hit")
+    parser.add_argument("--double-hit-fraction", type=float,
+                        help="a second impact above this fraction of the first rejects the hit (default 0.1)")
     parser.add_argument("--seed", type=int, default=0, help="simulator: random seed")
     parser.add_argument("--pacing", choices=("fast", "realtime"), default="realtime",
                         help="simulator: deliver samples as fast as possible or at the real rate (default)")
@@ -65,30 +61,77 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.set_defaults(func=run)
 
 
-def _open_device(args: argparse.Namespace, rig_spec: RigSpec | None) -> DaqDevice:
+def _open_device(args: argparse.Namespace, rig_spec: Any) -> Any:
+    from gasfilm.analysis.physics.plant import RigPlant
+    from gasfilm.drivers import open_device
+
     if args.device == SIMULATED_DEVICE_NAME:
         options = {"plant": RigPlant(rig_spec), "seed": args.seed, "pacing": args.pacing,
                    "double_hit_rate": args.double_hit_rate}
         if args.hit_interval is not None:
-            low, high = sorted(args.hit_interval)
-            if low <= 0:
-                raise SettingError(f"--hit-interval: {low} s must be positive")
-            options["hit_interval_s"] = (low, high)
+            options["hit_interval_s"] = tuple(args.hit_interval)
         return open_device(SIMULATED_DEVICE_NAME, **options)
     return open_device(args.device)
 
 
-def _check_limits(args: argparse.Namespace) -> None:
+def _settings(args: argparse.Namespace) -> dict[str, Any]:
+    """The trigger, validation and window settings from the flags, refused up front (naming the flag) when they
+    cannot produce a valid hit."""
+    from gasfilm.analysis.capture import TriggerSettings
+    from gasfilm.analysis.spectra import WindowSettings
+    from gasfilm.analysis.validation import ValidationSettings
+
     if args.hits is not None and args.hits < 1:
         raise SettingError(f"--hits: {args.hits} must be at least 1")
-    if args.seconds is not None and not args.seconds > 0:
-        raise SettingError(f"--seconds: {args.seconds} must be positive")
+    positive_flag("--seconds", args.seconds, "s")
+    positive_flag("--rate", args.rate, "S/s")
+    positive_flag("--trigger-n", args.trigger_n, "N")
+    positive_flag("--record-s", args.record_s, "s")
+    if args.record_s > MAX_RECORD_S:
+        raise SettingError(f"--record-s: {args.record_s} s is longer than a hammer test needs "
+                           f"(at most {MAX_RECORD_S:g} s per hit)")
+    if args.hit_interval is not None:
+        low, high = args.hit_interval
+        if not 0 < low <= high:
+            raise SettingError(f"--hit-interval: {low:g} {high:g} must be MIN_S MAX_S with 0 < MIN_S ≤ MAX_S")
+        if high <= args.record_s:
+            raise SettingError(f"--hit-interval: hits every {low:g}–{high:g} s all fall inside the --record-s "
+                               f"{args.record_s:g} s record of the previous one (every hit would be a double hit)")
+    if args.double_hit_rate is not None and not 0 <= args.double_hit_rate < 1:
+        raise SettingError(f"--double-hit-rate: {args.double_hit_rate} must be at least 0 and below 1")
+    trigger = settings_from_flags(TriggerSettings, None, {
+        "level_n": ("--trigger-n", args.trigger_n),
+        "pretrigger_s": ("--pretrigger-s", args.pretrigger_s),
+        "record_s": ("--record-s", args.record_s),
+    })
+    validation = settings_from_flags(ValidationSettings, None, {
+        "double_hit_fraction": ("--double-hit-fraction", args.double_hit_fraction),
+    })
+    window = settings_from_flags(WindowSettings, None, {
+        "force_window_ms": ("--force-window-ms", args.force_window_ms),
+        "exponential_end_fraction": ("--exp-end", args.exp_end),
+    })
+    return {"trigger": trigger, "validation": validation, "window": window}
 
 
-def _open_session(args: argparse.Namespace, config: DaqConfig, rate_hz: float, device_name: str,
-                  rig_toml: str | None, settings: dict) -> Session:
+def _attach_log(session_path: Path) -> logging.Handler:
+    """Faults, dropped chunks, recoveries and the run's summary, appended to ``<session>.log`` next to it (the file
+    is made at the first message, so a run refused up front leaves none)."""
+    handler = logging.FileHandler(session_path.with_suffix(".log"), encoding="utf-8", delay=True)
+    handler.setLevel(logging.INFO)
+    handler.setFormatter(logging.Formatter("%(asctime)s %(levelname)s %(name)s: %(message)s"))
+    logging.getLogger("gasfilm").addHandler(handler)
+    return handler
+
+
+def _open_session(args: argparse.Namespace, config: Any, rate_hz: float, device_name: str,
+                  rig_toml: str | None, settings: dict) -> Any:
+    from gasfilm.analysis.session import Session, SessionError
+
     if args.append:
         session = Session.open(args.out, "a")
+        if session.recovered:
+            logger.warning("%s: recovered before appending (%s)", args.out, session.status_reason)
         stored = session.daq_config
         if len(stored.channels) != len(config.channels) or abs(session.sample_rate_hz - rate_hz) > 1e-6:
             session.close()
@@ -106,8 +149,6 @@ def _open_session(args: argparse.Namespace, config: DaqConfig, rate_hz: float, d
             )
         session.update_settings(settings)
         return session
-    if args.out.exists():
-        raise SessionError(f"{args.out}: the session file exists already (use --append to add hits to it)")
     return Session.create(args.out, config, rig_toml, settings, actual_sample_rate_hz=rate_hz,
                           device_name=device_name, record_samples=settings["trigger"].record_samples(rate_hz))
 
@@ -116,9 +157,9 @@ class _Progress:
     """One line per hit on stdout (flushed at once), a running counter on stderr when it is a terminal."""
 
     def __init__(self) -> None:
-        self.live = sys.stderr.isatty()
+        self.live = is_terminal()
 
-    def hit(self, event: HitEvent) -> None:
+    def hit(self, event: Any) -> None:
         if event.verdict.accepted:
             line = f"accepted hit {event.index + 1} at {event.trigger_time_s:.2f} s, peak {event.peak_force_n:.0f} N"
         else:
@@ -140,9 +181,13 @@ class _Progress:
             sys.stderr.flush()
 
 
-def _stream(device: DaqDevice, synchronous: bool) -> Iterator[tuple[np.ndarray, np.ndarray, int]]:
+def _stream(device: Any, synchronous: bool) -> Iterator[tuple[Any, Any, int]]:
     """Chunks as (samples, overload flags, samples read so far). A device that waits for its samples is read on
     the acquisition loop's thread; the simulator at fast pacing is read here, so nothing outruns the recorder."""
+    import numpy as np
+
+    from gasfilm.analysis.acquisition import AcquisitionLoop
+
     if synchronous:
         device.start()
         try:
@@ -166,6 +211,7 @@ def _stream(device: DaqDevice, synchronous: bool) -> Iterator[tuple[np.ndarray, 
             if chunk is None:
                 raise loop.error or DeviceError(f"device '{device.name}': the stream ended unexpectedly")
             if chunks.dropped_chunks:
+                logger.error("%d chunks dropped: recording fell behind", chunks.dropped_chunks)
                 raise DeviceError(
                     f"device '{device.name}': {chunks.dropped_chunks} chunks were lost because recording fell behind"
                 )
@@ -173,20 +219,36 @@ def _stream(device: DaqDevice, synchronous: bool) -> Iterator[tuple[np.ndarray, 
 
 
 def run(args: argparse.Namespace) -> int:
-    _check_limits(args)
+    handler = _attach_log(args.out)
+    try:
+        return _record(args)
+    finally:
+        logging.getLogger("gasfilm").removeHandler(handler)
+        handler.close()
+
+
+def _record(args: argparse.Namespace) -> int:
+    from gasfilm.analysis.capture import ImpactCapture
+    from gasfilm.analysis.physics.spec import RigSpec
+    from gasfilm.analysis.recording import HitRecorder
+    from gasfilm.analysis.spectra import session_frf
+    from gasfilm.drivers.interface import ChannelKind, default_hammer_and_accelerometer
+
+    settings = _settings(args)
+    trigger, validation, window = settings["trigger"], settings["validation"], settings["window"]
+    if not args.append:
+        if args.out.exists() or args.out.is_symlink():
+            raise SettingError(f"--out {args.out}: the session file exists already (use --append to add hits to it)")
+        check_output_file(args.out, "--out", overwrite=False)
     rig_spec = None
     if args.rig is not None:
         rig_spec = RigSpec.load(args.rig)
     elif args.device == SIMULATED_DEVICE_NAME:
         rig_spec = RigSpec.nominal("FOMGF")  # the simulated rig's default
-    trigger = TriggerSettings(level_n=args.trigger_n, pretrigger_s=args.pretrigger_s, record_s=args.record_s)
-    validation = ValidationSettings(double_hit_fraction=args.double_hit_fraction)
-    window = WindowSettings(force_window_ms=args.force_window_ms, exponential_end_fraction=args.exp_end)
     config = default_hammer_and_accelerometer(args.rate)
     device = _open_device(args, rig_spec)
     device.configure(config)
     rate_hz = device.sample_rate_hz
-    settings = {"trigger": trigger, "validation": validation, "window": window}
     session = _open_session(args, config, rate_hz, device.name, rig_spec.to_toml() if rig_spec else None, settings)
     force_row = config.channel_index(ChannelKind.FORCE)
     response_row = config.channel_index(ChannelKind.ACCELERATION)
@@ -202,6 +264,7 @@ def run(args: argparse.Namespace) -> int:
     )
     accepted_before = recorder.accepted_count
     print(f"recording into {args.out} from {device.name} at {rate_hz:g} S/s", flush=True)
+    logger.info("recording into %s from %s at %g S/s, settings %s", args.out, device.name, rate_hz, settings)
     started = time.monotonic()
     stream_s = 0.0
     try:
@@ -217,6 +280,8 @@ def run(args: argparse.Namespace) -> int:
                     break
     except DeviceError as error:
         progress.done()
+        logger.error("device fault: %s; session closed as aborted, %d accepted hits kept", error,
+                     recorder.accepted_count)
         session.close("aborted", str(error))
         raise DeviceError(
             f"{error} — session {args.out} closed as aborted, {recorder.accepted_count} accepted hits kept",
@@ -225,22 +290,23 @@ def run(args: argparse.Namespace) -> int:
     except KeyboardInterrupt:
         progress.done()
         session.close("aborted", "interrupted by the user")
+        logger.info("interrupted by the user; session closed with %d accepted hits", recorder.accepted_count)
         print(f"interrupted: session {args.out} closed with {recorder.accepted_count} accepted hits", flush=True)
         return 130
     except BaseException as error:
         progress.done()
+        logger.error("stopped by %s: %s; session closed as aborted", type(error).__name__, error)
         session.close("aborted", f"{type(error).__name__}: {error}")
         raise
     progress.done()
     if recorder.accepted_count:
-        frf = compute_frf(session.accepted_records(), rate_hz, window, force_row, response_row)
+        frf = session_frf([hit for hit in session.hits() if hit.verdict.accepted], window)
         session.write_frf(frf, hit_indices=session.accepted_indices())
     session.close("complete")
     reasons = ", ".join(f"{reason}: {count}" for reason, count in sorted(recorder.reason_counts.items()))
-    print(
-        f"session {args.out}: {recorder.hit_count} hits, {recorder.accepted_count} accepted, "
-        f"{recorder.rejected_count} rejected{f' ({reasons})' if reasons else ''}; "
-        f"{stream_s:.1f} s of signal in {time.monotonic() - started:.1f} s",
-        flush=True,
-    )
+    summary = (f"session {args.out}: {recorder.hit_count} hits, {recorder.accepted_count} accepted, "
+               f"{recorder.rejected_count} rejected{f' ({reasons})' if reasons else ''}; "
+               f"{stream_s:.1f} s of signal in {time.monotonic() - started:.1f} s")
+    print(summary, flush=True)
+    logger.info(summary)
     return 0

@@ -1,7 +1,8 @@
 """``gasfilm demo``: a short hammer session on the simulated rig, summarised.
 
-The main job end to end on the simulated NI 9234, paced in real time: stream, trigger, validate, store every hit in an HDF5 session,
-average the FRF, identify the film (SD and FOMGF), and print what a technician would check first.
+The main job end to end on the simulated NI 9234, paced in real time: stream, trigger, validate, store every hit in an
+HDF5 session, average the FRF, identify the film (SD and FOMGF), and print what a technician would check first. An
+existing ``--out`` file is replaced only with ``--overwrite``; without ``--out`` a new file is chosen.
 """
 
 from __future__ import annotations
@@ -11,41 +12,59 @@ import sys
 import time
 from pathlib import Path
 
-import numpy as np
+from gasfilm.app.commands.common import check_output_file, positive_flag
 
-from gasfilm.analysis.acquisition import AcquisitionLoop
-from gasfilm.analysis.capture import ImpactCapture, TriggerSettings
-from gasfilm.analysis.identification import fit_model
-from gasfilm.analysis.physics.elements import PAPER_MODELS
-from gasfilm.analysis.physics.plant import RigPlant
-from gasfilm.analysis.recording import HitRecorder
-from gasfilm.analysis.physics.spec import RigSpec
-from gasfilm.analysis.session import Session
-from gasfilm.analysis.spectra import WindowSettings, compute_frf
-from gasfilm.analysis.validation import ValidationSettings
-from gasfilm.drivers import open_device
-from gasfilm.drivers.errors import GasfilmError
-from gasfilm.drivers.interface import ChannelKind, default_hammer_and_accelerometer
-
-G_M_S2 = 9.80665
+DEFAULT_OUT = Path("out/demo-session.h5")
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     parser = subparsers.add_parser("demo", help="run a short hammer session on the simulated rig and summarise it")
     parser.add_argument("--hits", type=int, default=8, help="accepted hits to collect (default 8)")
     parser.add_argument("--rig", type=Path, help="rig spec TOML (default: the paper's FOMGF film on 25.05 kg)")
-    parser.add_argument("--out", type=Path, default=Path("out/demo-session.h5"), help="session file to write")
+    parser.add_argument("--out", type=Path, help="session file to write (default: out/demo-session.h5, or the next "
+                        "free out/demo-session-N.h5: an earlier demo is never replaced)")
+    parser.add_argument("--overwrite", action="store_true", help="replace --out if it exists")
     parser.add_argument("--seed", type=int, default=1, help="simulator seed")
     parser.add_argument("--no-fit", action="store_true", help="skip the film identification")
     parser.set_defaults(func=run)
 
 
+def _free_default_path() -> Path:
+    """out/demo-session.h5, else the first out/demo-session-N.h5 that does not exist."""
+    path, number = DEFAULT_OUT, 1
+    while path.exists() or path.is_symlink():
+        number += 1
+        path = DEFAULT_OUT.with_name(f"{DEFAULT_OUT.stem}-{number}{DEFAULT_OUT.suffix}")
+    return path
+
+
 def run(args: argparse.Namespace) -> int:
+    import numpy as np
+
+    from gasfilm.analysis.acquisition import AcquisitionLoop
+    from gasfilm.analysis.capture import ImpactCapture, TriggerSettings
+    from gasfilm.analysis.identification import fit_model
+    from gasfilm.analysis.physics.elements import PAPER_MODELS
+    from gasfilm.analysis.physics.plant import RigPlant
+    from gasfilm.analysis.physics.spec import RigSpec
+    from gasfilm.analysis.recording import HitRecorder
+    from gasfilm.analysis.session import Session
+    from gasfilm.analysis.spectra import WindowSettings, session_frf
+    from gasfilm.analysis.validation import ValidationSettings
+    from gasfilm.drivers import open_device
+    from gasfilm.drivers.errors import GasfilmError
+    from gasfilm.drivers.interface import ChannelKind, default_hammer_and_accelerometer
+    from gasfilm.drivers.units import STANDARD_GRAVITY_M_S2 as G_M_S2
+
+    positive_flag("--hits", args.hits)
+    if args.out is None:
+        args.out = _free_default_path()
+    check_output_file(args.out, "--out", args.overwrite, make_parent=True)
     spec = RigSpec.load(args.rig) if args.rig else RigSpec.nominal("FOMGF")
     config = default_hammer_and_accelerometer(51200.0 / 4)
     trigger = TriggerSettings(level_n=20.0, pretrigger_s=0.01, record_s=0.5)
     validation = ValidationSettings()
-    args.out.parent.mkdir(parents=True, exist_ok=True)
+    window = WindowSettings()
     device = open_device("sim", plant=RigPlant(spec), seed=args.seed, pacing="realtime", hit_interval_s=(0.7, 1.0))
     device.configure(config)
     force_row = config.channel_index(ChannelKind.FORCE)
@@ -56,8 +75,8 @@ def run(args: argparse.Namespace) -> int:
         args.out,
         config,
         spec.to_toml(),
-        {"trigger": trigger, "validation": validation},
-        overwrite=True,
+        {"trigger": trigger, "validation": validation, "window": window},
+        overwrite=args.overwrite,
     ) as session:
         capture = ImpactCapture(trigger, device.sample_rate_hz, len(config.channels), force_row, response_row)
         recorder = HitRecorder(session, capture, validation, full_scale_si=full_scale)
@@ -75,16 +94,15 @@ def run(args: argparse.Namespace) -> int:
         if chunks.dropped_chunks:
             raise GasfilmError(f"demo: the recorder fell behind and lost {chunks.dropped_chunks} chunk(s)")
         hits = session.hits()
-        records = session.accepted_records()
-        window = WindowSettings()
-        frf = compute_frf(records[:, [force_row, response_row]], device.sample_rate_hz, window)
+        accepted = [hit for hit in hits if hit.verdict.accepted]
+        frf = session_frf(accepted, window)
         session.write_frf(frf)
-        peak_forces = [float(np.max(np.abs(h.data[force_row]))) for h in hits]
-        peak_responses = [float(np.max(np.abs(h.data[response_row]))) for h in hits]
+        peak_forces = [float(np.max(np.abs(hit.data[hit.force_channel]))) for hit in hits]
+        peak_responses = [float(np.max(np.abs(hit.data[hit.response_channel]))) for hit in hits]
         band = (frf.freq_hz >= 20) & (frf.freq_hz <= 1000)
         peak_hz = float(frf.freq_hz[band][np.argmax(np.abs(frf.h1[band]))])
         print(f"gasfilm demo — simulated NI 9234, rig '{spec.name}', {device.sample_rate_hz:.0f} S/s")
-        print(f"  hits seen:         {len(hits)} ({len(records)} accepted, {len(hits) - len(records)} rejected)")
+        print(f"  hits seen:         {len(hits)} ({len(accepted)} accepted, {len(hits) - len(accepted)} rejected)")
         print(f"  peak force:        {min(peak_forces):.0f} … {max(peak_forces):.0f} N")
         print(f"  peak response:     {min(peak_responses):.2f} … {max(peak_responses):.2f} m/s²")
         print(f"  resonance |H1|:    {peak_hz:.1f} Hz, {np.max(np.abs(frf.h1[band])) / G_M_S2:.4f} g/N")

@@ -12,11 +12,7 @@ import json
 import sys
 from pathlib import Path
 
-from gasfilm.analysis.diagnosis import diagnose
-from gasfilm.analysis.diagnosis.plots import write_outputs
-from gasfilm.analysis.diagnosis.report import report_text
-from gasfilm.analysis.physics.spec import RigSpec
-from gasfilm.analysis.session import Session
+from gasfilm.app.commands.common import check_output_folder
 from gasfilm.drivers.errors import GasfilmError, SettingError
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -31,6 +27,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--json", action="store_true", help="print one JSON object instead of the report")
     parser.add_argument("--out", type=Path, default=Path("out/diagnosis"),
                         help="folder for the improved spec and the figures (default out/diagnosis)")
+    parser.add_argument("--overwrite", action="store_true", help="replace an improved spec or figures in --out")
     parser.set_defaults(func=run)
 
 
@@ -47,14 +44,22 @@ def _band(text: str | None) -> tuple[float, float] | None:
 
 
 def run(args: argparse.Namespace) -> int:
-    spec = RigSpec.load(args.rig) if args.rig else None
+    from gasfilm.analysis.diagnosis import diagnose
+    from gasfilm.analysis.diagnosis.plots import OUTPUT_FILES, write_outputs
+    from gasfilm.analysis.diagnosis.report import report_text
+    from gasfilm.analysis.physics.spec import RigSpec
+    from gasfilm.analysis.session import Session
+
     if args.mass is not None and not args.mass > 0:
         raise SettingError(f"--mass: {args.mass} kg must be positive")
+    band = _band(args.band)
+    check_output_folder(args.out, "--out", OUTPUT_FILES, args.overwrite)
+    spec = RigSpec.load(args.rig) if args.rig else None
 
     def progress(message: str) -> None:
         print(f"  {message}", file=sys.stderr)
 
-    diagnosis = diagnose(args.source, spec, args.mass, _band(args.band), progress)
+    diagnosis = diagnose(args.source, spec, args.mass, band, progress)
     write_outputs(diagnosis, args.out)
     if args.source.suffix.lower() not in (".uff", ".unv"):
         try:

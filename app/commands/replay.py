@@ -1,12 +1,13 @@
-"""``gasfilm replay``: reprocess the raw hits of a session or a UFF file with other settings, without the rig.
+"""``gasfilm replay``: reprocess the raw hits of a session, a UFF file or .npy records with other settings.
 
 The stored records are validated again with the given validation and window settings. When a trigger setting is
 given, the trigger is first run again over each stored record: a record that no longer triggers is dropped, one that
 now triggers twice gives two hits if both fit, and the new records are one pre-trigger length shorter than the stored
 ones (unless ``--record-s`` says otherwise) so that a trigger firing a little later still finds a whole record. Hits a
 person accepted or rejected by hand keep that decision while their records are unchanged. The result is summarised
-(hits and reasons, peak of |H1|, coherence by band) and written: as a new session with ``--out``, else as the FRF
-group "replay" of the input session.
+(hits and reasons, peak of |H1|, coherence by band) and written: as a new session with ``--out`` (never replacing a
+file without ``--overwrite``), else as the FRF group "replay" of an input session; a file's result is only printed.
+The exit status is 1 when no hit is accepted (no FRF).
 """
 
 from __future__ import annotations
@@ -14,21 +15,12 @@ from __future__ import annotations
 import argparse
 import json
 import sys
-from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
-from gasfilm.analysis.capture import HitRecord, ImpactCapture, TriggerSettings
-from gasfilm.analysis.session import Session, SessionError, settings_from_json
-from gasfilm.analysis.spectra import FrfResult, WindowSettings, compute_frf
-from gasfilm.analysis.uff import read_uff_time_records, trigger_sample
-from gasfilm.analysis.validation import ValidationSettings, Verdict, validate_hit
+from gasfilm.app.commands.common import check_output_file, positive_flag, settings_from_flags
 from gasfilm.drivers.errors import SettingError
-from gasfilm.drivers.interface import DaqConfig, default_hammer_and_accelerometer
 
-UFF_SUFFIXES = (".uff", ".unv")
 #: Band edges (Hz) for the coherence summary; bands above the Nyquist frequency are left out.
 COHERENCE_BAND_EDGES_HZ = (0.0, 100.0, 300.0, 1000.0, 3000.0, 10000.0, 30000.0)
 #: Lines below this frequency are not searched for the peak (the DC line and the rigid-body rise).
@@ -41,11 +33,13 @@ PEAK_MIN_COHERENCE = 0.9
 def register(subparsers: argparse._SubParsersAction) -> None:
     parser = subparsers.add_parser(
         "replay",
-        help="reprocess the hits of a session or UFF file with other trigger/window/validation settings",
+        help="reprocess the hits of a session, UFF or .npy files with other trigger/window/validation settings",
         description="Validate the stored hits again (and re-trigger them if a trigger setting is given), average "
         "the FRF, print a summary and store the result.",
     )
-    parser.add_argument("source", type=Path, metavar="SESSION.h5|FILE.uff", help="session file or UFF time records")
+    parser.add_argument("source", type=Path, nargs="+", metavar="SESSION.h5|FILE.uff|HIT.npy",
+                        help="a session, UFF 58 time records, or .npy hit records (rows time s, force N, "
+                             "response m/s²; several files give several hits)")
     parser.add_argument("--trigger-n", type=float, help="new trigger level on the force in N (re-runs the trigger)")
     parser.add_argument("--pretrigger-s", type=float, help="new pre-trigger length in s (re-runs the trigger)")
     parser.add_argument("--record-s", type=float, help="new record length in s, at most the stored one")
@@ -58,103 +52,58 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--force-dof", type=int, nargs=2, metavar=("NODE", "DIR"), help="UFF: force node, direction")
     parser.add_argument("--response-dof", type=int, nargs=2, metavar=("NODE", "DIR"),
                         help="UFF: response node and direction")
-    parser.add_argument("--out", type=Path, help="write the result as a new session file (HDF5)")
+    parser.add_argument("--out", type=Path, help="write the result as a new session file (HDF5); without it a "
+                        "session's result is stored as its FRF group 'replay' and a file's is only printed")
     parser.add_argument("--overwrite", action="store_true", help="replace --out if it exists")
     parser.add_argument("--json", action="store_true", help="print the summary as JSON")
     parser.set_defaults(func=run)
 
 
-@dataclass
-class Source:
-    """What replay starts from: the stored hits and the settings they were recorded with."""
+def _new_settings(args: argparse.Namespace, source: Any) -> tuple[Any, bool, Any, Any]:
+    """Trigger (and whether to re-run it), validation and window: the stored ones changed by the flags given."""
+    from gasfilm.analysis.capture import TriggerSettings
+    from gasfilm.analysis.settings import decode_settings
+    from gasfilm.analysis.spectra import WindowSettings
+    from gasfilm.analysis.validation import ValidationSettings
 
-    path: Path
-    kind: str  # "session" or "uff"
-    config: DaqConfig
-    sample_rate_hz: float
-    rig_spec_toml: str | None
-    settings: dict[str, Any]
-    hits: list[HitRecord]
-    verdicts: list[Verdict | None]
-    full_scale_si: tuple[float, ...] | None
-
-
-def _load_source(path: Path, force_dof: Any, response_dof: Any) -> Source:
-    if path.suffix.lower() in UFF_SUFFIXES:
-        records = read_uff_time_records(
-            path, tuple(force_dof) if force_dof else None, tuple(response_dof) if response_dof else None
-        )
-        hits = [
-            HitRecord(
-                index=i,
-                data=record,
-                sample_rate_hz=records.sample_rate_hz,
-                trigger_index=trigger_sample(record[0]),
-                start_time_s=float(records.start_times_s[i]),
-                overload=np.zeros(2, bool),
-                force_channel=0,
-                response_channel=1,
-            )
-            for i, record in enumerate(records.records)
-        ]
-        config = default_hammer_and_accelerometer(records.sample_rate_hz)
-        settings = {"source": {"uff_file": str(path), "force_dof": records.force_dof,
-                               "response_dof": records.response_dof}}
-        return Source(path, "uff", config, records.sample_rate_hz, None, settings, hits, [None] * len(hits), None)
-    with Session.open(path, "r") as session:
-        stored = session.hits()
-        config = session.daq_config
-        return Source(
-            path=path,
-            kind="session",
-            config=config,
-            sample_rate_hz=session.sample_rate_hz,
-            rig_spec_toml=session.rig_spec_toml,
-            settings=session.settings,
-            hits=[hit.as_hit_record() for hit in stored],
-            verdicts=[hit.verdict for hit in stored],
-            full_scale_si=tuple(channel.full_scale_si for channel in config.channels),
-        )
-
-
-def _new_settings(args: argparse.Namespace, source: Source) -> tuple[TriggerSettings, bool, ValidationSettings,
-                                                                       WindowSettings]:
-    record_s = source.hits[0].n_samples / source.sample_rate_hz if source.hits else 1.0
-    trigger = settings_from_json(source.settings.get("trigger"), TriggerSettings)
+    record_s = source.hits[0].n_samples / source.sample_rate_hz
+    stored = decode_settings(source.settings, str(source.path))
+    trigger = stored.trigger
     if "trigger" not in source.settings:
-        trigger = replace(trigger, record_s=record_s, pretrigger_s=min(trigger.pretrigger_s, record_s / 2))
-    changes = {name: value for name, value in (("level_n", args.trigger_n), ("pretrigger_s", args.pretrigger_s),
-                                               ("record_s", args.record_s)) if value is not None}
-    retrigger = bool(changes)
-    if retrigger and args.record_s is None:
+        trigger = TriggerSettings(record_s=record_s, pretrigger_s=min(trigger.pretrigger_s, record_s / 2))
+    positive_flag("--trigger-n", args.trigger_n, "N")
+    retrigger = any(value is not None for value in (args.trigger_n, args.pretrigger_s, args.record_s))
+    new_record_s = args.record_s
+    if retrigger and new_record_s is None:
         # room for the trigger to move later in the pulse by up to one pre-trigger length
-        pretrigger_s = changes.get("pretrigger_s", trigger.pretrigger_s)
-        changes["record_s"] = record_s - pretrigger_s
-    trigger = replace(trigger, **changes)
+        pretrigger_s = args.pretrigger_s if args.pretrigger_s is not None else trigger.pretrigger_s
+        new_record_s = record_s - pretrigger_s
+    trigger = settings_from_flags(TriggerSettings, trigger, {
+        "level_n": ("--trigger-n", args.trigger_n),
+        "pretrigger_s": ("--pretrigger-s", args.pretrigger_s),
+        "record_s": ("--record-s", new_record_s),
+    })
     if trigger.record_s > record_s * (1 + 1e-9):
         raise SettingError(f"--record-s: {trigger.record_s} s is longer than the stored records ({record_s:g} s)")
-    validation = replace(
-        settings_from_json(source.settings.get("validation"), ValidationSettings),
-        **{name: value for name, value in (("double_hit_fraction", args.double_hit_fraction),
-                                           ("min_force_snr", args.min_force_snr),
-                                           ("decay_fraction", args.decay_fraction)) if value is not None},
-    )
-    window = settings_from_json(source.settings.get("window"), WindowSettings)
-    if args.rectangular:
-        window = WindowSettings()
-    window = replace(
-        window,
-        **{name: value for name, value in (("force_window_ms", args.force_window_ms),
-                                           ("exponential_end_fraction", args.exp_end)) if value is not None},
-    )
+    validation = settings_from_flags(ValidationSettings, stored.validation, {
+        "double_hit_fraction": ("--double-hit-fraction", args.double_hit_fraction),
+        "min_force_snr": ("--min-force-snr", args.min_force_snr),
+        "decay_fraction": ("--decay-fraction", args.decay_fraction),
+    })
+    window = settings_from_flags(WindowSettings, WindowSettings() if args.rectangular else stored.window, {
+        "force_window_ms": ("--force-window-ms", args.force_window_ms),
+        "exponential_end_fraction": ("--exp-end", args.exp_end),
+    })
     return trigger, retrigger, validation, window
 
 
-def _retrigger(
-    hits: list[HitRecord], trigger: TriggerSettings, sample_rate_hz: float
-) -> tuple[list[HitRecord], int]:
+def _retrigger(hits: list, trigger: Any, sample_rate_hz: float) -> tuple[list, int]:
     """Run the trigger over each stored record as its own stream; return the new records and how many stored
     records gave none."""
+    from dataclasses import replace
+
+    from gasfilm.analysis.capture import ImpactCapture
+
     found = []
     silent = 0
     for hit in hits:
@@ -166,7 +115,9 @@ def _retrigger(
     return found, silent
 
 
-def _bands(freq_hz: np.ndarray, coherence: np.ndarray) -> list[dict[str, float]]:
+def _bands(freq_hz: Any, coherence: Any) -> list[dict[str, float]]:
+    import numpy as np
+
     nyquist = float(freq_hz[-1])
     bands = []
     edges = [edge for edge in COHERENCE_BAND_EDGES_HZ if edge < nyquist] + [nyquist]
@@ -177,8 +128,10 @@ def _bands(freq_hz: np.ndarray, coherence: np.ndarray) -> list[dict[str, float]]
     return bands
 
 
-def summarise(frf: FrfResult | None, verdicts: list[Verdict], dropped: int, record_samples: int) -> dict[str, Any]:
-    """Hits and reasons, peak frequency of |H1| and mean coherence by band."""
+def summarise(frf: Any, verdicts: list, dropped: int, record_samples: int) -> dict[str, Any]:
+    """Hits and reasons, peak frequency of |H1| and mean coherence by band (``frf``: an FrfResult or None)."""
+    import numpy as np
+
     reasons: dict[str, int] = {}
     for verdict in verdicts:
         for reason in verdict.reasons:
@@ -228,11 +181,20 @@ def _print_summary(summary: dict[str, Any], source: Path, written: str) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    if args.out is None and args.source.suffix.lower() in UFF_SUFFIXES:
-        raise SettingError(f"--out: give a session file to store the replay of {args.source}")
-    source = _load_source(args.source, args.force_dof, args.response_dof)
+    import numpy as np
+
+    from gasfilm.analysis.session import Session, SessionError
+    from gasfilm.analysis.sources import load_source
+    from gasfilm.analysis.spectra import session_frf
+    from gasfilm.analysis.validation import validate_hit
+
+    if args.out is not None:
+        if any(args.out.resolve() == path.resolve() for path in args.source):
+            raise SettingError(f"--out: {args.out} is the input; leave --out out to store the result in the input")
+        check_output_file(args.out, "--out", args.overwrite)
+    source = load_source(args.source, args.force_dof, args.response_dof)
     if not source.hits:
-        raise SessionError(f"{args.source}: holds no hits to replay")
+        raise SessionError(f"{source.path}: holds no hits to replay")
     trigger, retrigger, validation, window = _new_settings(args, source)
     hits, dropped = _retrigger(source.hits, trigger, source.sample_rate_hz) if retrigger else (source.hits, 0)
     verdicts = []
@@ -243,16 +205,11 @@ def run(args: argparse.Namespace) -> int:
         else:
             verdicts.append(validate_hit(hit, validation, source.full_scale_si, window=window))
     accepted = [hit for hit, verdict in zip(hits, verdicts) if verdict.accepted]
-    frf = None
-    if accepted:
-        records = np.stack([np.stack((hit.force_n, hit.response)) for hit in accepted])
-        frf = compute_frf(records, source.sample_rate_hz, window)
+    frf = session_frf(accepted, window) if accepted else None
     accepted_indices = np.array([i for i, verdict in enumerate(verdicts) if verdict.accepted], dtype=np.int64)
     settings = {"trigger": trigger, "validation": validation, "window": window,
-                "replay": {"source": str(args.source), "retriggered": retrigger}}
+                "replay": {"source": [str(path) for path in args.source], "retriggered": retrigger}}
     if args.out is not None:
-        if args.out.resolve() == args.source.resolve():
-            raise SettingError(f"--out: {args.out} is the input; leave --out out to store the result in the input")
         with Session.create(args.out, source.config, source.rig_spec_toml, {**source.settings, **settings},
                             overwrite=args.overwrite, actual_sample_rate_hz=source.sample_rate_hz,
                             sync_each_hit=False, record_samples=hits[0].n_samples if hits else None) as result:
@@ -261,17 +218,20 @@ def run(args: argparse.Namespace) -> int:
             if frf is not None:
                 result.write_frf(frf, hit_indices=accepted_indices)
         written = f"new session {args.out}"
-    elif source.kind == "session" and frf is not None:
-        with Session.open(args.source, "a") as session:
+    elif source.is_session and frf is not None:
+        with Session.open(source.path, "a") as session:
             session.write_frf(frf, name="replay", hit_indices=accepted_indices if not retrigger else None)
             session.update_settings({"replay": settings})
-        written = f"FRF group 'replay' in {args.source}"
+        written = f"FRF group 'replay' in {source.path}"
+    elif frf is not None:
+        written = "printed only (add --out SESSION.h5 to keep it as a session)"
     else:
         written = "nothing written (no accepted hits)"
     summary = summarise(frf, verdicts, dropped, hits[0].n_samples if hits else 0)
+    shown = source.path if len(args.source) == 1 else f"{source.path} and {len(args.source) - 1} more files"
     if args.json:
-        json.dump({"source": str(args.source), "result": written, **summary}, sys.stdout, indent=2)
+        json.dump({"source": str(shown), "result": written, **summary}, sys.stdout, indent=2)
         print()
     else:
-        _print_summary(summary, args.source, written)
-    return 0
+        _print_summary(summary, shown, written)
+    return 0 if frf is not None else 1

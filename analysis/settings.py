@@ -1,0 +1,62 @@
+"""The processing settings stored with a session — trigger, validation and window — decoded in one place.
+
+A session (or any recording) stores its settings as plain JSON tables keyed ``"trigger"``, ``"validation"`` and
+``"window"`` (see :meth:`gasfilm.analysis.session.Session.settings`). :func:`decode_settings` turns that dict back into
+the settings dataclasses: a missing table gives the defaults, unknown fields are ignored (older or newer files), and
+a damaged table raises one :class:`SettingError` naming the file and the table.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+from typing import Any, Mapping, TypeVar
+
+from gasfilm.analysis.capture import TriggerSettings
+from gasfilm.analysis.spectra import WindowSettings
+from gasfilm.analysis.validation import ValidationSettings
+from gasfilm.drivers.errors import SettingError
+
+T = TypeVar("T")
+
+#: Stored settings table name → the dataclass it decodes to.
+SETTINGS_TABLES: dict[str, type] = {
+    "trigger": TriggerSettings,
+    "validation": ValidationSettings,
+    "window": WindowSettings,
+}
+
+
+@dataclass(frozen=True)
+class ProcessingSettings:
+    """How hits were (or are to be) triggered, validated and windowed."""
+
+    trigger: TriggerSettings = TriggerSettings()
+    validation: ValidationSettings = ValidationSettings()
+    window: WindowSettings = WindowSettings()
+
+    def to_dict(self) -> dict[str, Any]:
+        """The tables as stored in a session (dataclasses; the session writes them as JSON)."""
+        return {name: getattr(self, name) for name in SETTINGS_TABLES}
+
+
+def decode_setting(stored: Mapping[str, Any] | None, table: str, cls: type[T], source: str = "settings") -> T:
+    """The settings table ``table`` of ``stored`` as a ``cls`` dataclass (``cls()`` when absent); ``source`` (a
+    file name) starts the error message of a damaged table."""
+    values = (stored or {}).get(table)
+    if values is None:
+        return cls()
+    if not isinstance(values, Mapping):
+        raise SettingError(f"{source}: the stored '{table}' settings are not a table ({type(values).__name__})")
+    known = {field.name for field in dataclasses.fields(cls)}
+    try:
+        return cls(**{name: value for name, value in values.items() if name in known})
+    except (SettingError, TypeError, ValueError) as error:
+        raise SettingError(f"{source}: the stored '{table}' settings are unusable: {error}") from None
+
+
+def decode_settings(stored: Mapping[str, Any] | None, source: str = "settings") -> ProcessingSettings:
+    """All processing settings of a stored settings dict (defaults for missing tables)."""
+    return ProcessingSettings(
+        **{table: decode_setting(stored, table, cls, source) for table, cls in SETTINGS_TABLES.items()}
+    )
