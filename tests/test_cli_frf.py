@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from gasfilm.analysis.capture import HitRecord
+from gasfilm.analysis.physics.plant import RigPlant
 from gasfilm.analysis.physics.spec import RigSpec
 from gasfilm.analysis.session import Session
 from gasfilm.analysis.settings import ProcessingSettings, decode_settings
@@ -38,7 +39,7 @@ def three_channel_config() -> DaqConfig:
 
 
 def simulated_records(config: DaqConfig, hits: int = 6, seed: int = 5) -> np.ndarray:
-    device = SimulatedNI9234(RigSpec.nominal("FOMGF"), seed=seed, pacing="fast", hit_interval_s=None)
+    device = SimulatedNI9234(RigPlant.nominal(), seed=seed, pacing="fast", hit_interval_s=None)
     device.configure(config)
     with device:
         device.start()

@@ -28,6 +28,12 @@ from gasfilm.drivers.errors import SettingError
 MAINS_BASES_HZ = (50.0, 60.0)
 QUIET_MARGIN_S = 0.001
 TAIL_FRACTION = 0.25
+#: Quiet samples a hit needs before its impact for its noise to be measured.
+MIN_QUIET_SAMPLES = 16
+#: An exponential window already in the records is divided out when it lowers the noise by more than this over the
+#: record and the noise follows one exponential (log-level residual below PREWINDOW_FIT).
+PREWINDOW_MIN_DECAY = 0.1
+PREWINDOW_FIT = 0.05
 MAINS_HARMONICS = 20
 
 
@@ -237,12 +243,21 @@ def hit_spectra(
     extents = [extents[i] for i in used]
 
     trigger = np.array([start for start, _, _ in extents])
-    quiet_samples = int(np.min(trigger)) - int(QUIET_MARGIN_S * sample_rate_hz)
-    if quiet_samples < 16:
-        raise SettingError(
-            f"diagnosis records: only {max(quiet_samples, 0)} quiet samples before the hit; the noise cannot be "
-            f"measured (record at least {16 / sample_rate_hz * 1e3 + QUIET_MARGIN_S * 1e3:.1f} ms before the hit)"
-        )
+    margin = int(QUIET_MARGIN_S * sample_rate_hz)
+    short = np.flatnonzero(trigger - margin < MIN_QUIET_SAMPLES)
+    if short.size:
+        quality.append(QualityNote(
+            "pre-trigger", f"{short.size} hit(s) with fewer than {MIN_QUIET_SAMPLES} quiet samples before the impact "
+            f"were left out: their noise cannot be measured", hits=tuple(int(used[i]) for i in short)))
+        keep_quiet = np.setdiff1d(np.arange(used.size), short)
+        if keep_quiet.size < 2:
+            raise SettingError(
+                f"diagnosis records: only {keep_quiet.size} hit(s) have a quiet pre-trigger; the noise cannot be "
+                f"measured (record at least {MIN_QUIET_SAMPLES / sample_rate_hz * 1e3 + QUIET_MARGIN_S * 1e3:.1f} ms "
+                f"before the hit)")
+        used, records, trigger = used[keep_quiet], records[keep_quiet], trigger[keep_quiet]
+        extents = [extents[i] for i in keep_quiet]
+    quiet_samples = int(np.min(trigger)) - margin
     # quiet samples to measure the noise: the record tails when every response has decayed, else the pre-trigger
     tail_start = int((1 - TAIL_FRACTION) * n_samples)
     tail_rms = np.sqrt(np.mean(records[:, 1, tail_start:] ** 2, axis=1))
@@ -276,6 +291,14 @@ def hit_spectra(
                 )
             )
         quiet_slice = slice(tail_start, n_samples)
+        prewindow_1_s = _exponential_prewindow_1_s(records, quiet_samples, tail_start, sample_rate_hz)
+        if prewindow_1_s is not None:
+            records = records * np.exp(prewindow_1_s * np.arange(n_samples) / sample_rate_hz)
+            quality.append(QualityNote(
+                "exponential window",
+                f"the records carry an exponential window already (the noise falls as exp(−σt), σ = "
+                f"{prewindow_1_s:.3g} 1/s, as in records exported windowed): divided out of both channels before the "
+                f"comparison — a processing property, not physics"))
         tail_noise = np.median(np.std(records[:, 1, tail_start:], axis=1))
         before_noise = np.median(np.std(records[:, 1, :quiet_samples], axis=1))
         if tail_noise < 0.8 * before_noise:
@@ -381,6 +404,32 @@ def hit_spectra(
     )
 
 
+def _exponential_prewindow_1_s(
+    records: np.ndarray, quiet_samples: int, tail_start: int, sample_rate_hz: float
+) -> float | None:
+    """Decay rate σ (1/s) of an exponential window the records already carry, from the noise level of the quiet
+    pre-trigger and three parts of the quiet tail (both channels, median over hits), or None when the noise is steady
+    or does not fall as one exponential."""
+    n_samples = records.shape[-1]
+    edges = np.linspace(tail_start, n_samples, 4).astype(int)
+    segments = [(0, quiet_samples)] + list(zip(edges[:-1], edges[1:]))
+    centres_s = np.array([(a + b) / 2 / sample_rate_hz for a, b in segments])
+    levels = np.array([[np.median(np.std(records[:, channel, a:b], axis=1)) for a, b in segments]
+                       for channel in (0, 1)])
+    if np.any(levels <= 0):
+        return None
+    slopes = []
+    for row in np.log(levels):
+        slope, intercept = np.polyfit(centres_s, row, 1)
+        if np.max(np.abs(row - (slope * centres_s + intercept))) > PREWINDOW_FIT:
+            return None
+        slopes.append(-slope)
+    decay_1_s = float(np.mean(slopes))
+    if decay_1_s * n_samples / sample_rate_hz < PREWINDOW_MIN_DECAY or abs(slopes[0] - slopes[1]) > 0.2 * decay_1_s:
+        return None
+    return decay_1_s
+
+
 def _noise_spectrum(segments: np.ndarray, freq_hz: np.ndarray, sample_rate_hz: float) -> np.ndarray:
     """Noise power per sample at each frequency (white noise of variance σ² gives σ²) from quiet segments
     (hits, samples): Hann-windowed periodograms averaged over hits, lightly smoothed, interpolated onto ``freq_hz``."""
@@ -395,6 +444,11 @@ def _noise_spectrum(segments: np.ndarray, freq_hz: np.ndarray, sample_rate_hz: f
         smooth = np.convolve(periodogram, np.ones(3) / 3, mode="same")
         smooth[0], smooth[-1] = periodogram[0], periodogram[-1]
         periodogram = smooth
+    # a quiet signal that quantises to a few levels still carries at least the quantisation noise LSB²/12
+    steps = np.diff(np.unique(segments))
+    steps = steps[steps > 0]
+    if steps.size:
+        periodogram = np.maximum(periodogram, float(steps.min()) ** 2 / 12.0)
     return np.interp(freq_hz, coarse_freq_hz, periodogram)
 
 

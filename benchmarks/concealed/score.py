@@ -129,7 +129,7 @@ def main() -> None:
         improvement = 100 * (1 - result.rms_after / result.rms_before)
         accuracy = parameter_errors(truth, result.improved)
         if prewindow:  # a processing property: right when it is named as a measurement note, never fitted
-            found = ["window-damping"] if not found and "noise" in [q.kind for q in result.quality] else found
+            found = ["window-damping"] if not found and "exponential window" in [q.kind for q in result.quality] else found
         left = None
         if args.loop and expected:
             replayed = record_session(result.improved, args.data / "diagnoses" / entry["name"] / "replay.h5",
