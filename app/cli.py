@@ -15,7 +15,7 @@ from typing import Sequence
 
 from gasfilm.drivers.errors import GasfilmError
 
-COMMAND_MODULES = ("demo", "acquire", "replay", "export", "fit", "diagnose", "gui")
+COMMAND_MODULES = ("demo", "acquire", "replay", "export", "fit", "diagnose", "gui", "report")
 
 
 def build_parser() -> argparse.ArgumentParser:
