@@ -58,6 +58,7 @@ class MainWindow(QMainWindow):
         self.controller = SessionController(setup, session_dir, self)
         self.banner = Banner()
         self.pending_dialog: QMessageBox | None = None
+        self._closed = False
         try:
             self.setup_tab = SetupTab(setup)
         except (GasfilmError, ValueError, TypeError, KeyError, OverflowError) as error:  # stored values Qt refuses
@@ -257,11 +258,15 @@ class MainWindow(QMainWindow):
         return clicked in (accept, reject, keep)
 
     def closeEvent(self, event: QCloseEvent) -> None:
+        if self._closed:
+            super().closeEvent(event)
+            return
         if not self.ask_about_pending_hits():
             event.ignore()
             return
         save_setup(self.settings, self.setup_tab.state())
         self.controller.shutdown()
+        self._closed = True
         super().closeEvent(event)
 
 

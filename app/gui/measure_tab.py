@@ -303,7 +303,9 @@ class MeasureTab(QWidget):
             self._live_curves.append(curve)
         for plot in (self.force_plot, self.response_plot):
             plot.getPlotItem().legend.setVisible(True)
-        self.trigger_line.setValue(self.controller.running_trigger().level_n)
+        level_n = self.controller.running_trigger().level_n
+        self.trigger_line.setValue(level_n)
+        self.trigger_line.label.setFormat(f"trigger {level_n:g} N")
         self.trigger_line.setVisible(True)
         self.force_plot.setXRange(-self.controller.setup.live_view_s, 0.0, padding=0.0)
         self.redraw_count = 0
@@ -529,6 +531,7 @@ class MeasureTab(QWidget):
     def _set_log_frequency(self, log_x: bool) -> None:
         for plot in (self.h1_plot, self.coherence_plot, self.spectrum_plot):
             plot.getPlotItem().setLogMode(x=log_x)
+            plot.getPlotItem().vb.autoRange()  # the old range in the new coordinates would be 10^6400 Hz wide
         self._on_frf(self.controller.frf)
         entry = next((e for e in self.controller.hits if e.index == self.selected_index()), None)
         if entry is not None:

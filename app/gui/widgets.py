@@ -68,6 +68,13 @@ def field_label(field_name: str) -> str:
     return f"{words} ({unit})" if unit else words
 
 
+def sensible_decimals(typical: float) -> int:
+    """Decimals that show three significant digits of a value like ``typical`` (1 to 6)."""
+    if not typical or not np.isfinite(typical):
+        return 2
+    return int(min(6, max(1, 2 - np.floor(np.log10(abs(typical))))))
+
+
 class Banner(QFrame):
     """A non-modal message strip above the tabs: device faults, refused settings, finished jobs."""
 
@@ -176,7 +183,7 @@ class DataclassForm(QWidget):
             editor.valueChanged.connect(self.changed)
         elif isinstance(default, float):
             editor = QDoubleSpinBox()
-            editor.setDecimals(6)
+            editor.setDecimals(sensible_decimals(default))
             editor.setRange(-1e9, 1e9)
             editor.setStepType(QDoubleSpinBox.StepType.AdaptiveDecimalStepType)
             editor.setValue(default)
