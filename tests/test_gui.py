@@ -86,9 +86,10 @@ def test_full_hammer_session_through_the_gui(qtbot, window, tmp_path):
     # FRF and coherence shown
     window.tabs.setCurrentWidget(window.frf_tab)
     frf = controller.frf
-    shown_freq, shown_magnitude = window.frf_tab.h1_curve.xData, window.frf_tab.h1_curve.yData
+    inside, outside = window.frf_tab.h1_curve, window.frf_tab.h1_outside_curve  # outside: grey, force too low
+    shown_magnitude = np.concatenate((inside.yData, outside.yData))
     np.testing.assert_allclose(shown_magnitude, np.abs(frf.h1[frf.freq_hz > 0]))
-    shown_coherence = window.frf_tab.coherence_curve.yData
+    shown_freq, shown_coherence = window.frf_tab.coherence_curve.xData, window.frf_tab.coherence_curve.yData
     band = (shown_freq >= 20) & (shown_freq <= 800)
     assert np.mean(shown_coherence[band]) > 0.9
 
