@@ -206,7 +206,7 @@ class SetupTab(QWidget):
         for column in ("Name", "Sensor", "Units"):
             header.setSectionResizeMode(_COLUMNS.index(column), QHeaderView.ResizeMode.Stretch)
         rows = sum(self.table.rowHeight(row) for row in range(self.table.rowCount()))
-        self.table.setMinimumHeight(header.sizeHint().height() + rows + 2 * self.table.frameWidth() + 2)
+        self.table.setFixedHeight(header.sizeHint().height() + rows + 2 * self.table.frameWidth() + 2)
         self.table.setMinimumWidth(sum(self.table.columnWidth(c) for c in range(self.table.columnCount())))
 
     # --- state in and out ------------------------------------------------------------------------------------------
