@@ -1,15 +1,8 @@
-"""The technician's GUI driven like a person would, on the simulated rig (Qt offscreen, pytest-qt).
-
-Realtime pacing at 3200 S/s with 0.5 s records keeps a whole hammer session within seconds.
-"""
-
-import os
-
-os.environ.setdefault("QT_QPA_PLATFORM", "offscreen")
+"""The technician's GUI driven like a person would, on the simulated rig (Qt offscreen, pytest-qt)."""
 
 import numpy as np
 import pytest
-from PySide6.QtCore import QSettings, Qt
+from PySide6.QtCore import Qt
 
 from gasfilm.analysis.session import Session
 from gasfilm.app.gui.main_window import MainWindow
@@ -17,48 +10,18 @@ from gasfilm.app.gui.sensors import DEFAULT_SENSOR_LIBRARY, load_sensor_library
 from gasfilm.app.gui.settings import load_setup
 from gasfilm.drivers.errors import SettingError
 from gasfilm.drivers.interface import ChannelKind
-
-SAMPLE_RATE_HZ = 51200.0 / 16
-RECORD_S = 0.5
-
-
-def _settings(tmp_path) -> QSettings:
-    return QSettings(str(tmp_path / "gui-settings.ini"), QSettings.Format.IniFormat)
+from gui_driving import arm as _arm
+from gui_driving import gui_settings as _settings
+from gui_driving import hit as _hit
+from gui_driving import open_window
+from gui_driving import stop as _stop
 
 
 @pytest.fixture
 def window(qtbot, tmp_path):
-    main = MainWindow(_settings(tmp_path), session_dir=tmp_path / "sessions")
-    qtbot.addWidget(main)
-    state = main.setup_tab.state()
-    state.device = "sim"
-    state.sample_rate_hz = SAMPLE_RATE_HZ
-    state.trigger = {**state.trigger, "record_s": RECORD_S, "pretrigger_s": 0.01}
-    state.window = {**state.window, "force_window_ms": None, "exponential_end_fraction": None}
-    state.sim_auto_hammer = False
-    state.auto_accept = True
-    state.auto_reject = True
-    main.setup_tab.set_state(state)
-    main.show()
+    main = open_window(qtbot, tmp_path)
     yield main
     main.controller.shutdown()
-
-
-def _arm(qtbot, window) -> None:
-    qtbot.mouseClick(window.measure_tab.arm_button, Qt.MouseButton.LeftButton)
-    qtbot.waitUntil(lambda: window.controller.state == "armed", timeout=10_000)
-
-
-def _hit(qtbot, window, tip: str = "medium") -> None:
-    controller = window.controller
-    before = len(controller.hits)
-    qtbot.mouseClick(window.measure_tab.hammer_buttons[tip], Qt.MouseButton.LeftButton)
-    qtbot.waitUntil(lambda: len(controller.hits) == before + 1, timeout=10_000)
-
-
-def _stop(qtbot, window) -> None:
-    qtbot.mouseClick(window.measure_tab.stop_button, Qt.MouseButton.LeftButton)
-    qtbot.waitUntil(lambda: window.controller.state == "idle", timeout=10_000)
 
 
 def test_full_hammer_session_through_the_gui(qtbot, window, tmp_path):

@@ -5,13 +5,10 @@ Driven on the simulated rig with Qt offscreen (pytest-qt), like tests/test_gui.p
 """
 
 import dataclasses
-import os
-
-os.environ.setdefault("QT_QPA_PLATFORM", "offscreen")
 
 import numpy as np
 import pytest
-from PySide6.QtCore import QSettings, Qt, QTimer
+from PySide6.QtCore import Qt, QTimer
 
 from gasfilm.analysis.physics.spec import RigSpec
 from gasfilm.analysis.session import Session
@@ -20,52 +17,19 @@ from gasfilm.app.gui.sensors import load_sensor_library
 from gasfilm.app.gui.settings import SETTINGS_KEY, SetupState
 from gasfilm.app.gui.workers import PENDING_REASON
 from gasfilm.drivers.errors import SettingError
-
-SAMPLE_RATE_HZ = 51200.0 / 16
-RECORD_S = 0.5
-
-
-def _settings(tmp_path) -> QSettings:
-    return QSettings(str(tmp_path / "gui-settings.ini"), QSettings.Format.IniFormat)
-
-
-def _configure(main: MainWindow, **changes) -> None:
-    state = main.setup_tab.state()
-    state.device = "sim"
-    state.sample_rate_hz = SAMPLE_RATE_HZ
-    state.trigger = {**state.trigger, "record_s": RECORD_S, "pretrigger_s": 0.01}
-    state.window = {**state.window, "force_window_ms": None, "exponential_end_fraction": None}
-    state.sim_auto_hammer = False
-    for name, value in changes.items():
-        setattr(state, name, value)
-    main.setup_tab.set_state(state)
+from gui_driving import arm as _arm
+from gui_driving import configure as _configure
+from gui_driving import gui_settings as _settings
+from gui_driving import hit as _hit
+from gui_driving import open_window
+from gui_driving import stop as _stop
 
 
 @pytest.fixture
 def window(qtbot, tmp_path):
-    main = MainWindow(_settings(tmp_path), session_dir=tmp_path / "sessions")
-    qtbot.addWidget(main)
-    _configure(main)
-    main.show()
+    main = open_window(qtbot, tmp_path)
     yield main
     main.controller.shutdown()
-
-
-def _arm(qtbot, window) -> None:
-    qtbot.mouseClick(window.measure_tab.arm_button, Qt.MouseButton.LeftButton)
-    qtbot.waitUntil(lambda: window.controller.state == "armed", timeout=10_000)
-
-
-def _hit(qtbot, window, tip: str = "medium") -> None:
-    controller = window.controller
-    before = len(controller.hits)
-    qtbot.mouseClick(window.measure_tab.hammer_buttons[tip], Qt.MouseButton.LeftButton)
-    qtbot.waitUntil(lambda: len(controller.hits) == before + 1, timeout=10_000)
-
-
-def _stop(qtbot, window) -> None:
-    qtbot.mouseClick(window.measure_tab.stop_button, Qt.MouseButton.LeftButton)
-    qtbot.waitUntil(lambda: window.controller.state == "idle", timeout=10_000)
 
 
 def _answer_dialog_with(qtbot, window, button_text: str) -> list[str]:
@@ -94,6 +58,7 @@ def test_trigger_level_force_spectrum_usable_band_and_overlay_after_hits(qtbot, 
     controller.new_session(tmp_path / "spectrum.h5")
     _arm(qtbot, window)
     assert tab.trigger_line.isVisible() and tab.trigger_line.value() == pytest.approx(20.0)
+    assert tab.trigger_line.label.toPlainText() == "trigger 20 N"
     for tip in ("medium", "medium", "soft"):
         _hit(qtbot, window, tip)
     _stop(qtbot, window)
@@ -203,10 +168,7 @@ def test_rearm_after_a_rig_change_records_a_new_session_and_hit_times_continue(q
 
 
 def test_quit_with_pending_hits_asks_and_never_stores_them_as_accepted(qtbot, tmp_path):
-    main = MainWindow(_settings(tmp_path), session_dir=tmp_path / "sessions")
-    qtbot.addWidget(main)
-    _configure(main, auto_accept=False)
-    main.show()
+    main = open_window(qtbot, tmp_path, auto_accept=False)
     path = tmp_path / "pending.h5"
     main.controller.new_session(path)
     _arm(qtbot, main)

@@ -97,6 +97,8 @@ class IdentifyTab(QWidget):
         self.parameters.setHorizontalHeaderLabels(("Parameter", "Value", "Std error", "Unit"))
         self.parameters.verticalHeader().setVisible(False)
         self.parameters.setEditTriggers(QAbstractItemView.EditTrigger.NoEditTriggers)
+        for table in (self.table, self.parameters):  # compact rows: Table 2's nine models show without scrolling
+            table.verticalHeader().setDefaultSectionSize(22)
         self.flags_label = QLabel()
         self.flags_label.setWordWrap(True)
         table_box = QWidget()
@@ -138,7 +140,7 @@ class IdentifyTab(QWidget):
         splitter = QSplitter(Qt.Orientation.Horizontal)
         splitter.addWidget(left_box)
         splitter.addWidget(right)
-        splitter.setSizes([300, 1000])
+        splitter.setSizes([370, 1100])  # the model names whole at the window's default size
         QVBoxLayout(self).addWidget(splitter)
 
         self.run_button.clicked.connect(self.run_fits)

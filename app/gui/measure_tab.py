@@ -59,6 +59,16 @@ OVERLAY_PULSE_MS = (-2.0, 10.0)  # force pulses are overlaid from 2 ms before to
 _HIT_COLUMNS = ("Hit", "Time (s)", "Peak force (N)", "Verdict", "Reasons")
 
 
+def stacked(*widgets: QWidget) -> QWidget:
+    """The widgets one above the other, without margins."""
+    box = QWidget()
+    layout = QVBoxLayout(box)
+    layout.setContentsMargins(0, 0, 0, 0)
+    for widget in widgets:
+        layout.addWidget(widget, 0 if isinstance(widget, QLabel) else 1)
+    return box
+
+
 def verdict_text(entry: HitEntry) -> tuple[str, str]:
     if entry.pending:
         return "pending", PENDING_COLOR
@@ -128,11 +138,7 @@ class MeasureTab(QWidget):
         self.trigger_line.setVisible(False)
         self.force_plot.addItem(self.trigger_line, ignoreBounds=True)
         self._live_curves: list[pg.PlotDataItem] = []
-        live = QWidget()
-        live_layout = QVBoxLayout(live)
-        live_layout.setContentsMargins(0, 0, 0, 0)
-        live_layout.addWidget(self.force_plot)
-        live_layout.addWidget(self.response_plot)
+        live = stacked(self.force_plot, self.response_plot)
 
         self.hit_table = QTableWidget(0, len(_HIT_COLUMNS))
         self.hit_table.setHorizontalHeaderLabels(_HIT_COLUMNS)
@@ -207,11 +213,7 @@ class MeasureTab(QWidget):
         self.spectrum_plot.setYRange(-45, 5)
         self.spectrum_label = QLabel()
         self.spectrum_label.setWordWrap(True)
-        spectrum_page = QWidget()
-        spectrum_layout = QVBoxLayout(spectrum_page)
-        spectrum_layout.setContentsMargins(0, 0, 0, 0)
-        spectrum_layout.addWidget(self.spectrum_plot, 1)
-        spectrum_layout.addWidget(self.spectrum_label)
+        spectrum_page = stacked(self.spectrum_plot, self.spectrum_label)
 
         self.overlay_force_plot = make_plot(
             "Accepted hits: force pulses", ("Force", "N"), ("Time from trigger", "s"), legend=False
@@ -220,11 +222,7 @@ class MeasureTab(QWidget):
             "Accepted hits: responses", ("Acceleration", "m/s²"), ("Time from trigger", "s"), legend=False
         )
         self._overlay_curves: list[pg.PlotDataItem] = []
-        overlay_page = QWidget()
-        overlay_layout = QVBoxLayout(overlay_page)
-        overlay_layout.setContentsMargins(0, 0, 0, 0)
-        overlay_layout.addWidget(self.overlay_force_plot)
-        overlay_layout.addWidget(self.overlay_response_plot)
+        overlay_page = stacked(self.overlay_force_plot, self.overlay_response_plot)
 
         self.hit_views = QTabWidget()
         self.hit_views.addTab(self.hit_plot, "Selected hit")
@@ -303,10 +301,8 @@ class MeasureTab(QWidget):
             self._live_curves.append(curve)
         for plot in (self.force_plot, self.response_plot):
             plot.getPlotItem().legend.setVisible(True)
-        level_n = self.controller.running_trigger().level_n
-        self.trigger_line.setValue(level_n)
-        self.trigger_line.label.setFormat(f"trigger {level_n:g} N")
-        self.trigger_line.setVisible(True)
+        self.trigger_line.setVisible(True)  # first: a hidden line's label does not follow its value
+        self.trigger_line.setValue(self.controller.running_trigger().level_n)
         self.force_plot.setXRange(-self.controller.setup.live_view_s, 0.0, padding=0.0)
         self.redraw_count = 0
         self.redraw_seconds = 0.0

@@ -195,6 +195,9 @@ class SetupTab(QWidget):
         self.rig_path.editingFinished.connect(self._emit_changed)
 
         self.refresh_devices()
+        header = self.table.horizontalHeader()
+        for column in ("Name", "Sensor", "Units"):
+            header.setSectionResizeMode(_COLUMNS.index(column), QHeaderView.ResizeMode.Stretch)
         self.set_state(state)
         self._fit_table_to_rows()
 
@@ -203,8 +206,6 @@ class SetupTab(QWidget):
         header = self.table.horizontalHeader()
         self.table.resizeColumnsToContents()
         self.table.resizeRowsToContents()
-        for column in ("Name", "Sensor", "Units"):
-            header.setSectionResizeMode(_COLUMNS.index(column), QHeaderView.ResizeMode.Stretch)
         rows = sum(self.table.rowHeight(row) for row in range(self.table.rowCount()))
         self.table.setFixedHeight(header.sizeHint().height() + rows + 2 * self.table.frameWidth() + 2)
         self.table.setMinimumWidth(sum(self.table.columnWidth(c) for c in range(self.table.columnCount())))
@@ -274,34 +275,21 @@ class SetupTab(QWidget):
 
     # --- channel table ---------------------------------------------------------------------------------------------
 
-    def _fill_row(self, row: int, channel: ChannelSetup) -> None:
-        use = QCheckBox()
-        use.setChecked(channel.enabled)
-        name = QLineEdit(channel.name)
+    def _create_row(self, row: int) -> None:
+        """The editors of one channel row, made once and reused by every :meth:`set_state`."""
+        coupling = QComboBox()
+        coupling.addItems([c.value for c in Coupling])
         kind = QComboBox()
         for member in ChannelKind:
             kind.addItem(member.value, member.value)
-        kind.setCurrentIndex(kind.findData(channel.kind))
-        sensor = QComboBox()
         sensitivity = QDoubleSpinBox()
         sensitivity.setDecimals(3)
         sensitivity.setRange(0.0, 100_000.0)
-        sensitivity.setValue(channel.sensitivity)
-        units = QComboBox()
-        iepe = QCheckBox()
-        iepe.setChecked(channel.iepe)
-        coupling = QComboBox()
-        coupling.addItems([c.value for c in Coupling])
-        coupling.setCurrentText(channel.coupling)
-        widgets = (use, None, name, kind, sensor, sensitivity, units, iepe, coupling)
-        for column, widget in enumerate(widgets):
-            if widget is not None:
-                self.table.setCellWidget(row, column, widget)
-        label = QLabel(channel.physical_channel)
+        label = QLabel()
         label.setAlignment(Qt.AlignmentFlag.AlignCenter)
-        self.table.setCellWidget(row, 1, label)
-        self._fill_sensor_choices(row, channel.kind, channel.sensor_model)
-        self._fill_units(row, channel.kind, channel.units)
+        use, name, sensor, units, iepe = QCheckBox(), QLineEdit(), QComboBox(), QComboBox(), QCheckBox()
+        for column, widget in enumerate((use, label, name, kind, sensor, sensitivity, units, iepe, coupling)):
+            self.table.setCellWidget(row, column, widget)
         use.toggled.connect(lambda _=False: self._channels_changed())
         name.editingFinished.connect(self._emit_changed)
         kind.currentIndexChanged.connect(lambda _=0, r=row: self._kind_changed(r))
@@ -310,7 +298,24 @@ class SetupTab(QWidget):
         units.currentIndexChanged.connect(lambda _=0, r=row: self._typed_in(r))
         iepe.toggled.connect(self._emit_changed)
         coupling.currentIndexChanged.connect(self._emit_changed)
-        self.table.resizeColumnsToContents()
+
+    def _fill_row(self, row: int, channel: ChannelSetup) -> None:
+        if self.table.cellWidget(row, 0) is None:
+            self._create_row(row)
+        cells = {column: self.channel_cell(row, column) for column in _COLUMNS}
+        for widget in cells.values():
+            widget.blockSignals(True)
+        cells["Use"].setChecked(channel.enabled)
+        cells["Channel"].setText(channel.physical_channel)
+        cells["Name"].setText(channel.name)
+        cells["Type"].setCurrentIndex(max(0, cells["Type"].findData(channel.kind)))
+        cells["Sensitivity"].setValue(channel.sensitivity)
+        cells["IEPE"].setChecked(channel.iepe)
+        cells["Coupling"].setCurrentText(channel.coupling)
+        for widget in cells.values():
+            widget.blockSignals(False)
+        self._fill_sensor_choices(row, channel.kind, channel.sensor_model)
+        self._fill_units(row, channel.kind, channel.units)
 
     def channel_cell(self, row: int, column: str) -> QWidget:
         return self.table.cellWidget(row, _COLUMNS.index(column))
