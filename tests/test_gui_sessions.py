@@ -116,6 +116,9 @@ def test_target_averages_stop_the_acquisition(qtbot, window, tmp_path):
     _hit(qtbot, window)
     qtbot.waitUntil(lambda: controller.state == "idle", timeout=10_000)
     assert ("info", "target of 2 averages reached: acquisition stopped") in window.banner.history
+    # Session ▸ Write a report: the same report as `gasfilm report`
+    report = window.write_report(tmp_path / "target-report")
+    assert report.suffix == ".html" and "Hits: 2 accepted of 2" in report.read_text(encoding="utf-8")
 
 
 def test_identify_and_diagnose_are_refused_while_armed_with_a_reason(qtbot, window, tmp_path):

@@ -35,6 +35,7 @@ from gasfilm.app.gui.workers import (
     AcquisitionWorker,
     BackgroundJob,
     HitEntry,
+    pending_verdict,
     start_on_thread,
 )
 from gasfilm.drivers import SIMULATED_DEVICE_NAME
@@ -413,8 +414,9 @@ class SessionController(QObject):
             entry.automatic = automatic
             if not entry.verdict.overridden:
                 entry.verdict = automatic
+                stored = pending_verdict(automatic) if entry.pending else automatic  # a waiting hit still waits
                 if self.session is not None and self.session.writable:
-                    self.session.set_verdict(entry.index, automatic)
+                    self.session.set_verdict(entry.index, stored)
         self.hits_reset.emit()
         self.update_running_frf()
         self.message.emit(
