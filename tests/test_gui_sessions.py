@@ -14,7 +14,7 @@ from gasfilm.analysis.physics.spec import RigSpec
 from gasfilm.analysis.session import Session
 from gasfilm.app.gui.main_window import DEFAULT_WINDOW_SIZE, MainWindow
 from gasfilm.app.gui.sensors import load_sensor_library
-from gasfilm.app.gui.settings import SETTINGS_KEY, SetupState
+from gasfilm.app.gui.settings import SETTINGS_KEY, SetupState, load_setup
 from gasfilm.app.gui.workers import PENDING_REASON
 from gasfilm.drivers.errors import SettingError
 from gui_driving import arm as _arm
@@ -220,21 +220,32 @@ def test_quit_with_pending_hits_asks_and_never_stores_them_as_accepted(qtbot, tm
         '{"channels": [{"physical_channel": "ai0", "kind": "pressure"}]}',
     ],
 )
-def test_damaged_stored_settings_start_with_defaults_and_a_banner(qtbot, tmp_path, stored):
+def test_damaged_stored_settings_give_the_defaults_and_one_line(tmp_path, stored):
     settings = _settings(tmp_path)
     settings.setValue(SETTINGS_KEY, stored)
+    settings.sync()
+    state, problem = load_setup(_settings(tmp_path))
+    assert state == SetupState()
+    assert "damaged" in problem and "gui-settings.ini" in problem and "\n" not in problem
+
+
+def test_the_window_starts_on_damaged_settings_with_a_banner(qtbot, tmp_path):
+    settings = _settings(tmp_path)
+    settings.setValue(SETTINGS_KEY, '{"channels": [{"physical_channel": "ai0", "sensitivity": "high"}]}')
     settings.sync()
     main = MainWindow(_settings(tmp_path), session_dir=tmp_path)
     qtbot.addWidget(main)
     main.show()
     assert main.banner.isVisible() and main.banner.severity == "warning"
-    assert "damaged" in main.banner.text and "gui-settings.ini" in main.banner.text and "\n" not in main.banner.text
+    assert "damaged" in main.banner.text and "channels[0].sensitivity" in main.banner.text
     defaults = SetupState()
     state = main.setup_tab.state()
-    assert (state.sample_rate_hz, state.trigger["level_n"], state.channels[0].sensitivity) == (
-        defaults.sample_rate_hz, 20.0, defaults.channels[0].sensitivity
+    assert (state.channels, state.sample_rate_hz, state.trigger["level_n"]) == (
+        defaults.channels, defaults.sample_rate_hz, defaults.trigger["level_n"]
     )
-    main.close()
+    main.close()  # the defaults are stored: the next start is clean
+    state, problem = load_setup(_settings(tmp_path))
+    assert problem == "" and state.channels == defaults.channels
 
 
 @pytest.mark.parametrize(
