@@ -312,15 +312,16 @@ def _diagnosis_html(diagnosis: dict[str, Any] | None) -> str:
     if findings:
         rows = []
         for finding in findings:
-            band = finding.get("band_hz", ["?", "?"])
+            band = finding.get("band_hz") or ["?", "?"]
+            where = finding.get("where") or f"{band[0]}–{band[1]} Hz"
             values = "; ".join(
                 f"{name} = {entry.get('value', '?'):.4g} ± {entry.get('uncertainty', float('nan')):.2g} "
                 f"{entry.get('unit', '')}"
                 if isinstance(entry, dict) and isinstance(entry.get("value"), (int, float)) else f"{name} = {entry}"
                 for name, entry in (finding.get("parameters") or {}).items()
             )
-            rows.append((finding.get("effect", "?"), f"{band[0]}–{band[1]} Hz", values, finding.get("evidence", "")))
-        parts.append(_table(("Effect", "Band", "Parameters", "Evidence"), rows))
+            rows.append((finding.get("effect", "?"), where, values, finding.get("evidence", "")))
+        parts.append(_table(("Effect", "Where", "Parameters", "Evidence"), rows))
     else:
         parts.append("<p>No missing physics found.</p>")
     recalibration = diagnosis.get("recalibration") or {}
