@@ -76,6 +76,8 @@ def test_full_hammer_session_through_the_gui(qtbot, window, tmp_path):
     shown_h1 = frf.h1.copy()
     shown_coherence_all = frf.coherence.copy()
     assert controller.save_session() == session_path
+    report = window.write_report(tmp_path / "hammer-report.html").read_text(encoding="utf-8")
+    assert "Verdict: <b>" in report and controller.diagnosis.verdict in report and "<td>FOMGF</td>" in report
     assert window.diagnose_tab.play_button.isEnabled()
     qtbot.mouseClick(window.diagnose_tab.play_button, Qt.MouseButton.LeftButton)
     qtbot.waitUntil(lambda: controller.state == "armed", timeout=10_000)
