@@ -10,6 +10,7 @@ from PySide6.QtGui import QAction, QCloseEvent, QKeySequence
 from PySide6.QtWidgets import (
     QApplication,
     QFileDialog,
+    QGridLayout,
     QLabel,
     QMainWindow,
     QMessageBox,
@@ -85,7 +86,13 @@ class MainWindow(QMainWindow):
         central = QWidget()
         layout = QVBoxLayout(central)
         layout.setContentsMargins(6, 6, 6, 6)
-        layout.addWidget(self.banner)
+        # The banner's row is kept while no message shows (nothing shifts when one arrives); a quiet hint fills it.
+        banner_row = QGridLayout()
+        hint = QLabel("Device faults, refused settings and finished jobs are reported here.")
+        hint.setStyleSheet("QLabel { color: #888888; padding-left: 10px; }")
+        banner_row.addWidget(hint, 0, 0)
+        banner_row.addWidget(self.banner, 0, 0)
+        layout.addLayout(banner_row)
         layout.addWidget(self.tabs, 1)
         self.setCentralWidget(central)
 
