@@ -365,8 +365,6 @@ def session_frf(hits: Sequence[Any], window: WindowSettings = WindowSettings()) 
     return accumulator.result()
 
 
-#: The former name of :func:`session_frf`, still imported by app/gui until it adds hits to a :class:`FrfAccumulator`.
-frf_from_hits = session_frf
 
 
 FRF_CSV_COLUMNS = (

@@ -1,15 +1,8 @@
-"""The technician's GUI driven like a person would, on the simulated rig (Qt offscreen, pytest-qt).
-
-Realtime pacing at 3200 S/s with 0.5 s records keeps a whole hammer session within seconds.
-"""
-
-import os
-
-os.environ.setdefault("QT_QPA_PLATFORM", "offscreen")
+"""The technician's GUI driven like a person would, on the simulated rig (Qt offscreen, pytest-qt)."""
 
 import numpy as np
 import pytest
-from PySide6.QtCore import QSettings, Qt
+from PySide6.QtCore import Qt
 
 from gasfilm.analysis.session import Session
 from gasfilm.app.gui.main_window import MainWindow
@@ -17,48 +10,18 @@ from gasfilm.app.gui.sensors import DEFAULT_SENSOR_LIBRARY, load_sensor_library
 from gasfilm.app.gui.settings import load_setup
 from gasfilm.drivers.errors import SettingError
 from gasfilm.drivers.interface import ChannelKind
-
-SAMPLE_RATE_HZ = 51200.0 / 16
-RECORD_S = 0.5
-
-
-def _settings(tmp_path) -> QSettings:
-    return QSettings(str(tmp_path / "gui-settings.ini"), QSettings.Format.IniFormat)
+from gui_driving import arm as _arm
+from gui_driving import gui_settings as _settings
+from gui_driving import hit as _hit
+from gui_driving import open_window
+from gui_driving import stop as _stop
 
 
 @pytest.fixture
 def window(qtbot, tmp_path):
-    main = MainWindow(_settings(tmp_path), session_dir=tmp_path / "sessions")
-    qtbot.addWidget(main)
-    state = main.setup_tab.state()
-    state.device = "sim"
-    state.sample_rate_hz = SAMPLE_RATE_HZ
-    state.trigger = {**state.trigger, "record_s": RECORD_S, "pretrigger_s": 0.01}
-    state.window = {**state.window, "force_window_ms": None, "exponential_end_fraction": None}
-    state.sim_auto_hammer = False
-    state.auto_accept = True
-    state.auto_reject = True
-    main.setup_tab.set_state(state)
-    main.show()
+    main = open_window(qtbot, tmp_path)
     yield main
     main.controller.shutdown()
-
-
-def _arm(qtbot, window) -> None:
-    qtbot.mouseClick(window.measure_tab.arm_button, Qt.MouseButton.LeftButton)
-    qtbot.waitUntil(lambda: window.controller.state == "armed", timeout=10_000)
-
-
-def _hit(qtbot, window, tip: str = "medium") -> None:
-    controller = window.controller
-    before = len(controller.hits)
-    qtbot.mouseClick(window.measure_tab.hammer_buttons[tip], Qt.MouseButton.LeftButton)
-    qtbot.waitUntil(lambda: len(controller.hits) == before + 1, timeout=10_000)
-
-
-def _stop(qtbot, window) -> None:
-    qtbot.mouseClick(window.measure_tab.stop_button, Qt.MouseButton.LeftButton)
-    qtbot.waitUntil(lambda: window.controller.state == "idle", timeout=10_000)
 
 
 def test_full_hammer_session_through_the_gui(qtbot, window, tmp_path):
@@ -86,9 +49,10 @@ def test_full_hammer_session_through_the_gui(qtbot, window, tmp_path):
     # FRF and coherence shown
     window.tabs.setCurrentWidget(window.frf_tab)
     frf = controller.frf
-    shown_freq, shown_magnitude = window.frf_tab.h1_curve.xData, window.frf_tab.h1_curve.yData
+    inside, outside = window.frf_tab.h1_curve, window.frf_tab.h1_outside_curve  # outside: grey, force too low
+    shown_magnitude = np.concatenate((inside.yData, outside.yData))
     np.testing.assert_allclose(shown_magnitude, np.abs(frf.h1[frf.freq_hz > 0]))
-    shown_coherence = window.frf_tab.coherence_curve.yData
+    shown_freq, shown_coherence = window.frf_tab.coherence_curve.xData, window.frf_tab.coherence_curve.yData
     band = (shown_freq >= 20) & (shown_freq <= 800)
     assert np.mean(shown_coherence[band]) > 0.9
 
@@ -112,12 +76,17 @@ def test_full_hammer_session_through_the_gui(qtbot, window, tmp_path):
     shown_h1 = frf.h1.copy()
     shown_coherence_all = frf.coherence.copy()
     assert controller.save_session() == session_path
+    report = window.write_report(tmp_path / "hammer-report.html").read_text(encoding="utf-8")
+    assert "Verdict: <b>" in report and controller.diagnosis.verdict in report and "<td>FOMGF</td>" in report
     assert window.diagnose_tab.play_button.isEnabled()
     qtbot.mouseClick(window.diagnose_tab.play_button, Qt.MouseButton.LeftButton)
     qtbot.waitUntil(lambda: controller.state == "armed", timeout=10_000)
     assert controller.session_path != session_path
-    assert controller.setup.rig_spec_path.endswith("-improved-rig.toml")
-    assert window.setup_tab.state().rig_spec_path == controller.setup.rig_spec_path
+    # the improved spec plays in the new session only: the Setup tab and the saved setup keep their rig spec (issue 10.7)
+    improved = (session_path.parent / f"{session_path.stem}-improved-rig.toml").read_text()
+    assert controller.session.rig_spec_toml == improved
+    assert controller.setup.rig_spec_path == window.setup_tab.state().rig_spec_path == ""
+    assert load_setup(window.settings)[0].rig_spec_path == ""
     _hit(qtbot, window)
     _stop(qtbot, window)
 
@@ -218,7 +187,7 @@ def test_setup_is_remembered_between_runs(qtbot, tmp_path):
     assert remembered.trigger["level_n"] == 35.0
     assert remembered.channels[2].enabled and remembered.channels[2].sensor_model == "PCB 352C33"
     assert remembered.response_channel == "ai2"
-    assert load_setup(_settings(tmp_path)) == remembered
+    assert load_setup(_settings(tmp_path)) == (remembered, "")
     second.close()
 
 

@@ -12,7 +12,7 @@ import scipy.signal
 from pyFRF import FRF
 
 from gasfilm.analysis.capture import HitRecord, ImpactCapture, TriggerSettings
-from gasfilm.analysis.spectra import WindowSettings, compute_frf, frf_from_hits
+from gasfilm.analysis.spectra import WindowSettings, compute_frf, session_frf
 from gasfilm.analysis.validation import ValidationSettings, validate_hit
 
 FIXTURE = Path(__file__).resolve().parents[1] / "fixtures" / "real-data" / "pyfrf-5-hits"
@@ -64,7 +64,7 @@ def test_capture_finds_exactly_the_five_hits(measured, chunk_sizes):
     for record, original in zip(records, measured):
         # every hit triggers at the same sample of its recording, so the capture gives back the recording itself
         np.testing.assert_array_equal(record.data, original)
-    np.testing.assert_array_equal(frf_from_hits(records).h1, compute_frf(measured, FS_HZ).h1)
+    np.testing.assert_array_equal(session_frf(records).h1, compute_frf(measured, FS_HZ).h1)
 
 
 def test_validation_accepts_the_real_hits_and_flags_truncated_ones_honestly(measured):

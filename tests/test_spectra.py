@@ -12,7 +12,7 @@ from gasfilm.analysis.spectra import (
     compute_frf,
     exponential_window,
     force_window,
-    frf_from_hits,
+    session_frf,
     remove_window_damping,
 )
 from gasfilm.analysis.capture import HitRecord, ImpactCapture, TriggerSettings
@@ -112,7 +112,7 @@ def test_frf_from_hits_uses_each_hits_channels():
         HitRecord(i, np.stack((np.zeros(128), r[1], r[0])), fs, 10, 0.0, np.zeros(3, bool), 2, 1)
         for i, r in enumerate(records)
     ]
-    np.testing.assert_array_equal(frf_from_hits(hits).h1, compute_frf(records, fs).h1)
+    np.testing.assert_array_equal(session_frf(hits).h1, compute_frf(records, fs).h1)
 
 
 def levy_sd_fit(freq_hz, h):
@@ -179,7 +179,7 @@ def test_simulated_rig_through_capture_and_windows_gives_the_windowed_acceleranc
     assert len(hits) >= 10
     assert all(validate_hit(hit).reasons == ("response not decayed",) for hit in hits)  # 0.05 s is too short ...
     assert all(validate_hit(hit, window=window).accepted for hit in hits)  # ... unless windowed
-    result = frf_from_hits(hits, window)
+    result = session_frf(hits, window)
     band = (result.freq_hz >= 20) & (result.freq_hz <= 1500)  # below the first zero of the 0.8 ms pulse's spectrum
     model = accelerance(SD, SD_PARAMS, result.freq_hz[band], MASS_KG, decay_rate_1_s=result.decay_rate_1_s)
     assert np.max(np.abs(np.abs(result.h1[band]) / np.abs(model) - 1)) < 0.01

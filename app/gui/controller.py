@@ -8,12 +8,13 @@ from __future__ import annotations
 
 import dataclasses
 import datetime
+import logging
 import shutil
 from pathlib import Path
 from typing import Any, Sequence
 
 import numpy as np
-from PySide6.QtCore import QObject, QStandardPaths, QThread, Signal
+from PySide6.QtCore import QCoreApplication, QEvent, QObject, QStandardPaths, QThread, Signal
 
 from gasfilm.analysis.acquisition import AcquisitionLoop
 from gasfilm.analysis.capture import TriggerSettings
@@ -22,17 +23,20 @@ from gasfilm.analysis.diagnosis.plots import write_outputs
 from gasfilm.analysis.identification import compare_models, fit_model
 from gasfilm.analysis.physics.elements import get_model
 from gasfilm.analysis.physics.spec import RigSpec
-from gasfilm.analysis.session import Session
-from gasfilm.analysis.spectra import FrfResult, WindowSettings, frf_from_hits, write_frf_csv
+from gasfilm.analysis.report import usable_band_hz
+from gasfilm.analysis.session import Session, to_jsonable
+from gasfilm.analysis.spectra import FrfAccumulator, FrfResult, WindowSettings, session_frf, write_frf_csv
 from gasfilm.analysis.uff import export_frf_uff
 from gasfilm.analysis.validation import ValidationSettings, Verdict, validate_hit
 from gasfilm.app.gui.settings import SetupState, settings_from_dict
 from gasfilm.app.gui.workers import (
+    PENDING_REASON,
     AcquisitionPlan,
     AcquisitionStats,
     AcquisitionWorker,
     BackgroundJob,
     HitEntry,
+    pending_verdict,
     start_on_thread,
 )
 from gasfilm.drivers import SIMULATED_DEVICE_NAME
@@ -40,6 +44,7 @@ from gasfilm.drivers.errors import GasfilmError, SettingError
 from gasfilm.drivers.interface import DaqConfig
 
 DEFAULT_FIT_BAND_HZ = (20.0, 800.0)
+logger = logging.getLogger(__name__)
 
 
 def default_session_dir() -> Path:
@@ -73,10 +78,10 @@ class SessionController(QObject):
     job_running = Signal(str, bool)  # job name ("fit" | "diagnose"), running
     message = Signal(str, str)  # text, severity ("error" | "warning" | "info")
     session_changed = Signal(str)  # path of the open session ('' for none)
-    setup_replaced = Signal(object)  # SetupState the controller chose (e.g. "play improved spec")
 
     # Signals into the acquisition worker (queued onto its thread).
     _decide = Signal(int, bool)
+    _hold = Signal(int, str)
     _virtual_hit = Signal(str)
     _inject_fault = Signal(str)
     _stop = Signal()
@@ -89,6 +94,7 @@ class SessionController(QObject):
         self.session_path: Path | None = None
         self.hits: list[HitEntry] = []
         self.frf: FrfResult | None = None
+        self._frf_sums: tuple[FrfAccumulator | None, list[int]] = (None, [])  # running sums and the hits in them
         self.fits: dict[str, Any] = {}
         self.comparison: list[Any] = []
         self.fit_band_hz: tuple[float, float] = DEFAULT_FIT_BAND_HZ
@@ -99,11 +105,13 @@ class SessionController(QObject):
         self._worker_thread: QThread | None = None
         self._jobs: dict[str, tuple[BackgroundJob, QThread]] = {}
         self._plan: AcquisitionPlan | None = None
+        self._armed_setup: SetupState = setup  # the setup of the running acquisition (Play may use another spec)
+        self._stream_end_s = 0.0  # session time where the last acquisition into the open session ended
 
     # --- settings --------------------------------------------------------------------------------------------------
 
-    def rig_spec(self) -> RigSpec:
-        path = self.setup.rig_spec_path
+    def rig_spec(self, setup: SetupState | None = None) -> RigSpec:
+        path = (setup or self.setup).rig_spec_path
         return RigSpec.load(path) if path else RigSpec.nominal("FOMGF")
 
     def trigger_settings(self) -> TriggerSettings:
@@ -131,42 +139,47 @@ class SessionController(QObject):
 
     # --- acquisition -----------------------------------------------------------------------------------------------
 
-    def arm(self) -> None:
-        """Start streaming with the current setup into the open session (a new one if the setup changed)."""
+    def arm(self, setup: SetupState | None = None) -> None:
+        """Start streaming into the open session, or a new one when the rig, device, channels, trigger or windows
+        differ from the session's (a session holds one configuration). ``setup`` replaces the Setup tab's for this
+        acquisition only."""
         if self.acquiring:
             return
+        setup = setup or self.setup
         try:
-            config = self.setup.daq_config()
+            config = setup.daq_config()
             plan = AcquisitionPlan(
-                device_name=self.setup.device,
+                device_name=setup.device,
                 config=config,
-                response_row=self.setup.response_row(config),
-                rig_spec=self.rig_spec(),
-                trigger=self.trigger_settings(),
-                validation=self.validation_settings(),
-                window=self.window_settings(),
-                auto_accept=self.setup.auto_accept,
-                auto_reject=self.setup.auto_reject,
-                sim_auto_hammer=self.setup.sim_auto_hammer,
-                sim_tip=self.setup.sim_tip,
-                sim_seed=self.setup.sim_seed,
-                ring_seconds=max(10.0, 2 * self.setup.live_view_s),
+                response_row=setup.response_row(config),
+                rig_spec=self.rig_spec(setup),
+                trigger=settings_from_dict(TriggerSettings, setup.trigger),
+                validation=settings_from_dict(ValidationSettings, setup.validation),
+                window=settings_from_dict(WindowSettings, setup.window),
+                auto_accept=setup.auto_accept,
+                auto_reject=setup.auto_reject,
+                sim_auto_hammer=setup.sim_auto_hammer,
+                sim_tip=setup.sim_tip,
+                sim_seed=setup.sim_seed,
+                ring_seconds=max(10.0, 2 * setup.live_view_s),
             )
             self._ensure_session(plan)
+            plan = dataclasses.replace(plan, time_offset_s=self._session_time_s())
         except GasfilmError as error:
             self.message.emit(str(error), "error")
             return
         self._plan = plan
+        self._armed_setup = setup
         worker = AcquisitionWorker(plan, self.session)
         worker.streaming.connect(self._on_streaming)
         worker.hit_recorded.connect(self._on_hit)
         worker.verdict_changed.connect(self._on_verdict)
-        worker.frf_updated.connect(self._on_frf)
         worker.trigger_state.connect(self._set_state)
         worker.channel_warning.connect(lambda text: self.message.emit(text, "warning"))
         worker.device_fault.connect(self._on_device_fault)
         worker.finished.connect(self._on_worker_finished)
         self._decide.connect(worker.decide)
+        self._hold.connect(worker.hold)
         self._virtual_hit.connect(worker.virtual_hit)
         self._inject_fault.connect(worker.inject_fault)
         self._stop.connect(worker.stop)
@@ -203,7 +216,7 @@ class SessionController(QObject):
         entry.pending = False
         self.session.set_verdict(index, entry.verdict)
         self.hit_changed.emit(entry)
-        self._recompute_frf()
+        self.update_running_frf()
 
     def live_samples(self, seconds: float) -> tuple[np.ndarray, np.ndarray] | None:
         """The newest ``seconds`` of every channel for the live view: (time_s, data (channels, samples))."""
@@ -215,18 +228,47 @@ class SessionController(QObject):
         time_s = (np.arange(end - data.shape[1], end)) / loop.sample_rate_hz
         return time_s, data
 
+    def running_trigger(self) -> TriggerSettings:
+        """The trigger of the running acquisition (else the Setup tab's)."""
+        return self._plan.trigger if self._plan is not None and self.acquiring else self.trigger_settings()
+
     def running_config(self) -> DaqConfig:
         """The channel setup being recorded (else the Setup tab's)."""
         return self._plan.config if self._plan is not None and self.acquiring else self.setup.daq_config()
 
+    def _session_differences(self, plan: AcquisitionPlan) -> list[str]:
+        """What of ``plan`` differs from the open session's configuration ([] when it may be appended to)."""
+        session = self.session
+        stored = session.settings
+        differences = []
+        if session.daq_config != plan.config:
+            differences.append("channels or sample rate")
+        if session.device_name != plan.device_name:
+            differences.append("device")
+        if (session.rig_spec_toml or "") != plan.rig_spec.to_toml():
+            differences.append("rig spec")
+        for key, value in (("trigger", plan.trigger), ("window", plan.window)):
+            if stored.get(key) != to_jsonable(value):
+                differences.append(f"{key} settings")
+        return differences
+
+    def _session_time_s(self) -> float:
+        """Where the next acquisition's time line starts in the open session (after every stored hit)."""
+        ends = [entry.record.start_time_s + entry.record.n_samples / entry.record.sample_rate_hz for entry in self.hits]
+        return max([self._stream_end_s, *ends])
+
     def _ensure_session(self, plan: AcquisitionPlan) -> None:
         if self.session is not None and self.session.writable and self.session.is_open:
-            if self.session.daq_config == plan.config:
+            differences = self._session_differences(plan)
+            if not differences:
                 return
             self.message.emit(
-                f"the channel setup differs from {self.session_path.name}; recording into a new session", "info"
+                f"the {', '.join(differences)} differ from {self.session_path.name}: recording into a new session "
+                f"(a session holds one configuration)",
+                "info",
             )
             self.close_session()
+            self.session_path = None
         path = self.session_path if self.session_path is not None and not self.session_path.exists() else None
         if path is None:
             self.session_dir.mkdir(parents=True, exist_ok=True)
@@ -242,6 +284,7 @@ class SessionController(QObject):
         self.session_path = path
         self._reset_results()
         self.session_changed.emit(str(path))
+        logger.info("recording into the new session %s", path)
 
     def _gui_settings(self) -> dict[str, Any]:
         return {
@@ -256,23 +299,48 @@ class SessionController(QObject):
 
     def _on_hit(self, entry: HitEntry) -> None:
         self.hits.append(entry)
+        hold_reason = self._coherence_hold_reason(entry)
+        if hold_reason:
+            entry.automatic = Verdict(False, entry.automatic.reasons + (hold_reason,))
+            entry.verdict = entry.automatic
+            entry.pending = True
+            self._hold.emit(entry.index, hold_reason)
         self.hit_added.emit(entry)
+        if entry.accepted:
+            self.update_running_frf()
+
+    def _coherence_hold_reason(self, entry: HitEntry) -> str:
+        """Why an automatically accepted hit should wait for the technician instead ('' when it may stay): with it,
+        the mean coherence in the usable band (from the fit band's lower edge) falls below the Setup tab's minimum."""
+        minimum = self._armed_setup.min_coherence
+        earlier = [e.record for e in self.hits if e.accepted and e is not entry]
+        if not entry.accepted or minimum <= 0 or not earlier:
+            return ""
+        try:
+            frf = session_frf([*earlier, entry.record], self._plan.window if self._plan else self.window_settings())
+        except GasfilmError:
+            return ""
+        low, high = usable_band_hz(frf.freq_hz, frf.gff, self._armed_setup.usable_drop_db)
+        band = (frf.freq_hz >= max(low, self.fit_band_hz[0])) & (frf.freq_hz <= high)
+        if not np.any(band):
+            return ""
+        coherence = float(np.mean(frf.coherence[band]))
+        return f"coherence {coherence:.2f} below {minimum:g}" if coherence < minimum else ""
 
     def _on_verdict(self, entry: HitEntry) -> None:
         for position, existing in enumerate(self.hits):
             if existing.index == entry.index:
                 self.hits[position] = entry
         self.hit_changed.emit(entry)
-
-    def _on_frf(self, frf: FrfResult) -> None:
-        self.frf = frf
-        self.frf_changed.emit(frf)
+        self.update_running_frf()
 
     def _on_device_fault(self, text: str) -> None:
         kept = sum(entry.accepted for entry in self.hits)
         self.message.emit(f"{text} — acquisition stopped; the {kept} accepted hits are safe in the session", "error")
 
     def _on_worker_finished(self) -> None:
+        if self.loop is not None and self._plan is not None:
+            self._stream_end_s = self._plan.time_offset_s + self.loop.samples_read / self.loop.sample_rate_hz
         if self._worker_thread is not None:
             self._worker_thread.wait(5_000)
             self._worker_thread.deleteLater()
@@ -309,10 +377,47 @@ class SessionController(QObject):
     def pending_count(self) -> int:
         return sum(entry.pending for entry in self.hits)
 
-    def _recompute_frf(self) -> None:
-        records = [entry.record for entry in self.hits if entry.accepted]
-        self.frf = frf_from_hits(records, self.window_settings()) if records else None
+    def update_running_frf(self) -> None:
+        """The FRF of the accepted hits, recomputed after every hit and decision (the one place the GUI's FRF is
+        made); then stops the acquisition when the target number of averages is reached."""
+        accepted = [entry for entry in self.hits if entry.accepted]
+        records = [entry.record for entry in accepted]
+        self.frf = self._running_frf(accepted) if accepted else None
         self.frf_changed.emit(self.frf)
+        target = self._armed_setup.target_averages
+        if self.acquiring and target > 0 and len(records) >= target and self.state != "stopping":
+            self.message.emit(f"target of {target} averages reached: acquisition stopped", "info")
+            self._set_state("stopping")
+            self.stop()
+
+    def _running_frf(self, accepted: list) -> FrfResult:
+        """Running sums of the accepted hits: a newly accepted hit is added to them; a decision that removes or
+        reorders hits (or another window) starts the sums again."""
+        window = self.window_settings()
+        indices = [entry.index for entry in accepted]
+        sums, summed = self._frf_sums
+        first = accepted[0].record
+        if (sums is None or sums.window != window or indices[: len(summed)] != summed
+                or sums.n_samples != first.data.shape[-1] or sums.sample_rate_hz != first.sample_rate_hz):
+            sums, summed = FrfAccumulator(first.sample_rate_hz, first.data.shape[-1], window, len(accepted)), []
+        for entry in accepted[len(summed):]:
+            sums.add_hit(entry.record)
+        self._frf_sums = (sums, indices)
+        return sums.result()
+
+    def accept_all_pending(self) -> int:
+        """Accept every hit that waits for a decision (the technician's one click); returns how many."""
+        pending = [entry.index for entry in self.hits if entry.pending]
+        for index in pending:
+            self.decide(index, True)
+        return len(pending)
+
+    def reject_all_pending(self) -> int:
+        """Reject every hit that waits for a decision; returns how many."""
+        pending = [entry.index for entry in self.hits if entry.pending]
+        for index in pending:
+            self.decide(index, False)
+        return len(pending)
 
     def replay(self) -> None:
         """Re-validate every stored hit and recompute the FRF with the Setup tab's current settings."""
@@ -327,10 +432,11 @@ class SessionController(QObject):
             entry.automatic = automatic
             if not entry.verdict.overridden:
                 entry.verdict = automatic
+                stored = pending_verdict(automatic) if entry.pending else automatic  # a waiting hit still waits
                 if self.session is not None and self.session.writable:
-                    self.session.set_verdict(entry.index, automatic)
+                    self.session.set_verdict(entry.index, stored)
         self.hits_reset.emit()
-        self._recompute_frf()
+        self.update_running_frf()
         self.message.emit(
             f"replayed {len(self.hits)} hits: {self.accepted_count} accepted with the current validation and window "
             f"settings",
@@ -341,6 +447,9 @@ class SessionController(QObject):
 
     def run_fits(self, model_names: Sequence[str], method: str, band_hz: tuple[float, float]) -> None:
         """Fit each model to the current FRF in the band, in the background; results arrive via ``fits_changed``."""
+        if self.acquiring:
+            self.message.emit("stop the acquisition before fitting: the FRF still changes with every hit", "warning")
+            return
         if self.frf is None:
             self.message.emit("no FRF yet: accept at least one hit or open a session", "warning")
             return
@@ -393,11 +502,11 @@ class SessionController(QObject):
 
     def run_diagnosis(self, reference_spec_path: str | Path | None = None) -> None:
         """Diagnose the session's accepted hits against ``reference_spec_path`` (default: the session's own spec)."""
+        if self.acquiring:
+            self.message.emit("stop the acquisition before running the diagnosis: hits are still arriving", "warning")
+            return
         if self.session is None or self.accepted_count == 0:
             self.message.emit("nothing to diagnose: record or open a session with accepted hits", "warning")
-            return
-        if self.acquiring:
-            self.message.emit("stop the acquisition before running the diagnosis", "warning")
             return
         if "diagnose" in self._jobs:
             return
@@ -438,20 +547,25 @@ class SessionController(QObject):
         return path
 
     def play_improved_spec(self) -> None:
-        """Record a new simulated session from the improved spec, with the same channels, trigger and windows."""
+        """Record a new simulated session from the improved spec, with the same channels, trigger and windows.
+        The Setup tab (and the saved setup) keep their rig spec: the improved one is used for this recording only."""
         if self.diagnosis is None or self.acquiring:
             return
         folder = self.session_path.parent if self.session_path is not None else self.session_dir
         folder.mkdir(parents=True, exist_ok=True)
         spec_path = self.export_improved_spec(folder / f"{self.session_path.stem}-improved-rig.toml")
         self.close_session()
-        self.setup = dataclasses.replace(
+        self._reset_results()
+        played = dataclasses.replace(
             self.setup, device=SIMULATED_DEVICE_NAME, rig_spec_path=str(spec_path), sim_auto_hammer=True
         )
-        self.setup_replaced.emit(self.setup)
         self.session_path = timestamped_session_path(folder, "improved-spec")
-        self.message.emit(f"playing the improved spec {spec_path.name} on the simulated rig", "info")
-        self.arm()
+        self.message.emit(
+            f"playing the improved spec {spec_path.name} on the simulated rig into a new session "
+            f"(the Setup tab keeps its rig spec)",
+            "info",
+        )
+        self.arm(played)
 
     # --- background jobs -------------------------------------------------------------------------------------------------
 
@@ -479,7 +593,9 @@ class SessionController(QObject):
     # --- sessions --------------------------------------------------------------------------------------------------------
 
     def _reset_results(self) -> None:
+        self._stream_end_s = 0.0
         self.hits = []
+        self._frf_sums = (None, [])
         self.frf = None
         self.fits = {}
         self.comparison = []
@@ -522,15 +638,20 @@ class SessionController(QObject):
         self._reset_results()
         for stored in session.hits():
             verdict = stored.verdict
-            automatic = Verdict(verdict.accepted != verdict.overridden, verdict.reasons)
-            entry = HitEntry(stored.index, stored.as_hit_record(), automatic, verdict)
+            if PENDING_REASON in verdict.reasons:  # stored while waiting for a decision: it waits again
+                reasons = tuple(reason for reason in verdict.reasons if reason != PENDING_REASON)
+                automatic = Verdict(not reasons, reasons)
+                entry = HitEntry(stored.index, stored.as_hit_record(), automatic, automatic, pending=True)
+            else:
+                automatic = Verdict(verdict.accepted != verdict.overridden, verdict.reasons)
+                entry = HitEntry(stored.index, stored.as_hit_record(), automatic, verdict)
             self.hits.append(entry)
         self.hits_reset.emit()
         if "frf" in session.result_names("frf"):
             self.frf = session.read_frf()
             self.frf_changed.emit(self.frf)
         else:
-            self._recompute_frf()
+            self.update_running_frf()
         self._load_fits(session)
         for name in ("diagnosis", "latest"):  # the GUI's name, then the command line's
             if name in session.result_names("diagnoses"):
@@ -607,12 +728,17 @@ class SessionController(QObject):
             raise SettingError("export: no FRF yet (accept at least one hit or open a session)")
         return self.frf
 
-    def shutdown(self) -> None:
-        """Stop acquisition and jobs, store results, close the session (window closing)."""
+    def stop_and_wait(self) -> None:
+        """Stop the acquisition and return once its thread has ended (every hit it recorded is in ``hits``)."""
         self.stop()
         self.wait_for_idle()
+        QCoreApplication.sendPostedEvents(self, QEvent.Type.MetaCall)  # the hits and the end it reported on its way out
         if self._worker is not None:
             self._on_worker_finished()
+
+    def shutdown(self) -> None:
+        """Stop acquisition and jobs, store results, close the session (window closing)."""
+        self.stop_and_wait()
         for name, (job, thread) in list(self._jobs.items()):
             job.cancel()
             thread.wait(10_000)

@@ -112,6 +112,7 @@ class DiagnoseTab(QWidget):
         self.export_button.clicked.connect(self._export)
         self.play_button.clicked.connect(controller.play_improved_spec)
         controller.job_running.connect(self._on_running)
+        controller.acquisition_state.connect(self._on_acquisition_state)
         controller.job_progress.connect(self._on_progress)
         controller.diagnosis_changed.connect(self.show_diagnosis)
         controller.stored_diagnosis_loaded.connect(self.show_stored_diagnosis)
@@ -120,6 +121,13 @@ class DiagnoseTab(QWidget):
         path, _ = QFileDialog.getOpenFileName(self, "Reference rig spec", self.reference_path.text(), "Rig spec (*.toml)")
         if path:
             self.reference_path.setText(path)
+
+    def _on_acquisition_state(self, state: str) -> None:
+        """While armed the button stays, and says why it will refuse: hits are still arriving."""
+        reason = "Stop the acquisition first: hits are still arriving and the FRF changes with each one."
+        self.run_button.setToolTip(reason if state != "idle" else "")
+        if state == "starting":
+            self.status.setText("The diagnosis waits until the acquisition is stopped.")
 
     def _on_running(self, job: str, running: bool) -> None:
         if job != "diagnose":

@@ -6,11 +6,20 @@ import numpy as np
 import pyqtgraph as pg
 from PySide6.QtCore import Qt
 from PySide6.QtGui import QShowEvent
-from PySide6.QtWidgets import QComboBox, QDoubleSpinBox, QGridLayout, QHBoxLayout, QLabel, QWidget
+from PySide6.QtWidgets import QCheckBox, QComboBox, QDoubleSpinBox, QGridLayout, QHBoxLayout, QLabel, QWidget
 
+from gasfilm.analysis.report import usable_band_hz
 from gasfilm.analysis.spectra import FrfResult
 from gasfilm.app.gui.controller import SessionController
-from gasfilm.app.gui.widgets import MEASURED_COLOR, PALETTE, make_plot, pen, phase_deg
+from gasfilm.app.gui.widgets import (
+    MEASURED_COLOR,
+    PALETTE,
+    make_plot,
+    pen,
+    phase_deg,
+    set_region_hz,
+    show_legend_only_with_data,
+)
 from gasfilm.drivers.interface import STANDARD_GRAVITY_M_S2
 
 UNITS = {"(m/s²)/N": 1.0, "g/N": 1.0 / STANDARD_GRAVITY_M_S2}
@@ -41,6 +50,8 @@ class FrfTab(QWidget):
         self.band_low.setValue(controller.fit_band_hz[0])
         self.band_high.setValue(controller.fit_band_hz[1])
         self.summary = QLabel("No FRF yet: accept hits on the Measure tab or open a session.")
+        self.log_frequency = QCheckBox("Log frequency")
+        self.log_frequency.setObjectName("log_frequency")
         controls = QHBoxLayout()
         controls.addWidget(QLabel("Units"))
         controls.addWidget(self.unit_combo)
@@ -50,6 +61,7 @@ class FrfTab(QWidget):
         controls.addWidget(self.band_low)
         controls.addWidget(QLabel("to"))
         controls.addWidget(self.band_high)
+        controls.addWidget(self.log_frequency)
         controls.addStretch(1)
         controls.addWidget(self.summary)
 
@@ -65,6 +77,7 @@ class FrfTab(QWidget):
             plot.setXLink(self.magnitude_plot)
 
         self.h1_curve = self.magnitude_plot.plot(pen=pen(MEASURED_COLOR), name="H1")
+        self.h1_outside_curve = self.magnitude_plot.plot(pen=pen("#bbbbbb", 1.0), name="H1, force too low")
         self.h2_curve = self.magnitude_plot.plot(pen=pen(PALETTE[4], 1.0, Qt.PenStyle.DashLine), name="H2")
         self.upper_curve = pg.PlotDataItem(pen=pen(PALETTE[5], 0.5))
         self.lower_curve = pg.PlotDataItem(pen=pen(PALETTE[5], 0.5))
@@ -103,6 +116,7 @@ class FrfTab(QWidget):
         self.band_high.valueChanged.connect(self._band_typed)
         self.unit_combo.currentIndexChanged.connect(self.redraw)
         self.uncertainty_combo.currentIndexChanged.connect(self.redraw)
+        self.log_frequency.toggled.connect(self._set_log_frequency)
         controller.frf_changed.connect(self.set_frf)
 
     @property
@@ -124,13 +138,14 @@ class FrfTab(QWidget):
     def redraw(self) -> None:
         self._stale = False
         frf = self.frf
-        curves = (self.h1_curve, self.h2_curve, self.upper_curve, self.lower_curve, self.phase_curve,
+        curves = (self.h1_curve, self.h1_outside_curve, self.h2_curve, self.upper_curve, self.lower_curve, self.phase_curve,
                   self.real_curve, self.imag_curve, self.coherence_curve)
         if frf is None:
             for curve in curves:
                 curve.setData([], [])
             self.summary.setText("No FRF yet: accept hits on the Measure tab or open a session.")
             self._view_set = False
+            self._update_legends()
             return
         scale = UNITS[self.unit]
         for plot, label in ((self.magnitude_plot, "|H|"), (self.real_plot, "Re H"), (self.imag_plot, "Im H")):
@@ -141,7 +156,10 @@ class FrfTab(QWidget):
         magnitude = np.abs(h1)
         sigma = np.nan_to_num(getattr(frf, UNCERTAINTY[self.uncertainty_combo.currentText()])[keep] * scale)
         floor = np.min(magnitude[magnitude > 0]) * 0.1 if np.any(magnitude > 0) else 1e-12
-        self.h1_curve.setData(freq, magnitude)
+        _, usable_high = usable_band_hz(frf.freq_hz, frf.gff, self.controller.setup.usable_drop_db)
+        inside = freq <= usable_high
+        self.h1_curve.setData(freq[inside], magnitude[inside])
+        self.h1_outside_curve.setData(freq[~inside], magnitude[~inside])
         self.h2_curve.setData(freq, np.abs(frf.h2[keep] * scale))
         self.upper_curve.setData(freq, magnitude + sigma)
         self.lower_curve.setData(freq, np.maximum(magnitude - sigma, floor))
@@ -151,18 +169,41 @@ class FrfTab(QWidget):
         self.coherence_curve.setData(freq, frf.coherence[keep])
         low, high = self.controller.fit_band_hz
         if not self._view_set:  # open on the band of interest; zoom out for the rest up to Nyquist
-            self.magnitude_plot.setXRange(0.0, min(float(freq[-1]), 2.5 * high), padding=0.02)
+            self._show_default_range(freq, high)
             self._view_set = True
         band = (freq >= low) & (freq <= high)
         mean_coherence = float(np.mean(frf.coherence[keep][band])) if np.any(band) else float("nan")
         peak = int(np.argmax(np.where(band, magnitude, 0))) if np.any(band) else int(np.argmax(magnitude))
         self.summary.setText(
             f"{frf.n_averages} averages · {frf.sample_rate_hz:g} S/s · Δf {freq[0]:.3g} Hz · "
-            f"peak {freq[peak]:.1f} Hz · mean γ² in band {mean_coherence:.3f}"
+            f"peak {freq[peak]:.1f} Hz · mean γ² in band {mean_coherence:.3f} · usable to {usable_high:.0f} Hz"
         )
+        self._update_legends()
+
+    def _update_legends(self) -> None:
+        for plot in (self.magnitude_plot, self.phase_plot, self.real_plot, self.imag_plot, self.coherence_plot):
+            show_legend_only_with_data(plot)
+
+    def _show_default_range(self, freq, high_hz: float) -> None:
+        top = min(float(freq[-1]), 2.5 * high_hz)
+        if self.log_frequency.isChecked():
+            self.magnitude_plot.setXRange(np.log10(freq[0]), np.log10(top), padding=0.02)
+        else:
+            self.magnitude_plot.setXRange(0.0, top, padding=0.02)
+
+    def _set_log_frequency(self, log_x: bool) -> None:
+        for plot in (self.magnitude_plot, self.phase_plot, self.real_plot, self.imag_plot, self.coherence_plot):
+            plot.getPlotItem().setLogMode(x=log_x)
+        low, high = self.controller.fit_band_hz
+        self._set_band(low, high, move_region=True)
+        if self.frf is not None:
+            keep = self.frf.freq_hz > 0
+            self._show_default_range(self.frf.freq_hz[keep], high)
 
     def _region_moved(self) -> None:
         low, high = self.region.getRegion()
+        if self.log_frequency.isChecked():
+            low, high = 10.0**low, 10.0**high
         self._set_band(low, high, move_region=False)
 
     def _band_typed(self) -> None:
@@ -177,9 +218,9 @@ class FrfTab(QWidget):
             spin.blockSignals(False)
         if move_region:
             self.region.blockSignals(True)
-            self.region.setRegion((low, high))
+            set_region_hz(self.region, low, high, self.log_frequency.isChecked())
             self.region.blockSignals(False)
-        self.coherence_region.setRegion((low, high))
+        set_region_hz(self.coherence_region, low, high, self.log_frequency.isChecked())
         self.redraw()
 
     def show_band(self, band_hz: tuple[float, float]) -> None:

@@ -97,6 +97,8 @@ class IdentifyTab(QWidget):
         self.parameters.setHorizontalHeaderLabels(("Parameter", "Value", "Std error", "Unit"))
         self.parameters.verticalHeader().setVisible(False)
         self.parameters.setEditTriggers(QAbstractItemView.EditTrigger.NoEditTriggers)
+        for table in (self.table, self.parameters):  # compact rows: Table 2's nine models show without scrolling
+            table.verticalHeader().setDefaultSectionSize(22)
         self.flags_label = QLabel()
         self.flags_label.setWordWrap(True)
         table_box = QWidget()
@@ -138,13 +140,14 @@ class IdentifyTab(QWidget):
         splitter = QSplitter(Qt.Orientation.Horizontal)
         splitter.addWidget(left_box)
         splitter.addWidget(right)
-        splitter.setSizes([300, 1000])
+        splitter.setSizes([370, 1100])  # the model names whole at the window's default size
         QVBoxLayout(self).addWidget(splitter)
 
         self.run_button.clicked.connect(self.run_fits)
         self.cancel_button.clicked.connect(lambda: controller.cancel_job("fit"))
         controller.job_progress.connect(self._on_progress)
         controller.job_running.connect(self._on_running)
+        controller.acquisition_state.connect(self._on_acquisition_state)
         controller.fits_changed.connect(self.show_fits)
         controller.frf_changed.connect(lambda _frf: self._update_band_label())
         self._update_band_label()
@@ -202,6 +205,13 @@ class IdentifyTab(QWidget):
         if job == "fit":
             self.progress.setValue(int(1000 * fraction))
             self.status.setText(text)
+
+    def _on_acquisition_state(self, state: str) -> None:
+        """While armed the button stays, and says why it will refuse: hits are still arriving."""
+        reason = "Stop the acquisition first: hits are still arriving and the FRF changes with each one."
+        self.run_button.setToolTip(reason if state != "idle" else "")
+        if state == "starting":
+            self.status.setText("Fitting waits until the acquisition is stopped.")
 
     def _on_running(self, job: str, running: bool) -> None:
         if job != "fit":

@@ -7,14 +7,30 @@ from pathlib import Path
 
 from PySide6.QtCore import QSettings, QTimer
 from PySide6.QtGui import QAction, QCloseEvent, QKeySequence
-from PySide6.QtWidgets import QApplication, QFileDialog, QLabel, QMainWindow, QTabWidget, QVBoxLayout, QWidget
+from PySide6.QtWidgets import (
+    QApplication,
+    QFileDialog,
+    QGridLayout,
+    QLabel,
+    QMainWindow,
+    QMessageBox,
+    QTabWidget,
+    QVBoxLayout,
+    QWidget,
+)
 
 from gasfilm.app.gui.controller import SessionController
 from gasfilm.app.gui.diagnose_tab import DiagnoseTab
 from gasfilm.app.gui.frf_tab import FrfTab
 from gasfilm.app.gui.identify_tab import IdentifyTab
 from gasfilm.app.gui.measure_tab import MeasureTab
-from gasfilm.app.gui.settings import SETTINGS_APPLICATION, SETTINGS_ORGANIZATION, load_setup, save_setup
+from gasfilm.app.gui.settings import (
+    SETTINGS_APPLICATION,
+    SETTINGS_ORGANIZATION,
+    SetupState,
+    load_setup,
+    save_setup,
+)
 from gasfilm.app.gui.setup_tab import SetupTab
 from gasfilm.app.gui.widgets import Banner, configure_pyqtgraph
 from gasfilm.drivers import SIMULATED_DEVICE_NAME
@@ -27,6 +43,8 @@ SIM_FAULTS = {
     "overload": "Overload on the next hit",
 }
 STATUS_INTERVAL_MS = 500
+#: The window's size at start: every tab is laid out (and its screenshot taken) at this size.
+DEFAULT_WINDOW_SIZE = (1500, 950)
 
 
 class MainWindow(QMainWindow):
@@ -37,10 +55,20 @@ class MainWindow(QMainWindow):
         configure_pyqtgraph()
         self.setWindowTitle("gasfilm — impact testing of gas films")
         self.settings = settings or QSettings(SETTINGS_ORGANIZATION, SETTINGS_APPLICATION)
-        setup = load_setup(self.settings)
+        setup, settings_problem = load_setup(self.settings)
         self.controller = SessionController(setup, session_dir, self)
         self.banner = Banner()
-        self.setup_tab = SetupTab(setup)
+        self.pending_dialog: QMessageBox | None = None
+        self._closed = False
+        try:
+            self.setup_tab = SetupTab(setup)
+        except (GasfilmError, ValueError, TypeError, KeyError, OverflowError) as error:  # stored values Qt refuses
+            settings_problem = (
+                f"stored GUI settings in {self.settings.fileName()} are damaged ({error}); using the defaults"
+            )
+            self.setup_tab = SetupTab(SetupState())
+        if settings_problem:
+            self.banner.show_message(settings_problem, "warning")
         self.controller.setup = self.setup_tab.state()
         self.measure_tab = MeasureTab(self.controller)
         self.frf_tab = FrfTab(self.controller)
@@ -58,7 +86,13 @@ class MainWindow(QMainWindow):
         central = QWidget()
         layout = QVBoxLayout(central)
         layout.setContentsMargins(6, 6, 6, 6)
-        layout.addWidget(self.banner)
+        # The banner's row is kept while no message shows (nothing shifts when one arrives); a quiet hint fills it.
+        banner_row = QGridLayout()
+        hint = QLabel("Device faults, refused settings and finished jobs are reported here.")
+        hint.setStyleSheet("QLabel { color: #888888; padding-left: 10px; }")
+        banner_row.addWidget(hint, 0, 0)
+        banner_row.addWidget(self.banner, 0, 0)
+        layout.addLayout(banner_row)
         layout.addWidget(self.tabs, 1)
         self.setCentralWidget(central)
 
@@ -71,7 +105,6 @@ class MainWindow(QMainWindow):
         self.setup_tab.changed.connect(self._setup_changed)
         self.controller.message.connect(self.banner.show_message)
         self.controller.session_changed.connect(self._session_changed)
-        self.controller.setup_replaced.connect(self._setup_replaced)
         self.controller.acquisition_state.connect(self._acquisition_state)
         self.controller.fits_changed.connect(lambda: self.frf_tab.show_band(self.controller.fit_band_hz))
         self.status_timer = QTimer(self)
@@ -79,7 +112,7 @@ class MainWindow(QMainWindow):
         self.status_timer.timeout.connect(self._update_stream_status)
         self.status_timer.start()
         self._session_changed("")
-        self.resize(1500, 950)
+        self.resize(*DEFAULT_WINDOW_SIZE)
 
     # --- menus ----------------------------------------------------------------------------------------------------
 
@@ -95,6 +128,10 @@ class MainWindow(QMainWindow):
         self._add_action(session, "Export FRF as &UFF 58…", lambda: self._export("UFF 58 (*.uff)", self.controller.export_uff))
         self._add_action(session, "Export FRF as &CSV…", lambda: self._export("CSV (*.csv)", self.controller.export_csv))
         self._add_action(session, "Export this tab as &PNG…", lambda: self._export("PNG image (*.png)", self.export_png))
+        self._add_action(
+            session, "Write a &report (HTML or PDF)…",
+            lambda: self._export("HTML report (*.html);;PDF report (*.pdf)", self.write_report),
+        )
         session.addSeparator()
         self._add_action(session, "&Quit", self.close, QKeySequence.StandardKey.Quit)
         simulator = self.menuBar().addMenu("Si&mulator")
@@ -139,6 +176,21 @@ class MainWindow(QMainWindow):
             raise GasfilmError(f"{path}: the image could not be written")
         return path
 
+    def write_report(self, path: str | Path) -> Path:
+        """The open session's report (:mod:`gasfilm.analysis.report`), after storing the FRF, fits and diagnosis;
+        the file dialog has already asked before replacing an existing file."""
+        from gasfilm.analysis.report import write_report
+
+        if self.controller.session_path is None or self.controller.session is None:
+            raise GasfilmError("report: no session open: record or open one first")
+        if self.controller.acquiring:
+            raise GasfilmError("report: stop the acquisition first (hits are still arriving)")
+        self.controller.save_session()
+        path = Path(path)
+        if not path.suffix:
+            path = path.with_suffix(".html")
+        return write_report(self.controller.session_path, path, overwrite=True)
+
     def _export(self, file_filter: str, export) -> None:
         path, _ = QFileDialog.getSaveFileName(self, "Export", "", file_filter)
         if not path:
@@ -159,9 +211,6 @@ class MainWindow(QMainWindow):
         self.simulator_menu.setEnabled(state.device == SIMULATED_DEVICE_NAME)
         if not self.controller.acquiring:
             self.measure_tab.hammer_box.setVisible(state.device == SIMULATED_DEVICE_NAME)
-
-    def _setup_replaced(self, state) -> None:
-        self.setup_tab.set_state(state)
 
     def _session_changed(self, path: str) -> None:
         self.session_label.setText(f"Session: {path}" if path else "Session: none (the next Arm creates one)")
@@ -184,9 +233,47 @@ class MainWindow(QMainWindow):
             f"{seconds:.1f} s streamed · view {self.measure_tab.redraw_rate_hz():.0f} fps{dropped}"
         )
 
+    def ask_about_pending_hits(self) -> bool:
+        """Before quitting with hits that wait for a decision: accept them, reject them, or keep them waiting
+        (stored as not accepted; they wait again when the session is reopened). False: do not quit."""
+        pending = self.controller.pending_count
+        if pending == 0:
+            return True
+        box = QMessageBox(self)
+        box.setIcon(QMessageBox.Icon.Question)
+        box.setWindowTitle("Hits wait for your decision")
+        box.setText(f"{pending} hit{'s' if pending > 1 else ''} wait{'' if pending > 1 else 's'} for your decision.")
+        box.setInformativeText(
+            "Accept or reject them now? Kept undecided, they are stored as not accepted and wait for you when the "
+            "session is opened again."
+        )
+        accept = box.addButton("Accept all", QMessageBox.ButtonRole.AcceptRole)
+        reject = box.addButton("Reject all", QMessageBox.ButtonRole.DestructiveRole)
+        keep = box.addButton("Keep undecided", QMessageBox.ButtonRole.NoRole)
+        cancel = box.addButton(QMessageBox.StandardButton.Cancel)
+        box.setDefaultButton(cancel)
+        self.pending_dialog = box  # tests answer it
+        box.exec()
+        self.pending_dialog = None
+        clicked = box.clickedButton()
+        if clicked is accept:
+            self.controller.stop_and_wait()
+            self.controller.accept_all_pending()
+        elif clicked is reject:
+            self.controller.stop_and_wait()
+            self.controller.reject_all_pending()
+        return clicked in (accept, reject, keep)
+
     def closeEvent(self, event: QCloseEvent) -> None:
+        if self._closed:
+            super().closeEvent(event)
+            return
+        if not self.ask_about_pending_hits():
+            event.ignore()
+            return
         save_setup(self.settings, self.setup_tab.state())
         self.controller.shutdown()
+        self._closed = True
         super().closeEvent(event)
 
 

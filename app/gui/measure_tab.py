@@ -1,4 +1,6 @@
-"""Measure tab: arm/stop, live view, each hit with its verdict and Accept/Reject, running H1 and coherence."""
+"""Measure tab: arm/stop, live view with the trigger level, each hit with its verdict and Accept/Reject, its force
+spectrum with the usable band, an overlay of the accepted hits, and the running H1 (grey outside the usable band) and
+coherence."""
 
 from __future__ import annotations
 
@@ -10,17 +12,22 @@ from PySide6.QtCore import Qt, QTimer
 from PySide6.QtGui import QColor
 from PySide6.QtWidgets import (
     QAbstractItemView,
+    QCheckBox,
     QGroupBox,
+    QHeaderView,
     QHBoxLayout,
     QLabel,
     QPushButton,
     QSplitter,
     QTableWidget,
     QTableWidgetItem,
+    QTabWidget,
     QVBoxLayout,
     QWidget,
 )
 
+from gasfilm.analysis.report import CAUTION_DROP_DB, force_level_db, usable_band_hz
+from gasfilm.analysis.spectra import session_frf
 from gasfilm.app.gui.controller import SessionController
 from gasfilm.app.gui.settings import SIM_TIPS
 from gasfilm.app.gui.widgets import (
@@ -31,8 +38,11 @@ from gasfilm.app.gui.widgets import (
     REJECTED_COLOR,
     make_plot,
     pen,
+    set_region_hz,
+    show_legend_only_with_data,
 )
 from gasfilm.app.gui.workers import HitEntry
+from gasfilm.drivers.errors import GasfilmError
 from gasfilm.drivers.interface import ChannelKind
 
 REDRAW_INTERVAL_MS = 40  # 25 frames per second
@@ -41,8 +51,22 @@ _STATE_STYLE = {
     "starting": ("STARTING…", "#0b5394"),
     "armed": ("ARMED — waiting for a hit", "#1b7f3b"),
     "triggered": ("TRIGGERED — recording", "#b3261e"),
+    "stopping": ("STOPPING…", "#666666"),
 }
+OUTSIDE_BAND_COLOR = "#bbbbbb"
+BAND_BRUSH = (0, 114, 178, 25)
+OVERLAY_PULSE_MS = (-2.0, 10.0)  # force pulses are overlaid from 2 ms before to 10 ms after the trigger
 _HIT_COLUMNS = ("Hit", "Time (s)", "Peak force (N)", "Verdict", "Reasons")
+
+
+def stacked(*widgets: QWidget) -> QWidget:
+    """The widgets one above the other, without margins."""
+    box = QWidget()
+    layout = QVBoxLayout(box)
+    layout.setContentsMargins(0, 0, 0, 0)
+    for widget in widgets:
+        layout.addWidget(widget, 0 if isinstance(widget, QLabel) else 1)
+    return box
 
 
 def verdict_text(entry: HitEntry) -> tuple[str, str]:
@@ -72,6 +96,10 @@ class MeasureTab(QWidget):
         self.state_label = QLabel()
         self.state_label.setMinimumWidth(260)
         self.counter_label = QLabel()
+        self.accept_pending_button = QPushButton("Accept all pending")
+        self.accept_pending_button.setObjectName("accept_pending")
+        self.accept_pending_button.setToolTip("Accept every hit that waits for your decision")
+        self.accept_pending_button.clicked.connect(controller.accept_all_pending)
         self.hammer_buttons: dict[str, QPushButton] = {}
         hammer_box = QGroupBox("Virtual hammer (simulated rig)")
         hammer_layout = QHBoxLayout(hammer_box)
@@ -88,6 +116,7 @@ class MeasureTab(QWidget):
         top.addWidget(self.stop_button)
         top.addWidget(self.state_label)
         top.addWidget(self.counter_label, 1)
+        top.addWidget(self.accept_pending_button)
         top.addWidget(hammer_box)
 
         # Time runs to 0 = now on a fixed axis, and the live plots have no grid: their axes are then not redrawn
@@ -101,12 +130,15 @@ class MeasureTab(QWidget):
         self.response_plot.getPlotItem().enableAutoRange(x=False)
         for plot in (self.force_plot, self.response_plot):
             plot.getPlotItem().legend.setOffset((70, 10))  # top left, clear of the newest samples
+            plot.getPlotItem().legend.setVisible(False)
+        self.trigger_line = pg.InfiniteLine(
+            angle=0, pen=pen(REJECTED_COLOR, 1.0, Qt.PenStyle.DashLine), label="trigger {value:g} N",
+            labelOpts={"position": 0.08, "color": REJECTED_COLOR, "anchors": [(0, 1), (0, 1)]},
+        )
+        self.trigger_line.setVisible(False)
+        self.force_plot.addItem(self.trigger_line, ignoreBounds=True)
         self._live_curves: list[pg.PlotDataItem] = []
-        live = QWidget()
-        live_layout = QVBoxLayout(live)
-        live_layout.setContentsMargins(0, 0, 0, 0)
-        live_layout.addWidget(self.force_plot)
-        live_layout.addWidget(self.response_plot)
+        live = stacked(self.force_plot, self.response_plot)
 
         self.hit_table = QTableWidget(0, len(_HIT_COLUMNS))
         self.hit_table.setHorizontalHeaderLabels(_HIT_COLUMNS)
@@ -114,8 +146,12 @@ class MeasureTab(QWidget):
         self.hit_table.setSelectionBehavior(QAbstractItemView.SelectionBehavior.SelectRows)
         self.hit_table.setSelectionMode(QAbstractItemView.SelectionMode.SingleSelection)
         self.hit_table.setEditTriggers(QAbstractItemView.EditTrigger.NoEditTriggers)
-        self.hit_table.horizontalHeader().setStretchLastSection(True)
-        self.hit_table.verticalHeader().setDefaultSectionSize(22)
+        header = self.hit_table.horizontalHeader()
+        for column in range(len(_HIT_COLUMNS) - 1):
+            header.setSectionResizeMode(column, QHeaderView.ResizeMode.ResizeToContents)
+        header.setStretchLastSection(True)
+        self.hit_table.setWordWrap(True)  # long reasons wrap inside their row instead of being cut off
+        self.hit_table.verticalHeader().setSectionResizeMode(QHeaderView.ResizeMode.ResizeToContents)
         self.hit_table.itemSelectionChanged.connect(self._show_selected_hit)
         self.verdict_label = QLabel("No hit yet")
         self.verdict_label.setWordWrap(True)
@@ -155,17 +191,67 @@ class MeasureTab(QWidget):
         buttons.addWidget(self.accept_button)
         buttons.addWidget(self.reject_button)
         hits_layout.addLayout(buttons)
-        hits_layout.addWidget(self.hit_plot, 3)
+        self.spectrum_plot = make_plot(
+            "Force spectrum: selected hit · average of accepted", ("Force level", "dB re low f"), legend=True
+        )
+        self.spectrum_plot.getPlotItem().getAxis("left").enableAutoSIPrefix(False)
+        self.hit_spectrum_curve = self.spectrum_plot.plot(pen=pen(PALETTE[0]), name="selected hit")
+        self.mean_spectrum_curve = self.spectrum_plot.plot(
+            pen=pen(MEASURED_COLOR, 1.0, Qt.PenStyle.DashLine), name="accepted hits"
+        )
+        self.drop_lines = {}
+        for drop_db, style in ((CAUTION_DROP_DB, Qt.PenStyle.DotLine), (controller.setup.usable_drop_db, Qt.PenStyle.DashLine)):
+            line = pg.InfiniteLine(
+                pos=-drop_db, angle=0, pen=pen(REJECTED_COLOR, 1.0, style), label=f"−{drop_db:g} dB",
+                labelOpts={"position": 0.95, "color": REJECTED_COLOR},
+            )
+            self.spectrum_plot.addItem(line, ignoreBounds=True)
+            self.drop_lines[drop_db] = line
+        self.spectrum_band = pg.LinearRegionItem(brush=pg.mkBrush(*BAND_BRUSH), movable=False)
+        self.spectrum_band.setZValue(-10)
+        self.spectrum_plot.addItem(self.spectrum_band, ignoreBounds=True)
+        self.spectrum_plot.setYRange(-45, 5)
+        self.spectrum_label = QLabel()
+        self.spectrum_label.setWordWrap(True)
+        spectrum_page = stacked(self.spectrum_plot, self.spectrum_label)
+
+        self.overlay_force_plot = make_plot(
+            "Accepted hits: force pulses", ("Force", "N"), ("Time from trigger", "s"), legend=False
+        )
+        self.overlay_response_plot = make_plot(
+            "Accepted hits: responses", ("Acceleration", "m/s²"), ("Time from trigger", "s"), legend=False
+        )
+        self._overlay_curves: list[pg.PlotDataItem] = []
+        overlay_page = stacked(self.overlay_force_plot, self.overlay_response_plot)
+
+        self.hit_views = QTabWidget()
+        self.hit_views.addTab(self.hit_plot, "Selected hit")
+        self.hit_views.addTab(spectrum_page, "Force spectrum")
+        self.hit_views.addTab(overlay_page, "Overlay of accepted hits")
+        hits_layout.addWidget(self.hit_views, 3)
 
         self.h1_plot = make_plot("Running H1", ("|H1|", "(m/s²)/N"), log_y=True)
-        self.coherence_plot = make_plot("Coherence", ("γ²", ""))
+        self.coherence_plot = make_plot("Coherence", ("γ²", ""), legend=False)
         self.coherence_plot.setXLink(self.h1_plot)
         self.coherence_plot.setYRange(0, 1.05)
-        self.h1_curve = self.h1_plot.plot(pen=pen(MEASURED_COLOR), name="H1")
+        self.h1_curve = self.h1_plot.plot(pen=pen(MEASURED_COLOR), name="H1 in the usable band")
+        self.h1_outside_curve = self.h1_plot.plot(pen=pen(OUTSIDE_BAND_COLOR, 1.0), name="outside (force too low)")
         self.coherence_curve = self.coherence_plot.plot(pen=pen(PALETTE[2]), name="γ²")
+        self.h1_band = pg.LinearRegionItem(brush=pg.mkBrush(*BAND_BRUSH), movable=False)
+        self.h1_band.setZValue(-10)
+        self.h1_plot.addItem(self.h1_band, ignoreBounds=True)
+        self.log_frequency = QCheckBox("Logarithmic frequency axes")
+        self.log_frequency.setObjectName("log_frequency")
+        self.log_frequency.toggled.connect(self._set_log_frequency)
+        self.usable_label = QLabel()
         frf = QWidget()
         frf_layout = QVBoxLayout(frf)
         frf_layout.setContentsMargins(0, 0, 0, 0)
+        frf_row = QHBoxLayout()
+        frf_row.addWidget(self.log_frequency)
+        frf_row.addStretch(1)
+        frf_row.addWidget(self.usable_label)
+        frf_layout.addLayout(frf_row)
         frf_layout.addWidget(self.h1_plot)
         frf_layout.addWidget(self.coherence_plot)
 
@@ -188,8 +274,10 @@ class MeasureTab(QWidget):
         controller.hit_added.connect(self._on_hit_added)
         controller.hit_changed.connect(self._on_hit_changed)
         controller.frf_changed.connect(self._on_frf)
+        controller.session_changed.connect(self._clear_live)
         self._on_state("idle")
         self._update_counter()
+        self._on_frf(None)
 
     # --- live view ---------------------------------------------------------------------------------------------------
 
@@ -198,8 +286,7 @@ class MeasureTab(QWidget):
             self.redraw_timer.stop()
             return
         config = self.controller.running_config()
-        self.force_plot.clear()
-        self.response_plot.clear()
+        self._clear_live()
         self._live_curves = []
         response_number = 0
         for channel in config.channels:
@@ -212,11 +299,25 @@ class MeasureTab(QWidget):
             curve.setClipToView(True)
             curve.setSkipFiniteCheck(True)
             self._live_curves.append(curve)
+        for plot in (self.force_plot, self.response_plot):
+            plot.getPlotItem().legend.setVisible(True)
+        self.trigger_line.setVisible(True)  # first: a hidden line's label does not follow its value
+        self.trigger_line.setValue(self.controller.running_trigger().level_n)
         self.force_plot.setXRange(-self.controller.setup.live_view_s, 0.0, padding=0.0)
         self.redraw_count = 0
         self.redraw_seconds = 0.0
         self._first_redraw_s = None
         self.redraw_timer.start()
+
+    def _clear_live(self, *_: object) -> None:
+        """Empty the live plots (a new stream, or another session opened)."""
+        for plot in (self.force_plot, self.response_plot):
+            for curve in plot.getPlotItem().listDataItems():
+                plot.removeItem(curve)
+            plot.getPlotItem().legend.clear()
+            plot.getPlotItem().legend.setVisible(False)
+        self._live_curves = []
+        self.trigger_line.setVisible(False)
 
     def redraw_live(self) -> None:
         """Timer slot: draw the newest samples from the ring buffer (peak-downsampled, clipped to view)."""
@@ -255,10 +356,13 @@ class MeasureTab(QWidget):
 
     def _update_counter(self) -> None:
         c = self.controller
+        target = c.setup.target_averages
         self.counter_label.setText(
-            f"  Hits: {len(c.hits)}   ·   accepted {c.accepted_count}   ·   rejected {c.rejected_count}"
+            f"  Hits: {len(c.hits)}   ·   accepted {c.accepted_count}" + (f" of {target}" if target else "")
+            + f"   ·   rejected {c.rejected_count}"
             + (f"   ·   waiting for you {c.pending_count}" if c.pending_count else "")
         )
+        self.accept_pending_button.setEnabled(c.pending_count > 0)
 
     # --- hit list ---------------------------------------------------------------------------------------------------
 
@@ -273,6 +377,9 @@ class MeasureTab(QWidget):
             self.verdict_label.setText("No hit yet")
             self.hit_force_curve.setData([], [])
             self.hit_response_curve.setData([], [])
+            self.hit_spectrum_curve.setData([], [])
+            show_legend_only_with_data(self.spectrum_plot)
+        self._draw_overlay()
 
     def _append_row(self, entry: HitEntry) -> None:
         row = self.hit_table.rowCount()
@@ -291,6 +398,7 @@ class MeasureTab(QWidget):
         )
         for column, value in enumerate(values):
             item = QTableWidgetItem(value)
+            item.setToolTip(value)
             if column == 0:
                 item.setData(Qt.ItemDataRole.UserRole, entry.index)
             if column == 3:
@@ -308,6 +416,7 @@ class MeasureTab(QWidget):
         self.hit_table.selectRow(self.hit_table.rowCount() - 1)
         self.hit_table.scrollToBottom()
         self._update_counter()
+        self._draw_overlay()
 
     def _on_hit_changed(self, entry: HitEntry) -> None:
         row = self._row_of(entry.index)
@@ -316,6 +425,27 @@ class MeasureTab(QWidget):
         self._update_counter()
         if self.selected_index() == entry.index:
             self._show_selected_hit()
+        self._draw_overlay()
+
+    def _draw_overlay(self) -> None:
+        """Every accepted hit's force pulse and response on one time axis from its trigger: the odd one stands out."""
+        self.overlay_force_plot.clear()
+        self.overlay_response_plot.clear()
+        self._overlay_curves = []
+        accepted = [entry for entry in self.controller.hits if entry.accepted]
+        for number, entry in enumerate(accepted):
+            record = entry.record
+            t_s = (np.arange(record.n_samples) - record.trigger_index) / record.sample_rate_hz
+            pulse = (t_s >= OVERLAY_PULSE_MS[0] / 1e3) & (t_s <= OVERLAY_PULSE_MS[1] / 1e3)
+            color = PALETTE[number % len(PALETTE)]
+            force = self.overlay_force_plot.plot(t_s[pulse], record.force_n[pulse], pen=pen(color, 1.0))
+            response = self.overlay_response_plot.plot(t_s, record.response, pen=pen(color, 1.0))
+            for curve in (force, response):
+                curve.setToolTip(f"hit {entry.index + 1}")
+            self._overlay_curves += [force, response]
+        titles = f"{len(accepted)} accepted hits"
+        self.overlay_force_plot.setTitle(f"Force pulses of the {titles}")
+        self.overlay_response_plot.setTitle(f"Responses of the {titles}")
 
     def selected_index(self) -> int | None:
         rows = self.hit_table.selectionModel().selectedRows()
@@ -342,6 +472,7 @@ class MeasureTab(QWidget):
         self.hit_force_curve.setData(t, record.force_n)
         self.hit_response_curve.setData(t, record.response)
         self.hit_response_view.enableAutoRange()
+        self._show_hit_spectrum(entry)
         self.accept_button.setEnabled(not entry.accepted)
         self.reject_button.setEnabled(entry.accepted or entry.pending)
 
@@ -350,15 +481,54 @@ class MeasureTab(QWidget):
         if index is not None:
             self.controller.decide(index, accepted)
 
+    def _show_hit_spectrum(self, entry: HitEntry) -> None:
+        """The selected hit's force spectrum (dB re its low-frequency level) with the usable band shaded."""
+        drop_db = self.controller.setup.usable_drop_db
+        try:
+            single = session_frf([entry.record], self.controller.window_settings())
+        except GasfilmError:
+            return
+        keep = single.freq_hz > 0
+        self.hit_spectrum_curve.setData(single.freq_hz[keep], force_level_db(single.freq_hz, single.gff)[keep])
+        low, high = usable_band_hz(single.freq_hz, single.gff, drop_db)
+        set_region_hz(self.spectrum_band, low, high, self.log_frequency.isChecked())
+        self.spectrum_label.setText(
+            f"Hit {entry.index + 1}: force within {drop_db:g} dB of its low-frequency level up to {high:.0f} Hz; "
+            f"above that the hammer put too little energy in (spectral nulls) and the FRF is not trusted."
+        )
+        show_legend_only_with_data(self.spectrum_plot)
+
     # --- running FRF ------------------------------------------------------------------------------------------------
 
     def _on_frf(self, frf: object) -> None:
         if frf is None:
-            self.h1_curve.setData([], [])
-            self.coherence_curve.setData([], [])
+            for curve in (self.h1_curve, self.h1_outside_curve, self.coherence_curve, self.mean_spectrum_curve):
+                curve.setData([], [])
             self.h1_plot.setTitle("Running H1")
-            return
-        keep = frf.freq_hz > 0
-        self.h1_curve.setData(frf.freq_hz[keep], np.abs(frf.h1[keep]))
-        self.coherence_curve.setData(frf.freq_hz[keep], frf.coherence[keep])
-        self.h1_plot.setTitle(f"Running H1 — {frf.n_averages} averages")
+            self.usable_label.setText("")
+            self.h1_band.setVisible(False)
+        else:
+            keep = frf.freq_hz > 0
+            freq = frf.freq_hz[keep]
+            low, high = usable_band_hz(frf.freq_hz, frf.gff, self.controller.setup.usable_drop_db)
+            magnitude = np.abs(frf.h1[keep])
+            inside = freq <= high
+            self.h1_curve.setData(freq[inside], magnitude[inside])
+            self.h1_outside_curve.setData(freq[~inside], magnitude[~inside])
+            self.coherence_curve.setData(freq, frf.coherence[keep])
+            self.mean_spectrum_curve.setData(freq, force_level_db(frf.freq_hz, frf.gff)[keep])
+            self.h1_band.setVisible(True)
+            set_region_hz(self.h1_band, low, high, self.log_frequency.isChecked())
+            self.h1_plot.setTitle(f"Running H1 — {frf.n_averages} averages")
+            self.usable_label.setText(f"usable band {low:.3g}–{high:.0f} Hz")
+        for plot in (self.h1_plot, self.spectrum_plot):
+            show_legend_only_with_data(plot)
+
+    def _set_log_frequency(self, log_x: bool) -> None:
+        for plot in (self.h1_plot, self.coherence_plot, self.spectrum_plot):
+            plot.getPlotItem().setLogMode(x=log_x)
+            plot.getPlotItem().vb.autoRange()  # the old range in the new coordinates would be 10^6400 Hz wide
+        self._on_frf(self.controller.frf)
+        entry = next((e for e in self.controller.hits if e.index == self.selected_index()), None)
+        if entry is not None:
+            self._show_hit_spectrum(entry)

@@ -3,7 +3,7 @@
 Runs the real GUI offscreen on the simulated rig: the paper's FOMGF film on 25.05 kg with a small extra mode of the
 mover that the design spec leaves out. It arms, hits with the virtual hammer, rejects one hit by hand, fits the
 paper's nine models, diagnoses the session against the design spec (which finds the extra mode), and writes one PNG
-per tab to ``docs/screenshots/`` (the README links them). Settings go to a temporary folder, not the user's.
+per tab (and the Measure tab's force spectrum and overlay views) to ``docs/screenshots/`` (the README links them). Settings go to a temporary folder, not the user's.
 """
 
 from __future__ import annotations
@@ -24,10 +24,9 @@ from PySide6.QtWidgets import QApplication  # noqa: E402
 from gasfilm.analysis.physics.elements import PAPER_MODEL_ORDER  # noqa: E402
 from gasfilm.analysis.physics.effects import ExtraMode  # noqa: E402
 from gasfilm.analysis.physics.spec import RigSpec  # noqa: E402
-from gasfilm.app.gui.main_window import MainWindow  # noqa: E402
+from gasfilm.app.gui.main_window import DEFAULT_WINDOW_SIZE, MainWindow  # noqa: E402
 
 DEFAULT_OUT = Path(__file__).resolve().parents[2] / "docs" / "screenshots"
-WINDOW_SIZE = (1600, 1000)
 HITS = 8
 REJECTED_HIT = 3
 TIPS = ("medium", "hard", "medium", "soft")
@@ -66,7 +65,7 @@ def take_screenshots(out_dir: Path) -> list[Path]:
     app = QApplication.instance() or QApplication(sys.argv[:1])
     scratch = Path(tempfile.mkdtemp(prefix="gasfilm-screenshots-"))
     window = MainWindow(QSettings(str(scratch / "settings.ini"), QSettings.Format.IniFormat), scratch)
-    window.resize(*WINDOW_SIZE)
+    window.resize(*DEFAULT_WINDOW_SIZE)  # what a technician sees at start: nothing may be cut off at this size
     window.show()
     controller = window.controller
     design_spec = scratch / "design-rig.toml"
@@ -95,6 +94,12 @@ def take_screenshots(out_dir: Path) -> list[Path]:
     controller.virtual_hit("medium")
     _settle(app, 0.35)
     written.append(_save(window, window.measure_tab, out_dir / "measure.png", app))
+    measure = window.measure_tab
+    measure.hit_views.setCurrentIndex(1)
+    written.append(_save(window, measure, out_dir / "measure-force-spectrum.png", app))
+    measure.hit_views.setCurrentIndex(2)
+    written.append(_save(window, measure, out_dir / "measure-overlay.png", app))
+    measure.hit_views.setCurrentIndex(0)
     controller.stop()
     _wait_until(app, lambda: controller.state == "idle", 20, "the acquisition to stop")
     written.append(_save(window, window.frf_tab, out_dir / "frf.png", app))

@@ -12,6 +12,7 @@ Format (``fixtures/sensors.toml``)::
 
 from __future__ import annotations
 
+import math
 import tomllib
 from dataclasses import dataclass
 from pathlib import Path
@@ -44,7 +45,11 @@ def load_sensor_library(path: str | Path = DEFAULT_SENSOR_LIBRARY) -> list[Senso
         document = tomllib.loads(path.read_text(encoding="utf-8"))
     except FileNotFoundError:
         raise SettingError(f"sensor library {path}: file not found") from None
-    except tomllib.TOMLDecodeError as error:
+    except UnicodeDecodeError:
+        raise SettingError(f"sensor library {path}: not UTF-8 text") from None
+    except OSError as error:
+        raise SettingError(f"sensor library {path}: cannot be read ({error.strerror or error})") from None
+    except (tomllib.TOMLDecodeError, RecursionError) as error:
         raise SettingError(f"sensor library {path}: not valid TOML ({error})") from None
     entries = document.get("sensor", [])
     if not isinstance(entries, list):
@@ -52,22 +57,26 @@ def load_sensor_library(path: str | Path = DEFAULT_SENSOR_LIBRARY) -> list[Senso
     sensors = []
     for number, entry in enumerate(entries, start=1):
         where = f"sensor library {path}: sensor #{number}"
+        if not isinstance(entry, dict):
+            raise SettingError(f"{where}: must be a table ([[sensor]] with model, type, sensitivity, units)")
         missing = [key for key in ("model", "type", "sensitivity", "units") if key not in entry]
         if missing:
             raise SettingError(f"{where}: missing {', '.join(missing)}")
-        try:
-            kind = ChannelKind(entry["type"])
-        except ValueError:
-            raise SettingError(f"{where} type: '{entry['type']}' is not one of force, acceleration") from None
-        if entry["units"] not in SENSITIVITY_UNITS[kind]:
+        kinds = {kind.value: kind for kind in ChannelKind}
+        if not isinstance(entry["type"], str) or entry["type"] not in kinds:
+            raise SettingError(f"{where} type: {entry['type']!r} is not one of {', '.join(kinds)}")
+        kind = kinds[entry["type"]]
+        if not isinstance(entry["units"], str) or entry["units"] not in SENSITIVITY_UNITS[kind]:
             raise SettingError(
-                f"{where} units: '{entry['units']}' is not valid for a {kind.value} sensor; "
+                f"{where} units: {entry['units']!r} is not valid for a {kind.value} sensor; "
                 f"allowed: {', '.join(SENSITIVITY_UNITS[kind])}"
             )
         sensitivity = entry["sensitivity"]
-        if not isinstance(sensitivity, (int, float)) or sensitivity <= 0:
-            raise SettingError(f"{where} sensitivity: {sensitivity!r} must be a positive number")
+        if isinstance(sensitivity, bool) or not isinstance(sensitivity, (int, float)) or not 0 < sensitivity < math.inf:
+            raise SettingError(f"{where} sensitivity: {sensitivity!r} must be a positive finite number")
+        if not isinstance(entry["model"], str) or not entry["model"].strip():
+            raise SettingError(f"{where} model: {entry['model']!r} must be a non-empty text")
         sensors.append(
-            Sensor(str(entry["model"]), kind, float(sensitivity), entry["units"], str(entry.get("description", "")))
+            Sensor(entry["model"], kind, float(sensitivity), entry["units"], str(entry.get("description", "")))
         )
     return sensors

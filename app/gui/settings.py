@@ -5,12 +5,17 @@ from __future__ import annotations
 import dataclasses
 import enum
 import json
+import logging
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, TypeVar
 
 from PySide6.QtCore import QSettings
 
+from gasfilm.analysis.capture import TriggerSettings
+from gasfilm.analysis.spectra import WindowSettings
+from gasfilm.analysis.validation import ValidationSettings
 from gasfilm.drivers.errors import SettingError
 from gasfilm.drivers.interface import (
     NI9234_IEPE_CURRENT_A,
@@ -28,6 +33,9 @@ SETTINGS_APPLICATION = "gasfilm-gui"
 SIM_TIPS = tuple(TIPS_PULSE_WIDTH_S)  # the simulated hammer's tips
 
 T = TypeVar("T")
+logger = logging.getLogger(__name__)
+#: The Setup state's groups of analysis settings and their dataclasses.
+_SETTINGS_GROUPS = {"trigger": TriggerSettings, "window": WindowSettings, "validation": ValidationSettings}
 
 
 @dataclass
@@ -84,6 +92,9 @@ class SetupState:
     sim_tip: str = "medium"
     sim_seed: int = 1
     live_view_s: float = 2.0
+    target_averages: int = 10  # acquisition stops once this many hits are accepted (0: no target)
+    min_coherence: float = 0.9  # auto-accept also needs the band's mean γ² to stay above this (0: no check)
+    usable_drop_db: float = 20.0  # the FRF is trusted where the force spectrum is within this of its low-f level
 
     def enabled_channels(self) -> list[ChannelSetup]:
         return [channel for channel in self.channels if channel.enabled]
@@ -111,27 +122,94 @@ class SetupState:
 
     @classmethod
     def from_json(cls, text: str) -> "SetupState":
-        """Rebuild from stored JSON; unknown keys are dropped and missing ones take their defaults."""
-        data = json.loads(text)
-        known = {f.name for f in dataclasses.fields(cls)}
-        values = {key: value for key, value in data.items() if key in known}
-        channel_keys = {f.name for f in dataclasses.fields(ChannelSetup)}
-        if "channels" in values:
-            rows = [ChannelSetup(**{k: v for k, v in row.items() if k in channel_keys}) for row in values["channels"]]
-            by_name = {row.physical_channel: row for row in rows}
-            values["channels"] = [by_name.get(row.physical_channel, row) for row in default_channels()]
+        """Rebuild from stored JSON; unknown keys are dropped and missing ones take their defaults. Values of the
+        wrong type raise :class:`SettingError` naming the key (a damaged settings file)."""
+        try:
+            data = json.loads(text)
+        except (ValueError, RecursionError) as error:
+            raise SettingError(f"not valid JSON ({error})") from None
+        if not isinstance(data, dict):
+            raise SettingError(f"expected a JSON object, found {type(data).__name__}")
+        defaults = cls()
+        values: dict[str, Any] = {}
+        for f in dataclasses.fields(cls):
+            if f.name not in data:
+                continue
+            value = data[f.name]
+            if f.name == "channels":
+                value = _channels_from_json(value)
+            elif f.name in _SETTINGS_GROUPS:
+                _check_group(f.name, value, _SETTINGS_GROUPS[f.name])
+            else:
+                _check_like(f.name, value, getattr(defaults, f.name))
+            values[f.name] = value
         return cls(**values)
 
 
-def load_setup(settings: QSettings) -> SetupState:
-    """The state stored by the last run, or the defaults (also when the stored value is unreadable)."""
+def _check_like(name: str, value: Any, default: Any) -> None:
+    """``value`` has the type of ``default`` (an int passes for a float; numbers must be finite)."""
+    if isinstance(default, bool):
+        ok = isinstance(value, bool)
+    elif isinstance(default, (int, float)):
+        ok = isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+        ok = ok and (isinstance(value, int) or not isinstance(default, int))
+    elif isinstance(default, str):
+        ok = isinstance(value, str)
+    else:
+        ok = value is None or (isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value))
+    if not ok:
+        raise SettingError(f"'{name}': {value!r:.60} is not a {type(default).__name__}")
+
+
+def _check_group(name: str, values: Any, settings_type: type) -> None:
+    """A dict of a settings dataclass's fields with values of the right types (``None`` for optional ones)."""
+    if not isinstance(values, dict):
+        raise SettingError(f"'{name}': expected an object of settings, found {type(values).__name__}")
+    defaults = settings_type()
+    for key, value in values.items():
+        if key in {f.name for f in dataclasses.fields(settings_type)}:
+            default = getattr(defaults, key)
+            if isinstance(default, enum.Enum):
+                default = default.value
+            if value is not None or default is not None:
+                _check_like(f"{name}.{key}", value, default if value is not None else 0.0)
+
+
+def _channels_from_json(rows: Any) -> list[ChannelSetup]:
+    if not isinstance(rows, list) or not all(isinstance(row, dict) for row in rows):
+        raise SettingError("'channels': expected a list of channel objects")
+    defaults = ChannelSetup("ai0")
+    channel_keys = {f.name: getattr(defaults, f.name) for f in dataclasses.fields(ChannelSetup)}
+    channels = []
+    for number, row in enumerate(rows):
+        for key, value in row.items():
+            if key in channel_keys:
+                _check_like(f"channels[{number}].{key}", value, channel_keys[key])
+        if "physical_channel" not in row:
+            raise SettingError(f"'channels[{number}]': no physical_channel")
+        if row.get("kind", defaults.kind) not in {kind.value for kind in ChannelKind}:
+            raise SettingError(f"'channels[{number}].kind': {row['kind']!r} is not a channel type")
+        if row.get("coupling", defaults.coupling) not in {coupling.value for coupling in Coupling}:
+            raise SettingError(f"'channels[{number}].coupling': {row['coupling']!r} is not a coupling")
+        channels.append(ChannelSetup(**{k: v for k, v in row.items() if k in channel_keys}))
+    by_name = {row.physical_channel: row for row in channels}
+    return [by_name.get(row.physical_channel, row) for row in default_channels()]
+
+
+def load_setup(settings: QSettings) -> tuple[SetupState, str]:
+    """The state stored by the last run and '' — or the defaults and one line saying why, when the stored value
+    is damaged (the GUI shows it in its banner and starts anyway)."""
     text = settings.value(SETTINGS_KEY, "")
-    if not text:
-        return SetupState()
+    if text is None or text == "":
+        return SetupState(), ""
     try:
-        return SetupState.from_json(str(text))
-    except (ValueError, TypeError):
-        return SetupState()
+        if not isinstance(text, str):
+            raise SettingError(f"expected text, found {type(text).__name__}")
+        return SetupState.from_json(text), ""
+    except SettingError as error:
+        problem = f"stored GUI settings in {settings.fileName()} are damaged ({error}); using the defaults"
+        logger.warning(problem)
+        return SetupState(), problem
 
 
 def save_setup(settings: QSettings, state: SetupState) -> None:

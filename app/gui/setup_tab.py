@@ -14,6 +14,7 @@ from PySide6.QtWidgets import (
     QGridLayout,
     QGroupBox,
     QHBoxLayout,
+    QHeaderView,
     QLabel,
     QLineEdit,
     QPushButton,
@@ -106,13 +107,41 @@ class SetupTab(QWidget):
         QVBoxLayout(window_box).addWidget(self.window_form)
 
         self.validation_form = DataclassForm(ValidationSettings)
-        self.auto_accept = QCheckBox("Accept hits that pass every check without asking")
+        self.auto_accept = QCheckBox("Accept hits that pass every check (double hit included) without asking")
         self.auto_reject = QCheckBox("Reject hits that fail a check without asking")
-        validation_box = QGroupBox("Hit validation and accept rules")
-        validation_layout = QVBoxLayout(validation_box)
-        validation_layout.addWidget(self.validation_form)
-        validation_layout.addWidget(self.auto_accept)
-        validation_layout.addWidget(self.auto_reject)
+        self.min_coherence = QDoubleSpinBox()
+        self.min_coherence.setObjectName("min_coherence")
+        self.min_coherence.setRange(0.0, 1.0)
+        self.min_coherence.setDecimals(2)
+        self.min_coherence.setSingleStep(0.01)
+        self.min_coherence.setToolTip(
+            "An automatically accepted hit waits for you instead when, with it, the mean coherence γ² in the usable "
+            "band falls below this (0: no coherence check)"
+        )
+        self.target_averages = QSpinBox()
+        self.target_averages.setObjectName("target_averages")
+        self.target_averages.setRange(0, 10_000)
+        self.target_averages.setSpecialValueText("no target")
+        self.target_averages.setToolTip("The acquisition stops once this many hits are accepted")
+        self.usable_drop_db = QDoubleSpinBox()
+        self.usable_drop_db.setObjectName("usable_drop_db")
+        self.usable_drop_db.setRange(3.0, 60.0)
+        self.usable_drop_db.setDecimals(1)
+        self.usable_drop_db.setSuffix(" dB")
+        self.usable_drop_db.setToolTip(
+            "The FRF is trusted where the force spectrum is within this of its low-frequency level (10–20 dB)"
+        )
+        validation_box = QGroupBox("Hit checks")
+        QVBoxLayout(validation_box).addWidget(self.validation_form)
+        rules_box = QGroupBox("Accept rules")
+        rules_layout = QVBoxLayout(rules_box)
+        rules_layout.addWidget(self.auto_accept)
+        rules_layout.addWidget(self.auto_reject)
+        rules = QFormLayout()
+        rules.addRow("Auto-accept only while coherence γ² ≥", self.min_coherence)
+        rules.addRow("Target averages (stop when reached)", self.target_averages)
+        rules.addRow("Usable band: force spectrum within", self.usable_drop_db)
+        rules_layout.addLayout(rules)
 
         self.rig_path = QLineEdit()
         self.rig_path.setPlaceholderText(rig_spec_label(""))
@@ -134,17 +163,22 @@ class SetupTab(QWidget):
         self.problem_label = QLabel()
         self.problem_label.setWordWrap(True)
 
+        # Three columns under the channel table: everything fits the window's default size without scrolling.
         grid = QGridLayout(self)
         grid.addWidget(device_box, 0, 0)
-        grid.addWidget(rig_box, 0, 1)
-        grid.addWidget(channels_box, 1, 0, 1, 2)
+        grid.addWidget(rig_box, 0, 1, 1, 2)
+        grid.addWidget(channels_box, 1, 0, 1, 3)
         grid.addWidget(trigger_box, 2, 0)
         side = QVBoxLayout()
         side.addWidget(window_box)
-        side.addWidget(validation_box)
+        side.addWidget(rules_box)
+        side.addStretch(1)
         grid.addLayout(side, 2, 1)
-        grid.addWidget(self.problem_label, 3, 0, 1, 2)
+        grid.addWidget(validation_box, 2, 2)
+        grid.addWidget(self.problem_label, 3, 0, 1, 3)
         grid.setRowStretch(4, 1)
+        for column in range(3):
+            grid.setColumnStretch(column, 1)
 
         for form in (self.trigger_form, self.window_form, self.validation_form):
             form.changed.connect(self._emit_changed)
@@ -155,11 +189,26 @@ class SetupTab(QWidget):
         self.sim_seed.valueChanged.connect(self._emit_changed)
         self.rate_combo.currentIndexChanged.connect(self._emit_changed)
         self.live_view_s.valueChanged.connect(self._emit_changed)
+        for spin in (self.min_coherence, self.target_averages, self.usable_drop_db):
+            spin.valueChanged.connect(self._emit_changed)
         self.response_combo.currentIndexChanged.connect(self._emit_changed)
         self.rig_path.editingFinished.connect(self._emit_changed)
 
         self.refresh_devices()
+        header = self.table.horizontalHeader()
+        for column in ("Name", "Sensor", "Units"):
+            header.setSectionResizeMode(_COLUMNS.index(column), QHeaderView.ResizeMode.Stretch)
         self.set_state(state)
+        self._fit_table_to_rows()
+
+    def _fit_table_to_rows(self) -> None:
+        """Every channel row visible, the text columns sharing the width: nothing in the table is cut off."""
+        header = self.table.horizontalHeader()
+        self.table.resizeColumnsToContents()
+        self.table.resizeRowsToContents()
+        rows = sum(self.table.rowHeight(row) for row in range(self.table.rowCount()))
+        self.table.setFixedHeight(header.sizeHint().height() + rows + 2 * self.table.frameWidth() + 2)
+        self.table.setMinimumWidth(sum(self.table.columnWidth(c) for c in range(self.table.columnCount())))
 
     # --- state in and out ------------------------------------------------------------------------------------------
 
@@ -181,6 +230,9 @@ class SetupTab(QWidget):
         self.validation_form.set_values(state.validation)
         self.auto_accept.setChecked(state.auto_accept)
         self.auto_reject.setChecked(state.auto_reject)
+        self.min_coherence.setValue(state.min_coherence)
+        self.target_averages.setValue(state.target_averages)
+        self.usable_drop_db.setValue(state.usable_drop_db)
         self.rig_path.setText(state.rig_spec_path)
         self._refresh_response_channels(state.response_channel)
         self._loading = False
@@ -202,6 +254,9 @@ class SetupTab(QWidget):
             sim_tip=self.sim_tip.currentText(),
             sim_seed=self.sim_seed.value(),
             live_view_s=self.live_view_s.value(),
+            target_averages=self.target_averages.value(),
+            min_coherence=self.min_coherence.value(),
+            usable_drop_db=self.usable_drop_db.value(),
         )
 
     def problem(self) -> str:
@@ -220,34 +275,21 @@ class SetupTab(QWidget):
 
     # --- channel table ---------------------------------------------------------------------------------------------
 
-    def _fill_row(self, row: int, channel: ChannelSetup) -> None:
-        use = QCheckBox()
-        use.setChecked(channel.enabled)
-        name = QLineEdit(channel.name)
+    def _create_row(self, row: int) -> None:
+        """The editors of one channel row, made once and reused by every :meth:`set_state`."""
+        coupling = QComboBox()
+        coupling.addItems([c.value for c in Coupling])
         kind = QComboBox()
         for member in ChannelKind:
             kind.addItem(member.value, member.value)
-        kind.setCurrentIndex(kind.findData(channel.kind))
-        sensor = QComboBox()
         sensitivity = QDoubleSpinBox()
-        sensitivity.setDecimals(4)
+        sensitivity.setDecimals(3)
         sensitivity.setRange(0.0, 100_000.0)
-        sensitivity.setValue(channel.sensitivity)
-        units = QComboBox()
-        iepe = QCheckBox()
-        iepe.setChecked(channel.iepe)
-        coupling = QComboBox()
-        coupling.addItems([c.value for c in Coupling])
-        coupling.setCurrentText(channel.coupling)
-        widgets = (use, None, name, kind, sensor, sensitivity, units, iepe, coupling)
-        for column, widget in enumerate(widgets):
-            if widget is not None:
-                self.table.setCellWidget(row, column, widget)
-        label = QLabel(channel.physical_channel)
+        label = QLabel()
         label.setAlignment(Qt.AlignmentFlag.AlignCenter)
-        self.table.setCellWidget(row, 1, label)
-        self._fill_sensor_choices(row, channel.kind, channel.sensor_model)
-        self._fill_units(row, channel.kind, channel.units)
+        use, name, sensor, units, iepe = QCheckBox(), QLineEdit(), QComboBox(), QComboBox(), QCheckBox()
+        for column, widget in enumerate((use, label, name, kind, sensor, sensitivity, units, iepe, coupling)):
+            self.table.setCellWidget(row, column, widget)
         use.toggled.connect(lambda _=False: self._channels_changed())
         name.editingFinished.connect(self._emit_changed)
         kind.currentIndexChanged.connect(lambda _=0, r=row: self._kind_changed(r))
@@ -256,7 +298,24 @@ class SetupTab(QWidget):
         units.currentIndexChanged.connect(lambda _=0, r=row: self._typed_in(r))
         iepe.toggled.connect(self._emit_changed)
         coupling.currentIndexChanged.connect(self._emit_changed)
-        self.table.resizeColumnsToContents()
+
+    def _fill_row(self, row: int, channel: ChannelSetup) -> None:
+        if self.table.cellWidget(row, 0) is None:
+            self._create_row(row)
+        cells = {column: self.channel_cell(row, column) for column in _COLUMNS}
+        for widget in cells.values():
+            widget.blockSignals(True)
+        cells["Use"].setChecked(channel.enabled)
+        cells["Channel"].setText(channel.physical_channel)
+        cells["Name"].setText(channel.name)
+        cells["Type"].setCurrentIndex(max(0, cells["Type"].findData(channel.kind)))
+        cells["Sensitivity"].setValue(channel.sensitivity)
+        cells["IEPE"].setChecked(channel.iepe)
+        cells["Coupling"].setCurrentText(channel.coupling)
+        for widget in cells.values():
+            widget.blockSignals(False)
+        self._fill_sensor_choices(row, channel.kind, channel.sensor_model)
+        self._fill_units(row, channel.kind, channel.units)
 
     def channel_cell(self, row: int, column: str) -> QWidget:
         return self.table.cellWidget(row, _COLUMNS.index(column))

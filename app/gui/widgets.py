@@ -68,6 +68,13 @@ def field_label(field_name: str) -> str:
     return f"{words} ({unit})" if unit else words
 
 
+def sensible_decimals(typical: float) -> int:
+    """Decimals that show three significant digits of a value like ``typical`` (1 to 6)."""
+    if not typical or not np.isfinite(typical):
+        return 2
+    return int(min(6, max(1, 2 - np.floor(np.log10(abs(typical))))))
+
+
 class Banner(QFrame):
     """A non-modal message strip above the tabs: device faults, refused settings, finished jobs."""
 
@@ -84,6 +91,11 @@ class Banner(QFrame):
         layout.setContentsMargins(10, 6, 6, 6)
         layout.addWidget(self._label, 1)
         layout.addWidget(close)
+        # Room for two lines, kept while hidden: a message never shifts the tabs below it.
+        self.setFixedHeight(2 * self._label.fontMetrics().lineSpacing() + 18)
+        policy = self.sizePolicy()
+        policy.setRetainSizeWhenHidden(True)
+        self.setSizePolicy(policy)
         self.severity = ""
         self.history: list[tuple[str, str]] = []
         self.hide()
@@ -97,6 +109,7 @@ class Banner(QFrame):
         self.severity = severity
         self.history.append((severity, text))
         self._label.setText(text)
+        self._label.setToolTip(text)
         self.setStyleSheet(
             f"QFrame#banner {{ background: {background}; border: 1px solid {foreground}; border-radius: 4px; }}"
             f"QLabel {{ color: {foreground}; font-weight: 600; }}"
@@ -170,7 +183,7 @@ class DataclassForm(QWidget):
             editor.valueChanged.connect(self.changed)
         elif isinstance(default, float):
             editor = QDoubleSpinBox()
-            editor.setDecimals(6)
+            editor.setDecimals(sensible_decimals(default))
             editor.setRange(-1e9, 1e9)
             editor.setStepType(QDoubleSpinBox.StepType.AdaptiveDecimalStepType)
             editor.setValue(default)
@@ -267,6 +280,24 @@ def make_plot(
     item.setDownsampling(auto=True, mode="peak")
     item.setClipToView(True)
     return widget
+
+
+def show_legend_only_with_data(plot: pg.PlotWidget) -> None:
+    """Hide a plot's legend while none of its curves has data (an empty plot shows no empty legend)."""
+    legend = plot.getPlotItem().legend
+    if legend is None:
+        return
+    has_data = any(
+        getattr(sample.item, "xData", None) is not None and len(sample.item.xData) > 0 for sample, _ in legend.items
+    )
+    legend.setVisible(has_data)
+
+
+def set_region_hz(region: pg.LinearRegionItem, low_hz: float, high_hz: float, log_x: bool) -> None:
+    """Place a frequency band on a plot whose x axis may be logarithmic (view coordinates are then log10 f)."""
+    if log_x:
+        low_hz, high_hz = np.log10(max(low_hz, 1e-3)), np.log10(max(high_hz, 1e-3))
+    region.setRegion((low_hz, high_hz))
 
 
 def phase_deg(h: np.ndarray) -> np.ndarray:

@@ -23,7 +23,7 @@ from gasfilm.analysis.physics.plant import RigPlant
 from gasfilm.analysis.recording import HitEvent, HitRecorder
 from gasfilm.analysis.physics.spec import RigSpec
 from gasfilm.analysis.session import Session
-from gasfilm.analysis.spectra import WindowSettings, frf_from_hits
+from gasfilm.analysis.spectra import WindowSettings
 from gasfilm.analysis.validation import ValidationSettings, Verdict
 from gasfilm.drivers import SIMULATED_DEVICE_NAME, open_device
 from gasfilm.drivers.errors import GasfilmError
@@ -32,6 +32,14 @@ from gasfilm.drivers.interface import ChannelKind, DaqConfig, DaqDevice
 POLL_INTERVAL_MS = 50
 PROGRESS_INTERVAL_S = 0.1
 SIM_HIT_INTERVAL_S = (1.5, 3.0)
+#: Stored with a hit that waits for the technician's decision: until then the session counts it as not accepted.
+PENDING_REASON = "awaiting decision"
+
+
+def pending_verdict(automatic: Verdict, hold_reason: str = "") -> Verdict:
+    """How a hit waiting for a decision is stored: not accepted, its check results and why it waits."""
+    reasons = automatic.reasons + ((hold_reason,) if hold_reason else ()) + (PENDING_REASON,)
+    return Verdict(False, reasons)
 
 
 @dataclass(frozen=True)
@@ -52,6 +60,7 @@ class AcquisitionPlan:
     sim_seed: int = 1
     sim_pacing: str = "realtime"
     ring_seconds: float = 10.0
+    time_offset_s: float = 0.0  # session time of the stream's first sample (hit times continue across re-arms)
 
 
 @dataclass
@@ -85,7 +94,6 @@ class AcquisitionWorker(QObject):
     streaming = Signal(object)  # the AcquisitionLoop, once the device streams (its ring feeds the live view)
     hit_recorded = Signal(object)  # HitEntry
     verdict_changed = Signal(object)  # HitEntry after a decision
-    frf_updated = Signal(object)  # FrfResult of the accepted hits
     trigger_state = Signal(str)  # "armed" | "triggered"
     channel_warning = Signal(str)  # overload / open sensor flags, one line
     device_fault = Signal(str)  # a DeviceError's message; acquisition has ended
@@ -130,9 +138,10 @@ class AcquisitionWorker(QObject):
             self.device = ReaderThreadHooks(device) if plan.device_name == SIMULATED_DEVICE_NAME else device
             self.device.configure(plan.config)
             force_row = plan.config.channel_index(ChannelKind.FORCE)
-            capture = ImpactCapture(
+            capture = ContinuingCapture(
                 plan.trigger, self.device.sample_rate_hz, len(plan.config.channels), force_row, plan.response_row
             )
+            capture.time_offset_s = plan.time_offset_s
             full_scale = tuple(channel.full_scale_si for channel in plan.config.channels)
             self._capture = capture
             self.recorder = HitRecorder(
@@ -232,10 +241,10 @@ class AcquisitionWorker(QObject):
         automatic = event.verdict
         decided = (automatic.accepted and self.plan.auto_accept) or (not automatic.accepted and self.plan.auto_reject)
         entry = HitEntry(event.index, event.record, automatic, automatic, pending=not decided)
+        if entry.pending:  # never on disk as accepted before the technician says so
+            self.session.set_verdict(entry.index, pending_verdict(automatic))
         self._entries[entry.index] = entry
         self.hit_recorded.emit(entry)
-        if entry.accepted:
-            self._emit_frf()
 
     def _report_flags(self, status: Any) -> None:
         names = [channel.physical_channel for channel in self.plan.config.channels]
@@ -257,11 +266,6 @@ class AcquisitionWorker(QObject):
             self._last_trigger_state = state
             self.trigger_state.emit(state)
 
-    def _emit_frf(self) -> None:
-        records = [entry.record for entry in self._entries.values() if entry.accepted]
-        if records:
-            self.frf_updated.emit(frf_from_hits(records, self.plan.window))
-
     # --- requests from the GUI (queued onto this thread) -------------------------------------------------------------
 
     @Slot(int, bool)
@@ -275,7 +279,18 @@ class AcquisitionWorker(QObject):
         entry.pending = False
         self.session.set_verdict(index, entry.verdict)
         self.verdict_changed.emit(entry)
-        self._emit_frf()
+
+    @Slot(int, str)
+    def hold(self, index: int, reason: str) -> None:
+        """Take back an automatic acceptance (e.g. the hit lowers the coherence): the hit waits for the technician."""
+        entry = self._entries.get(index)
+        if entry is None or entry.verdict.overridden:
+            return
+        entry.automatic = Verdict(False, entry.automatic.reasons + (reason,))
+        entry.verdict = entry.automatic
+        entry.pending = True
+        self.session.set_verdict(index, pending_verdict(entry.automatic))
+        self.verdict_changed.emit(entry)
 
     @Slot(str)
     def virtual_hit(self, tip: str) -> None:
@@ -286,6 +301,19 @@ class AcquisitionWorker(QObject):
     def inject_fault(self, kind: str) -> None:
         if isinstance(self.device, ReaderThreadHooks):
             self.device.request(lambda device: device.sim_inject_fault(kind))
+
+
+class ContinuingCapture(ImpactCapture):
+    """The software trigger with hit times counted from the session's start, not the stream's: a session re-armed
+    after a stop continues its time line instead of starting again at 0."""
+
+    time_offset_s = 0.0
+
+    def feed(self, chunk: np.ndarray, overload: np.ndarray | None = None) -> list[HitRecord]:
+        records = super().feed(chunk, overload)
+        for record in records:
+            record.start_time_s += self.time_offset_s
+        return records
 
 
 class ReaderThreadHooks:

@@ -1,0 +1,471 @@
+"""A session report an engineer can attach to a test log: setup, hits and verdicts, FRF with coherence and force
+spectrum, fits (Table 2 style), stored diagnosis — as one self-contained HTML file (figures embedded as PNG) or a PDF.
+
+Also home of the force spectrum's roll-off (:func:`force_level_db`, :func:`usable_band_hz`): an FRF is meaningful
+only where the hammer put energy in, i.e. where the force autospectrum is within ~10–20 dB of its low-frequency
+level; a half-sine pulse has spectral nulls above that, where a one-hit H1 shows spikes. The GUI uses the same
+functions. Matplotlib is drawn without pyplot (no Qt, no global state).
+"""
+
+from __future__ import annotations
+
+import base64
+import datetime
+import html
+import io
+import logging
+import os
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Sequence
+
+import numpy as np
+
+from gasfilm.analysis.session import Session
+from gasfilm.analysis.spectra import FrfResult, WindowSettings, session_frf
+from gasfilm.drivers.errors import GasfilmError, SettingError
+from gasfilm.drivers.interface import STANDARD_GRAVITY_M_S2
+
+logger = logging.getLogger(__name__)
+
+#: The force spectrum may fall this far below its low-frequency level before the FRF is no longer trusted.
+USABLE_DROP_DB = 20.0
+#: Where the roll-off becomes noticeable (the band is still usable, with care).
+CAUTION_DROP_DB = 10.0
+#: Fraction of the Nyquist band whose force level counts as "low-frequency".
+_LOW_FREQUENCY_FRACTION = 0.02
+_MIN_LOW_LINES = 3
+REPORT_FORMATS = (".html", ".htm", ".pdf")
+
+
+# --- the force spectrum's roll-off --------------------------------------------------------------------------------
+
+
+def force_level_db(freq_hz: np.ndarray, gff: np.ndarray) -> np.ndarray:
+    """The force autospectrum in dB relative to its low-frequency level (the mean of the lowest lines above 0 Hz,
+    up to 2 % of the band); NaN at 0 Hz."""
+    freq_hz = np.asarray(freq_hz, dtype=float)
+    gff = np.asarray(gff, dtype=float)
+    positive = np.flatnonzero(freq_hz > 0)
+    if positive.size == 0:
+        return np.full(gff.shape, np.nan)
+    low_count = max(_MIN_LOW_LINES, int(_LOW_FREQUENCY_FRACTION * positive.size))
+    reference = float(np.mean(gff[positive[:low_count]]))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        level = 10.0 * np.log10(gff / reference) if reference > 0 else np.full(gff.shape, -np.inf)
+    level = np.where(freq_hz > 0, level, np.nan)
+    return level
+
+
+def usable_band_hz(freq_hz: np.ndarray, gff: np.ndarray, drop_db: float = USABLE_DROP_DB) -> tuple[float, float]:
+    """(lowest line above 0 Hz, frequency where the force spectrum first falls ``drop_db`` below its low-frequency
+    level) in Hz; the upper end is the last line when it never falls that far."""
+    freq_hz = np.asarray(freq_hz, dtype=float)
+    level = force_level_db(freq_hz, gff)
+    positive = np.flatnonzero(freq_hz > 0)
+    if positive.size == 0:
+        return 0.0, 0.0
+    below = positive[level[positive] < -abs(drop_db)]
+    upper = freq_hz[below[0]] if below.size else freq_hz[positive[-1]]
+    return float(freq_hz[positive[0]]), float(upper)
+
+
+# --- the report's content -----------------------------------------------------------------------------------------
+
+
+@dataclass
+class ReportData:
+    """What a report shows, read from a session file."""
+
+    path: Path
+    device_name: str
+    status: str
+    sample_rate_hz: float
+    channels: list[dict[str, str]]
+    settings: dict[str, Any]
+    rig_spec_toml: str | None
+    hits: list[dict[str, Any]]
+    records: list[Any]  # HitRecord of every hit, in order
+    frf: FrfResult | None
+    frf_source: str
+    fits: list[Any]  # FitResult
+    comparison: list[Any]  # ComparisonRow
+    diagnosis: dict[str, Any] | None
+
+
+def read_report_data(path: str | Path) -> ReportData:
+    """Everything the report needs from ``path`` (read only)."""
+    from gasfilm.analysis.identify import FitResult, compare_models
+
+    path = Path(path)
+    with Session.open(path, "r") as session:
+        config = session.daq_config
+        channels = [
+            {
+                "channel": channel.physical_channel,
+                "name": channel.name,
+                "kind": channel.kind.value,
+                "sensitivity": f"{channel.sensitivity:g} {channel.sensitivity_units}",
+                "iepe": f"{channel.iepe_current_a * 1e3:g} mA" if channel.iepe_current_a else "off",
+                "coupling": channel.coupling.value,
+            }
+            for channel in config.channels
+        ]
+        stored = session.hits()
+        records = [hit.as_hit_record() for hit in stored]
+        hits = [
+            {
+                "number": hit.index + 1,
+                "time_s": record.trigger_time_s,
+                "peak_force_n": float(np.max(np.abs(record.force_n))),
+                "accepted": hit.verdict.accepted,
+                "overridden": hit.verdict.overridden,
+                "reasons": ", ".join(hit.verdict.reasons),
+            }
+            for hit, record in zip(stored, records)
+        ]
+        if "frf" in session.result_names("frf"):
+            frf, source = session.read_frf(), "stored in the session"
+        else:
+            accepted = [record for hit, record in zip(stored, records) if hit.verdict.accepted]
+            window = session.settings_as("window", WindowSettings)
+            frf = session_frf(accepted, window) if accepted else None
+            source = "computed from the accepted hits with the session's window settings"
+        fits = [FitResult.from_dict(session.read_fit(name)) for name in session.result_names("fits")]
+        comparison: list[Any] = []
+        if fits and frf is not None:
+            band = (frf.freq_hz >= fits[0].band_hz[0]) & (frf.freq_hz <= fits[0].band_hz[1])
+            comparison = compare_models(fits, frf.freq_hz[band], frf.h1[band])
+        diagnosis = None
+        for name in ("diagnosis", "latest"):  # the GUI's name, then the command line's
+            if name in session.result_names("diagnoses"):
+                diagnosis = session.read_diagnosis(name)
+                break
+        return ReportData(
+            path=path,
+            device_name=session.device_name,
+            status=session.status,
+            sample_rate_hz=session.sample_rate_hz,
+            channels=channels,
+            settings=session.settings,
+            rig_spec_toml=session.rig_spec_toml,
+            hits=hits,
+            records=records,
+            frf=frf,
+            frf_source=source,
+            fits=fits,
+            comparison=comparison,
+            diagnosis=diagnosis,
+        )
+
+
+# --- figures ------------------------------------------------------------------------------------------------------
+
+
+def _new_figure(height_in: float) -> Any:
+    from matplotlib.figure import Figure
+
+    return Figure(figsize=(10, height_in), layout="constrained")
+
+
+def frf_figure(frf: FrfResult, drop_db: float = USABLE_DROP_DB) -> Any:
+    """|H1| (grey outside the usable band), coherence and the force spectrum with its roll-off."""
+    figure = _new_figure(9)
+    magnitude_axis, coherence_axis, force_axis = figure.subplots(3, 1, sharex=True)
+    keep = frf.freq_hz > 0
+    freq = frf.freq_hz[keep]
+    low, high = usable_band_hz(frf.freq_hz, frf.gff, drop_db)
+    inside = freq <= high
+    magnitude = np.abs(frf.h1[keep]) / STANDARD_GRAVITY_M_S2
+    magnitude_axis.semilogy(freq, np.where(inside, np.nan, magnitude), color="#bbbbbb", lw=1.0,
+                            label="outside the usable band")
+    magnitude_axis.semilogy(freq, np.where(inside, magnitude, np.nan), color="black", lw=1.2, label="H1")
+    magnitude_axis.set_ylabel("|H1| (g/N)")
+    magnitude_axis.set_title(f"Accelerance H1, {frf.n_averages} averages")
+    coherence_axis.plot(freq, frf.coherence[keep], color="#009E73", lw=1.0)
+    coherence_axis.set_ylim(0, 1.05)
+    coherence_axis.set_ylabel("coherence γ² (1)")
+    level = force_level_db(frf.freq_hz, frf.gff)[keep]
+    force_axis.plot(freq, level, color="#0072B2", lw=1.0, label="force autospectrum")
+    for drop, style in ((CAUTION_DROP_DB, ":"), (drop_db, "--")):
+        force_axis.axhline(-drop, color="#b3261e", ls=style, lw=0.8, label=f"−{drop:g} dB")
+    force_axis.set_ylim(max(-60.0, float(np.nanmin(level)) - 3.0) if np.isfinite(np.nanmin(level)) else -60.0, 6.0)
+    force_axis.set_ylabel("force level (dB re low f)")
+    force_axis.set_xlabel("frequency (Hz)")
+    for axis in (magnitude_axis, coherence_axis, force_axis):
+        axis.axvspan(low, high, color="#0072B2", alpha=0.06, lw=0)
+        axis.grid(True, alpha=0.3)
+    magnitude_axis.legend(fontsize=8, loc="lower right")
+    force_axis.legend(fontsize=8, loc="lower left")
+    force_axis.set_title(f"Force spectrum: usable band {low:.3g}–{high:.4g} Hz (within {drop_db:g} dB)")
+    return figure
+
+
+def hits_figure(records: Sequence[Any], accepted: Sequence[bool]) -> Any:
+    """Every hit's force pulse and response overlaid (accepted in colour, rejected in grey), aligned at the trigger."""
+    figure = _new_figure(6)
+    force_axis, response_axis = figure.subplots(2, 1)
+    for record, ok in zip(records, accepted):
+        t_ms = (np.arange(record.n_samples) - record.trigger_index) / record.sample_rate_hz * 1e3
+        style = {"lw": 0.8, "alpha": 0.8} if ok else {"lw": 0.6, "color": "#bbbbbb", "zorder": 0}
+        pulse = (t_ms >= -2.0) & (t_ms <= 10.0)
+        force_axis.plot(t_ms[pulse], record.force_n[pulse], **style)
+        response_axis.plot(t_ms / 1e3, record.response, **style)
+    force_axis.set_xlabel("time from trigger (ms)")
+    force_axis.set_ylabel("force (N)")
+    force_axis.set_title("Force pulses (accepted in colour, rejected grey)")
+    response_axis.set_xlabel("time from trigger (s)")
+    response_axis.set_ylabel("acceleration (m/s²)")
+    response_axis.set_title("Responses")
+    for axis in (force_axis, response_axis):
+        axis.grid(True, alpha=0.3)
+    return figure
+
+
+def fits_figure(frf: FrfResult, fits: Sequence[Any]) -> Any:
+    """Measured |H1| and every fitted model over the fit band, in g/N."""
+    figure = _new_figure(4.5)
+    axis = figure.subplots()
+    low, high = fits[0].band_hz
+    band = (frf.freq_hz >= low) & (frf.freq_hz <= high)
+    freq = frf.freq_hz[band]
+    axis.semilogy(freq, np.abs(frf.h1[band]) / STANDARD_GRAVITY_M_S2, color="black", lw=2.0, label="measured")
+    for fit in fits:
+        axis.semilogy(freq, np.abs(fit.accelerance(freq)) / STANDARD_GRAVITY_M_S2, lw=1.0, label=fit.model_name)
+    axis.set_xlabel("frequency (Hz)")
+    axis.set_ylabel("|H| (g/N)")
+    axis.set_title(f"Fitted models, band {low:g}–{high:g} Hz")
+    axis.grid(True, alpha=0.3)
+    axis.legend(fontsize=8, ncol=3)
+    return figure
+
+
+def _png_base64(figure: Any) -> str:
+    buffer = io.BytesIO()
+    figure.savefig(buffer, format="png", dpi=100)
+    return base64.b64encode(buffer.getvalue()).decode("ascii")
+
+
+# --- HTML ---------------------------------------------------------------------------------------------------------
+
+
+def _table(header: Sequence[str], rows: Sequence[Sequence[Any]]) -> str:
+    head = "".join(f"<th>{html.escape(str(cell))}</th>" for cell in header)
+    body = "".join("<tr>" + "".join(f"<td>{html.escape(str(cell))}</td>" for cell in row) + "</tr>" for row in rows)
+    return f"<table><tr>{head}</tr>{body}</table>"
+
+
+def _settings_rows(settings: dict[str, Any]) -> list[tuple[str, str, str]]:
+    rows = []
+    for group in ("trigger", "window", "validation"):
+        values = settings.get(group)
+        if isinstance(values, dict):
+            for key, value in values.items():
+                rows.append((group, key, "off" if value is None else str(value)))
+    return rows
+
+
+def _percent(value: float | None) -> str:
+    return "—" if value is None else f"{value:.2f} %"
+
+
+def _fits_html(data: ReportData) -> str:
+    if not data.fits:
+        return "<p>No fits stored in the session (run <code>gasfilm fit</code> or the GUI's Identify tab).</p>"
+    g = STANDARD_GRAVITY_M_S2
+    table2 = _table(
+        ("#", "Model", "k (1)", "RMS (g/N)", "E (%)", "Peak error (g/N)", "E_m (%)", "AIC (1)", "BIC (1)"),
+        [
+            (row.rank, row.model_name, row.n_parameters, f"{row.rms / g:.4g}", _percent(row.e_percent),
+             f"{row.peak_error / g:.4g}", _percent(row.e_m_percent), f"{row.aic:.1f}", f"{row.bic:.1f}")
+            for row in data.comparison
+        ],
+    )
+    parameter_rows = []
+    for fit in data.fits:
+        for name, value in fit.params.items():
+            std = fit.std_errors.get(name, float("nan"))
+            parameter_rows.append((fit.model_name, name, f"{value:.5g}", f"{std:.2g}", "; ".join(fit.flags)))
+    low, high = data.fits[0].band_hz
+    return (
+        f"<p>Band {low:g}–{high:g} Hz, mover mass {data.fits[0].mass_kg:g} kg"
+        f"{' (fitted)' if data.fits[0].mass_fitted else ''}. E and E_m: improvement over SD (eq. 35).</p>"
+        + table2
+        + "<h3>Identified parameters (SI units of each model's network: N/m, N·s/m, s)</h3>"
+        + _table(("Model", "Parameter", "Value (SI)", "±1σ (SI)", "Flags"), parameter_rows)
+    )
+
+
+def _diagnosis_html(diagnosis: dict[str, Any] | None) -> str:
+    if diagnosis is None:
+        return "<p>No diagnosis stored in the session (run <code>gasfilm diagnose</code> or the GUI's Diagnose tab).</p>"
+    parts = [f"<p>Verdict: <b>{html.escape(str(diagnosis.get('verdict', '?')))}</b>"]
+    if "rms_before_g_per_n" in diagnosis and "rms_after_g_per_n" in diagnosis:
+        parts.append(
+            f" — RMS {diagnosis['rms_before_g_per_n']:.4g} g/N with the given spec, "
+            f"{diagnosis['rms_after_g_per_n']:.4g} g/N with the findings "
+            f"(E {diagnosis.get('e_percent', float('nan')):.1f} %)"
+        )
+    parts.append("</p>")
+    findings = diagnosis.get("findings") or []
+    if findings:
+        rows = []
+        for finding in findings:
+            band = finding.get("band_hz") or ["?", "?"]
+            where = finding.get("where") or f"{band[0]}–{band[1]} Hz"
+            values = "; ".join(
+                f"{name} = {entry.get('value', '?'):.4g} ± {entry.get('uncertainty', float('nan')):.2g} "
+                f"{entry.get('unit', '')}"
+                if isinstance(entry, dict) and isinstance(entry.get("value"), (int, float)) else f"{name} = {entry}"
+                for name, entry in (finding.get("parameters") or {}).items()
+            )
+            rows.append((finding.get("effect", "?"), where, values, finding.get("evidence", "")))
+        parts.append(_table(("Effect", "Where", "Parameters", "Evidence"), rows))
+    else:
+        parts.append("<p>No missing physics found.</p>")
+    recalibration = diagnosis.get("recalibration") or {}
+    if recalibration:
+        parts.append("<h3>Recalibrated spec parameters (SI)</h3>")
+        parts.append(_table(
+            ("Parameter", "Spec", "Fitted", "±1σ"),
+            [(name, f"{v.get('spec', float('nan')):.5g}", f"{v.get('fitted', float('nan')):.5g}",
+              f"{v.get('uncertainty', float('nan')):.2g}") for name, v in recalibration.items() if isinstance(v, dict)],
+        ))
+    for note in diagnosis.get("quality") or []:
+        parts.append(f"<p class='note'>{html.escape(str(note.get('text', note) if isinstance(note, dict) else note))}</p>")
+    return "".join(parts)
+
+
+_STYLE = """
+body { font-family: sans-serif; max-width: 1050px; margin: 2em auto; color: #222; }
+table { border-collapse: collapse; margin: 0.5em 0 1em; font-size: 0.9em; }
+th, td { border: 1px solid #ccc; padding: 2px 8px; text-align: left; }
+th { background: #f0f0f0; } img { max-width: 100%; } .rejected { color: #b3261e; } .note { color: #a66300; }
+pre { background: #f7f7f7; padding: 6px; font-size: 0.85em; overflow-x: auto; }
+"""
+
+
+def report_html(data: ReportData, drop_db: float = USABLE_DROP_DB) -> str:
+    """The report as one self-contained HTML page."""
+    accepted = [hit["accepted"] for hit in data.hits]
+    sections = [
+        f"<h1>gasfilm session report</h1><p>Session <code>{html.escape(str(data.path))}</code>; "
+        f"written {datetime.datetime.now().astimezone().strftime('%Y-%m-%d %H:%M %Z')}.</p>",
+        "<h2>Setup</h2>",
+        f"<p>Device <b>{html.escape(data.device_name or 'not recorded')}</b>, {data.sample_rate_hz:g} S/s, session status "
+        f"{html.escape(data.status)}.</p>",
+        _table(("Channel", "Name", "Type", "Sensitivity", "IEPE", "Coupling"),
+               [tuple(c.values()) for c in data.channels]),
+        _table(("Group", "Setting (unit in the name)", "Value"), _settings_rows(data.settings)),
+    ]
+    if data.rig_spec_toml:
+        sections.append(f"<details><summary>Rig spec</summary><pre>{html.escape(data.rig_spec_toml)}</pre></details>")
+    sections.append(f"<h2>Hits: {sum(accepted)} accepted of {len(data.hits)}</h2>")
+    sections.append(_table(
+        ("Hit", "Time (s)", "Peak force (N)", "Verdict", "Reasons"),
+        [(h["number"], f"{h['time_s']:.2f}", f"{h['peak_force_n']:.0f}",
+          ("accepted" if h["accepted"] else "rejected") + (" (by hand)" if h["overridden"] else ""),
+          h["reasons"] or "—") for h in data.hits],
+    ))
+    if data.records:
+        sections.append(f"<img alt='hits' src='data:image/png;base64,{_png_base64(hits_figure(data.records, accepted))}'>")
+    sections.append("<h2>FRF, coherence and force spectrum</h2>")
+    if data.frf is None:
+        sections.append("<p>No FRF: the session has no accepted hit.</p>")
+    else:
+        low, high = usable_band_hz(data.frf.freq_hz, data.frf.gff, drop_db)
+        sections.append(
+            f"<p>H1 of {data.frf.n_averages} averages, {data.frf_source}; Δf {data.frf.freq_hz[1]:.3g} Hz. "
+            f"Usable band (force spectrum within {drop_db:g} dB of its low-frequency level): "
+            f"{low:.3g}–{high:.4g} Hz; H1 outside it is drawn grey.</p>"
+        )
+        sections.append(f"<img alt='FRF' src='data:image/png;base64,{_png_base64(frf_figure(data.frf, drop_db))}'>")
+    sections.append("<h2>Identified models (Table 2)</h2>")
+    sections.append(_fits_html(data))
+    if data.fits and data.frf is not None:
+        sections.append(f"<img alt='fits' src='data:image/png;base64,{_png_base64(fits_figure(data.frf, data.fits))}'>")
+    sections.append("<h2>Diagnosis</h2>")
+    sections.append(_diagnosis_html(data.diagnosis))
+    title = html.escape(f"gasfilm report — {data.path.name}")
+    return (
+        f"<!DOCTYPE html><html><head><meta charset='utf-8'><title>{title}</title><style>{_STYLE}</style></head>"
+        f"<body>{''.join(sections)}</body></html>\n"
+    )
+
+
+def _report_pdf(data: ReportData, drop_db: float) -> bytes:
+    """The figures, one page each, after a text page with setup, hits, fits and diagnosis verdict."""
+    from matplotlib.backends.backend_pdf import PdfPages
+
+    lines = [f"gasfilm session report — {data.path}", "",
+             f"Device {data.device_name}, {data.sample_rate_hz:g} S/s, status {data.status}"]
+    lines += [f"  {c['channel']} {c['name']} ({c['kind']}): {c['sensitivity']}, IEPE {c['iepe']}, {c['coupling']}"
+              for c in data.channels]
+    lines += ["", f"Hits: {sum(h['accepted'] for h in data.hits)} accepted of {len(data.hits)}"]
+    lines += [f"  {h['number']:>3}  {h['time_s']:8.2f} s  {h['peak_force_n']:6.0f} N  "
+              f"{'accepted' if h['accepted'] else 'rejected'}  {h['reasons']}" for h in data.hits[:60]]
+    if data.comparison:
+        from gasfilm.analysis.identify import format_table2
+
+        lines += ["", "Identified models (Table 2, g/N):", *format_table2(data.comparison).splitlines()]
+    if data.diagnosis is not None:
+        lines += ["", f"Diagnosis verdict: {data.diagnosis.get('verdict', '?')}"]
+    buffer = io.BytesIO()
+    with PdfPages(buffer) as pdf:
+        text_page = _new_figure(11)
+        text_page.text(0.01, 0.99, "\n".join(lines), va="top", family="monospace", fontsize=7)
+        pdf.savefig(text_page)
+        if data.records:
+            pdf.savefig(hits_figure(data.records, [h["accepted"] for h in data.hits]))
+        if data.frf is not None:
+            pdf.savefig(frf_figure(data.frf, drop_db))
+            if data.fits:
+                pdf.savefig(fits_figure(data.frf, data.fits))
+    return buffer.getvalue()
+
+
+def check_report_path(out: str | Path, overwrite: bool, flag: str = "--out") -> Path:
+    """Refuse an unknown format, a missing folder, or an existing file unless ``overwrite``; one line naming it."""
+    out = Path(out)
+    if out.suffix.lower() not in REPORT_FORMATS:
+        raise SettingError(f"{flag} {out}: the report is written as .html or .pdf")
+    if not out.parent.is_dir():
+        raise SettingError(f"{flag} {out}: the folder {out.parent} does not exist")
+    if (out.exists() or out.is_symlink()) and not overwrite:
+        raise SettingError(f"{flag} {out}: the file exists; add --overwrite to replace it")
+    if out.is_dir():
+        raise SettingError(f"{flag} {out}: is a folder")
+    return out
+
+
+def write_report(
+    session_path: str | Path, out: str | Path, overwrite: bool = False, drop_db: float = USABLE_DROP_DB
+) -> Path:
+    """Write the report of ``session_path`` to ``out`` (.html or .pdf); never replace a file unless ``overwrite``
+    (then atomically, replacing a symlink itself, not its target)."""
+    out = check_report_path(out, overwrite)
+    data = read_report_data(session_path)
+    if out.suffix.lower() == ".pdf":
+        content = _report_pdf(data, drop_db)
+    else:
+        content = report_html(data, drop_db).encode("utf-8")
+    try:
+        if overwrite:
+            handle, temporary = tempfile.mkstemp(dir=out.parent, prefix=f".{out.name}.", suffix=".tmp")
+            try:
+                with os.fdopen(handle, "wb") as stream:
+                    stream.write(content)
+                os.replace(temporary, out)
+            except BaseException:
+                Path(temporary).unlink(missing_ok=True)
+                raise
+        else:
+            with open(out, "xb") as stream:  # exclusive: never replaces a file or follows a symlink
+                stream.write(content)
+    except FileExistsError:
+        raise SettingError(f"--out {out}: the file exists; add --overwrite to replace it") from None
+    except OSError as error:
+        raise GasfilmError(f"--out {out}: cannot write the report ({error.strerror or error})") from None
+    logger.info("report of %s written to %s", session_path, out)
+    return out

@@ -1,0 +1,25 @@
+"""``gasfilm report SESSION --out report.html``: a self-contained HTML (or PDF) report of a session for the test log."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    parser = subparsers.add_parser(
+        "report", help="write an HTML or PDF report of a session (setup, hits, FRF, force spectrum, fits, diagnosis)"
+    )
+    parser.add_argument("session", type=Path, help="session file (.h5)")
+    parser.add_argument("--out", type=Path, required=True, help="report file to write: .html (self-contained) or .pdf")
+    parser.add_argument("--overwrite", action="store_true", help="replace --out if it exists")
+    parser.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    from gasfilm.analysis.report import check_report_path, write_report
+
+    check_report_path(args.out, args.overwrite)  # before reading the session: a bad --out answers at once
+    written = write_report(args.session, args.out, overwrite=args.overwrite)
+    print(f"wrote {written}")
+    return 0
