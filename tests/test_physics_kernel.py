@@ -27,6 +27,7 @@ from gasfilm.analysis.physics.effects import (
     Mains,
     PneumaticLag,
     SensitivityError,
+    SqueezeFilm,
     StepChange,
 )
 from gasfilm.analysis.physics.plant import RigPlant
@@ -49,6 +50,7 @@ EXAMPLES: dict[str, Effect] = {
     "ac-coupling": AcCoupling(channel="acceleration", corner_hz=3.0),
     "sensitivity-error": SensitivityError(channel="acceleration", fraction=0.04),
     "cross-talk": CrossTalk(leak_m_s2_per_n=4e-4),
+    "squeeze-film": SqueezeFilm(gap_m=3e-5, length_m=0.05),
 }
 CONDITIONS = HitConditions(time_s=np.array([0.0, 3.0, 7.0, 12.0]), impulse_ns=np.array([0.12, 0.15, 0.16, 0.2]))
 FREQ_HZ = np.linspace(5.0, 2000.0, 257)
@@ -139,7 +141,7 @@ def test_the_nonlinear_simulator_and_replay_agree_within_the_solver_tolerance():
 # --- the closed loop, by construction ------------------------------------------------------------------------------
 
 SINGLES = ["added-mass", "channel-delay", "drift", "step-change", "cubic-stiffness", "ac-coupling", "film-memory",
-           "pneumatic-lag", "extra-mode", "cross-talk"]
+           "pneumatic-lag", "extra-mode", "cross-talk", "squeeze-film"]
 PAIRS = [("added-mass", "channel-delay"), ("drift", "extra-mode"), ("pneumatic-lag", "ac-coupling"),
          ("film-memory", "added-mass"), ("step-change", "channel-delay"), ("cubic-stiffness", "channel-delay"),
          ("cross-talk", "extra-mode"), ("drift", "pneumatic-lag"), ("ac-coupling", "added-mass"),

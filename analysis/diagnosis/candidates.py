@@ -18,6 +18,7 @@ CANDIDATES: tuple[str, ...] = (
     "ac-coupling",
     "cross-talk",
     "film-memory",
+    "squeeze-film",
     "pneumatic-lag",
     "extra-mode",
 )
@@ -34,6 +35,8 @@ EQUIVALENT: dict[str, tuple[str, str]] = {
 SEPARATING_MEASUREMENT: dict[frozenset[str], str] = {
     frozenset({"drift", "step-change"}): "more hits spread evenly over the session (or a log of the supply pressure)",
     frozenset({"film-memory", "pneumatic-lag"}): "a wider analysis band (a softer or harder hammer tip)",
+    frozenset({"film-memory", "squeeze-film"}): "a test at another gap or supply pressure (a squeeze film scales "
+                                                "with the gap as h0⁻¹ and h0⁻²)",
     frozenset({"extra-mode", "film-memory"}): "a second accelerometer elsewhere on the mover",
     frozenset({"cross-talk", "added-mass"}): "a recording with the hammer resting on the mover (no impact)",
 }

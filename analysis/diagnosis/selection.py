@@ -20,6 +20,8 @@ from scipy.optimize import least_squares
 from gasfilm.analysis.diagnosis.fitspace import Slot, read_vector, spec_slots, with_effect, write_vector
 from gasfilm.analysis.diagnosis.measurement import HitSpectra
 from gasfilm.analysis.physics.effects import (
+    AIR_PRESSURE_PA,
+    AIR_VISCOSITY_PA_S,
     CUBIC_EQUIVALENT,
     AcCoupling,
     AddedMass,
@@ -33,6 +35,7 @@ from gasfilm.analysis.physics.effects import (
     FitContext,
     PneumaticLag,
     StepChange,
+    SqueezeFilm,
 )
 from gasfilm.analysis.physics.response import HitConditions, rig_accelerance
 from gasfilm.analysis.physics.spec import RigSpec
@@ -209,6 +212,14 @@ def starting_effects(identifier: str, spec: RigSpec, evidence: Evidence, context
         omega = 2 * np.pi * resonance_hz
         return [FilmMemory(k_memory=k_factor * film, eta_memory=0.01 * film / omega**alpha, alpha_memory=alpha)
                 for alpha, k_factor in ((0.3, 0.1), (0.8, 1.0), (1.5, 100.0))]
+    if identifier == "squeeze-film":
+        # the air spring a tenth of the film's, squeeze numbers around 1, 10 and 100 at the resonance
+        omega = 2 * np.pi * resonance_hz
+        starts = []
+        for squeeze_number in (1.0, 10.0, 100.0):
+            gap_m = float(np.sqrt(12 * AIR_VISCOSITY_PA_S * 0.1**2 * omega / (AIR_PRESSURE_PA * squeeze_number)))
+            starts.append(SqueezeFilm(gap_m=gap_m, length_m=0.1 * film * gap_m / (0.1 * AIR_PRESSURE_PA)))
+        return starts
     if identifier == "pneumatic-lag":
         return [PneumaticLag(k_lag=0.01 * film, tau_lag=factor / (2 * np.pi * resonance_hz)) for factor in (0.3, 1, 3)]
     if identifier == "extra-mode":

@@ -573,3 +573,60 @@ class CrossTalk(Effect):
         share = 100 * self.leak_m_s2_per_n * context.mass_kg
         return (f"a constant {self.leak_m_s2_per_n:.3g} ± {sigma['leak_m_s2_per_n']:.2g} (m/s²)/N is added to the "
                 f"FRF ({share:+.2f} % of the mass line), most visible where the true FRF is small, in {where}")
+
+
+#: Air at 20 °C and sea level: the defaults of a squeeze film's ambient pressure and viscosity.
+AIR_PRESSURE_PA = 101325.0
+AIR_VISCOSITY_PA_S = 1.81e-5
+
+
+@register_effect("squeeze-film")
+@dataclass(frozen=True)
+class SqueezeFilm(Effect):
+    """The compressible squeeze film of a plate (length × width) on a gap ``gap_m`` (the paper's eqs. 8–11): complex
+    stiffness ``(L B Pa / h0)·[1 − tanh(q/2)/(q/2)]`` with ``q = √(12 μ B² s / (Pa h0²))`` — at s = jω its real part
+    is K(ω) and its imaginary part ω·C(ω) of eq. 11. A frequency-dependent film named physically: stiff and lightly
+    damped at high squeeze numbers, a damper at low ones."""
+
+    explanation: ClassVar[str] = (
+        "The air trapped between the mover and its guide is squeezed: at low frequency it flows out and damps, at "
+        "high frequency it cannot escape and acts as a spring — the film's stiffness rises and its damping falls with "
+        "frequency, as the compressible squeeze-film equation predicts.")
+
+    gap_m: float = _number("m", _positive)
+    length_m: float = _number("m", _positive)
+    width_m: float = _number("m", _positive, 0.1)
+    ambient_pa: float = _number("Pa", _positive, AIR_PRESSURE_PA)
+    viscosity_pa_s: float = _number("Pa·s", _positive, AIR_VISCOSITY_PA_S)
+
+    @property
+    def static_stiffness_n_per_m(self) -> float:
+        """``L B Pa / h0``: the stiffness the film tends to when the air cannot escape (N/m)."""
+        return self.length_m * self.width_m * self.ambient_pa / self.gap_m
+
+    @property
+    def squeeze_time_s(self) -> float:
+        """``12 μ B² / (Pa h0²)``: the squeeze number is this time constant times ω."""
+        return 12.0 * self.viscosity_pa_s * self.width_m**2 / (self.ambient_pa * self.gap_m**2)
+
+    def added_stiffness(self, s: np.ndarray) -> np.ndarray:
+        half = 0.5 * np.sqrt(self.squeeze_time_s * np.asarray(s, dtype=complex))
+        small = np.abs(half) < 1e-3
+        safe = np.where(small, 1.0, half)
+        ratio = np.where(small, half**2 / 3.0 - 2.0 * half**4 / 15.0, 1.0 - np.tanh(safe) / safe)
+        return self.static_stiffness_n_per_m * ratio
+
+    def fit_ranges(self, context: FitContext) -> dict[str, FitRange]:
+        return {"gap_m": FitRange("log", 5e-7, 5e-4), "length_m": FitRange("log", 1e-3, 10.0)}
+
+    def implausible(self, context: FitContext) -> str | None:
+        if self.static_stiffness_n_per_m > 100 * context.film_stiffness_n_per_m:
+            return "its air spring would be a hundred times stiffer than the whole film"
+        return None
+
+    def evidence(self, sigma: Mapping[str, float], where: str, context: FitContext) -> str:
+        omega = 2 * np.pi * context.resonance_hz
+        return (f"the film stiffens and its damping falls with frequency as a squeeze film does: gap "
+                f"{self.gap_m * 1e6:.2f} ± {sigma['gap_m'] * 1e6:.2f} µm under a {self.length_m * 1e3:.0f} × "
+                f"{self.width_m * 1e3:.0f} mm plate (squeeze number {self.squeeze_time_s * omega:.2g} at the "
+                f"resonance), in {where}")
