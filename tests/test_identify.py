@@ -1,6 +1,7 @@
 """Fitters, uncertainties, the Table-2 comparison, the figures and ``gasfilm fit``."""
 
 import json
+import logging
 import math
 
 import numpy as np
@@ -206,11 +207,16 @@ def test_fitter_jacobian_is_the_models_gradient_chained_through_the_coordinates(
         assert np.max(np.abs(jacobian[:, i] - column)) <= 1e-5 * np.max(np.abs(column)) + rounding, (name, i)
 
 
-def test_a_parameter_at_its_bound_is_named_not_measured_and_marked_in_table_2():
+def test_a_parameter_at_its_bound_is_named_not_measured_and_marked_in_table_2(caplog):
     """A spring-damper fitted with the Zener model: the series spring k1 runs to its upper bound (1e12 N/m)."""
     freq_hz = np.linspace(100.0, 350.0, 200)
     h = accelerance(PAPER_MODELS["SD"], {"k": 3.78e7, "eta": 3.45e3}, freq_hz, MASS_KG)
-    zener = fit_model(PAPER_MODELS["Zener"], freq_hz, h, MASS_KG)
+    with caplog.at_level(logging.INFO, logger="gasfilm.analysis.identification"):
+        zener = fit_model(PAPER_MODELS["Zener"], freq_hz, h, MASS_KG)
+    logged = [record.getMessage() for record in caplog.records]
+    assert logged[0].startswith("fit Zener (k2 || (k1 -- dashpot(eta1)), default fitter): 200 lines 100–350 Hz")
+    assert f"{zener.evaluations} evaluations" in logged[-2]
+    assert logged[-1] == "fit Zener: k1 ended at a bound (not measured)"
     assert zener.at_bound == ("k1",) and zener.params["k1"] == pytest.approx(1e12, rel=1e-6)
     assert set(zener.std_errors) == {"k2", "eta1"}
     assert any(flag.startswith("k1 at a bound") for flag in zener.flags)

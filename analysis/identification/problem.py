@@ -167,6 +167,7 @@ class Problem:
         self.freq_hz = np.asarray(freq_hz, dtype=float)
         self.h = np.asarray(h_measured, dtype=complex)
         self.s = laplace_variable(self.freq_hz, decay_rate_1_s)
+        self.s2 = self.s**2
         self.weights = np.ones(len(self.freq_hz)) if weights is None else np.asarray(weights, dtype=float)
         self.sqrt_w = np.sqrt(self.weights / np.mean(self.weights))
         self.cancel = cancel
@@ -221,9 +222,9 @@ class Problem:
         """Mean squared weighted accelerance residual ((m/s²)/N)² of film stiffnesses (..., lines) in N/m with
         masses (...) in kg, on the lines ``index``; one evaluation per stiffness set."""
         self.evaluations += int(np.prod(stiffness.shape[:-1]))
-        s = self.s[index]
+        s2 = self.s2[index]
         with np.errstate(all="ignore"):
-            h_model = s**2 / (stiffness + mass_kg[..., np.newaxis] * s**2)
+            h_model = s2 / (stiffness + mass_kg[..., np.newaxis] * s2)
             cost = np.mean(np.abs((h_model - self.h[index]) * self.sqrt_w[index]) ** 2, axis=-1)
         return np.where(np.isfinite(cost), cost, np.inf)
 
@@ -237,8 +238,10 @@ class Problem:
         """``H(θ) - H_d`` in (m/s²)/N, unweighted; non-finite values become large finite ones."""
         values, mass = self.coords.reference_values(theta)
         with np.errstate(all="ignore"):
-            h_model = self.s**2 / (self.stiffness(values) + mass * self.s**2)
-        return np.nan_to_num(h_model - self.h, nan=1e6, posinf=1e6, neginf=-1e6)
+            residual = self.s2 / (self.stiffness(values) + mass * self.s2) - self.h
+        if np.all(np.isfinite(residual)):  # the usual case, without nan_to_num's cost
+            return residual
+        return np.nan_to_num(residual, nan=1e6, posinf=1e6, neginf=-1e6)
 
     def acc_jacobian(self, theta: np.ndarray) -> np.ndarray:
         """Jacobian of :meth:`acc_residual` with respect to the coordinates, shape (2·lines, size): the model's
@@ -249,8 +252,8 @@ class Problem:
         z, dz_dvalues = self.model.stiffness_and_gradient(self.s_rel, values, self.log_s_rel)
         dz_dtheta = dz_dvalues * np.where(self.coords.is_order[: len(values)], 1.0, values)
         with np.errstate(all="ignore"):
-            h_model = self.s**2 / (z + mass * self.s**2)
-        columns = (-(h_model**2) / self.s**2)[:, np.newaxis] * dz_dtheta
+            h_model = self.s2 / (z + mass * self.s2)
+        columns = (-(h_model**2) / self.s2)[:, np.newaxis] * dz_dtheta
         if self.coords.fit_mass:
             columns = np.column_stack([columns, -(h_model**2) * mass])
         jac = columns * self.sqrt_w[:, np.newaxis]
