@@ -52,6 +52,9 @@ NONLINEAR_ITERATIONS = 3
 ADEQUATE_CHI2_PER_POINT = 1.5
 #: A band whose own χ² per point exceeds this is listed as unexplained even when the whole is adequate.
 LOCAL_CHI2_PER_POINT = 4.0
+#: A term must remove at least this share of the χ² still in excess of the noise: a model that leaves most of the
+#: mismatch unexplained is not padded with terms that shave a few per cent off it.
+MIN_EXCESS_SHARE = 0.2
 #: Terms whose BIC score lies within this margin of the chosen one's are reported as alternatives.
 ALTERNATIVE_MARGIN = 10.0
 
@@ -187,7 +190,9 @@ def _select_one(
             continue
         extra = len(outcome.slots) - len(current.slots)
         score = (current.chi2 - outcome.chi2) / noise_scale - extra * np.log(points)
-        trials.append((score, identifier, outcome, candidate_evidence))
+        share = (current.chi2 - outcome.chi2) / max(current.chi2 - points, 1e-9)
+        trials.append((score if share >= MIN_EXCESS_SHARE else min(score, 0.0), identifier, outcome,
+                       candidate_evidence))
     trials.sort(key=lambda trial: trial[0], reverse=True)
     summary = ", ".join(f"{identifier} {score:+.0f}" for score, identifier, _, _ in trials[:4])
     progress(f"BIC gain of the best candidates (noise scale {noise_scale:.2f}): {summary}")
@@ -423,7 +428,7 @@ def _unexplained(
         if any(a.band_hz[0] <= term.band_hz[1] and term.band_hz[0] <= a.band_hz[1] for a in items):
             for item in items:
                 if item.band_hz[0] <= term.band_hz[1] and term.band_hz[0] <= item.band_hz[1]:
-                    item.character += f"; a {term.identifier} term fitted here is not a finding: {term.reason}"
+                    item.character += f"; the {term.identifier} term fitted here is not a finding: {term.reason}"
     return items
 
 

@@ -216,6 +216,9 @@ class ExtraMode(Effect):
         if self.mass_kg > 0.2 * context.mass_kg:
             return (f"its mass {self.mass_kg:.3g} kg is comparable to the mover's {context.mass_kg:.3g} kg: that is "
                     f"not a part riding on the mover")
+        if abs(self.freq_hz - context.resonance_hz) < 0.1 * context.resonance_hz:
+            return (f"its frequency {self.freq_hz:.1f} Hz lies on the film's own resonance "
+                    f"({context.resonance_hz:.0f} Hz): it only reshapes that peak, which other causes do as well")
         return _band_excitable(self.freq_hz, context)
 
     def evidence(self, sigma: Mapping[str, float], where: str, context: FitContext) -> str:
