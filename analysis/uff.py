@@ -319,7 +319,11 @@ def import_uff_session(
 ) -> Path:
     """Store the hits of a UFF file as a new session; each hit is validated with ``validation``
     (:class:`gasfilm.analysis.validation.ValidationSettings`, default settings when None) and ``window``
-    (:class:`gasfilm.analysis.spectra.WindowSettings`, whose exponential counts in the decay check)."""
+    (:class:`gasfilm.analysis.spectra.WindowSettings`, whose exponential counts in the decay check).
+
+    A UFF file gives units, not input ranges: the session records ``source.full_scale_known = false``, and neither
+    the import nor a replay judges overload against the placeholder sensors of its channel setup
+    (:func:`gasfilm.analysis.validation.recorded_full_scale_si`); clipping still counts."""
     from gasfilm.analysis.capture import HitRecord
     from gasfilm.analysis.session import Session
     from gasfilm.analysis.validation import ValidationSettings, validate_hit
@@ -337,6 +341,7 @@ def import_uff_session(
             "force_dof": time_records.force_dof,
             "response_dof": time_records.response_dof,
             "trigger_level_n": trigger_level_n,
+            "full_scale_known": False,
         },
     }
     with Session.create(

@@ -102,6 +102,16 @@ class Verdict:
         return cls(bool(values["accepted"]), tuple(str(r) for r in values["reasons"]), bool(values["overridden"]))
 
 
+def recorded_full_scale_si(config: Any, settings: Mapping[str, Any]) -> tuple[float, ...] | None:
+    """Each channel's full scale (N or m/s²) for the overload check of a stored session's hits, or None when the
+    recording does not know its input ranges: an import (``settings["source"]`` names the file it came from, and a
+    UFF file carries units but no range) never gets limits invented from the placeholder sensors it stores."""
+    source = settings.get("source") if isinstance(settings, Mapping) else None
+    if isinstance(source, Mapping) and (source.get("uff_file") or source.get("full_scale_known") is False):
+        return None
+    return tuple(float(channel.full_scale_si) for channel in config.channels)
+
+
 def _pretrigger_end(hit: HitRecord) -> int:
     """Last sample (exclusive) of the quiet part before the pulse's rising edge."""
     guard = int(np.ceil(_EDGE_GUARD_S * hit.sample_rate_hz)) + 1

@@ -24,7 +24,7 @@ from gasfilm.analysis.capture import HitRecord, ImpactCapture, TriggerSettings
 from gasfilm.analysis.session import Session, SessionError, settings_from_json
 from gasfilm.analysis.spectra import FrfResult, WindowSettings, compute_frf
 from gasfilm.analysis.uff import read_uff_time_records, trigger_sample
-from gasfilm.analysis.validation import ValidationSettings, Verdict, validate_hit
+from gasfilm.analysis.validation import ValidationSettings, Verdict, recorded_full_scale_si, validate_hit
 from gasfilm.drivers.errors import SettingError
 from gasfilm.drivers.interface import DaqConfig, default_hammer_and_accelerometer
 
@@ -113,7 +113,7 @@ def _load_source(path: Path, force_dof: Any, response_dof: Any) -> Source:
             settings=session.settings,
             hits=[hit.as_hit_record() for hit in stored],
             verdicts=[hit.verdict for hit in stored],
-            full_scale_si=tuple(channel.full_scale_si for channel in config.channels),
+            full_scale_si=recorded_full_scale_si(config, session.settings),
         )
 
 
@@ -191,6 +191,7 @@ def summarise(frf: FrfResult | None, verdicts: list[Verdict], dropped: int, reco
         "records_without_trigger": dropped,
         "record_samples": record_samples,
         "reasons": dict(sorted(reasons.items())),
+        "notes": [f"hit {index}: {note}" for index, verdict in enumerate(verdicts) for note in verdict.notes],
     }
     if frf is not None:
         magnitude = np.abs(frf.h1)
@@ -217,6 +218,9 @@ def _print_summary(summary: dict[str, Any], source: Path, written: str) -> None:
         print(f"  records that no longer trigger: {summary['records_without_trigger']}")
     for reason, count in summary["reasons"].items():
         print(f"    {reason}: {count}")
+    if summary["notes"]:
+        more = len(summary["notes"]) - 1
+        print(f"  note: {summary['notes'][0]}" + (f" (and {more} more notes; --json lists them)" if more else ""))
     if "peak_frequency_hz" in summary:
         print(f"  peak of |H1| (lines with coherence >= {PEAK_MIN_COHERENCE}): {summary['peak_frequency_hz']:.2f} Hz, "
               f"{summary['peak_accelerance_m_s2_per_n']:.4g} (m/s^2)/N")
