@@ -482,10 +482,13 @@ def acquire_with(spec: Path, work: Path) -> list[str]:
          "nested too deeply"),
         (SD_SPEC.replace("mass_kg = 25.05", "mass_kg = 2e-4").encode(), r"mass_kg' = 0.0002: must be ≥ 0.001"),
         (SD_SPEC.replace("mass_kg = 25.05", "mass_kg = 3e4").encode(), r"must be ≥ 0.001 and ≤ 10000 \(kg\)"),
-        (SD_SPEC.replace("k = 37800000.0", "k = 1e300").encode(), "resonates .* above 50000 Hz"),
-        (SD_SPEC.replace("k = 37800000.0", "k = 1e-3").replace("eta = 3450.0", "eta = 1e-6").encode(),
-         "resonates .* below 0.1 Hz"),
-        (SD_SPEC.replace("eta = 3450.0", "eta = 1e15").encode(), "resonates .* above 50000 Hz"),
+        (SD_SPEC.replace("k = 37800000.0", "k = 1e300").encode(), r"k' = 1e\+300: must be ≥ 100 and ≤ 1e\+12"),
+        (SD_SPEC.replace("k = 37800000.0", "k = 1e12").replace("mass_kg = 25.05", "mass_kg = 0.001").encode(),
+         "resonates with the 0.001 kg mass above 50000 Hz"),
+        (SD_SPEC.replace("k = 37800000.0", "k = 100").replace("eta = 3450.0", "eta = 0.01")
+         .replace("mass_kg = 25.05", "mass_kg = 1e4").encode(), "resonates with the 10000 kg mass below 0.1 Hz"),
+        (SD_SPEC.replace("eta = 3450.0", "eta = 1e10").replace("mass_kg = 25.05", "mass_kg = 0.001").encode(),
+         "resonates .* above 50000 Hz"),
         (SD_SPEC.replace("eta = 3450.0", "eta = nan").encode(), "must be a finite number"),
         (SD_SPEC.replace('model = "SD"', 'model = "' + "(" * 2000 + "k" + ")" * 2000 + '"').encode(),
          "film.model': 4001 characters"),
@@ -493,9 +496,13 @@ def acquire_with(spec: Path, work: Path) -> list[str]:
          "sensitivity_mv_per_n' = 1e-300: must be ≥ 0.001"),
         ((SD_SPEC + '\n[[effects]]\ntype = "added-mass"\nmass_kg = 0.1\n' * 10_000).encode(),
          "10000 effects; a rig spec has at most 64"),
+        (SD_SPEC.replace("[sensors.force]", '[[effects]]\ntype = "extra-mode"\nfreq_hz = 640.0\n'
+                         'damping_ratio = 1e300\nmass_kg = 0.8\n\n[sensors.force]').encode(),
+         r"damping_ratio' = 1e\+300: outside the physical range, 0.0001 to 10"),
     ],
-    ids=["invalid-utf8", "deep-nesting", "tiny-mass", "giant-mass", "stiff-film", "no-film", "overdamped-film",
-         "nan", "deep-network", "absurd-sensor", "10000-effects"],
+    ids=["invalid-utf8", "deep-nesting", "tiny-mass", "giant-mass", "absurd-film", "stiff-film", "soft-film",
+         "overdamped-film",
+         "nan", "deep-network", "absurd-sensor", "10000-effects", "absurd-effect"],
 )
 def test_rig_spec_damage_is_refused_in_one_line_before_any_computing(text, expected, tmp_path):
     spec = tmp_path / "rig.toml"

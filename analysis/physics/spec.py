@@ -41,6 +41,18 @@ RESONANCE_RANGE_HZ = (0.1, 50e3)
 SENSITIVITY_RANGE_MV = (1e-3, 1e5)
 MAX_NOISE_PER_SQRT_HZ = 1e3
 MAX_HAMMER_FORCE_N = 1e5
+#: Magnitude ranges of effect values by unit (a lower bound of 0: none): beyond them a simulation of the rig runs for
+#: minutes or overflows. Lists (harmonic amplitudes) are held to the upper bound only.
+EFFECT_UNIT_RANGES = {
+    "Hz": (1e-3, 1e6),
+    "1": (1e-4, 10.0),
+    "kg": (0.0, MASS_RANGE_KG[1]),
+    "N/m³": (0.0, 1e22),
+    "N/m": (0.0, 1e13),
+    "s": (0.0, 10.0),
+    "1/h": (0.0, 10.0),
+    "N or m/s²": (0.0, 1e6),
+}
 
 
 # --- the spec ------------------------------------------------------------------------------------------------------
@@ -340,10 +352,14 @@ def _check_effect(effect: Effect, where: str) -> None:
             if value not in item.metadata["choices"]:
                 raise SettingError(f"{key_where} = {value!r}: allowed: {', '.join(item.metadata['choices'])}")
         elif item.metadata.get("list"):
+            if len(value) > MAX_EFFECTS:
+                raise SettingError(f"{key_where}: {len(value)} values; at most {MAX_EFFECTS}")
             for entry in value:
                 _float_value(entry, key_where, _any_number, item.metadata["unit"])
+                _check_unit_range(entry, key_where, item.metadata["unit"], upper_only=True)
         elif "rule" in item.metadata:
             _float_value(value, key_where, item.metadata["rule"], item.metadata["unit"])
+            _check_unit_range(value, key_where, item.metadata["unit"])
     try:
         effect.validate()
     except EffectValueError as error:
@@ -393,6 +409,15 @@ def _check_resonance(spec: RigSpec, model: FilmModel) -> None:
                            f"(|Z| = {film[1]:.3g} N/m there); supported: {low_hz:g} Hz to {high_hz:g} Hz")
 
 
+def _check_unit_range(value: float, where: str, unit: str, upper_only: bool = False) -> None:
+    low, high = EFFECT_UNIT_RANGES.get(unit, (0.0, math.inf))
+    if upper_only:
+        low = 0.0
+    if not (abs(value) <= high and (low == 0.0 or abs(value) >= low)):
+        bounds = f"{low:g} to {high:g}" if low else f"at most {high:g} in magnitude"
+        raise SettingError(f"{where} = {value!r}: outside the physical range, {bounds} ({unit})")
+
+
 def _validate_spec(spec: RigSpec) -> None:
     source = spec.source
     _float_value(spec.mass_kg, f"{source} key 'mass_kg'", _within(*MASS_RANGE_KG), "kg")
@@ -404,8 +429,8 @@ def _validate_spec(spec: RigSpec) -> None:
         if parameter.name not in spec.film_parameters:
             raise SettingError(f"{key}: missing; {model.name} needs {', '.join(model.parameter_names)}")
         value = spec.film_parameters[parameter.name]
-        if parameter.scale == "log":
-            _float_value(value, key, _positive, parameter.unit)
+        if parameter.scale == "log":  # within the element's physical bounds (those the fitters search)
+            _float_value(value, key, _within(parameter.lower, parameter.upper), parameter.unit)
         elif not 0.0 <= value <= 2.0:
             raise SettingError(f"{key} = {value!r}: an order must be between 0 and 2")
     for name in spec.film_parameters:
