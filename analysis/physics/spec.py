@@ -265,7 +265,7 @@ def _spec_from_table(table: Mapping[str, Any], source: str) -> RigSpec:
     if not isinstance(model_text, str):
         raise SettingError(f"{source} key 'film.model': missing; a paper model name or a network such as "
                            f"'k || dashpot(eta)'")
-    _film_model(model_text, source)
+    _checked_film_model(model_text, source)
     parameters = {
         key: _float_value(value, f"{source} key 'film.parameters.{key}'", _any_number, "SI")
         for key, value in _table(film, "parameters", f"{source} [film]").items()
@@ -377,7 +377,7 @@ def _within(low: float, high: float, low_included: bool = True) -> Callable[[flo
     return rule
 
 
-def _film_model(model_text: str, source: str) -> FilmModel:
+def _checked_film_model(model_text: str, source: str) -> FilmModel:
     if len(model_text) > MAX_MODEL_TEXT_CHARACTERS:
         raise SettingError(f"{source} key 'film.model': {len(model_text)} characters; at most "
                            f"{MAX_MODEL_TEXT_CHARACTERS}")
@@ -421,7 +421,7 @@ def _check_unit_range(value: float, where: str, unit: str, upper_only: bool = Fa
 def _validate_spec(spec: RigSpec) -> None:
     source = spec.source
     _float_value(spec.mass_kg, f"{source} key 'mass_kg'", _within(*MASS_RANGE_KG), "kg")
-    model = _film_model(spec.film_model, source)
+    model = _checked_film_model(spec.film_model, source)
     if len(spec.effects) > MAX_EFFECTS:
         raise SettingError(f"{source}: {len(spec.effects)} effects; a rig spec has at most {MAX_EFFECTS}")
     for parameter in model.parameters:
