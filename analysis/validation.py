@@ -170,7 +170,7 @@ def _is_clipped(x: np.ndarray, run_samples: int) -> bool:
     at_top = np.concatenate(([0], (magnitude >= top * (1 - 1e-12)).astype(np.int8), [0]))
     edges = np.flatnonzero(np.diff(at_top))
     runs = edges[1::2] - edges[::2]
-    return bool(runs.max() >= run_samples)
+    return bool(runs.size and runs.max() >= run_samples)  # no runs when the record holds NaN
 
 
 def validate_hit(

@@ -291,7 +291,7 @@ def _spec_from_table(table: Mapping[str, Any], source: str) -> RigSpec:
         hammer_table = _table(table, "hammer", source)
         _check_keys(hammer_table, [f.name for f in dataclasses.fields(HammerSpec)], f"{source} [hammer]")
         tip = hammer_table.get("tip", HammerSpec.tip)
-        if tip not in TIPS_PULSE_WIDTH_S:
+        if not isinstance(tip, str) or tip not in TIPS_PULSE_WIDTH_S:
             raise SettingError(f"{source} key 'hammer.tip' = {tip!r}: allowed: {', '.join(TIPS_PULSE_WIDTH_S)}")
         hammer = HammerSpec(
             tip=tip,
@@ -318,7 +318,7 @@ def _effect_from_table(table: Any, where: str) -> Effect:
     if not isinstance(table, Mapping):
         raise SettingError(f"{where}: must be a table")
     type_name = table.get("type")
-    if type_name not in EFFECT_TYPES:
+    if not isinstance(type_name, str) or type_name not in EFFECT_TYPES:
         raise SettingError(f"{where}: unknown effect type {type_name!r}; known: {', '.join(EFFECT_TYPES)}")
     cls = EFFECT_TYPES[type_name]
     fields = {f.name: f for f in dataclasses.fields(cls)}
