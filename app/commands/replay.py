@@ -54,7 +54,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--rectangular", action="store_true", help="no force or exponential window")
     parser.add_argument("--double-hit-fraction", type=float, help="double-hit threshold as a fraction of the peak")
     parser.add_argument("--min-force-snr", type=float, help="lowest accepted peak force over force noise")
-    parser.add_argument("--decay-fraction", type=float, help="largest accepted response tail RMS over its peak")
+    parser.add_argument("--decay-fraction", type=float, help="largest accepted end level of the response's decay, as a fraction of its start (default 0.005)")
     parser.add_argument("--force-dof", type=int, nargs=2, metavar=("NODE", "DIR"), help="UFF: force node, direction")
     parser.add_argument("--response-dof", type=int, nargs=2, metavar=("NODE", "DIR"),
                         help="UFF: response node and direction")
