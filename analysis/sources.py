@@ -18,7 +18,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from gasfilm.analysis.capture import HitRecord
-from gasfilm.analysis.validation import Verdict
+from gasfilm.analysis.validation import Verdict, recorded_full_scale_si
 from gasfilm.drivers.errors import SettingError
 from gasfilm.drivers.interface import DaqConfig, default_hammer_and_accelerometer
 
@@ -128,7 +128,7 @@ def _load_session(path: Path) -> Source:
             settings=session.settings,
             hits=[hit.as_hit_record() for hit in stored],
             verdicts=[hit.verdict for hit in stored],
-            full_scale_si=tuple(channel.full_scale_si for channel in config.channels),
+            full_scale_si=recorded_full_scale_si(config, session.settings),
         )
 
 

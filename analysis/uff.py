@@ -13,6 +13,8 @@ m/s^2 / N, complex double) and the coherence as function type 6 (real double), p
 
 from __future__ import annotations
 
+import math
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Mapping, Sequence
@@ -46,6 +48,10 @@ ACCELERATION_UNITS_TO_M_S2 = {
     "mm/s2": 1e-3,
 }
 NO_LABEL = ("", "none")
+MAX_HEADER_INTEGER = 2**31
+SAMPLE_RATE_RANGE_HZ = (1.0, 1e7)
+#: Largest magnitudes a time record may hold after conversion to SI: beyond them the file is damaged, not a test.
+MAX_ABS_SI = {"force": 1e7, "response": 1e8}  # N, m/s²
 RATE_SNAP_RELATIVE = 1e-4  # UFF stores the abscissa increment with 5 significant digits
 
 
@@ -80,13 +86,24 @@ def _read_datasets(path: Path) -> list[dict[str, Any]]:
         raise UffError(f"{path}: is a folder, not a UFF file")
     try:
         uff = pyuff.UFF(str(path))
-        sets = uff.read_sets() if uff.get_n_sets() else []
+        count = uff.get_n_sets()
     except Exception as error:  # pyuff raises bare Exception for every malformed file
         raise UffError(f"{path}: not a readable UFF file ({error})") from None
-    if isinstance(sets, dict):
-        sets = [sets]
-    if not sets:
+    if not count:
         raise UffError(f"{path}: empty UFF file: no datasets (is it a UFF file?)")
+    sets = []
+    for index in range(count):
+        try:
+            with warnings.catch_warnings(), np.errstate(all="ignore"):
+                warnings.simplefilter("ignore")  # numpy warnings on damaged numbers; the checks below judge them
+                dataset = uff.read_sets(index)
+        except Exception as error:  # pyuff: bare Exception; numpy/struct errors on damaged numbers pass through
+            cause = getattr(error, "value", None) or (str(error).strip() or type(error).__name__)
+            raise UffError(f"{path}: dataset {index + 1} of {count} is damaged and cannot be read "
+                           f"({cause[:120]})") from None
+        if not isinstance(dataset, Mapping) or dataset.get("type") in (None, 0):
+            dataset = {"type": "unknown"}  # pyuff could not read the dataset's type line
+        sets.append(dict(dataset))
     return sets
 
 
@@ -94,12 +111,31 @@ def _label(dataset: Mapping[str, Any], key: str) -> str:
     return str(dataset.get(key, "") or "").strip()
 
 
+def _number(dataset: Mapping[str, Any], key: str, default: float = 0.0) -> float:
+    """A header field as a finite number; a damaged field raises :class:`UffError` (the caller adds the file)."""
+    value = dataset.get(key, default)
+    try:
+        number = float(value)
+    except (TypeError, ValueError):
+        raise UffError(f"field '{key}' is {str(value)[:40]!r}, not a number") from None
+    if not math.isfinite(number):
+        raise UffError(f"field '{key}' is {number}")
+    return number
+
+
+def _integer(dataset: Mapping[str, Any], key: str, default: int = 0) -> int:
+    number = _number(dataset, key, default)
+    if number != int(number) or abs(number) > MAX_HEADER_INTEGER:
+        raise UffError(f"field '{key}' is {number:g}, not a node, direction or type number")
+    return int(number)
+
+
 def _dof(dataset: Mapping[str, Any], prefix: str) -> Dof:
-    return int(dataset.get(f"{prefix}_node", 0)), int(dataset.get(f"{prefix}_dir", 0))
+    return _integer(dataset, f"{prefix}_node"), _integer(dataset, f"{prefix}_dir")
 
 
 def _role(dataset: Mapping[str, Any]) -> str:
-    data_type = int(dataset.get("ordinate_spec_data_type", 0))
+    data_type = _integer(dataset, "ordinate_spec_data_type")
     if data_type == DATA_TYPE_EXCITATION_FORCE:
         return "force"
     if data_type == DATA_TYPE_ACCELERATION:
@@ -131,6 +167,9 @@ def _sample_rate(path: Path, increments_s: Sequence[float]) -> float:
             f"{path}: time records have different sample intervals ({increments.min():.6g} … {increments.max():.6g} s)"
         )
     rate_hz = 1.0 / float(np.mean(increments))
+    if not SAMPLE_RATE_RANGE_HZ[0] <= rate_hz <= SAMPLE_RATE_RANGE_HZ[1]:
+        raise UffError(f"{path}: time records sampled at {rate_hz:.6g} S/s; gasfilm reads "
+                       f"{SAMPLE_RATE_RANGE_HZ[0]:g} to {SAMPLE_RATE_RANGE_HZ[1]:g} S/s")
     nearest = min(NI9234_VALID_RATES_HZ, key=lambda valid: abs(valid - rate_hz))
     return nearest if abs(nearest - rate_hz) <= RATE_SNAP_RELATIVE * rate_hz else rate_hz
 
@@ -156,17 +195,29 @@ def read_uff_time_records(
     """Read the force/response time records of every hit from a UFF file (dataset 58, function type 1)."""
     path = Path(path)
     datasets = _read_datasets(path)
+    try:
+        return _time_records(path, datasets, force_dof, response_dof)
+    except UffError as error:
+        message = str(error)
+        raise UffError(message if message.startswith(str(path)) else f"{path}: {message}") from None
+
+
+def _time_records(
+    path: Path, datasets: list[dict[str, Any]], force_dof: Dof | None, response_dof: Dof | None
+) -> UffTimeRecords:
     units = {"length": 1.0, "force": 1.0}
-    for dataset in datasets:
+    for number, dataset in enumerate(datasets, start=1):
         if dataset.get("type") == 164:
-            units = {"length": float(dataset["length"]), "force": float(dataset["force"])}
+            units = {key: _number(dataset, key, 1.0) for key in ("length", "force")}
+            if not all(factor > 0 for factor in units.values()):
+                raise UffError(f"dataset {number} (units) has a length or force factor that is not positive")
     time_records = [
         (number, dataset)
         for number, dataset in enumerate(datasets, start=1)
-        if dataset.get("type") == 58 and int(dataset.get("func_type", -1)) == FUNCTION_TIME_RESPONSE
+        if dataset.get("type") == 58 and _number(dataset, "func_type", -1) == FUNCTION_TIME_RESPONSE
     ]
     if not time_records:
-        types = sorted({str(dataset.get("type", "?")) for dataset in datasets})
+        types = sorted({str(dataset.get("type", "unknown")) for dataset in datasets})
         raise UffError(
             f"{path}: no time records (dataset 58 with function type 1) among {len(datasets)} datasets "
             f"of type {', '.join(types)}"
@@ -185,7 +236,11 @@ def read_uff_time_records(
         raise UffError(
             f"{path}: {len(forces)} force records but {len(responses)} response records; each hit needs one of each"
         )
-    lengths = {len(np.asarray(d["data"])) for _, d in forces + responses}
+    for number, dataset in forces + responses:
+        values = dataset.get("data")
+        if not isinstance(values, np.ndarray) or values.ndim != 1 or values.dtype.kind not in "fciu":
+            raise UffError(f"dataset {number} holds no column of numbers")
+    lengths = {len(d["data"]) for _, d in forces + responses}
     if len(lengths) != 1:
         raise UffError(
             f"{path}: time records have inconsistent lengths ({', '.join(str(n) for n in sorted(lengths))} samples)"
@@ -201,16 +256,28 @@ def read_uff_time_records(
                 raise UffError(f"{path}: dataset {number} ({role} time record of hit {hit}) holds complex values")
             if not np.all(np.isfinite(values)):
                 raise UffError(f"{path}: dataset {number} ({role} time record of hit {hit}) has NaN samples")
-            records[hit, row] = values * _si_factor(path, number, dataset, role, units)
-    increments = [float(d.get("abscissa_inc", 0.0)) or float(np.diff(np.asarray(d["x"][:2]))[0]) for _, d in forces]
-    sample_rate_hz = _sample_rate(path, increments + [float(d.get("abscissa_inc", 0.0)) for _, d in responses])
-    minima = np.array([float(d.get("abscissa_min", 0.0)) for _, d in forces])
+            with np.errstate(all="ignore"):
+                records[hit, row] = values * _si_factor(path, number, dataset, role, units)
+            if not np.max(np.abs(records[hit, row])) <= MAX_ABS_SI[role]:
+                raise UffError(f"dataset {number} ({role} time record of hit {hit}) holds values beyond "
+                               f"{MAX_ABS_SI[role]:g} {'N' if role == 'force' else 'm/s^2'}: a damaged file")
+    increments = [_number(d, "abscissa_inc") or _abscissa_step(d) for _, d in forces]
+    sample_rate_hz = _sample_rate(path, increments + [_number(d, "abscissa_inc") for _, d in responses])
+    minima = np.array([_number(d, "abscissa_min") for _, d in forces])
     if np.all(minima == minima[0]):
         start_times_s = np.arange(len(forces)) * samples / sample_rate_hz
     else:
         start_times_s = minima
     descriptions = tuple(_label(d, "id1") for _, d in forces)
     return UffTimeRecords(path, records, sample_rate_hz, chosen_force, chosen_response, start_times_s, descriptions)
+
+
+def _abscissa_step(dataset: Mapping[str, Any]) -> float:
+    """The sample interval from the abscissa values when the header gives none (0 when it cannot)."""
+    x = dataset.get("x")
+    if not isinstance(x, np.ndarray) or x.ndim != 1 or x.size < 2 or x.dtype.kind not in "fiu":
+        return 0.0
+    return float(x[1] - x[0])
 
 
 def trigger_sample(force_n: np.ndarray, level_n: float | None = None) -> int:
@@ -265,10 +332,16 @@ def export_frf_uff(
     path = Path(path)
     if not path.parent.is_dir():
         raise UffError(f"{path}: the folder {path.parent} does not exist")
-    freq_hz = np.asarray(frf.freq_hz, dtype=float)
-    h1 = np.asarray(frf.h1, dtype=complex)
-    coherence = np.asarray(frf.coherence, dtype=float)
-    if not (np.all(np.isfinite(h1)) and np.all(np.isfinite(coherence))):
+    try:
+        freq_hz = np.asarray(frf.freq_hz, dtype=float)
+        h1 = np.asarray(frf.h1, dtype=complex)
+        coherence = np.asarray(frf.coherence, dtype=float)
+    except (TypeError, ValueError):
+        raise UffError(f"{path}: the FRF's frequencies, H1 or coherence are not numbers; nothing written") from None
+    if not (freq_hz.ndim == h1.ndim == coherence.ndim == 1 and freq_hz.size == h1.size == coherence.size > 0):
+        raise UffError(f"{path}: the FRF's frequencies, H1 and coherence have different lengths "
+                       f"({freq_hz.size}, {h1.size}, {coherence.size} values); nothing written")
+    if not (np.all(np.isfinite(freq_hz)) and np.all(np.isfinite(h1)) and np.all(np.isfinite(coherence))):
         raise UffError(f"{path}: the FRF holds NaN values; nothing written")
     datasets = [
         pyuff.prepare_164(
@@ -320,7 +393,11 @@ def import_uff_session(
 ) -> Path:
     """Store the hits of a UFF file as a new session; each hit is validated with ``validation``
     (:class:`gasfilm.analysis.validation.ValidationSettings`, default settings when None) and ``window``
-    (:class:`gasfilm.analysis.spectra.WindowSettings`, whose exponential counts in the decay check)."""
+    (:class:`gasfilm.analysis.spectra.WindowSettings`, whose exponential counts in the decay check).
+
+    A UFF file gives units, not input ranges: the session records ``source.full_scale_known = false``, and neither
+    the import nor a replay judges overload against the placeholder sensors of its channel setup
+    (:func:`gasfilm.analysis.validation.recorded_full_scale_si`); clipping still counts."""
     from gasfilm.analysis.capture import HitRecord
     from gasfilm.analysis.session import Session
     from gasfilm.analysis.validation import ValidationSettings, validate_hit
@@ -338,6 +415,7 @@ def import_uff_session(
             "force_dof": time_records.force_dof,
             "response_dof": time_records.response_dof,
             "trigger_level_n": trigger_level_n,
+            "full_scale_known": False,
         },
     }
     with Session.create(

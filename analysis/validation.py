@@ -10,9 +10,11 @@ Reasons (exact strings, several may apply to one hit):
   reaches ``full_scale_fraction`` of its full scale, or the signal is flat at its extreme for ``clip_run_samples``
   consecutive samples (clipping).
 * ``"force too low"``: peak force over the RMS noise of the force before the pulse is below ``min_force_snr``.
-* ``"response not decayed"``: the RMS of the (windowed, if a window is given) response over the last
-  ``tail_fraction`` of the record exceeds ``decay_fraction`` of its peak and ``noise_margin`` times the RMS noise of
-  the response before the pulse: truncation, hence leakage (a tail at the noise floor is decayed).
+* ``"response not decayed"``: the response (windowed, if a window is given) still rings at the end of the record:
+  its RMS over the last ``tail_fraction`` of the record exceeds ``noise_margin`` times the RMS noise before the pulse,
+  and the exponential decay of its envelope, fitted over the last ``decay_fit_fraction`` of the record, ends above
+  ``decay_fraction`` of where it started at the trigger: truncation, hence leakage (a tail at the noise floor is
+  decayed). The verdict's note says how much leakage to expect and which exponential window would cure it.
 * ``"pre-trigger not quiet"``: the RMS of the response before the pulse exceeds ``pretrigger_quiet_fraction`` of its
   peak: the structure still rings from an earlier hit.
 
@@ -21,7 +23,8 @@ A rejected hit is kept with its verdict; the user may override it with :meth:`Ve
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+import math
+from dataclasses import dataclass, field, replace
 from typing import Any, Mapping
 
 import numpy as np
@@ -37,6 +40,8 @@ NOT_DECAYED = "response not decayed"
 PRETRIGGER_NOT_QUIET = "pre-trigger not quiet"
 REASONS = (DOUBLE_HIT, OVERLOAD, FORCE_TOO_LOW, NOT_DECAYED, PRETRIGGER_NOT_QUIET)
 
+#: An envelope that ends above this fraction of its start does not decay (a window would only hide it).
+BARELY_DECAYING = 0.5
 #: Samples just before the trigger that belong to the rising edge of the pulse, not to the pre-trigger noise.
 _EDGE_GUARD_S = 0.5e-3
 
@@ -47,15 +52,17 @@ class ValidationSettings:
 
     double_hit_fraction: float = 0.1
     min_force_snr: float = 20.0
-    decay_fraction: float = 0.01
+    decay_fraction: float = 0.005
     tail_fraction: float = 0.05
+    decay_fit_fraction: float = 0.3
     pretrigger_quiet_fraction: float = 0.02
     full_scale_fraction: float = 0.98
     clip_run_samples: int = 4
     noise_margin: float = 3.0
 
     def __post_init__(self) -> None:
-        for name in ("double_hit_fraction", "decay_fraction", "tail_fraction", "pretrigger_quiet_fraction"):
+        for name in ("double_hit_fraction", "decay_fraction", "tail_fraction", "decay_fit_fraction",
+                     "pretrigger_quiet_fraction"):
             value = getattr(self, name)
             if not 0 < value < 1:
                 raise SettingError(f"{name}: {value} must be between 0 and 1")
@@ -76,10 +83,12 @@ class Verdict:
     accepted: bool
     reasons: tuple[str, ...] = ()
     overridden: bool = False
+    #: Explanations for the operator (e.g. the leakage a truncated response causes); not stored with the hit.
+    notes: tuple[str, ...] = field(default=(), compare=False)
 
     @classmethod
-    def from_reasons(cls, reasons: tuple[str, ...]) -> "Verdict":
-        return cls(accepted=not reasons, reasons=tuple(reasons))
+    def from_reasons(cls, reasons: tuple[str, ...], notes: tuple[str, ...] = ()) -> "Verdict":
+        return cls(accepted=not reasons, reasons=tuple(reasons), notes=tuple(notes))
 
     def overridden_to(self, accepted: bool) -> "Verdict":
         """The user's decision; the automatic reasons are kept for the record."""
@@ -91,6 +100,16 @@ class Verdict:
     @classmethod
     def from_dict(cls, values: Mapping[str, Any]) -> "Verdict":
         return cls(bool(values["accepted"]), tuple(str(r) for r in values["reasons"]), bool(values["overridden"]))
+
+
+def recorded_full_scale_si(config: Any, settings: Mapping[str, Any]) -> tuple[float, ...] | None:
+    """Each channel's full scale (N or m/s²) for the overload check of a stored session's hits, or None when the
+    recording does not know its input ranges: an import (``settings["source"]`` names the file it came from, and a
+    UFF file carries units but no range) never gets limits invented from the placeholder sensors it stores."""
+    source = settings.get("source") if isinstance(settings, Mapping) else None
+    if isinstance(source, Mapping) and (source.get("uff_file") or source.get("full_scale_known") is False):
+        return None
+    return tuple(float(channel.full_scale_si) for channel in config.channels)
 
 
 def _pretrigger_end(hit: HitRecord) -> int:
@@ -151,7 +170,7 @@ def _is_clipped(x: np.ndarray, run_samples: int) -> bool:
     at_top = np.concatenate(([0], (magnitude >= top * (1 - 1e-12)).astype(np.int8), [0]))
     edges = np.flatnonzero(np.diff(at_top))
     runs = edges[1::2] - edges[::2]
-    return bool(runs.max() >= run_samples)
+    return bool(runs.size and runs.max() >= run_samples)  # no runs when the record holds NaN
 
 
 def validate_hit(
@@ -188,17 +207,99 @@ def validate_hit(
     if peak == 0 or (noise_force > 0 and peak / noise_force < settings.min_force_snr):
         reasons.append(FORCE_TOO_LOW)
 
-    weighted = response
-    if window is not None and window.exponential_end_fraction is not None:
-        weighted = response * exponential_window(response.size, window.exponential_end_fraction)
-    tail = max(2, int(round(settings.tail_fraction * response.size)))
-    response_peak = float(np.max(np.abs(weighted)))
     pre = response[:quiet_end]
     noise_response = _rms(pre - np.mean(pre)) if quiet_end > 1 else 0.0
-    tail_rms = _rms(weighted[-tail:])
-    if tail_rms > settings.decay_fraction * response_peak and tail_rms > settings.noise_margin * noise_response:
+    notes: list[str] = []
+    decay = response_decay(response, hit.trigger_index, hit.sample_rate_hz, noise_response, settings, window)
+    if decay is not None and decay.end_ratio > settings.decay_fraction:
         reasons.append(NOT_DECAYED)
+        notes.append(decay.advice(settings.decay_fraction))
 
     if noise_response > settings.pretrigger_quiet_fraction * float(np.max(np.abs(response))):
         reasons.append(PRETRIGGER_NOT_QUIET)
-    return Verdict.from_reasons(tuple(reasons))
+    return Verdict.from_reasons(tuple(reasons), tuple(notes))
+
+
+@dataclass(frozen=True)
+class ResponseDecay:
+    """How far the response's envelope has decayed at the end of the record: ``end_ratio`` = envelope at the last
+    sample over envelope at the trigger (the exponential fitted to the end of the record, extrapolated back),
+    ``decay_rate_1_s`` its rate σ (0 when it does not decay), ``tail_over_noise`` the tail RMS over the pre-trigger
+    noise RMS (inf without pre-trigger noise), ``record_after_trigger_s`` the time from the trigger to the end,
+    ``window_end_fraction`` the exponential window already applied (1 for none)."""
+
+    end_ratio: float
+    decay_rate_1_s: float
+    tail_over_noise: float
+    record_after_trigger_s: float
+    window_end_fraction: float = 1.0
+
+    def suggested_end_fraction(self, decay_fraction: float) -> float:
+        """An exponential window end value (one significant digit, total with any window already applied) that brings
+        the envelope at the record end to half of ``decay_fraction`` of its start."""
+        wanted = self.window_end_fraction * 0.5 * decay_fraction / max(self.end_ratio, 1e-300)
+        wanted = min(0.5, max(1e-4, wanted))
+        exponent = math.floor(math.log10(wanted))
+        return math.floor(wanted / 10**exponent) * 10**exponent
+
+    def advice(self, decay_fraction: float) -> str:
+        """One sentence: how much is left, the leakage it causes, and the exponential window that cures it."""
+        end = self.suggested_end_fraction(decay_fraction)
+        window = "" if self.window_end_fraction == 1.0 else f" with the exponential window ending at " \
+                                                              f"{self.window_end_fraction:g}"
+        if self.end_ratio > BARELY_DECAYING:
+            state = f"the response{window} does not decay: at the end of the record it still rings at " \
+                    f"{self.end_ratio:.0%} of its start, {self.tail_over_noise:.3g}× the pre-trigger noise"
+            return f"{state}; the FRF is dominated by leakage; lengthen the record or check for a steady signal"
+        state = (f"the response{window} still rings at the end of the record at {self.end_ratio:.2%} of its start "
+                 f"(decay {self.decay_rate_1_s:.3g} 1/s, {self.tail_over_noise:.3g}× the pre-trigger noise)")
+        leakage = f"leakage: each such mode's FRF peak about {min(self.end_ratio, 1):.2%} low and rippled by " \
+                  f"±{min(self.end_ratio, 1):.2%} around it"
+        return f"{state}; {leakage}; an exponential window ending at {end:g} (--exp-end {end:g}) would help " \
+               f"(it adds {-math.log(end) / self.record_after_trigger_s:.3g} 1/s of damping, which the fit removes)"
+
+
+def response_decay(
+    response: np.ndarray,
+    trigger_index: int,
+    sample_rate_hz: float,
+    noise_rms: float,
+    settings: ValidationSettings = ValidationSettings(),
+    window: WindowSettings | None = None,
+) -> ResponseDecay | None:
+    """The decay of the response's envelope at the end of the record, or None when the tail has reached the noise
+    floor (``noise_margin`` × ``noise_rms``) or the record is too short to tell.
+
+    The envelope is the RMS in ten blocks over the last ``decay_fit_fraction`` of the record, less the noise power;
+    the blocks above the noise floor are fitted with an exponential (a line through log RMS)."""
+    response = np.asarray(response, dtype=float)
+    end_fraction = 1.0
+    if window is not None and window.exponential_end_fraction is not None:
+        end_fraction = float(window.exponential_end_fraction)
+        weight = exponential_window(response.size, end_fraction)
+    else:
+        weight = np.ones(response.size)
+    start = min(max(int(trigger_index), 0), response.size)
+    tail = max(2, int(round(settings.tail_fraction * response.size)))
+    if response.size - start < 2 * tail:
+        return None
+    noise_at = noise_rms * weight  # the window scales the noise as much as the signal
+    tail_rms = _rms(response[-tail:] * weight[-tail:])
+    tail_noise = float(np.mean(noise_at[-tail:]))
+    if not tail_rms > settings.noise_margin * tail_noise:
+        return None
+    span = max(2 * tail, int(round(settings.decay_fit_fraction * (response.size - start))))
+    block = max(2, span // 10)
+    first = response.size - 10 * block
+    mean_square = np.mean(np.square(response[first:] * weight[first:]).reshape(10, block), axis=1)
+    noise_square = np.square(noise_at[first:].reshape(10, block).mean(axis=1))
+    above = mean_square > settings.noise_margin**2 * noise_square
+    power = mean_square - noise_square
+    times_s = (first + block * (np.arange(10) + 0.5) - start) / sample_rate_hz
+    record_s = (response.size - 1 - start) / sample_rate_hz
+    over_noise = math.inf if tail_noise == 0 else tail_rms / tail_noise
+    if np.count_nonzero(above) < 3:
+        return None
+    slope, _ = np.polyfit(times_s[above], 0.5 * np.log(power[above]), 1)
+    rate_1_s = max(0.0, -float(slope))
+    return ResponseDecay(math.exp(-rate_1_s * record_s), rate_1_s, over_noise, record_s, end_fraction)

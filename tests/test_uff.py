@@ -144,3 +144,37 @@ def test_uff_errors_name_the_file(tmp_path):
                                                    time_record(response, 5, 3, 12, "in/s^2")])
     with pytest.raises(UffError, match="units 'in/s\\^2', which gasfilm cannot convert"):
         read_uff_time_records(odd_units)
+
+
+def test_an_imported_real_recording_replays_with_all_five_hits_accepted(tmp_path, capsys):
+    """pyFRF's 5 real hits (25.6 kS/s, peaks beyond the PCB sensors' ±5 V ranges gasfilm would assume) brought in as
+    UFF time records: the import knows units, not input ranges, so no hit is called an overload; the ringing tail asks
+    for the exponential window the decay check names, and with it all 5 hits are accepted, at import and on replay."""
+    import json
+
+    from gasfilm.app.cli import main as gasfilm
+    from gasfilm.drivers.interface import default_hammer_and_accelerometer
+    from test_real_data import FIXTURE, FS_HZ
+
+    measured = np.stack([np.load(FIXTURE / f"measurements_{i}.npy") for i in range(1, 6)])[:, 1:]
+    placeholder = default_hammer_and_accelerometer(FS_HZ).channels
+    assert np.sum(np.max(np.abs(measured[:, 1]), axis=1) >= 0.98 * placeholder[1].full_scale_si) >= 4
+    datasets = []
+    for index, (force, response) in enumerate(measured):
+        datasets += [time_record(force, 1, 3, 13, "N", hit=index, sample_rate_hz=FS_HZ),
+                     time_record(response, 2, 3, 12, "m/s^2", hit=index, sample_rate_hz=FS_HZ)]
+    uff_path = write_uff(tmp_path / "pyfrf.uff", datasets)
+    window = WindowSettings(exponential_end_fraction=0.01)
+    session_path = import_uff_session(uff_path, tmp_path / "pyfrf.h5", ValidationSettings(), window)
+    with Session.open(session_path) as session:
+        assert [v.accepted for v in session.verdicts()] == [True] * 5
+        assert session.settings["source"]["full_scale_known"] is False
+
+    assert gasfilm(["replay", str(session_path), "--json"]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert (summary["hits"], summary["accepted"], summary["reasons"]) == (5, 5, {})
+    # without the window the hits are truncated, and the replay says so, never "overload"
+    assert gasfilm(["replay", str(session_path), "--rectangular"]) == 0
+    text = capsys.readouterr().out
+    assert "response not decayed: 5" in text and "overload" not in text
+    assert "--exp-end" in text and "leakage" in text

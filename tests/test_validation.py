@@ -201,3 +201,40 @@ def test_simulated_session_with_25_percent_double_hits(tip):
             assert verdict.accepted, verdict.reasons
     assert doubles > 40 and overloads == 6 and clean > 100
     assert caught_doubles >= 0.95 * doubles
+
+
+@pytest.mark.parametrize("end_ratio", [0.015, 0.01, 0.02])
+def test_a_lightly_damped_tail_still_ringing_at_one_to_two_percent_is_flagged_with_the_window_to_use(end_ratio):
+    """A single lightly damped mode whose envelope ends at 1-2 % of its start, far above the sensor noise: leakage."""
+    n = 10_240  # 1 s
+    force = clean_force(n=n)
+    t = np.maximum(np.arange(n) - PRE, 0) / FS_HZ
+    record_s = (n - 1 - PRE) / FS_HZ
+    rate_1_s = -np.log(end_ratio) / record_s
+    ringing = np.where(np.arange(n) >= PRE, 50.0 * np.exp(-rate_1_s * t) * np.sin(2 * np.pi * 312.0 * t), 0.0)
+    hit = make_hit(force, response=ringing + np.random.default_rng(1).normal(0, 0.005, n))
+    verdict = validate_hit(hit)
+    assert verdict.reasons == ("response not decayed",)
+    (note,) = verdict.notes
+    assert f"{end_ratio:.2%}"[:3] in note  # the fitted end level, e.g. "1.50%"
+    assert "leakage" in note
+    suggested = float(note.split("--exp-end ")[1].split(")")[0])
+    assert 0 < suggested < 1
+    assert validate_hit(hit, window=WindowSettings(exponential_end_fraction=suggested)).accepted
+    # the same mode in a record three times as long decays into the noise: nothing to flag
+    long_n = 3 * n
+    t_long = np.maximum(np.arange(long_n) - PRE, 0) / FS_HZ
+    long_ringing = np.where(np.arange(long_n) >= PRE,
+                            50.0 * np.exp(-rate_1_s * t_long) * np.sin(2 * np.pi * 312.0 * t_long), 0.0)
+    long_hit = make_hit(clean_force(n=long_n), response=long_ringing + np.random.default_rng(1).normal(0, 0.005,
+                                                                                                        long_n))
+    assert validate_hit(long_hit).accepted
+
+
+def test_a_steady_tail_that_does_not_decay_is_flagged():
+    n = 5120
+    t = np.arange(n) / FS_HZ
+    steady = np.where(np.arange(n) >= PRE, 5.0 * np.sin(2 * np.pi * 200.0 * t), 0.0)
+    verdict = validate_hit(make_hit(clean_force(n=n), response=steady + sd_response(clean_force(n=n))))
+    assert "response not decayed" in verdict.reasons
+    assert "does not decay" in verdict.notes[0]

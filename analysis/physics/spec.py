@@ -35,6 +35,29 @@ from gasfilm.analysis.physics.effects import (
     _non_negative,
     _positive,
 )
+#: Sizes and physical ranges a rig spec must keep to, checked before anything is computed from it.
+MAX_SPEC_CHARACTERS = 1_000_000
+MAX_EFFECTS = 64
+MAX_MODEL_TEXT_CHARACTERS = 500
+MASS_RANGE_KG = (1e-3, 1e4)
+RESONANCE_RANGE_HZ = (0.1, 50e3)
+SENSITIVITY_RANGE_MV = (1e-3, 1e5)
+MAX_NOISE_PER_SQRT_HZ = 1e3
+MAX_HAMMER_FORCE_N = 1e5
+#: Magnitude ranges of effect values by unit (a lower bound of 0: none): beyond them a simulation of the rig runs for
+#: minutes or overflows. Lists (harmonic amplitudes) are held to the upper bound only.
+EFFECT_UNIT_RANGES = {
+    "Hz": (1e-3, 1e6),
+    "1": (1e-4, 10.0),
+    "kg": (0.0, MASS_RANGE_KG[1]),
+    "N/m³": (0.0, 1e22),
+    "N/m": (0.0, 1e13),
+    "s": (0.0, 10.0),
+    "1/h": (0.0, 10.0),
+    "N or m/s²": (0.0, 1e6),
+}
+
+
 # --- the spec ------------------------------------------------------------------------------------------------------
 
 
@@ -123,19 +146,29 @@ class RigSpec:
     @classmethod
     def from_toml(cls, text: str, source: str = "rig spec") -> "RigSpec":
         """Parse TOML text; errors name ``source`` (a file name) and the key at fault."""
+        if len(text) > MAX_SPEC_CHARACTERS:
+            raise SettingError(f"{source}: {len(text)} characters; a rig spec has at most {MAX_SPEC_CHARACTERS}")
         try:
             table = tomllib.loads(text)
         except tomllib.TOMLDecodeError as error:
             raise SettingError(f"{source}: not valid TOML: {error}") from None
+        except RecursionError:
+            raise SettingError(f"{source}: not a rig spec: arrays or tables nested too deeply") from None
         return _spec_from_table(table, source)
 
     @classmethod
     def load(cls, path: str | Path) -> "RigSpec":
         path = Path(path)
         try:
-            text = path.read_text(encoding="utf-8")
+            with path.open("rb") as file:
+                data = file.read(MAX_SPEC_CHARACTERS * 4 + 1)
         except OSError as error:
             raise SettingError(f"{path}: cannot read the rig spec ({error.strerror or error})") from None
+        try:
+            text = data.decode("utf-8")
+        except UnicodeDecodeError as error:
+            raise SettingError(f"{path}: not a rig spec: not UTF-8 text (byte {data[error.start]:#04x} at position "
+                               f"{error.start})") from None
         return cls.from_toml(text, source=str(path))
 
     def save(self, path: str | Path) -> None:
@@ -247,7 +280,7 @@ def _spec_from_table(table: Mapping[str, Any], source: str) -> RigSpec:
     _check_keys(table, ("name", "mass_kg", "film", "sensors", "hammer", "effects"), source)
     if "mass_kg" not in table:
         raise SettingError(f"{source}: key 'mass_kg' is missing (the mover's mass in kg)")
-    mass_kg = _float_value(table["mass_kg"], f"{source} key 'mass_kg'", _positive, "kg")
+    mass_kg = _float_value(table["mass_kg"], f"{source} key 'mass_kg'", _within(*MASS_RANGE_KG), "kg")
     name = table.get("name", Path(source).stem)
     if not isinstance(name, str):
         raise SettingError(f"{source} key 'name': must be a string")
@@ -257,10 +290,7 @@ def _spec_from_table(table: Mapping[str, Any], source: str) -> RigSpec:
     if not isinstance(model_text, str):
         raise SettingError(f"{source} key 'film.model': missing; a paper model name or a network such as "
                            f"'k || dashpot(eta)'")
-    try:
-        get_model(model_text)
-    except SettingError as error:
-        raise SettingError(f"{source} key 'film.model': {error}") from None
+    _checked_film_model(model_text, source)
     parameters = {
         key: _float_value(value, f"{source} key 'film.parameters.{key}'", _any_number, "SI")
         for key, value in _table(film, "parameters", f"{source} [film]").items()
@@ -275,21 +305,23 @@ def _spec_from_table(table: Mapping[str, Any], source: str) -> RigSpec:
         _check_keys(sensor, (sensitivity_key, noise_key), f"{source} [sensors.{channel}]")
         sensor_specs[channel] = SensorSpec(
             _float_value(sensor.get(sensitivity_key, default.sensitivity_mv),
-                         f"{source} key 'sensors.{channel}.{sensitivity_key}'", _positive, "mV per SI unit"),
+                         f"{source} key 'sensors.{channel}.{sensitivity_key}'", _within(*SENSITIVITY_RANGE_MV),
+                         "mV per SI unit"),
             _float_value(sensor.get(noise_key, default.noise_per_sqrt_hz),
-                         f"{source} key 'sensors.{channel}.{noise_key}'", _non_negative, "SI unit/√Hz"),
+                         f"{source} key 'sensors.{channel}.{noise_key}'", _within(0.0, MAX_NOISE_PER_SQRT_HZ),
+                         "SI unit/√Hz"),
         )
     hammer = None
     if "hammer" in table:
         hammer_table = _table(table, "hammer", source)
         _check_keys(hammer_table, [f.name for f in dataclasses.fields(HammerSpec)], f"{source} [hammer]")
         tip = hammer_table.get("tip", HammerSpec.tip)
-        if tip not in TIPS_PULSE_WIDTH_S:
+        if not isinstance(tip, str) or tip not in TIPS_PULSE_WIDTH_S:
             raise SettingError(f"{source} key 'hammer.tip' = {tip!r}: allowed: {', '.join(TIPS_PULSE_WIDTH_S)}")
         hammer = HammerSpec(
             tip=tip,
             force_n=_float_value(hammer_table.get("force_n", HammerSpec.force_n), f"{source} key 'hammer.force_n'",
-                                 _positive, "N"),
+                                 _within(0.0, MAX_HAMMER_FORCE_N, low_included=False), "N"),
             force_spread=_float_value(hammer_table.get("force_spread", HammerSpec.force_spread),
                                       f"{source} key 'hammer.force_spread'", _fraction, "fraction"),
             double_hit_rate=_float_value(hammer_table.get("double_hit_rate", HammerSpec.double_hit_rate),
@@ -298,6 +330,9 @@ def _spec_from_table(table: Mapping[str, Any], source: str) -> RigSpec:
     effect_tables = table.get("effects", [])
     if not isinstance(effect_tables, list):
         raise SettingError(f"{source} key 'effects': must be an array of tables ([[effects]])")
+    if len(effect_tables) > MAX_EFFECTS:
+        raise SettingError(f"{source} key 'effects': {len(effect_tables)} effects; a rig spec has at most "
+                           f"{MAX_EFFECTS}")
     effects = tuple(_effect_from_table(item, f"{source} effects[{index}]") for index, item in
                     enumerate(effect_tables))
     return RigSpec(name, mass_kg, model_text, parameters, sensor_specs["force"], sensor_specs["acceleration"],
@@ -308,7 +343,7 @@ def _effect_from_table(table: Any, where: str) -> Effect:
     if not isinstance(table, Mapping):
         raise SettingError(f"{where}: must be a table")
     type_name = table.get("type")
-    if type_name not in EFFECT_TYPES:
+    if not isinstance(type_name, str) or type_name not in EFFECT_TYPES:
         raise SettingError(f"{where}: unknown effect type {type_name!r}; known: {', '.join(EFFECT_TYPES)}")
     cls = EFFECT_TYPES[type_name]
     fields = {f.name: f for f in dataclasses.fields(cls)}
@@ -342,10 +377,14 @@ def _check_effect(effect: Effect, where: str) -> None:
             if value not in item.metadata["choices"]:
                 raise SettingError(f"{key_where} = {value!r}: allowed: {', '.join(item.metadata['choices'])}")
         elif item.metadata.get("list"):
+            if len(value) > MAX_EFFECTS:
+                raise SettingError(f"{key_where}: {len(value)} values; at most {MAX_EFFECTS}")
             for entry in value:
                 _float_value(entry, key_where, _any_number, item.metadata["unit"])
+                _check_unit_range(entry, key_where, item.metadata["unit"], upper_only=True)
         elif "rule" in item.metadata:
             _float_value(value, key_where, item.metadata["rule"], item.metadata["unit"])
+            _check_unit_range(value, key_where, item.metadata["unit"])
     try:
         effect.validate()
     except EffectValueError as error:
@@ -353,26 +392,77 @@ def _check_effect(effect: Effect, where: str) -> None:
         raise SettingError(f"{where} ({type_name}) key '{error.key}' = {value!r}: {error}") from None
 
 
-def _validate_spec(spec: RigSpec) -> None:
-    source = spec.source
-    _float_value(spec.mass_kg, f"{source} key 'mass_kg'", _positive, "kg")
+def _within(low: float, high: float, low_included: bool = True) -> Callable[[float], str | None]:
+    """A value rule: between ``low`` and ``high`` (``low`` itself allowed unless ``low_included`` is False)."""
+
+    def rule(value: float) -> str | None:
+        inside = (low <= value if low_included else low < value) and value <= high
+        return None if inside else f"must be {'≥' if low_included else '>'} {low:g} and ≤ {high:g}"
+
+    return rule
+
+
+def _checked_film_model(model_text: str, source: str) -> FilmModel:
+    if len(model_text) > MAX_MODEL_TEXT_CHARACTERS:
+        raise SettingError(f"{source} key 'film.model': {len(model_text)} characters; at most "
+                           f"{MAX_MODEL_TEXT_CHARACTERS}")
     try:
-        model = get_model(spec.film_model)
+        return get_model(model_text)
     except SettingError as error:
         raise SettingError(f"{source} key 'film.model': {error}") from None
+    except RecursionError:
+        raise SettingError(f"{source} key 'film.model': parentheses nested too deeply") from None
+
+
+def _check_resonance(spec: RigSpec, model: FilmModel) -> None:
+    """The mass on the film must resonate inside ``RESONANCE_RANGE_HZ``: the film's stiffness magnitude exceeds the
+    mass's m·ω² at the low end and falls below it at the high end (a film far outside would make every simulation
+    and fit of it run for ever or say nothing)."""
+    low_hz, high_hz = RESONANCE_RANGE_HZ
+    omega = 2 * math.pi * np.array([low_hz, high_hz])
+    with np.errstate(all="ignore"):
+        film = np.abs(model.stiffness(1j * omega, dict(spec.film_parameters)))
+    mass = spec.mass_kg * omega**2
+    where = f"{spec.source} [film.parameters]"
+    if not np.all(np.isfinite(film)):
+        raise SettingError(f"{where}: the film's stiffness is not finite between {low_hz:g} Hz and {high_hz:g} Hz")
+    if film[0] < mass[0]:
+        raise SettingError(f"{where}: the film resonates with the {spec.mass_kg:g} kg mass below {low_hz:g} Hz "
+                           f"(|Z| = {film[0]:.3g} N/m there); supported: {low_hz:g} Hz to {high_hz:g} Hz")
+    if film[1] > mass[1]:
+        raise SettingError(f"{where}: the film resonates with the {spec.mass_kg:g} kg mass above {high_hz:g} Hz "
+                           f"(|Z| = {film[1]:.3g} N/m there); supported: {low_hz:g} Hz to {high_hz:g} Hz")
+
+
+def _check_unit_range(value: float, where: str, unit: str, upper_only: bool = False) -> None:
+    low, high = EFFECT_UNIT_RANGES.get(unit, (0.0, math.inf))
+    if upper_only:
+        low = 0.0
+    if not (abs(value) <= high and (low == 0.0 or abs(value) >= low)):
+        bounds = f"{low:g} to {high:g}" if low else f"at most {high:g} in magnitude"
+        raise SettingError(f"{where} = {value!r}: outside the physical range, {bounds} ({unit})")
+
+
+def _validate_spec(spec: RigSpec) -> None:
+    source = spec.source
+    _float_value(spec.mass_kg, f"{source} key 'mass_kg'", _within(*MASS_RANGE_KG), "kg")
+    model = _checked_film_model(spec.film_model, source)
+    if len(spec.effects) > MAX_EFFECTS:
+        raise SettingError(f"{source}: {len(spec.effects)} effects; a rig spec has at most {MAX_EFFECTS}")
     for parameter in model.parameters:
         key = f"{source} key 'film.parameters.{parameter.name}'"
         if parameter.name not in spec.film_parameters:
             raise SettingError(f"{key}: missing; {model.name} needs {', '.join(model.parameter_names)}")
         value = spec.film_parameters[parameter.name]
-        if parameter.scale == "log":
-            _float_value(value, key, _positive, parameter.unit)
+        if parameter.scale == "log":  # within the element's physical bounds (those the fitters search)
+            _float_value(value, key, _within(parameter.lower, parameter.upper), parameter.unit)
         elif not 0.0 <= value <= 2.0:
             raise SettingError(f"{key} = {value!r}: an order must be between 0 and 2")
     for name in spec.film_parameters:
         if name not in model.parameter_names:
             raise SettingError(f"{source} key 'film.parameters.{name}': not a parameter of {model.name} "
                                f"({', '.join(model.parameter_names)})")
+    _check_resonance(spec, model)
     for index, effect in enumerate(spec.effects):
         if type(effect).type_name not in EFFECT_TYPES:
             raise SettingError(f"{source} effects[{index}]: {type(effect).__name__} is not a registered effect")

@@ -48,7 +48,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--rectangular", action="store_true", help="no force or exponential window")
     parser.add_argument("--double-hit-fraction", type=float, help="double-hit threshold as a fraction of the peak")
     parser.add_argument("--min-force-snr", type=float, help="lowest accepted peak force over force noise")
-    parser.add_argument("--decay-fraction", type=float, help="largest accepted response tail RMS over its peak")
+    parser.add_argument("--decay-fraction", type=float,
+                        help="largest accepted end level of the response's decay, as a fraction of its start "
+                             "(default 0.005)")
     parser.add_argument("--force-dof", type=int, nargs=2, metavar=("NODE", "DIR"), help="UFF: force node, direction")
     parser.add_argument("--response-dof", type=int, nargs=2, metavar=("NODE", "DIR"),
                         help="UFF: response node and direction")
@@ -144,6 +146,7 @@ def summarise(frf: Any, verdicts: list, dropped: int, record_samples: int) -> di
         "records_without_trigger": dropped,
         "record_samples": record_samples,
         "reasons": dict(sorted(reasons.items())),
+        "notes": [f"hit {index}: {note}" for index, verdict in enumerate(verdicts) for note in verdict.notes],
     }
     if frf is not None:
         magnitude = np.abs(frf.h1)
@@ -170,6 +173,9 @@ def _print_summary(summary: dict[str, Any], source: Path, written: str) -> None:
         print(f"  records that no longer trigger: {summary['records_without_trigger']}")
     for reason, count in summary["reasons"].items():
         print(f"    {reason}: {count}")
+    if summary["notes"]:
+        more = len(summary["notes"]) - 1
+        print(f"  note: {summary['notes'][0]}" + (f" (and {more} more notes; --json lists them)" if more else ""))
     if "peak_frequency_hz" in summary:
         print(f"  peak of |H1| (lines with coherence >= {PEAK_MIN_COHERENCE}): {summary['peak_frequency_hz']:.2f} Hz, "
               f"{summary['peak_accelerance_m_s2_per_n']:.4g} (m/s^2)/N")

@@ -27,7 +27,7 @@ from gasfilm.analysis.report import usable_band_hz
 from gasfilm.analysis.session import Session, to_jsonable
 from gasfilm.analysis.spectra import FrfAccumulator, FrfResult, WindowSettings, session_frf, write_frf_csv
 from gasfilm.analysis.uff import export_frf_uff
-from gasfilm.analysis.validation import ValidationSettings, Verdict, validate_hit
+from gasfilm.analysis.validation import ValidationSettings, Verdict, recorded_full_scale_si, validate_hit
 from gasfilm.app.gui.settings import SetupState, settings_from_dict
 from gasfilm.app.gui.workers import (
     PENDING_REASON,
@@ -426,7 +426,7 @@ class SessionController(QObject):
         validation = self.validation_settings()
         window = self.window_settings()
         config = self.session.daq_config if self.session is not None else None
-        full_scale = tuple(c.full_scale_si for c in config.channels) if config is not None else None
+        full_scale = recorded_full_scale_si(config, self.session.settings) if config is not None else None
         for entry in self.hits:
             automatic = validate_hit(entry.record, validation, full_scale, window=window)
             entry.automatic = automatic
