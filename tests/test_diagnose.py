@@ -118,7 +118,7 @@ def test_drift_over_the_session_is_a_per_hit_trend(tmp_path):
     assert effects_of(diagnosis) == ["drift"]
     rate = diagnosis.findings[0].parameters["fraction_per_hour"]
     assert abs(rate["value"] - 0.4) < 4 * rate["uncertainty"] + 0.02
-    assert "hit time" in diagnosis.findings[0].hits
+    assert "session time" in diagnosis.findings[0].hits
 
 
 def test_fractional_film_behind_a_spring_damper_spec_is_named_film_memory(tmp_path):

@@ -15,6 +15,8 @@ CANDIDATES: tuple[str, ...] = (
     "drift",
     "step-change",
     "cubic-stiffness",
+    "friction",
+    "quadratic-damping",
     "ac-coupling",
     "cross-talk",
     "film-memory",
@@ -34,6 +36,9 @@ EQUIVALENT: dict[str, tuple[str, str]] = {
 #: What measurement tells close alternatives apart, by pair of effect types (order irrelevant).
 SEPARATING_MEASUREMENT: dict[frozenset[str], str] = {
     frozenset({"drift", "step-change"}): "more hits spread evenly over the session (or a log of the supply pressure)",
+    frozenset({"friction", "quadratic-damping"}): "hits over a wider range of force levels",
+    frozenset({"friction", "cubic-stiffness"}): "hits over a wider range of force levels",
+    frozenset({"quadratic-damping", "cubic-stiffness"}): "hits over a wider range of force levels",
     frozenset({"film-memory", "pneumatic-lag"}): "a wider analysis band (a softer or harder hammer tip)",
     frozenset({"film-memory", "squeeze-film"}): "a test at another gap or supply pressure (a squeeze film scales "
                                                 "with the gap as h0⁻¹ and h0⁻²)",

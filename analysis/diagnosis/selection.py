@@ -33,7 +33,9 @@ from gasfilm.analysis.physics.effects import (
     ExtraMode,
     FilmMemory,
     FitContext,
+    Friction,
     PneumaticLag,
+    QuadraticDamping,
     StepChange,
     SqueezeFilm,
 )
@@ -204,6 +206,12 @@ def starting_effects(identifier: str, spec: RigSpec, evidence: Evidence, context
     if identifier == "cubic-stiffness":
         limit = film / (CUBIC_EQUIVALENT * context.max_displacement_m**2)
         return [CubicStiffness(k3_n_per_m3=sign * 1e-3 * limit) for sign in (1.0, -1.0)]
+    if identifier in ("friction", "quadratic-damping"):
+        if np.ptp(evidence.spectra.conditions.impulse_ns) <= 0.05 * np.median(evidence.spectra.conditions.impulse_ns):
+            return []  # all hits at one level: an amplitude-dependent damper cannot be told from the film's damping
+        cls = Friction if identifier == "friction" else QuadraticDamping
+        name, fit_range = next(iter(cls(1.0).fit_ranges(context).items()))
+        return [cls(**{name: float(np.sqrt(fit_range.lower * fit_range.upper)) * factor}) for factor in (1e-2, 1.0)]
     if identifier == "ac-coupling":
         return [AcCoupling(channel="acceleration", corner_hz=factor * context.band_hz[0]) for factor in (0.05, 0.3)]
     if identifier == "cross-talk":

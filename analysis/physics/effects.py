@@ -142,6 +142,11 @@ class Effect:
     def cubic_stiffness_n_per_m3(self) -> float:
         return 0.0
 
+    def level_damping_ns_per_m(self, velocity_m_s: np.ndarray) -> np.ndarray | float:
+        """Equivalent viscous damping (N·s/m) of an amplitude-dependent damper for hits that start the mover at
+        ``velocity_m_s`` (impulse / moving mass)."""
+        return 0.0
+
     def interference(self, channel: str, time_s: np.ndarray) -> np.ndarray | None:
         """An additive signal in the channel's SI unit at the given times, or ``None``."""
         return None
@@ -189,6 +194,10 @@ def _band_excitable(freq_hz: float, context: FitContext) -> str | None:
     return None
 
 
+#: The lightest damping an extra mode may have: its ringing must decay within a simulated record.
+MIN_DAMPING_RATIO = 1e-4
+
+
 @register_effect("extra-mode")
 @dataclass(frozen=True)
 class ExtraMode(Effect):
@@ -201,6 +210,11 @@ class ExtraMode(Effect):
     freq_hz: float = _number("Hz", _positive)
     damping_ratio: float = _number("1", _positive)
     mass_kg: float = _number("kg", _positive)
+
+    def validate(self) -> None:
+        if self.damping_ratio < MIN_DAMPING_RATIO:
+            raise EffectValueError("damping_ratio", f"must be at least {MIN_DAMPING_RATIO:g} (a mode that never "
+                                                    f"decays cannot be simulated)")
 
     def added_stiffness(self, s: np.ndarray) -> np.ndarray:
         omega = 2 * np.pi * self.freq_hz
@@ -633,3 +647,58 @@ class SqueezeFilm(Effect):
                 f"{self.gap_m * 1e6:.2f} ± {sigma['gap_m'] * 1e6:.2f} µm under a {self.length_m * 1e3:.0f} × "
                 f"{self.width_m * 1e3:.0f} mm plate (squeeze number {self.squeeze_time_s * omega:.2g} at the "
                 f"resonance), in {where}")
+
+
+@register_effect("friction")
+@dataclass(frozen=True)
+class Friction(Effect):
+    """Dry (Coulomb) friction ``F_c·sign(v)`` on the mover, as an equivalent viscous damping per hit: harmonic balance
+    at the hit's initial velocity v gives ``c_eq = 4 F_c / (π v)`` — softer hits are damped more. An effective value:
+    the decaying amplitude weights the real friction differently, and the time-domain force is not solved."""
+
+    explanation: ClassVar[str] = (
+        "Something rubs (a cable, a seal, a contact in the guide): the damping does not scale with the motion, so "
+        "soft hits look more damped than hard ones.")
+    per_hit: ClassVar[bool] = True
+
+    friction_force_n: float = _number("N", _positive)
+
+    def level_damping_ns_per_m(self, velocity_m_s: np.ndarray) -> np.ndarray | float:
+        return 4.0 * self.friction_force_n / (np.pi * np.maximum(velocity_m_s, 1e-12))
+
+    def fit_ranges(self, context: FitContext) -> dict[str, FitRange]:
+        film_force_n = context.film_stiffness_n_per_m * context.max_displacement_m
+        return {"friction_force_n": FitRange("log", 1e-6 * film_force_n, 0.5 * film_force_n)}
+
+    def evidence(self, sigma: Mapping[str, float], where: str, context: FitContext) -> str:
+        return (f"the damping grows as hits get softer, as dry friction makes it: an effective friction force of "
+                f"{self.friction_force_n:.3g} ± {sigma['friction_force_n']:.2g} N, in {where}")
+
+
+@register_effect("quadratic-damping")
+@dataclass(frozen=True)
+class QuadraticDamping(Effect):
+    """Velocity-squared damping ``c2·|v|·v`` on the mover, as an equivalent viscous damping per hit: harmonic balance
+    at the hit's initial velocity v gives ``c_eq = 8 c2 v / (3π)`` — harder hits are damped more. An effective value,
+    as for friction."""
+
+    explanation: ClassVar[str] = (
+        "The damping grows with speed (air forced through a gap or an orifice at high velocity): hard hits look "
+        "more damped than soft ones.")
+    per_hit: ClassVar[bool] = True
+
+    coefficient_n_s2_per_m2: float = _number("N·s²/m²", _positive)
+
+    def level_damping_ns_per_m(self, velocity_m_s: np.ndarray) -> np.ndarray | float:
+        return 8.0 * self.coefficient_n_s2_per_m2 * np.asarray(velocity_m_s) / (3.0 * np.pi)
+
+    def fit_ranges(self, context: FitContext) -> dict[str, FitRange]:
+        omega = 2 * np.pi * context.resonance_hz
+        velocity_m_s = context.max_displacement_m * omega
+        # at most the damping of a film with ζ ≈ 0.5 at the hardest hit
+        limit = context.film_stiffness_n_per_m / omega / velocity_m_s
+        return {"coefficient_n_s2_per_m2": FitRange("log", 1e-6 * limit, limit)}
+
+    def evidence(self, sigma: Mapping[str, float], where: str, context: FitContext) -> str:
+        return (f"the damping grows with the hit's velocity, as quadratic (flow) damping makes it: c2 = "
+                f"{self.coefficient_n_s2_per_m2:.3g} ± {sigma['coefficient_n_s2_per_m2']:.2g} N·s²/m², in {where}")

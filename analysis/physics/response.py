@@ -65,11 +65,18 @@ def film_stiffness(spec: RigSpec, s: np.ndarray, time_s: np.ndarray | float = 0.
 
 
 def rig_dynamic_stiffness(
-    spec: RigSpec, s: np.ndarray, time_s: np.ndarray | float = 0.0, *, film_scale: float | None = None
+    spec: RigSpec,
+    s: np.ndarray,
+    time_s: np.ndarray | float = 0.0,
+    *,
+    film_scale: float | None = None,
+    impulse_ns: np.ndarray | float | None = None,
 ) -> np.ndarray:
-    """Linear dynamic stiffness of the mover on its film, ``Z_film(t) + Σ Z_effect + M s²`` (N/m).
+    """Linear dynamic stiffness of the mover on its film, ``Z_film(t) + Σ Z_effect + c_eq(v)·s + M s²`` (N/m).
 
     The film is the spec's at ``time_s`` (one time or an array of hit times) unless ``film_scale`` gives its scale.
+    With ``impulse_ns`` (one hit's or an array matching ``time_s``), amplitude-dependent dampers add their equivalent
+    viscous damping at the hit's initial velocity ``J / M``.
     """
     s = np.asarray(s, dtype=complex)
     if film_scale is None:
@@ -79,6 +86,10 @@ def rig_dynamic_stiffness(
     total = total + spec.moving_mass_kg * s**2
     for effect in spec.effects:
         total = total + effect.added_stiffness(s)
+    if impulse_ns is not None:
+        velocity_m_s = np.abs(np.asarray(impulse_ns, dtype=float)) / spec.moving_mass_kg
+        damping = sum(effect.level_damping_ns_per_m(velocity_m_s) for effect in spec.effects)
+        total = total + (np.asarray(damping)[..., np.newaxis] if np.ndim(damping) else damping) * s
     return total
 
 
@@ -123,7 +134,7 @@ def rig_accelerance(
     if conditions is None:
         stiffness = rig_dynamic_stiffness(spec, s, time_s)
     else:
-        stiffness = rig_dynamic_stiffness(spec, s, conditions.time_s)
+        stiffness = rig_dynamic_stiffness(spec, s, conditions.time_s, impulse_ns=conditions.impulse_ns)
         k3 = spec.cubic_stiffness_n_per_m3
         if k3:
             stiffness = stiffness + (CUBIC_EQUIVALENT * k3 * hit_displacement_m(spec, conditions.impulse_ns) ** 2)[
@@ -166,7 +177,12 @@ def _cached_response_duration_s(spec_toml: str, sample_rate_hz: float, film_scal
 
 
 def mover_displacement_spectrum(
-    spec: RigSpec, force_spectrum: np.ndarray, s: np.ndarray, n_samples: int, time_s: float = 0.0
+    spec: RigSpec,
+    force_spectrum: np.ndarray,
+    s: np.ndarray,
+    n_samples: int,
+    time_s: float = 0.0,
+    impulse_ns: float | None = None,
 ) -> np.ndarray:
     """The mover's displacement spectrum (rfft grid of ``n_samples``) for a force spectrum on the same grid.
 
@@ -175,7 +191,7 @@ def mover_displacement_spectrum(
     matrix-free Jacobian products ``J v = v + R*(3·k3·x²·v)``, continued from the linear response in steps of k3
     when the full hardening is too strong to reach at once. The grid must be long enough for the response to decay.
     """
-    receptance = 1.0 / rig_dynamic_stiffness(spec, s, time_s)
+    receptance = 1.0 / rig_dynamic_stiffness(spec, s, time_s, impulse_ns=impulse_ns)
     linear = force_spectrum * receptance
     k3 = spec.cubic_stiffness_n_per_m3
     if k3 == 0.0:
@@ -249,8 +265,10 @@ def simulate_response(
     s = _grid_laplace(n_fft, sample_rate_hz)
     delays = channel_transfer(spec, "acceleration", s) / channel_transfer(spec, "force", s)
     leak = spec.force_leak_m_s2_per_n
+    impulse_ns = force.sum(axis=-1) / sample_rate_hz  # the hit's level, for amplitude-dependent dampers
     if spec.is_linear:
-        response = force_spectrum * (s**2 / rig_dynamic_stiffness(spec, s, time_s) + leak) * delays
+        stiffness = rig_dynamic_stiffness(spec, s, time_s, impulse_ns=impulse_ns)
+        response = force_spectrum * (s**2 / stiffness + leak) * delays
         return scipy.fft.irfft(response, n_fft)[..., :n_record]
     oversampling = 2
     n_fine = oversampling * n_fft
@@ -261,7 +279,8 @@ def simulate_response(
         fine_force = np.zeros(s_fine.size, dtype=complex)
         fine_force[: spectrum.size] = spectrum * oversampling
         fine_force[spectrum.size - 1] *= 0.5 if n_fft % 2 == 0 else 1.0
-        displacement = mover_displacement_spectrum(spec, fine_force, s_fine, n_fine, time_s)
+        displacement = mover_displacement_spectrum(spec, fine_force, s_fine, n_fine, time_s,
+                                                   impulse_ns=float(np.ravel(impulse_ns)[row]))
         acceleration = ((s_fine**2 * displacement)[: spectrum.size] / oversampling + leak * spectrum) * delays
         out[row] = scipy.fft.irfft(acceleration, n_fft)[:n_record]
     return out.reshape(force.shape)

@@ -48,13 +48,20 @@ MAX_HAMMER_FORCE_N = 1e5
 #: minutes or overflows. Lists (harmonic amplitudes) are held to the upper bound only.
 EFFECT_UNIT_RANGES = {
     "Hz": (1e-3, 1e6),
-    "1": (1e-4, 10.0),
+    "1": (0.0, 10.0),
     "kg": (0.0, MASS_RANGE_KG[1]),
     "N/m³": (0.0, 1e22),
     "N/m": (0.0, 1e13),
     "s": (0.0, 10.0),
-    "1/h": (0.0, 10.0),
+    "1/h": (0.0, 3.6e5),  # 100 % per second: a session of seconds may show a few per cent
     "N or m/s²": (0.0, 1e6),
+    "m": (0.0, 10.0),
+    "Pa": (0.0, 1e8),
+    "Pa·s": (0.0, 1.0),
+    "N": (0.0, 1e6),
+    "N·s²/m²": (0.0, 1e12),
+    "(m/s²)/N": (0.0, 10.0),
+    "N·s^α/m": (0.0, 1e14),
 }
 
 
@@ -436,6 +443,8 @@ def _check_resonance(spec: RigSpec, model: FilmModel) -> None:
 
 def _check_unit_range(value: float, where: str, unit: str, upper_only: bool = False) -> None:
     low, high = EFFECT_UNIT_RANGES.get(unit, (0.0, math.inf))
+    if value == 0.0:
+        return  # whether a field may be 0 is its own rule's question
     if upper_only:
         low = 0.0
     if not (abs(value) <= high and (low == 0.0 or abs(value) >= low)):
