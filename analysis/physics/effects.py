@@ -196,6 +196,8 @@ def _band_excitable(freq_hz: float, context: FitContext) -> str | None:
 
 #: The lightest damping an extra mode may have: its ringing must decay within a simulated record.
 MIN_DAMPING_RATIO = 1e-4
+#: An extra mode more damped than this has no localised peak/dip (half-power width above a fifth of its frequency).
+MAX_LOCAL_DAMPING_RATIO = 0.1
 
 
 @register_effect("extra-mode")
@@ -230,6 +232,9 @@ class ExtraMode(Effect):
         if self.mass_kg > 0.2 * context.mass_kg:
             return (f"its mass {self.mass_kg:.3g} kg is comparable to the mover's {context.mass_kg:.3g} kg: that is "
                     f"not a part riding on the mover")
+        if self.damping_ratio > MAX_LOCAL_DAMPING_RATIO:
+            return (f"its damping ratio {self.damping_ratio:.2g} is too large for a peak/dip of its own: it only "
+                    f"reshapes the band around {self.freq_hz:.0f} Hz, which other causes do as well")
         if abs(self.freq_hz - context.resonance_hz) < 0.1 * context.resonance_hz:
             return (f"its frequency {self.freq_hz:.1f} Hz lies on the film's own resonance "
                     f"({context.resonance_hz:.0f} Hz): it only reshapes that peak, which other causes do as well")
