@@ -55,7 +55,7 @@ class Truth:
     # time dependence over the session (session time t_s of each hit)
     stiffness_drift_fraction: float = 0.0  # k changes linearly by this fraction from the first to the last hit
     damping_drift_fraction: float = 0.0
-    step_time_s: float | None = None  # film k, c multiplied by the step factors for hits after this time
+    step_fraction: float | None = None  # film k, c multiplied by the step factors from this fraction of the session
     step_stiffness_factor: float = 1.0
     step_damping_factor: float = 1.0
     # linear rig physics
@@ -141,7 +141,7 @@ def film_at(truth: Truth, t_s: float, session_s: float) -> tuple[float, float]:
     ramp = t_s / session_s if session_s > 0 else 0.0
     k = truth.film_k_n_per_m * (1 + truth.stiffness_drift_fraction * ramp)
     c = truth.film_c_ns_per_m * (1 + truth.damping_drift_fraction * ramp)
-    if truth.step_time_s is not None and t_s >= truth.step_time_s:
+    if truth.step_fraction is not None and ramp >= truth.step_fraction:
         k, c = k * truth.step_stiffness_factor, c * truth.step_damping_factor
     return k, c
 
@@ -435,7 +435,7 @@ def cases() -> list[Case]:
                                     "hammer_offset_m": 0.03, "sensor_offset_m": -0.05}),
              exact=(s({"extra-mode"}),), seed=23),
         Case("step-change", "outside", "film k −6 %, c +15 % from halfway through the session on",
-             replace(base, step_stiffness_factor=0.94, step_damping_factor=1.15), exact=(s({"step-change"}),),
+             replace(base, step_fraction=0.5, step_stiffness_factor=0.94, step_damping_factor=1.15), exact=(s({"step-change"}),),
              hits=24, seed=24),
         Case("softening-film", "outside", "cubic spring k3 = −1.5e17 N/m³ (softening)",
              replace(base, cubic_n_per_m3=-1.5e17), exact=(s({"cubic-stiffness"}),), record_s=0.5, seed=25),
@@ -463,9 +463,13 @@ def cases() -> list[Case]:
         Case("equivalent-mass", "trap", "mover 1.0 kg heavier than told (≡ a −3.8 % sensitivity error)",
              replace(base, mass_kg=26.05), exact=(s({"added-mass"}), s({"sensitivity-error"})),
              alternatives_required=("added-mass", "sensitivity-error"), seed=32),
-        Case("faint-mode", "trap", "0.03 kg at 700 Hz, ζ 0.02: an extra mode at about the noise of one hit",
-             replace(base, extra_mass_kg=0.03, extra_freq_hz=700.0, extra_damping_ratio=0.02),
-             exact=(s({"extra-mode"}),), acceptable=(s(),), seed=33),
+        Case("faint-mode", "trap", "1.6 g at 700 Hz, ζ 0.02: an extra mode below the noise of one hit",
+             replace(base, extra_mass_kg=0.0016, extra_freq_hz=700.0, extra_damping_ratio=0.02),
+             exact=(s({"extra-mode"}),), acceptable=(s(),),
+             notes={"signature": "for a 200 N, 1 ms hit on a 1 s record at 12.8 kS/s, 10-1300 Hz: the mode adds "
+                                 "Δχ² ≈ 63 per hit against a 1σ χ² fluctuation of ≈ 72 (2580 real points, "
+                                 "accelerometer noise alone); about 4σ over the 20 hits"},
+             seed=33),
     ]
     return listed
 
