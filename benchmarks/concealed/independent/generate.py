@@ -312,6 +312,7 @@ def synthesise(case: Case) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict]:
         filtered = signal.sosfilt(sos, channel, axis=1)
         records[:, row, :] = filtered[:, lead::OVERSAMPLE][:, :samples]
     drawn = {
+        "session_span_s": round(session_s, 3),  # first to last hit: a drift fraction per hour is fraction × 3600 / this
         "hit_times_s": np.round(hit_times, 4).tolist(),
         "peak_force_n": np.round(peaks, 1).tolist(),
         "pulse_width_ms": np.round(widths * 1e3, 3).tolist(),

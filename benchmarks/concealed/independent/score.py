@@ -159,6 +159,9 @@ def score_case(key_path: Path, data: Path, loop: bool) -> dict:
         if name not in result:
             missing.add(name)
     outcome, reason = classify(key, result, missing)
+    chi2 = chi2_check(result, missing)
+    if outcome in RIGHT and chi2 != "ok":
+        reason = f"(right names, but {chi2})"
     findings = result.get("findings") or []
     row |= {
         "outcome": outcome,
@@ -171,7 +174,7 @@ def score_case(key_path: Path, data: Path, loop: bool) -> dict:
         "chi2_per_point_after": result.get("chi2_per_point_after"),
         "rms_recalibrated": result.get("rms_recalibrated"),
         "rms_after": result.get("rms_after"),
-        "chi2_check": chi2_check(result, missing),
+        "chi2_check": chi2,
         "quality": [note.get("kind") if isinstance(note, dict) else str(note) for note in result.get("quality") or []],
     }
     spec = result.get("improved_spec")
@@ -190,6 +193,20 @@ def score_case(key_path: Path, data: Path, loop: bool) -> dict:
     return row
 
 
+def parameter_text(parameters: Any) -> str:
+    """A finding's parameters as 'name value ± uncertainty', tolerant of the shape the diagnosis writes."""
+    if not isinstance(parameters, dict):
+        return "(no parameters)"
+    parts = []
+    for name, entry in parameters.items():
+        if isinstance(entry, dict):
+            value, spread = entry.get("value"), entry.get("uncertainty")
+            parts.append(f"{name} {value:.4g}" + (f" ± {spread:.2g}" if isinstance(spread, (int, float)) else ""))
+        else:
+            parts.append(f"{name} {entry}")
+    return ", ".join(parts)
+
+
 def print_tables(rows: list[dict]) -> None:
     print(f"\n{'case':22s} {'cat':8s} {'verdict':17s} {'reported':34s} {'outcome':21s} {'χ²/pt':>7s} "
           f"{'unexpl':>6s} {'loop':14s} {'time s':>7s}  reason")
@@ -202,6 +219,10 @@ def print_tables(rows: list[dict]) -> None:
               f"{(str(len(unexplained)) if isinstance(unexplained, list) else 'n/a'):>6s} "
               f"{str(row.get('loop', '-'))[:14]:14s} "
               f"{row.get('wall_time_s', 0) + row.get('loop_wall_time_s', 0):7.1f}  {row.get('reason', '')}")
+        for finding in row.get("findings", []):
+            print(f"{'':31s}{finding.get('effect')}: {parameter_text(finding.get('parameters'))}")
+        if str(row.get("loop", "clean")) != "clean":
+            print(f"{'':31s}closed loop: {row['loop']}")
     print("\nConfusion table (rows: truth category; columns: outcome)\n")
     print("| truth \\ outcome | " + " | ".join(OUTCOMES) + " | right |")
     print("| --- " * (len(OUTCOMES) + 2) + "|")
