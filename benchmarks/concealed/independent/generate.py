@@ -1,8 +1,8 @@
 """Independent generator of impact-hammer sessions with answer keys (issue 11).
 
 Imports nothing from gasfilm: its own mechanics (frequency domain for linear cases, fixed-step RK4 for nonlinear
-ones) on an analog grid 8× the sample rate, its own anti-aliasing filter applied to force and response alike, decimation,
-sensor noise on both channels, UFF 58 time records written with pyuff (one force and one acceleration record per hit,
+ones) on an analog grid 8× the sample rate, its own anti-aliasing filter applied to force and response alike,
+decimation, sensor noise on both channels, UFF 58 time records written with pyuff (one force and one acceleration record per hit,
 each record's absolute session start time in ``abscissa_min``). Each case's answer key ``<case>.key.json`` is written
 BEFORE its UFF file, so the scorer can check that no key was written after a diagnosis could have been seen.
 
@@ -194,8 +194,8 @@ def half_sine(t_s: np.ndarray, start_s: float, width_s: float, peak_n: float) ->
 
 def integrate_nonlinear(truth: Truth, t_s: np.ndarray, starts_s: np.ndarray, widths_s: np.ndarray,
                         peaks_n: np.ndarray, films: np.ndarray) -> np.ndarray:
-    """Fixed-step RK4 of m·a = F − k x − c v − F_c tanh(v/v_s) − c_q |v| v − k3 x³ for all hits at once; returns the
-    acceleration (hits, samples) on the grid ``t_s``."""
+    """Fixed-step RK4 of m·a = F − k x − c v − F_c tanh(v/v_s) − c_q |v| v − k3 x³ for all hits at once; returns
+    the acceleration (hits, samples) on the grid ``t_s``."""
     dt = float(t_s[1] - t_s[0])
     k, c = films[:, 0], films[:, 1]
     m = truth.mass_kg
@@ -312,7 +312,7 @@ def synthesise(case: Case) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict]:
         filtered = signal.sosfilt(sos, channel, axis=1)
         records[:, row, :] = filtered[:, lead::OVERSAMPLE][:, :samples]
     drawn = {
-        "session_span_s": round(session_s, 3),  # first to last hit: a drift fraction per hour is fraction × 3600 / this
+        "session_span_s": round(session_s, 3),  # first to last hit: drift per hour = fraction × 3600 / span
         "hit_times_s": np.round(hit_times, 4).tolist(),
         "peak_force_n": np.round(peaks, 1).tolist(),
         "pulse_width_ms": np.round(widths * 1e3, 3).tolist(),
@@ -396,11 +396,13 @@ def cases() -> list[Case]:
              sample_rate_hz=25600.0, record_s=0.5, hits=16, seed=2),
         Case("parameters-only", "control", "film k +5 %, c −6 % against the usual nominal",
              film(3.78e7 * 1.05, 3.45e3 * 0.94), seed=3),
-        Case("floor-vibration", "control", "narrowband random floor vibration 30-40 Hz, 2e-3 m/s² RMS, on the response",
+        Case("floor-vibration", "control",
+             "narrowband random floor vibration 30-40 Hz, 2e-3 m/s² RMS, on the response",
              replace(film(3.8e7, 3.5e3), floor_rms_m_s2=2e-3), seed=4, hits=24),
         Case("tip-change", "control", "hammer tip 0.4 ms (hard) for the first half, 1.6 ms after",
              replace(film(3.77e7, 3.44e3), pulse_ms=0.4, pulse_ms_after_change=1.6, force_n=150.0), seed=5),
-        Case("mains", "control", "mains 50 Hz 3e-3, 100 Hz 3e-4, 150 Hz 1e-3, 200 Hz 1e-4, 250 Hz 5e-4 m/s² on the response",
+        Case("mains", "control",
+             "mains 50 Hz 3e-3, 100 Hz 3e-4, 150 Hz 1e-3, 200 Hz 1e-4, 250 Hz 5e-4 m/s² on the response",
              replace(film(3.81e7, 3.49e3), mains_m_s2=(3e-3, 3e-4, 1e-3, 1e-4, 5e-4)), seed=6, record_s=0.5),
         Case("clean-many-light", "control", "30 light hits (120 N), 25.6 kS/s, 0.25 s records",
              replace(film(3.75e7, 3.6e3), force_n=120.0, force_spread=0.1), sample_rate_hz=25600.0, record_s=0.25,
@@ -436,7 +438,8 @@ def cases() -> list[Case]:
                                     "hammer_offset_m": 0.03, "sensor_offset_m": -0.05}),
              exact=(s({"extra-mode"}),), seed=23),
         Case("step-change", "outside", "film k −6 %, c +15 % from halfway through the session on",
-             replace(base, step_fraction=0.5, step_stiffness_factor=0.94, step_damping_factor=1.15), exact=(s({"step-change"}),),
+             replace(base, step_fraction=0.5, step_stiffness_factor=0.94, step_damping_factor=1.15),
+             exact=(s({"step-change"}),),
              hits=24, seed=24),
         Case("softening-film", "outside", "cubic spring k3 = −1.5e17 N/m³ (softening)",
              replace(base, cubic_n_per_m3=-1.5e17), exact=(s({"cubic-stiffness"}),), record_s=0.5, seed=25),
@@ -455,7 +458,8 @@ def cases() -> list[Case]:
              "1.10e-3 (m/s²)/N",
              replace(base, crosstalk_m_s2_per_n=0.005 * FORCE_SENSITIVITY_V_PER_N / ACCEL_SENSITIVITY_V_PER_M_S2),
              exact=(s({"cross-talk"}),), seed=28),
-        Case("damping-drift", "outside", "film c +25 % linearly over the session", replace(base, damping_drift_fraction=0.25),
+        Case("damping-drift", "outside", "film c +25 % linearly over the session",
+             replace(base, damping_drift_fraction=0.25),
              exact=(s({"drift"}),), hits=24, seed=29),
         # ---- identifiability traps
         Case("sensitivity-error", "trap", "accelerometer sensitivity +4 % (uniform), mass as told",
@@ -497,7 +501,7 @@ def main(argv: list[str] | None = None) -> int:
         records, starts, _, drawn = synthesise(case)
         key["truth"]["drawn"] = drawn
         key["generated_utc"] = time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())
-        (args.out / f"{case.name}.key.json").write_text(json.dumps(key, indent=1))
+        (args.out / f"{case.name}.key.json").write_text(json.dumps(key, indent=1, ensure_ascii=False))
         write_uff(uff_path, records, starts, case.sample_rate_hz, case.name)
         logger.info("%-22s %-8s %5.1f kS/s %4.2f s × %2d hits  %.1f s", case.name, case.category,
                     case.sample_rate_hz / 1e3, case.record_s, case.hits, time.perf_counter() - started)
