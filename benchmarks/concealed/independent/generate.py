@@ -2,8 +2,8 @@
 
 Imports nothing from gasfilm: its own mechanics (frequency domain for linear cases, fixed-step RK4 for nonlinear
 ones) on an analog grid 8× the sample rate, its own anti-aliasing filter applied to force and response alike,
-decimation, sensor noise on both channels, UFF 58 time records written with pyuff (one force and one acceleration record per hit,
-each record's absolute session start time in ``abscissa_min``). Each case's answer key ``<case>.key.json`` is written
+decimation, sensor noise on both channels, UFF 58 time records written with pyuff (one force and one acceleration
+record per hit, each record's absolute session start time in ``abscissa_min``). Each case's answer key ``<case>.key.json`` is written
 BEFORE its UFF file, so the scorer can check that no key was written after a diagnosis could have been seen.
 
     python benchmarks/concealed/independent/generate.py [--out out/independent] [--only CASE ...]
@@ -194,8 +194,8 @@ def half_sine(t_s: np.ndarray, start_s: float, width_s: float, peak_n: float) ->
 
 def integrate_nonlinear(truth: Truth, t_s: np.ndarray, starts_s: np.ndarray, widths_s: np.ndarray,
                         peaks_n: np.ndarray, films: np.ndarray) -> np.ndarray:
-    """Fixed-step RK4 of m·a = F − k x − c v − F_c tanh(v/v_s) − c_q |v| v − k3 x³ for all hits at once; returns
-    the acceleration (hits, samples) on the grid ``t_s``."""
+    """Fixed-step RK4 of m·a = F − k x − c v − F_c tanh(v/v_s) − c_q |v| v − k3 x³ for all hits at once;
+    returns the acceleration (hits, samples) on the grid ``t_s``."""
     dt = float(t_s[1] - t_s[0])
     k, c = films[:, 0], films[:, 1]
     m = truth.mass_kg
