@@ -3,8 +3,9 @@
 Imports nothing from gasfilm: its own mechanics (frequency domain for linear cases, fixed-step RK4 for nonlinear
 ones) on an analog grid 8× the sample rate, its own anti-aliasing filter applied to force and response alike,
 decimation, sensor noise on both channels, UFF 58 time records written with pyuff (one force and one acceleration
-record per hit, each record's absolute session start time in ``abscissa_min``). Each case's answer key ``<case>.key.json`` is written
-BEFORE its UFF file, so the scorer can check that no key was written after a diagnosis could have been seen.
+record per hit, each record's absolute session start time in ``abscissa_min``). Each case's answer key
+``<case>.key.json`` is written BEFORE its UFF file, so the scorer can check that no key was written after a diagnosis
+could have been seen.
 
     python benchmarks/concealed/independent/generate.py [--out out/independent] [--only CASE ...]
 """
