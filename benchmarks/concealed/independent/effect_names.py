@@ -32,6 +32,15 @@ DIAGNOSIS_TO_KEY = {
 }
 
 
+#: The diagnosis's parameter name → the key's quantity (``expected_parameters``); unlisted names map to themselves.
+PARAMETER_TO_KEY = {
+    "delta_mass_kg": "mass_kg",
+    "k_lag": "k_n_per_m",
+    "tau_lag": "tau_s",
+    "sensitivity_factor": "factor",
+}
+
+
 def key_name(diagnosis_name: str) -> str:
     """The answer-key name of an effect named by the diagnosis."""
     return DIAGNOSIS_TO_KEY.get(diagnosis_name, diagnosis_name)

@@ -347,6 +347,46 @@ def write_uff(path: Path, records: np.ndarray, starts_s: np.ndarray, sample_rate
     pyuff.UFF(str(path)).write_sets(datasets, mode="add")
 
 
+def expected_parameters(case: Case, session_span_s: float) -> dict[str, dict[str, float]]:
+    """The true value of each allowed effect's main quantities (key names, SI units), for the parameter errors."""
+    truth, told = case.truth, case.told_mass_kg
+    per_hour = 3600.0 / session_span_s
+    table: dict[str, dict[str, float]] = {}
+    if truth.mass_kg != told or truth.sensitivity_factor != 1.0:
+        # a sensitivity factor s on the response ≡ a mass told/s with the film scaled by 1/s
+        apparent_mass = truth.mass_kg / truth.sensitivity_factor
+        table["added-mass"] = {"mass_kg": apparent_mass - told}
+        table["sensitivity-error"] = {"factor": told / apparent_mass}
+    if truth.extra_mass_kg:
+        table["extra-mode"] = {"freq_hz": truth.extra_freq_hz, "mass_kg": truth.extra_mass_kg,
+                               "damping_ratio": truth.extra_damping_ratio}
+    if truth.lag_k_n_per_m:
+        table["pneumatic-lag"] = {"k_n_per_m": truth.lag_k_n_per_m, "tau_s": truth.lag_tau_s}
+    if truth.delay_s:
+        table["channel-delay"] = {"delay_s": truth.delay_s}
+    if truth.stiffness_drift_fraction or truth.damping_drift_fraction:
+        table["drift"] = {name: value for name, value in (
+            ("fraction_per_hour", truth.stiffness_drift_fraction * per_hour),
+            ("damping_fraction_per_hour", truth.damping_drift_fraction * per_hour)) if value}
+    if truth.step_fraction is not None:
+        table["step-change"] = {"stiffness_factor": truth.step_stiffness_factor,
+                                "damping_factor": truth.step_damping_factor,
+                                "after_s": truth.step_fraction * session_span_s}
+    if truth.cubic_n_per_m3:
+        table["cubic-stiffness"] = {"k3_n_per_m3": truth.cubic_n_per_m3}
+    if truth.coulomb_n:
+        table["friction"] = {"force_n": truth.coulomb_n}
+    if truth.quadratic_ns2_per_m2:
+        table["quadratic-damping"] = {"c2_ns2_per_m2": truth.quadratic_ns2_per_m2}
+    if truth.crosstalk_m_s2_per_n:
+        table["cross-talk"] = {"gain_m_s2_per_n": truth.crosstalk_m_s2_per_n}
+    if truth.squeeze_gap_m:
+        table["squeeze-film"] = {"length_m": truth.squeeze_length_m, "width_m": truth.squeeze_width_m,
+                                 "gap_m": truth.squeeze_gap_m}
+    allowed = set().union(*case.exact, *case.acceptable)
+    return {effect: values for effect, values in table.items() if effect in allowed}
+
+
 def answer_key(case: Case, uff_name: str) -> dict:
     allowed = set().union(*case.exact, *case.acceptable)
     return {
@@ -501,6 +541,7 @@ def main(argv: list[str] | None = None) -> int:
         key = answer_key(case, uff_path.name)
         records, starts, _, drawn = synthesise(case)
         key["truth"]["drawn"] = drawn
+        key["expected_parameters"] = expected_parameters(case, drawn["session_span_s"])
         key["generated_utc"] = time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())
         (args.out / f"{case.name}.key.json").write_text(json.dumps(key, indent=1, ensure_ascii=False))
         write_uff(uff_path, records, starts, case.sample_rate_hz, case.name)

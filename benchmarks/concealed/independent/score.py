@@ -24,7 +24,7 @@ from pathlib import Path
 from typing import Any
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from effect_names import key_name  # noqa: E402
+from effect_names import PARAMETER_TO_KEY, key_name  # noqa: E402
 
 OUTCOMES = ("exact", "acceptable", "honest not-explained", "wrong", "false claim", "error")
 RIGHT = OUTCOMES[:3]
@@ -127,6 +127,48 @@ def classify(key: dict, result: dict, missing: set[str]) -> tuple[str, str]:
     return "wrong", f"reported {', '.join(sorted(effects))}"
 
 
+def _values(finding: dict) -> dict[str, tuple[float, float | None]]:
+    """A finding's numeric parameters as name → (value, uncertainty or None)."""
+    out = {}
+    for name, entry in (finding.get("parameters") or {}).items():
+        value = entry.get("value") if isinstance(entry, dict) else entry
+        spread = entry.get("uncertainty") if isinstance(entry, dict) else None
+        if isinstance(value, (int, float)):
+            out[name] = (float(value), float(spread) if isinstance(spread, (int, float)) else None)
+    return out
+
+
+def parameter_errors(key: dict, findings: list[dict]) -> dict[str, float]:
+    """Relative error of every reported parameter the key knows the true value of ('effect.quantity' → error)."""
+    expected = key.get("expected_parameters") or {}
+    errors = {}
+    for finding in findings:
+        effect = key_name(str(finding.get("effect", "?")))
+        for name, (value, _) in _values(finding).items():
+            true = expected.get(effect, {}).get(PARAMETER_TO_KEY.get(name, name))
+            if true:
+                errors[f"{effect}.{PARAMETER_TO_KEY.get(name, name)}"] = value / true - 1
+    return errors
+
+
+def implausible(finding: dict, mass_kg: float, band_hz: Any) -> list[str]:
+    """Physical-sense checks of one finding's parameters, independent of the diagnosis's own bounds: an uncertainty
+    that vanishes (a parameter pinned at a bound), ζ ≥ 0.3, a mass over a quarter of the mover's, a mode outside the
+    analysis band."""
+    reasons = []
+    for name, (value, spread) in _values(finding).items():
+        if spread is not None and value and abs(spread) < 1e-6 * abs(value):
+            reasons.append(f"{name} {value:.3g} ± {spread:.1g} (pinned?)")
+        if name == "damping_ratio" and value >= 0.3:
+            reasons.append(f"ζ {value:.2g}")
+        if "mass" in name and abs(value) > 0.25 * mass_kg:
+            reasons.append(f"{name} {value:.3g} kg against a {mass_kg:g} kg mover")
+        in_band = not isinstance(band_hz, list) or len(band_hz) != 2 or band_hz[0] <= value <= band_hz[1]
+        if name == "freq_hz" and not in_band:
+            reasons.append(f"mode at {value:.3g} Hz outside the band {band_hz[0]:g}–{band_hz[1]:g} Hz")
+    return reasons
+
+
 def chi2_check(result: dict, missing: set[str]) -> str:
     """'ok', or what is wrong with a χ²/point after > 3."""
     if "chi2_per_point_after" not in result:
@@ -170,6 +212,9 @@ def score_case(key_path: Path, data: Path, loop: bool) -> dict:
         "reported": sorted({key_name(str(f.get("effect", "?"))) for f in findings}),
         "findings": [{name: f.get(name) for name in ("effect", "alternatives", "parameters", "gain_over_recalibrated",
                                                        "band_hz") if name in f} for f in findings],
+        "parameter_errors": {name: round(error, 5) for name, error in parameter_errors(key, findings).items()},
+        "implausible": {str(f.get("effect")): reasons for f in findings
+                        if (reasons := implausible(f, key["mass_kg"], result.get("band_hz")))},
         "unexplained": result.get("unexplained"),
         "chi2_per_point_after": result.get("chi2_per_point_after"),
         "rms_recalibrated": result.get("rms_recalibrated"),
@@ -220,7 +265,13 @@ def print_tables(rows: list[dict]) -> None:
               f"{str(row.get('loop', '-'))[:14]:14s} "
               f"{row.get('wall_time_s', 0) + row.get('loop_wall_time_s', 0):7.1f}  {row.get('reason', '')}")
         for finding in row.get("findings", []):
-            print(f"{'':31s}{finding.get('effect')}: {parameter_text(finding.get('parameters'))}")
+            effect = str(finding.get("effect"))
+            print(f"{'':31s}{effect}: {parameter_text(finding.get('parameters'))}")
+            if effect in row.get("implausible", {}):
+                print(f"{'':33s}implausible: {'; '.join(row['implausible'][effect])}")
+        if row.get("parameter_errors"):
+            print(f"{'':31s}parameter error vs truth: " + ", ".join(
+                f"{name} {100 * error:+.1f} %" for name, error in row["parameter_errors"].items()))
         if str(row.get("loop", "clean")) != "clean":
             print(f"{'':31s}closed loop: {row['loop']}")
     print("\nConfusion table (rows: truth category; columns: outcome)\n")
@@ -241,6 +292,8 @@ def print_tables(rows: list[dict]) -> None:
     print(f"false claims in all: {sum(row['outcome'] == 'false claim' for row in rows)}")
     chi2_bad = [row["case"] for row in rows if row.get("chi2_check") not in (None, "ok")]
     print(f"χ²/pt > {CHI2_LIMIT:g} without an unexplained list: {len(chi2_bad)} ({', '.join(chi2_bad) or '-'})")
+    flagged = [row["case"] for row in rows if row.get("implausible")]
+    print(f"sessions with implausible finding parameters: {len(flagged)} ({', '.join(flagged) or '-'})")
     looped = [row for row in rows if "loop" in row]
     print(f"closed loop clean: {sum(row['loop'] == 'clean' for row in looped)}/{len(looped)}")
     missing = sorted({name for row in rows for name in row.get("missing_fields", [])})
