@@ -1,23 +1,10 @@
-"""HDF5 session files: everything one hammer session recorded, safe against a killed process.
-
-One file per session (layout in ``docs/session-format.md``). Hits are appended to pre-created chunked, resizable
-datasets while the file is in HDF5's single-writer/multiple-reader (SWMR) mode: the raw record is written and
-flushed first, then its row in the hit table, then the file descriptor is fsync'ed. SWMR keeps the file's metadata
-consistent on disk at every moment, so a process killed at any point leaves a file whose committed hits (the rows of
-the hit table) can always be read. Such a file still carries HDF5's "open for writing" flags: :meth:`Session.open`
-reads it in SWMR mode and, when opened for appending, first rewrites it into a clean file (``recovered`` is then
-True). Structural changes (FRF, fits, diagnoses, status) are made with the file out of SWMR mode.
-"""
+"""The session API: :class:`Session` (create, open, append hits, store results) and :class:`StoredHit`."""
 
 from __future__ import annotations
 
-import dataclasses
-import datetime
-import enum
 import json
+import logging
 import os
-import subprocess
-import sys
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Mapping
@@ -25,49 +12,26 @@ from typing import Any, Mapping
 import h5py
 import numpy as np
 
-try:
-    import fcntl
-except ImportError:  # Windows: HDF5's own file locking guards the file instead of :class:`_WriterLock`
-    fcntl = None
+from gasfilm.analysis.session.files import WriterLock, check_unclosed_file, describe_open_failure, open_h5, recover
+from gasfilm.analysis.session.layout import (
+    DEFAULT_SAMPLES_PER_CHUNK,
+    FORMAT_NAME,
+    MAX_SAMPLES_PER_CHUNK,
+    SCHEMA_VERSION,
+    SessionError,
+    config_from_dict,
+    config_to_dict,
+    decode_reasons,
+    encode_reasons,
+    hit_table_dtype,
+    json_dumps,
+    read_mapping,
+    settings_from_json,
+    utc_now,
+    write_mapping,
+)
 
-from gasfilm.drivers.errors import GasfilmError
-from gasfilm.drivers.interface import ChannelConfig, ChannelKind, Coupling, DaqConfig
-
-SCHEMA_VERSION = 1
-FORMAT_NAME = "gasfilm-session"
-REASONS_LENGTH = 256
-MAX_SAMPLES_PER_CHUNK = 16384  # per channel: 128 KiB per channel and chunk
-DEFAULT_SAMPLES_PER_CHUNK = 4096  # when the record length is not known in advance
-#: A file left open by a killed writer is checked in a child process before it is read: HDF5 in SWMR mode retries
-#: (and sleeps) for minutes on metadata beyond the end of a truncated file. The child asks HDF5 for a single read
-#: attempt (H5Pset_metadata_read_attempts through ctypes, where h5py's HDF5 library can be found) and is stopped
-#: after this long in any case.
-PROBE_TIMEOUT_S = 30.0
-PROBE_SCRIPT = """
-import ctypes, os, sys, h5py
-path = sys.argv[1]
-size = os.path.getsize(path)
-fapl = h5py.h5p.create(h5py.h5p.FILE_ACCESS)
-fapl.set_file_locking(False, True)
-libraries = [line.split()[-1] for line in open("/proc/self/maps") if "/libhdf5" in line] if os.path.exists(
-    "/proc/self/maps") else []
-if libraries:
-    ctypes.CDLL(libraries[0]).H5Pset_metadata_read_attempts(ctypes.c_int64(fapl.id), ctypes.c_uint(1))
-fid = h5py.h5f.open(os.fsencode(path), h5py.h5f.ACC_RDONLY | h5py.h5f.ACC_SWMR_READ, fapl=fapl)
-with h5py.File(fid) as f:
-    if f.attrs.get("format") != "gasfilm-session":
-        sys.exit(0)  # not a session: opening it says so
-    f.visit(lambda name: None)
-    f["hits/table"][()]
-    ends = []
-    for name in ("hits/table", "hits/data"):
-        f[name].id.chunk_iter(lambda chunk: ends.append(chunk.byte_offset + chunk.size))
-    sys.exit(3 if ends and max(ends) > size else 0)
-"""
-
-
-class SessionError(GasfilmError):
-    """A session file is missing, damaged, foreign, too new, or holds unusable data."""
+logger = logging.getLogger(__name__)
 
 
 @dataclass(frozen=True)
@@ -105,229 +69,12 @@ class StoredHit:
         )
 
 
-def to_jsonable(value: Any) -> Any:
-    """Plain JSON types for settings: dataclasses, enums, numpy values, tuples and paths included."""
-    if dataclasses.is_dataclass(value) and not isinstance(value, type):
-        return {field.name: to_jsonable(getattr(value, field.name)) for field in dataclasses.fields(value)}
-    if isinstance(value, enum.Enum):
-        return to_jsonable(value.value)
-    if isinstance(value, Mapping):
-        return {str(key): to_jsonable(item) for key, item in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [to_jsonable(item) for item in value]
-    if isinstance(value, np.ndarray):
-        return to_jsonable(value.tolist())
-    if isinstance(value, np.generic):
-        return value.item()
-    if isinstance(value, complex):
-        return {"real": value.real, "imag": value.imag}
-    if isinstance(value, Path):
-        return str(value)
-    return value
-
-
-def settings_from_json(values: Any, cls: type) -> Any:
-    """A settings dataclass from its stored JSON form; defaults for missing fields, unknown fields ignored."""
-    if not isinstance(values, Mapping):
-        return cls()
-    names = {field.name for field in dataclasses.fields(cls)}
-    return cls(**{name: value for name, value in values.items() if name in names})
-
-
-def _json_dumps(value: Any) -> str:
-    return json.dumps(to_jsonable(value), allow_nan=True)
-
-
-def _utc_now() -> str:
-    return datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")
-
-
-def _hit_table_dtype(channel_count: int) -> np.dtype:
-    return np.dtype(
-        [
-            ("accepted", "?"),
-            ("overridden", "?"),
-            ("reasons", f"S{REASONS_LENGTH}"),
-            ("start_time_s", "<f8"),
-            ("trigger_index", "<i8"),
-            ("capture_index", "<i8"),
-            ("sample_rate_hz", "<f8"),
-            ("force_channel", "<i2"),
-            ("response_channel", "<i2"),
-            ("overload", "?", (channel_count,)),
-        ]
-    )
-
-
-def _encode_reasons(reasons: tuple[str, ...], path: Path) -> bytes:
-    for reason in reasons:
-        if ";" in reason:
-            raise SessionError(f"{path}: hit reason '{reason}' contains ';', which separates stored reasons")
-    encoded = "; ".join(reasons).encode("utf-8")
-    if len(encoded) > REASONS_LENGTH:
-        raise SessionError(f"{path}: hit reasons '{'; '.join(reasons)}' exceed {REASONS_LENGTH} bytes")
-    return encoded
-
-
-def _decode_reasons(raw: bytes) -> tuple[str, ...]:
-    text = raw.decode("utf-8")
-    return tuple(reason for reason in text.split("; ") if reason)
-
-
-def _config_to_dict(config: DaqConfig) -> dict[str, Any]:
-    return {
-        "channels": [
-            {
-                "physical_channel": channel.physical_channel,
-                "kind": channel.kind.value,
-                "sensitivity": channel.sensitivity,
-                "sensitivity_units": channel.sensitivity_units,
-                "iepe_current_a": channel.iepe_current_a,
-                "coupling": Coupling(channel.coupling).value,
-                "name": channel.name,
-                "unit": channel.kind.unit,
-                "full_scale_si": channel.full_scale_si,
-            }
-            for channel in config.channels
-        ],
-        "sample_rate_hz": config.sample_rate_hz,
-        "samples_per_chunk": config.samples_per_chunk,
-    }
-
-
-def _config_from_dict(data: Mapping[str, Any]) -> DaqConfig:
-    channels = tuple(
-        ChannelConfig(
-            physical_channel=channel["physical_channel"],
-            kind=ChannelKind(channel["kind"]),
-            sensitivity=float(channel["sensitivity"]),
-            sensitivity_units=channel["sensitivity_units"],
-            iepe_current_a=float(channel["iepe_current_a"]),
-            coupling=Coupling(channel["coupling"]),
-            name=channel["name"],
-        )
-        for channel in data["channels"]
-    )
-    return DaqConfig(channels, float(data["sample_rate_hz"]), int(data["samples_per_chunk"]))
-
-
-def _write_mapping(group: h5py.Group, values: Mapping[str, Any]) -> None:
-    """Arrays become datasets, strings and numbers attributes, anything else a JSON attribute."""
-    json_keys = []
-    for key, value in values.items():
-        if isinstance(value, (list, tuple)) and value and all(
-            isinstance(item, (int, float, complex, np.number)) and not isinstance(item, bool) for item in value
-        ):
-            value = np.asarray(value)
-        if isinstance(value, np.ndarray) and value.dtype.kind in "biufc":
-            group.create_dataset(key, data=value)
-        elif isinstance(value, (str, bool, int, float, np.number, np.bool_)):
-            group.attrs[key] = value
-        else:
-            group.attrs[key] = _json_dumps(value)
-            json_keys.append(key)
-    group.attrs["json_keys"] = _json_dumps(json_keys)
-
-
-def _read_mapping(group: h5py.Group) -> dict[str, Any]:
-    json_keys = set(json.loads(group.attrs.get("json_keys", "[]")))
-    values: dict[str, Any] = {}
-    for key, value in group.attrs.items():
-        if key == "json_keys":
-            continue
-        if key in json_keys:
-            values[key] = json.loads(value)
-        elif isinstance(value, np.generic):
-            values[key] = value.item()
-        else:
-            values[key] = value
-    for key, dataset in group.items():
-        values[key] = dataset[()]
-    return values
-
-
-def _describe_open_failure(path: Path, error: OSError) -> SessionError:
-    text = str(error)
-    if "truncated file" in text:
-        return SessionError(f"{path}: truncated HDF5 file (the file ends before its data does)")
-    if "signature not found" in text:
-        return SessionError(f"{path}: wrong file type: not an HDF5 file")
-    return SessionError(f"{path}: cannot open the HDF5 file ({text})")
-
-
-class _WriterLock:
-    """An exclusive ``flock`` on the session file, held by the one process that writes it.
-
-    HDF5's own file locking is switched off (``locking=False``) so SWMR readers can follow a recording; this lock
-    keeps a second writer (or a recovery) away from a session that a live process is still recording into. The
-    kernel drops it when the process ends, killed or not. Without ``fcntl`` (Windows) HDF5's locking stays on.
-    """
-
-    def __init__(self, path: Path) -> None:
-        self._fd = -1
-        if fcntl is None:
-            return
-        try:
-            self._fd = os.open(path, os.O_RDONLY)
-        except OSError as error:
-            raise SessionError(f"{path}: cannot open the session file ({error.strerror})") from None
-        try:
-            fcntl.flock(self._fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except OSError:
-            self.release()
-            raise SessionError(
-                f"{path}: another process is writing this session; wait until it has finished"
-            ) from None
-
-    @staticmethod
-    def held_elsewhere(path: Path) -> bool:
-        """Whether a live process holds the writer lock of ``path`` (probed without keeping it)."""
-        try:
-            _WriterLock(path).release()
-        except SessionError:
-            return True
-        return False
-
-    def release(self) -> None:
-        if self._fd >= 0:
-            os.close(self._fd)
-            self._fd = -1
-
-
-def _h5(path: Path, mode: str, **options: Any) -> h5py.File:
-    """Open with HDF5's file locking off where :class:`_WriterLock` replaces it."""
-    if mode != "r":
-        options.setdefault("libver", "latest")
-    if fcntl is not None:
-        options["locking"] = False
-    return h5py.File(path, mode, **options)
-
-
-def _check_unclosed_file(path: Path) -> None:
-    """Raise unless a file left open by its writer can be read in SWMR mode without running past its end."""
-    try:
-        probe = subprocess.run(
-            [sys.executable, "-c", PROBE_SCRIPT, str(path)], capture_output=True, text=True, timeout=PROBE_TIMEOUT_S
-        )
-    except subprocess.TimeoutExpired:
-        raise SessionError(
-            f"{path}: truncated or damaged HDF5 file: left open by its writer, and reading it runs past its end"
-        ) from None
-    if probe.returncode == 3:
-        raise SessionError(f"{path}: truncated HDF5 file: left open by its writer, its hit records end early")
-    if probe.returncode != 0:
-        last_line = (probe.stderr.strip().splitlines() or ["no message"])[-1]
-        raise SessionError(
-            f"{path}: truncated or damaged HDF5 file: left open by its writer, and part of it cannot be read "
-            f"({last_line})"
-        )
-
 
 class Session:
     """An open session file. Create with :meth:`create`, open with :meth:`open`; use as a context manager."""
 
     def __init__(
-        self, path: Path, file: h5py.File, lock: _WriterLock | None = None, recovered: bool = False
+        self, path: Path, file: h5py.File, lock: WriterLock | None = None, recovered: bool = False
     ) -> None:
         self.path = path
         self._file = file
@@ -371,15 +118,15 @@ class Session:
             raise SessionError(f"{path}: is a folder, not a session file")
         if not path.parent.is_dir():
             raise SessionError(f"{path}: the folder {path.parent} does not exist")
-        replaced = _WriterLock(path) if path.exists() else None  # never replace a session being recorded
+        replaced = WriterLock(path) if path.exists() else None  # never replace a session being recorded
         building = path.with_name(f".{path.name}.{os.getpid()}.creating")
-        file = _h5(building, "w")
+        file = open_h5(building, "w")
         lock = None
         try:
-            lock = _WriterLock(building)
+            lock = WriterLock(building)
             file.attrs["format"] = FORMAT_NAME
             file.attrs["schema_version"] = SCHEMA_VERSION
-            file.attrs["created_utc"] = _utc_now()
+            file.attrs["created_utc"] = utc_now()
             file.attrs["status"] = "recording"
             file.attrs["status_reason"] = ""
             file.attrs["closed_utc"] = ""
@@ -387,13 +134,13 @@ class Session:
             rig.attrs["present"] = rig_spec_toml is not None
             rig.create_dataset("spec_toml", data=rig_spec_toml or "", dtype=h5py.string_dtype())
             daq = file.create_group("daq")
-            daq.attrs["config"] = _json_dumps(_config_to_dict(daq_config))
+            daq.attrs["config"] = json_dumps(config_to_dict(daq_config))
             daq.attrs["requested_sample_rate_hz"] = float(daq_config.sample_rate_hz)
             daq.attrs["sample_rate_hz"] = float(actual_sample_rate_hz or daq_config.sample_rate_hz)
             daq.attrs["device"] = device_name
             settings_group = file.create_group("settings")
             for key, value in settings.items():
-                settings_group.attrs[key] = _json_dumps(value)
+                settings_group.attrs[key] = json_dumps(value)
             channel_count = len(daq_config.channels)
             chunk_samples = min(record_samples or DEFAULT_SAMPLES_PER_CHUNK, MAX_SAMPLES_PER_CHUNK)
             hits = file.create_group("hits")
@@ -410,7 +157,7 @@ class Session:
                 shape=(0,),
                 maxshape=(None,),
                 chunks=(64,),
-                dtype=_hit_table_dtype(channel_count),
+                dtype=hit_table_dtype(channel_count),
             )
             for name in ("frf", "fits", "diagnoses"):
                 file.create_group(name)
@@ -440,35 +187,35 @@ class Session:
             raise SessionError(f"{path}: no such session file")
         if path.is_dir():
             raise SessionError(f"{path}: is a folder, not a session file")
-        lock = _WriterLock(path) if mode == "a" else None
+        lock = WriterLock(path) if mode == "a" else None
         try:
-            file = _h5(path, mode)
+            file = open_h5(path, mode)
         except OSError as error:
             if "already open for write" not in str(error):
                 if lock is not None:
                     lock.release()
-                raise _describe_open_failure(path, error) from None
+                raise describe_open_failure(path, error) from None
             # The flags of a writer that is still recording (mode "r" only: else the lock would have failed)
             # or that ended without closing the file (killed, crashed, power lost).
-            live = lock is None and _WriterLock.held_elsewhere(path)
+            live = lock is None and WriterLock.held_elsewhere(path)
             if not live:
                 try:
-                    _check_unclosed_file(path)
+                    check_unclosed_file(path)
                 except SessionError:
                     if lock is not None:
                         lock.release()
                     raise
             if mode == "r":
                 try:
-                    file = _h5(path, "r", swmr=True)
+                    file = open_h5(path, "r", swmr=True)
                 except OSError as swmr_error:
-                    raise _describe_open_failure(path, swmr_error) from None
+                    raise describe_open_failure(path, swmr_error) from None
                 return cls(path, file, recovered=not live)
             try:
-                recovered_lock = _recover(path)
+                recovered_lock = recover(path)
             finally:
                 lock.release()
-            return cls(path, _h5(path, "a"), recovered_lock, recovered=True)
+            return cls(path, open_h5(path, "a"), recovered_lock, recovered=True)
         return cls(path, file, lock)
 
     def _check_layout(self) -> None:
@@ -518,7 +265,7 @@ class Session:
                 raise SessionError(f"{self.path}: close status '{status}' is not valid; use 'complete' or 'aborted'")
             if status is not None:
                 self._set_status(status, reason)
-                self._file.attrs["closed_utc"] = _utc_now()
+                self._file.attrs["closed_utc"] = utc_now()
         self._file.close()
         if self._lock is not None:
             self._lock.release()
@@ -542,7 +289,7 @@ class Session:
         self._require_writable()
         if self._file.swmr_mode:
             self._file.close()
-            self._file = _h5(self.path, "a")
+            self._file = open_h5(self.path, "a")
 
     def _appending(self) -> None:
         """Enter SWMR mode: from now on the file on disk is consistent after every flush."""
@@ -590,7 +337,7 @@ class Session:
 
     @property
     def daq_config(self) -> DaqConfig:
-        return _config_from_dict(json.loads(self._group("daq").attrs["config"]))
+        return config_from_dict(json.loads(self._group("daq").attrs["config"]))
 
     @property
     def sample_rate_hz(self) -> float:
@@ -624,7 +371,7 @@ class Session:
         """Store (or replace) processing settings by key."""
         self._structural()
         for key, value in settings.items():
-            self._group("settings").attrs[key] = _json_dumps(value)
+            self._group("settings").attrs[key] = json_dumps(value)
         self._file.flush()
 
     # ----- hits ---------------------------------------------------------------------------------------------------
@@ -663,7 +410,7 @@ class Session:
         row = np.zeros((), dtype=self._table.dtype)
         row["accepted"] = bool(verdict.accepted)
         row["overridden"] = bool(getattr(verdict, "overridden", False))
-        row["reasons"] = _encode_reasons(tuple(verdict.reasons), self.path)
+        row["reasons"] = encode_reasons(tuple(verdict.reasons), self.path)
         row["start_time_s"] = float(hit.start_time_s)
         row["trigger_index"] = int(hit.trigger_index)
         row["capture_index"] = int(hit.index)
@@ -691,7 +438,7 @@ class Session:
 
         return Verdict(
             accepted=bool(row["accepted"]),
-            reasons=_decode_reasons(bytes(row["reasons"])),
+            reasons=decode_reasons(bytes(row["reasons"])),
             overridden=bool(row["overridden"]),
         )
 
@@ -758,7 +505,7 @@ class Session:
         row = self._table[index]
         row["accepted"] = bool(verdict.accepted)
         row["overridden"] = bool(getattr(verdict, "overridden", False))
-        row["reasons"] = _encode_reasons(tuple(verdict.reasons), self.path)
+        row["reasons"] = encode_reasons(tuple(verdict.reasons), self.path)
         self._table[index] = row
         self._table.flush()
         self._sync()
@@ -771,15 +518,15 @@ class Session:
         if name in parent:
             del parent[name]
         group = parent.create_group(name)
-        _write_mapping(group, values)
-        group.attrs["written_utc"] = _utc_now()
+        write_mapping(group, values)
+        group.attrs["written_utc"] = utc_now()
         self._file.flush()
 
     def _read_result(self, kind: str, name: str) -> dict[str, Any]:
         if name not in self._group(kind):
             available = ", ".join(self._group(kind)) or "none"
             raise SessionError(f"{self.path}: no {kind} result named '{name}' (available: {available})")
-        values = _read_mapping(self._group(kind)[name])
+        values = read_mapping(self._group(kind)[name])
         values.pop("written_utc", None)
         return values
 
@@ -819,42 +566,3 @@ class Session:
 
     def read_diagnosis(self, name: str) -> dict[str, Any]:
         return self._read_result("diagnoses", name)
-
-
-def _recover(path: Path) -> _WriterLock:
-    """Rewrite a session whose writer ended without closing it into a clean file, committed hits only; return the
-    writer lock on the clean file (taken before it replaces the damaged one)."""
-    clean = path.with_name(f".{path.name}.{os.getpid()}.recovering")
-    try:
-        source = _h5(path, "r", swmr=True)
-    except OSError as error:
-        raise _describe_open_failure(path, error) from None
-    try:
-        if source.attrs.get("format") != FORMAT_NAME:
-            raise SessionError(f"{path}: an HDF5 file, but not a gasfilm session (no '{FORMAT_NAME}' format mark)")
-        with _h5(clean, "w") as target:
-            for key, value in source.attrs.items():
-                target.attrs[key] = value
-            for name in source:
-                source.copy(source[name], target, name=name)
-            committed = min(target["hits/table"].shape[0], target["hits/data"].shape[0])
-            data = target["hits/data"]
-            data.resize((committed, data.shape[1], data.shape[2]))
-            target["hits/table"].resize((committed,))
-            target.attrs["recovered_utc"] = _utc_now()
-            if target.attrs["status"] == "recording":
-                target.attrs["status"] = "interrupted"
-                target.attrs["status_reason"] = (
-                    f"the recording process ended without closing the session; {committed} hits recovered"
-                )
-        lock = _WriterLock(clean)
-    except OSError as error:
-        clean.unlink(missing_ok=True)
-        raise SessionError(f"{path}: damaged session that cannot be recovered ({error})") from None
-    except BaseException:
-        clean.unlink(missing_ok=True)
-        raise
-    finally:
-        source.close()
-    os.replace(clean, path)
-    return lock
