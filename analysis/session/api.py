@@ -2,36 +2,131 @@
 
 from __future__ import annotations
 
+import contextlib
+import functools
 import json
 import logging
 import os
+import re
+import shutil
+import sys
+import traceback
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any, Callable, Iterator, Mapping, TypeVar
 
 import h5py
 import numpy as np
 
-from gasfilm.analysis.session.files import WriterLock, check_unclosed_file, describe_open_failure, open_h5, recover
+from gasfilm.analysis.session.files import (
+    WriterLock,
+    building_path,
+    check_unclosed_file,
+    describe_open_failure,
+    move_into_place,
+    open_h5,
+    recover,
+    remove_leftovers,
+)
 from gasfilm.analysis.session.layout import (
     DEFAULT_SAMPLES_PER_CHUNK,
     FORMAT_NAME,
     MAX_SAMPLES_PER_CHUNK,
     SCHEMA_VERSION,
     SessionError,
+    SessionWriteError,
+    committed_hits,
     config_from_dict,
     config_to_dict,
     decode_reasons,
     encode_reasons,
     hit_table_dtype,
     json_dumps,
+    one_line,
     read_mapping,
     settings_from_json,
     utc_now,
     write_mapping,
 )
 
+from gasfilm.drivers.errors import GasfilmError
+
 logger = logging.getLogger(__name__)
+
+#: A session refuses to grow past this size unless told otherwise (``Session.size_limit_bytes``).
+DEFAULT_SIZE_LIMIT_BYTES = 4_000_000_000
+#: Free space kept on the disk besides the next hit: room for HDF5's metadata and for closing the session properly.
+FREE_SPACE_MARGIN_BYTES = 1 << 20
+#: What a damaged file's metadata can make h5py, numpy or the decoders raise while it is read.
+_READ_ERRORS = (OSError, KeyError, ValueError, TypeError, RuntimeError, IndexError, AttributeError, MemoryError,
+                OverflowError, UnicodeError)
+#: The groups every session holds.
+_GROUPS = ("rig", "daq", "settings", "hits", "frf", "fits", "diagnoses")
+#: FrfResult fields with one value per frequency line.
+_FRF_LINE_FIELDS = ("h1", "h2", "coherence", "gff", "gxx", "gfx", "h1_std_coherence", "h1_std_scatter")
+
+Method = TypeVar("Method", bound=Callable[..., Any])
+
+
+def _reading(what: str) -> Callable[[Method], Method]:
+    """Turn anything a damaged file makes the decorated reader raise into one :class:`SessionError` line naming the
+    file and ``what`` could not be read."""
+
+    def decorate(method: Method) -> Method:
+        @functools.wraps(method)
+        def reader(self: "Session", *args: Any, **kwargs: Any) -> Any:
+            try:
+                return method(self, *args, **kwargs)
+            except SessionError:
+                raise
+            except GasfilmError as error:
+                raise SessionError(f"{self.path}: damaged session: {what}: {error}") from None
+            except _READ_ERRORS as error:
+                raise SessionError(f"{self.path}: damaged session: {what} cannot be read ({one_line(error)})") from None
+
+        return reader  # type: ignore[return-value]
+
+    return decorate
+
+
+@contextlib.contextmanager
+def _h5py_errors_raised() -> Iterator[None]:
+    """Raise the HDF5 write errors that h5py can only report when it frees an object whose cached data cannot be
+    written (e.g. on a full disk): it prints them through ``sys.excepthook`` and ``sys.unraisablehook`` and goes on.
+    Both hooks collect them instead while the block runs (only h5py runs inside it)."""
+    swallowed: list[BaseException] = []
+    previous = sys.unraisablehook, sys.excepthook
+
+    def unraisable_hook(unraisable: Any) -> None:
+        if isinstance(unraisable.exc_value, (OSError, RuntimeError)):
+            swallowed.append(unraisable.exc_value)
+        else:
+            previous[0](unraisable)
+
+    def except_hook(kind: type, value: BaseException, trace: Any) -> None:
+        if isinstance(value, (OSError, RuntimeError)):
+            swallowed.append(value)
+        else:
+            previous[1](kind, value, trace)
+
+    sys.unraisablehook, sys.excepthook = unraisable_hook, except_hook
+    try:
+        yield
+    except (OSError, RuntimeError) as error:
+        traceback.clear_frames(error.__traceback__)  # frees the h5py objects its frames hold while the hooks listen
+        raise
+    finally:
+        sys.unraisablehook, sys.excepthook = previous
+    if swallowed:
+        raise swallowed[0]
+
+
+def _write_error_text(error: BaseException) -> str:
+    """The operating system's reason in an HDF5 write error (e.g. "No space left on device"), else its message."""
+    match = re.search(r"error message = '([^']*)'", str(error))
+    if match:
+        return match.group(1)
+    return getattr(error, "strerror", None) or one_line(error)
 
 
 @dataclass(frozen=True)
@@ -82,6 +177,10 @@ class Session:
         self.writable = lock is not None
         self.recovered = recovered
         self.sync_each_hit = True
+        #: Appending a hit that would make the file larger than this raises :class:`SessionWriteError`.
+        self.size_limit_bytes = DEFAULT_SIZE_LIMIT_BYTES
+        self._write_failure: str | None = None  # why writing failed: the file is then closed without more writes
+        self._hit_count = 0
         try:
             self._check_layout()
         except SessionError:
@@ -118,9 +217,15 @@ class Session:
             raise SessionError(f"{path}: is a folder, not a session file")
         if not path.parent.is_dir():
             raise SessionError(f"{path}: the folder {path.parent} does not exist")
+        remove_leftovers(path)
         replaced = WriterLock(path) if path.exists() else None  # never replace a session being recorded
-        building = path.with_name(f".{path.name}.{os.getpid()}.creating")
-        file = open_h5(building, "w")
+        building = building_path(path, "creating")
+        try:
+            file = open_h5(building, "w")
+        except OSError as error:
+            if replaced is not None:
+                replaced.release()
+            raise SessionError(f"{path}: cannot create the session file ({_write_error_text(error)})") from None
         lock = None
         try:
             lock = WriterLock(building)
@@ -163,12 +268,17 @@ class Session:
                 file.create_group(name)
             file.flush()
             file.swmr_mode = True
-            os.replace(building, path)
-        except BaseException:
+            move_into_place(building, path, overwrite)
+        except BaseException as error:
+            if isinstance(error, (OSError, RuntimeError)):
+                logger.error("%s: creating the session failed: %s", path, error)
+                error = SessionError(f"{path}: cannot create the session file ({_write_error_text(error)})")
             file.close()
             if lock is not None:
                 lock.release()
             building.unlink(missing_ok=True)
+            if isinstance(error, SessionError):
+                raise error from None
             raise
         finally:
             if replaced is not None:
@@ -188,6 +298,8 @@ class Session:
         if path.is_dir():
             raise SessionError(f"{path}: is a folder, not a session file")
         lock = WriterLock(path) if mode == "a" else None
+        if lock is not None:
+            remove_leftovers(path)
         try:
             file = open_h5(path, mode)
         except OSError as error:
@@ -218,21 +330,51 @@ class Session:
             return cls(path, open_h5(path, "a"), recovered_lock, recovered=True)
         return cls(path, file, lock)
 
+    @_reading("its layout")
     def _check_layout(self) -> None:
+        """Refuse a file that is not a session, is too new, or whose structure or declared sizes are damaged."""
         attrs = self._file.attrs
-        if attrs.get("format") != FORMAT_NAME or "schema_version" not in attrs:
+        format_mark = attrs.get("format")
+        if not (isinstance(format_mark, str) and format_mark == FORMAT_NAME) or "schema_version" not in attrs:
             raise SessionError(f"{self.path}: an HDF5 file, but not a gasfilm session (no '{FORMAT_NAME}' format mark)")
-        version = int(attrs["schema_version"])
+        version = attrs["schema_version"]
+        version = version.item() if isinstance(version, np.generic) else version
+        if isinstance(version, bool) or not isinstance(version, int) or version < 1:
+            raise SessionError(
+                f"{self.path}: damaged session: schema_version {one_line(repr(version), 60)} is not a positive integer"
+            )
         if version > SCHEMA_VERSION:
             raise SessionError(
                 f"{self.path}: session schema_version {version} is newer than this gasfilm reads "
                 f"(up to {SCHEMA_VERSION}); update gasfilm"
             )
-        try:
-            self._table.shape
-            self._data.shape
-        except (KeyError, OSError) as error:
-            raise SessionError(f"{self.path}: damaged session: the hit datasets cannot be read ({error})") from None
+        for name in _GROUPS:
+            if not isinstance(self._file.get(name), h5py.Group):
+                raise SessionError(f"{self.path}: damaged session: the group '{name}' is missing")
+        for name in ("data", "table"):
+            if not isinstance(self._file["hits"].get(name), h5py.Dataset):
+                raise SessionError(f"{self.path}: damaged session: the dataset 'hits/{name}' is missing")
+        data, table = self._data, self._table
+        channels = len(self.daq_config.channels)
+        if data.ndim != 3 or data.dtype.kind != "f" or data.shape[1] != channels:
+            raise SessionError(
+                f"{self.path}: damaged session: 'hits/data' has shape {data.shape} and type {data.dtype}; expected "
+                f"(hits, {channels} channels, samples) floats"
+            )
+        expected = hit_table_dtype(channels)
+        if table.ndim != 1 or table.dtype.names is None or any(
+            name not in table.dtype.names or table.dtype[name].shape != expected[name].shape for name in expected.names
+        ):
+            raise SessionError(f"{self.path}: damaged session: 'hits/table' does not have the hit table's columns")
+        declared = min(table.shape[0], data.shape[0])
+        declared_bytes = declared * (channels * data.shape[2] * data.dtype.itemsize + table.dtype.itemsize)
+        file_bytes = os.path.getsize(self.path)
+        if data.compression is None and declared_bytes > file_bytes:
+            raise SessionError(
+                f"{self.path}: damaged session: it declares {declared} hits of {data.shape[2]} samples "
+                f"({declared_bytes / 1e6:.4g} MB), more than the file's {file_bytes / 1e6:.4g} MB"
+            )
+        self._hit_count = committed_hits(table, data)
 
     # ----- context manager and closing ----------------------------------------------------------------------
 
@@ -258,15 +400,68 @@ class Session:
         adding a fit to an aborted session does not make it complete)."""
         if not self.is_open:
             return
+        if self._write_failure is not None:
+            self._close_after_write_failure()
+            return
         if self.writable:
             if status is None:
                 status = "complete" if self._file.attrs["status"] == "recording" else None
             elif status not in ("complete", "aborted"):
                 raise SessionError(f"{self.path}: close status '{status}' is not valid; use 'complete' or 'aborted'")
             if status is not None:
-                self._set_status(status, reason)
-                self._file.attrs["closed_utc"] = utc_now()
+                try:
+                    with self._writing(f"its status '{status}'"):
+                        self._set_status(status, reason)
+                        self._file.attrs["closed_utc"] = utc_now()
+                        self._file.flush()
+                except SessionWriteError:
+                    self._close_after_write_failure()
+                    raise
         self._file.close()
+        if self._lock is not None:
+            self._lock.release()
+
+    @contextlib.contextmanager
+    def _writing(self, what: str) -> Iterator[None]:
+        """Run HDF5 writes; when one fails (full disk, I/O error), detach the file at once, note the failure (nothing
+        more is written) and raise one :class:`SessionWriteError` line naming ``what`` was being written."""
+        try:
+            with _h5py_errors_raised():
+                try:
+                    yield
+                except (OSError, RuntimeError):
+                    self._detach_file()  # before h5py frees the objects of the failed write: see _detach_file
+                    raise
+        except (OSError, RuntimeError) as error:
+            self._detach_file()
+            self._write_failure = _write_error_text(error)
+            logger.error("%s: writing %s failed: %s; %d hits kept", self.path, what, one_line(error), self._hit_count)
+            raise SessionWriteError(
+                f"{self.path}: writing {what} failed ({self._write_failure}); recording stopped, the "
+                f"{self._hit_count} hits before it are kept"
+            ) from None
+
+    def _detach_file(self) -> None:
+        """Point the file's descriptor at /dev/null, so HDF5 cannot put part of its cached metadata over what is on
+        disk, and closing the file does not fail (a failed close leaves HDF5 in a state that crashes the process when
+        it exits). The file on disk keeps its "open for writing" mark and opens as an interrupted session with every
+        committed hit."""
+        if os.name == "nt" or self._write_failure is not None or not self.is_open:
+            return  # on Windows the handle is not a file descriptor
+        try:
+            null = os.open(os.devnull, os.O_RDWR)
+            os.dup2(null, self._file.id.get_vfd_handle())
+            os.close(null)
+        except (OSError, RuntimeError) as error:
+            logger.warning("%s: cannot detach the file after the write failure: %s", self.path, one_line(error))
+
+    def _close_after_write_failure(self) -> None:
+        """Let go of a file that could not be written (detached, so nothing more reaches the disk)."""
+        try:
+            with _h5py_errors_raised():
+                self._file.close()
+        except (OSError, RuntimeError) as error:
+            logger.warning("%s: closing after the write failure: %s", self.path, one_line(error))
         if self._lock is not None:
             self._lock.release()
 
@@ -283,6 +478,8 @@ class Session:
             raise SessionError(f"{self.path}: the session is open read-only (open it with mode 'a' to change it)")
         if not self.is_open:
             raise SessionError(f"{self.path}: the session is closed")
+        if self._write_failure is not None:
+            raise SessionWriteError(f"{self.path}: writing failed earlier ({self._write_failure}); nothing more is written")
 
     def _structural(self) -> None:
         """Leave SWMR mode (by reopening the file) so groups and attributes can be created."""
@@ -320,10 +517,12 @@ class Session:
         return self._file[name]
 
     @property
+    @_reading("schema_version")
     def schema_version(self) -> int:
         return int(self._file.attrs["schema_version"])
 
     @property
+    @_reading("the status")
     def status(self) -> str:
         """``recording``, ``complete``, ``aborted``; ``interrupted`` when the writer ended without closing."""
         status = str(self._file.attrs["status"])
@@ -332,33 +531,40 @@ class Session:
         return status
 
     @property
+    @_reading("the status reason")
     def status_reason(self) -> str:
         return str(self._file.attrs["status_reason"])
 
     @property
+    @_reading("the DAQ configuration")
     def daq_config(self) -> DaqConfig:
         return config_from_dict(json.loads(self._group("daq").attrs["config"]))
 
     @property
+    @_reading("the sample rate")
     def sample_rate_hz(self) -> float:
         """The sample rate the device actually ran at."""
         return float(self._group("daq").attrs["sample_rate_hz"])
 
     @property
+    @_reading("the requested sample rate")
     def requested_sample_rate_hz(self) -> float:
         return float(self._group("daq").attrs["requested_sample_rate_hz"])
 
     @property
+    @_reading("the device name")
     def device_name(self) -> str:
         return str(self._group("daq").attrs["device"])
 
     @property
+    @_reading("the rig spec")
     def rig_spec_toml(self) -> str | None:
         if not bool(self._group("rig").attrs["present"]):
             return None
         return self._group("rig")["spec_toml"].asstr()[()]
 
     @property
+    @_reading("the settings")
     def settings(self) -> dict[str, Any]:
         """Processing settings as stored (plain JSON values)."""
         return {key: json.loads(value) for key, value in self._group("settings").attrs.items()}
@@ -383,7 +589,7 @@ class Session:
         A read-only view of a session being recorded shows the hits committed when it was opened; open it again to
         see newer ones. (``Dataset.refresh`` is not used: with HDF5 2.0.0 it returned wrong table rows from a killed
         writer's file after a partial read.)"""
-        return min(self._table.shape[0], self._data.shape[0])
+        return self._hit_count
 
     @property
     def record_samples(self) -> int:
@@ -391,14 +597,19 @@ class Session:
         return int(self._data.shape[2])
 
     def append_hit(self, hit: Any, verdict: Any) -> int:
-        """Store one hit and its verdict, flushed to disk before returning; return its index in the session."""
-        self._appending()
+        """Store one hit and its verdict, flushed to disk before returning; return its index in the session.
+
+        Raises :class:`SessionWriteError` when the hit would pass the size limit or the free disk space, or when
+        writing fails (full disk, I/O error): the hits stored before stay in the file, and nothing more is written."""
+        self._require_writable()
         data = np.asarray(hit.data, dtype=np.float64)
         channels = self._data.shape[1]
         if data.ndim != 2 or data.shape[0] != channels:
             raise SessionError(f"{self.path}: hit record of shape {data.shape} does not have {channels} channels")
         if not np.all(np.isfinite(data)):
             raise SessionError(f"{self.path}: hit {self.hit_count} has NaN or infinite samples; not stored")
+        if not float(hit.sample_rate_hz) > 0:
+            raise SessionError(f"{self.path}: hit {self.hit_count} has sample rate {hit.sample_rate_hz}; not stored")
         index = self.hit_count
         samples = self.record_samples
         if index == 0 and self._data.shape[0] == 0:
@@ -418,20 +629,62 @@ class Session:
         row["force_channel"] = int(hit.force_channel)
         row["response_channel"] = int(hit.response_channel)
         row["overload"] = np.asarray(hit.overload, dtype=bool).reshape(channels)
-        self._data.resize((index + 1, channels, samples))
-        self._data[index] = data
-        self._data.flush()
-        self._table.resize((index + 1,))
-        self._table[index] = row
-        self._table.flush()
-        self._sync()
+        self._check_room(data.nbytes + row.nbytes)
+        with self._writing(f"hit {index}"):
+            self._appending()
+            records, table = self._data, self._table
+            records.resize((index + 1, channels, samples))
+            records[index] = data
+            records.flush()
+            table.resize((index + 1,))
+            table[index] = row
+            table.flush()
+            self._file.flush()  # nothing left for HDF5 to write when the objects are freed, where errors pass unseen
+            del records, table
+            self._sync()
+        self._hit_count = index + 1
         return index
 
+    def _check_room(self, hit_bytes: int) -> None:
+        """Refuse a hit that would pass the size limit or leave the disk without room to close the session."""
+        file_bytes = os.path.getsize(self.path)
+        if file_bytes + hit_bytes > self.size_limit_bytes:
+            logger.error("%s: size limit %d bytes reached with %d hits", self.path, self.size_limit_bytes,
+                         self._hit_count)
+            raise SessionWriteError(
+                f"{self.path}: the session reached its size limit of {self.size_limit_bytes / 1e9:.3g} GB; recording "
+                f"stopped, its {self._hit_count} hits are kept"
+            )
+        free_bytes = shutil.disk_usage(self.path.parent).free
+        if free_bytes < hit_bytes + FREE_SPACE_MARGIN_BYTES:
+            logger.error("%s: disk full (%d bytes free) with %d hits", self.path, free_bytes, self._hit_count)
+            raise SessionWriteError(
+                f"{self.path}: disk full ({free_bytes / 1e6:.3g} MB free; a hit needs {hit_bytes / 1e6:.3g} MB "
+                f"plus {FREE_SPACE_MARGIN_BYTES / 1e6:.3g} MB kept to close the session); recording stopped, its "
+                f"{self._hit_count} hits are kept"
+            )
+
+    @_reading("the hit table")
     def _rows(self) -> np.ndarray:
-        try:
-            return self._table[: self.hit_count]
-        except OSError as error:
-            raise SessionError(f"{self.path}: damaged session: the hit table cannot be read ({error})") from None
+        """The committed rows of the hit table, checked: channels, sample rate and trigger within range."""
+        rows = self._table[: self.hit_count]
+        channels, samples = self._data.shape[1], self.record_samples
+        checks = (
+            ("force channel", "force_channel", (rows["force_channel"] >= 0) & (rows["force_channel"] < channels)),
+            ("response channel", "response_channel",
+             (rows["response_channel"] >= 0) & (rows["response_channel"] < channels)),
+            ("sample rate", "sample_rate_hz", np.isfinite(rows["sample_rate_hz"]) & (rows["sample_rate_hz"] > 0)),
+            ("trigger sample", "trigger_index", (rows["trigger_index"] >= 0) & (rows["trigger_index"] <= samples)),
+            ("start time", "start_time_s", np.isfinite(rows["start_time_s"])),
+        )
+        for label, field, valid in checks:
+            if not np.all(valid):
+                hit = int(np.argmin(valid))
+                raise SessionError(
+                    f"{self.path}: damaged session: hit {hit} has {label} {rows[field][hit]}, out of range "
+                    f"({channels} channels, {samples} samples per record)"
+                )
+        return rows
 
     def _verdict(self, row: np.void) -> Any:
         from gasfilm.analysis.validation import Verdict
@@ -442,15 +695,14 @@ class Session:
             overridden=bool(row["overridden"]),
         )
 
+    @_reading("the hit verdicts")
     def verdicts(self) -> list[Any]:
         """Every hit's verdict, in order (no sample data read)."""
         return [self._verdict(row) for row in self._rows()]
 
+    @_reading("the hit records")
     def _read_data(self, indices: np.ndarray | slice) -> np.ndarray:
-        try:
-            return self._data[indices]
-        except OSError as error:
-            raise SessionError(f"{self.path}: damaged session: hit records cannot be read ({error})") from None
+        return self._data[indices]
 
     def _check_finite(self, records: np.ndarray, indices: np.ndarray) -> None:
         bad = ~np.all(np.isfinite(records), axis=(1, 2))
@@ -460,6 +712,7 @@ class Session:
             label = self.daq_config.channels[channel].label
             raise SessionError(f"{self.path}: hit {hit} has NaN samples in channel {channel} ({label})")
 
+    @_reading("the hits")
     def hits(self, check_finite: bool = True) -> list[StoredHit]:
         """Every stored hit with its record and verdict."""
         rows = self._rows()
@@ -483,9 +736,11 @@ class Session:
             for index, row in zip(indices, rows)
         ]
 
+    @_reading("the hit table")
     def accepted_indices(self) -> np.ndarray:
         return np.flatnonzero(self._rows()["accepted"])
 
+    @_reading("the accepted hits")
     def accepted_records(self) -> np.ndarray:
         """The accepted hits' records, ``(hits, channels, samples)``; raises naming a hit with NaN samples."""
         indices = self.accepted_indices()
@@ -500,36 +755,58 @@ class Session:
         self._require_writable()
         if not 0 <= index < self.hit_count:
             raise SessionError(f"{self.path}: hit {index} does not exist (the session holds {self.hit_count})")
-        if not self._file.swmr_mode:
+        reasons = encode_reasons(tuple(verdict.reasons), self.path)
+        with self._writing(f"the verdict of hit {index}"):
             self._appending()
-        row = self._table[index]
-        row["accepted"] = bool(verdict.accepted)
-        row["overridden"] = bool(getattr(verdict, "overridden", False))
-        row["reasons"] = encode_reasons(tuple(verdict.reasons), self.path)
-        self._table[index] = row
-        self._table.flush()
-        self._sync()
+            table = self._table
+            row = table[index]
+            row["accepted"] = bool(verdict.accepted)
+            row["overridden"] = bool(getattr(verdict, "overridden", False))
+            row["reasons"] = reasons
+            table[index] = row
+            table.flush()
+            self._file.flush()
+            del table
+            self._sync()
 
     # ----- results ------------------------------------------------------------------------------------------------
 
     def _write_result(self, kind: str, name: str, values: Mapping[str, Any]) -> None:
-        self._structural()
-        parent = self._group(kind)
-        if name in parent:
-            del parent[name]
-        group = parent.create_group(name)
-        write_mapping(group, values)
-        group.attrs["written_utc"] = utc_now()
-        self._file.flush()
+        self._require_writable()
+        with self._writing(f"the {kind} result '{name}'"):
+            self._structural()
+            parent = self._group(kind)
+            if name in parent:
+                del parent[name]
+            group = parent.create_group(name)
+            write_mapping(group, values)
+            group.attrs["written_utc"] = utc_now()
+            self._file.flush()
+            del parent, group
 
     def _read_result(self, kind: str, name: str) -> dict[str, Any]:
         if name not in self._group(kind):
             available = ", ".join(self._group(kind)) or "none"
             raise SessionError(f"{self.path}: no {kind} result named '{name}' (available: {available})")
-        values = read_mapping(self._group(kind)[name])
+        return self._read_result_group(kind, name)
+
+    @_reading("a stored result")
+    def _read_result_group(self, kind: str, name: str) -> dict[str, Any]:
+        group = self._group(kind)[name]
+        file_bytes = os.path.getsize(self.path)
+        for key, dataset in group.items():
+            if not isinstance(dataset, h5py.Dataset):
+                raise SessionError(f"{self.path}: damaged session: {kind} result '{name}': '{key}' is not a dataset")
+            if dataset.compression is None and dataset.size * dataset.dtype.itemsize > file_bytes:
+                raise SessionError(
+                    f"{self.path}: damaged session: {kind} result '{name}': '{key}' declares {dataset.shape}, "
+                    f"more than the file holds"
+                )
+        values = read_mapping(group)
         values.pop("written_utc", None)
         return values
 
+    @_reading("the stored results")
     def result_names(self, kind: str) -> list[str]:
         """Names stored under ``"frf"``, ``"fits"`` or ``"diagnoses"``."""
         return list(self._group(kind))
@@ -547,8 +824,24 @@ class Session:
 
         values = self._read_result("frf", name)
         values.pop("hit_indices", None)
-        return FrfResult.from_dict(values)
+        lines = np.shape(values.get("freq_hz"))
+        for field in _FRF_LINE_FIELDS:
+            if field in values and np.shape(values[field]) != lines:
+                raise SessionError(
+                    f"{self.path}: damaged session: FRF '{name}': '{field}' has shape {np.shape(values[field])}, "
+                    f"'freq_hz' {lines}"
+                )
+        per_hit = np.shape(values.get("h1_per_hit"))
+        if len(lines) != 1 or len(per_hit) != 2 or per_hit[1] != lines[0]:
+            raise SessionError(
+                f"{self.path}: damaged session: FRF '{name}': 'freq_hz' {lines} and 'h1_per_hit' {per_hit} do not match"
+            )
+        try:
+            return FrfResult.from_dict(values)
+        except (GasfilmError, *_READ_ERRORS) as error:
+            raise SessionError(f"{self.path}: damaged session: FRF '{name}': {one_line(error)}") from None
 
+    @_reading("the FRF's hit list")
     def frf_hit_indices(self, name: str = "frf") -> np.ndarray | None:
         group = self._group("frf").get(name)
         return None if group is None or "hit_indices" not in group else group["hit_indices"][()]

@@ -2,8 +2,11 @@
 
 from __future__ import annotations
 
+import errno
+import glob
 import logging
 import os
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -16,7 +19,7 @@ try:
 except ImportError:  # Windows: HDF5's own file locking guards the file instead of :class:`WriterLock`
     fcntl = None
 
-from gasfilm.analysis.session.layout import FORMAT_NAME, SessionError, utc_now
+from gasfilm.analysis.session.layout import FORMAT_NAME, SessionError, committed_hits, one_line, utc_now
 
 logger = logging.getLogger(__name__)
 
@@ -24,7 +27,7 @@ logger = logging.getLogger(__name__)
 #: (and sleeps) for minutes on metadata beyond the end of a truncated file. The child asks HDF5 for a single read
 #: attempt (H5Pset_metadata_read_attempts through ctypes, where h5py's HDF5 library can be found) and is stopped
 #: after this long in any case.
-PROBE_TIMEOUT_S = 30.0
+PROBE_TIMEOUT_S = 8.0
 PROBE_SCRIPT = """
 import ctypes, os, sys, h5py
 path = sys.argv[1]
@@ -46,7 +49,8 @@ with h5py.File(fid) as f:
         f[name].id.chunk_iter(lambda chunk: ends.append(chunk.byte_offset + chunk.size))
     sys.exit(3 if ends and max(ends) > size else 0)
 """
-
+#: Hidden files a creation or a recovery builds before it moves them into place: ``.NAME.PID.creating``.
+BUILDING_SUFFIXES = ("creating", "recovering")
 
 
 def describe_open_failure(path: Path, error: OSError) -> SessionError:
@@ -55,7 +59,7 @@ def describe_open_failure(path: Path, error: OSError) -> SessionError:
         return SessionError(f"{path}: truncated HDF5 file (the file ends before its data does)")
     if "signature not found" in text:
         return SessionError(f"{path}: wrong file type: not an HDF5 file")
-    return SessionError(f"{path}: cannot open the HDF5 file ({text})")
+    return SessionError(f"{path}: cannot open the HDF5 file ({one_line(error)})")
 
 
 class WriterLock:
@@ -130,7 +134,7 @@ def check_unclosed_file(path: Path) -> None:
 def recover(path: Path) -> WriterLock:
     """Rewrite a session whose writer ended without closing it into a clean file, committed hits only; return the
     writer lock on the clean file (taken before it replaces the damaged one)."""
-    clean = path.with_name(f".{path.name}.{os.getpid()}.recovering")
+    clean = building_path(path, "recovering")
     try:
         source = open_h5(path, "r", swmr=True)
     except OSError as error:
@@ -143,7 +147,7 @@ def recover(path: Path) -> WriterLock:
                 target.attrs[key] = value
             for name in source:
                 source.copy(source[name], target, name=name)
-            committed = min(target["hits/table"].shape[0], target["hits/data"].shape[0])
+            committed = committed_hits(target["hits/table"], target["hits/data"])
             data = target["hits/data"]
             data.resize((committed, data.shape[1], data.shape[2]))
             target["hits/table"].resize((committed,))
@@ -154,13 +158,83 @@ def recover(path: Path) -> WriterLock:
                     f"the recording process ended without closing the session; {committed} hits recovered"
                 )
         lock = WriterLock(clean)
-    except OSError as error:
+    except (OSError, KeyError, ValueError, RuntimeError) as error:
         clean.unlink(missing_ok=True)
-        raise SessionError(f"{path}: damaged session that cannot be recovered ({error})") from None
+        logger.error("%s: recovery failed: %s", path, error)
+        raise SessionError(f"{path}: the session cannot be recovered ({one_line(error)})") from None
     except BaseException:
         clean.unlink(missing_ok=True)
         raise
     finally:
         source.close()
     os.replace(clean, path)
+    logger.warning("%s: recovered after its writer ended without closing it: %d committed hits kept", path, committed)
     return lock
+
+
+def building_path(path: Path, suffix: str) -> Path:
+    """The hidden file next to ``path`` that this process builds before moving it into place."""
+    return path.with_name(f".{path.name}.{os.getpid()}.{suffix}")
+
+
+def _process_alive(pid: int) -> bool:
+    if os.name == "nt":
+        return True  # os.kill would terminate it: leftovers are kept on Windows
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except OSError:
+        return True  # exists, owned by someone else
+    return True
+
+
+def remove_leftovers(path: Path) -> None:
+    """Delete the hidden files that killed creations or recoveries of ``path`` left behind (their process has ended
+    and no process holds their lock); a live creation or recovery keeps its file."""
+    pattern = re.compile(rf"^\.{re.escape(path.name)}\.(\d+)\.({'|'.join(BUILDING_SUFFIXES)})$")
+    try:
+        candidates = [Path(name) for suffix in BUILDING_SUFFIXES
+                      for name in glob.glob(str(path.parent / f".{glob.escape(path.name)}.*.{suffix}"))]
+    except OSError:
+        return
+    for leftover in candidates:
+        match = pattern.match(leftover.name)
+        if match is None:
+            continue
+        pid = int(match.group(1))
+        if pid == os.getpid() or _process_alive(pid) or WriterLock.held_elsewhere(leftover):
+            continue
+        try:
+            leftover.unlink()
+        except OSError as error:
+            logger.warning("%s: cannot remove the leftover of an interrupted %s (%s)", leftover, match.group(2),
+                           error.strerror)
+        else:
+            logger.warning("%s: removed the leftover of a killed %s (process %d)", leftover,
+                           "creation" if match.group(2) == "creating" else "recovery", pid)
+
+
+def move_into_place(building: Path, path: Path, overwrite: bool) -> None:
+    """Give the finished file ``building`` its name ``path`` atomically; unless ``overwrite``, fail if ``path``
+    exists, also when another process created it a moment ago (a hard link cannot replace a file)."""
+    if overwrite:
+        os.replace(building, path)
+        return
+    try:
+        try:
+            os.link(building, path)
+        except FileExistsError:
+            raise
+        except OSError as error:
+            if error.errno not in (errno.EPERM, errno.ENOTSUP, errno.EOPNOTSUPP, errno.ENOSYS, errno.EMLINK):
+                raise
+            # no hard links on this file system: claim the name exclusively, then move the file onto the claim
+            os.close(os.open(path, os.O_CREAT | os.O_EXCL | os.O_WRONLY))
+            os.replace(building, path)
+            return
+    except FileExistsError:
+        raise SessionError(
+            f"{path}: the session file exists already (another process created it at the same moment)"
+        ) from None
+    os.unlink(building)

@@ -7,6 +7,7 @@ import dataclasses
 import datetime
 import enum
 import json
+import re
 from pathlib import Path
 from typing import Any, Mapping
 
@@ -25,6 +26,11 @@ DEFAULT_SAMPLES_PER_CHUNK = 4096  # when the record length is not known in advan
 
 class SessionError(GasfilmError):
     """A session file is missing, damaged, foreign, too new, or holds unusable data."""
+
+
+class SessionWriteError(SessionError):
+    """Writing to a session failed or was refused (full disk, I/O error, size limit): recording must stop; the hits
+    stored before are kept."""
 
 
 
@@ -168,3 +174,18 @@ def read_mapping(group: h5py.Group) -> dict[str, Any]:
         values[key] = dataset[()]
     return values
 
+
+
+def one_line(error: BaseException, limit: int = 200) -> str:
+    """An exception's message on one line (HDF5's messages span lines), shortened to ``limit`` characters."""
+    text = re.sub(r"\s+", " ", str(error)).strip() or type(error).__name__
+    return text if len(text) <= limit else text[: limit - 3] + "..."
+
+
+def committed_hits(table: h5py.Dataset, data: h5py.Dataset) -> int:
+    """Hits whose record and table row are both written: a row is written last, and a row of zeros (a table grown
+    by a write that then failed) has no sample rate, so it does not count."""
+    count = min(table.shape[0], data.shape[0])
+    if count and not float(table[count - 1]["sample_rate_hz"]) > 0:
+        count -= 1
+    return count
