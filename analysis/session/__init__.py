@@ -11,8 +11,6 @@ True). Structural changes (FRF, fits, diagnoses, status) are made with the file 
 Modules: :mod:`.layout` (constants and codecs), :mod:`.files` (writer lock, opening, recovery), :mod:`.api`.
 """
 
-import logging
-
 from gasfilm.analysis.session.api import Session, StoredHit
 from gasfilm.analysis.session.layout import (
     FORMAT_NAME,
@@ -22,9 +20,6 @@ from gasfilm.analysis.session.layout import (
     settings_from_json,
     to_jsonable,
 )
-
-# records reach the handlers the application configures, never Python's last-resort stderr printer
-logging.getLogger(__name__).addHandler(logging.NullHandler())
 
 __all__ = [
     "FORMAT_NAME", "SCHEMA_VERSION", "Session", "SessionError", "SessionWriteError", "StoredHit", "settings_from_json",

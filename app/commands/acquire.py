@@ -19,8 +19,15 @@ import numpy as np
 
 from gasfilm.analysis.acquisition import AcquisitionLoop
 from gasfilm.analysis.capture import ImpactCapture, TriggerSettings
-from gasfilm.analysis.recording import HitEvent, HitRecorder
+from gasfilm.analysis.recording import (
+    DEFAULT_MAX_CONSECUTIVE_REJECTIONS,
+    HitEvent,
+    HitRecorder,
+    RecordingStopped,
+    StopSignal,
+)
 from gasfilm.analysis.session import Session, SessionError
+from gasfilm.analysis.session.api import DEFAULT_SIZE_LIMIT_BYTES
 from gasfilm.analysis.spectra import WindowSettings, compute_frf
 from gasfilm.analysis.validation import ValidationSettings
 from gasfilm.drivers import SIMULATED_DEVICE_NAME, open_device
@@ -60,6 +67,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--double-hit-rate", type=float,
                         help="simulator: fraction of double hits (default: the rig spec's, else 0)")
     parser.add_argument("--append", action="store_true", help="append to an existing session instead of creating")
+    parser.add_argument("--max-rejected", type=int, default=DEFAULT_MAX_CONSECUTIVE_REJECTIONS,
+                        help=f"stop after this many consecutive rejected hits (default {DEFAULT_MAX_CONSECUTIVE_REJECTIONS})")
+    parser.add_argument("--max-session-gb", type=float, default=DEFAULT_SIZE_LIMIT_BYTES / 1e9,
+                        help=f"stop before the session file grows past this size in GB "
+                        f"(default {DEFAULT_SIZE_LIMIT_BYTES / 1e9:g})")
     parser.set_defaults(func=run)
 
 
@@ -80,6 +92,13 @@ def _check_limits(args: argparse.Namespace) -> None:
         raise SettingError(f"--hits: {args.hits} must be at least 1")
     if args.seconds is not None and not args.seconds > 0:
         raise SettingError(f"--seconds: {args.seconds} must be positive")
+
+
+def _check_storage_limits(args: argparse.Namespace) -> None:
+    if args.max_rejected < 1:
+        raise SettingError(f"--max-rejected: {args.max_rejected} must be at least 1")
+    if not args.max_session_gb > 0:
+        raise SettingError(f"--max-session-gb: {args.max_session_gb} must be positive")
 
 
 def _open_session(args: argparse.Namespace, config: DaqConfig, rate_hz: float, device_name: str,
@@ -171,6 +190,7 @@ def _stream(device: DaqDevice, synchronous: bool) -> Iterator[tuple[np.ndarray, 
 
 def run(args: argparse.Namespace) -> int:
     _check_limits(args)
+    _check_storage_limits(args)
     rig_spec = None
     if args.rig is not None:
         from gasfilm.analysis.physics.spec import RigSpec
@@ -187,6 +207,7 @@ def run(args: argparse.Namespace) -> int:
     rate_hz = device.sample_rate_hz
     settings = {"trigger": trigger, "validation": validation, "window": window}
     session = _open_session(args, config, rate_hz, device.name, rig_spec.to_toml() if rig_spec else None, settings)
+    session.size_limit_bytes = int(args.max_session_gb * 1e9)
     force_row = config.channel_index(ChannelKind.FORCE)
     response_row = config.channel_index(ChannelKind.ACCELERATION)
     capture = ImpactCapture(trigger, rate_hz, len(config.channels), force_row, response_row)
@@ -198,6 +219,7 @@ def run(args: argparse.Namespace) -> int:
         full_scale_si=[channel.full_scale_si for channel in config.channels],
         window=window,
         on_hit=progress.hit,
+        max_consecutive_rejections=args.max_rejected,
     )
     accepted_before = recorder.accepted_count
     print(f"recording into {args.out} from {device.name} at {rate_hz:g} S/s", flush=True)
@@ -205,7 +227,7 @@ def run(args: argparse.Namespace) -> int:
     stream_s = 0.0
     try:
         synchronous = args.device == SIMULATED_DEVICE_NAME and args.pacing == "fast"
-        with device, contextlib.closing(_stream(device, synchronous)) as chunks:
+        with recorder.stop_on_signals(), device, contextlib.closing(_stream(device, synchronous)) as chunks:
             for data, overload, end_sample in chunks:
                 recorder.feed(data, overload)
                 stream_s = end_sample / rate_hz
@@ -214,18 +236,20 @@ def run(args: argparse.Namespace) -> int:
                     break
                 if args.seconds is not None and stream_s >= args.seconds:
                     break
-    except DeviceError as error:
+    except (DeviceError, RecordingStopped) as error:
         progress.done()
         session.close("aborted", str(error))
         raise DeviceError(
             f"{error} — session {args.out} closed as aborted, {recorder.accepted_count} accepted hits kept",
             getattr(error, "code", None),
         ) from None
-    except KeyboardInterrupt:
+    except KeyboardInterrupt as interrupt:  # Ctrl-C, or SIGTERM/SIGHUP through recorder.stop_on_signals
         progress.done()
-        session.close("aborted", "interrupted by the user")
-        print(f"interrupted: session {args.out} closed with {recorder.accepted_count} accepted hits", flush=True)
-        return 130
+        signum = interrupt.signum if isinstance(interrupt, StopSignal) else 2
+        how = "interrupted by the user" if signum == 2 else f"stopped by {interrupt}"
+        session.close("aborted", how)
+        print(f"{how}: session {args.out} closed with {recorder.accepted_count} accepted hits", flush=True)
+        return 128 + signum
     except BaseException as error:
         progress.done()
         session.close("aborted", f"{type(error).__name__}: {error}")
