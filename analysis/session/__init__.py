@@ -11,7 +11,7 @@ True). Structural changes (FRF, fits, diagnoses, status) are made with the file 
 Modules: :mod:`.layout` (constants and codecs), :mod:`.files` (writer lock, opening, recovery), :mod:`.api`.
 """
 
-from gasfilm.analysis.session.api import Session, StoredHit
+from gasfilm.analysis.session.api import DEFAULT_SIZE_LIMIT_BYTES, Session, StoredHit
 from gasfilm.analysis.session.layout import (
     FORMAT_NAME,
     SCHEMA_VERSION,
@@ -22,6 +22,6 @@ from gasfilm.analysis.session.layout import (
 )
 
 __all__ = [
-    "FORMAT_NAME", "SCHEMA_VERSION", "Session", "SessionError", "SessionWriteError", "StoredHit", "settings_from_json",
+    "DEFAULT_SIZE_LIMIT_BYTES", "FORMAT_NAME", "SCHEMA_VERSION", "Session", "SessionError", "SessionWriteError", "StoredHit", "settings_from_json",
     "to_jsonable",
 ]

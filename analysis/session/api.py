@@ -218,7 +218,7 @@ class Session:
         if not path.parent.is_dir():
             raise SessionError(f"{path}: the folder {path.parent} does not exist")
         remove_leftovers(path)
-        replaced = WriterLock(path) if path.exists() else None  # never replace a session being recorded
+        replaced = WriterLock(path) if overwrite and path.exists() else None  # never replace a session being recorded
         building = building_path(path, "creating")
         try:
             file = open_h5(building, "w")

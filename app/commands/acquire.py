@@ -26,8 +26,7 @@ from gasfilm.analysis.recording import (
     RecordingStopped,
     StopSignal,
 )
-from gasfilm.analysis.session import Session, SessionError
-from gasfilm.analysis.session.api import DEFAULT_SIZE_LIMIT_BYTES
+from gasfilm.analysis.session import DEFAULT_SIZE_LIMIT_BYTES, Session, SessionError
 from gasfilm.analysis.spectra import WindowSettings, compute_frf
 from gasfilm.analysis.validation import ValidationSettings
 from gasfilm.drivers import SIMULATED_DEVICE_NAME, open_device
