@@ -348,6 +348,9 @@ class Session:
                 f"{self.path}: session schema_version {version} is newer than this gasfilm reads "
                 f"(up to {SCHEMA_VERSION}); update gasfilm"
             )
+        for name in ("status", "status_reason"):
+            if not isinstance(attrs.get(name), str):
+                raise SessionError(f"{self.path}: damaged session: the '{name}' attribute is missing or not text")
         for name in _GROUPS:
             if not isinstance(self._file.get(name), h5py.Group):
                 raise SessionError(f"{self.path}: damaged session: the group '{name}' is missing")
@@ -366,14 +369,17 @@ class Session:
             name not in table.dtype.names or table.dtype[name].shape != expected[name].shape for name in expected.names
         ):
             raise SessionError(f"{self.path}: damaged session: 'hits/table' does not have the hit table's columns")
-        declared = min(table.shape[0], data.shape[0])
-        declared_bytes = declared * (channels * data.shape[2] * data.dtype.itemsize + table.dtype.itemsize)
+        # Declared rows must fit in the file (one more for a hit whose write was cut short): shrinking a dataset that
+        # declares 2^40 rows walks every chunk it could have, for hours.
+        record_bytes = channels * data.shape[2] * data.dtype.itemsize
         file_bytes = os.path.getsize(self.path)
-        if data.compression is None and declared_bytes > file_bytes:
-            raise SessionError(
-                f"{self.path}: damaged session: it declares {declared} hits of {data.shape[2]} samples "
-                f"({declared_bytes / 1e6:.4g} MB), more than the file's {file_bytes / 1e6:.4g} MB"
-            )
+        for name, rows, row_bytes in (("hits/data", data.shape[0], record_bytes),
+                                      ("hits/table", table.shape[0], table.dtype.itemsize)):
+            if (name == "hits/table" or data.compression is None) and (rows - 1) * row_bytes > file_bytes:
+                raise SessionError(
+                    f"{self.path}: damaged session: '{name}' declares {rows} hits of {row_bytes} bytes, more than the "
+                    f"file's {file_bytes} bytes hold"
+                )
         self._hit_count = committed_hits(table, data)
 
     # ----- context manager and closing ----------------------------------------------------------------------
@@ -569,6 +575,7 @@ class Session:
         """Processing settings as stored (plain JSON values)."""
         return {key: json.loads(value) for key, value in self._group("settings").attrs.items()}
 
+    @_reading("the stored settings")
     def settings_as(self, key: str, cls: type) -> Any:
         """The stored settings under ``key`` as a ``cls`` dataclass (``cls()`` when none were stored)."""
         return settings_from_json(self.settings.get(key), cls)
