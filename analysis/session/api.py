@@ -35,6 +35,7 @@ from gasfilm.analysis.session.layout import (
     SCHEMA_VERSION,
     SessionError,
     SessionWriteError,
+    check_declared_rows,
     committed_hits,
     config_from_dict,
     config_to_dict,
@@ -369,17 +370,7 @@ class Session:
             name not in table.dtype.names or table.dtype[name].shape != expected[name].shape for name in expected.names
         ):
             raise SessionError(f"{self.path}: damaged session: 'hits/table' does not have the hit table's columns")
-        # Declared rows must fit in the file (one more for a hit whose write was cut short): shrinking a dataset that
-        # declares 2^40 rows walks every chunk it could have, for hours.
-        record_bytes = channels * data.shape[2] * data.dtype.itemsize
-        file_bytes = os.path.getsize(self.path)
-        for name, rows, row_bytes in (("hits/data", data.shape[0], record_bytes),
-                                      ("hits/table", table.shape[0], table.dtype.itemsize)):
-            if (name == "hits/table" or data.compression is None) and (rows - 1) * row_bytes > file_bytes:
-                raise SessionError(
-                    f"{self.path}: damaged session: '{name}' declares {rows} hits of {row_bytes} bytes, more than the "
-                    f"file's {file_bytes} bytes hold"
-                )
+        check_declared_rows(self.path, table, data)
         self._hit_count = committed_hits(table, data)
 
     # ----- context manager and closing ----------------------------------------------------------------------

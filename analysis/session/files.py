@@ -19,7 +19,14 @@ try:
 except ImportError:  # Windows: HDF5's own file locking guards the file instead of :class:`WriterLock`
     fcntl = None
 
-from gasfilm.analysis.session.layout import FORMAT_NAME, SessionError, committed_hits, one_line, utc_now
+from gasfilm.analysis.session.layout import (
+    FORMAT_NAME,
+    SessionError,
+    check_declared_rows,
+    committed_hits,
+    one_line,
+    utc_now,
+)
 
 logger = logging.getLogger(__name__)
 
@@ -142,6 +149,7 @@ def recover(path: Path) -> WriterLock:
     try:
         if source.attrs.get("format") != FORMAT_NAME:
             raise SessionError(f"{path}: an HDF5 file, but not a gasfilm session (no '{FORMAT_NAME}' format mark)")
+        check_declared_rows(path, source["hits/table"], source["hits/data"])
         with open_h5(clean, "w") as target:
             for key, value in source.attrs.items():
                 target.attrs[key] = value

@@ -7,6 +7,7 @@ import dataclasses
 import datetime
 import enum
 import json
+import os
 import re
 from pathlib import Path
 from typing import Any, Mapping
@@ -180,6 +181,20 @@ def one_line(error: BaseException, limit: int = 200) -> str:
     """An exception's message on one line (HDF5's messages span lines), shortened to ``limit`` characters."""
     text = re.sub(r"\s+", " ", str(error)).strip() or type(error).__name__
     return text if len(text) <= limit else text[: limit - 3] + "..."
+
+
+def check_declared_rows(path: Path, table: h5py.Dataset, data: h5py.Dataset) -> None:
+    """Refuse hit datasets declaring more rows than the file can hold (one more for a hit whose write was cut short):
+    shrinking a dataset that declares 2^40 rows walks every chunk it could have, for hours."""
+    record_bytes = int(np.prod(data.shape[1:])) * data.dtype.itemsize
+    file_bytes = os.path.getsize(path)
+    for name, rows, row_bytes in (("hits/data", data.shape[0], record_bytes),
+                                  ("hits/table", table.shape[0], table.dtype.itemsize)):
+        if (name == "hits/table" or data.compression is None) and (rows - 1) * row_bytes > file_bytes:
+            raise SessionError(
+                f"{path}: damaged session: '{name}' declares {rows} hits of {row_bytes} bytes, more than the file's "
+                f"{file_bytes} bytes hold"
+            )
 
 
 def committed_hits(table: h5py.Dataset, data: h5py.Dataset) -> int:
