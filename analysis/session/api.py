@@ -10,6 +10,7 @@ import os
 import re
 import shutil
 import sys
+import threading
 import traceback
 from dataclasses import dataclass
 from pathlib import Path
@@ -94,18 +95,19 @@ def _reading(what: str) -> Callable[[Method], Method]:
 def _h5py_errors_raised() -> Iterator[None]:
     """Raise the HDF5 write errors that h5py can only report when it frees an object whose cached data cannot be
     written (e.g. on a full disk): it prints them through ``sys.excepthook`` and ``sys.unraisablehook`` and goes on.
-    Both hooks collect them instead while the block runs (only h5py runs inside it)."""
+    Both hooks collect them instead while the block runs (only h5py runs inside it, in this thread)."""
     swallowed: list[BaseException] = []
     previous = sys.unraisablehook, sys.excepthook
+    thread = threading.get_ident()
 
     def unraisable_hook(unraisable: Any) -> None:
-        if isinstance(unraisable.exc_value, (OSError, RuntimeError)):
+        if isinstance(unraisable.exc_value, (OSError, RuntimeError)) and threading.get_ident() == thread:
             swallowed.append(unraisable.exc_value)
         else:
             previous[0](unraisable)
 
     def except_hook(kind: type, value: BaseException, trace: Any) -> None:
-        if isinstance(value, (OSError, RuntimeError)):
+        if isinstance(value, (OSError, RuntimeError)) and threading.get_ident() == thread:
             swallowed.append(value)
         else:
             previous[1](kind, value, trace)
