@@ -5,18 +5,46 @@
 is appended to the session (flushed) as soon as its record is complete; only then is it reported, through the
 return value of :meth:`HitRecorder.feed` and the optional callback. No printing, no Qt: the command line and the GUI
 present the events.
+
+A recorder stops itself (:class:`RecordingStopped`) after a run of consecutive rejected hits, and
+:meth:`HitRecorder.stop_on_signals` turns SIGINT, SIGTERM and SIGHUP into :class:`StopSignal` between hits, never
+while one is being stored.
 """
 
 from __future__ import annotations
 
+import contextlib
+import logging
+import signal
+import threading
 from dataclasses import dataclass
-from typing import Any, Callable, Sequence
+from typing import Any, Callable, Iterator, Sequence
 
 import numpy as np
 
 from gasfilm.analysis.capture import HitRecord, ImpactCapture
 from gasfilm.analysis.session import Session
 from gasfilm.analysis.validation import ValidationSettings, Verdict, validate_hit
+from gasfilm.drivers.errors import GasfilmError, SettingError
+
+logger = logging.getLogger(__name__)
+
+#: Consecutive rejected hits after which a recorder stops: settings that cannot give a valid hit, not bad luck.
+DEFAULT_MAX_CONSECUTIVE_REJECTIONS = 20
+#: The signals that stop a recording like Ctrl-C, where the platform has them.
+STOP_SIGNALS = tuple(getattr(signal, name) for name in ("SIGINT", "SIGTERM", "SIGHUP") if hasattr(signal, name))
+
+
+class RecordingStopped(GasfilmError):
+    """The recorder stopped itself: too many consecutive hits were rejected (every hit stays in the session)."""
+
+
+class StopSignal(KeyboardInterrupt):
+    """A signal (SIGINT, SIGTERM, SIGHUP) asked the recording to stop; raised between hits."""
+
+    def __init__(self, signum: int) -> None:
+        self.signum = int(signum)
+        super().__init__(signal.Signals(signum).name)
 
 
 @dataclass(frozen=True)
@@ -44,7 +72,14 @@ class HitRecorder:
         full_scale_si: Sequence[float] | None = None,
         window: Any = None,
         on_hit: Callable[[HitEvent], None] | None = None,
+        max_consecutive_rejections: int = DEFAULT_MAX_CONSECUTIVE_REJECTIONS,
     ) -> None:
+        if max_consecutive_rejections < 1:
+            raise SettingError(f"max_consecutive_rejections: {max_consecutive_rejections} must be at least 1")
+        self.max_consecutive_rejections = max_consecutive_rejections
+        self.consecutive_rejections = 0
+        self._storing = False  # a hit is being written: a stop signal waits until it is stored
+        self._pending_signal: int | None = None
         self.session = session
         self.capture = capture
         self.validation = validation
@@ -72,11 +107,17 @@ class HitRecorder:
         events = []
         for hit in self.capture.feed(chunk, overload):
             verdict = validate_hit(hit, self.validation, self.full_scale_si, window=self.window)
-            index = self.session.append_hit(hit, verdict)
+            self._storing = True
+            try:
+                index = self.session.append_hit(hit, verdict)
+            finally:
+                self._storing = False
             if verdict.accepted:
                 self.accepted_count += 1
+                self.consecutive_rejections = 0
             else:
                 self.rejected_count += 1
+                self.consecutive_rejections += 1
             self._count_reasons(verdict)
             event = HitEvent(
                 index=index,
@@ -91,4 +132,42 @@ class HitRecorder:
             events.append(event)
             if self.on_hit is not None:
                 self.on_hit(event)
+            self._raise_pending_signal()
+            if self.consecutive_rejections >= self.max_consecutive_rejections:
+                reasons = ", ".join(f"{reason}: {count}" for reason, count in sorted(self.reason_counts.items()))
+                logger.error("%s: stopped after %d consecutive rejected hits (%s)", self.session.path,
+                             self.consecutive_rejections, reasons)
+                raise RecordingStopped(
+                    f"{self.session.path}: stopped after {self.consecutive_rejections} consecutive rejected hits "
+                    f"(last: {', '.join(verdict.reasons) or 'rejected'}); check the trigger level, ranges and record "
+                    f"length"
+                )
         return events
+
+    def _raise_pending_signal(self) -> None:
+        if self._pending_signal is not None:
+            signum, self._pending_signal = self._pending_signal, None
+            raise StopSignal(signum)
+
+    @contextlib.contextmanager
+    def stop_on_signals(self) -> Iterator[None]:
+        """While the block runs, SIGINT, SIGTERM and SIGHUP raise :class:`StopSignal` (a ``KeyboardInterrupt``) so the
+        caller closes the session as on Ctrl-C; a signal that arrives while a hit is being stored is raised once the
+        hit is stored and reported. Only in the main thread (where Python runs signal handlers); elsewhere a no-op."""
+        if threading.current_thread() is not threading.main_thread():
+            yield
+            return
+
+        def handler(signum: int, frame: Any) -> None:
+            if self._storing:
+                self._pending_signal = signum
+            else:
+                raise StopSignal(signum)
+
+        previous = {signum: signal.signal(signum, handler) for signum in STOP_SIGNALS}
+        try:
+            yield
+            self._raise_pending_signal()
+        finally:
+            for signum, action in previous.items():
+                signal.signal(signum, action)

@@ -262,7 +262,7 @@ def test_writer_killed_without_closing_leaves_a_readable_appendable_session(tmp_
     for mode in ("r", "a"):
         with pytest.raises(SessionError) as truncated:
             Session.open(cut, mode)
-        assert "truncated or damaged HDF5 file: left open by its writer" in one_line_error(truncated)
+        assert "truncated" in one_line_error(truncated)  # "truncated HDF5 file", or "... left open by its writer"
     hits = synthetic_hits(4)
     with Session.open(path, "a") as session:
         assert session.recovered and session.status == "interrupted"

@@ -58,6 +58,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--double-hit-rate", type=float,
                         help="simulator: fraction of double hits (default: the rig spec's, else 0)")
     parser.add_argument("--append", action="store_true", help="append to an existing session instead of creating")
+    parser.add_argument("--max-rejected", type=int,
+                        help="stop after this many consecutive rejected hits (default 20, the recorder's)")
+    parser.add_argument("--max-session-gb", type=float,
+                        help="stop before the session file grows past this size in GB (default 4, the session's)")
     parser.set_defaults(func=run)
 
 
@@ -99,6 +103,9 @@ def _settings(args: argparse.Namespace) -> dict[str, Any]:
                                f"{args.record_s:g} s record of the previous one (every hit would be a double hit)")
     if args.double_hit_rate is not None and not 0 <= args.double_hit_rate < 1:
         raise SettingError(f"--double-hit-rate: {args.double_hit_rate} must be at least 0 and below 1")
+    if args.max_rejected is not None and args.max_rejected < 1:
+        raise SettingError(f"--max-rejected: {args.max_rejected} must be at least 1")
+    positive_flag("--max-session-gb", args.max_session_gb, "GB")
     trigger = settings_from_flags(TriggerSettings, None, {
         "level_n": ("--trigger-n", args.trigger_n),
         "pretrigger_s": ("--pretrigger-s", args.pretrigger_s),
@@ -230,7 +237,7 @@ def run(args: argparse.Namespace) -> int:
 def _record(args: argparse.Namespace) -> int:
     from gasfilm.analysis.capture import ImpactCapture
     from gasfilm.analysis.physics.spec import RigSpec
-    from gasfilm.analysis.recording import HitRecorder
+    from gasfilm.analysis.recording import DEFAULT_MAX_CONSECUTIVE_REJECTIONS, HitRecorder, RecordingStopped, StopSignal
     from gasfilm.analysis.spectra import session_frf
     from gasfilm.drivers.interface import ChannelKind, default_hammer_and_accelerometer
 
@@ -250,6 +257,8 @@ def _record(args: argparse.Namespace) -> int:
     device.configure(config)
     rate_hz = device.sample_rate_hz
     session = _open_session(args, config, rate_hz, device.name, rig_spec.to_toml() if rig_spec else None, settings)
+    if args.max_session_gb is not None:
+        session.size_limit_bytes = int(args.max_session_gb * 1e9)
     force_row = config.channel_index(ChannelKind.FORCE)
     response_row = config.channel_index(ChannelKind.ACCELERATION)
     capture = ImpactCapture(trigger, rate_hz, len(config.channels), force_row, response_row)
@@ -261,6 +270,7 @@ def _record(args: argparse.Namespace) -> int:
         full_scale_si=[channel.full_scale_si for channel in config.channels],
         window=window,
         on_hit=progress.hit,
+        max_consecutive_rejections=args.max_rejected or DEFAULT_MAX_CONSECUTIVE_REJECTIONS,
     )
     accepted_before = recorder.accepted_count
     print(f"recording into {args.out} from {device.name} at {rate_hz:g} S/s", flush=True)
@@ -269,7 +279,7 @@ def _record(args: argparse.Namespace) -> int:
     stream_s = 0.0
     try:
         synchronous = args.device == SIMULATED_DEVICE_NAME and args.pacing == "fast"
-        with device, contextlib.closing(_stream(device, synchronous)) as chunks:
+        with recorder.stop_on_signals(), device, contextlib.closing(_stream(device, synchronous)) as chunks:
             for data, overload, end_sample in chunks:
                 recorder.feed(data, overload)
                 stream_s = end_sample / rate_hz
@@ -278,21 +288,23 @@ def _record(args: argparse.Namespace) -> int:
                     break
                 if args.seconds is not None and stream_s >= args.seconds:
                     break
-    except DeviceError as error:
+    except (DeviceError, RecordingStopped) as error:
         progress.done()
-        logger.error("device fault: %s; session closed as aborted, %d accepted hits kept", error,
+        logger.error("stopped: %s; session closed as aborted, %d accepted hits kept", error,
                      recorder.accepted_count)
         session.close("aborted", str(error))
         raise DeviceError(
             f"{error} — session {args.out} closed as aborted, {recorder.accepted_count} accepted hits kept",
             getattr(error, "code", None),
         ) from None
-    except KeyboardInterrupt:
+    except KeyboardInterrupt as interrupt:  # Ctrl-C, or SIGTERM/SIGHUP through recorder.stop_on_signals
         progress.done()
-        session.close("aborted", "interrupted by the user")
-        logger.info("interrupted by the user; session closed with %d accepted hits", recorder.accepted_count)
-        print(f"interrupted: session {args.out} closed with {recorder.accepted_count} accepted hits", flush=True)
-        return 130
+        signum = interrupt.signum if isinstance(interrupt, StopSignal) else 2
+        how = "interrupted by the user" if signum == 2 else f"stopped by {interrupt}"
+        session.close("aborted", how)
+        logger.info("%s: %s, %d accepted hits kept", args.out, how, recorder.accepted_count)
+        print(f"{how}: session {args.out} closed with {recorder.accepted_count} accepted hits", flush=True)
+        return 128 + signum
     except BaseException as error:
         progress.done()
         logger.error("stopped by %s: %s; session closed as aborted", type(error).__name__, error)

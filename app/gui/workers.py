@@ -193,9 +193,14 @@ class AcquisitionWorker(QObject):
     # --- the poll: chunks → hits -------------------------------------------------------------------------------------
 
     def _poll(self) -> None:
-        ended = self._drain()
+        try:
+            ended = self._drain()
+            error = self.loop.error if ended and self.loop is not None else None
+        except GasfilmError as stopped:  # the recorder stopped: a write failed, or too many hits in a row were rejected
+            ended, error = True, stopped
+            if self.loop is not None:
+                self.loop.stop()
         if ended:
-            error = self.loop.error if self.loop is not None else None
             if self._timer is not None:
                 self._timer.stop()
             self._stopping = True

@@ -1,73 +1,135 @@
-"""HDF5 session files: everything one hammer session recorded, safe against a killed process.
-
-One file per session (layout in ``docs/session-format.md``). Hits are appended to pre-created chunked, resizable
-datasets while the file is in HDF5's single-writer/multiple-reader (SWMR) mode: the raw record is written and
-flushed first, then its row in the hit table, then the file descriptor is fsync'ed. SWMR keeps the file's metadata
-consistent on disk at every moment, so a process killed at any point leaves a file whose committed hits (the rows of
-the hit table) can always be read. Such a file still carries HDF5's "open for writing" flags: :meth:`Session.open`
-reads it in SWMR mode and, when opened for appending, first rewrites it into a clean file (``recovered`` is then
-True). Structural changes (FRF, fits, diagnoses, status) are made with the file out of SWMR mode.
-"""
+"""The session API: :class:`Session` (create, open, append hits, store results) and :class:`StoredHit`."""
 
 from __future__ import annotations
 
-import dataclasses
-import datetime
-import enum
+import contextlib
+import functools
 import json
+import logging
 import os
-import subprocess
+import re
+import shutil
 import sys
+import threading
+import traceback
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any, Callable, Iterator, Mapping, TypeVar
 
 import h5py
 import numpy as np
 
-try:
-    import fcntl
-except ImportError:  # Windows: HDF5's own file locking guards the file instead of :class:`_WriterLock`
-    fcntl = None
+from gasfilm.analysis.session.files import (
+    WriterLock,
+    building_path,
+    check_unclosed_file,
+    describe_open_failure,
+    move_into_place,
+    open_h5,
+    recover,
+    remove_leftovers,
+)
+from gasfilm.analysis.session.layout import (
+    DEFAULT_SAMPLES_PER_CHUNK,
+    FORMAT_NAME,
+    MAX_SAMPLES_PER_CHUNK,
+    SCHEMA_VERSION,
+    SessionError,
+    SessionWriteError,
+    check_declared_rows,
+    committed_hits,
+    config_from_dict,
+    config_to_dict,
+    decode_reasons,
+    encode_reasons,
+    hit_table_dtype,
+    json_dumps,
+    one_line,
+    read_mapping,
+    utc_now,
+    write_mapping,
+)
 
 from gasfilm.drivers.errors import GasfilmError
-from gasfilm.drivers.interface import ChannelConfig, ChannelKind, Coupling, DaqConfig
+from gasfilm.drivers.interface import DaqConfig
 
-SCHEMA_VERSION = 1
-FORMAT_NAME = "gasfilm-session"
-REASONS_LENGTH = 256
-MAX_SAMPLES_PER_CHUNK = 16384  # per channel: 128 KiB per channel and chunk
-DEFAULT_SAMPLES_PER_CHUNK = 4096  # when the record length is not known in advance
-#: A file left open by a killed writer is checked in a child process before it is read: HDF5 in SWMR mode retries
-#: (and sleeps) for minutes on metadata beyond the end of a truncated file. The child asks HDF5 for a single read
-#: attempt (H5Pset_metadata_read_attempts through ctypes, where h5py's HDF5 library can be found) and is stopped
-#: after this long in any case.
-PROBE_TIMEOUT_S = 30.0
-PROBE_SCRIPT = """
-import ctypes, os, sys, h5py
-path = sys.argv[1]
-size = os.path.getsize(path)
-fapl = h5py.h5p.create(h5py.h5p.FILE_ACCESS)
-fapl.set_file_locking(False, True)
-libraries = [line.split()[-1] for line in open("/proc/self/maps") if "/libhdf5" in line] if os.path.exists(
-    "/proc/self/maps") else []
-if libraries:
-    ctypes.CDLL(libraries[0]).H5Pset_metadata_read_attempts(ctypes.c_int64(fapl.id), ctypes.c_uint(1))
-fid = h5py.h5f.open(os.fsencode(path), h5py.h5f.ACC_RDONLY | h5py.h5f.ACC_SWMR_READ, fapl=fapl)
-with h5py.File(fid) as f:
-    if f.attrs.get("format") != "gasfilm-session":
-        sys.exit(0)  # not a session: opening it says so
-    f.visit(lambda name: None)
-    f["hits/table"][()]
-    ends = []
-    for name in ("hits/table", "hits/data"):
-        f[name].id.chunk_iter(lambda chunk: ends.append(chunk.byte_offset + chunk.size))
-    sys.exit(3 if ends and max(ends) > size else 0)
-"""
+logger = logging.getLogger(__name__)
+
+#: A session refuses to grow past this size unless told otherwise (``Session.size_limit_bytes``).
+DEFAULT_SIZE_LIMIT_BYTES = 4_000_000_000
+#: Free space kept on the disk besides the next hit: room for HDF5's metadata and for closing the session properly.
+FREE_SPACE_MARGIN_BYTES = 1 << 20
+#: What a damaged file's metadata can make h5py, numpy or the decoders raise while it is read.
+_READ_ERRORS = (OSError, KeyError, ValueError, TypeError, RuntimeError, IndexError, AttributeError, MemoryError,
+                OverflowError, UnicodeError)
+#: The groups every session holds.
+_GROUPS = ("rig", "daq", "settings", "hits", "frf", "fits", "diagnoses")
+#: FrfResult fields with one value per frequency line.
+_FRF_LINE_FIELDS = ("h1", "h2", "coherence", "gff", "gxx", "gfx", "h1_std_coherence", "h1_std_scatter")
+
+Method = TypeVar("Method", bound=Callable[..., Any])
 
 
-class SessionError(GasfilmError):
-    """A session file is missing, damaged, foreign, too new, or holds unusable data."""
+def _reading(what: str) -> Callable[[Method], Method]:
+    """Turn anything a damaged file makes the decorated reader raise into one :class:`SessionError` line naming the
+    file and ``what`` could not be read."""
+
+    def decorate(method: Method) -> Method:
+        @functools.wraps(method)
+        def reader(self: "Session", *args: Any, **kwargs: Any) -> Any:
+            try:
+                return method(self, *args, **kwargs)
+            except SessionError:
+                raise
+            except GasfilmError as error:
+                raise SessionError(f"{self.path}: damaged session: {what}: {error}") from None
+            except _READ_ERRORS as error:
+                raise SessionError(f"{self.path}: damaged session: {what} cannot be read ({one_line(error)})") from None
+
+        return reader  # type: ignore[return-value]
+
+    return decorate
+
+
+@contextlib.contextmanager
+def _h5py_errors_raised() -> Iterator[None]:
+    """Raise the HDF5 write errors that h5py can only report when it frees an object whose cached data cannot be
+    written (e.g. on a full disk): it prints them through ``sys.excepthook`` and ``sys.unraisablehook`` and goes on.
+    Both hooks collect them instead while the block runs (only h5py runs inside it, in this thread)."""
+    swallowed: list[BaseException] = []
+    previous = sys.unraisablehook, sys.excepthook
+    thread = threading.get_ident()
+
+    def unraisable_hook(unraisable: Any) -> None:
+        if isinstance(unraisable.exc_value, (OSError, RuntimeError)) and threading.get_ident() == thread:
+            swallowed.append(unraisable.exc_value)
+        else:
+            previous[0](unraisable)
+
+    def except_hook(kind: type, value: BaseException, trace: Any) -> None:
+        if isinstance(value, (OSError, RuntimeError)) and threading.get_ident() == thread:
+            swallowed.append(value)
+        else:
+            previous[1](kind, value, trace)
+
+    sys.unraisablehook, sys.excepthook = unraisable_hook, except_hook
+    try:
+        yield
+    except (OSError, RuntimeError) as error:
+        traceback.clear_frames(error.__traceback__)  # frees the h5py objects its frames hold while the hooks listen
+        raise
+    finally:
+        sys.unraisablehook, sys.excepthook = previous
+    if swallowed:
+        raise swallowed[0]
+
+
+def _write_error_text(error: BaseException) -> str:
+    """The operating system's reason in an HDF5 write error (e.g. "No space left on device"), else its message."""
+    match = re.search(r"error message = '([^']*)'", str(error))
+    if match:
+        return match.group(1)
+    return getattr(error, "strerror", None) or one_line(error)
 
 
 @dataclass(frozen=True)
@@ -105,221 +167,12 @@ class StoredHit:
         )
 
 
-def to_jsonable(value: Any) -> Any:
-    """Plain JSON types for settings: dataclasses, enums, numpy values, tuples and paths included."""
-    if dataclasses.is_dataclass(value) and not isinstance(value, type):
-        return {field.name: to_jsonable(getattr(value, field.name)) for field in dataclasses.fields(value)}
-    if isinstance(value, enum.Enum):
-        return to_jsonable(value.value)
-    if isinstance(value, Mapping):
-        return {str(key): to_jsonable(item) for key, item in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [to_jsonable(item) for item in value]
-    if isinstance(value, np.ndarray):
-        return to_jsonable(value.tolist())
-    if isinstance(value, np.generic):
-        return value.item()
-    if isinstance(value, complex):
-        return {"real": value.real, "imag": value.imag}
-    if isinstance(value, Path):
-        return str(value)
-    return value
-
-
-def _json_dumps(value: Any) -> str:
-    return json.dumps(to_jsonable(value), allow_nan=True)
-
-
-def _utc_now() -> str:
-    return datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")
-
-
-def _hit_table_dtype(channel_count: int) -> np.dtype:
-    return np.dtype(
-        [
-            ("accepted", "?"),
-            ("overridden", "?"),
-            ("reasons", f"S{REASONS_LENGTH}"),
-            ("start_time_s", "<f8"),
-            ("trigger_index", "<i8"),
-            ("capture_index", "<i8"),
-            ("sample_rate_hz", "<f8"),
-            ("force_channel", "<i2"),
-            ("response_channel", "<i2"),
-            ("overload", "?", (channel_count,)),
-        ]
-    )
-
-
-def _encode_reasons(reasons: tuple[str, ...], path: Path) -> bytes:
-    for reason in reasons:
-        if ";" in reason:
-            raise SessionError(f"{path}: hit reason '{reason}' contains ';', which separates stored reasons")
-    encoded = "; ".join(reasons).encode("utf-8")
-    if len(encoded) > REASONS_LENGTH:
-        raise SessionError(f"{path}: hit reasons '{'; '.join(reasons)}' exceed {REASONS_LENGTH} bytes")
-    return encoded
-
-
-def _decode_reasons(raw: bytes) -> tuple[str, ...]:
-    text = raw.decode("utf-8")
-    return tuple(reason for reason in text.split("; ") if reason)
-
-
-def _config_to_dict(config: DaqConfig) -> dict[str, Any]:
-    return {
-        "channels": [
-            {
-                "physical_channel": channel.physical_channel,
-                "kind": channel.kind.value,
-                "sensitivity": channel.sensitivity,
-                "sensitivity_units": channel.sensitivity_units,
-                "iepe_current_a": channel.iepe_current_a,
-                "coupling": Coupling(channel.coupling).value,
-                "name": channel.name,
-                "unit": channel.kind.unit,
-                "full_scale_si": channel.full_scale_si,
-            }
-            for channel in config.channels
-        ],
-        "sample_rate_hz": config.sample_rate_hz,
-        "samples_per_chunk": config.samples_per_chunk,
-    }
-
-
-def _config_from_dict(data: Mapping[str, Any]) -> DaqConfig:
-    channels = tuple(
-        ChannelConfig(
-            physical_channel=channel["physical_channel"],
-            kind=ChannelKind(channel["kind"]),
-            sensitivity=float(channel["sensitivity"]),
-            sensitivity_units=channel["sensitivity_units"],
-            iepe_current_a=float(channel["iepe_current_a"]),
-            coupling=Coupling(channel["coupling"]),
-            name=channel["name"],
-        )
-        for channel in data["channels"]
-    )
-    return DaqConfig(channels, float(data["sample_rate_hz"]), int(data["samples_per_chunk"]))
-
-
-def _write_mapping(group: h5py.Group, values: Mapping[str, Any]) -> None:
-    """Arrays become datasets, strings and numbers attributes, anything else a JSON attribute."""
-    json_keys = []
-    for key, value in values.items():
-        if isinstance(value, (list, tuple)) and value and all(
-            isinstance(item, (int, float, complex, np.number)) and not isinstance(item, bool) for item in value
-        ):
-            value = np.asarray(value)
-        if isinstance(value, np.ndarray) and value.dtype.kind in "biufc":
-            group.create_dataset(key, data=value)
-        elif isinstance(value, (str, bool, int, float, np.number, np.bool_)):
-            group.attrs[key] = value
-        else:
-            group.attrs[key] = _json_dumps(value)
-            json_keys.append(key)
-    group.attrs["json_keys"] = _json_dumps(json_keys)
-
-
-def _read_mapping(group: h5py.Group) -> dict[str, Any]:
-    json_keys = set(json.loads(group.attrs.get("json_keys", "[]")))
-    values: dict[str, Any] = {}
-    for key, value in group.attrs.items():
-        if key == "json_keys":
-            continue
-        if key in json_keys:
-            values[key] = json.loads(value)
-        elif isinstance(value, np.generic):
-            values[key] = value.item()
-        else:
-            values[key] = value
-    for key, dataset in group.items():
-        values[key] = dataset[()]
-    return values
-
-
-def _describe_open_failure(path: Path, error: OSError) -> SessionError:
-    text = str(error)
-    if "truncated file" in text:
-        return SessionError(f"{path}: truncated HDF5 file (the file ends before its data does)")
-    if "signature not found" in text:
-        return SessionError(f"{path}: wrong file type: not an HDF5 file")
-    return SessionError(f"{path}: cannot open the HDF5 file ({text})")
-
-
-class _WriterLock:
-    """An exclusive ``flock`` on the session file, held by the one process that writes it.
-
-    HDF5's own file locking is switched off (``locking=False``) so SWMR readers can follow a recording; this lock
-    keeps a second writer (or a recovery) away from a session that a live process is still recording into. The
-    kernel drops it when the process ends, killed or not. Without ``fcntl`` (Windows) HDF5's locking stays on.
-    """
-
-    def __init__(self, path: Path) -> None:
-        self._fd = -1
-        if fcntl is None:
-            return
-        try:
-            self._fd = os.open(path, os.O_RDONLY)
-        except OSError as error:
-            raise SessionError(f"{path}: cannot open the session file ({error.strerror})") from None
-        try:
-            fcntl.flock(self._fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except OSError:
-            self.release()
-            raise SessionError(
-                f"{path}: another process is writing this session; wait until it has finished"
-            ) from None
-
-    @staticmethod
-    def held_elsewhere(path: Path) -> bool:
-        """Whether a live process holds the writer lock of ``path`` (probed without keeping it)."""
-        try:
-            _WriterLock(path).release()
-        except SessionError:
-            return True
-        return False
-
-    def release(self) -> None:
-        if self._fd >= 0:
-            os.close(self._fd)
-            self._fd = -1
-
-
-def _h5(path: Path, mode: str, **options: Any) -> h5py.File:
-    """Open with HDF5's file locking off where :class:`_WriterLock` replaces it."""
-    if mode != "r":
-        options.setdefault("libver", "latest")
-    if fcntl is not None:
-        options["locking"] = False
-    return h5py.File(path, mode, **options)
-
-
-def _check_unclosed_file(path: Path) -> None:
-    """Raise unless a file left open by its writer can be read in SWMR mode without running past its end."""
-    try:
-        probe = subprocess.run(
-            [sys.executable, "-c", PROBE_SCRIPT, str(path)], capture_output=True, text=True, timeout=PROBE_TIMEOUT_S
-        )
-    except subprocess.TimeoutExpired:
-        raise SessionError(
-            f"{path}: truncated or damaged HDF5 file: left open by its writer, and reading it runs past its end"
-        ) from None
-    if probe.returncode == 3:
-        raise SessionError(f"{path}: truncated HDF5 file: left open by its writer, its hit records end early")
-    if probe.returncode != 0:
-        last_line = (probe.stderr.strip().splitlines() or ["no message"])[-1]
-        raise SessionError(
-            f"{path}: truncated or damaged HDF5 file: left open by its writer, and part of it cannot be read "
-            f"({last_line})"
-        )
-
 
 class Session:
     """An open session file. Create with :meth:`create`, open with :meth:`open`; use as a context manager."""
 
     def __init__(
-        self, path: Path, file: h5py.File, lock: _WriterLock | None = None, recovered: bool = False
+        self, path: Path, file: h5py.File, lock: WriterLock | None = None, recovered: bool = False
     ) -> None:
         self.path = path
         self._file = file
@@ -327,6 +180,10 @@ class Session:
         self.writable = lock is not None
         self.recovered = recovered
         self.sync_each_hit = True
+        #: Appending a hit that would make the file larger than this raises :class:`SessionWriteError`.
+        self.size_limit_bytes = DEFAULT_SIZE_LIMIT_BYTES
+        self._write_failure: str | None = None  # why writing failed: the file is then closed without more writes
+        self._hit_count = 0
         try:
             self._check_layout()
         except SessionError:
@@ -363,15 +220,21 @@ class Session:
             raise SessionError(f"{path}: is a folder, not a session file")
         if not path.parent.is_dir():
             raise SessionError(f"{path}: the folder {path.parent} does not exist")
-        replaced = _WriterLock(path) if path.exists() else None  # never replace a session being recorded
-        building = path.with_name(f".{path.name}.{os.getpid()}.creating")
-        file = _h5(building, "w")
+        remove_leftovers(path)
+        replaced = WriterLock(path) if overwrite and path.exists() else None  # never replace a session being recorded
+        building = building_path(path, "creating")
+        try:
+            file = open_h5(building, "w")
+        except OSError as error:
+            if replaced is not None:
+                replaced.release()
+            raise SessionError(f"{path}: cannot create the session file ({_write_error_text(error)})") from None
         lock = None
         try:
-            lock = _WriterLock(building)
+            lock = WriterLock(building)
             file.attrs["format"] = FORMAT_NAME
             file.attrs["schema_version"] = SCHEMA_VERSION
-            file.attrs["created_utc"] = _utc_now()
+            file.attrs["created_utc"] = utc_now()
             file.attrs["status"] = "recording"
             file.attrs["status_reason"] = ""
             file.attrs["closed_utc"] = ""
@@ -379,13 +242,13 @@ class Session:
             rig.attrs["present"] = rig_spec_toml is not None
             rig.create_dataset("spec_toml", data=rig_spec_toml or "", dtype=h5py.string_dtype())
             daq = file.create_group("daq")
-            daq.attrs["config"] = _json_dumps(_config_to_dict(daq_config))
+            daq.attrs["config"] = json_dumps(config_to_dict(daq_config))
             daq.attrs["requested_sample_rate_hz"] = float(daq_config.sample_rate_hz)
             daq.attrs["sample_rate_hz"] = float(actual_sample_rate_hz or daq_config.sample_rate_hz)
             daq.attrs["device"] = device_name
             settings_group = file.create_group("settings")
             for key, value in settings.items():
-                settings_group.attrs[key] = _json_dumps(value)
+                settings_group.attrs[key] = json_dumps(value)
             channel_count = len(daq_config.channels)
             chunk_samples = min(record_samples or DEFAULT_SAMPLES_PER_CHUNK, MAX_SAMPLES_PER_CHUNK)
             hits = file.create_group("hits")
@@ -402,18 +265,23 @@ class Session:
                 shape=(0,),
                 maxshape=(None,),
                 chunks=(64,),
-                dtype=_hit_table_dtype(channel_count),
+                dtype=hit_table_dtype(channel_count),
             )
             for name in ("frf", "fits", "diagnoses"):
                 file.create_group(name)
             file.flush()
             file.swmr_mode = True
-            os.replace(building, path)
-        except BaseException:
+            move_into_place(building, path, overwrite)
+        except BaseException as error:
+            if isinstance(error, (OSError, RuntimeError)):
+                logger.error("%s: creating the session failed: %s", path, error)
+                error = SessionError(f"{path}: cannot create the session file ({_write_error_text(error)})")
             file.close()
             if lock is not None:
                 lock.release()
             building.unlink(missing_ok=True)
+            if isinstance(error, SessionError):
+                raise error from None
             raise
         finally:
             if replaced is not None:
@@ -432,52 +300,80 @@ class Session:
             raise SessionError(f"{path}: no such session file")
         if path.is_dir():
             raise SessionError(f"{path}: is a folder, not a session file")
-        lock = _WriterLock(path) if mode == "a" else None
+        lock = WriterLock(path) if mode == "a" else None
+        if lock is not None:
+            remove_leftovers(path)
         try:
-            file = _h5(path, mode)
+            file = open_h5(path, mode)
         except OSError as error:
             if "already open for write" not in str(error):
                 if lock is not None:
                     lock.release()
-                raise _describe_open_failure(path, error) from None
+                raise describe_open_failure(path, error) from None
             # The flags of a writer that is still recording (mode "r" only: else the lock would have failed)
             # or that ended without closing the file (killed, crashed, power lost).
-            live = lock is None and _WriterLock.held_elsewhere(path)
+            live = lock is None and WriterLock.held_elsewhere(path)
             if not live:
                 try:
-                    _check_unclosed_file(path)
+                    check_unclosed_file(path)
                 except SessionError:
                     if lock is not None:
                         lock.release()
                     raise
             if mode == "r":
                 try:
-                    file = _h5(path, "r", swmr=True)
+                    file = open_h5(path, "r", swmr=True)
                 except OSError as swmr_error:
-                    raise _describe_open_failure(path, swmr_error) from None
+                    raise describe_open_failure(path, swmr_error) from None
                 return cls(path, file, recovered=not live)
             try:
-                recovered_lock = _recover(path)
+                recovered_lock = recover(path)
             finally:
                 lock.release()
-            return cls(path, _h5(path, "a"), recovered_lock, recovered=True)
+            return cls(path, open_h5(path, "a"), recovered_lock, recovered=True)
         return cls(path, file, lock)
 
+    @_reading("its layout")
     def _check_layout(self) -> None:
+        """Refuse a file that is not a session, is too new, or whose structure or declared sizes are damaged."""
         attrs = self._file.attrs
-        if attrs.get("format") != FORMAT_NAME or "schema_version" not in attrs:
+        format_mark = attrs.get("format")
+        if not (isinstance(format_mark, str) and format_mark == FORMAT_NAME) or "schema_version" not in attrs:
             raise SessionError(f"{self.path}: an HDF5 file, but not a gasfilm session (no '{FORMAT_NAME}' format mark)")
-        version = int(attrs["schema_version"])
+        version = attrs["schema_version"]
+        version = version.item() if isinstance(version, np.generic) else version
+        if isinstance(version, bool) or not isinstance(version, int) or version < 1:
+            raise SessionError(
+                f"{self.path}: damaged session: schema_version {one_line(repr(version), 60)} is not a positive integer"
+            )
         if version > SCHEMA_VERSION:
             raise SessionError(
                 f"{self.path}: session schema_version {version} is newer than this gasfilm reads "
                 f"(up to {SCHEMA_VERSION}); update gasfilm"
             )
-        try:
-            self._table.shape
-            self._data.shape
-        except (KeyError, OSError) as error:
-            raise SessionError(f"{self.path}: damaged session: the hit datasets cannot be read ({error})") from None
+        for name in ("status", "status_reason"):
+            if not isinstance(attrs.get(name), str):
+                raise SessionError(f"{self.path}: damaged session: the '{name}' attribute is missing or not text")
+        for name in _GROUPS:
+            if not isinstance(self._file.get(name), h5py.Group):
+                raise SessionError(f"{self.path}: damaged session: the group '{name}' is missing")
+        for name in ("data", "table"):
+            if not isinstance(self._file["hits"].get(name), h5py.Dataset):
+                raise SessionError(f"{self.path}: damaged session: the dataset 'hits/{name}' is missing")
+        data, table = self._data, self._table
+        channels = len(self.daq_config.channels)
+        if data.ndim != 3 or data.dtype.kind != "f" or data.shape[1] != channels:
+            raise SessionError(
+                f"{self.path}: damaged session: 'hits/data' has shape {data.shape} and type {data.dtype}; expected "
+                f"(hits, {channels} channels, samples) floats"
+            )
+        expected = hit_table_dtype(channels)
+        if table.ndim != 1 or table.dtype.names is None or any(
+            name not in table.dtype.names or table.dtype[name].shape != expected[name].shape for name in expected.names
+        ):
+            raise SessionError(f"{self.path}: damaged session: 'hits/table' does not have the hit table's columns")
+        check_declared_rows(self.path, table, data)
+        self._hit_count = committed_hits(table, data)
 
     # ----- context manager and closing ----------------------------------------------------------------------
 
@@ -503,15 +399,68 @@ class Session:
         adding a fit to an aborted session does not make it complete)."""
         if not self.is_open:
             return
+        if self._write_failure is not None:
+            self._close_after_write_failure()
+            return
         if self.writable:
             if status is None:
                 status = "complete" if self._file.attrs["status"] == "recording" else None
             elif status not in ("complete", "aborted"):
                 raise SessionError(f"{self.path}: close status '{status}' is not valid; use 'complete' or 'aborted'")
             if status is not None:
-                self._set_status(status, reason)
-                self._file.attrs["closed_utc"] = _utc_now()
+                try:
+                    with self._writing(f"its status '{status}'"):
+                        self._set_status(status, reason)
+                        self._file.attrs["closed_utc"] = utc_now()
+                        self._file.flush()
+                except SessionWriteError:
+                    self._close_after_write_failure()
+                    raise
         self._file.close()
+        if self._lock is not None:
+            self._lock.release()
+
+    @contextlib.contextmanager
+    def _writing(self, what: str) -> Iterator[None]:
+        """Run HDF5 writes; when one fails (full disk, I/O error), detach the file at once, note the failure (nothing
+        more is written) and raise one :class:`SessionWriteError` line naming ``what`` was being written."""
+        try:
+            with _h5py_errors_raised():
+                try:
+                    yield
+                except (OSError, RuntimeError):
+                    self._detach_file()  # before h5py frees the objects of the failed write: see _detach_file
+                    raise
+        except (OSError, RuntimeError) as error:
+            self._detach_file()
+            self._write_failure = _write_error_text(error)
+            logger.error("%s: writing %s failed: %s; %d hits kept", self.path, what, one_line(error), self._hit_count)
+            raise SessionWriteError(
+                f"{self.path}: writing {what} failed ({self._write_failure}); recording stopped, the "
+                f"{self._hit_count} hits before it are kept"
+            ) from None
+
+    def _detach_file(self) -> None:
+        """Point the file's descriptor at /dev/null, so HDF5 cannot put part of its cached metadata over what is on
+        disk, and closing the file does not fail (a failed close leaves HDF5 in a state that crashes the process when
+        it exits). The file on disk keeps its "open for writing" mark and opens as an interrupted session with every
+        committed hit."""
+        if os.name == "nt" or self._write_failure is not None or not self.is_open:
+            return  # on Windows the handle is not a file descriptor
+        try:
+            null = os.open(os.devnull, os.O_RDWR)
+            os.dup2(null, self._file.id.get_vfd_handle())
+            os.close(null)
+        except (OSError, RuntimeError) as error:
+            logger.warning("%s: cannot detach the file after the write failure: %s", self.path, one_line(error))
+
+    def _close_after_write_failure(self) -> None:
+        """Let go of a file that could not be written (detached, so nothing more reaches the disk)."""
+        try:
+            with _h5py_errors_raised():
+                self._file.close()
+        except (OSError, RuntimeError) as error:
+            logger.warning("%s: closing after the write failure: %s", self.path, one_line(error))
         if self._lock is not None:
             self._lock.release()
 
@@ -528,13 +477,15 @@ class Session:
             raise SessionError(f"{self.path}: the session is open read-only (open it with mode 'a' to change it)")
         if not self.is_open:
             raise SessionError(f"{self.path}: the session is closed")
+        if self._write_failure is not None:
+            raise SessionWriteError(f"{self.path}: writing failed earlier ({self._write_failure}); nothing more is written")
 
     def _structural(self) -> None:
         """Leave SWMR mode (by reopening the file) so groups and attributes can be created."""
         self._require_writable()
         if self._file.swmr_mode:
             self._file.close()
-            self._file = _h5(self.path, "a")
+            self._file = open_h5(self.path, "a")
 
     def _appending(self) -> None:
         """Enter SWMR mode: from now on the file on disk is consistent after every flush."""
@@ -565,10 +516,12 @@ class Session:
         return self._file[name]
 
     @property
+    @_reading("schema_version")
     def schema_version(self) -> int:
         return int(self._file.attrs["schema_version"])
 
     @property
+    @_reading("the status")
     def status(self) -> str:
         """``recording``, ``complete``, ``aborted``; ``interrupted`` when the writer ended without closing."""
         status = str(self._file.attrs["status"])
@@ -577,37 +530,45 @@ class Session:
         return status
 
     @property
+    @_reading("the status reason")
     def status_reason(self) -> str:
         return str(self._file.attrs["status_reason"])
 
     @property
+    @_reading("the DAQ configuration")
     def daq_config(self) -> DaqConfig:
-        return _config_from_dict(json.loads(self._group("daq").attrs["config"]))
+        return config_from_dict(json.loads(self._group("daq").attrs["config"]))
 
     @property
+    @_reading("the sample rate")
     def sample_rate_hz(self) -> float:
         """The sample rate the device actually ran at."""
         return float(self._group("daq").attrs["sample_rate_hz"])
 
     @property
+    @_reading("the requested sample rate")
     def requested_sample_rate_hz(self) -> float:
         return float(self._group("daq").attrs["requested_sample_rate_hz"])
 
     @property
+    @_reading("the device name")
     def device_name(self) -> str:
         return str(self._group("daq").attrs["device"])
 
     @property
+    @_reading("the rig spec")
     def rig_spec_toml(self) -> str | None:
         if not bool(self._group("rig").attrs["present"]):
             return None
         return self._group("rig")["spec_toml"].asstr()[()]
 
     @property
+    @_reading("the settings")
     def settings(self) -> dict[str, Any]:
         """Processing settings as stored (plain JSON values)."""
         return {key: json.loads(value) for key, value in self._group("settings").attrs.items()}
 
+    @_reading("the stored settings")
     def settings_as(self, key: str, cls: type) -> Any:
         """The stored settings under ``key`` as a ``cls`` dataclass (``cls()`` when none were stored)."""
         from gasfilm.analysis.settings import decode_setting
@@ -618,7 +579,7 @@ class Session:
         """Store (or replace) processing settings by key."""
         self._structural()
         for key, value in settings.items():
-            self._group("settings").attrs[key] = _json_dumps(value)
+            self._group("settings").attrs[key] = json_dumps(value)
         self._file.flush()
 
     # ----- hits ---------------------------------------------------------------------------------------------------
@@ -630,7 +591,7 @@ class Session:
         A read-only view of a session being recorded shows the hits committed when it was opened; open it again to
         see newer ones. (``Dataset.refresh`` is not used: with HDF5 2.0.0 it returned wrong table rows from a killed
         writer's file after a partial read.)"""
-        return min(self._table.shape[0], self._data.shape[0])
+        return self._hit_count
 
     @property
     def record_samples(self) -> int:
@@ -638,14 +599,19 @@ class Session:
         return int(self._data.shape[2])
 
     def append_hit(self, hit: Any, verdict: Any) -> int:
-        """Store one hit and its verdict, flushed to disk before returning; return its index in the session."""
-        self._appending()
+        """Store one hit and its verdict, flushed to disk before returning; return its index in the session.
+
+        Raises :class:`SessionWriteError` when the hit would pass the size limit or the free disk space, or when
+        writing fails (full disk, I/O error): the hits stored before stay in the file, and nothing more is written."""
+        self._require_writable()
         data = np.asarray(hit.data, dtype=np.float64)
         channels = self._data.shape[1]
         if data.ndim != 2 or data.shape[0] != channels:
             raise SessionError(f"{self.path}: hit record of shape {data.shape} does not have {channels} channels")
         if not np.all(np.isfinite(data)):
             raise SessionError(f"{self.path}: hit {self.hit_count} has NaN or infinite samples; not stored")
+        if not float(hit.sample_rate_hz) > 0:
+            raise SessionError(f"{self.path}: hit {self.hit_count} has sample rate {hit.sample_rate_hz}; not stored")
         index = self.hit_count
         samples = self.record_samples
         if index == 0 and self._data.shape[0] == 0:
@@ -657,7 +623,7 @@ class Session:
         row = np.zeros((), dtype=self._table.dtype)
         row["accepted"] = bool(verdict.accepted)
         row["overridden"] = bool(getattr(verdict, "overridden", False))
-        row["reasons"] = _encode_reasons(tuple(verdict.reasons), self.path)
+        row["reasons"] = encode_reasons(tuple(verdict.reasons), self.path)
         row["start_time_s"] = float(hit.start_time_s)
         row["trigger_index"] = int(hit.trigger_index)
         row["capture_index"] = int(hit.index)
@@ -665,39 +631,80 @@ class Session:
         row["force_channel"] = int(hit.force_channel)
         row["response_channel"] = int(hit.response_channel)
         row["overload"] = np.asarray(hit.overload, dtype=bool).reshape(channels)
-        self._data.resize((index + 1, channels, samples))
-        self._data[index] = data
-        self._data.flush()
-        self._table.resize((index + 1,))
-        self._table[index] = row
-        self._table.flush()
-        self._sync()
+        self._check_room(data.nbytes + row.nbytes)
+        with self._writing(f"hit {index}"):
+            self._appending()
+            records, table = self._data, self._table
+            records.resize((index + 1, channels, samples))
+            records[index] = data
+            records.flush()
+            table.resize((index + 1,))
+            table[index] = row
+            table.flush()
+            self._file.flush()  # nothing left for HDF5 to write when the objects are freed, where errors pass unseen
+            del records, table
+            self._sync()
+        self._hit_count = index + 1
         return index
 
+    def _check_room(self, hit_bytes: int) -> None:
+        """Refuse a hit that would pass the size limit or leave the disk without room to close the session."""
+        file_bytes = os.path.getsize(self.path)
+        if file_bytes + hit_bytes > self.size_limit_bytes:
+            logger.error("%s: size limit %d bytes reached with %d hits", self.path, self.size_limit_bytes,
+                         self._hit_count)
+            raise SessionWriteError(
+                f"{self.path}: the session reached its size limit of {self.size_limit_bytes / 1e9:.3g} GB; recording "
+                f"stopped, its {self._hit_count} hits are kept"
+            )
+        free_bytes = shutil.disk_usage(self.path.parent).free
+        if free_bytes < hit_bytes + FREE_SPACE_MARGIN_BYTES:
+            logger.error("%s: disk full (%d bytes free) with %d hits", self.path, free_bytes, self._hit_count)
+            raise SessionWriteError(
+                f"{self.path}: disk full ({free_bytes / 1e6:.3g} MB free; a hit needs {hit_bytes / 1e6:.3g} MB "
+                f"plus {FREE_SPACE_MARGIN_BYTES / 1e6:.3g} MB kept to close the session); recording stopped, its "
+                f"{self._hit_count} hits are kept"
+            )
+
+    @_reading("the hit table")
     def _rows(self) -> np.ndarray:
-        try:
-            return self._table[: self.hit_count]
-        except OSError as error:
-            raise SessionError(f"{self.path}: damaged session: the hit table cannot be read ({error})") from None
+        """The committed rows of the hit table, checked: channels, sample rate and trigger within range."""
+        rows = self._table[: self.hit_count]
+        channels, samples = self._data.shape[1], self.record_samples
+        checks = (
+            ("force channel", "force_channel", (rows["force_channel"] >= 0) & (rows["force_channel"] < channels)),
+            ("response channel", "response_channel",
+             (rows["response_channel"] >= 0) & (rows["response_channel"] < channels)),
+            ("sample rate", "sample_rate_hz", np.isfinite(rows["sample_rate_hz"]) & (rows["sample_rate_hz"] > 0)),
+            ("trigger sample", "trigger_index", (rows["trigger_index"] >= 0) & (rows["trigger_index"] <= samples)),
+            ("start time", "start_time_s", np.isfinite(rows["start_time_s"])),
+        )
+        for label, field, valid in checks:
+            if not np.all(valid):
+                hit = int(np.argmin(valid))
+                raise SessionError(
+                    f"{self.path}: damaged session: hit {hit} has {label} {rows[field][hit]}, out of range "
+                    f"({channels} channels, {samples} samples per record)"
+                )
+        return rows
 
     def _verdict(self, row: np.void) -> Any:
         from gasfilm.analysis.validation import Verdict
 
         return Verdict(
             accepted=bool(row["accepted"]),
-            reasons=_decode_reasons(bytes(row["reasons"])),
+            reasons=decode_reasons(bytes(row["reasons"])),
             overridden=bool(row["overridden"]),
         )
 
+    @_reading("the hit verdicts")
     def verdicts(self) -> list[Any]:
         """Every hit's verdict, in order (no sample data read)."""
         return [self._verdict(row) for row in self._rows()]
 
+    @_reading("the hit records")
     def _read_data(self, indices: np.ndarray | slice) -> np.ndarray:
-        try:
-            return self._data[indices]
-        except OSError as error:
-            raise SessionError(f"{self.path}: damaged session: hit records cannot be read ({error})") from None
+        return self._data[indices]
 
     def _check_finite(self, records: np.ndarray, indices: np.ndarray) -> None:
         bad = ~np.all(np.isfinite(records), axis=(1, 2))
@@ -707,6 +714,7 @@ class Session:
             label = self.daq_config.channels[channel].label
             raise SessionError(f"{self.path}: hit {hit} has NaN samples in channel {channel} ({label})")
 
+    @_reading("the hits")
     def hits(self, check_finite: bool = True) -> list[StoredHit]:
         """Every stored hit with its record and verdict."""
         rows = self._rows()
@@ -730,9 +738,11 @@ class Session:
             for index, row in zip(indices, rows)
         ]
 
+    @_reading("the hit table")
     def accepted_indices(self) -> np.ndarray:
         return np.flatnonzero(self._rows()["accepted"])
 
+    @_reading("the accepted hits")
     def accepted_records(self) -> np.ndarray:
         """The accepted hits' records, ``(hits, channels, samples)``; raises naming a hit with NaN samples."""
         indices = self.accepted_indices()
@@ -747,36 +757,58 @@ class Session:
         self._require_writable()
         if not 0 <= index < self.hit_count:
             raise SessionError(f"{self.path}: hit {index} does not exist (the session holds {self.hit_count})")
-        if not self._file.swmr_mode:
+        reasons = encode_reasons(tuple(verdict.reasons), self.path)
+        with self._writing(f"the verdict of hit {index}"):
             self._appending()
-        row = self._table[index]
-        row["accepted"] = bool(verdict.accepted)
-        row["overridden"] = bool(getattr(verdict, "overridden", False))
-        row["reasons"] = _encode_reasons(tuple(verdict.reasons), self.path)
-        self._table[index] = row
-        self._table.flush()
-        self._sync()
+            table = self._table
+            row = table[index]
+            row["accepted"] = bool(verdict.accepted)
+            row["overridden"] = bool(getattr(verdict, "overridden", False))
+            row["reasons"] = reasons
+            table[index] = row
+            table.flush()
+            self._file.flush()
+            del table
+            self._sync()
 
     # ----- results ------------------------------------------------------------------------------------------------
 
     def _write_result(self, kind: str, name: str, values: Mapping[str, Any]) -> None:
-        self._structural()
-        parent = self._group(kind)
-        if name in parent:
-            del parent[name]
-        group = parent.create_group(name)
-        _write_mapping(group, values)
-        group.attrs["written_utc"] = _utc_now()
-        self._file.flush()
+        self._require_writable()
+        with self._writing(f"the {kind} result '{name}'"):
+            self._structural()
+            parent = self._group(kind)
+            if name in parent:
+                del parent[name]
+            group = parent.create_group(name)
+            write_mapping(group, values)
+            group.attrs["written_utc"] = utc_now()
+            self._file.flush()
+            del parent, group
 
     def _read_result(self, kind: str, name: str) -> dict[str, Any]:
         if name not in self._group(kind):
             available = ", ".join(self._group(kind)) or "none"
             raise SessionError(f"{self.path}: no {kind} result named '{name}' (available: {available})")
-        values = _read_mapping(self._group(kind)[name])
+        return self._read_result_group(kind, name)
+
+    @_reading("a stored result")
+    def _read_result_group(self, kind: str, name: str) -> dict[str, Any]:
+        group = self._group(kind)[name]
+        file_bytes = os.path.getsize(self.path)
+        for key, dataset in group.items():
+            if not isinstance(dataset, h5py.Dataset):
+                raise SessionError(f"{self.path}: damaged session: {kind} result '{name}': '{key}' is not a dataset")
+            if dataset.compression is None and dataset.size * dataset.dtype.itemsize > file_bytes:
+                raise SessionError(
+                    f"{self.path}: damaged session: {kind} result '{name}': '{key}' declares {dataset.shape}, "
+                    f"more than the file holds"
+                )
+        values = read_mapping(group)
         values.pop("written_utc", None)
         return values
 
+    @_reading("the stored results")
     def result_names(self, kind: str) -> list[str]:
         """Names stored under ``"frf"``, ``"fits"`` or ``"diagnoses"``."""
         return list(self._group(kind))
@@ -794,8 +826,24 @@ class Session:
 
         values = self._read_result("frf", name)
         values.pop("hit_indices", None)
-        return FrfResult.from_dict(values)
+        lines = np.shape(values.get("freq_hz"))
+        for field in _FRF_LINE_FIELDS:
+            if field in values and np.shape(values[field]) != lines:
+                raise SessionError(
+                    f"{self.path}: damaged session: FRF '{name}': '{field}' has shape {np.shape(values[field])}, "
+                    f"'freq_hz' {lines}"
+                )
+        per_hit = np.shape(values.get("h1_per_hit"))
+        if len(lines) != 1 or len(per_hit) != 2 or per_hit[1] != lines[0]:
+            raise SessionError(
+                f"{self.path}: damaged session: FRF '{name}': 'freq_hz' {lines} and 'h1_per_hit' {per_hit} do not match"
+            )
+        try:
+            return FrfResult.from_dict(values)
+        except (GasfilmError, *_READ_ERRORS) as error:
+            raise SessionError(f"{self.path}: damaged session: FRF '{name}': {one_line(error)}") from None
 
+    @_reading("the FRF's hit list")
     def frf_hit_indices(self, name: str = "frf") -> np.ndarray | None:
         group = self._group("frf").get(name)
         return None if group is None or "hit_indices" not in group else group["hit_indices"][()]
@@ -813,42 +861,3 @@ class Session:
 
     def read_diagnosis(self, name: str) -> dict[str, Any]:
         return self._read_result("diagnoses", name)
-
-
-def _recover(path: Path) -> _WriterLock:
-    """Rewrite a session whose writer ended without closing it into a clean file, committed hits only; return the
-    writer lock on the clean file (taken before it replaces the damaged one)."""
-    clean = path.with_name(f".{path.name}.{os.getpid()}.recovering")
-    try:
-        source = _h5(path, "r", swmr=True)
-    except OSError as error:
-        raise _describe_open_failure(path, error) from None
-    try:
-        if source.attrs.get("format") != FORMAT_NAME:
-            raise SessionError(f"{path}: an HDF5 file, but not a gasfilm session (no '{FORMAT_NAME}' format mark)")
-        with _h5(clean, "w") as target:
-            for key, value in source.attrs.items():
-                target.attrs[key] = value
-            for name in source:
-                source.copy(source[name], target, name=name)
-            committed = min(target["hits/table"].shape[0], target["hits/data"].shape[0])
-            data = target["hits/data"]
-            data.resize((committed, data.shape[1], data.shape[2]))
-            target["hits/table"].resize((committed,))
-            target.attrs["recovered_utc"] = _utc_now()
-            if target.attrs["status"] == "recording":
-                target.attrs["status"] = "interrupted"
-                target.attrs["status_reason"] = (
-                    f"the recording process ended without closing the session; {committed} hits recovered"
-                )
-        lock = _WriterLock(clean)
-    except OSError as error:
-        clean.unlink(missing_ok=True)
-        raise SessionError(f"{path}: damaged session that cannot be recovered ({error})") from None
-    except BaseException:
-        clean.unlink(missing_ok=True)
-        raise
-    finally:
-        source.close()
-    os.replace(clean, path)
-    return lock
