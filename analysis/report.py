@@ -96,7 +96,7 @@ class ReportData:
 
 def read_report_data(path: str | Path) -> ReportData:
     """Everything the report needs from ``path`` (read only)."""
-    from gasfilm.analysis.identify import FitResult, compare_models
+    from gasfilm.analysis.identification import FitResult, compare_models
 
     path = Path(path)
     with Session.open(path, "r") as session:
@@ -406,7 +406,7 @@ def _report_pdf(data: ReportData, drop_db: float) -> bytes:
     lines += [f"  {h['number']:>3}  {h['time_s']:8.2f} s  {h['peak_force_n']:6.0f} N  "
               f"{'accepted' if h['accepted'] else 'rejected'}  {h['reasons']}" for h in data.hits[:60]]
     if data.comparison:
-        from gasfilm.analysis.identify import format_table2
+        from gasfilm.analysis.identification import format_table2
 
         lines += ["", "Identified models (Table 2, g/N):", *format_table2(data.comparison).splitlines()]
     if data.diagnosis is not None:

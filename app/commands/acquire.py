@@ -290,8 +290,8 @@ def _record(args: argparse.Namespace) -> int:
                     break
     except (DeviceError, RecordingStopped) as error:
         progress.done()
-        logger.error("stopped: %s; session closed as aborted, %d accepted hits kept", error,
-                     recorder.accepted_count)
+        logger.error("%s: %s; session closed as aborted, %d accepted hits kept",
+                     "device fault" if isinstance(error, DeviceError) else "stopped", error, recorder.accepted_count)
         session.close("aborted", str(error))
         raise DeviceError(
             f"{error} — session {args.out} closed as aborted, {recorder.accepted_count} accepted hits kept",
