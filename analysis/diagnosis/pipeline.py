@@ -55,6 +55,10 @@ LOCAL_CHI2_PER_POINT = 4.0
 #: A term must remove at least this share of the χ² still in excess of the noise: a model that leaves most of the
 #: mismatch unexplained is not padded with terms that shave a few per cent off it.
 MIN_EXCESS_SHARE = 0.2
+#: Beyond this χ² per point the final spec is grossly inadequate: then only terms that removed at least GROSS_SHARE
+#: of the mismatch left at their step are findings.
+GROSS_CHI2_PER_POINT = 20.0
+GROSS_SHARE = 0.5
 #: Terms whose BIC score lies within this margin of the chosen one's are reported as alternatives.
 ALTERNATIVE_MARGIN = 10.0
 
@@ -117,6 +121,8 @@ def diagnose_spectra(spectra: HitSpectra, spec: RigSpec, progress: Callable[[str
         current = fit(evidence, outcome.spec, outcome.slots)
 
     steps, current, evidence, refits_without = _check_back(spectra, evidence, steps, current, context, progress)
+    steps, current, evidence, refits_without = _drop_partial_terms(spectra, evidence, steps, current, refits_without,
+                                                                   rejected, context, progress)
     rms_recalibrated = replay_rms(spectra, recalibrated_spec)
     findings = [_finding(spectra, evidence, step, current, refits_without[step.identifier], spec, rms_recalibrated,
                          context) for step in steps]
@@ -277,6 +283,43 @@ def _check_back(
         evidence = evidence_for(spectra, refit.spec)
         current = fit(evidence, refit.spec, refit.slots)
     return steps, current, evidence, {}
+
+
+def _drop_partial_terms(
+    spectra: HitSpectra,
+    evidence: Evidence,
+    steps: list[Step],
+    current: FitOutcome,
+    refits_without: dict[str, RigSpec],
+    rejected: list[Rejected],
+    context: FitContext,
+    progress: Callable[[str], None],
+) -> tuple[list[Step], FitOutcome, Evidence, dict[str, RigSpec]]:
+    """When the final spec is still far beyond the noise, a term that removed less than half of the mismatch left at
+    its step is one of several ways to shave a mismatch nothing explains: it is reported as unexplained, not found."""
+    points = evidence.point_count
+    if current.chi2 / points <= GROSS_CHI2_PER_POINT:
+        return steps, current, evidence, refits_without
+    partial = [step for step in steps if (step.chi2_before - step.chi2_after) < GROSS_SHARE * (step.chi2_before - points)]
+    if not partial:
+        return steps, current, evidence, refits_without
+    spec = current.spec
+    for step in partial:
+        share = (step.chi2_before - step.chi2_after) / (step.chi2_before - points)
+        band = _term_band(evidence, current.spec, refits_without[step.identifier])
+        rejected.append(Rejected(step.identifier, f"it removed only {100 * share:.0f} % of the mismatch left at its "
+                                                  f"step, and the rest stays far beyond the noise", band))
+        progress(f"  {step.identifier}: not a finding (removed {100 * share:.0f} % of a mismatch that stays "
+                 f"{current.chi2 / points:.0f}× the noise)")
+        spec = without_effect(spec, _effect_index(spec, step.identifier))
+    evidence = evidence_for(spectra, spec)
+    current = fit(evidence, spec, spec_slots(spec, context))
+    kept = [step for step in steps if step not in partial]
+    refits = {}
+    for step in kept:
+        reduced = without_effect(current.spec, _effect_index(current.spec, step.identifier))
+        refits[step.identifier] = fit(evidence, reduced, spec_slots(reduced, context)).spec
+    return kept, current, evidence, refits
 
 
 def _effect_index(spec: RigSpec, identifier: str) -> int:

@@ -402,7 +402,7 @@ class StepChange(Effect):
         "that moment resonate or damp differently, with no trend within each group.")
     per_hit: ClassVar[bool] = True
 
-    at_time_s: float = _number("s", _non_negative)
+    at_time_s: float = _number("s of session time", _non_negative)
     fraction: float = _number("1", _finite)
     damping_fraction: float = _number("1", _finite, 0.0)
 

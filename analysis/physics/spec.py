@@ -53,6 +53,7 @@ EFFECT_UNIT_RANGES = {
     "N/m³": (0.0, 1e22),
     "N/m": (0.0, 1e13),
     "s": (0.0, 10.0),
+    "s of session time": (0.0, 1e7),
     "1/h": (0.0, 3.6e5),  # 100 % per second: a session of seconds may show a few per cent
     "N or m/s²": (0.0, 1e6),
     "m": (0.0, 10.0),
