@@ -640,7 +640,7 @@ class Session:
         row["response_channel"] = int(hit.response_channel)
         row["overload"] = np.asarray(hit.overload, dtype=bool).reshape(channels)
         self._check_room(data.nbytes + row.nbytes)
-        with self._writing(f"hit {index}"):
+        with self._writing("a new hit"):
             self._appending()
             records, table = self._data, self._table
             records.resize((index + 1, channels, samples))
