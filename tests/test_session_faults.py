@@ -56,8 +56,9 @@ def test_write_error_stops_acquire_with_one_line_and_keeps_every_reported_hit(tm
     run = subprocess.run([*ACQUIRE, "--pacing", "fast", "--seconds", "1000", "--out", str(path)], capture_output=True,
                          text=True, timeout=120, preexec_fn=limit_file_size(600_000))
     assert run.returncode == 2, run.stderr  # not 139: no crash when the process exits
-    assert run.stderr.count("\n") == 1 and "failed (File too large); recording stopped" in run.stderr, run.stderr
+    assert run.stderr.count("\n") == 1 and "writing a new hit failed (File too large)" in run.stderr, run.stderr
     reported = check_reported_hits_stored(path, run.stdout, "interrupted")
+    assert f"recording stopped, the {len(reported)} hits before it are kept" in run.stderr
     assert len(reported) >= 10
     assert not any(line.startswith("session ") for line in run.stdout.splitlines())
 

@@ -5,7 +5,11 @@ public API. Each answer is either a good read or one GasfilmError line naming th
 from __future__ import annotations
 
 import json
+import os
 import shutil
+import subprocess
+import sys
+import textwrap
 import time
 
 import h5py
@@ -211,34 +215,61 @@ def structural_edits() -> dict[str, object]:
 
 def raw_chunk_ranges(path) -> list[tuple[int, int]]:
     ranges = []
-    with h5py.File(path, "r") as f:
+    with h5py.File(path, "r", swmr=True, locking=False) as f:
         f["hits/data"].id.chunk_iter(lambda chunk: ranges.append((chunk.byte_offset, chunk.byte_offset + chunk.size)))
     return ranges
 
 
-def all_mutations(path) -> dict[str, object]:
+def byte_mutations(path, random_flips: int, metadata_flips: int, truncations: int) -> dict[str, object]:
+    """Bit flips anywhere, bit flips outside the hit records (HDF5's metadata, the table, the results), truncations."""
     rng = np.random.default_rng(SEED)
     size = path.stat().st_size
-    mutations = structural_edits()
-    for offset in rng.integers(0, size, RANDOM_FLIPS):
+    mutations = {}
+    for offset in rng.integers(0, size, random_flips):
         mutations[f"flip byte {offset}"] = flip_bit(int(offset), int(rng.integers(8)))
     raw = raw_chunk_ranges(path)
     metadata = np.array([offset for offset in range(size) if not any(lo <= offset < hi for lo, hi in raw)])
-    for offset in rng.choice(metadata, METADATA_FLIPS, replace=False):
+    for offset in rng.choice(metadata, metadata_flips, replace=False):
         mutations[f"flip metadata byte {offset}"] = flip_bit(int(offset), int(rng.integers(8)))
-    for cut in rng.integers(0, size, TRUNCATIONS):
+    for cut in rng.integers(0, size, truncations):
         mutations[f"truncate to {cut}"] = truncate(int(cut))
     return mutations
 
 
 def test_damaged_sessions_give_one_line_naming_the_file(base_session, tmp_path):
-    mutations = all_mutations(base_session)
+    mutations = {**structural_edits(), **byte_mutations(base_session, RANDOM_FLIPS, METADATA_FLIPS, TRUNCATIONS)}
     assert len(mutations) >= 300
+    check_answers(mutations, base_session, tmp_path, min_refused=100)
+
+
+def test_damaged_files_of_a_killed_writer_give_one_line_naming_the_file(tmp_path):
+    """The same for a file whose writer was killed (read through the unclosed-file check, recovered to append)."""
+    path = tmp_path / "killed.h5"
+    script = textwrap.dedent(
+        f"""
+        import os, signal, sys
+        sys.path.insert(0, {os.path.dirname(__file__)!r})
+        from test_session_fuzz import write_base_session
+        from test_session import synthetic_hits
+        from gasfilm.analysis.session import Session
+        from gasfilm.analysis.validation import Verdict
+        write_base_session({str(path)!r})
+        session = Session.open({str(path)!r}, "a")
+        session.append_hit(synthetic_hits(1, samples={SAMPLES})[0], Verdict(True))
+        os.kill(os.getpid(), signal.SIGKILL)
+        """
+    )
+    assert subprocess.run([sys.executable, "-c", script], timeout=60).returncode == -9
+    check_answers(byte_mutations(path, 0, 10, 4), path, tmp_path, min_refused=4)
+
+
+def check_answers(mutations: dict[str, object], original, tmp_path, min_refused: int) -> None:
+    """Each mutation of ``original`` is read, or refused with one GasfilmError line naming the file, within 10 s."""
     outcomes: dict[str, int] = {"read": 0, "refused": 0}
     failures = []
     for number, (name, mutate) in enumerate(mutations.items()):
         path = tmp_path / f"m{number}.h5"
-        shutil.copyfile(base_session, path)
+        shutil.copyfile(original, path)
         mutate(path)
         started = time.monotonic()
         try:
@@ -257,4 +288,4 @@ def test_damaged_sessions_give_one_line_naming_the_file(base_session, tmp_path):
         path.unlink(missing_ok=True)
     print(f"\n{len(mutations)} mutations: {outcomes}")
     assert not failures, "\n".join(failures)
-    assert outcomes["refused"] >= 100  # the edits above are damage, not noise
+    assert outcomes["refused"] >= min_refused  # the mutations are damage, not only noise

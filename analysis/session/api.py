@@ -92,10 +92,11 @@ def _reading(what: str) -> Callable[[Method], Method]:
 
 
 @contextlib.contextmanager
-def _h5py_errors_raised() -> Iterator[None]:
+def _h5py_errors_raised(on_error: Callable[[], None] = lambda: None) -> Iterator[None]:
     """Raise the HDF5 write errors that h5py can only report when it frees an object whose cached data cannot be
     written (e.g. on a full disk): it prints them through ``sys.excepthook`` and ``sys.unraisablehook`` and goes on.
-    Both hooks collect them instead while the block runs (only h5py runs inside it, in this thread)."""
+    Both hooks collect them instead while the block runs (only h5py runs inside it, in this thread). On an error,
+    ``on_error`` runs before the h5py objects of the failed call are freed."""
     swallowed: list[BaseException] = []
     previous = sys.unraisablehook, sys.excepthook
     thread = threading.get_ident()
@@ -116,12 +117,27 @@ def _h5py_errors_raised() -> Iterator[None]:
     try:
         yield
     except (OSError, RuntimeError) as error:
+        on_error()
         traceback.clear_frames(error.__traceback__)  # frees the h5py objects its frames hold while the hooks listen
         raise
     finally:
         sys.unraisablehook, sys.excepthook = previous
     if swallowed:
         raise swallowed[0]
+
+
+def _detach(file: h5py.File, path: Path) -> None:
+    """Point an HDF5 file's descriptor at /dev/null after a write failed, so HDF5 cannot put part of its cached metadata
+    over what is on disk, and closing it does not fail (a failed close leaves HDF5 in a state that crashes the process
+    when it exits). Not on Windows, where the handle is not a file descriptor."""
+    if os.name == "nt":
+        return
+    try:
+        null = os.open(os.devnull, os.O_RDWR)
+        os.dup2(null, file.id.get_vfd_handle())
+        os.close(null)
+    except (OSError, RuntimeError) as error:
+        logger.warning("%s: cannot detach the file after the write failure: %s", path, one_line(error))
 
 
 def _write_error_text(error: BaseException) -> str:
@@ -221,6 +237,9 @@ class Session:
         if not path.parent.is_dir():
             raise SessionError(f"{path}: the folder {path.parent} does not exist")
         remove_leftovers(path)
+        free_bytes = shutil.disk_usage(path.parent).free
+        if free_bytes < FREE_SPACE_MARGIN_BYTES:  # HDF5 failing mid-creation can crash the process when it exits
+            raise SessionWriteError(f"{path}: disk full ({free_bytes / 1e6:.3g} MB free); the session is not created")
         replaced = WriterLock(path) if overwrite and path.exists() else None  # never replace a session being recorded
         building = building_path(path, "creating")
         try:
@@ -232,51 +251,54 @@ class Session:
         lock = None
         try:
             lock = WriterLock(building)
-            file.attrs["format"] = FORMAT_NAME
-            file.attrs["schema_version"] = SCHEMA_VERSION
-            file.attrs["created_utc"] = utc_now()
-            file.attrs["status"] = "recording"
-            file.attrs["status_reason"] = ""
-            file.attrs["closed_utc"] = ""
-            rig = file.create_group("rig")
-            rig.attrs["present"] = rig_spec_toml is not None
-            rig.create_dataset("spec_toml", data=rig_spec_toml or "", dtype=h5py.string_dtype())
-            daq = file.create_group("daq")
-            daq.attrs["config"] = json_dumps(config_to_dict(daq_config))
-            daq.attrs["requested_sample_rate_hz"] = float(daq_config.sample_rate_hz)
-            daq.attrs["sample_rate_hz"] = float(actual_sample_rate_hz or daq_config.sample_rate_hz)
-            daq.attrs["device"] = device_name
-            settings_group = file.create_group("settings")
-            for key, value in settings.items():
-                settings_group.attrs[key] = json_dumps(value)
-            channel_count = len(daq_config.channels)
-            chunk_samples = min(record_samples or DEFAULT_SAMPLES_PER_CHUNK, MAX_SAMPLES_PER_CHUNK)
-            hits = file.create_group("hits")
-            hits.create_dataset(
-                "data",
-                shape=(0, channel_count, 0),
-                maxshape=(None, channel_count, None),
-                chunks=(1, channel_count, chunk_samples),
-                dtype="<f8",
-                fillvalue=np.nan,
-            )
-            hits.create_dataset(
-                "table",
-                shape=(0,),
-                maxshape=(None,),
-                chunks=(64,),
-                dtype=hit_table_dtype(channel_count),
-            )
-            for name in ("frf", "fits", "diagnoses"):
-                file.create_group(name)
-            file.flush()
-            file.swmr_mode = True
+            with _h5py_errors_raised(on_error=lambda: _detach(file, building)):
+                file.attrs["format"] = FORMAT_NAME
+                file.attrs["schema_version"] = SCHEMA_VERSION
+                file.attrs["created_utc"] = utc_now()
+                file.attrs["status"] = "recording"
+                file.attrs["status_reason"] = ""
+                file.attrs["closed_utc"] = ""
+                rig = file.create_group("rig")
+                rig.attrs["present"] = rig_spec_toml is not None
+                rig.create_dataset("spec_toml", data=rig_spec_toml or "", dtype=h5py.string_dtype())
+                daq = file.create_group("daq")
+                daq.attrs["config"] = json_dumps(config_to_dict(daq_config))
+                daq.attrs["requested_sample_rate_hz"] = float(daq_config.sample_rate_hz)
+                daq.attrs["sample_rate_hz"] = float(actual_sample_rate_hz or daq_config.sample_rate_hz)
+                daq.attrs["device"] = device_name
+                settings_group = file.create_group("settings")
+                for key, value in settings.items():
+                    settings_group.attrs[key] = json_dumps(value)
+                channel_count = len(daq_config.channels)
+                chunk_samples = min(record_samples or DEFAULT_SAMPLES_PER_CHUNK, MAX_SAMPLES_PER_CHUNK)
+                hits = file.create_group("hits")
+                hits.create_dataset(
+                    "data",
+                    shape=(0, channel_count, 0),
+                    maxshape=(None, channel_count, None),
+                    chunks=(1, channel_count, chunk_samples),
+                    dtype="<f8",
+                    fillvalue=np.nan,
+                )
+                hits.create_dataset(
+                    "table",
+                    shape=(0,),
+                    maxshape=(None,),
+                    chunks=(64,),
+                    dtype=hit_table_dtype(channel_count),
+                )
+                for name in ("frf", "fits", "diagnoses"):
+                    file.create_group(name)
+                file.flush()
+                file.swmr_mode = True
+                del rig, daq, settings_group, hits
             move_into_place(building, path, overwrite)
         except BaseException as error:
             if isinstance(error, (OSError, RuntimeError)):
                 logger.error("%s: creating the session failed: %s", path, error)
                 error = SessionError(f"{path}: cannot create the session file ({_write_error_text(error)})")
-            file.close()
+            with contextlib.suppress(OSError, RuntimeError):
+                file.close()
             if lock is not None:
                 lock.release()
             building.unlink(missing_ok=True)
@@ -425,12 +447,8 @@ class Session:
         """Run HDF5 writes; when one fails (full disk, I/O error), detach the file at once, note the failure (nothing
         more is written) and raise one :class:`SessionWriteError` line naming ``what`` was being written."""
         try:
-            with _h5py_errors_raised():
-                try:
-                    yield
-                except (OSError, RuntimeError):
-                    self._detach_file()  # before h5py frees the objects of the failed write: see _detach_file
-                    raise
+            with _h5py_errors_raised(on_error=self._detach_file):
+                yield
         except (OSError, RuntimeError) as error:
             self._detach_file()
             self._write_failure = _write_error_text(error)
@@ -441,18 +459,10 @@ class Session:
             ) from None
 
     def _detach_file(self) -> None:
-        """Point the file's descriptor at /dev/null, so HDF5 cannot put part of its cached metadata over what is on
-        disk, and closing the file does not fail (a failed close leaves HDF5 in a state that crashes the process when
-        it exits). The file on disk keeps its "open for writing" mark and opens as an interrupted session with every
-        committed hit."""
-        if os.name == "nt" or self._write_failure is not None or not self.is_open:
-            return  # on Windows the handle is not a file descriptor
-        try:
-            null = os.open(os.devnull, os.O_RDWR)
-            os.dup2(null, self._file.id.get_vfd_handle())
-            os.close(null)
-        except (OSError, RuntimeError) as error:
-            logger.warning("%s: cannot detach the file after the write failure: %s", self.path, one_line(error))
+        """Detach the file after a write failure (see :func:`_detach`): it keeps its "open for writing" mark and opens
+        as an interrupted session with every committed hit."""
+        if self._write_failure is None and self.is_open:
+            _detach(self._file, self.path)
 
     def _close_after_write_failure(self) -> None:
         """Let go of a file that could not be written (detached, so nothing more reaches the disk)."""
@@ -632,7 +642,7 @@ class Session:
         row["response_channel"] = int(hit.response_channel)
         row["overload"] = np.asarray(hit.overload, dtype=bool).reshape(channels)
         self._check_room(data.nbytes + row.nbytes)
-        with self._writing(f"hit {index}"):
+        with self._writing("a new hit"):
             self._appending()
             records, table = self._data, self._table
             records.resize((index + 1, channels, samples))
