@@ -70,6 +70,10 @@ def _finite(value: float) -> str | None:
     return None if math.isfinite(value) else "must be finite"
 
 
+def _nonzero(value: float) -> str | None:
+    return None if value != 0 else "must not be 0"
+
+
 def _order(value: float) -> str | None:
     return None if 0.0 < value < 2.0 else "must be between 0 and 2"
 
@@ -257,11 +261,7 @@ class CubicStiffness(Effect):
         "than softer ones (a nonlinear, cubic-type film spring).")
     per_hit: ClassVar[bool] = True
 
-    k3_n_per_m3: float = _number("N/m³", _finite)
-
-    def validate(self) -> None:
-        if self.k3_n_per_m3 == 0:
-            raise EffectValueError("k3_n_per_m3", "must not be 0")
+    k3_n_per_m3: float = _number("N/m³", _nonzero)
 
     def cubic_stiffness_n_per_m3(self) -> float:
         return self.k3_n_per_m3
@@ -328,11 +328,7 @@ class AddedMass(Effect):
         "The moving mass is not the nominal one (sensor, cable, fixture or a wrong nominal value): the "
         "high-frequency level 1/m and the resonance both move as a mass change predicts.")
 
-    mass_kg: float = _number("kg", _finite)
-
-    def validate(self) -> None:
-        if self.mass_kg == 0:
-            raise EffectValueError("mass_kg", "must not be 0")
+    mass_kg: float = _number("kg", _nonzero)
 
     def added_mass_kg(self) -> float:
         return self.mass_kg
@@ -578,11 +574,7 @@ class CrossTalk(Effect):
         "constant is added to the FRF, which shows most where the true FRF is small (low frequencies, "
         "anti-resonances).")
 
-    leak_m_s2_per_n: float = _number("(m/s²)/N", _finite)
-
-    def validate(self) -> None:
-        if self.leak_m_s2_per_n == 0:
-            raise EffectValueError("leak_m_s2_per_n", "must not be 0")
+    leak_m_s2_per_n: float = _number("(m/s²)/N", _nonzero)
 
     def force_leak_m_s2_per_n(self) -> float:
         return self.leak_m_s2_per_n

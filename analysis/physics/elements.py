@@ -150,12 +150,17 @@ class SpringPot(Node):
 
 
 @dataclass(frozen=True)
-class Parallel(Node):
+class _Composite(Node, abc.ABC):
+    """Elements combined: their parameters in reading order."""
+
     children: tuple[Node, ...]
 
     def parameters(self) -> list[Parameter]:
         return [p for child in self.children for p in child.parameters()]
 
+
+@dataclass(frozen=True)
+class Parallel(_Composite):
     def evaluate(
         self, s: np.ndarray, values: Mapping[str, np.ndarray], gradient: bool, log_s: np.ndarray | None = None
     ) -> tuple[np.ndarray, Gradient]:
@@ -167,12 +172,7 @@ class Parallel(Node):
 
 
 @dataclass(frozen=True)
-class Series(Node):
-    children: tuple[Node, ...]
-
-    def parameters(self) -> list[Parameter]:
-        return [p for child in self.children for p in child.parameters()]
-
+class Series(_Composite):
     def evaluate(
         self, s: np.ndarray, values: Mapping[str, np.ndarray], gradient: bool, log_s: np.ndarray | None = None
     ) -> tuple[np.ndarray, Gradient]:
@@ -191,7 +191,7 @@ class Series(Node):
 
 
 def _grouped(node: Node) -> str:
-    return f"({node.text()})" if isinstance(node, (Parallel, Series)) else node.text()
+    return f"({node.text()})" if isinstance(node, _Composite) else node.text()
 
 
 class FilmModel:
