@@ -180,10 +180,12 @@ class FrfResult:
         )
 
 
-def _squared_magnitude(spectra: np.ndarray) -> np.ndarray:
-    """|z|² of a complex array, without complex temporaries."""
-    power = np.square(spectra.real)
-    power += np.square(spectra.imag)
+def _squared_magnitude(
+    spectra: np.ndarray, out: np.ndarray | None = None, scratch: np.ndarray | None = None
+) -> np.ndarray:
+    """|z|² of a complex array, without complex temporaries (into ``out``, using ``scratch``, when given)."""
+    power = np.square(spectra.real, out=out)
+    power += np.square(spectra.imag, out=scratch)
     return power
 
 
@@ -232,6 +234,7 @@ class FrfAccumulator:
         self._sum_xx = np.zeros(n_lines)
         self._sum_fx = np.zeros(n_lines, complex)
         self._h1_per_hit = np.empty((max(1, capacity_hits), n_lines), complex)
+        self._work: tuple[np.ndarray, ...] | None = None
         self.n_averages = 0
 
     def add(self, force_n: np.ndarray, response: np.ndarray) -> None:
@@ -247,22 +250,32 @@ class FrfAccumulator:
         if self._decay is not None:
             force = force * self._decay
             response = response * self._decay
-        force_fft = scipy.fft.rfft(force, axis=-1)
-        response_fft = scipy.fft.rfft(response, axis=-1)
-        force_power = _squared_magnitude(force_fft)
         first, count = self.n_averages, force.shape[0]
+        force_fft, response_fft, force_power, response_power, scratch = self._work_buffers(count)
+        np.fft.rfft(force, axis=-1, out=force_fft)
+        np.fft.rfft(response, axis=-1, out=response_fft)
+        _squared_magnitude(force_fft, out=force_power, scratch=scratch)
         if first + count > len(self._h1_per_hit):
             grown = np.empty((max(first + count, 2 * len(self._h1_per_hit)), self._h1_per_hit.shape[1]), complex)
             grown[:first] = self._h1_per_hit[:first]
             self._h1_per_hit = grown
         with np.errstate(divide="ignore", invalid="ignore"):
             self._sum_ff += force_power.sum(axis=0)
-            self._sum_xx += _squared_magnitude(response_fft).sum(axis=0)
+            self._sum_xx += _squared_magnitude(response_fft, out=response_power, scratch=scratch).sum(axis=0)
             cross = np.conj(force_fft, out=force_fft)
             cross *= response_fft  # conj(F_i)·X_i
             self._sum_fx += cross.sum(axis=0)
             np.divide(cross, force_power, out=self._h1_per_hit[first : first + count])  # X_i/F_i
         self.n_averages += count
+
+    def _work_buffers(self, count: int) -> tuple[np.ndarray, ...]:
+        """Spectra and powers of a block of ``count`` hits, in buffers kept between blocks: fresh arrays of this size
+        would be mapped from the operating system, and zero-filled, on every block (half the time of a replay)."""
+        if self._work is None or self._work[0].shape[0] < count:
+            n_lines = len(self._sum_ff)
+            self._work = (np.empty((count, n_lines), complex), np.empty((count, n_lines), complex),
+                          np.empty((count, n_lines)), np.empty((count, n_lines)), np.empty((count, n_lines)))
+        return tuple(buffer[:count] for buffer in self._work)
 
     def add_hit(self, hit: Any) -> None:
         """Add a :class:`gasfilm.analysis.capture.HitRecord` (or stored hit) through its OWN force and response
@@ -298,7 +311,10 @@ class FrfAccumulator:
                 block = max(1, _BLOCK_VALUES // n_lines)
                 sum_spread = np.zeros(n_lines)
                 for first in range(0, n_hits, block):
-                    sum_spread += _squared_magnitude(h1_per_hit[first : first + block] - mean_per_hit).sum(axis=0)
+                    rows = h1_per_hit[first : first + block]
+                    spread, _, power, _, scratch = self._work_buffers(len(rows))
+                    np.subtract(rows, mean_per_hit, out=spread)
+                    sum_spread += _squared_magnitude(spread, out=power, scratch=scratch).sum(axis=0)
                 h1_std_scatter = np.sqrt(sum_spread / (n_hits - 1) / n_hits)
             else:
                 h1_std_scatter = np.full(n_lines, np.nan)
