@@ -166,6 +166,7 @@ class DiagnoseTab(QWidget):
             self.findings.addItem(item)
         if not diagnosis.findings:
             self._show_no_findings(diagnosis.verdict, diagnosis.recalibration)
+        self._show_unexplained([item.to_dict() for item in diagnosis.unexplained])
         for note in diagnosis.quality:
             band = f" ({note.band_hz[0]:.0f}–{note.band_hz[1]:.0f} Hz)" if note.band_hz else ""
             self.quality.addItem(f"{note.kind}{band}: {note.message}")
@@ -191,6 +192,7 @@ class DiagnoseTab(QWidget):
             self.findings.addItem(item)
         if not stored["findings"]:
             self._show_no_findings(stored["verdict"], stored["recalibration"])
+        self._show_unexplained(stored.get("unexplained", []))
         for note in stored["quality"]:
             band = f" ({note['band_hz'][0]:.0f}–{note['band_hz'][1]:.0f} Hz)" if note.get("band_hz") else ""
             self.quality.addItem(f"{note['kind']}{band}: {note['message']}")
@@ -215,15 +217,24 @@ class DiagnoseTab(QWidget):
             f"<p><b>What:</b></p><table cellpadding='3'>{rows}</table>"
             f"<p><b>Why:</b> {finding.evidence}</p>"
             f"<p><b>In plain words:</b> {finding.explanation}</p>"
-            f"<p><b>How much better:</b> χ² gain {finding.chi2_gain:.0f}, on held-out hits {finding.held_out_gain:.0f}</p>"
+            f"<p><b>How much better:</b> χ² gain {finding.chi2_gain:.0f}, on held-out hits {finding.held_out_gain:.0f}; "
+            f"RMS {finding.gain_over_recalibrated:.1f} % below the recalibrated spec</p>"
+            + "".join(f"<p><b>Or:</b> {alternative.effect} — {alternative.note}</p>"
+                      for alternative in finding.alternatives)
         )
 
+    def _show_unexplained(self, unexplained: list[dict[str, Any]]) -> None:
+        """What the final spec does not explain within the noise, where and in which hits."""
+        for item in unexplained:
+            low, high = item["band_hz"]
+            self.findings.addItem(f"NOT explained: {low:.0f}–{high:.0f} Hz, {100 * item['chi2_share']:.0f} % of the "
+                                  f"excess — {item['character']}")
+
     def _show_no_findings(self, verdict: str, recalibration: dict[str, dict[str, float]]) -> None:
-        self.findings.addItem(
-            "Nothing left: the spec explains the recordings within the noise."
-            if verdict == "consistent"
-            else "No missing physics: the spec's own parameters needed correcting (see details)."
-        )
+        self.findings.addItem({
+            "consistent": "Nothing left: the spec explains the recordings within the noise.",
+            "parameters-only": "No missing physics: the spec's own parameters needed correcting (see details).",
+        }.get(verdict, "No term of the catalog explains the mismatch (see NOT explained below)."))
         self.details.setHtml(self._recalibration_html(recalibration))
 
     @staticmethod
