@@ -34,7 +34,6 @@ def main() -> int:
     logging.disable(logging.CRITICAL)
     counts: collections.Counter = collections.Counter()
     causes: dict[str, list[str]] = collections.defaultdict(list)
-    reader_causes: dict[str, list[str]] = collections.defaultdict(list)
     slowest = (0.0, "")
     start = time.perf_counter()
     with tempfile.TemporaryDirectory(prefix="gasfilm-fuzz-") as folder:
@@ -50,7 +49,7 @@ def main() -> int:
             if outcome.problem:
                 example = f"{kind} case {index // len(KINDS)} ({outcome.mutation}; gasfilm {outcome.argv[0]}): " \
                           f"{outcome.problem[:300]}"
-                (reader_causes if outcome.in_session_reader else causes)[outcome.cause].append(example)
+                causes[outcome.cause].append(example)
             if (index + 1) % 500 == 0:
                 print(f"  {index + 1} inputs, {time.perf_counter() - start:.0f} s", file=sys.stderr, flush=True)
     elapsed = time.perf_counter() - start
@@ -59,17 +58,15 @@ def main() -> int:
         by_code = {code: n for (k, code), n in sorted(counts.items(), key=lambda item: str(item[0][1])) if k == kind}
         print(f"  {kind}: " + ", ".join(f"exit {'timeout' if code is None else code}: {n}"
                                         for code, n in by_code.items()))
-    for title, table in (("outside the session reader", causes), ("inside the session reader (analysis/session.py, "
-                                                                  "or its unchecked FRF arrays)", reader_causes)):
-        problems = [example for examples in table.values() for example in examples]
-        internal = sum("internal error" in example for example in problems)
-        hangs = sum(f"more than {CASE_TIMEOUT_S:g} s" in example for example in problems)
-        print(f"{title}: {internal} internal errors, {hangs} hangs (> {CASE_TIMEOUT_S:g} s), "
-              f"{len(problems) - internal - hangs} other problems; {len(table)} distinct causes")
-        for cause, examples in sorted(table.items(), key=lambda item: -len(item[1])):
-            print(f"  {len(examples):5d} × {cause}")
-            for example in examples[: args.show]:
-                print(f"          e.g. {example}")
+    problems = [example for examples in causes.values() for example in examples]
+    internal = sum("internal error" in example for example in problems)
+    hangs = sum(f"more than {CASE_TIMEOUT_S:g} s" in example for example in problems)
+    print(f"{internal} internal errors, {hangs} hangs (> {CASE_TIMEOUT_S:g} s), "
+          f"{len(problems) - internal - hangs} other problems; {len(causes)} distinct causes")
+    for cause, examples in sorted(causes.items(), key=lambda item: -len(item[1])):
+        print(f"  {len(examples):5d} × {cause}")
+        for example in examples[: args.show]:
+            print(f"          e.g. {example}")
     return 0
 
 
