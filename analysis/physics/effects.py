@@ -200,6 +200,8 @@ def _band_excitable(freq_hz: float, context: FitContext) -> str | None:
 
 #: The lightest damping an extra mode may have: its ringing must decay within a simulated record.
 MIN_DAMPING_RATIO = 1e-4
+#: The lightest part an extra mode may model (kg): lighter ones are far below any measurement's noise.
+MIN_MODE_MASS_KG = 1e-9
 #: An extra mode more damped than this has no localised peak/dip (half-power width above a fifth of its frequency).
 MAX_LOCAL_DAMPING_RATIO = 0.1
 
@@ -218,6 +220,8 @@ class ExtraMode(Effect):
     mass_kg: float = _number("kg", _positive)
 
     def validate(self) -> None:
+        if self.mass_kg < MIN_MODE_MASS_KG:
+            raise EffectValueError("mass_kg", f"must be at least {MIN_MODE_MASS_KG:g} kg (a lighter part cannot show)")
         if self.damping_ratio < MIN_DAMPING_RATIO:
             raise EffectValueError("damping_ratio", f"must be at least {MIN_DAMPING_RATIO:g} (a mode that never "
                                                     f"decays cannot be simulated)")
