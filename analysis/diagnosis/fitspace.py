@@ -46,9 +46,12 @@ class Slot:
         return float(getattr(spec.effects[self.effect], self.name))
 
     def at_bound(self, spec: RigSpec) -> bool:
+        """Whether the fitted value sits at a bound of its range that is not a valid limit of its effect."""
         low, high = self.search_bounds()
         position = self.to_search(self.value(spec)) if self.range.scale != "log" or self.value(spec) > 0 else low
-        return min(position - low, high - position) <= AT_BOUND_FRACTION * (high - low)
+        margin = AT_BOUND_FRACTION * (high - low)
+        open_upper = self.effect is not None and self.name in type(spec.effects[self.effect]).open_upper
+        return position - low <= margin or (high - position <= margin and not open_upper)
 
 
 def fit_context(spec: RigSpec, conditions: HitConditions, band_hz: tuple[float, float]) -> FitContext:

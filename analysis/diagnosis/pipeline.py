@@ -52,9 +52,11 @@ NONLINEAR_ITERATIONS = 3
 ADEQUATE_CHI2_PER_POINT = 1.5
 #: A band whose own χ² per point exceeds this is listed as unexplained even when the whole is adequate.
 LOCAL_CHI2_PER_POINT = 4.0
-#: A term must remove at least this share of the χ² still in excess of the noise: a model that leaves most of the
-#: mismatch unexplained is not padded with terms that shave a few per cent off it.
+#: Where the current model is beyond SHARE_RULE_NOISE_SCALE times the noise, a term must remove at least this share
+#: of the χ² still in excess of it: a model that leaves most of the mismatch unexplained is not padded with terms that
+#: shave a few per cent off it. (Near the noise, the excess is partly the noise model's, and small terms still count.)
 MIN_EXCESS_SHARE = 0.2
+SHARE_RULE_NOISE_SCALE = 2.0
 #: Beyond this χ² per point the final spec is grossly inadequate: then only terms that removed at least GROSS_SHARE
 #: of the mismatch left at their step are findings.
 GROSS_CHI2_PER_POINT = 20.0
@@ -197,8 +199,8 @@ def _select_one(
         extra = len(outcome.slots) - len(current.slots)
         score = (current.chi2 - outcome.chi2) / noise_scale - extra * np.log(points)
         share = (current.chi2 - outcome.chi2) / max(current.chi2 - points, 1e-9)
-        trials.append((score if share >= MIN_EXCESS_SHARE else min(score, 0.0), identifier, outcome,
-                       candidate_evidence))
+        padding = noise_scale > SHARE_RULE_NOISE_SCALE and share < MIN_EXCESS_SHARE
+        trials.append((min(score, 0.0) if padding else score, identifier, outcome, candidate_evidence))
     trials.sort(key=lambda trial: trial[0], reverse=True)
     summary = ", ".join(f"{identifier} {score:+.0f}" for score, identifier, _, _ in trials[:4])
     progress(f"BIC gain of the best candidates (noise scale {noise_scale:.2f}): {summary}")

@@ -114,6 +114,8 @@ class Effect:
     kind: ClassVar[str] = "rig"  # "rig", "measurement" or "interference"
     explanation: ClassVar[str] = ""
     per_hit: ClassVar[bool] = False  # the term differs from hit to hit (session time, hit level)
+    #: Parameters whose upper fit bound is a valid limiting form of the term, not a failed measurement.
+    open_upper: ClassVar[frozenset[str]] = frozenset()
 
     def validate(self) -> None:
         """Cross-field checks; raise :class:`EffectValueError` naming the key."""
@@ -493,6 +495,9 @@ class FilmMemory(Effect):
         "The gas film is stiffer and damps differently at high frequency than at low frequency: it has a "
         "viscoelastic memory that a plain spring and damper cannot describe (a fractional Maxwell branch, a spring "
         "in series with a spring-pot, in parallel with the film).")
+
+    #: k_memory at its upper bound: the branch is a pure spring-pot η s^α beside the film, a valid limit
+    open_upper: ClassVar[frozenset[str]] = frozenset({"k_memory"})
 
     k_memory: float = _number("N/m", _positive)
     eta_memory: float = _number("N·s^α/m", _positive)
