@@ -348,8 +348,8 @@ class AddedMass(Effect):
         return None
 
     def evidence(self, sigma: Mapping[str, float], where: str, context: FitContext) -> str:
-        return (f"the high-frequency level and the resonance both move as a mass change of {self.mass_kg * 1e3:+.0f} "
-                f"± {sigma['mass_kg'] * 1e3:.0f} g predicts ({where})")
+        return (f"the high-frequency level and the resonance both move as a mass change of {self.mass_kg * 1e3:+.4g} "
+                f"± {sigma['mass_kg'] * 1e3:.2g} g predicts ({where})")
 
 
 @register_effect("drift")
