@@ -454,7 +454,7 @@ def _unexplained(
     overall = float(per_point.mean())
     per_frequency = per_point.mean(axis=0)
     smooth = np.convolve(per_frequency, np.ones(5) / 5, mode="same")
-    threshold = LOCAL_CHI2_PER_POINT if overall <= ADEQUATE_CHI2_PER_POINT else max(2.0, 0.5 * overall)
+    threshold = LOCAL_CHI2_PER_POINT if overall <= ADEQUATE_CHI2_PER_POINT else max(2.0, 0.05 * overall)
     excess = np.clip(per_frequency - 1.0, 0.0, None)
     total_excess = float(excess.sum()) or 1.0
     freq_hz = evidence.freq_hz
@@ -509,7 +509,7 @@ def _character(spectra: HitSpectra, evidence: Evidence, spec: RigSpec, low: int,
             return (f"a jump between hits {first} and {second}: the rig changed at one point during the session, "
                     f"which no term explained")
         return "a steady trend from early to late hits: the rig changed during the session, which no term explained"
-    harmonics = [n * resonance_hz for n in (2, 3)]
+    harmonics = [n * resonance_hz for n in (2, 3, 4, 5, 6)]
     if any(band[0] <= h <= band[1] for h in harmonics) and band[0] > 1.3 * resonance_hz:
         return (f"at a harmonic of the resonance ({resonance_hz:.0f} Hz): the response is distorted by a "
                 f"nonlinearity")

@@ -7,6 +7,7 @@ from pathlib import Path
 import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
+from matplotlib.ticker import MaxNLocator
 
 from gasfilm.analysis.diagnosis.pipeline import per_frequency_residual, per_hit_residual, replayed_mean
 from gasfilm.analysis.diagnosis.result import Diagnosis
@@ -69,6 +70,7 @@ def write_figures(diagnosis: Diagnosis, out_dir: Path) -> list[str]:
     axes[1].plot(hit_numbers, per_hit, "s", color="C0", label="improved spec")
     axes[1].axhline(1.0, color="k", lw=0.6, ls="--")
     axes[1].set_xlabel("hit")
+    axes[1].xaxis.set_major_locator(MaxNLocator(integer=True))
     axes[1].set_ylabel("χ² per point")
     axes[1].legend(fontsize=8)
     figure.tight_layout()
