@@ -1,10 +1,6 @@
 """A session report an engineer can attach to a test log: setup, hits and verdicts, FRF with coherence and force
 spectrum, fits (Table 2 style), stored diagnosis — as one self-contained HTML file (figures embedded as PNG) or a PDF.
-
-Also home of the force spectrum's roll-off (:func:`force_level_db`, :func:`usable_band_hz`): an FRF is meaningful
-only where the hammer put energy in, i.e. where the force autospectrum is within ~10–20 dB of its low-frequency
-level; a half-sine pulse has spectral nulls above that, where a one-hit H1 shows spikes. The GUI uses the same
-functions. Matplotlib is drawn without pyplot (no Qt, no global state).
+Matplotlib is drawn without pyplot (no Qt, no global state).
 """
 
 from __future__ import annotations
@@ -23,52 +19,21 @@ from typing import Any, Sequence
 import numpy as np
 
 from gasfilm.analysis.session import Session
-from gasfilm.analysis.spectra import FrfResult, WindowSettings, session_frf
+from gasfilm.analysis.spectra import (
+    CAUTION_DROP_DB,
+    USABLE_DROP_DB,
+    FrfResult,
+    WindowSettings,
+    force_level_db,
+    session_frf,
+    usable_band_hz,
+)
 from gasfilm.drivers.errors import GasfilmError, SettingError
 from gasfilm.drivers.interface import STANDARD_GRAVITY_M_S2
 
 logger = logging.getLogger(__name__)
 
-#: The force spectrum may fall this far below its low-frequency level before the FRF is no longer trusted.
-USABLE_DROP_DB = 20.0
-#: Where the roll-off becomes noticeable (the band is still usable, with care).
-CAUTION_DROP_DB = 10.0
-#: Fraction of the Nyquist band whose force level counts as "low-frequency".
-_LOW_FREQUENCY_FRACTION = 0.02
-_MIN_LOW_LINES = 3
 REPORT_FORMATS = (".html", ".htm", ".pdf")
-
-
-# --- the force spectrum's roll-off --------------------------------------------------------------------------------
-
-
-def force_level_db(freq_hz: np.ndarray, gff: np.ndarray) -> np.ndarray:
-    """The force autospectrum in dB relative to its low-frequency level (the mean of the lowest lines above 0 Hz,
-    up to 2 % of the band); NaN at 0 Hz."""
-    freq_hz = np.asarray(freq_hz, dtype=float)
-    gff = np.asarray(gff, dtype=float)
-    positive = np.flatnonzero(freq_hz > 0)
-    if positive.size == 0:
-        return np.full(gff.shape, np.nan)
-    low_count = max(_MIN_LOW_LINES, int(_LOW_FREQUENCY_FRACTION * positive.size))
-    reference = float(np.mean(gff[positive[:low_count]]))
-    with np.errstate(divide="ignore", invalid="ignore"):
-        level = 10.0 * np.log10(gff / reference) if reference > 0 else np.full(gff.shape, -np.inf)
-    level = np.where(freq_hz > 0, level, np.nan)
-    return level
-
-
-def usable_band_hz(freq_hz: np.ndarray, gff: np.ndarray, drop_db: float = USABLE_DROP_DB) -> tuple[float, float]:
-    """(lowest line above 0 Hz, frequency where the force spectrum first falls ``drop_db`` below its low-frequency
-    level) in Hz; the upper end is the last line when it never falls that far."""
-    freq_hz = np.asarray(freq_hz, dtype=float)
-    level = force_level_db(freq_hz, gff)
-    positive = np.flatnonzero(freq_hz > 0)
-    if positive.size == 0:
-        return 0.0, 0.0
-    below = positive[level[positive] < -abs(drop_db)]
-    upper = freq_hz[below[0]] if below.size else freq_hz[positive[-1]]
-    return float(freq_hz[positive[0]]), float(upper)
 
 
 # --- the report's content -----------------------------------------------------------------------------------------

@@ -395,8 +395,9 @@ def import_uff_session(
     (:class:`gasfilm.analysis.validation.ValidationSettings`, default settings when None) and ``window``
     (:class:`gasfilm.analysis.spectra.WindowSettings`, whose exponential counts in the decay check).
 
-    A UFF file gives units, not input ranges: the session records ``source.full_scale_known = false``, and neither
-    the import nor a replay judges overload against the placeholder sensors of its channel setup
+    A UFF file gives units, not input ranges: the session records ``source.full_scale_known = false``. Its channel
+    setup is the default hammer and accelerometer (a session stores one), whose ranges are not the recording's, so
+    neither the import nor a replay judges overload against them
     (:func:`gasfilm.analysis.validation.recorded_full_scale_si`); clipping still counts."""
     from gasfilm.analysis.capture import HitRecord
     from gasfilm.analysis.session import Session

@@ -105,7 +105,7 @@ class Verdict:
 def recorded_full_scale_si(config: Any, settings: Mapping[str, Any]) -> tuple[float, ...] | None:
     """Each channel's full scale (N or m/s²) for the overload check of a stored session's hits, or None when the
     recording does not know its input ranges: an import (``settings["source"]`` names the file it came from, and a
-    UFF file carries units but no range) never gets limits invented from the placeholder sensors it stores."""
+    UFF file carries units but no range) is never given limits from the default channel setup it is stored with."""
     source = settings.get("source") if isinstance(settings, Mapping) else None
     if isinstance(source, Mapping) and (source.get("uff_file") or source.get("full_scale_known") is False):
         return None

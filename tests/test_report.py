@@ -6,7 +6,7 @@ import re
 import numpy as np
 import pytest
 
-from gasfilm.analysis.report import force_level_db, usable_band_hz
+from gasfilm.analysis.spectra import force_level_db, usable_band_hz
 from gasfilm.analysis.session import Session
 from gasfilm.app.cli import main
 

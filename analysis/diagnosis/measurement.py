@@ -1,7 +1,7 @@
 """What the recordings say, with their own uncertainty: per-hit windowed spectra, measured noise, quality checks.
 
-Each accepted hit is windowed the way the session's FRF is (:mod:`gasfilm.analysis.spectra`: a force window after the peak
-with a short taper, and an exponential window on both channels), so that ``X_i / F_i`` is the hit's FRF at
+Each accepted hit is windowed the way the session's FRF is (:mod:`gasfilm.analysis.spectra`: a force window after the
+peak with a short taper, and an exponential window on both channels), so that ``X_i / F_i`` is the hit's FRF at
 ``s = σ + jω``. The model is compared under the same conditions: it is *played with the hit's own recorded force*
 (the whole record, as the DAQ delivered it, AC coupling and anti-aliasing included) and the replayed response goes
 through the same windows (:class:`Replay`). Window truncation, the module's high-pass tail that the force window cuts,
@@ -79,9 +79,7 @@ class HitSpectra:
     def mean(self, subset: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
         """Weighted mean FRF (H1) over a subset of hits and its total weight per frequency."""
         rows = slice(None) if subset is None else subset
-        weight = self.weight[rows]
-        total = weight.sum(axis=0)
-        return (weight * self.h[rows]).sum(axis=0) / total, total
+        return weighted_mean(self.h[rows], self.weight[rows])
 
     def correct_for_replay(
         self, model_accelerance: Callable[[np.ndarray, float], np.ndarray], replayed: np.ndarray | None = None
@@ -180,7 +178,14 @@ def _band_text(low_hz: float, high_hz: float) -> str:
     return f"{low_hz:.0f}–{high_hz:.0f} Hz"
 
 
-def _contiguous_bands(mask: np.ndarray, min_bins: int) -> list[tuple[int, int]]:
+def weighted_mean(per_hit: np.ndarray, weight: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Weighted mean over hits (axis 0) and the total weight per frequency: with the noise weights, H1."""
+    total = weight.sum(axis=0)
+    return (weight * per_hit).sum(axis=0) / total, total
+
+
+def contiguous_bands(mask: np.ndarray, min_bins: int) -> list[tuple[int, int]]:
+    """(first, last) index of every run of True in ``mask`` at least ``min_bins`` long."""
     edges = np.diff(np.concatenate(([0], mask.astype(int), [0])))
     starts, stops = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
     return [(a, b - 1) for a, b in zip(starts, stops) if b - a >= min_bins]
@@ -360,7 +365,7 @@ def hit_spectra(
         centre = int(round(harmonic * n_samples / sample_rate_hz))
         mask[max(0, centre - 2) : centre + 3] = False
     low_coherence = mask & (coherence < 0.9)
-    for a, b in _contiguous_bands(low_coherence, 3):
+    for a, b in contiguous_bands(low_coherence, 3):
         quality.append(
             QualityNote(
                 "low coherence",

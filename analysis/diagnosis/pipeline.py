@@ -25,8 +25,8 @@ import numpy as np
 
 from gasfilm.analysis.diagnosis.candidates import CANDIDATES, EQUIVALENT, separating_measurement
 from gasfilm.analysis.diagnosis.fitspace import fit_context, spec_slots, without_effect
-from gasfilm.analysis.diagnosis.measurement import HitSpectra
-from gasfilm.analysis.diagnosis.result import Alternative, Diagnosis, Finding, Unexplained, weighted_mean
+from gasfilm.analysis.diagnosis.measurement import HitSpectra, contiguous_bands, weighted_mean
+from gasfilm.analysis.diagnosis.result import Alternative, Diagnosis, Finding, Unexplained
 from gasfilm.analysis.diagnosis.selection import (
     BIC_MARGIN,
     HELD_OUT_THRESHOLD,
@@ -302,7 +302,8 @@ def _drop_partial_terms(
     points = evidence.point_count
     if current.chi2 / points <= GROSS_CHI2_PER_POINT:
         return steps, current, evidence, refits_without
-    partial = [step for step in steps if (step.chi2_before - step.chi2_after) < GROSS_SHARE * (step.chi2_before - points)]
+    partial = [step for step in steps
+               if step.chi2_before - step.chi2_after < GROSS_SHARE * (step.chi2_before - points)]
     if not partial:
         return steps, current, evidence, refits_without
     spec = current.spec
@@ -459,7 +460,7 @@ def _unexplained(
     total_excess = float(excess.sum()) or 1.0
     freq_hz = evidence.freq_hz
     items: list[Unexplained] = []
-    for low, high in _runs(smooth > threshold, 2):
+    for low, high in contiguous_bands(smooth > threshold, 2):
         share = float(excess[low : high + 1].sum()) / total_excess
         if overall <= ADEQUATE_CHI2_PER_POINT and share < 0.05:
             continue
@@ -470,17 +471,10 @@ def _unexplained(
         items.append(Unexplained((float(freq_hz[0]), float(freq_hz[-1])), _hits_in(spectra, per_point), 1.0,
                                  _character(spectra, evidence, spec, 0, len(freq_hz) - 1)))
     for term in rejected:
-        if any(a.band_hz[0] <= term.band_hz[1] and term.band_hz[0] <= a.band_hz[1] for a in items):
-            for item in items:
-                if item.band_hz[0] <= term.band_hz[1] and term.band_hz[0] <= item.band_hz[1]:
-                    item.character += f"; the {term.identifier} term fitted here is not a finding: {term.reason}"
+        for item in items:
+            if item.band_hz[0] <= term.band_hz[1] and term.band_hz[0] <= item.band_hz[1]:
+                item.character += f"; the {term.identifier} term fitted here is not a finding: {term.reason}"
     return items
-
-
-def _runs(mask: np.ndarray, min_length: int) -> list[tuple[int, int]]:
-    edges = np.diff(np.concatenate(([0], mask.astype(int), [0])))
-    starts, stops = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
-    return [(a, b - 1) for a, b in zip(starts, stops) if b - a >= min_length]
 
 
 def _hits_in(spectra: HitSpectra, per_point: np.ndarray) -> list[int]:
@@ -615,7 +609,7 @@ def replayed_mean(spectra: HitSpectra, spec: RigSpec | None) -> np.ndarray:
         if per_hit is None:
             per_hit = np.broadcast_to(replay.replayed(model_function(spec, spectra.conditions)),
                                       replay.measured_h.shape)
-    return weighted_mean(per_hit, replay.measured_variance)
+    return weighted_mean(per_hit, 1.0 / replay.measured_variance)[0]
 
 
 def replay_rms(spectra: HitSpectra, spec: RigSpec) -> float:
@@ -625,17 +619,12 @@ def replay_rms(spectra: HitSpectra, spec: RigSpec) -> float:
     return float(np.sqrt(np.mean(np.abs(difference) ** 2)))
 
 
-def per_frequency_residual(diagnosis: Diagnosis, spec: RigSpec) -> np.ndarray:
-    """χ² per real number at each analysis frequency (``spec`` replayed against the recordings): 1 is noise."""
+def residuals(diagnosis: Diagnosis, spec: RigSpec) -> tuple[np.ndarray, np.ndarray]:
+    """χ² per real number of ``spec`` replayed against the recordings, at each analysis frequency and for each hit
+    (1 is noise), from one replay."""
     evidence = evidence_for(diagnosis.spectra, spec)
-    return evidence.chi2_per_frequency(spec) / (2 * evidence.hit_count)
+    per_point = evidence.chi2_per_hit_and_frequency(spec) / 2.0
+    return per_point.mean(axis=0), per_point.mean(axis=1)
 
 
-def per_hit_residual(diagnosis: Diagnosis, spec: RigSpec) -> np.ndarray:
-    """χ² per point of each hit (``spec`` replayed against the recordings)."""
-    evidence = evidence_for(diagnosis.spectra, spec)
-    return evidence.chi2_per_hit_and_frequency(spec).sum(axis=1) / (2 * len(evidence.freq_hz))
-
-
-__all__ = ["diagnose_spectra", "evidence_for", "replay_rms", "replayed_mean", "per_frequency_residual",
-           "per_hit_residual"]
+__all__ = ["diagnose_spectra", "evidence_for", "replay_rms", "replayed_mean", "residuals"]

@@ -9,7 +9,7 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 from matplotlib.ticker import MaxNLocator
 
-from gasfilm.analysis.diagnosis.pipeline import per_frequency_residual, per_hit_residual, replayed_mean
+from gasfilm.analysis.diagnosis.pipeline import replayed_mean, residuals
 from gasfilm.analysis.diagnosis.result import Diagnosis
 from gasfilm.drivers.interface import STANDARD_GRAVITY_M_S2 as G_M_S2
 
@@ -54,8 +54,11 @@ def write_figures(diagnosis: Diagnosis, out_dir: Path) -> list[str]:
     figure = Figure(figsize=(9, 7))
     FigureCanvasAgg(figure)
     axes = figure.subplots(2, 1)
-    for spec, label, colour in ((diagnosis.given, "spec as given", "C3"), (diagnosis.improved, "improved spec", "C0")):
-        axes[0].plot(freq_hz, per_frequency_residual(diagnosis, spec), color=colour, lw=1.0, label=label)
+    given_residuals = residuals(diagnosis, diagnosis.given)
+    improved_residuals = residuals(diagnosis, diagnosis.improved)
+    for (per_frequency, _), label, colour in ((given_residuals, "spec as given", "C3"),
+                                             (improved_residuals, "improved spec", "C0")):
+        axes[0].plot(freq_hz, per_frequency, color=colour, lw=1.0, label=label)
     for item in diagnosis.unexplained:
         axes[0].axvspan(*item.band_hz, color="C3", alpha=0.10)
     axes[0].axhline(1.0, color="k", lw=0.6, ls="--")
@@ -63,11 +66,9 @@ def write_figures(diagnosis: Diagnosis, out_dir: Path) -> list[str]:
     axes[0].set_xlabel("frequency (Hz)")
     axes[0].set_ylabel("χ² per point (1 = noise)")
     axes[0].legend(fontsize=8)
-    per_hit = per_hit_residual(diagnosis, diagnosis.improved)
     hit_numbers = spectra.hit_numbers
-    axes[1].plot(hit_numbers, per_hit_residual(diagnosis, diagnosis.given), "o", color="C3",
-                 label="spec as given")
-    axes[1].plot(hit_numbers, per_hit, "s", color="C0", label="improved spec")
+    axes[1].plot(hit_numbers, given_residuals[1], "o", color="C3", label="spec as given")
+    axes[1].plot(hit_numbers, improved_residuals[1], "s", color="C0", label="improved spec")
     axes[1].axhline(1.0, color="k", lw=0.6, ls="--")
     axes[1].set_xlabel("hit")
     axes[1].xaxis.set_major_locator(MaxNLocator(integer=True))

@@ -7,8 +7,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-import numpy as np
-
 from gasfilm.analysis.diagnosis.measurement import HitSpectra, QualityNote
 from gasfilm.analysis.diagnosis.selection import Evidence
 from gasfilm.analysis.physics.spec import RigSpec
@@ -156,8 +154,3 @@ class Diagnosis:
             "wall_time_s": self.wall_time_s,
         }
 
-
-def weighted_mean(per_hit: np.ndarray, variance: np.ndarray) -> np.ndarray:
-    """Noise-weighted mean over hits (H1 for measured FRFs)."""
-    weight = 1.0 / variance
-    return (weight * per_hit).sum(axis=0) / weight.sum(axis=0)

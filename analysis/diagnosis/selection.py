@@ -262,6 +262,7 @@ def _likely_step_times(spec: RigSpec, evidence: Evidence, count: int = 3) -> lis
         if times[split] == times[split - 1]:
             continue
         before, after = residual[:split], residual[split:]
-        cost = float(np.sum(np.abs(before - before.mean(axis=0)) ** 2) + np.sum(np.abs(after - after.mean(axis=0)) ** 2))
+        cost = float(np.sum(np.abs(before - before.mean(axis=0)) ** 2)
+                     + np.sum(np.abs(after - after.mean(axis=0)) ** 2))
         costs.append((cost, float(0.5 * (times[split - 1] + times[split]))))
     return [at_time_s for _, at_time_s in sorted(costs)[:count]]

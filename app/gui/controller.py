@@ -23,7 +23,7 @@ from gasfilm.analysis.diagnosis.plots import write_outputs
 from gasfilm.analysis.identification import compare_models, fit_model
 from gasfilm.analysis.physics.elements import get_model
 from gasfilm.analysis.physics.spec import RigSpec
-from gasfilm.analysis.report import usable_band_hz
+from gasfilm.analysis.spectra import usable_band_hz
 from gasfilm.analysis.session import Session, to_jsonable
 from gasfilm.analysis.spectra import FrfAccumulator, FrfResult, WindowSettings, session_frf, write_frf_csv
 from gasfilm.analysis.uff import export_frf_uff

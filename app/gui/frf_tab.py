@@ -8,7 +8,7 @@ from PySide6.QtCore import Qt
 from PySide6.QtGui import QShowEvent
 from PySide6.QtWidgets import QCheckBox, QComboBox, QDoubleSpinBox, QGridLayout, QHBoxLayout, QLabel, QWidget
 
-from gasfilm.analysis.report import usable_band_hz
+from gasfilm.analysis.spectra import usable_band_hz
 from gasfilm.analysis.spectra import FrfResult
 from gasfilm.app.gui.controller import SessionController
 from gasfilm.app.gui.widgets import (

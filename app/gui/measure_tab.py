@@ -26,7 +26,7 @@ from PySide6.QtWidgets import (
     QWidget,
 )
 
-from gasfilm.analysis.report import CAUTION_DROP_DB, force_level_db, usable_band_hz
+from gasfilm.analysis.spectra import CAUTION_DROP_DB, force_level_db, usable_band_hz
 from gasfilm.analysis.spectra import session_frf
 from gasfilm.app.gui.controller import SessionController
 from gasfilm.app.gui.settings import SIM_TIPS
