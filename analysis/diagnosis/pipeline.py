@@ -596,19 +596,25 @@ def _simulate_nonlinear(spectra: HitSpectra, spec: RigSpec) -> np.ndarray:
     return linear * (1.0 + scale[:, np.newaxis] * distortion[np.newaxis, :])
 
 
+def replayed_per_hit(spectra: HitSpectra, spec: RigSpec) -> np.ndarray:
+    """Per-hit FRFs (hits, G) of ``spec`` played with each hit's recorded force through the same windows (the exact
+    nonlinear response when the spec has a cubic film spring)."""
+    replay = spectra.replay
+    if replay is None:
+        raise GasfilmError("diagnosis: these spectra keep no recorded forces to replay a spec with")
+    per_hit = _nonlinear_replay(spectra, spec)
+    if per_hit is None:
+        per_hit = np.broadcast_to(replay.replayed(model_function(spec, spectra.conditions)), replay.measured_h.shape)
+    return per_hit
+
+
 def replayed_mean(spectra: HitSpectra, spec: RigSpec | None) -> np.ndarray:
     """H1 (noise-weighted mean over hits) of the recordings (``spec`` None), or of ``spec`` replayed with the
     recorded forces through the same windows."""
     replay = spectra.replay
     if replay is None:
         raise GasfilmError("diagnosis: these spectra keep no recorded forces to replay a spec with")
-    if spec is None:
-        per_hit = replay.measured_h
-    else:
-        per_hit = _nonlinear_replay(spectra, spec)
-        if per_hit is None:
-            per_hit = np.broadcast_to(replay.replayed(model_function(spec, spectra.conditions)),
-                                      replay.measured_h.shape)
+    per_hit = replay.measured_h if spec is None else replayed_per_hit(spectra, spec)
     return weighted_mean(per_hit, 1.0 / replay.measured_variance)[0]
 
 
@@ -627,4 +633,4 @@ def residuals(diagnosis: Diagnosis, spec: RigSpec) -> tuple[np.ndarray, np.ndarr
     return per_point.mean(axis=0), per_point.mean(axis=1)
 
 
-__all__ = ["diagnose_spectra", "evidence_for", "replay_rms", "replayed_mean", "residuals"]
+__all__ = ["diagnose_spectra", "evidence_for", "replay_rms", "replayed_mean", "replayed_per_hit", "residuals"]

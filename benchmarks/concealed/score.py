@@ -24,10 +24,10 @@ import numpy as np
 
 from gasfilm.analysis.diagnosis import diagnose, load_recordings
 from gasfilm.analysis.diagnosis.measurement import hit_spectra
-from gasfilm.analysis.diagnosis.pipeline import _nonlinear_replay, evidence_for, replayed_mean
+from gasfilm.analysis.diagnosis.pipeline import evidence_for, replayed_mean, replayed_per_hit
 from gasfilm.analysis.diagnosis.plots import write_outputs
-from gasfilm.analysis.diagnosis.selection import model_function
 from gasfilm.analysis.physics.spec import RigSpec
+from gasfilm.drivers.units import STANDARD_GRAVITY_M_S2
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from sessions import record_session  # noqa: E402
@@ -35,9 +35,6 @@ from sessions import record_session  # noqa: E402
 NO_PHYSICS = "(none)"
 MISSED = "(missed)"
 EXTRA = "(extra)"
-
-
-STANDARD_GRAVITY_M_S2 = 9.80665
 SEPARATE_TIERS = ("subtle", "strict")
 RESONANCE_HZ = 195.5  # of the nominal film on its mass, where the generator sizes a spring-pot
 
@@ -70,14 +67,6 @@ def hidden_size(truth: RigSpec) -> str:
     return "; ".join(parts)
 
 
-def _replayed(spectra, spec: RigSpec) -> np.ndarray:
-    """Per-hit FRFs of ``spec`` replayed with the recorded forces."""
-    nonlinear = _nonlinear_replay(spectra, spec)
-    if nonlinear is not None:
-        return nonlinear
-    return spectra.replay.replayed(model_function(spec, spectra.conditions))
-
-
 def visibility(recordings, nominal: RigSpec, truth: RigSpec) -> tuple[float, float, float]:
     """(largest per-hit χ² excess of the nominal spec over the truth, the 99.9 % χ² fluctuation of one hit,
     largest relative |H1 truth − H1 nominal| over the band, largest |H_truth − H_nominal| / σ at any point of any
@@ -94,7 +83,7 @@ def visibility(recordings, nominal: RigSpec, truth: RigSpec) -> tuple[float, flo
     fluctuation = 3.1 * np.sqrt(2 * points)
     true_mean, given_mean = replayed_mean(spectra, true), replayed_mean(spectra, given)
     overlay = float(np.max(np.abs(true_mean - given_mean) / np.abs(true_mean)))
-    per_hit = np.abs(_replayed(spectra, true) - _replayed(spectra, given)) / np.sqrt(spectra.variance)
+    per_hit = np.abs(replayed_per_hit(spectra, true) - replayed_per_hit(spectra, given)) / np.sqrt(spectra.variance)
     return float(max(excess)), float(fluctuation), overlay, float(per_hit.max())
 
 
