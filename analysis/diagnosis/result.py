@@ -120,10 +120,6 @@ class Diagnosis:
         """Equation (35) with the given spec as the reference: RMS reduction in %."""
         return 100.0 * (self.rms_before - self.rms_after) / self.rms_before if self.rms_before > 0 else 0.0
 
-    @property
-    def adequate(self) -> bool:
-        return not self.unexplained
-
     def to_dict(self) -> dict:
         g = STANDARD_GRAVITY_M_S2
         return {

@@ -37,10 +37,6 @@ class HitConditions:
     time_s: np.ndarray
     impulse_ns: np.ndarray
 
-    @property
-    def reference_impulse_ns(self) -> float:
-        return float(np.median(self.impulse_ns))
-
     def subset(self, hits: np.ndarray) -> "HitConditions":
         return HitConditions(self.time_s[hits], self.impulse_ns[hits])
 
