@@ -55,8 +55,28 @@ class ReportData:
     frf: FrfResult | None
     frf_source: str
     fits: list[Any]  # FitResult
-    comparison: list[Any]  # ComparisonRow
+    comparison: list[tuple[tuple[float, float], list[Any]]]  # (fit band in Hz, ComparisonRow of its fits)
     diagnosis: dict[str, Any] | None
+
+
+def fits_by_band(fits: Sequence[Any]) -> list[tuple[tuple[float, float], list[Any]]]:
+    """Fits grouped by their own fit band (Hz), in the order first seen: a Table 2 compares fits of one band only."""
+    groups: dict[tuple[float, float], list[Any]] = {}
+    for fit in fits:
+        key = (round(float(fit.band_hz[0]), 6), round(float(fit.band_hz[1]), 6))
+        groups.setdefault(key, []).append(fit)
+    return list(groups.items())
+
+
+def _device_from_settings(settings: Any) -> str:
+    """The device a session was recorded on when its header has no name (older sessions): the simulator leaves its
+    traces in the settings; an import names its file."""
+    source = settings.get("source") if isinstance(settings, dict) else None
+    if isinstance(source, dict):
+        named = source.get("uff_file") or source.get("npy_files")
+        if named:
+            return f"none (imported from {named if isinstance(named, str) else ', '.join(map(str, named[:3]))})"
+    return ""
 
 
 def read_report_data(path: str | Path) -> ReportData:
@@ -98,10 +118,11 @@ def read_report_data(path: str | Path) -> ReportData:
             frf = session_frf(accepted, window) if accepted else None
             source = "computed from the accepted hits with the session's window settings"
         fits = [FitResult.from_dict(session.read_fit(name)) for name in session.result_names("fits")]
-        comparison: list[Any] = []
+        comparison: list[tuple[tuple[float, float], list[Any]]] = []
         if fits and frf is not None:
-            band = (frf.freq_hz >= fits[0].band_hz[0]) & (frf.freq_hz <= fits[0].band_hz[1])
-            comparison = compare_models(fits, frf.freq_hz[band], frf.h1[band])
+            for band_hz, group in fits_by_band(fits):
+                band = (frf.freq_hz >= band_hz[0]) & (frf.freq_hz <= band_hz[1])
+                comparison.append((band_hz, compare_models(group, frf.freq_hz[band], frf.h1[band])))
         diagnosis = None
         for name in ("diagnosis", "latest"):  # the GUI's name, then the command line's
             if name in session.result_names("diagnoses"):
@@ -109,7 +130,7 @@ def read_report_data(path: str | Path) -> ReportData:
                 break
         return ReportData(
             path=path,
-            device_name=session.device_name,
+            device_name=session.device_name or _device_from_settings(session.settings),
             status=session.status,
             sample_rate_hz=session.sample_rate_hz,
             channels=channels,
@@ -192,15 +213,20 @@ def fits_figure(frf: FrfResult, fits: Sequence[Any]) -> Any:
     """Measured |H1| and every fitted model over the fit band, in g/N."""
     figure = _new_figure(4.5)
     axis = figure.subplots()
-    low, high = fits[0].band_hz
-    band = (frf.freq_hz >= low) & (frf.freq_hz <= high)
+    low = min(fit.band_hz[0] for fit in fits)
+    high = max(fit.band_hz[1] for fit in fits)
+    band = (frf.freq_hz >= low) & (frf.freq_hz <= high) & (frf.freq_hz > 0)
     freq = frf.freq_hz[band]
     axis.semilogy(freq, np.abs(frf.h1[band]) / STANDARD_GRAVITY_M_S2, color="black", lw=2.0, label="measured")
+    several = len(fits_by_band(fits)) > 1
     for fit in fits:
-        axis.semilogy(freq, np.abs(fit.accelerance(freq)) / STANDARD_GRAVITY_M_S2, lw=1.0, label=fit.model_name)
+        own = freq[(freq >= fit.band_hz[0]) & (freq <= fit.band_hz[1])]
+        label = fit.model_name + (f" ({fit.band_hz[0]:g}–{fit.band_hz[1]:g} Hz)" if several else "")
+        axis.semilogy(own, np.abs(fit.accelerance(own)) / STANDARD_GRAVITY_M_S2, lw=1.0, label=label)
     axis.set_xlabel("frequency (Hz)")
     axis.set_ylabel("|H| (g/N)")
-    axis.set_title(f"Fitted models, band {low:g}–{high:g} Hz")
+    axis.set_title(f"Fitted models, each over its own band ({low:g}–{high:g} Hz)" if several
+                   else f"Fitted models, band {low:g}–{high:g} Hz")
     axis.grid(True, alpha=0.3)
     axis.legend(fontsize=8, ncol=3)
     return figure
@@ -222,12 +248,16 @@ def _table(header: Sequence[str], rows: Sequence[Sequence[Any]]) -> str:
 
 
 def _settings_rows(settings: dict[str, Any]) -> list[tuple[str, str, str]]:
+    """The trigger, window and validation settings in words, each value with its unit."""
+    from gasfilm.analysis.settings import describe_setting
+
     rows = []
     for group in ("trigger", "window", "validation"):
         values = settings.get(group)
         if isinstance(values, dict):
             for key, value in values.items():
-                rows.append((group, key, "off" if value is None else str(value)))
+                label, text = describe_setting(group, key, value)
+                rows.append((group, label, text))
     return rows
 
 
@@ -235,30 +265,52 @@ def _percent(value: float | None) -> str:
     return "—" if value is None else f"{value:.2f} %"
 
 
+def _sigma_text(fit: Any, name: str) -> str:
+    """A parameter's 1-σ uncertainty, or "—" with the reason there is none."""
+    std = fit.std_errors.get(name)
+    if name in fit.at_bound:
+        return "— (at its search bound: not a measurement)"
+    if std is None or not np.isfinite(std):
+        return "— (not estimated: the fit's Jacobian does not determine it)"
+    return f"{std:.2g}"
+
+
 def _fits_html(data: ReportData) -> str:
     if not data.fits:
         return "<p>No fits stored in the session (run <code>gasfilm fit</code> or the GUI's Identify tab).</p>"
     g = STANDARD_GRAVITY_M_S2
-    table2 = _table(
-        ("#", "Model", "k (1)", "RMS (g/N)", "E (%)", "Peak error (g/N)", "E_m (%)", "AIC (1)", "BIC (1)"),
-        [
-            (row.rank, row.model_name, row.n_parameters, f"{row.rms / g:.4g}", _percent(row.e_percent),
-             f"{row.peak_error / g:.4g}", _percent(row.e_m_percent), f"{row.aic:.1f}", f"{row.bic:.1f}")
-            for row in data.comparison
-        ],
-    )
+    parts = []
+    for (low, high), rows in data.comparison:
+        masses = sorted({(row_fit.mass_kg, row_fit.mass_fitted) for row_fit in data.fits
+                         if (round(row_fit.band_hz[0], 6), round(row_fit.band_hz[1], 6)) == (low, high)})
+        mass_text = ", ".join(f"{mass:g} kg{' (fitted)' if fitted else ''}" for mass, fitted in masses)
+        parts.append(f"<p>Band {low:g}–{high:g} Hz ({len(rows)} model{'s' if len(rows) != 1 else ''}), mover mass "
+                     f"{mass_text}. E and E_m: improvement over SD (eq. 35) fitted over the same band.</p>")
+        parts.append(_table(
+            ("#", "Model", "k (1)", "RMS (g/N)", "E (%)", "Peak error (g/N)", "E_m (%)", "AIC (1)", "BIC (1)"),
+            [
+                (row.rank, row.model_name, row.n_parameters, f"{row.rms / g:.4g}", _percent(row.e_percent),
+                 f"{row.peak_error / g:.4g}", _percent(row.e_m_percent), f"{row.aic:.1f}", f"{row.bic:.1f}")
+                for row in rows
+            ],
+        ))
     parameter_rows = []
+    units_of = {}
     for fit in data.fits:
+        try:
+            units_of = {parameter.name: parameter.unit for parameter in fit.model().parameters}
+        except GasfilmError:
+            units_of = {}
         for name, value in fit.params.items():
-            std = fit.std_errors.get(name, float("nan"))
-            parameter_rows.append((fit.model_name, name, f"{value:.5g}", f"{std:.2g}", "; ".join(fit.flags)))
-    low, high = data.fits[0].band_hz
+            parameter_rows.append((fit.model_name, f"{fit.band_hz[0]:g}–{fit.band_hz[1]:g}", name,
+                                   f"{value:.5g} {units_of.get(name, '')}".strip(), _sigma_text(fit, name)))
+    flags = [f"<li><b>{html.escape(fit.model_name)}</b> ({fit.band_hz[0]:g}–{fit.band_hz[1]:g} Hz): "
+             f"{html.escape('; '.join(fit.flags))}</li>" for fit in data.fits if fit.flags]
     return (
-        f"<p>Band {low:g}–{high:g} Hz, mover mass {data.fits[0].mass_kg:g} kg"
-        f"{' (fitted)' if data.fits[0].mass_fitted else ''}. E and E_m: improvement over SD (eq. 35).</p>"
-        + table2
-        + "<h3>Identified parameters (SI units of each model's network: N/m, N·s/m, s)</h3>"
-        + _table(("Model", "Parameter", "Value (SI)", "±1σ (SI)", "Flags"), parameter_rows)
+        "".join(parts)
+        + "<h3>Identified parameters (each with its unit; ±1σ in the same unit)</h3>"
+        + _table(("Model", "Fit band (Hz)", "Parameter", "Value", "±1σ"), parameter_rows)
+        + (f"<p>Flags (once per model):</p><ul>{''.join(flags)}</ul>" if flags else "")
     )
 
 
@@ -270,7 +322,7 @@ def _diagnosis_html(diagnosis: dict[str, Any] | None) -> str:
         parts.append(
             f" — RMS {diagnosis['rms_before_g_per_n']:.4g} g/N with the given spec, "
             f"{diagnosis['rms_after_g_per_n']:.4g} g/N with the findings "
-            f"(E {diagnosis.get('e_percent', float('nan')):.1f} %)"
+            + (f"(E {diagnosis['e_percent']:.1f} %)" if _is_number(diagnosis.get("e_percent")) else "")
         )
     parts.append("</p>")
     findings = diagnosis.get("findings") or []
@@ -279,12 +331,8 @@ def _diagnosis_html(diagnosis: dict[str, Any] | None) -> str:
         for finding in findings:
             band = finding.get("band_hz") or ["?", "?"]
             where = finding.get("where") or f"{band[0]}–{band[1]} Hz"
-            values = "; ".join(
-                f"{name} = {entry.get('value', '?'):.4g} ± {entry.get('uncertainty', float('nan')):.2g} "
-                f"{entry.get('unit', '')}"
-                if isinstance(entry, dict) and isinstance(entry.get("value"), (int, float)) else f"{name} = {entry}"
-                for name, entry in (finding.get("parameters") or {}).items()
-            )
+            values = "; ".join(_parameter_text(name, entry)
+                               for name, entry in (finding.get("parameters") or {}).items())
             rows.append((finding.get("effect", "?"), where, values, finding.get("evidence", "")))
         parts.append(_table(("Effect", "Where", "Parameters", "Evidence"), rows))
     else:
@@ -294,12 +342,50 @@ def _diagnosis_html(diagnosis: dict[str, Any] | None) -> str:
         parts.append("<h3>Recalibrated spec parameters (SI)</h3>")
         parts.append(_table(
             ("Parameter", "Spec", "Fitted", "±1σ"),
-            [(name, f"{v.get('spec', float('nan')):.5g}", f"{v.get('fitted', float('nan')):.5g}",
-              f"{v.get('uncertainty', float('nan')):.2g}") for name, v in recalibration.items() if isinstance(v, dict)],
+            [(name, _number_text(v.get("spec"), ".5g"), _number_text(v.get("fitted"), ".5g"),
+              _number_text(v.get("uncertainty"), ".2g", NO_SIGMA)) for name, v in recalibration.items()
+             if isinstance(v, dict)],
         ))
-    for note in diagnosis.get("quality") or []:
-        parts.append(f"<p class='note'>{html.escape(str(note.get('text', note) if isinstance(note, dict) else note))}</p>")
+    notes = [quality_note_text(note) for note in diagnosis.get("quality") or []]
+    if notes:
+        parts.append("<h3>Measurement quality</h3><ul>"
+                     + "".join(f"<li class='note'>{html.escape(note)}</li>" for note in notes) + "</ul>")
     return "".join(parts)
+
+
+#: Shown for an uncertainty the diagnosis could not estimate.
+NO_SIGMA = "— (not estimated)"
+
+
+def _is_number(value: Any) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and bool(np.isfinite(value))
+
+
+def _number_text(value: Any, spec: str, missing: str = "—") -> str:
+    return format(value, spec) if _is_number(value) else missing
+
+
+def _parameter_text(name: str, entry: Any) -> str:
+    if not (isinstance(entry, dict) and _is_number(entry.get("value"))):
+        return f"{name} = {entry}"
+    sigma = entry.get("uncertainty")
+    spread = f" ± {sigma:.2g}" if _is_number(sigma) else " (± not estimated)"
+    return f"{name} = {entry['value']:.4g}{spread} {entry.get('unit', '')}".rstrip()
+
+
+def quality_note_text(note: Any) -> str:
+    """A stored measurement-quality note (kind, message, band, hits) as one readable sentence."""
+    if not isinstance(note, dict):
+        return str(note)
+    text = f"{str(note.get('kind') or 'note').capitalize()}: {note.get('message') or note.get('text') or ''}".rstrip()
+    band = note.get("band_hz")
+    if isinstance(band, (list, tuple)) and len(band) == 2 and all(_is_number(edge) for edge in band):
+        text += f" ({band[0]:.0f}–{band[1]:.0f} Hz)"
+    hits = note.get("hits")
+    if isinstance(hits, (list, tuple)) and hits:
+        shown = ", ".join(str(int(hit) + 1) for hit in hits[:12]) + (" …" if len(hits) > 12 else "")
+        text += f"; hit{'s' if len(hits) > 1 else ''} {shown}"
+    return text
 
 
 _STYLE = """
@@ -373,7 +459,9 @@ def _report_pdf(data: ReportData, drop_db: float) -> bytes:
     if data.comparison:
         from gasfilm.analysis.identification import format_table2
 
-        lines += ["", "Identified models (Table 2, g/N):", *format_table2(data.comparison).splitlines()]
+        for (low, high), rows in data.comparison:
+            lines += ["", f"Identified models (Table 2, g/N), band {low:g}–{high:g} Hz:",
+                      *format_table2(rows).splitlines()]
     if data.diagnosis is not None:
         lines += ["", f"Diagnosis verdict: {data.diagnosis.get('verdict', '?')}"]
     buffer = io.BytesIO()

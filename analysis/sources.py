@@ -13,7 +13,7 @@ from __future__ import annotations
 import logging
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Any, Mapping, Sequence
 
 import numpy as np
 
@@ -48,9 +48,42 @@ class Source:
     def is_session(self) -> bool:
         return self.kind == "session"
 
+    @property
+    def from_elsewhere(self) -> bool:
+        """Recorded by another program (a UFF or .npy file, or a session imported from one): nobody can hit again."""
+        source = self.settings.get("source") if isinstance(self.settings, Mapping) else None
+        return not self.is_session or (isinstance(source, Mapping)
+                                       and bool(source.get("uff_file") or source.get("npy_files")))
+
+    def judge(self, validation: Any, window: Any, hits: Sequence[HitRecord] | None = None,
+              previous: Sequence[Verdict | None] | None = None) -> list[Verdict]:
+        """Verdicts of ``hits`` (default: this source's, with their stored verdicts as ``previous``) under
+        ``validation`` and ``window``: a person's decision is kept, every other hit is validated again; a recording
+        from elsewhere keeps a hit that only rings at the record end, flagged (:func:`keep_truncated`)."""
+        from gasfilm.analysis.validation import keep_truncated, validate_hit
+
+        if hits is None:
+            hits, previous = self.hits, self.verdicts
+        previous = list(previous) if previous is not None else [None] * len(hits)
+        verdicts = []
+        for hit, before in zip(hits, previous):
+            if before is not None and before.overridden:
+                verdicts.append(before)
+                continue
+            verdict = validate_hit(hit, validation, self.full_scale_si, window=window)
+            verdicts.append(keep_truncated(verdict) if self.from_elsewhere else verdict)
+        return verdicts
+
     def judged_hits(self) -> list[HitRecord]:
-        """The hits a person or gasfilm accepted; every hit of a file that holds no verdicts."""
-        return [hit for hit, verdict in zip(self.hits, self.verdicts) if verdict is None or verdict.accepted]
+        """The hits a person or gasfilm accepted (a session's stored verdicts); the hits of a file, which holds no
+        verdicts, validated with the default settings and its window (as ``replay`` judges them)."""
+        if all(verdict is not None for verdict in self.verdicts):
+            return [hit for hit, verdict in zip(self.hits, self.verdicts) if verdict.accepted]
+        from gasfilm.analysis.settings import decode_settings
+
+        stored = decode_settings(self.settings, str(self.path))
+        self.verdicts = self.judge(stored.validation, stored.window)
+        return [hit for hit, verdict in zip(self.hits, self.verdicts) if verdict.accepted]
 
 
 def is_time_record_file(path: Path) -> bool:

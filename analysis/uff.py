@@ -8,7 +8,11 @@ record (in file order, after choosing the force and response DOF) make hit k. Va
 from the ordinate units label ("N", "lbf", "m/s^2", "g", …) or, without a label, from a units dataset 164.
 
 Export: the averaged H1 as function type 4 (accelerance, ordinate acceleration 12 over excitation force 13,
-m/s^2 / N, complex double) and the coherence as function type 6 (real double), preceded by a units dataset 164 (SI).
+m/s^2 / N, complex double) and the coherence as function type 6 (real double), preceded by a units dataset 164 (SI),
+and optionally the hits' time records (function type 1: the force, data type 13 in N, at the reference DOF, and the
+response, data type 12 in m/s^2, at the response DOF), so that gasfilm reads back what it writes. The FRF's record
+length, sample rate, averages and the exponential window's decay rate go into its ID line 3 (``gasfilm: ...``) so
+that a fit of the file removes the window's damping as a fit of the session does (:func:`read_uff_frf`).
 """
 
 from __future__ import annotations
@@ -217,6 +221,10 @@ def _time_records(
         if dataset.get("type") == 58 and _number(dataset, "func_type", -1) == FUNCTION_TIME_RESPONSE
     ]
     if not time_records:
+        if any(d.get("type") == 58 and _number(d, "func_type", -1) == FUNCTION_FRF for d in datasets):
+            raise UffError(f"{path}: holds an FRF but no time records (dataset 58 with function type 1); this needs "
+                           f"the hits' time records (`gasfilm export SOURCE --uff OUT.uff` writes them; "
+                           f"`gasfilm fit` reads the FRF alone)")
         types = sorted({str(dataset.get("type", "unknown")) for dataset in datasets})
         raise UffError(
             f"{path}: no time records (dataset 58 with function type 1) among {len(datasets)} datasets "
@@ -321,14 +329,51 @@ def _frf_dataset(
     )
 
 
+#: ID line 3 of an exported FRF: how it was averaged, read back by :func:`read_uff_frf`.
+FRF_ID3_PREFIX = "gasfilm:"
+
+
+def _frf_id3(frf: Any) -> str:
+    return (f"{FRF_ID3_PREFIX} n_averages={int(frf.n_averages)} sample_rate_hz={float(frf.sample_rate_hz):.10g} "
+            f"n_samples={int(frf.n_samples)} decay_rate_1_s={float(frf.decay_rate_1_s):.10g}")
+
+
+def _time_record_dataset(values: np.ndarray, sample_rate_hz: float, start_time_s: float, dof: Dof,
+                         reference_dof: Dof, role: str, hit_number: int, description: str) -> dict[str, Any]:
+    data_type, unit = (DATA_TYPE_EXCITATION_FORCE, "N") if role == "force" else (DATA_TYPE_ACCELERATION, "m/s^2")
+    values = np.asarray(values, dtype=float)
+    return pyuff.prepare_58(
+        binary=0,
+        id1=f"{description} hit {hit_number} {role}"[:80],
+        id2="gasfilm",
+        func_type=FUNCTION_TIME_RESPONSE,
+        ver_num=hit_number,
+        rsp_node=int(dof[0]),
+        rsp_dir=int(dof[1]),
+        ref_node=int(reference_dof[0]),
+        ref_dir=int(reference_dof[1]),
+        abscissa_spacing=1,
+        abscissa_spec_data_type=DATA_TYPE_TIME,
+        abscissa_axis_units_lab="s",
+        ordinate_spec_data_type=data_type,
+        ordinate_axis_units_lab=unit,
+        orddenom_spec_data_type=0,
+        data=values,
+        x=start_time_s + np.arange(values.size) / sample_rate_hz,
+    )
+
+
 def export_frf_uff(
     frf: Any,
     path: str | Path,
     response_dof: Dof = (1, 3),
     reference_dof: Dof = (1, 3),
     description: str = "gasfilm averaged FRF",
+    hits: Sequence[Any] = (),
 ) -> Path:
-    """Write the averaged H1 (accelerance, m/s²/N) and the coherence of an ``FrfResult`` as UFF 58."""
+    """Write the averaged H1 (accelerance, m/s²/N) and the coherence of an ``FrfResult`` as UFF 58, then the time
+    records of ``hits`` (:class:`gasfilm.analysis.capture.HitRecord` or stored hits: force at ``reference_dof``,
+    response at ``response_dof``), which ``replay``, ``diagnose`` and ``fit`` read back."""
     path = Path(path)
     if not path.parent.is_dir():
         raise UffError(f"{path}: the folder {path.parent} does not exist")
@@ -374,11 +419,102 @@ def export_frf_uff(
             (0, "NONE"),
         ),
     ]
+    for dataset in datasets[1:]:
+        dataset["id3"] = _frf_id3(frf)
+    for number, hit in enumerate(hits, start=1):
+        records = np.asarray(hit.data, dtype=float)
+        for role, row, dof in (("force", hit.force_channel, reference_dof),
+                               ("response", hit.response_channel, response_dof)):
+            datasets.append(_time_record_dataset(records[row], float(hit.sample_rate_hz),
+                                                 float(hit.start_time_s), dof, reference_dof, role, number,
+                                                 description))
     try:
         pyuff.UFF(str(path)).write_sets(datasets, mode="overwrite")
     except OSError as error:
         raise UffError(f"{path}: cannot write the UFF file ({error.strerror or error})") from None
     return path
+
+
+def _frf_metadata(dataset: Mapping[str, Any]) -> dict[str, float]:
+    """The ``gasfilm: key=value ...`` fields of an exported FRF's ID line 3 (empty for another program's file)."""
+    text = _label(dataset, "id3")
+    if not text.startswith(FRF_ID3_PREFIX):
+        return {}
+    values = {}
+    for item in text[len(FRF_ID3_PREFIX):].split():
+        key, _, value = item.partition("=")
+        try:
+            number = float(value)
+        except ValueError:
+            continue
+        if math.isfinite(number):
+            values[key] = number
+    return values
+
+
+def read_uff_frf(path: str | Path) -> Any:
+    """The FRF (function type 4, accelerance) and its coherence (type 6) stored in a UFF file, as an
+    :class:`gasfilm.analysis.spectra.FrfResult`, or None when the file holds no FRF.
+
+    What UFF does not carry (H2, auto-spectra, per-hit FRFs, the uncertainty) is NaN. The averaging details come from
+    gasfilm's ID line 3; another program's FRF is taken as unwindowed, sampled at twice its top frequency."""
+    from gasfilm.analysis.spectra import FrfResult
+
+    path = Path(path)
+    datasets = _read_datasets(path)
+    try:
+        return _frf_from_datasets(path, datasets, FrfResult)
+    except UffError as error:
+        message = str(error)
+        raise UffError(message if message.startswith(str(path)) else f"{path}: {message}") from None
+
+
+def _frf_from_datasets(path: Path, datasets: list[dict[str, Any]], frf_class: Any) -> Any:
+    def of_type(func_type: int) -> list[dict[str, Any]]:
+        return [d for d in datasets if d.get("type") == 58 and _number(d, "func_type", -1) == func_type]
+
+    frfs, coherences = of_type(FUNCTION_FRF), of_type(FUNCTION_COHERENCE)
+    if not frfs:
+        return None
+    if len(frfs) > 1:
+        raise UffError(f"{path}: holds {len(frfs)} FRFs; gasfilm fits one (write one FRF per file)")
+    dataset = frfs[0]
+    h1 = np.asarray(dataset.get("data"), dtype=complex)
+    freq_hz = np.asarray(dataset.get("x"), dtype=float)
+    if h1.ndim != 1 or h1.size < 2 or freq_hz.shape != h1.shape:
+        raise UffError(f"{path}: the FRF holds no column of numbers with its frequencies")
+    if not (np.all(np.isfinite(h1)) and np.all(np.isfinite(freq_hz)) and np.all(np.diff(freq_hz) > 0)):
+        raise UffError(f"{path}: the FRF has NaN values or frequencies that do not rise")
+    numerator = _label(dataset, "ordinate_axis_units_lab").lower().replace(" ", "")
+    denominator = _label(dataset, "orddenom_axis_units_lab").lower().replace(" ", "")
+    factor = ACCELERATION_UNITS_TO_M_S2.get(numerator or "m/s^2")
+    per = FORCE_UNITS_TO_N.get(denominator or "n")
+    if factor is None or per is None:
+        raise UffError(f"{path}: the FRF is in {numerator or '?'}/{denominator or '?'}; gasfilm reads an "
+                       f"accelerance (m/s^2, g or mm/s^2 per N, kN or lbf)")
+    h1 = h1 * factor / per
+    coherence = np.full(h1.size, np.nan)
+    if coherences:
+        values = np.asarray(coherences[0].get("data"), dtype=float)
+        if values.shape == h1.shape:
+            coherence = values
+    meta = _frf_metadata(dataset)
+    sample_rate_hz = meta.get("sample_rate_hz", 2.0 * float(freq_hz[-1]))
+    n_samples = int(meta.get("n_samples", 2 * (h1.size - 1)))
+    unknown = np.full(h1.size, np.nan)
+    return frf_class(
+        freq_hz=freq_hz, h1=h1, h2=unknown.astype(complex), coherence=coherence, gff=unknown, gxx=unknown,
+        gfx=unknown.astype(complex), h1_per_hit=np.empty((0, h1.size), complex),
+        n_averages=int(meta.get("n_averages", 1)), sample_rate_hz=float(sample_rate_hz), n_samples=n_samples,
+        decay_rate_1_s=float(meta.get("decay_rate_1_s", 0.0)), h1_std_coherence=unknown,
+        h1_std_scatter=unknown, window={"source": str(path)},
+    )
+
+
+def has_uff_time_records(path: str | Path) -> bool:
+    """Whether a UFF file holds time records (dataset 58, function type 1)."""
+    return any(d.get("type") == 58 and _number(d, "func_type", -1) == FUNCTION_TIME_RESPONSE
+               for d in _read_datasets(Path(path)))
 
 
 def import_uff_session(

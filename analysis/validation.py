@@ -18,7 +18,9 @@ Reasons (exact strings, several may apply to one hit):
 * ``"pre-trigger not quiet"``: the RMS of the response before the pulse exceeds ``pretrigger_quiet_fraction`` of its
   peak: the structure still rings from an earlier hit.
 
-A rejected hit is kept with its verdict; the user may override it with :meth:`Verdict.overridden_to`.
+A rejected hit is kept with its verdict; the user may override it with :meth:`Verdict.overridden_to`. A recording
+from elsewhere cannot be hit again: there a hit whose only fault is that it still rings at the record end enters the
+average with its truncation flagged (:func:`keep_truncated`).
 """
 
 from __future__ import annotations
@@ -218,6 +220,21 @@ def validate_hit(
     if noise_response > settings.pretrigger_quiet_fraction * float(np.max(np.abs(response))):
         reasons.append(PRETRIGGER_NOT_QUIET)
     return Verdict.from_reasons(tuple(reasons), tuple(notes))
+
+
+def keep_truncated(verdict: Verdict) -> Verdict:
+    """For a recording from elsewhere (no technician can hit again): a hit rejected ONLY because its response still
+    rings at the record end is accepted, its reason kept as a flag and its note saying the leakage and the advised
+    window. Any other verdict is returned as it is."""
+    if verdict.accepted or verdict.overridden or verdict.reasons != (NOT_DECAYED,):
+        return verdict
+    notes = tuple(f"kept although truncated (a recording from elsewhere): {note}" for note in verdict.notes)
+    return Verdict(True, verdict.reasons, False, notes=notes)
+
+
+def is_flagged(verdict: Verdict) -> bool:
+    """An accepted hit that still carries a reason (a truncation kept by :func:`keep_truncated`)."""
+    return verdict.accepted and not verdict.overridden and bool(verdict.reasons)
 
 
 @dataclass(frozen=True)

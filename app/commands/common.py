@@ -12,8 +12,27 @@ from pathlib import Path
 from typing import Any, Mapping, TypeVar
 
 from gasfilm.drivers.errors import SettingError
+from gasfilm.drivers.units import STANDARD_GRAVITY_M_S2
+
+#: ``--units`` choices: accelerance in g/N (the paper's tables and figures; the default everywhere on the command line)
+#: or in (m/s²)/N.
+UNITS = {"g": "g/N", "si": "(m/s²)/N"}
+DEFAULT_UNITS = "g"
 
 T = TypeVar("T")
+
+
+def add_units_flag(parser: Any) -> None:
+    """The one ``--units`` flag every command that prints an accelerance takes."""
+    parser.add_argument("--units", choices=tuple(UNITS), default=DEFAULT_UNITS,
+                        help="accelerance printed in g/N ('g', the default, as the paper's tables) or in (m/s²)/N "
+                             "('si'); JSON keys name their unit and stay SI")
+
+
+def accelerance_text(value_m_s2_per_n: float, units: str = DEFAULT_UNITS, digits: int = 4) -> str:
+    """An accelerance given in (m/s²)/N, printed in the chosen ``--units`` with its unit."""
+    value = value_m_s2_per_n / STANDARD_GRAVITY_M_S2 if units == "g" else value_m_s2_per_n
+    return f"{value:.{digits}g} {UNITS[units]}"
 
 
 def check_output_file(path: Path, flag: str, overwrite: bool, make_parent: bool = False) -> Path:
@@ -55,6 +74,13 @@ def check_output_file(path: Path, flag: str, overwrite: bool, make_parent: bool 
     return path
 
 
+def check_output_suffix(path: Path, flag: str, suffixes: tuple[str, ...]) -> None:
+    """Refuse an output path whose extension does not say what is written into it (a UFF file named .csv)."""
+    if path.suffix.lower() not in suffixes:
+        raise SettingError(f"{flag} {path}: the file name must end in {' or '.join(suffixes)} "
+                           f"(it says what the file holds)")
+
+
 def check_output_folder(folder: Path, flag: str, names: tuple[str, ...], overwrite: bool) -> list[Path]:
     """May this command write the files ``names`` into ``folder`` (made if missing)? Same rules as
     :func:`check_output_file` for each file."""
@@ -91,34 +117,73 @@ def is_terminal(stream: Any = None) -> bool:
         return False
 
 
-def load_frf(paths: list[Path], name: str | None = None) -> tuple[Any, str, str | None]:
+@dataclasses.dataclass
+class LoadedFrf:
+    """The FRF to export or fit: what it is, the rig spec TOML it was recorded with (None for files) and, when asked
+    for, the hits it averages (for the time records of an export)."""
+
+    frf: Any
+    what: str
+    rig_spec_toml: str | None
+    hits: list = dataclasses.field(default_factory=list)
+
+
+def load_frf(paths: list[Path], name: str | None = None, with_hits: bool = False) -> LoadedFrf:
     """The FRF to export or fit, its description and the rig spec TOML it was recorded with (None for files).
 
     A session gives its stored FRF ``name`` (default: "frf" or its only one), else one averaged now from its accepted
-    hits with its stored window; UFF or .npy time records give the FRF of all their hits (no window stored)."""
+    hits with its stored window; a UFF file its stored FRF, else the FRF of its time records; UFF or .npy time
+    records give the FRF of their hits validated as ``replay`` validates them (no window stored). ``with_hits``: also
+    the hits the FRF averages (a session's stored FRF: the hits it names, else its accepted ones)."""
     from gasfilm.analysis.session import Session, SessionError
     from gasfilm.analysis.settings import decode_setting
-    from gasfilm.analysis.sources import is_time_record_file, load_source
+    from gasfilm.analysis.sources import UFF_SUFFIXES, is_time_record_file, load_source
     from gasfilm.analysis.spectra import WindowSettings, session_frf
 
     if len(paths) == 1 and not is_time_record_file(paths[0]):
         with Session.open(paths[0], "r") as session:
             stored = session.result_names("frf")
-            if name is not None:
-                return session.read_frf(name), f"FRF '{name}'", session.rig_spec_toml
-            if "frf" in stored or len(stored) == 1:
+            chosen = name
+            if chosen is None and ("frf" in stored or len(stored) == 1):
                 chosen = "frf" if "frf" in stored else stored[0]
-                return session.read_frf(chosen), f"FRF '{chosen}'", session.rig_spec_toml
-            if len(stored) > 1:
+            elif chosen is None and len(stored) > 1:
                 raise SettingError(f"--frf: {session.path} holds several FRFs ({', '.join(stored)}); choose one")
+            if chosen is not None:
+                frf = session.read_frf(chosen)
+                hits = []
+                if with_hits:
+                    indices = session.frf_hit_indices(chosen)
+                    every = session.hits()
+                    hits = ([every[i] for i in indices if 0 <= i < len(every)] if indices is not None
+                            else [hit for hit in every if hit.verdict.accepted])
+                return LoadedFrf(frf, f"FRF '{chosen}'", session.rig_spec_toml, hits)
             hits = [hit for hit in session.hits() if hit.verdict.accepted]
             if not hits:
                 raise SessionError(f"{session.path}: no stored FRF and no accepted hits to average")
             frf = session_frf(hits, session.settings_as("window", WindowSettings))
-            return frf, f"FRF averaged now from {len(hits)} accepted hits", session.rig_spec_toml
+            return LoadedFrf(frf, f"FRF averaged now from {len(hits)} accepted hits", session.rig_spec_toml,
+                             hits if with_hits else [])
     if name is not None:
         raise SettingError(f"--frf: {paths[0]} is not a session; only sessions store named FRFs")
+    if len(paths) == 1 and paths[0].suffix.lower() in UFF_SUFFIXES:
+        from gasfilm.analysis.uff import has_uff_time_records, read_uff_frf
+
+        frf = read_uff_frf(paths[0])
+        if frf is not None:
+            hits = load_source(paths).hits if with_hits and has_uff_time_records(paths[0]) else []
+            return LoadedFrf(frf, f"FRF stored in the file ({frf.n_averages} averages)", None, hits)
     source = load_source(paths)
     hits = source.judged_hits()
+    rejected = len(source.hits) - len(hits)
+    flagged = sum(1 for verdict in source.verdicts if verdict is not None and verdict.accepted and verdict.reasons)
+    if not hits:
+        reasons = sorted({reason for verdict in source.verdicts if verdict is not None for reason in verdict.reasons})
+        raise SettingError(f"{paths[0]}: all {len(source.hits)} hits are rejected ({', '.join(reasons)}); "
+                           f"`gasfilm replay` shows why and takes other validation settings")
     window = decode_setting(source.settings, "window", WindowSettings, str(source.path))
-    return session_frf(hits, window), f"FRF averaged from the {len(hits)} hits of {source.kind} records", None
+    what = f"FRF averaged from {len(hits)} of the {len(source.hits)} hits of {source.kind} records"
+    if rejected:
+        what += f" ({rejected} rejected as `gasfilm replay` rejects them)"
+    if flagged:
+        what += f" ({flagged} still ringing at the record end: leakage; `gasfilm replay` advises a window)"
+    return LoadedFrf(session_frf(hits, window), what, None, hits if with_hits else [])

@@ -2,7 +2,9 @@
 
 The FRF stored in a session is exported (``--frf NAME``; by default "frf", or the only one stored). A session
 without a stored FRF is averaged from its accepted hits with the session's window settings first; UFF or .npy time
-records are averaged over all their hits. An existing output file is replaced only with ``--overwrite``.
+records are averaged over the hits ``replay`` would accept. A UFF export also holds the time records of the hits the
+FRF averages (unless ``--no-time-records``), so ``replay``, ``diagnose`` and ``fit`` read it back. An existing output
+file is replaced only with ``--overwrite``.
 """
 
 from __future__ import annotations
@@ -10,7 +12,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from gasfilm.app.commands.common import check_output_file, load_frf
+from gasfilm.app.commands.common import check_output_file, check_output_suffix, load_frf
+from gasfilm.drivers.errors import SettingError
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -21,6 +24,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     target = parser.add_mutually_exclusive_group(required=True)
     target.add_argument("--uff", type=Path, metavar="OUT.uff", help="write H1 (accelerance) and coherence as UFF 58")
     target.add_argument("--csv", type=Path, metavar="OUT.csv", help="write the FRF, coherence and uncertainty as CSV")
+    parser.add_argument("--time-records", action=argparse.BooleanOptionalAction, default=None,
+                        help="UFF: also write the averaged hits' force and response time records (dataset 58, "
+                             "function type 1), which replay and diagnose need (default: yes)")
     parser.add_argument("--overwrite", action="store_true", help="replace the output file if it exists")
     parser.add_argument("--frf", metavar="NAME", help="which stored FRF (default: 'frf' or the only one)")
     parser.add_argument("--response-dof", type=int, nargs=2, default=(1, 3), metavar=("NODE", "DIR"),
@@ -35,12 +41,21 @@ def run(args: argparse.Namespace) -> int:
     from gasfilm.analysis.uff import export_frf_uff
 
     flag, target = ("--uff", args.uff) if args.uff is not None else ("--csv", args.csv)
+    check_output_suffix(target, flag, (".uff", ".unv") if args.uff is not None else (".csv",))
+    if args.csv is not None and args.time_records:
+        raise SettingError("--time-records: only a UFF export holds time records (use --uff OUT.uff)")
     check_output_file(target, flag, args.overwrite)
-    frf, what, _rig = load_frf(args.source, args.frf)
+    with_hits = args.uff is not None and args.time_records is not False
+    loaded = load_frf(args.source, args.frf, with_hits=with_hits)
+    frf = loaded.frf
     if args.uff is not None:
         export_frf_uff(frf, args.uff, tuple(args.response_dof), tuple(args.reference_dof),
-                       description=f"gasfilm {args.source[0].name}")
+                       description=f"gasfilm {args.source[0].name}", hits=loaded.hits)
     else:
         write_frf_csv(frf, args.csv)
-    print(f"{what} of {args.source[0]} ({len(frf.freq_hz)} lines, {frf.n_averages} averages) written to {target}")
+    records = f", with the time records of {len(loaded.hits)} hits" if loaded.hits else ""
+    if with_hits and not loaded.hits:
+        records = ", no time records (the source holds none)"
+    print(f"{loaded.what} of {args.source[0]} ({len(frf.freq_hz)} lines, {frf.n_averages} averages{records}) "
+          f"written to {target}")
     return 0

@@ -34,7 +34,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "fit", help="fit the paper's gas-film models to an FRF (Table 2, Figures 18/19)"
     )
     parser.add_argument("source", type=Path, nargs="+", metavar="SESSION.h5|FILE.uff|HIT.npy",
-                        help="a session, UFF 58 time records, or .npy hit records")
+                        help="a session, a UFF 58 file (its FRF, else its time records), or .npy hit records")
     parser.add_argument("--frf", metavar="NAME", help="which stored FRF of a session (default: 'frf' or the only one)")
     parser.add_argument("--models", default="all", help="comma-separated model names (SD, FOMGF, ...) or 'all'")
     parser.add_argument("--method", default="default", help="fitter: 'default' (the fast one) or 'gapso'")
@@ -147,7 +147,8 @@ def run(args: argparse.Namespace) -> int:
     stem = args.source[0].stem
     figure_paths = check_output_folder(out, "--out" if args.out is not None else "",
                                        (f"{stem}-figure18.png", f"{stem}-figure19.png"), args.overwrite)
-    frf, what, rig_spec_toml = load_frf(args.source, args.frf)
+    loaded = load_frf(args.source, args.frf)
+    frf, what, rig_spec_toml = loaded.frf, loaded.what, loaded.rig_spec_toml
     low, high = parse_band(args.band, frf.sample_rate_hz)
     keep = (frf.freq_hz >= max(low, 1e-9)) & (frf.freq_hz <= high)
     if np.count_nonzero(keep) < MIN_BAND_LINES:

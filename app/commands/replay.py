@@ -18,7 +18,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from gasfilm.app.commands.common import check_output_file, positive_flag, settings_from_flags
+from gasfilm.app.commands.common import add_units_flag, check_output_file, positive_flag, settings_from_flags
 from gasfilm.drivers.errors import SettingError
 
 #: Band edges (Hz) for the coherence summary; bands above the Nyquist frequency are left out.
@@ -28,6 +28,9 @@ PEAK_SEARCH_FROM_HZ = 5.0
 #: Only lines with at least this coherence are searched for the peak (zeros of the hammer spectrum give noisy
 #: spikes in |H1|); when no line has it, all lines are searched.
 PEAK_MIN_COHERENCE = 0.9
+#: Said instead of the coherence figures when the FRF averages one hit.
+ONE_AVERAGE_NOTE = ("not meaningful: one average gives a coherence of 1 at every line by construction; "
+                    "average at least 2 hits (5 or more to judge the noise)")
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -58,6 +61,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         "session's result is stored as its FRF group 'replay' and a file's is only printed")
     parser.add_argument("--overwrite", action="store_true", help="replace --out if it exists")
     parser.add_argument("--json", action="store_true", help="print the summary as JSON")
+    add_units_flag(parser)
     parser.set_defaults(func=run)
 
 
@@ -130,14 +134,26 @@ def _bands(freq_hz: Any, coherence: Any) -> list[dict[str, float]]:
     return bands
 
 
+def _advised_exp_end(notes: list[str]) -> float | None:
+    """The strongest exponential window the hits' notes advise (``--exp-end X``), None when none does."""
+    import re
+
+    values = [float(match) for note in notes for match in re.findall(r"--exp-end ([0-9.eE+-]+)\)", note)]
+    return min(values) if values else None
+
+
 def summarise(frf: Any, verdicts: list, dropped: int, record_samples: int) -> dict[str, Any]:
-    """Hits and reasons, peak frequency of |H1| and mean coherence by band (``frf``: an FrfResult or None)."""
+    """Hits and reasons, peak frequency of |H1| and mean coherence by band (``frf``: an FrfResult or None). Hits are
+    numbered from 1, as everywhere the user sees them."""
     import numpy as np
 
     reasons: dict[str, int] = {}
+    flagged: dict[str, int] = {}
     for verdict in verdicts:
+        counts = reasons if not verdict.accepted else flagged if not verdict.overridden else {}
         for reason in verdict.reasons:
-            reasons[reason] = reasons.get(reason, 0) + 1
+            counts[reason] = counts.get(reason, 0) + 1
+    notes = [f"hit {number}: {note}" for number, verdict in enumerate(verdicts, start=1) for note in verdict.notes]
     summary: dict[str, Any] = {
         "hits": len(verdicts),
         "accepted": sum(v.accepted for v in verdicts),
@@ -146,7 +162,9 @@ def summarise(frf: Any, verdicts: list, dropped: int, record_samples: int) -> di
         "records_without_trigger": dropped,
         "record_samples": record_samples,
         "reasons": dict(sorted(reasons.items())),
-        "notes": [f"hit {index}: {note}" for index, verdict in enumerate(verdicts) for note in verdict.notes],
+        "flagged": dict(sorted(flagged.items())),
+        "advised_exp_end": _advised_exp_end(notes),
+        "notes": notes,
     }
     if frf is not None:
         magnitude = np.abs(frf.h1)
@@ -159,12 +177,16 @@ def summarise(frf: Any, verdicts: list, dropped: int, record_samples: int) -> di
             peak_frequency_hz=float(frf.freq_hz[peak]),
             peak_accelerance_m_s2_per_n=float(magnitude[peak]),
             decay_rate_1_s=frf.decay_rate_1_s,
+            averages=int(frf.n_averages),
             coherence_bands=_bands(frf.freq_hz, frf.coherence),
+            coherence_note=(ONE_AVERAGE_NOTE if frf.n_averages < 2 else None),
         )
     return summary
 
 
-def _print_summary(summary: dict[str, Any], source: Path, written: str) -> None:
+def _print_summary(summary: dict[str, Any], source: Path, written: str, units: str = "si") -> None:
+    from gasfilm.app.commands.common import accelerance_text
+
     print(f"replay of {source}")
     print(f"  hits: {summary['hits']} of {summary['record_samples']} samples ({summary['accepted']} accepted, "
           f"{summary['rejected']} rejected"
@@ -173,14 +195,23 @@ def _print_summary(summary: dict[str, Any], source: Path, written: str) -> None:
         print(f"  records that no longer trigger: {summary['records_without_trigger']}")
     for reason, count in summary["reasons"].items():
         print(f"    {reason}: {count}")
+    for reason, count in summary["flagged"].items():
+        print(f"  accepted but flagged ({reason}): {count} — a recording from elsewhere cannot be hit again; "
+              f"its truncation leaks (see the notes)")
     if summary["notes"]:
         more = len(summary["notes"]) - 1
         print(f"  note: {summary['notes'][0]}" + (f" (and {more} more notes; --json lists them)" if more else ""))
+    if summary["advised_exp_end"] is not None:
+        print(f"  advice: add --exp-end {summary['advised_exp_end']:g} to window the ringing away")
     if "peak_frequency_hz" in summary:
         print(f"  peak of |H1| (lines with coherence >= {PEAK_MIN_COHERENCE}): {summary['peak_frequency_hz']:.2f} Hz, "
-              f"{summary['peak_accelerance_m_s2_per_n']:.4g} (m/s^2)/N")
-        for band in summary["coherence_bands"]:
-            print(f"  coherence {band['low_hz']:.0f}-{band['high_hz']:.0f} Hz: mean {band['mean_coherence']:.4f}")
+              f"{accelerance_text(summary['peak_accelerance_m_s2_per_n'], units)}")
+        if summary["coherence_note"]:
+            print(f"  coherence: {summary['coherence_note']}")
+        else:
+            for band in summary["coherence_bands"]:
+                print(f"  coherence {band['low_hz']:.0f}-{band['high_hz']:.0f} Hz: mean {band['mean_coherence']:.4f} "
+                      f"({summary['averages']} averages)")
     else:
         print("  no accepted hits: no FRF")
     print(f"  result: {written}")
@@ -192,7 +223,6 @@ def run(args: argparse.Namespace) -> int:
     from gasfilm.analysis.session import Session, SessionError
     from gasfilm.analysis.sources import load_source
     from gasfilm.analysis.spectra import session_frf
-    from gasfilm.analysis.validation import validate_hit
 
     if args.out is not None:
         if any(args.out.resolve() == path.resolve() for path in args.source):
@@ -203,13 +233,7 @@ def run(args: argparse.Namespace) -> int:
         raise SessionError(f"{source.path}: holds no hits to replay")
     trigger, retrigger, validation, window = _new_settings(args, source)
     hits, dropped = _retrigger(source.hits, trigger, source.sample_rate_hz) if retrigger else (source.hits, 0)
-    verdicts = []
-    for position, hit in enumerate(hits):
-        previous = None if retrigger else source.verdicts[position]
-        if previous is not None and previous.overridden:
-            verdicts.append(previous)
-        else:
-            verdicts.append(validate_hit(hit, validation, source.full_scale_si, window=window))
+    verdicts = source.judge(validation, window, hits, None if retrigger else source.verdicts)
     accepted = [hit for hit, verdict in zip(hits, verdicts) if verdict.accepted]
     frf = session_frf(accepted, window) if accepted else None
     accepted_indices = np.array([i for i, verdict in enumerate(verdicts) if verdict.accepted], dtype=np.int64)
@@ -239,5 +263,5 @@ def run(args: argparse.Namespace) -> int:
         json.dump({"source": str(shown), "result": written, **summary}, sys.stdout, indent=2)
         print()
     else:
-        _print_summary(summary, shown, written)
+        _print_summary(summary, shown, written, args.units)
     return 0 if frf is not None else 1
