@@ -109,7 +109,10 @@ class ImpactCapture:
         channel_count: int,
         force_channel: int = 0,
         response_channel: int = 1,
+        stream_start_s: float = 0.0,
     ) -> None:
+        """``stream_start_s``: the session time of the stream's first sample (a run appended to a session continues
+        its clock)."""
         if not sample_rate_hz > 0:
             raise SettingError(f"sample_rate_hz: {sample_rate_hz} must be positive")
         if channel_count < 1:
@@ -119,6 +122,7 @@ class ImpactCapture:
                 raise SettingError(f"{name}: {channel} is not a channel index below channel_count {channel_count}")
         self.settings = settings
         self.sample_rate_hz = float(sample_rate_hz)
+        self.stream_start_s = float(stream_start_s)
         self.channel_count = channel_count
         self.force_channel = force_channel
         self.response_channel = response_channel
@@ -231,7 +235,7 @@ class ImpactCapture:
                     data=self._samples[:, positions],
                     sample_rate_hz=self.sample_rate_hz,
                     trigger_index=trigger - record_start,
-                    start_time_s=record_start / self.sample_rate_hz,
+                    start_time_s=self.stream_start_s + record_start / self.sample_rate_hz,
                     overload=self._overload[:, positions].any(axis=1),
                     force_channel=self.force_channel,
                     response_channel=self.response_channel,

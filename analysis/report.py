@@ -408,7 +408,7 @@ def report_html(data: ReportData, drop_db: float = USABLE_DROP_DB) -> str:
         f"{html.escape(data.status)}.</p>",
         _table(("Channel", "Name", "Type", "Sensitivity", "IEPE", "Coupling"),
                [tuple(c.values()) for c in data.channels]),
-        _table(("Group", "Setting (unit in the name)", "Value"), _settings_rows(data.settings)),
+        _table(("Group", "Setting", "Value"), _settings_rows(data.settings)),
     ]
     if data.rig_spec_toml:
         sections.append(f"<details><summary>Rig spec</summary><pre>{html.escape(data.rig_spec_toml)}</pre></details>")
@@ -481,6 +481,8 @@ def _report_pdf(data: ReportData, drop_db: float) -> bytes:
 def check_report_path(out: str | Path, overwrite: bool, flag: str = "--out") -> Path:
     """Refuse an unknown format, a missing folder, or an existing file unless ``overwrite``; one line naming it."""
     out = Path(out)
+    if out.is_dir():
+        raise SettingError(f"{flag} {out}: is a folder; name the report file in it, e.g. {out / 'report.html'}")
     if out.suffix.lower() not in REPORT_FORMATS:
         raise SettingError(f"{flag} {out}: the report is written as .html or .pdf")
     if not out.parent.is_dir():

@@ -16,7 +16,8 @@ import time
 from pathlib import Path
 from typing import Any, Iterator
 
-from gasfilm.app.commands.common import check_output_file, is_terminal, positive_flag, settings_from_flags
+from gasfilm.app.commands.common import (check_output_file, check_session_path, hit_line, is_terminal,
+                                         positive_flag, settings_from_flags, window_value)
 from gasfilm.drivers.errors import DeviceError, SettingError
 
 logger = logging.getLogger(__name__)
@@ -27,6 +28,13 @@ SIMULATED_DEVICE_NAME = "sim"  # gasfilm.drivers.SIMULATED_DEVICE_NAME, without 
 MAX_RECORD_S = 20.0
 #: Longest wait for a chunk before the run is declared stuck (the reader has its own device timeout).
 CHUNK_WAIT_S = 30.0
+#: Most accepted hits one run collects (a hammer test averages tens; 10 000 one-second hits at 12.8 kS/s fill 2 GB).
+MAX_HITS = 10_000
+#: Longest run in s of signal (one day).
+MAX_SECONDS = 86_400.0
+#: The simulator stops a run in which no hit triggers for this long (s of signal, or 3 × the longest hit interval):
+#: its hammer never reaches the trigger level.
+SIM_SILENCE_S = 60.0
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -46,8 +54,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--record-s", type=float, default=1.0, help="record length per hit in s (default 1.0)")
     parser.add_argument("--trigger-n", type=float, default=20.0, help="trigger level on the force in N (default 20)")
     parser.add_argument("--pretrigger-s", type=float, default=0.01, help="pre-trigger length in s (default 0.01)")
-    parser.add_argument("--force-window-ms", type=float, help="force window width after the peak in ms")
-    parser.add_argument("--exp-end", type=float, help="exponential window: value at the record end, e.g. 0.01")
+    parser.add_argument("--force-window-ms", type=window_value,
+                        help="force window width after the peak in ms ('none': no force window)")
+    parser.add_argument("--exp-end", type=window_value,
+                        help="exponential window: value at the record end, e.g. 0.01 ('none': no window)")
     parser.add_argument("--double-hit-fraction", type=float,
                         help="a second impact above this fraction of the first rejects the hit (default 0.1)")
     parser.add_argument("--seed", type=int, default=0, help="simulator: random seed")
@@ -65,12 +75,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.set_defaults(func=run)
 
 
-def _open_device(args: argparse.Namespace, rig_spec: Any) -> Any:
+def _open_device(args: argparse.Namespace, rig_spec: Any, seed: int | None = None) -> Any:
     from gasfilm.analysis.physics.plant import RigPlant
     from gasfilm.drivers import open_device
 
     if args.device == SIMULATED_DEVICE_NAME:
-        options = {"plant": RigPlant(rig_spec), "seed": args.seed, "pacing": args.pacing,
+        options = {"plant": RigPlant(rig_spec), "seed": args.seed if seed is None else seed, "pacing": args.pacing,
                    "double_hit_rate": args.double_hit_rate}
         if args.hit_interval is not None:
             options["hit_interval_s"] = tuple(args.hit_interval)
@@ -85,9 +95,12 @@ def _settings(args: argparse.Namespace) -> dict[str, Any]:
     from gasfilm.analysis.spectra import WindowSettings
     from gasfilm.analysis.validation import ValidationSettings
 
-    if args.hits is not None and args.hits < 1:
-        raise SettingError(f"--hits: {args.hits} must be at least 1")
+    if args.hits is not None and not 1 <= args.hits <= MAX_HITS:
+        raise SettingError(f"--hits: {args.hits} must be 1 to {MAX_HITS} (one run; --append adds more)")
     positive_flag("--seconds", args.seconds, "s")
+    if args.seconds is not None and args.seconds > MAX_SECONDS:
+        raise SettingError(f"--seconds: {args.seconds:g} s is longer than one day ({MAX_SECONDS:g} s); "
+                           f"use --append for more")
     positive_flag("--rate", args.rate, "S/s")
     positive_flag("--trigger-n", args.trigger_n, "N")
     positive_flag("--record-s", args.record_s, "s")
@@ -160,6 +173,33 @@ def _open_session(args: argparse.Namespace, config: Any, rate_hz: float, device_
                           device_name=device_name, record_samples=settings["trigger"].record_samples(rate_hz))
 
 
+def _continuation(session: Any, seed: int) -> tuple[int, int, float]:
+    """For a run appended to ``session``: its run number (0 for the first), the simulator seed that does not repeat
+    an earlier run's hits, and the session time (s) where the earlier runs' signal ended, so hit times go on."""
+    import numpy as np
+
+    if session.hit_count == 0:
+        return 0, seed, 0.0
+    acquisition = session.settings.get("acquisition")
+    acquisition = acquisition if isinstance(acquisition, dict) else {}
+    runs = int(acquisition.get("runs") or 1)
+    end_s = acquisition.get("stream_end_s")
+    if not isinstance(end_s, (int, float)):  # an older session, or a run that was killed: from its stored hits
+        end_s = max(hit.start_time_s + hit.data.shape[-1] / session.sample_rate_hz
+                    for hit in session.hits(check_finite=False))
+    run_seed = int(np.random.SeedSequence([seed, runs]).generate_state(1)[0])
+    return runs, run_seed, float(end_s)
+
+
+def _note_stream_end(session: Any, stream_end_s: float) -> None:
+    """Record where this run's signal ended (session time), for the next --append; a failing file is left alone."""
+    try:
+        acquisition = dict(session.settings.get("acquisition") or {})
+        session.update_settings({"acquisition": {**acquisition, "stream_end_s": stream_end_s}})
+    except Exception as error:  # noqa: BLE001 - the hits are what matters; the session is being closed anyway
+        logger.warning("%s: the end of the signal was not recorded (%s)", session.path, error)
+
+
 class _Progress:
     """One line per hit on stdout (flushed at once), a running counter on stderr when it is a terminal."""
 
@@ -167,10 +207,7 @@ class _Progress:
         self.live = is_terminal()
 
     def hit(self, event: Any) -> None:
-        if event.verdict.accepted:
-            line = f"accepted hit {event.index + 1} at {event.trigger_time_s:.2f} s, peak {event.peak_force_n:.0f} N"
-        else:
-            line = f"rejected hit {event.index + 1} at {event.trigger_time_s:.2f} s: {', '.join(event.verdict.reasons)}"
+        line = hit_line(event)
         if self.live:
             sys.stderr.write("\r\033[K")
         print(line, flush=True)
@@ -243,25 +280,45 @@ def _record(args: argparse.Namespace) -> int:
 
     settings = _settings(args)
     trigger, validation, window = settings["trigger"], settings["validation"], settings["window"]
+    check_session_path(args.out, "--out")
     if not args.append:
         if args.out.exists() or args.out.is_symlink():
             raise SettingError(f"--out {args.out}: the session file exists already (use --append to add hits to it)")
         check_output_file(args.out, "--out", overwrite=False)
+    elif not args.out.is_file():
+        raise SettingError(f"--out {args.out}: --append needs an existing session file")
     rig_spec = None
     if args.rig is not None:
         rig_spec = RigSpec.load(args.rig)
     elif args.device == SIMULATED_DEVICE_NAME:
         rig_spec = RigSpec.nominal("FOMGF")  # the simulated rig's default
     config = default_hammer_and_accelerometer(args.rate)
+    force_full_scale_n = config.channels[config.channel_index(ChannelKind.FORCE)].full_scale_si
+    if args.trigger_n >= force_full_scale_n:
+        raise SettingError(f"--trigger-n {args.trigger_n:g}: at or above the force channel's full scale "
+                           f"({force_full_scale_n:.0f} N): no hit could ever trigger")
     device = _open_device(args, rig_spec)
-    device.configure(config)
+    try:
+        device.configure(config)
+    except SettingError as error:  # the module's rules name the field; the user typed --rate
+        raise SettingError(str(error).replace("sample_rate_hz:", f"--rate {args.rate:g}:")) from None
     rate_hz = device.sample_rate_hz
     session = _open_session(args, config, rate_hz, device.name, rig_spec.to_toml() if rig_spec else None, settings)
+    try:
+        run, seed, stream_start_s = _continuation(session, args.seed) if args.append else (0, args.seed, 0.0)
+        if args.append and run and args.device == SIMULATED_DEVICE_NAME:
+            device = _open_device(args, rig_spec, seed)  # the appended run goes on, it does not repeat the first
+            device.configure(config)
+        session.update_settings({"acquisition": {"runs": run + 1, "seed": seed, "stream_start_s": stream_start_s,
+                                                 "stream_end_s": None}})
+    except BaseException:
+        session.close()
+        raise
     if args.max_session_gb is not None:
         session.size_limit_bytes = int(args.max_session_gb * 1e9)
     force_row = config.channel_index(ChannelKind.FORCE)
     response_row = config.channel_index(ChannelKind.ACCELERATION)
-    capture = ImpactCapture(trigger, rate_hz, len(config.channels), force_row, response_row)
+    capture = ImpactCapture(trigger, rate_hz, len(config.channels), force_row, response_row, stream_start_s)
     progress = _Progress()
     recorder = HitRecorder(
         session,
@@ -277,12 +334,20 @@ def _record(args: argparse.Namespace) -> int:
     logger.info("recording into %s from %s at %g S/s, settings %s", args.out, device.name, rate_hz, settings)
     started = time.monotonic()
     stream_s = 0.0
+    simulated = args.device == SIMULATED_DEVICE_NAME
+    silence_limit_s = max(SIM_SILENCE_S, 3 * args.hit_interval[1] if args.hit_interval else 0.0)
+    last_hit_s, hits_seen = 0.0, recorder.hit_count
     try:
-        synchronous = args.device == SIMULATED_DEVICE_NAME and args.pacing == "fast"
+        synchronous = simulated and args.pacing == "fast"
         with recorder.stop_on_signals(), device, contextlib.closing(_stream(device, synchronous)) as chunks:
             for data, overload, end_sample in chunks:
                 recorder.feed(data, overload)
                 stream_s = end_sample / rate_hz
+                if recorder.hit_count != hits_seen:
+                    last_hit_s, hits_seen = stream_s, recorder.hit_count
+                elif simulated and stream_s - last_hit_s > silence_limit_s:
+                    raise DeviceError(f"no hit triggered in {silence_limit_s:g} s of simulated signal: the simulated "
+                                      f"hammer does not reach --trigger-n {args.trigger_n:g} N")
                 progress.counter(recorder.accepted_count, recorder.rejected_count, stream_s)
                 if args.hits is not None and recorder.accepted_count - accepted_before >= args.hits:
                     break
@@ -292,6 +357,7 @@ def _record(args: argparse.Namespace) -> int:
         progress.done()
         logger.error("%s: %s; session closed as aborted, %d accepted hits kept",
                      "device fault" if isinstance(error, DeviceError) else "stopped", error, recorder.accepted_count)
+        _note_stream_end(session, stream_start_s + stream_s)
         session.close("aborted", str(error))
         raise DeviceError(
             f"{error} — session {args.out} closed as aborted, {recorder.accepted_count} accepted hits kept",
@@ -301,6 +367,7 @@ def _record(args: argparse.Namespace) -> int:
         progress.done()
         signum = interrupt.signum if isinstance(interrupt, StopSignal) else 2
         how = "interrupted by the user" if signum == 2 else f"stopped by {interrupt}"
+        _note_stream_end(session, stream_start_s + stream_s)
         session.close("aborted", how)
         logger.info("%s: %s, %d accepted hits kept", args.out, how, recorder.accepted_count)
         print(f"{how}: session {args.out} closed with {recorder.accepted_count} accepted hits", flush=True)
@@ -314,6 +381,7 @@ def _record(args: argparse.Namespace) -> int:
     if recorder.accepted_count:
         frf = session_frf([hit for hit in session.hits() if hit.verdict.accepted], window)
         session.write_frf(frf, hit_indices=session.accepted_indices())
+    _note_stream_end(session, stream_start_s + stream_s)
     session.close("complete")
     reasons = ", ".join(f"{reason}: {count}" for reason, count in sorted(recorder.reason_counts.items()))
     summary = (f"session {args.out}: {recorder.hit_count} hits, {recorder.accepted_count} accepted, "

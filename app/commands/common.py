@@ -3,6 +3,7 @@ whether progress may be drawn. Light imports only (the parsers are registered wi
 
 from __future__ import annotations
 
+import argparse
 import dataclasses
 import os
 import re
@@ -33,6 +34,14 @@ def accelerance_text(value_m_s2_per_n: float, units: str = DEFAULT_UNITS, digits
     """An accelerance given in (m/s²)/N, printed in the chosen ``--units`` with its unit."""
     value = value_m_s2_per_n / STANDARD_GRAVITY_M_S2 if units == "g" else value_m_s2_per_n
     return f"{value:.{digits}g} {UNITS[units]}"
+
+
+def hit_line(event: Any) -> str:
+    """The one line a recorded hit gets on every command (``demo``, ``acquire``): numbered from 1, its trigger time
+    in session time, its peak force and, when rejected, why."""
+    head = f"{'accepted' if event.verdict.accepted else 'rejected'} hit {event.index + 1} at " \
+           f"{event.trigger_time_s:.2f} s, peak {event.peak_force_n:.0f} N"
+    return head if event.verdict.accepted else f"{head}: {', '.join(event.verdict.reasons)}"
 
 
 def check_output_file(path: Path, flag: str, overwrite: bool, make_parent: bool = False) -> Path:
@@ -81,6 +90,17 @@ def check_output_suffix(path: Path, flag: str, suffixes: tuple[str, ...]) -> Non
                            f"(it says what the file holds)")
 
 
+#: Extensions of a session file (HDF5).
+SESSION_SUFFIXES = (".h5", ".hdf5")
+
+
+def check_session_path(path: Path, flag: str) -> None:
+    """Refuse a session path that is a folder or does not end in .h5 (a session is an HDF5 file)."""
+    if path.is_dir():
+        raise SettingError(f"{flag} {path}: is a folder; name the session file in it, e.g. {path / 'session.h5'}")
+    check_output_suffix(path, flag, SESSION_SUFFIXES)
+
+
 def check_output_folder(folder: Path, flag: str, names: tuple[str, ...], overwrite: bool) -> list[Path]:
     """May this command write the files ``names`` into ``folder`` (made if missing)? Same rules as
     :func:`check_output_file` for each file."""
@@ -89,14 +109,30 @@ def check_output_folder(folder: Path, flag: str, names: tuple[str, ...], overwri
     return [check_output_file(folder / name, flag, overwrite, make_parent=True) for name in names]
 
 
+#: A window flag's value "none" (or "off"): that window is switched off.
+NO_WINDOW = "none"
+
+
+def window_value(text: str) -> float | str:
+    """argparse type of a window flag: a number, or "none"/"off" for no window."""
+    if text.strip().lower() in ("none", "off"):
+        return NO_WINDOW
+    try:
+        return float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"'{text}' is not a number or 'none'") from None
+
+
 def settings_from_flags(cls: type[T], base: T | None, flags: Mapping[str, tuple[str, Any]]) -> T:
     """``cls`` (or ``base`` with changes) from the flags the user gave: ``flags`` maps a field name to (the flag
-    as typed, its value; None when not given). A refused value is reported under its flag, not the field name."""
-    changes = {name: value for name, (_flag, value) in flags.items() if value is not None}
+    as typed, its value; None when not given, :data:`NO_WINDOW` for "off"). A refused value is reported under its
+    flag, not the field name."""
+    changes = {name: (None if value is NO_WINDOW else value) for name, (_flag, value) in flags.items()
+               if value is not None}
     try:
         return dataclasses.replace(base, **changes) if base is not None else cls(**changes)
     except SettingError as error:
-        message = str(error)
+        message = str(error).replace("or None for", "or none for")
         for name, (flag, _value) in flags.items():
             message = re.sub(rf"\b{name}\b", flag, message)
         raise SettingError(message) from None

@@ -8,24 +8,29 @@ existing ``--out`` file is replaced only with ``--overwrite``; without ``--out``
 from __future__ import annotations
 
 import argparse
-import sys
 import time
 from pathlib import Path
 
-from gasfilm.app.commands.common import check_output_file, positive_flag
+from gasfilm.app.commands.common import (UNITS, accelerance_text, add_units_flag, check_output_file,
+                                         check_session_path, hit_line)
+from gasfilm.drivers.errors import SettingError
 
 DEFAULT_OUT = Path("out/demo-session.h5")
+#: Most hits a demo collects: it is paced in real time, about 0.85 s per hit (acquire records longer runs).
+MAX_DEMO_HITS = 50
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     parser = subparsers.add_parser("demo", help="run a short hammer session on the simulated rig and summarise it")
-    parser.add_argument("--hits", type=int, default=8, help="accepted hits to collect (default 8)")
+    parser.add_argument("--hits", type=int, default=8,
+                        help=f"accepted hits to collect, 1 to {MAX_DEMO_HITS} (default 8; about 0.85 s each)")
     parser.add_argument("--rig", type=Path, help="rig spec TOML (default: the paper's FOMGF film on 25.05 kg)")
     parser.add_argument("--out", type=Path, help="session file to write (default: out/demo-session.h5, or the next "
                         "free out/demo-session-N.h5: an earlier demo is never replaced)")
     parser.add_argument("--overwrite", action="store_true", help="replace --out if it exists")
     parser.add_argument("--seed", type=int, default=1, help="simulator seed")
     parser.add_argument("--no-fit", action="store_true", help="skip the film identification")
+    add_units_flag(parser)
     parser.set_defaults(func=run)
 
 
@@ -42,6 +47,7 @@ def run(args: argparse.Namespace) -> int:
     import numpy as np
 
     from gasfilm.analysis.acquisition import AcquisitionLoop
+    from gasfilm.app.commands.fit import DEFAULT_BAND_HZ as FIT_BAND_HZ  # the one default fit band of the CLI
     from gasfilm.analysis.capture import ImpactCapture, TriggerSettings
     from gasfilm.analysis.identification import fit_model
     from gasfilm.analysis.physics.elements import PAPER_MODELS
@@ -56,9 +62,12 @@ def run(args: argparse.Namespace) -> int:
     from gasfilm.drivers.interface import ChannelKind, default_hammer_and_accelerometer
     from gasfilm.drivers.units import STANDARD_GRAVITY_M_S2 as G_M_S2
 
-    positive_flag("--hits", args.hits)
+    if not 1 <= args.hits <= MAX_DEMO_HITS:
+        raise SettingError(f"--hits: {args.hits} must be 1 to {MAX_DEMO_HITS} (the demo runs in real time, about "
+                           f"0.85 s per hit; `gasfilm acquire --pacing fast` records more)")
     if args.out is None:
         args.out = _free_default_path()
+    check_session_path(args.out, "--out")
     check_output_file(args.out, "--out", args.overwrite, make_parent=True)
     spec = RigSpec.load(args.rig) if args.rig else RigSpec.nominal("FOMGF")
     config = default_hammer_and_accelerometer(51200.0 / 4)
@@ -77,6 +86,8 @@ def run(args: argparse.Namespace) -> int:
         spec.to_toml(),
         {"trigger": trigger, "validation": validation, "window": window},
         overwrite=args.overwrite,
+        actual_sample_rate_hz=device.sample_rate_hz,
+        device_name=device.name,
     ) as session:
         capture = ImpactCapture(trigger, device.sample_rate_hz, len(config.channels), force_row, response_row)
         recorder = HitRecorder(session, capture, validation, full_scale_si=full_scale)
@@ -87,8 +98,7 @@ def run(args: argparse.Namespace) -> int:
                 if chunk is None:
                     break
                 for event in recorder.feed(chunk.data, chunk.status.overload):
-                    verdict = "accepted" if event.verdict.accepted else "rejected: " + ", ".join(event.verdict.reasons)
-                    print(f"  hit {event.index + 1:2d} at {event.start_time_s:6.2f} s  {verdict}", file=sys.stderr)
+                    print(hit_line(event), flush=True)  # as `gasfilm acquire` prints it
         if loop.error is not None:
             raise loop.error
         if chunks.dropped_chunks:
@@ -105,10 +115,10 @@ def run(args: argparse.Namespace) -> int:
         print(f"  hits seen:         {len(hits)} ({len(accepted)} accepted, {len(hits) - len(accepted)} rejected)")
         print(f"  peak force:        {min(peak_forces):.0f} … {max(peak_forces):.0f} N")
         print(f"  peak response:     {min(peak_responses):.2f} … {max(peak_responses):.2f} m/s²")
-        print(f"  resonance |H1|:    {peak_hz:.1f} Hz, {np.max(np.abs(frf.h1[band])) / G_M_S2:.4f} g/N")
+        print(f"  resonance |H1|:    {peak_hz:.1f} Hz, {accelerance_text(np.max(np.abs(frf.h1[band])), args.units)}")
         print(f"  coherence 20–1000 Hz: mean {np.mean(frf.coherence[band]):.4f}, min {np.min(frf.coherence[band]):.4f}")
         if not args.no_fit:
-            fit_band = (frf.freq_hz >= 20) & (frf.freq_hz <= 800)
+            fit_band = (frf.freq_hz >= FIT_BAND_HZ[0]) & (frf.freq_hz <= FIT_BAND_HZ[1])
             for name in ("SD", "FOMGF"):
                 fit = fit_model(
                     PAPER_MODELS[name],
@@ -118,6 +128,7 @@ def run(args: argparse.Namespace) -> int:
                     decay_rate_1_s=frf.decay_rate_1_s,
                 )
                 session.write_fit(name, fit.to_dict())
-                print(f"  fit {name:6s} RMS {fit.rms / G_M_S2:.3e} g/N  ({fit.wall_time_s:.2f} s)")
+                rms = fit.rms / G_M_S2 if args.units == "g" else fit.rms
+                print(f"  fit {name:6s} RMS {rms:.3e} {UNITS[args.units]}  ({fit.wall_time_s:.2f} s)")
         print(f"  session:           {args.out} ({time.monotonic() - started:.1f} s)")
     return 0

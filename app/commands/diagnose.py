@@ -8,6 +8,7 @@ the improved rig spec and before/after figures into ``--out``; ``--json`` prints
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import sys
 from pathlib import Path
@@ -43,6 +44,17 @@ def _band(text: str | None) -> tuple[float, float] | None:
     return low, high
 
 
+def _check_source(path: Path) -> None:
+    """The input exists and is a kind the diagnosis reads (a session or UFF time records); one line otherwise."""
+    if not path.exists():
+        raise SettingError(f"{path}: no such file")
+    if path.is_dir():
+        raise SettingError(f"{path}: is a folder, not a session or UFF file")
+    if path.suffix.lower() == ".npy":
+        raise SettingError(f"{path}: diagnose reads a session (.h5) or UFF time records (.uff); bring .npy records "
+                           f"in as a session first: gasfilm replay HIT.npy ... --out S.h5")
+
+
 def run(args: argparse.Namespace) -> int:
     from gasfilm.analysis.diagnosis import diagnose
     from gasfilm.analysis.diagnosis.plots import OUTPUT_FILES, write_outputs
@@ -50,17 +62,27 @@ def run(args: argparse.Namespace) -> int:
     from gasfilm.analysis.physics.spec import RigSpec
     from gasfilm.analysis.session import Session
 
-    if args.mass is not None and not args.mass > 0:
-        raise SettingError(f"--mass: {args.mass} kg must be positive")
+    from gasfilm.analysis.physics.spec import MASS_RANGE_KG
+
+    if args.mass is not None and not MASS_RANGE_KG[0] <= args.mass <= MASS_RANGE_KG[1]:
+        raise SettingError(f"--mass {args.mass:g}: must be {MASS_RANGE_KG[0]:g} to {MASS_RANGE_KG[1]:g} kg")
     band = _band(args.band)
+    _check_source(args.source)
+    made = not args.out.exists()
     check_output_folder(args.out, "--out", OUTPUT_FILES, args.overwrite)
-    spec = RigSpec.load(args.rig) if args.rig else None
+    try:
+        spec = RigSpec.load(args.rig) if args.rig else None
 
-    def progress(message: str) -> None:
-        print(f"  {message}", file=sys.stderr)
+        def progress(message: str) -> None:
+            print(f"  {message}", file=sys.stderr)
 
-    diagnosis = diagnose(args.source, spec, args.mass, band, progress)
-    write_outputs(diagnosis, args.out)
+        diagnosis = diagnose(args.source, spec, args.mass, band, progress)
+        write_outputs(diagnosis, args.out)
+    except BaseException:
+        if made:  # a failed run leaves no empty folder behind
+            with contextlib.suppress(OSError):
+                args.out.rmdir()
+        raise
     if args.source.suffix.lower() not in (".uff", ".unv"):
         try:
             with Session.open(args.source, "a") as session:

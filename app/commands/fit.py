@@ -16,12 +16,15 @@ import sys
 from pathlib import Path
 from typing import Any, Callable
 
-from gasfilm.app.commands.common import check_output_folder, is_terminal, load_frf
+from gasfilm.app.commands.common import (UNITS, accelerance_text, add_units_flag, check_output_folder, is_terminal,
+                                         load_frf)
 from gasfilm.drivers.errors import SettingError
 
 logger = logging.getLogger(__name__)
 
 DEFAULT_BAND_HZ = (20.0, 1000.0)
+#: The fit band ends at most at this fraction of the sample rate: the NI 9234's alias-free band.
+ALIAS_FREE_FRACTION = 0.45
 MIN_BAND_LINES = 10
 #: The top fraction of the band (in lines) where |H1| is compared with the mass line 1/m.
 MASS_LINE_TOP_FRACTION = 0.2
@@ -43,17 +46,21 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--fit-mass", action="store_true", help="identify the mass too, starting from --mass")
     parser.add_argument("--seed", type=int, default=0, help="seed of the fitters' random starts")
     parser.add_argument("--json", action="store_true", help="print one JSON object instead of the tables")
+    add_units_flag(parser)
     parser.add_argument("--out", type=Path, help="folder for the figures (default: next to the input)")
-    parser.add_argument("--overwrite", action="store_true", help="replace figures that exist already")
+    parser.add_argument("--overwrite", action="store_true",
+                        help="replace figures that exist already, and a session's stored fit of another band")
     parser.set_defaults(func=run)
 
 
 def parse_band(text: str | None, sample_rate_hz: float) -> tuple[float, float]:
-    """``LO:HI`` in Hz; the default band is 20–1000 Hz below 0.45·fs (the module's alias-free band)."""
+    """``LO:HI`` in Hz; the default band is 20–1000 Hz. Either is capped at ``ALIAS_FREE_FRACTION``·fs (the module's
+    alias-free band), said in one warning when a given band reaches above it."""
     import math
 
+    top_hz = ALIAS_FREE_FRACTION * sample_rate_hz
     if text is None:
-        return DEFAULT_BAND_HZ[0], min(DEFAULT_BAND_HZ[1], 0.45 * sample_rate_hz)
+        return DEFAULT_BAND_HZ[0], min(DEFAULT_BAND_HZ[1], top_hz)
     parts = text.split(":")
     try:
         low, high = (float(part) for part in parts)
@@ -61,7 +68,33 @@ def parse_band(text: str | None, sample_rate_hz: float) -> tuple[float, float]:
         raise SettingError(f"--band '{text}': write LO:HI in Hz, e.g. 20:800") from None
     if not (math.isfinite(low) and math.isfinite(high) and 0 <= low < high):
         raise SettingError(f"--band '{text}': needs 0 ≤ LO < HI")
+    if low >= top_hz:
+        raise SettingError(f"--band '{text}': starts above {ALIAS_FREE_FRACTION:g}·fs = {top_hz:g} Hz, the top of the "
+                           f"alias-free band")
+    if high > top_hz:
+        logger.warning("--band %s: the top is capped at %g·fs = %g Hz (the alias-free band)", text,
+                       ALIAS_FREE_FRACTION, top_hz)
+        high = top_hz
     return low, high
+
+
+def check_stored_fits(session: Any, names: list[str], band_hz: tuple[float, float], overwrite: bool) -> None:
+    """Refuse (before any fitting) to replace a session's stored fit of a model by one over another band, unless
+    ``--overwrite``: a report must never show a fit beside figures of a band it was not fitted over."""
+    stored = session.result_names("fits")
+    for name in names:
+        if name not in stored or overwrite:
+            continue
+        try:
+            old_low, old_high = (float(edge) for edge in session.read_fit(name)["band_hz"])
+        except (KeyError, TypeError, ValueError):
+            continue  # a damaged stored fit: the new one replaces it
+        if abs(old_low - band_hz[0]) > 1e-6 * max(1.0, band_hz[1]) or \
+                abs(old_high - band_hz[1]) > 1e-6 * max(1.0, band_hz[1]):
+            raise SettingError(
+                f"--band: {session.path} holds a {name} fit over {old_low:g}–{old_high:g} Hz; this one would be over "
+                f"{band_hz[0]:g}–{band_hz[1]:g} Hz. Add --overwrite to replace it, or fit the stored band "
+                f"(--band {old_low:g}:{old_high:g})")
 
 
 def parse_models(text: str) -> list:
@@ -157,6 +190,10 @@ def run(args: argparse.Namespace) -> int:
             f"{frf.freq_hz[0]:g}–{frf.freq_hz[-1]:g} Hz every {frf.freq_hz[1] - frf.freq_hz[0]:g} Hz)"
         )
     freq_hz, h = frf.freq_hz[keep], frf.h1[keep]
+    if not is_time_record_file(args.source[0]):
+        with Session.open(args.source[0], "r") as session:
+            check_stored_fits(session, [model.name for model in models], (float(freq_hz[0]), float(freq_hz[-1])),
+                              args.overwrite)
     mass_kg = _mass_kg(args, rig_spec_toml)
     warning = mass_line_warning(freq_hz, h, mass_kg)
     if warning:
@@ -167,8 +204,8 @@ def run(args: argparse.Namespace) -> int:
                         fit_mass=args.fit_mass, seed=args.seed,
                         progress=_progress_printer(model.name, index, len(models)))
         if is_terminal():
-            print(f"\r\033[K  [{index}/{len(models)}] {model.name:<8} RMS {fit.rms:.4e} (m/s²)/N in "
-                  f"{fit.wall_time_s:.2f} s", file=sys.stderr)
+            print(f"\r\033[K  [{index}/{len(models)}] {model.name:<8} RMS {accelerance_text(fit.rms, args.units)} "
+                  f"in {fit.wall_time_s:.2f} s", file=sys.stderr)
         fits.append(fit)
     if not is_time_record_file(args.source[0]):
         with Session.open(args.source[0], "a") as session:
@@ -192,8 +229,9 @@ def run(args: argparse.Namespace) -> int:
         return 0
     print(f"{args.source[0]}: {what}, {len(freq_hz)} lines, {freq_hz[0]:g}–{freq_hz[-1]:g} Hz, m = {mass_kg:g} kg, "
           f"method {args.method}")
-    print("\nTable 2 (g/N)\n" + format_table2(rows, "g/N"))
-    print("\nTable 2 (SI)\n" + format_table2(rows, "SI"))
+    table_units = "g/N" if args.units == "g" else "SI"
+    print(f"\nTable 2 ({UNITS[args.units]}; --units {'si' if args.units == 'g' else 'g'} for "
+          f"{UNITS['si' if args.units == 'g' else 'g']})\n" + format_table2(rows, table_units))
     print("\nIdentified parameters (± 1σ)\n" + format_parameters(fits))
     for fit in fits:
         if fit.flags:

@@ -18,7 +18,8 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from gasfilm.app.commands.common import add_units_flag, check_output_file, positive_flag, settings_from_flags
+from gasfilm.app.commands.common import (add_units_flag, check_output_file, check_session_path, positive_flag,
+                                         settings_from_flags, window_value)
 from gasfilm.drivers.errors import SettingError
 
 #: Band edges (Hz) for the coherence summary; bands above the Nyquist frequency are left out.
@@ -46,8 +47,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--trigger-n", type=float, help="new trigger level on the force in N (re-runs the trigger)")
     parser.add_argument("--pretrigger-s", type=float, help="new pre-trigger length in s (re-runs the trigger)")
     parser.add_argument("--record-s", type=float, help="new record length in s, at most the stored one")
-    parser.add_argument("--force-window-ms", type=float, help="force window width after the peak in ms")
-    parser.add_argument("--exp-end", type=float, help="exponential window: value at the record end, e.g. 0.01")
+    parser.add_argument("--force-window-ms", type=window_value,
+                        help="force window width after the peak in ms ('none': no force window)")
+    parser.add_argument("--exp-end", type=window_value,
+                        help="exponential window: value at the record end, e.g. 0.01 ('none': no window)")
     parser.add_argument("--rectangular", action="store_true", help="no force or exponential window")
     parser.add_argument("--double-hit-fraction", type=float, help="double-hit threshold as a fraction of the peak")
     parser.add_argument("--min-force-snr", type=float, help="lowest accepted peak force over force noise")
@@ -227,6 +230,7 @@ def run(args: argparse.Namespace) -> int:
     if args.out is not None:
         if any(args.out.resolve() == path.resolve() for path in args.source):
             raise SettingError(f"--out: {args.out} is the input; leave --out out to store the result in the input")
+        check_session_path(args.out, "--out")
         check_output_file(args.out, "--out", args.overwrite)
     source = load_source(args.source, args.force_dof, args.response_dof)
     if not source.hits:
