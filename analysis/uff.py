@@ -479,8 +479,12 @@ def _frf_from_datasets(path: Path, datasets: list[dict[str, Any]], frf_class: An
     if len(frfs) > 1:
         raise UffError(f"{path}: holds {len(frfs)} FRFs; gasfilm fits one (write one FRF per file)")
     dataset = frfs[0]
-    h1 = np.asarray(dataset.get("data"), dtype=complex)
-    freq_hz = np.asarray(dataset.get("x"), dtype=float)
+    try:
+        with np.errstate(all="ignore"):
+            h1 = np.asarray(dataset.get("data"), dtype=complex)
+            freq_hz = np.asarray(dataset.get("x"), dtype=float)
+    except (TypeError, ValueError):
+        raise UffError(f"{path}: the FRF holds no column of numbers with its frequencies") from None
     if h1.ndim != 1 or h1.size < 2 or freq_hz.shape != h1.shape:
         raise UffError(f"{path}: the FRF holds no column of numbers with its frequencies")
     if not (np.all(np.isfinite(h1)) and np.all(np.isfinite(freq_hz)) and np.all(np.diff(freq_hz) > 0)):
@@ -495,12 +499,20 @@ def _frf_from_datasets(path: Path, datasets: list[dict[str, Any]], frf_class: An
     h1 = h1 * factor / per
     coherence = np.full(h1.size, np.nan)
     if coherences:
-        values = np.asarray(coherences[0].get("data"), dtype=float)
-        if values.shape == h1.shape:
+        try:
+            values = np.asarray(coherences[0].get("data"), dtype=float)
+        except (TypeError, ValueError):
+            values = np.empty(0)
+        if values.shape == h1.shape and np.all(np.isfinite(values)):
             coherence = values
     meta = _frf_metadata(dataset)
     sample_rate_hz = meta.get("sample_rate_hz", 2.0 * float(freq_hz[-1]))
-    n_samples = int(meta.get("n_samples", 2 * (h1.size - 1)))
+    if not SAMPLE_RATE_RANGE_HZ[0] <= sample_rate_hz <= SAMPLE_RATE_RANGE_HZ[1]:
+        raise UffError(f"{path}: the FRF's sample rate {sample_rate_hz:.6g} S/s is outside "
+                       f"{SAMPLE_RATE_RANGE_HZ[0]:g}–{SAMPLE_RATE_RANGE_HZ[1]:g} S/s")
+    n_samples = int(min(max(meta.get("n_samples", 2 * (h1.size - 1)), 2), 2**40))
+    if not 1 <= meta.get("n_averages", 1) <= 2**31 or not np.isfinite(meta.get("decay_rate_1_s", 0.0)):
+        raise UffError(f"{path}: the FRF's ID line 3 is damaged ({_label(dataset, 'id3')[:60]!r})")
     unknown = np.full(h1.size, np.nan)
     return frf_class(
         freq_hz=freq_hz, h1=h1, h2=unknown.astype(complex), coherence=coherence, gff=unknown, gxx=unknown,

@@ -517,7 +517,7 @@ def uff_seed(tmp_path_factory) -> bytes:
         (lambda data: data[: len(data) // 2], "force records but 1 response records"),
         (lambda data: b"", "empty UFF file"),
         (lambda data: data.replace(b"6.79873770155e-02", b"NaN".rjust(17), 1), "dataset 1 .* has NaN samples"),
-        (lambda data: re.sub(rb"(?m)^    1(\s+0\s+0\s+0 +NONE)", rb"    4\g<1>", data), r"no time records .* of type 58"),
+        (lambda data: re.sub(rb"(?m)^    1(\s+0\s+0\s+0 +NONE)", rb"    4\g<1>", data), r"holds an FRF but no time records"),
         (lambda data: re.sub(rb"(?m)^    1(\s+0\s+0\s+0 +NONE)", rb"    6\g<1>", data, count=1),
          "2 force records but 3 response records"),
         (lambda data: data.replace(b"3.90625e-04", b"1.00000e-30"), r"sampled at 1e\+30 S/s"),
@@ -550,3 +550,20 @@ def test_uff_records_of_absurd_magnitude_or_mismatched_length_are_refused(tmp_pa
         read_uff_time_records(write(pulse * 1e12, pulse))
     with pytest.raises(UffError, match=r"records.uff: time records have inconsistent lengths \(200, 256 samples\)"):
         read_uff_time_records(write(pulse, pulse[:200]))
+
+
+def test_damaged_frf_uff_files_are_fitted_or_refused_in_one_line(seeds, tmp_path):
+    """``fit`` reads an FRF-only UFF (issue 15 item 1): damaged ones get one line, never an internal error."""
+    frf_seed = next(path for path in seeds["uff"] if path.name == "seed-frf.uff").read_bytes()
+    problems = []
+    for index in range(40):
+        rng = np.random.default_rng([2026, 15, index])
+        mutation, data = mutate_uff(frf_seed, rng)
+        work = tmp_path / f"case{index}"
+        work.mkdir()
+        (work / "frf.uff").write_bytes(data)
+        argv = ["fit", str(work / "frf.uff"), "--models", "SD", "--json", "--out", str(work)]
+        outcome = Outcome("uff", mutation, argv, *run_cli(argv))
+        if outcome.problem:
+            problems.append(f"case {index} ({mutation}): {outcome.problem}")
+    assert not problems, "\n".join(problems)

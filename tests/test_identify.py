@@ -349,7 +349,10 @@ def test_cli_fit_prints_table_writes_figures_and_stores_fits(tmp_path, capsys):
     status = gasfilm(["fit", str(path), "--models", "SD,FOZGF", "--band", "50:600", "--out", str(tmp_path / "fig")])
     captured = capsys.readouterr()
     assert status == 0, captured.err
-    assert "Table 2 (g/N)" in captured.out and "Table 2 (SI)" in captured.out and "FOZGF" in captured.out
+    assert "Table 2 (g/N;" in captured.out and "FOZGF" in captured.out  # the --units default
+    assert gasfilm(["fit", str(path), "--models", "SD,FOZGF", "--band", "50:600", "--out", str(tmp_path / "fig"),
+                    "--overwrite", "--units", "si"]) == 0
+    assert "Table 2 ((m/s²)/N;" in capsys.readouterr().out
     assert "%" not in captured.err  # no progress bar off a terminal
     assert "Identified parameters" in captured.out and "alpha" in captured.out
     assert (tmp_path / "fig" / "hammer-figure18.png").exists() and (tmp_path / "fig" / "hammer-figure19.png").exists()
@@ -361,7 +364,10 @@ def test_cli_fit_prints_table_writes_figures_and_stores_fits(tmp_path, capsys):
     assert again.model_name == "FOZGF" and set(again.params) == {"k1", "k2", "eta1", "alpha"}
     assert again.correlation.shape == (4, 4) and isinstance(again.flags, tuple)
 
+    # SD is stored over 50–600 Hz: the default band replaces it only when asked
     status = gasfilm(["fit", str(path), "--models", "SD", "--json", "--out", str(tmp_path)])
+    assert status == 2 and "holds a SD fit over" in capsys.readouterr().err
+    status = gasfilm(["fit", str(path), "--models", "SD", "--json", "--out", str(tmp_path), "--overwrite"])
     document = json.loads(capsys.readouterr().out)
     assert status == 0 and document["fits"][0]["model_name"] == "SD" and document["table"][0]["e_percent"] == 0.0
     assert document["band_hz"][0] >= 20.0 and document["band_hz"][1] <= 1000.0
@@ -373,7 +379,8 @@ def test_cli_fit_prints_table_writes_figures_and_stores_fits(tmp_path, capsys):
         (["--models", "SD,FOXGF"], "FOXGF"),
         (["--band", "600:50"], "--band"),
         (["--band", "abc"], "--band"),
-        (["--band", "5000:6000"], "only 0 FRF lines"),
+        (["--band", "5000:6000"], "starts above 0.45·fs = 1152 Hz"),
+        (["--band", "1000:1002"], "only 5 FRF lines"),
         (["--mass", "-3"], "--mass"),
     ],
 )

@@ -30,8 +30,8 @@ MAX_RECORD_S = 20.0
 CHUNK_WAIT_S = 30.0
 #: Most accepted hits one run collects (a hammer test averages tens; 10 000 one-second hits at 12.8 kS/s fill 2 GB).
 MAX_HITS = 10_000
-#: Longest run in s of signal (one day).
-MAX_SECONDS = 86_400.0
+#: Longest run in s of signal (one week).
+MAX_SECONDS = 604_800.0
 #: The simulator stops a run in which no hit triggers for this long (s of signal, or 3 × the longest hit interval):
 #: its hammer never reaches the trigger level.
 SIM_SILENCE_S = 60.0
@@ -99,7 +99,7 @@ def _settings(args: argparse.Namespace) -> dict[str, Any]:
         raise SettingError(f"--hits: {args.hits} must be 1 to {MAX_HITS} (one run; --append adds more)")
     positive_flag("--seconds", args.seconds, "s")
     if args.seconds is not None and args.seconds > MAX_SECONDS:
-        raise SettingError(f"--seconds: {args.seconds:g} s is longer than one day ({MAX_SECONDS:g} s); "
+        raise SettingError(f"--seconds: {args.seconds:g} s is longer than one week ({MAX_SECONDS:g} s); "
                            f"use --append for more")
     positive_flag("--rate", args.rate, "S/s")
     positive_flag("--trigger-n", args.trigger_n, "N")

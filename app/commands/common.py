@@ -84,7 +84,10 @@ def check_output_file(path: Path, flag: str, overwrite: bool, make_parent: bool 
 
 
 def check_output_suffix(path: Path, flag: str, suffixes: tuple[str, ...]) -> None:
-    """Refuse an output path whose extension does not say what is written into it (a UFF file named .csv)."""
+    """Refuse an output path that is a folder, or whose extension does not say what is written into it (a UFF file
+    named .csv)."""
+    if path.is_dir():
+        raise SettingError(f"{flag} {path}: is a folder, not a file")
     if path.suffix.lower() not in suffixes:
         raise SettingError(f"{flag} {path}: the file name must end in {' or '.join(suffixes)} "
                            f"(it says what the file holds)")
