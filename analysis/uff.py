@@ -261,13 +261,13 @@ def _time_records(
         for row, (role, (number, dataset)) in enumerate(zip(("force", "response"), pair)):
             values = np.asarray(dataset["data"])
             if np.iscomplexobj(values):
-                raise UffError(f"{path}: dataset {number} ({role} time record of hit {hit}) holds complex values")
+                raise UffError(f"{path}: dataset {number} ({role} time record of hit {hit + 1}) holds complex values")
             if not np.all(np.isfinite(values)):
-                raise UffError(f"{path}: dataset {number} ({role} time record of hit {hit}) has NaN samples")
+                raise UffError(f"{path}: dataset {number} ({role} time record of hit {hit + 1}) has NaN samples")
             with np.errstate(all="ignore"):
                 records[hit, row] = values * _si_factor(path, number, dataset, role, units)
             if not np.max(np.abs(records[hit, row])) <= MAX_ABS_SI[role]:
-                raise UffError(f"dataset {number} ({role} time record of hit {hit}) holds values beyond "
+                raise UffError(f"dataset {number} ({role} time record of hit {hit + 1}) holds values beyond "
                                f"{MAX_ABS_SI[role]:g} {'N' if role == 'force' else 'm/s^2'}: a damaged file")
     increments = [_number(d, "abscissa_inc") or _abscissa_step(d) for _, d in forces]
     sample_rate_hz = _sample_rate(path, increments + [_number(d, "abscissa_inc") for _, d in responses])

@@ -546,7 +546,7 @@ def test_uff_records_of_absurd_magnitude_or_mismatched_length_are_refused(tmp_pa
 
     pulse = np.zeros(256)
     pulse[10:14] = 100.0
-    with pytest.raises(UffError, match=r"records.uff: dataset 1 \(force time record of hit 0\) holds values beyond"):
+    with pytest.raises(UffError, match=r"records.uff: dataset 1 \(force time record of hit 1\) holds values beyond"):
         read_uff_time_records(write(pulse * 1e12, pulse))
     with pytest.raises(UffError, match=r"records.uff: time records have inconsistent lengths \(200, 256 samples\)"):
         read_uff_time_records(write(pulse, pulse[:200]))

@@ -137,7 +137,7 @@ def test_uff_errors_name_the_file(tmp_path):
     text = nan_file.read_text()
     assert text.count("1.23456789000e+05") == 1
     nan_file.write_text(text.replace("1.23456789000e+05", "NaN".rjust(17)))
-    with pytest.raises(UffError, match=r"nan.uff: dataset 2 \(response time record of hit 0\) has NaN samples"):
+    with pytest.raises(UffError, match=r"nan.uff: dataset 2 \(response time record of hit 1\) has NaN samples"):
         read_uff_time_records(nan_file)
 
     odd_units = write_uff(tmp_path / "units.uff", [time_record(force, 1, 3, 13, "N"),

@@ -500,7 +500,7 @@ def _character(spectra: HitSpectra, evidence: Evidence, spec: RigSpec, low: int,
         kind, split = change
         if kind == "step":
             first, second = spectra.hit_numbers[order[split - 1]], spectra.hit_numbers[order[split]]
-            return (f"a jump between hits {first} and {second}: the rig changed at one point during the session, "
+            return (f"a jump between hits {first + 1} and {second + 1}: the rig changed at one point during the session, "
                     f"which no term explained")
         return "a steady trend from early to late hits: the rig changed during the session, which no term explained"
     harmonics = [n * resonance_hz for n in (2, 3, 4, 5, 6)]

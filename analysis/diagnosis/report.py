@@ -36,7 +36,8 @@ def report_text(diagnosis: Diagnosis) -> str:
             lines.append(f"      or:   {alternative.effect} — {alternative.note}")
     lines.append(f"  {_VERDICT_LINES[diagnosis.verdict]}")
     for item in diagnosis.unexplained:
-        hits = "all hits" if len(item.hits) == diagnosis.evidence.hit_count else f"hits {item.hits}"
+        hits = "all hits" if len(item.hits) == diagnosis.evidence.hit_count else \
+            f"hits {', '.join(str(hit + 1) for hit in item.hits)}"  # numbered from 1, as everywhere the user sees
         lines.append(f"  NOT explained: {item.band_hz[0]:.0f}–{item.band_hz[1]:.0f} Hz, {hits}, "
                      f"{100 * item.chi2_share:.0f} % of the excess χ²: {item.character}")
     if diagnosis.quality:
