@@ -106,6 +106,7 @@ def test_demo_and_acquire_print_the_same_hit_line_and_units_are_chosen_alike(tmp
 
     assert re.match(shape, acquire_line) and re.match(shape, demo_line), (acquire_line, demo_line)
     assert "(m/s²)/N" in out and "g/N" not in out
+    assert "coherence:         not meaningful: one average" in out  # one hit: no coherence figures
     for units, shown, hidden in (("g", "g/N", "(m/s²)/N"), ("si", "(m/s²)/N", "g/N")):
         status, out, err = gasfilm(capsys, "replay", tmp_path / "a.h5", "--units", units)
         peak = next(line for line in out.splitlines() if "peak of |H1|" in line)

@@ -48,6 +48,7 @@ def run(args: argparse.Namespace) -> int:
 
     from gasfilm.analysis.acquisition import AcquisitionLoop
     from gasfilm.app.commands.fit import DEFAULT_BAND_HZ as FIT_BAND_HZ  # the one default fit band of the CLI
+    from gasfilm.app.commands.replay import ONE_AVERAGE_NOTE
     from gasfilm.analysis.capture import ImpactCapture, TriggerSettings
     from gasfilm.analysis.identification import fit_model
     from gasfilm.analysis.physics.elements import PAPER_MODELS
@@ -116,7 +117,11 @@ def run(args: argparse.Namespace) -> int:
         print(f"  peak force:        {min(peak_forces):.0f} … {max(peak_forces):.0f} N")
         print(f"  peak response:     {min(peak_responses):.2f} … {max(peak_responses):.2f} m/s²")
         print(f"  resonance |H1|:    {peak_hz:.1f} Hz, {accelerance_text(np.max(np.abs(frf.h1[band])), args.units)}")
-        print(f"  coherence 20–1000 Hz: mean {np.mean(frf.coherence[band]):.4f}, min {np.min(frf.coherence[band]):.4f}")
+        if frf.n_averages < 2:
+            print(f"  coherence:         {ONE_AVERAGE_NOTE}")
+        else:
+            print(f"  coherence 20–1000 Hz: mean {np.mean(frf.coherence[band]):.4f}, "
+                  f"min {np.min(frf.coherence[band]):.4f}")
         if not args.no_fit:
             fit_band = (frf.freq_hz >= FIT_BAND_HZ[0]) & (frf.freq_hz <= FIT_BAND_HZ[1])
             for name in ("SD", "FOMGF"):
