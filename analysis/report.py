@@ -416,7 +416,9 @@ def report_html(data: ReportData, drop_db: float = USABLE_DROP_DB) -> str:
     sections.append(_table(
         ("Hit", "Time (s)", "Peak force (N)", "Verdict", "Reasons"),
         [(h["number"], f"{h['time_s']:.2f}", f"{h['peak_force_n']:.0f}",
-          ("accepted" if h["accepted"] else "rejected") + (" (by hand)" if h["overridden"] else ""),
+          ("accepted" if h["accepted"] else "rejected") + (" (by hand)" if h["overridden"] else "")
+          + (", flagged (a recording from elsewhere, kept)" if h["accepted"] and h["reasons"] and not h["overridden"]
+             else ""),
           h["reasons"] or "—") for h in data.hits],
     ))
     if data.records:
