@@ -192,7 +192,8 @@ def figure_hits(path: str | Path, check: TimeDomainCheck, max_hits: int = 4, win
                   label="rational model")
         axis.set_ylabel("acceleration (m/s²)")
         axis.set_title(f"hit {check.hit_indices[row]}: RMS error fractional {100 * check.error_fractional[row]:.3g} %,"
-                       f" rational {100 * check.error_rational[row]:.3g} %, rational vs fractional "
+                       f" rational {100 * check.error_rational[row]:.3g} % (noise floor "
+                       f"{100 * check.noise_floor[row]:.3g} %), rational vs fractional "
                        f"{100 * check.rational_vs_fractional[row]:.3g} %", fontsize=9)
         axis.grid(True, alpha=0.3)
     axes[0].legend(loc="upper right", fontsize=8)
