@@ -101,6 +101,8 @@ class PlantSource:
                 excluded.append(f"{effect.type_name} ({effect.kind}: not part of the mechanical plant)")
             elif nonlinear:
                 excluded.append(f"{effect.type_name} (amplitude-dependent: left out of the linear plant)")
+            elif effect.per_hit:
+                excluded.append(f"{effect.type_name} (changes over the session: taken at session time 0)")
         mass = spec.moving_mass_kg
 
         def support(s: np.ndarray) -> np.ndarray:
