@@ -229,10 +229,13 @@ def _positive_real(
     delta = 1e-9 * magnitude
     values = real_part(omega_grid)
     grid_minimum = float(np.min(values)) / magnitude
-    crossings = _hamiltonian_crossings(a, b, c, d + delta)
+    every = _hamiltonian_crossings(a, b, c, d + delta)
+    # a zero at DC (a film without static stiffness: Re Z(jω) ∝ ω²) touches the axis without crossing it
+    crossings = tuple(w for w in every if w > 1e-6 * omega_grid[0])
     at_infinity = d + delta > 0
     passed = grid_minimum >= -1e-9 and not crossings and at_infinity
-    note = "" if at_infinity else "negative at infinite frequency"
+    note = "negative at infinite frequency" if not at_infinity else (
+        "zero at DC (no static stiffness)" if len(every) > len(crossings) else "")
     return Passivity(passed, grid_minimum, tuple(w / (2 * np.pi) for w in crossings), note)
 
 

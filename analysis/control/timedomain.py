@@ -17,6 +17,7 @@ from __future__ import annotations
 import logging
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import scipy.fft
@@ -203,7 +204,7 @@ def figure_hits(path: str | Path, check: TimeDomainCheck, max_hits: int = 4, win
     return path
 
 
-def figure_error(path: str | Path, model: RationalModel) -> Path:
+def error_figure(model: RationalModel) -> Any:
     """The approximation's complex relative error of the plant and the film against frequency, band shaded."""
     from matplotlib.figure import Figure
 
@@ -221,6 +222,11 @@ def figure_error(path: str | Path, model: RationalModel) -> Path:
     axis.set_title(f"{model.source.description}: {model.summary()}", fontsize=8, wrap=True)
     axis.grid(True, which="both", alpha=0.3)
     axis.legend(fontsize=8)
+    return figure
+
+
+def figure_error(path: str | Path, model: RationalModel) -> Path:
+    """:func:`error_figure` written as PNG."""
     path = Path(path)
-    figure.savefig(path, dpi=110, format="png")
+    error_figure(model).savefig(path, dpi=110, format="png")
     return path
