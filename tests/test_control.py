@@ -233,3 +233,51 @@ def test_rig_spec_to_mat_and_existing_output_refused(tmp_path, capsys):
     assert scipy.io.loadmat(out)["max_error_band"].item() <= 0.001
     status, _, err = gasfilm(capsys, "model", spec, "--out", out)
     assert status == 2 and "exists already" in err
+
+
+# --- the GUI's Identify tab and the report -------------------------------------------------------------------------
+
+
+def _table1_fit(name: str) -> FitResult:
+    return FitResult.from_dict({
+        "model_name": name, "network": PAPER_MODELS[name].text, "params": PAPER_TABLE1[name], "std_errors": {},
+        "correlation": [], "correlation_names": [], "rms": 1e-4, "peak_error": 1e-4, "evaluations": 1,
+        "wall_time_s": 0.0, "method": "default", "flags": [], "band_hz": [20.0, 1000.0], "mass_kg": 25.05,
+        "mass_fitted": False, "decay_rate_1_s": 0.0, "n_points": 100})
+
+
+def test_identify_tab_shows_the_error_curve_and_exports_the_selected_model(qtbot, tmp_path):
+    from gasfilm.analysis.identification import compare_models
+    from gui_driving import open_window
+
+    window = open_window(qtbot, tmp_path)
+    try:
+        controller, tab = window.controller, window.identify_tab
+        fits = {name: _table1_fit(name) for name in ("SD", "FOMGF")}
+        freq_hz = np.linspace(20, 1000, 100)
+        controller.fits = fits
+        controller.comparison = compare_models(list(fits.values()), freq_hz, fits["FOMGF"].accelerance(freq_hz))
+        controller.fits_changed.emit()
+        assert tab.table.item(0, 1).text() == "FOMGF"  # selected: the best
+        model = tab.show_control_model()
+        assert model is not None and model.order == 5
+        assert "order 5" in tab.control_label.text() and "passive" in tab.control_label.text()
+        curves = tab.control_plot.getPlotItem().listDataItems()
+        assert len(curves) == 3 and np.max(curves[0].yData[(curves[0].xData >= 2) & (curves[0].xData <= 1e4)]) < 0.5
+        written = tab.export_control_model(tmp_path / "plant.mat")
+        assert written == tmp_path / "plant.mat"
+        assert scipy.io.loadmat(written)["A"].shape == (5, 5)
+        assert tab.export_control_model(tmp_path / "plant") == tmp_path / "plant.json"  # no suffix: JSON
+    finally:
+        window.controller.shutdown()
+
+
+@pytest.mark.slow
+def test_report_has_the_rational_models(fitted_session, tmp_path):
+    from gasfilm.analysis.report import read_report_data, report_html
+
+    page = report_html(read_report_data(fitted_session))
+    section = page[page.index("<h2>Control design"):page.index("<h2>Diagnosis")]
+    assert "<img alt='rational model error'" in section
+    table = section[:section.index("<img")]
+    assert table.count("<tr>") == 10 and "<td>FOMGF</td><td>5</td>" in table and ">NO<" not in table
