@@ -151,6 +151,7 @@ class IdentifyTab(QWidget):
         self.control_plot = make_plot("Rational model of the selected fit: error against the fractional one",
                                       ("|G_rational / G_fractional − 1|", "%"), log_y=True)
         self.control_plot.getPlotItem().setLogMode(x=True, y=True)
+        self.control_plot.getPlotItem().getAxis("bottom").enableAutoSIPrefix(False)
         figures = QTabWidget()
         figures.addTab(self._grid(list(self.fig18.values()), 2), "Figure 18 — fits")
         figures.addTab(self._grid(list(self.fig19.values()), 3), "Figure 19 — errors")
@@ -168,7 +169,7 @@ class IdentifyTab(QWidget):
         QVBoxLayout(self).addWidget(splitter)
 
         self.run_button.clicked.connect(self.run_fits)
-        self.control_button.clicked.connect(self.show_control_model)
+        self.control_button.clicked.connect(self._on_control_button)
         self.export_control_button.clicked.connect(lambda: self.export_control_model())
         self.cancel_button.clicked.connect(lambda: controller.cancel_job("fit"))
         controller.job_progress.connect(self._on_progress)
@@ -303,6 +304,11 @@ class IdentifyTab(QWidget):
             f"{fit.model_name}: {fit.network} · {fit.method} fitter · {fit.evaluations} evaluations in "
             f"{fit.wall_time_s:.2f} s" + (f"<br><span style='color:#a66300'>⚠ {flags}</span>" if flags else "")
         )
+        if fit.model_name in self._control_models:  # the error curve shown is always the selected model's
+            self.show_control_model()
+        else:
+            self.control_plot.clear()
+            self.control_label.clear()
 
     # --- control design ------------------------------------------------------------------------------------------
 
@@ -336,8 +342,11 @@ class IdentifyTab(QWidget):
                   name="film (stiffness)")
         plot.plot(list(model.band_hz), [100 * DEFAULT_MAX_ERROR] * 2, pen=pen("#b3261e", 1.0), name="target, band")
         self.control_label.setText(f"<b>{fit.model_name}</b> as a rational plant: {model.summary()}")
-        self.figures.setCurrentWidget(plot)
         return model
+
+    def _on_control_button(self) -> None:
+        if self.show_control_model() is not None:
+            self.figures.setCurrentWidget(self.control_plot)
 
     def export_control_model(self, path: str | Path | None = None) -> Path | None:
         """Write the selected fit's rational model (.json, .mat or .npz; asks for the file when ``path`` is None)."""
