@@ -281,3 +281,12 @@ def test_report_has_the_rational_models(fitted_session, tmp_path):
     assert "<img alt='rational model error'" in section
     table = section[:section.index("<img")]
     assert table.count("<tr>") == 10 and "<td>FOMGF</td><td>5</td>" in table and ">NO<" not in table
+
+
+def test_a_fit_with_impossible_values_is_one_line(tmp_path, capsys):
+    fit = _table1_fit("FOMGF").to_dict()
+    fit["params"]["k1"] = float("nan")
+    path = tmp_path / "fit.json"
+    path.write_text(json.dumps(fit))
+    status, _, err = gasfilm(capsys, "model", path, "--out", tmp_path / "m.json")
+    assert status == 2 and "k1 not finite" in err and len(err.strip().splitlines()) == 1

@@ -154,7 +154,6 @@ def vector_fit(
         a, b, c, _ = PoleResidue(poles, _residues(poles, sigma_residues), 0.0).state_space()
         zeros = np.linalg.eigvals(a - np.outer(b, c) / sigma_constant)
         zeros = np.where(zeros.real > 0, -zeros.conjugate(), zeros)  # flip unstable poles
-        zeros = np.where(zeros.real == 0, zeros - 1e-6 * np.abs(zeros) - 1e-300, zeros)
         poles = _pairs(zeros)
     phi = _basis(s, poles)
     design = np.hstack([phi, np.ones((s.size, n_const))])

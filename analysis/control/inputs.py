@@ -50,9 +50,16 @@ def _choose(fits: dict[str, dict], model: str | None, path: Path) -> dict:
 
 def _fit_from_dict(data: Any, path: Path) -> FitResult:
     try:
-        return FitResult.from_dict(data)
+        fit = FitResult.from_dict(data)
     except (KeyError, TypeError, ValueError, AttributeError, IndexError) as error:
         raise SettingError(f"{path}: not a gasfilm fit ({type(error).__name__}: {error})") from None
+    bad = [name for name, value in fit.params.items() if not np.isfinite(value)]
+    if bad or not (np.isfinite(fit.mass_kg) and fit.mass_kg > 0):
+        what = f"parameter(s) {', '.join(bad)} not finite" if bad else f"mass {fit.mass_kg} kg is not positive"
+        raise SettingError(f"{path}: fit {fit.model_name}: {what}")
+    if not (np.all(np.isfinite(fit.band_hz)) and 0 <= fit.band_hz[0] < fit.band_hz[1]):
+        raise SettingError(f"{path}: fit {fit.model_name}: band {fit.band_hz} Hz is not LO < HI")
+    return fit
 
 
 def load_source(path: Path, model: str | None) -> LoadedSource:

@@ -436,7 +436,7 @@ def oustaloup_order(source: PlantSource, band_hz: tuple[float, float], max_error
     """The plant order a plain Oustaloup approximation needs to be within ``max_error`` of the film and the plant
     over the band: each spring-pot's ``s^α`` replaced by ``2N + 1`` real poles and zeros over the band widened
     10, 100 or 1000 times on each side (Oustaloup's filter is poor near its edges; the widening needing the fewest
-    states wins), the network composed as it is. A pot of order α counts ``2N + 1 + ⌊α⌋`` states. Returns
+    states wins), the network composed as it is. A pot of order α counts ``2N + 1 + ⌊α⌋`` states (``α`` when it is an integer). Returns
     (order or None when N up to ``max_n`` does not reach it, its error, the widening)."""
     model = parse_network(source.network)
     orders = [source.film_parameters[p.name] for p in model.parameters if p.unit == "1"]
@@ -455,7 +455,8 @@ def oustaloup_order(source: PlantSource, band_hz: tuple[float, float], max_error
             error = float(max(np.max(np.abs(z_r / z - 1)),
                               np.max(np.abs(accelerance_from_stiffness(s, z_r, source.mass_kg) / h - 1))))
             if error <= max_error:
-                order = states_without_film + sum(2 * n + 1 + int(np.floor(alpha)) for alpha in orders)
+                order = states_without_film + sum(
+                    int(np.floor(alpha)) + (2 * n + 1 if alpha % 1 else 0) for alpha in orders)
                 if best[0] is None or order < best[0]:
                     best = (order, error, widen)
                 break

@@ -148,7 +148,9 @@ def time_domain_check(
     force = records[:, force_channel]
     recorded = band_limited(records[:, response_channel], sample_rate_hz)
     fractional = band_limited(simulate_response(spec, force, sample_rate_hz), sample_rate_hz)
-    rational = band_limited(simulate_rational(model, force, sample_rate_hz), sample_rate_hz)
+    # one hit at a time: the 8× up-sampled force of a long session would not fit in memory at once
+    rational = band_limited(np.stack([simulate_rational(model, hit, sample_rate_hz) for hit in force]),
+                            sample_rate_hz)
     check = TimeDomainCheck(
         sample_rate_hz=float(sample_rate_hz),
         hit_indices=tuple(hit_indices) if hit_indices is not None else tuple(range(len(records))),
