@@ -47,7 +47,7 @@ def fit_de(name: str, freq_hz: np.ndarray, h: np.ndarray, seed: int) -> tuple[fl
     started = time.perf_counter()
     model = PAPER_MODELS[name]
     problem = Problem(model, freq_hz, h, PAPER_MASS_KG, 0.0, False, None, None)
-    objective = UnitObjective(problem, PAPER_MASS_KG, False)
+    objective = UnitObjective(problem)
     result = differential_evolution(
         lambda u: objective(np.asarray(u).T),
         [(0.0, 1.0)] * objective.dimension,
@@ -58,8 +58,7 @@ def fit_de(name: str, freq_hz: np.ndarray, h: np.ndarray, seed: int) -> tuple[fl
         tol=1e-6,
         polish=True,
     )
-    params, _ = objective.to_params(result.x[np.newaxis, :])
-    residual = problem.acc_complex_residual(problem.coords.from_params(params[0], PAPER_MASS_KG))
+    residual = problem.acc_complex_residual(objective.to_coordinates(result.x))
     rms = float(np.sqrt(np.mean(np.abs(residual) ** 2)))
     return time.perf_counter() - started, problem.evaluations, rms
 
