@@ -257,7 +257,16 @@ def _projected_searches(
         local_search(np.zeros(0))
         return found
     unit = qmc.LatinHypercube(d=projection.size, seed=rng).random(_SAMPLES_PER_SHAPE * projection.size)
-    shapes = projection.start_lower + unit * (projection.start_upper - projection.start_lower)
+    # Each sample also with one order at 0: a spring-pot of order 0 is a spring, and a network whose best fit
+    # degenerates that way lies on the edge of the box, where a search started inside rarely ends.
+    span = projection.start_upper - projection.start_lower
+    edges = [unit]
+    for i in np.flatnonzero(problem.coords.is_order[projection.free]):
+        edge = unit.copy()
+        edge[:, i] = (projection.lower[i] - projection.start_lower[i]) / span[i]
+        edges.append(edge)
+    unit = np.vstack(edges)
+    shapes = projection.start_lower + unit * span
     thetas, residuals = projection.project(shapes)
     scores = np.mean(residuals**2, axis=-1)
     scores = np.where(np.isfinite(scores), scores, np.inf)
