@@ -167,7 +167,14 @@ class LoadedFrf:
     hits: list = dataclasses.field(default_factory=list)
 
 
-def load_frf(paths: list[Path], name: str | None = None, with_hits: bool = False) -> LoadedFrf:
+def load_frf(paths: list[Path], name: str | None = None) -> tuple[Any, str, str | None]:
+    """The FRF to export or fit, its description and the rig spec TOML (None for files): :func:`load_frf_and_hits`
+    without the hits."""
+    loaded = load_frf_and_hits(paths, name)
+    return loaded.frf, loaded.what, loaded.rig_spec_toml
+
+
+def load_frf_and_hits(paths: list[Path], name: str | None = None, with_hits: bool = False) -> LoadedFrf:
     """The FRF to export or fit, its description and the rig spec TOML it was recorded with (None for files).
 
     A session gives its stored FRF ``name`` (default: "frf" or its only one), else one averaged now from its accepted

@@ -12,7 +12,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from gasfilm.app.commands.common import check_output_file, check_output_suffix, load_frf
+from gasfilm.app.commands.common import check_output_file, check_output_suffix, load_frf_and_hits
 from gasfilm.drivers.errors import SettingError
 
 
@@ -46,7 +46,7 @@ def run(args: argparse.Namespace) -> int:
         raise SettingError("--time-records: only a UFF export holds time records (use --uff OUT.uff)")
     check_output_file(target, flag, args.overwrite)
     with_hits = args.uff is not None and args.time_records is not False
-    loaded = load_frf(args.source, args.frf, with_hits=with_hits)
+    loaded = load_frf_and_hits(args.source, args.frf, with_hits=with_hits)
     frf = loaded.frf
     if args.uff is not None:
         export_frf_uff(frf, args.uff, tuple(args.response_dof), tuple(args.reference_dof),

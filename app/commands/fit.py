@@ -17,7 +17,7 @@ from pathlib import Path
 from typing import Any, Callable
 
 from gasfilm.app.commands.common import (UNITS, accelerance_text, add_units_flag, check_output_folder, is_terminal,
-                                         load_frf)
+                                         load_frf_and_hits)
 from gasfilm.drivers.errors import SettingError
 
 logger = logging.getLogger(__name__)
@@ -180,7 +180,7 @@ def run(args: argparse.Namespace) -> int:
     stem = args.source[0].stem
     figure_paths = check_output_folder(out, "--out" if args.out is not None else "",
                                        (f"{stem}-figure18.png", f"{stem}-figure19.png"), args.overwrite)
-    loaded = load_frf(args.source, args.frf)
+    loaded = load_frf_and_hits(args.source, args.frf)
     frf, what, rig_spec_toml = loaded.frf, loaded.what, loaded.rig_spec_toml
     low, high = parse_band(args.band, frf.sample_rate_hz)
     keep = (frf.freq_hz >= max(low, 1e-9)) & (frf.freq_hz <= high)
