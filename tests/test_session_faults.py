@@ -183,6 +183,24 @@ def test_sigterm_and_sighup_close_the_session_like_ctrl_c(tmp_path):
             assert session.status_reason == f"stopped by {name}"
 
 
+def test_a_stop_signal_as_recording_starts_closes_the_session(tmp_path):
+    """Issue 15 item 25: SIGTERM or SIGHUP the moment "recording into …" is printed (the handlers are installed before
+    anything is printed) ends the run through the cleanup: its message, status 128 + signal, the session aborted."""
+    names = ("SIGTERM", "SIGHUP")
+    processes = {name: subprocess.Popen([*ACQUIRE, "--seconds", "1000", "--out", str(tmp_path / f"{name}.h5")],
+                                        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True) for name in names}
+    for name, process in processes.items():
+        first = process.stdout.readline()
+        process.send_signal(getattr(signal, name))
+        assert first.startswith("recording into"), first + process.stderr.read()
+        rest = process.stdout.read()
+        assert process.wait(60) == 128 + getattr(signal, name), process.stderr.read()
+        path = tmp_path / f"{name}.h5"
+        assert f"stopped by {name}: session {path} closed" in rest
+        with Session.open(path) as session:
+            assert session.status == "aborted" and session.status_reason == f"stopped by {name}"
+
+
 def dead_pid() -> int:
     child = subprocess.Popen([sys.executable, "-c", "pass"])
     child.wait()

@@ -32,6 +32,7 @@ from gasfilm.analysis.session.files import (
 from gasfilm.analysis.session.layout import (
     DEFAULT_SAMPLES_PER_CHUNK,
     FORMAT_NAME,
+    MAX_SAMPLE_RATE_HZ,
     MAX_SAMPLES_PER_CHUNK,
     SCHEMA_VERSION,
     SessionError,
@@ -685,7 +686,8 @@ class Session:
             ("force channel", "force_channel", (rows["force_channel"] >= 0) & (rows["force_channel"] < channels)),
             ("response channel", "response_channel",
              (rows["response_channel"] >= 0) & (rows["response_channel"] < channels)),
-            ("sample rate", "sample_rate_hz", np.isfinite(rows["sample_rate_hz"]) & (rows["sample_rate_hz"] > 0)),
+            ("sample rate", "sample_rate_hz",
+             (rows["sample_rate_hz"] > 0) & (rows["sample_rate_hz"] <= MAX_SAMPLE_RATE_HZ)),
             ("trigger sample", "trigger_index", (rows["trigger_index"] >= 0) & (rows["trigger_index"] <= samples)),
             ("start time", "start_time_s", np.isfinite(rows["start_time_s"])),
         )

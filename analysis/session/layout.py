@@ -7,6 +7,7 @@ import dataclasses
 import datetime
 import enum
 import json
+import math
 import os
 import re
 from pathlib import Path
@@ -16,13 +17,15 @@ import h5py
 import numpy as np
 
 from gasfilm.drivers.errors import GasfilmError
-from gasfilm.drivers.interface import ChannelConfig, ChannelKind, Coupling, DaqConfig
+from gasfilm.drivers.interface import SENSITIVITY_UNITS, ChannelConfig, ChannelKind, Coupling, DaqConfig
 
 SCHEMA_VERSION = 1
 FORMAT_NAME = "gasfilm-session"
 REASONS_LENGTH = 256
 MAX_SAMPLES_PER_CHUNK = 16384  # per channel: 128 KiB per channel and chunk
 DEFAULT_SAMPLES_PER_CHUNK = 4096  # when the record length is not known in advance
+#: A stored hit's sample rate above this is damage, not a recording (the NI 9234 runs at up to 51.2 kS/s).
+MAX_SAMPLE_RATE_HZ = 1e9
 
 
 class SessionError(GasfilmError):
@@ -118,6 +121,8 @@ def config_to_dict(config: DaqConfig) -> dict[str, Any]:
 
 
 def config_from_dict(data: Mapping[str, Any]) -> DaqConfig:
+    """The stored DAQ configuration; raises ``ValueError`` for a channel whose sensitivity cannot be used (units
+    that do not fit its kind, a sensitivity that is not a positive number)."""
     channels = tuple(
         ChannelConfig(
             physical_channel=channel["physical_channel"],
@@ -130,6 +135,12 @@ def config_from_dict(data: Mapping[str, Any]) -> DaqConfig:
         )
         for channel in data["channels"]
     )
+    for number, channel in enumerate(channels):
+        if channel.sensitivity_units not in SENSITIVITY_UNITS[channel.kind]:
+            raise ValueError(f"channel {number} is a {channel.kind.value} sensor with sensitivity units "
+                             f"'{channel.sensitivity_units}'")
+        if not (math.isfinite(channel.sensitivity) and channel.sensitivity > 0):
+            raise ValueError(f"channel {number} has sensitivity {channel.sensitivity}")
     return DaqConfig(channels, float(data["sample_rate_hz"]), int(data["samples_per_chunk"]))
 
 
