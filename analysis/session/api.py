@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import contextlib
 import functools
+import io
 import json
 import logging
 import os
@@ -25,9 +26,20 @@ from gasfilm.analysis.session.files import (
     check_unclosed_file,
     describe_open_failure,
     move_into_place,
+    open_for_salvage,
     open_h5,
-    recover,
     remove_leftovers,
+    replace_durably,
+)
+from gasfilm.analysis.session.journal import (
+    Journal,
+    JournalContent,
+    hit_digest,
+    journal_held_elsewhere,
+    journal_path,
+    read_journal,
+    setup_of,
+    write_session_file,
 )
 from gasfilm.analysis.session.layout import (
     DEFAULT_SAMPLES_PER_CHUNK,
@@ -63,6 +75,8 @@ FREE_SPACE_MARGIN_BYTES = 1 << 20
 #: What a damaged file's metadata can make h5py, numpy or the decoders raise while it is read.
 _READ_ERRORS = (OSError, KeyError, ValueError, TypeError, RuntimeError, IndexError, AttributeError, MemoryError,
                 OverflowError, UnicodeError)
+#: What a failing write (full disk, I/O error) or HDF5 writing over damaged metadata can raise.
+_WRITE_ERRORS = (OSError, RuntimeError, KeyError, ValueError, TypeError, IndexError, AttributeError, OverflowError)
 #: The groups every session holds.
 _GROUPS = ("rig", "daq", "settings", "hits", "frf", "fits", "diagnoses")
 #: FrfResult fields with one value per frequency line.
@@ -149,6 +163,66 @@ def _write_error_text(error: BaseException) -> str:
     return getattr(error, "strerror", None) or one_line(error)
 
 
+def _rebuilt_status(salvage: h5py.File | None, closed: bool, content: JournalContent) -> tuple[str, str] | None:
+    """The status of a session rebuilt from a journal its writer left: the old file's when that was closed as
+    complete or aborted (the journal outlived a clean close), else "interrupted"."""
+    if closed and salvage is not None and salvage.attrs.get("status") in ("complete", "aborted"):
+        return None
+    return ("interrupted", f"the recording process ended without closing the session; {content.hit_count} hits "
+                           f"rebuilt from its journal")
+
+
+def _rebuild_on_disk(path: Path, content: JournalContent, status: tuple[str, str] | None) -> WriterLock | None:
+    """Write the session the journal describes into a fresh file (with what the old file still holds besides the
+    hits) and put it in place of ``path``; return the writer lock on it. Raises :class:`SessionWriteError` when the
+    fresh file cannot be written (the old file and the journal are left as they are)."""
+    building = building_path(path, "recovering")
+    salvage, _ = open_for_salvage(path)
+    try:
+        with _h5py_errors_raised():
+            with open_h5(building, "w") as target:
+                lost = write_session_file(target, content, salvage, status)
+        if salvage is not None:
+            salvage.close()
+            salvage = None
+        lock = replace_durably(building, path, lock=True)
+    except (OSError, RuntimeError, ValueError, KeyError, SessionError) as error:
+        building.unlink(missing_ok=True)
+        logger.error("%s: rebuilding the session from its journal failed: %s", path, one_line(error))
+        raise SessionWriteError(
+            f"{path}: cannot rewrite the session ({_write_error_text(error)}); its {content.hit_count} hits are safe "
+            f"in {journal_path(path).name}, which gasfilm reads and rebuilds from when the session is opened"
+        ) from None
+    finally:
+        if salvage is not None:
+            salvage.close()
+    for what in lost:
+        logger.warning("%s: not carried over from the damaged file: %s", path, what)
+    return lock
+
+
+def _remove_empty_journal(path: Path, overwrite: bool) -> None:
+    """Before creating ``path``: remove a journal left by a killed creation (no hits), or by the session being
+    replaced (``overwrite``); refuse to create over a journal that holds hits of a session whose file is gone."""
+    journal = Journal.resume(path)
+    if journal is None:
+        return
+    try:
+        try:
+            hits = read_journal(journal.folder).hit_count
+        except SessionError:
+            hits = 0
+        if hits and not overwrite:
+            raise SessionError(
+                f"{path}: {journal.folder.name} holds {hits} hits of a session whose file is missing; open "
+                f"{path.name} to rebuild it from them, or move the journal away"
+            )
+        journal.remove()
+        logger.warning("%s: removed the journal %s (%d hits) left before this creation", path, journal.folder, hits)
+    finally:
+        journal.release()
+
+
 @dataclass(frozen=True)
 class StoredHit:
     """One hit as stored in a session: the raw record and how it was judged."""
@@ -201,6 +275,9 @@ class Session:
         self.size_limit_bytes = DEFAULT_SIZE_LIMIT_BYTES
         self._write_failure: str | None = None  # why writing failed: the file is then closed without more writes
         self._hit_count = 0
+        #: A writer's journal (``NAME.journal``) and the fingerprint of each hit it holds, in order.
+        self._journal: Journal | None = None
+        self._digests: list[bytes] = []
         try:
             self._check_layout()
         except SessionError:
@@ -238,6 +315,8 @@ class Session:
         if not path.parent.is_dir():
             raise SessionError(f"{path}: the folder {path.parent} does not exist")
         remove_leftovers(path)
+        remove_leftovers(journal_path(path))
+        _remove_empty_journal(path, overwrite)
         free_bytes = shutil.disk_usage(path.parent).free
         if free_bytes < FREE_SPACE_MARGIN_BYTES:  # HDF5 failing mid-creation can crash the process when it exits
             raise SessionWriteError(f"{path}: disk full ({free_bytes / 1e6:.3g} MB free); the session is not created")
@@ -250,6 +329,7 @@ class Session:
                 replaced.release()
             raise SessionError(f"{path}: cannot create the session file ({_write_error_text(error)})") from None
         lock = None
+        journal = None
         try:
             lock = WriterLock(building)
             with _h5py_errors_raised(on_error=lambda: _detach(file, building)):
@@ -293,8 +373,19 @@ class Session:
                 file.flush()
                 file.swmr_mode = True
                 del rig, daq, settings_group, hits
+                setup, table_template = setup_of(file)
+            try:
+                journal = Journal.start(path, setup, table_template, np.zeros((0, channel_count, 0)),
+                                        table_template)
+            except FileExistsError:
+                raise SessionError(
+                    f"{path}: the session file exists already (another process created it at the same moment)"
+                ) from None
             move_into_place(building, path, overwrite)
         except BaseException as error:
+            if journal is not None:
+                with contextlib.suppress(OSError):
+                    journal.remove()
             if isinstance(error, (OSError, RuntimeError)):
                 logger.error("%s: creating the session failed: %s", path, error)
                 error = SessionError(f"{path}: cannot create the session file ({_write_error_text(error)})")
@@ -310,51 +401,133 @@ class Session:
             if replaced is not None:
                 replaced.release()
         session = cls(path, file, lock)
+        session._journal = journal
         session.sync_each_hit = sync_each_hit
         return session
 
     @classmethod
     def open(cls, path: str | Path, mode: str = "r") -> "Session":
-        """Open a session for reading (``"r"``) or for appending and adding results (``"a"``)."""
+        """Open a session for reading (``"r"``) or for appending and adding results (``"a"``).
+
+        A session whose writer failed or was killed has a journal left next to it: reading rebuilds the session from
+        it in memory, appending rebuilds the file on disk first (``recovered`` is then True)."""
         path = Path(path)
         if mode not in ("r", "a"):
             raise SessionError(f"{path}: mode '{mode}' is not valid; use 'r' or 'a'")
-        if not path.exists():
-            raise SessionError(f"{path}: no such session file")
         if path.is_dir():
             raise SessionError(f"{path}: is a folder, not a session file")
-        lock = WriterLock(path) if mode == "a" else None
-        if lock is not None:
-            remove_leftovers(path)
+        leftover_journal = journal_path(path).is_dir() and not journal_held_elsewhere(path)
+        if not path.exists() and not leftover_journal:
+            raise SessionError(f"{path}: no such session file")
+        if mode == "a":
+            return cls._open_for_writing(path)
+        if leftover_journal:
+            return cls._rebuilt_in_memory(path)
+        return cls._open_read_only(path, writer_lock_held=False)
+
+    @classmethod
+    def _open_read_only(cls, path: Path, writer_lock_held: bool) -> "Session":
+        """The session file as it is on disk (``writer_lock_held``: this process holds its writer lock)."""
         try:
-            file = open_h5(path, mode)
+            file = open_h5(path, "r")
         except OSError as error:
             if "already open for write" not in str(error):
-                if lock is not None:
-                    lock.release()
                 raise describe_open_failure(path, error) from None
-            # The flags of a writer that is still recording (mode "r" only: else the lock would have failed)
-            # or that ended without closing the file (killed, crashed, power lost).
-            live = lock is None and WriterLock.held_elsewhere(path)
+            # The flags of a writer that is still recording or that ended without closing the file (killed, crashed,
+            # power lost): the latter is checked first (reading a truncated one in SWMR mode can run for minutes).
+            live = not writer_lock_held and WriterLock.held_elsewhere(path)
             if not live:
-                try:
-                    check_unclosed_file(path)
-                except SessionError:
-                    if lock is not None:
-                        lock.release()
-                    raise
-            if mode == "r":
-                try:
-                    file = open_h5(path, "r", swmr=True)
-                except OSError as swmr_error:
-                    raise describe_open_failure(path, swmr_error) from None
-                return cls(path, file, recovered=not live)
+                check_unclosed_file(path)
             try:
-                recovered_lock = recover(path)
-            finally:
+                file = open_h5(path, "r", swmr=True)
+            except OSError as swmr_error:
+                raise describe_open_failure(path, swmr_error) from None
+            return cls(path, file, recovered=not live)
+        return cls(path, file)
+
+    @classmethod
+    def _rebuilt_in_memory(cls, path: Path) -> "Session":
+        """A read-only session rebuilt from the journal a failed or killed writer left (nothing is written to disk)."""
+        content = read_journal(journal_path(path))
+        salvage, closed = open_for_salvage(path)
+        try:
+            file = h5py.File(io.BytesIO(), "w")
+            try:
+                with _h5py_errors_raised():
+                    write_session_file(file, content, salvage, _rebuilt_status(salvage, closed, content))
+            except (OSError, RuntimeError, ValueError) as error:
+                file.close()
+                raise SessionError(f"{path}: the session cannot be rebuilt from its journal ({one_line(error)})") from None
+        finally:
+            if salvage is not None:
+                salvage.close()
+        logger.warning("%s: read from its journal %s (%d hits): its writer did not close it", path,
+                       journal_path(path), content.hit_count)
+        return cls(path, file, recovered=True)
+
+    @classmethod
+    def _open_for_writing(cls, path: Path) -> "Session":
+        """Take the writer lock; journal the committed hits (or take over a journal left behind); rewrite the session
+        file from the journal, so that the writes to come go into a file this process made; open it for appending."""
+        lock = WriterLock(path) if path.exists() else None
+        journal = None
+        try:
+            remove_leftovers(path)
+            remove_leftovers(journal_path(path))
+            journal = Journal.resume(path)
+            started = journal is None
+            if journal is not None:
+                content = journal.read()
+                salvage, closed = open_for_salvage(path)
+                if salvage is not None:
+                    salvage.close()
+                status = _rebuilt_status(salvage, closed, content)
+            else:
+                if lock is None:
+                    raise SessionError(f"{path}: no such session file")
+                with cls._open_read_only(path, writer_lock_held=True) as source:
+                    content = source._committed_content()
+                    status = None
+                    if source.recovered:
+                        status = ("interrupted", f"the recording process ended without closing the session; "
+                                                 f"{content.hit_count} hits recovered")
+                try:
+                    journal = Journal.start(path, content.setup, content.rows[:0], content.records, content.rows)
+                except OSError as error:
+                    raise SessionWriteError(
+                        f"{path}: cannot start the session's journal for writing ({_write_error_text(error)}); "
+                        f"nothing was changed"
+                    ) from None
+            try:
+                new_lock = _rebuild_on_disk(path, content, status)
+            except SessionWriteError:
+                if started:  # the session file is untouched: the journal just started holds nothing more
+                    journal.remove()
+                    journal = None
+                raise
+            if lock is not None:
                 lock.release()
-            return cls(path, open_h5(path, "a"), recovered_lock, recovered=True)
-        return cls(path, file, lock)
+            lock = new_lock
+            if status is not None:
+                logger.warning("%s: rebuilt before writing: %s", path, status[1])
+            session = cls(path, open_h5(path, "a"), lock, recovered=status is not None)
+        except BaseException:
+            if journal is not None:
+                journal.release()
+            if lock is not None:
+                lock.release()
+            raise
+        session._journal = journal
+        session._digests = content.digests()
+        return session
+
+    @_reading("the hits")
+    def _committed_content(self) -> JournalContent:
+        """The setup and every committed hit, as a journal starts with them."""
+        rows = self._rows()
+        records = self._read_data(slice(0, len(rows)))
+        setup, _ = setup_of(self._file)
+        return JournalContent(setup, np.asarray(records, dtype=np.float64), rows, [])
 
     @_reading("its layout")
     def _check_layout(self) -> None:
@@ -395,7 +568,7 @@ class Session:
             name not in table.dtype.names or table.dtype[name].shape != expected[name].shape for name in expected.names
         ):
             raise SessionError(f"{self.path}: damaged session: 'hits/table' does not have the hit table's columns")
-        check_declared_rows(self.path, table, data)
+        check_declared_rows(self.path, table, data, self._file.id.get_filesize())
         self._hit_count = committed_hits(table, data)
 
     # ----- context manager and closing ----------------------------------------------------------------------
@@ -425,6 +598,7 @@ class Session:
         if self._write_failure is not None:
             self._close_after_write_failure()
             return
+        final_status = None
         if self.writable:
             if status is None:
                 status = "complete" if self._file.attrs["status"] == "recording" else None
@@ -439,9 +613,19 @@ class Session:
                 except SessionWriteError:
                     self._close_after_write_failure()
                     raise
-        self._file.close()
-        if self._lock is not None:
-            self._lock.release()
+            final_status = (str(self._file.attrs["status"]), str(self._file.attrs["status_reason"]))
+        try:
+            with _h5py_errors_raised():
+                self._file.close()
+        except (OSError, RuntimeError) as error:
+            self._write_failure = _write_error_text(error)
+            logger.error("%s: closing the file failed: %s", self.path, one_line(error))
+        try:
+            if self._journal is not None:
+                self._settle_journal(final_status if self._write_failure is None else None)
+        finally:
+            if self._lock is not None:
+                self._lock.release()
 
     @contextlib.contextmanager
     def _writing(self, what: str) -> Iterator[None]:
@@ -450,13 +634,15 @@ class Session:
         try:
             with _h5py_errors_raised(on_error=self._detach_file):
                 yield
-        except (OSError, RuntimeError) as error:
+        except _WRITE_ERRORS as error:
             self._detach_file()
             self._write_failure = _write_error_text(error)
-            logger.error("%s: writing %s failed: %s; %d hits kept", self.path, what, one_line(error), self._hit_count)
+            kept = len(self._digests) if self._journal is not None else self._hit_count
+            logger.error("%s: writing %s failed: %s; %d hits kept", self.path, what, one_line(error), kept)
+            also = " and this one" if kept > self._hit_count else ""
             raise SessionWriteError(
                 f"{self.path}: writing {what} failed ({self._write_failure}); recording stopped, the "
-                f"{self._hit_count} hits before it are kept"
+                f"{self._hit_count} hits before it{also} are kept"
             ) from None
 
     def _detach_file(self) -> None:
@@ -466,14 +652,63 @@ class Session:
             _detach(self._file, self.path)
 
     def _close_after_write_failure(self) -> None:
-        """Let go of a file that could not be written (detached, so nothing more reaches the disk)."""
+        """Let go of a file that could not be written (detached, so nothing more reaches the disk), then rebuild it
+        from the journal where the disk allows (else the journal stays, and the next open rebuilds from it)."""
         try:
             with _h5py_errors_raised():
                 self._file.close()
         except (OSError, RuntimeError) as error:
             logger.warning("%s: closing after the write failure: %s", self.path, one_line(error))
-        if self._lock is not None:
-            self._lock.release()
+        try:
+            if self._journal is not None:
+                self._settle_journal(None)
+        finally:
+            if self._lock is not None:
+                self._lock.release()
+
+    def _settle_journal(self, final_status: tuple[str, str] | None) -> None:
+        """After the file is closed: remove the journal once the file on disk holds exactly the journaled hits,
+        rebuilding the file from the journal first when it does not (or when writing failed: ``final_status`` None).
+        When the rebuild fails (a full disk), the journal stays for the next open, which rebuilds from it."""
+        journal, self._journal = self._journal, None
+        try:
+            if final_status is None or not self._file_holds_journaled_hits():
+                content = journal.read()
+                if final_status is None:
+                    status = ("interrupted", f"writing failed ({self._write_failure}); {content.hit_count} hits "
+                                             f"rebuilt from its journal")
+                else:
+                    status = (final_status[0], f"{final_status[1]}; {content.hit_count} hits rebuilt from its journal"
+                              .lstrip("; "))
+                    logger.error("%s: the closed file does not hold the %d journaled hits; rebuilding it",
+                                 self.path, len(self._digests))
+                lock = _rebuild_on_disk(self.path, content, status)
+                if lock is not None:
+                    lock.release()
+                logger.warning("%s: rebuilt from its journal: %d hits", self.path, content.hit_count)
+            journal.remove()
+        except (SessionError, OSError) as error:
+            logger.error("%s: the journal %s is kept (%s)", self.path, journal.folder, one_line(error))
+            journal.release()
+
+    def _file_holds_journaled_hits(self) -> bool:
+        """Whether the closed session file reads back with exactly the hits of the journal, sample for sample."""
+        try:
+            with _h5py_errors_raised(), open_h5(self.path, "r") as file:
+                table, data = file["hits/table"], file["hits/data"]
+                count = committed_hits(table, data)
+                if count != len(self._digests):
+                    return False
+                for start in range(0, count, 64):
+                    stop = min(start + 64, count)
+                    rows, records = table[start:stop], data[start:stop]
+                    if any(hit_digest(record, row) != self._digests[start + offset]
+                           for offset, (record, row) in enumerate(zip(records, rows))):
+                        return False
+        except _READ_ERRORS as error:
+            logger.error("%s: the closed file cannot be read back: %s", self.path, one_line(error))
+            return False
+        return True
 
     def _set_status(self, status: str, reason: str) -> None:
         self._structural()
@@ -588,10 +823,14 @@ class Session:
 
     def update_settings(self, settings: Mapping[str, Any]) -> None:
         """Store (or replace) processing settings by key."""
-        self._structural()
-        for key, value in settings.items():
-            self._group("settings").attrs[key] = json_dumps(value)
-        self._file.flush()
+        self._require_writable()
+        encoded = {key: json_dumps(value) for key, value in settings.items()}
+        with self._writing("the settings"):
+            self._journal_write().set_settings(encoded)
+            self._structural()
+            for key, value in encoded.items():
+                self._group("settings").attrs[key] = value
+            self._file.flush()
 
     # ----- hits ---------------------------------------------------------------------------------------------------
 
@@ -642,8 +881,10 @@ class Session:
         row["force_channel"] = int(hit.force_channel)
         row["response_channel"] = int(hit.response_channel)
         row["overload"] = np.asarray(hit.overload, dtype=bool).reshape(channels)
-        self._check_room(data.nbytes + row.nbytes)
+        self._check_room(2 * (data.nbytes + row.nbytes))  # the journal's copy and the file's
         with self._writing("a new hit"):
+            self._journal_write().add_hits(index, data[np.newaxis], row.reshape(1))
+            self._digests.append(hit_digest(data, row))
             self._appending()
             records, table = self._data, self._table
             records.resize((index + 1, channels, samples))
@@ -657,6 +898,11 @@ class Session:
             self._sync()
         self._hit_count = index + 1
         return index
+
+    def _journal_write(self) -> Journal:
+        if self._journal is None:
+            raise SessionError(f"{self.path}: the session has no journal to write to")
+        return self._journal
 
     def _check_room(self, hit_bytes: int) -> None:
         """Refuse a hit that would pass the size limit or leave the disk without room to close the session."""
@@ -771,12 +1017,14 @@ class Session:
             raise SessionError(f"{self.path}: hit {index} does not exist (the session holds {self.hit_count})")
         reasons = encode_reasons(tuple(verdict.reasons), self.path)
         with self._writing(f"the verdict of hit {index}"):
-            self._appending()
             table = self._table
             row = table[index]
             row["accepted"] = bool(verdict.accepted)
             row["overridden"] = bool(getattr(verdict, "overridden", False))
             row["reasons"] = reasons
+            self._journal_write().set_row(index, row)
+            self._digests[index] = hit_digest(self._data[index], row)
+            self._appending()
             table[index] = row
             table.flush()
             self._file.flush()
@@ -807,7 +1055,7 @@ class Session:
     @_reading("a stored result")
     def _read_result_group(self, kind: str, name: str) -> dict[str, Any]:
         group = self._group(kind)[name]
-        file_bytes = os.path.getsize(self.path)
+        file_bytes = self._file.id.get_filesize()
         for key, dataset in group.items():
             if not isinstance(dataset, h5py.Dataset):
                 raise SessionError(f"{self.path}: damaged session: {kind} result '{name}': '{key}' is not a dataset")

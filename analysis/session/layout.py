@@ -8,7 +8,6 @@ import datetime
 import enum
 import json
 import math
-import os
 import re
 from pathlib import Path
 from typing import Any, Mapping
@@ -186,11 +185,10 @@ def one_line(error: BaseException, limit: int = 200) -> str:
     return text if len(text) <= limit else text[: limit - 3] + "..."
 
 
-def check_declared_rows(path: Path, table: h5py.Dataset, data: h5py.Dataset) -> None:
-    """Refuse hit datasets declaring more rows than the file can hold (one more for a hit whose write was cut short):
-    shrinking a dataset that declares 2^40 rows walks every chunk it could have, for hours."""
+def check_declared_rows(path: Path, table: h5py.Dataset, data: h5py.Dataset, file_bytes: int) -> None:
+    """Refuse hit datasets declaring more rows than the file of ``file_bytes`` can hold (one more for a hit whose
+    write was cut short): shrinking a dataset that declares 2^40 rows walks every chunk it could have, for hours."""
     record_bytes = int(np.prod(data.shape[1:])) * data.dtype.itemsize
-    file_bytes = os.path.getsize(path)
     for name, rows, row_bytes in (("hits/data", data.shape[0], record_bytes),
                                   ("hits/table", table.shape[0], table.dtype.itemsize)):
         if (name == "hits/table" or data.compression is None) and (rows - 1) * row_bytes > file_bytes:
