@@ -163,6 +163,10 @@ def _write_error_text(error: BaseException) -> str:
     return getattr(error, "strerror", None) or one_line(error)
 
 
+#: Passed as the status of a rebuild from a journal left behind: :func:`_rebuilt_status` decides it.
+_STATUS_OF_A_LEFT_JOURNAL = ("", "")
+
+
 def _rebuilt_status(salvage: h5py.File | None, closed: bool, content: JournalContent) -> tuple[str, str] | None:
     """The status of a session rebuilt from a journal its writer left: the old file's when that was closed as
     complete or aborted (the journal outlived a clean close), else "interrupted"."""
@@ -177,7 +181,9 @@ def _rebuild_on_disk(path: Path, content: JournalContent, status: tuple[str, str
     hits) and put it in place of ``path``; return the writer lock on it. Raises :class:`SessionWriteError` when the
     fresh file cannot be written (the old file and the journal are left as they are)."""
     building = building_path(path, "recovering")
-    salvage, _ = open_for_salvage(path)
+    salvage, closed = open_for_salvage(path)
+    if status == _STATUS_OF_A_LEFT_JOURNAL:
+        status = _rebuilt_status(salvage, closed, content)
     try:
         with _h5py_errors_raised():
             with open_h5(building, "w") as target:
@@ -185,8 +191,9 @@ def _rebuild_on_disk(path: Path, content: JournalContent, status: tuple[str, str
         if salvage is not None:
             salvage.close()
             salvage = None
+        _check_rebuilt(building, content)
         lock = replace_durably(building, path, lock=True)
-    except (OSError, RuntimeError, ValueError, KeyError, SessionError) as error:
+    except (*_WRITE_ERRORS, SessionError) as error:
         building.unlink(missing_ok=True)
         logger.error("%s: rebuilding the session from its journal failed: %s", path, one_line(error))
         raise SessionWriteError(
@@ -199,6 +206,22 @@ def _rebuild_on_disk(path: Path, content: JournalContent, status: tuple[str, str
     for what in lost:
         logger.warning("%s: not carried over from the damaged file: %s", path, what)
     return lock
+
+
+def _check_rebuilt(building: Path, content: JournalContent) -> None:
+    """Read a rebuilt file back before it replaces anything: the setup and every hit as the journal has them (HDF5
+    does not report every failed write)."""
+    with _h5py_errors_raised(), open_h5(building, "r") as file:
+        setup, _ = setup_of(file)
+        for name in ("rig", "daq", "settings"):
+            if setup["attrs"][name] != content.setup["attrs"][name]:
+                raise ValueError(f"the rebuilt file's '{name}' differs from the journal's")
+        if setup["rig_spec_toml"] != content.setup["rig_spec_toml"]:
+            raise ValueError("the rebuilt file's rig spec differs from the journal's")
+        table, data = file["hits/table"], file["hits/data"]
+        if committed_hits(table, data) != content.hit_count or content.digests() != [
+                hit_digest(record, row) for record, row in zip(data[:content.hit_count], table[:content.hit_count])]:
+            raise ValueError("the rebuilt file's hits differ from the journal's")
 
 
 def _remove_empty_journal(path: Path, overwrite: bool) -> None:
@@ -455,7 +478,7 @@ class Session:
             try:
                 with _h5py_errors_raised():
                     write_session_file(file, content, salvage, _rebuilt_status(salvage, closed, content))
-            except (OSError, RuntimeError, ValueError) as error:
+            except _WRITE_ERRORS as error:
                 file.close()
                 raise SessionError(f"{path}: the session cannot be rebuilt from its journal ({one_line(error)})") from None
         finally:
@@ -478,10 +501,7 @@ class Session:
             started = journal is None
             if journal is not None:
                 content = journal.read()
-                salvage, closed = open_for_salvage(path)
-                if salvage is not None:
-                    salvage.close()
-                status = _rebuilt_status(salvage, closed, content)
+                status = _STATUS_OF_A_LEFT_JOURNAL
             else:
                 if lock is None:
                     raise SessionError(f"{path}: no such session file")
@@ -508,9 +528,17 @@ class Session:
             if lock is not None:
                 lock.release()
             lock = new_lock
+            try:
+                file = open_h5(path, "a")
+            except OSError as error:
+                raise SessionWriteError(
+                    f"{path}: cannot open the session for writing ({_write_error_text(error)}); its "
+                    f"{content.hit_count} hits are safe in {journal_path(path).name}"
+                ) from None
+            session = cls(path, file, lock, recovered=status is not None)
             if status is not None:
-                logger.warning("%s: rebuilt before writing: %s", path, status[1])
-            session = cls(path, open_h5(path, "a"), lock, recovered=status is not None)
+                logger.warning("%s: rebuilt before writing (status %s: %s)", path, session.status,
+                               session.status_reason)
         except BaseException:
             if journal is not None:
                 journal.release()
@@ -579,7 +607,7 @@ class Session:
     def __exit__(self, exc_type: type | None, exc: BaseException | None, traceback: object) -> None:
         if not self.is_open:
             return
-        if exc is not None and self.writable and self._file.attrs["status"] == "recording":
+        if exc is not None and self.writable and self._write_failure is None and self._file.attrs["status"] == "recording":
             self.close("aborted", f"{type(exc).__name__}: {exc}" if str(exc) else type(exc).__name__)
         else:
             self.close()
