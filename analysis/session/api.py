@@ -607,7 +607,8 @@ class Session:
     def __exit__(self, exc_type: type | None, exc: BaseException | None, traceback: object) -> None:
         if not self.is_open:
             return
-        if exc is not None and self.writable and self._write_failure is None and self._file.attrs["status"] == "recording":
+        failed = self._write_failure is not None
+        if exc is not None and self.writable and not failed and self._file.attrs["status"] == "recording":
             self.close("aborted", f"{type(exc).__name__}: {exc}" if str(exc) else type(exc).__name__)
         else:
             self.close()
@@ -686,7 +687,7 @@ class Session:
             with _h5py_errors_raised():
                 self._file.close()
         except (OSError, RuntimeError) as error:
-            logger.warning("%s: closing after the write failure: %s", self.path, one_line(error))
+            logger.info("%s: closing after the write failure: %s", self.path, one_line(error))
         try:
             if self._journal is not None:
                 self._settle_journal(None)
@@ -713,7 +714,7 @@ class Session:
                 lock = _rebuild_on_disk(self.path, content, status)
                 if lock is not None:
                     lock.release()
-                logger.warning("%s: rebuilt from its journal: %d hits", self.path, content.hit_count)
+                logger.info("%s: rebuilt from its journal: %d hits", self.path, content.hit_count)
             journal.remove()
         except (SessionError, OSError) as error:
             logger.error("%s: the journal %s is kept (%s)", self.path, journal.folder, one_line(error))

@@ -121,10 +121,22 @@ def _settings(args: argparse.Namespace) -> dict[str, Any]:
     return {"trigger": trigger, "validation": validation, "window": window}
 
 
+class _SessionLog(logging.FileHandler):
+    """The session's log file; when it cannot be written (the disk is full), its messages still reach the user on
+    stderr and the session's journal keeps the hits: the log's failure is not reported on top."""
+
+    def handleError(self, record: logging.LogRecord) -> None:  # noqa: N802 - logging's name
+        pass
+
+    def close(self) -> None:
+        with contextlib.suppress(OSError):
+            super().close()
+
+
 def _attach_log(session_path: Path) -> logging.Handler:
     """Faults, dropped chunks, recoveries and the run's summary, appended to ``<session>.log`` next to it (the file
     is made at the first message, so a run refused up front leaves none)."""
-    handler = logging.FileHandler(session_path.with_suffix(".log"), encoding="utf-8", delay=True)
+    handler = _SessionLog(session_path.with_suffix(".log"), encoding="utf-8", delay=True)
     handler.setLevel(logging.INFO)
     handler.setFormatter(logging.Formatter("%(asctime)s %(levelname)s %(name)s: %(message)s"))
     logging.getLogger("gasfilm").addHandler(handler)

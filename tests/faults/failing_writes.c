@@ -4,9 +4,11 @@
  *   mode 2 "one failed write N":     write N fails with EIO, the later ones succeed;
  *   mode 3 "disk full at byte B":    the write that crosses byte B (counted over all files) writes up to B, the later
  *                                    ones fail with ENOSPC.
- * Armed and read through ctypes: failing_writes_arm(mode, at), failing_writes_count(), failing_writes_bytes(). */
+ * Armed through ctypes (failing_writes_arm(mode, at); failing_writes_count() and failing_writes_bytes() tell what was
+ * written) or, for a whole process, by the environment: FAILING_WRITES_MODE=1|2|3 FAILING_WRITES_AT=N. */
 #define _GNU_SOURCE
 #include <dlfcn.h>
+#include <stdlib.h>
 #include <errno.h>
 #include <sys/stat.h>
 #include <sys/types.h>
@@ -18,6 +20,11 @@ static long writes = 0, bytes = 0, mode = 0, at = 0, failed = 0;
 void failing_writes_arm(long new_mode, long new_at) { mode = new_mode; at = new_at; writes = 0; bytes = 0; failed = 0; }
 long failing_writes_count(void) { return writes; }
 long failing_writes_bytes(void) { return bytes; }
+
+__attribute__((constructor)) static void arm_from_environment(void) {
+    const char *new_mode = getenv("FAILING_WRITES_MODE"), *new_at = getenv("FAILING_WRITES_AT");
+    if (new_mode && new_at) failing_writes_arm(atol(new_mode), atol(new_at));
+}
 
 static int regular(int fd) {
     struct stat st;

@@ -6,7 +6,7 @@ regular files and fails one of them. Each trial forks: the child arms the failur
 reporting each step through a pipe once the API call returned; the parent (never armed) checks the result.
 Prints one JSON object: the writes counted in the session's life, the trials run, the problems found.
 
-    python session_write_faults.py SHIM MODE [--at N ...] [--bytes-step B]
+    python session_write_faults.py SHIM MODE [--at N ...] [--every K] [--bytes-step B]
 """
 
 from __future__ import annotations
@@ -112,6 +112,7 @@ def main() -> int:
     parser.add_argument("shim")
     parser.add_argument("mode", choices=sorted(MODES))
     parser.add_argument("--at", type=int, nargs="*", help="the writes (or bytes) to fail; default: every one")
+    parser.add_argument("--every", type=int, default=1, help="fail every this many-th write (1: each one)")
     parser.add_argument("--bytes-step", type=int, default=4096, help="disk-full-at-byte: every this many bytes")
     args = parser.parse_args()
     shim = ctypes.CDLL(args.shim)
@@ -127,7 +128,7 @@ def main() -> int:
         elif args.mode == "disk-full-at-byte":
             positions = list(range(0, written, args.bytes_step))
         else:
-            positions = list(range(1, writes + 1))
+            positions = sorted({*range(1, writes + 1, args.every), writes})
         problems = []
         errors: dict[str, list[int]] = {}
         for at in positions:
