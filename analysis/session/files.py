@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import contextlib
+import ctypes
 import errno
 import glob
 import logging
@@ -147,10 +148,32 @@ def open_for_salvage(path: Path) -> tuple[h5py.File | None, bool]:
         if "already open for write" not in str(error):
             return None, False
     try:
-        check_unclosed_file(path)
-        return _checked_session(open_h5(path, "r", swmr=True)), False
+        fapl = _single_read_attempt_access()
+        if fapl is None:  # no way to stop HDF5's retries in this process: check the file in a child first
+            check_unclosed_file(path)
+            return _checked_session(open_h5(path, "r", swmr=True)), False
+        file_id = h5py.h5f.open(os.fsencode(path), h5py.h5f.ACC_RDONLY | h5py.h5f.ACC_SWMR_READ, fapl=fapl)
+        return _checked_session(h5py.File(file_id)), False
     except (OSError, SessionError):
         return None, False
+
+
+def _single_read_attempt_access() -> Any:
+    """File access properties that read a file left open by its writer in SWMR mode with a single attempt per metadata
+    read (HDF5's default retries and sleeps for minutes past the end of a truncated file); None where HDF5's library
+    cannot be found in this process (H5Pset_metadata_read_attempts is called through ctypes: h5py does not wrap it)."""
+    try:
+        with open("/proc/self/maps") as maps:
+            libraries = [line.split()[-1] for line in maps if "/libhdf5" in line]
+        function = ctypes.CDLL(libraries[0]).H5Pset_metadata_read_attempts
+    except (OSError, IndexError, AttributeError):
+        return None
+    fapl = h5py.h5p.create(h5py.h5p.FILE_ACCESS)
+    if fcntl is not None:
+        fapl.set_file_locking(False, True)
+    if function(ctypes.c_int64(fapl.id), ctypes.c_uint(1)) < 0:
+        return None
+    return fapl
 
 
 def _checked_session(file: h5py.File) -> h5py.File:
