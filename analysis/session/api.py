@@ -912,7 +912,7 @@ class Session:
         row["overload"] = np.asarray(hit.overload, dtype=bool).reshape(channels)
         self._check_room(2 * (data.nbytes + row.nbytes))  # the journal's copy and the file's
         with self._writing("a new hit"):
-            self._journal_write().add_hits(index, data[np.newaxis], row.reshape(1))
+            self._journal_write().add_hits(index, data[np.newaxis], row.reshape(1), sync=self.sync_each_hit)
             self._digests.append(hit_digest(data, row))
             self._appending()
             records, table = self._data, self._table

@@ -198,8 +198,10 @@ class Journal:
         numbers = [int(match.group(1)) for match in map(_ENTRY.match, os.listdir(folder)) if match]
         return cls(folder, max(numbers, default=-1) + 1, lock_fd)
 
-    def add_hits(self, first_index: int, records: np.ndarray, rows: np.ndarray) -> None:
-        self._write("hits", first_index=np.int64(first_index), records=records, rows=rows)
+    def add_hits(self, first_index: int, records: np.ndarray, rows: np.ndarray, sync: bool = True) -> None:
+        """Hits from ``first_index`` on; without ``sync`` (bulk imports) the entry is not fsynced: it survives a
+        killed process, not a power cut."""
+        self._write("hits", first_index=np.int64(first_index), records=records, rows=rows, sync=sync)
 
     def set_row(self, index: int, row: np.ndarray) -> None:
         """A hit's table row replaced (its verdict changed)."""
@@ -227,8 +229,9 @@ class Journal:
             os.close(self._lock_fd)
             self._lock_fd = -1
 
-    def _write(self, kind: str, **arrays: Any) -> None:
-        """One entry, durable before this returns: written under a hidden name, fsynced, renamed, folder fsynced."""
+    def _write(self, kind: str, sync: bool = True, **arrays: Any) -> None:
+        """One entry, durable before this returns: written under a hidden name, fsynced, renamed, folder fsynced
+        (without ``sync``: written and renamed only)."""
         buffer = io.BytesIO()
         np.savez(buffer, **{key: _plain(np.asarray(value)) for key, value in arrays.items()})
         name = f"{self._next_entry:010d}.{kind}.npz"
@@ -239,7 +242,8 @@ class Journal:
                 view = memoryview(buffer.getbuffer())
                 while view:
                     view = view[os.write(fd, view):]
-                os.fsync(fd)
+                if sync:
+                    os.fsync(fd)
             finally:
                 os.close(fd)
             os.rename(temporary, self.folder / name)
@@ -247,7 +251,8 @@ class Journal:
             temporary.unlink(missing_ok=True)
             raise
         self._next_entry += 1
-        _fsync_folder(self.folder)
+        if sync:
+            _fsync_folder(self.folder)
 
 
 def journal_held_elsewhere(path: Path) -> bool:
