@@ -148,10 +148,40 @@ def _detach(file: h5py.File, path: Path) -> None:
     if os.name == "nt":
         return
     try:
-        null = os.open(os.devnull, os.O_RDWR)
-        os.dup2(null, file.id.get_vfd_handle())
-        os.close(null)
+        _detach_descriptor(file.id.get_vfd_handle(), path)
     except (OSError, RuntimeError) as error:
+        logger.warning("%s: cannot detach the file after the write failure: %s", path, one_line(error))
+
+
+def _close_or_detach(file: h5py.File, path: Path) -> BaseException | None:
+    """Close an HDF5 file; when closing fails (its last writes fail), point its descriptor at /dev/null and close it
+    again, so that HDF5 lets go of it instead of retrying, and crashing, when the process exits. Returns the
+    failure, or None."""
+    try:
+        handle = file.id.get_vfd_handle()
+    except RuntimeError:  # a session rebuilt in memory: no descriptor
+        handle = None
+    try:
+        with _h5py_errors_raised():
+            file.close()
+    except (OSError, RuntimeError) as error:
+        if handle is not None:
+            _detach_descriptor(handle, path)
+        with contextlib.suppress(OSError, RuntimeError), _h5py_errors_raised():
+            file.close()
+        return error
+    return None
+
+
+def _detach_descriptor(handle: int, path: Path) -> None:
+    """Point the file descriptor ``handle`` at /dev/null (see :func:`_detach`)."""
+    if os.name == "nt":
+        return
+    try:
+        null = os.open(os.devnull, os.O_RDWR)
+        os.dup2(null, handle)
+        os.close(null)
+    except OSError as error:
         logger.warning("%s: cannot detach the file after the write failure: %s", path, one_line(error))
 
 
@@ -181,13 +211,28 @@ def _rebuild_on_disk(path: Path, content: JournalContent, status: tuple[str, str
     hits) and put it in place of ``path``; return the writer lock on it. Raises :class:`SessionWriteError` when the
     fresh file cannot be written (the old file and the journal are left as they are)."""
     building = building_path(path, "recovering")
+    with contextlib.suppress(OSError):
+        old_bytes = os.path.getsize(path) if path.exists() else 0
+        needed = max(old_bytes, content.records.nbytes + content.rows.nbytes) + FREE_SPACE_MARGIN_BYTES
+        free_bytes = shutil.disk_usage(path.parent).free
+        if free_bytes < needed:  # refused before HDF5 writes: a write failing inside HDF5 can crash the process later
+            raise SessionWriteError(
+                f"{path}: cannot rewrite the session: disk full ({free_bytes / 1e6:.3g} MB free, "
+                f"{needed / 1e6:.3g} MB needed); its {content.hit_count} hits are safe in {journal_path(path).name}, "
+                f"which gasfilm reads and rebuilds from when the session is opened"
+            )
     salvage, closed = open_for_salvage(path)
     if status == _STATUS_OF_A_LEFT_JOURNAL:
         status = _rebuilt_status(salvage, closed, content)
     try:
-        with _h5py_errors_raised():
-            with open_h5(building, "w") as target:
+        target = open_h5(building, "w")
+        try:
+            with _h5py_errors_raised():
                 lost = write_session_file(target, content, salvage, status)
+        finally:
+            failure = _close_or_detach(target, building)
+        if failure is not None:
+            raise failure
         if salvage is not None:
             salvage.close()
             salvage = None
@@ -301,6 +346,7 @@ class Session:
         #: A writer's journal (``NAME.journal``) and the fingerprint of each hit it holds, in order.
         self._journal: Journal | None = None
         self._digests: list[bytes] = []
+        self._close_failed = False  # closing the HDF5 file failed: its h5py object is left alone
         try:
             self._check_layout()
         except SessionError:
@@ -615,17 +661,18 @@ class Session:
 
     @property
     def is_open(self) -> bool:
-        return bool(self._file.id.valid)
+        return not self._close_failed and bool(self._file.id.valid)
 
     def close(self, status: str | None = None, reason: str = "") -> None:
         """Close the file, recording how the session ended: ``"complete"`` or ``"aborted"`` (with a reason).
 
         Without a status, a session that was recording becomes ``"complete"`` and any other keeps its status (so
         adding a fit to an aborted session does not make it complete)."""
-        if not self.is_open:
-            return
         if self._write_failure is not None:
-            self._close_after_write_failure()
+            if self._journal is not None or self._lock is not None:
+                self._close_after_write_failure()
+            return
+        if not self.is_open:
             return
         final_status = None
         if self.writable:
@@ -643,12 +690,10 @@ class Session:
                     self._close_after_write_failure()
                     raise
             final_status = (str(self._file.attrs["status"]), str(self._file.attrs["status_reason"]))
-        try:
-            with _h5py_errors_raised():
-                self._file.close()
-        except (OSError, RuntimeError) as error:
-            self._write_failure = _write_error_text(error)
-            logger.error("%s: closing the file failed: %s", self.path, one_line(error))
+        failure = _close_or_detach(self._file, self.path)
+        if failure is not None:
+            self._write_failure = _write_error_text(failure)
+            logger.error("%s: closing the file failed: %s", self.path, one_line(failure))
         try:
             if self._journal is not None:
                 self._settle_journal(final_status if self._write_failure is None else None)
@@ -683,17 +728,19 @@ class Session:
     def _close_after_write_failure(self) -> None:
         """Let go of a file that could not be written (detached, so nothing more reaches the disk), then rebuild it
         from the journal where the disk allows (else the journal stays, and the next open rebuilds from it)."""
-        try:
-            with _h5py_errors_raised():
-                self._file.close()
-        except (OSError, RuntimeError) as error:
-            logger.info("%s: closing after the write failure: %s", self.path, one_line(error))
+        if not self._close_failed:
+            try:
+                with _h5py_errors_raised():
+                    self._file.close()
+            except (OSError, RuntimeError) as error:
+                logger.info("%s: closing after the write failure: %s", self.path, one_line(error))
         try:
             if self._journal is not None:
                 self._settle_journal(None)
         finally:
             if self._lock is not None:
                 self._lock.release()
+                self._lock = None
 
     def _settle_journal(self, final_status: tuple[str, str] | None) -> None:
         """After the file is closed: remove the journal once the file on disk holds exactly the journaled hits,
@@ -759,7 +806,10 @@ class Session:
         """Leave SWMR mode (by reopening the file) so groups and attributes can be created."""
         self._require_writable()
         if self._file.swmr_mode:
-            self._file.close()
+            failure = _close_or_detach(self._file, self.path)  # raised here, before the file is opened again
+            if failure is not None:
+                self._close_failed = True  # the h5py object must not be used again (HDF5 crashes on it)
+                raise failure
             self._file = open_h5(self.path, "a")
 
     def _appending(self) -> None:
