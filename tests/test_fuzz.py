@@ -568,6 +568,12 @@ def _set_hit_sample_rate(file: h5py.File) -> None:
     file["hits/table"][1] = row
 
 
+def _scale_hit_record(file: h5py.File) -> None:
+    records = file["hits/data"][()]
+    records[1, 1] *= 1e200  # finite, but beyond any accelerometer: squaring it overflowed in the replay
+    file["hits/data"][...] = records
+
+
 @pytest.mark.parametrize(
     "edit, expected, command",
     [
@@ -575,8 +581,10 @@ def _set_hit_sample_rate(file: h5py.File) -> None:
                              r"units 'mV/g'\)", "replay"),
         (_set_channel_units, r"channel 0 is a force sensor with sensitivity units 'mV/g'", "export"),
         (_set_hit_sample_rate, r"hit 1 has sample rate 1e\+308, out of range", "replay"),
+        (_scale_hit_record, r"hit 1 has samples beyond 1e\+08 m/s\^2 in channel 1 \(accelerometer\)", "replay"),
     ],
-    ids=["replay-channel-kind-and-units-disagree", "export-channel-kind-and-units-disagree", "replay-hit-rate-1e308"],
+    ids=["replay-channel-kind-and-units-disagree", "export-channel-kind-and-units-disagree", "replay-hit-rate-1e308",
+         "replay-record-1e200"],
 )
 def test_session_damage_found_by_fuzzing_is_refused_in_one_line(seeds, edit, expected, command, tmp_path):
     session = tmp_path / "damaged.h5"
@@ -603,3 +611,19 @@ def test_response_decay_at_an_absurd_sample_rate_prints_nothing(capfd):
     assert decays[1].decay_rate_1_s > 1e300
     captured = capfd.readouterr()
     assert captured.out == "" and captured.err == ""
+
+
+def test_replays_of_odd_but_readable_sessions_print_no_warnings(seeds, tmp_path):
+    """Issue 15 item 26: numpy overflow warnings were printed on replays that succeed."""
+    def huge_start_time(file: h5py.File) -> None:
+        row = file["hits/table"][1]
+        row["start_time_s"] = 1e300
+        file["hits/table"][1] = row
+
+    for edit in (lambda file: None, huge_start_time):
+        session = tmp_path / "odd.h5"
+        shutil.copyfile(seeds["session"][0], session)
+        with h5py.File(session, "r+") as file:
+            edit(file)
+        code, stderr, _, origin = run_cli(["replay", str(session), "--json"])
+        assert code in (0, 1) and not origin and "Warning" not in stderr, stderr

@@ -44,6 +44,7 @@ from gasfilm.analysis.session.journal import (
 from gasfilm.analysis.session.layout import (
     DEFAULT_SAMPLES_PER_CHUNK,
     FORMAT_NAME,
+    MAX_ABS_SI,
     MAX_SAMPLE_RATE_HZ,
     MAX_SAMPLES_PER_CHUNK,
     SCHEMA_VERSION,
@@ -1044,12 +1045,21 @@ class Session:
         return self._data[indices]
 
     def _check_finite(self, records: np.ndarray, indices: np.ndarray) -> None:
+        """Raise naming the first hit and channel with NaN samples, or with samples beyond any sensor's range."""
         bad = ~np.all(np.isfinite(records), axis=(1, 2))
         if np.any(bad):
             hit = int(indices[np.argmax(bad)])
             channel = int(np.argmax(~np.all(np.isfinite(records[np.argmax(bad)]), axis=1)))
             label = self.daq_config.channels[channel].label
             raise SessionError(f"{self.path}: hit {hit} has NaN samples in channel {channel} ({label})")
+        for channel, config in enumerate(self.daq_config.channels):
+            peaks = np.max(np.abs(records[:, channel]), axis=1) if records.shape[2] else np.zeros(len(records))
+            beyond = peaks > MAX_ABS_SI[config.kind]
+            if np.any(beyond):
+                raise SessionError(
+                    f"{self.path}: damaged session: hit {int(indices[np.argmax(beyond)])} has samples beyond "
+                    f"{MAX_ABS_SI[config.kind]:g} {config.kind.unit} in channel {channel} ({config.label})"
+                )
 
     @_reading("the hits")
     def hits(self, check_finite: bool = True) -> list[StoredHit]:

@@ -23,8 +23,10 @@ FORMAT_NAME = "gasfilm-session"
 REASONS_LENGTH = 256
 MAX_SAMPLES_PER_CHUNK = 16384  # per channel: 128 KiB per channel and chunk
 DEFAULT_SAMPLES_PER_CHUNK = 4096  # when the record length is not known in advance
-#: A stored hit's sample rate above this is damage, not a recording (the NI 9234 runs at up to 51.2 kS/s).
-MAX_SAMPLE_RATE_HZ = 1e9
+#: A recording's sample rate above this is damage, not a test (the NI 9234 runs at up to 51.2 kS/s).
+MAX_SAMPLE_RATE_HZ = 1e7
+#: Largest magnitudes a recorded sample may have in SI units, by channel kind: beyond them a file is damaged.
+MAX_ABS_SI = {ChannelKind.FORCE: 1e7, ChannelKind.ACCELERATION: 1e8}  # N, m/s²
 
 
 class SessionError(GasfilmError):
