@@ -318,20 +318,22 @@ def read_journal(folder: Path) -> JournalContent:
 def write_session_file(file: h5py.File, content: JournalContent, salvage: h5py.File | None,
                        status: tuple[str, str] | None) -> list[str]:
     """Fill an empty HDF5 file with the session the journal describes: setup and hits from the journal, every other
-    group and root attribute from ``salvage`` (the old session file, or None) where it can be read. ``status`` (status,
-    reason) replaces the status. Returns what could not be salvaged."""
+    group and the root's attributes from ``salvage`` (the old session file, or None) where they can be read; ``status``
+    (status, reason) then replaces the status. Returns what could not be salvaged."""
     lost = []
     setup = content.setup
-    if salvage is not None:
-        for key in salvage.attrs:
-            try:
-                file.attrs[key] = salvage.attrs[key]
-            except Exception as error:  # a damaged attribute: whatever h5py raises reading it
-                lost.append(f"attribute '{key}' ({one_line(error, 80)})")
     for name in SETUP_GROUPS:
         group = file if name == "/" else file.create_group(name)
         for key, encoded in setup["attrs"][name].items():
             group.attrs[key] = _decode_attribute(encoded)
+    if salvage is not None:  # the root's attributes as last written (status, closed_utc, …), the format mark excepted
+        for key in salvage.attrs:
+            if key in ("format", "schema_version"):
+                continue
+            try:
+                file.attrs[key] = salvage.attrs[key]
+            except Exception as error:  # a damaged attribute: whatever h5py raises reading it
+                lost.append(f"attribute '{key}' ({one_line(error, 80)})")
     file["rig"].create_dataset("spec_toml", data=setup["rig_spec_toml"], dtype=h5py.string_dtype())
     hits = file.create_group("hits")
     chunks = tuple(setup["data_chunks"])
