@@ -22,8 +22,10 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 import pyuff
 
+from gasfilm.analysis.session.layout import MAX_ABS_SI as LAYOUT_MAX_ABS_SI
+from gasfilm.analysis.session.layout import MAX_SAMPLE_RATE_HZ
 from gasfilm.drivers.errors import GasfilmError
-from gasfilm.drivers.interface import NI9234_VALID_RATES_HZ
+from gasfilm.drivers.interface import NI9234_VALID_RATES_HZ, ChannelKind
 from gasfilm.drivers.units import STANDARD_GRAVITY_M_S2
 
 FUNCTION_TIME_RESPONSE = 1
@@ -49,9 +51,9 @@ ACCELERATION_UNITS_TO_M_S2 = {
 }
 NO_LABEL = ("", "none")
 MAX_HEADER_INTEGER = 2**31
-SAMPLE_RATE_RANGE_HZ = (1.0, 1e7)
+SAMPLE_RATE_RANGE_HZ = (1.0, MAX_SAMPLE_RATE_HZ)
 #: Largest magnitudes a time record may hold after conversion to SI: beyond them the file is damaged, not a test.
-MAX_ABS_SI = {"force": 1e7, "response": 1e8}  # N, m/s²
+MAX_ABS_SI = {"force": LAYOUT_MAX_ABS_SI[ChannelKind.FORCE], "response": LAYOUT_MAX_ABS_SI[ChannelKind.ACCELERATION]}
 RATE_SNAP_RELATIVE = 1e-4  # UFF stores the abscissa increment with 5 significant digits
 
 

@@ -121,10 +121,22 @@ def _settings(args: argparse.Namespace) -> dict[str, Any]:
     return {"trigger": trigger, "validation": validation, "window": window}
 
 
+class _SessionLog(logging.FileHandler):
+    """The session's log file; when it cannot be written (the disk is full), its messages still reach the user on
+    stderr and the session's journal keeps the hits: the log's failure is not reported on top."""
+
+    def handleError(self, record: logging.LogRecord) -> None:  # noqa: N802 - logging's name
+        pass
+
+    def close(self) -> None:
+        with contextlib.suppress(OSError):
+            super().close()
+
+
 def _attach_log(session_path: Path) -> logging.Handler:
     """Faults, dropped chunks, recoveries and the run's summary, appended to ``<session>.log`` next to it (the file
     is made at the first message, so a run refused up front leaves none)."""
-    handler = logging.FileHandler(session_path.with_suffix(".log"), encoding="utf-8", delay=True)
+    handler = _SessionLog(session_path.with_suffix(".log"), encoding="utf-8", delay=True)
     handler.setLevel(logging.INFO)
     handler.setFormatter(logging.Formatter("%(asctime)s %(levelname)s %(name)s: %(message)s"))
     logging.getLogger("gasfilm").addHandler(handler)
@@ -188,6 +200,16 @@ class _Progress:
             sys.stderr.flush()
 
 
+def _accepted(session: Any) -> int:
+    return sum(1 for verdict in session.verdicts() if verdict.accepted)
+
+
+def _close_device(device: Any) -> None:
+    """Close a device the recording loop did not reach (closing twice is harmless)."""
+    with contextlib.suppress(DeviceError):
+        device.close()
+
+
 def _stream(device: Any, synchronous: bool) -> Iterator[tuple[Any, Any, int]]:
     """Chunks as (samples, overload flags, samples read so far). A device that waits for its samples is read on
     the acquisition loop's thread; the simulator at fast pacing is read here, so nothing outruns the recorder."""
@@ -235,6 +257,14 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _record(args: argparse.Namespace) -> int:
+    from gasfilm.analysis.recording import stop_signals_raised
+
+    # before anything is opened or printed: a SIGTERM or SIGHUP from now on ends the run through the cleanup below
+    with stop_signals_raised():
+        return _record_until_stopped(args)
+
+
+def _record_until_stopped(args: argparse.Namespace) -> int:
     from gasfilm.analysis.capture import ImpactCapture
     from gasfilm.analysis.physics.spec import RigSpec
     from gasfilm.analysis.recording import DEFAULT_MAX_CONSECUTIVE_REJECTIONS, HitRecorder, RecordingStopped, StopSignal
@@ -253,31 +283,34 @@ def _record(args: argparse.Namespace) -> int:
     elif args.device == SIMULATED_DEVICE_NAME:
         rig_spec = RigSpec.nominal("FOMGF")  # the simulated rig's default
     config = default_hammer_and_accelerometer(args.rate)
-    device = _open_device(args, rig_spec)
-    device.configure(config)
-    rate_hz = device.sample_rate_hz
-    session = _open_session(args, config, rate_hz, device.name, rig_spec.to_toml() if rig_spec else None, settings)
-    if args.max_session_gb is not None:
-        session.size_limit_bytes = int(args.max_session_gb * 1e9)
-    force_row = config.channel_index(ChannelKind.FORCE)
-    response_row = config.channel_index(ChannelKind.ACCELERATION)
-    capture = ImpactCapture(trigger, rate_hz, len(config.channels), force_row, response_row)
-    progress = _Progress()
-    recorder = HitRecorder(
-        session,
-        capture,
-        validation,
-        full_scale_si=[channel.full_scale_si for channel in config.channels],
-        window=window,
-        on_hit=progress.hit,
-        max_consecutive_rejections=args.max_rejected or DEFAULT_MAX_CONSECUTIVE_REJECTIONS,
-    )
-    accepted_before = recorder.accepted_count
-    print(f"recording into {args.out} from {device.name} at {rate_hz:g} S/s", flush=True)
-    logger.info("recording into %s from %s at %g S/s, settings %s", args.out, device.name, rate_hz, settings)
+    session = None
+    recorder = None
     started = time.monotonic()
     stream_s = 0.0
+    progress = _Progress()
+    device = _open_device(args, rig_spec)
     try:
+        device.configure(config)
+        rate_hz = device.sample_rate_hz
+        session = _open_session(args, config, rate_hz, device.name, rig_spec.to_toml() if rig_spec else None,
+                                settings)
+        if args.max_session_gb is not None:
+            session.size_limit_bytes = int(args.max_session_gb * 1e9)
+        force_row = config.channel_index(ChannelKind.FORCE)
+        response_row = config.channel_index(ChannelKind.ACCELERATION)
+        capture = ImpactCapture(trigger, rate_hz, len(config.channels), force_row, response_row)
+        recorder = HitRecorder(
+            session,
+            capture,
+            validation,
+            full_scale_si=[channel.full_scale_si for channel in config.channels],
+            window=window,
+            on_hit=progress.hit,
+            max_consecutive_rejections=args.max_rejected or DEFAULT_MAX_CONSECUTIVE_REJECTIONS,
+        )
+        accepted_before = recorder.accepted_count
+        print(f"recording into {args.out} from {device.name} at {rate_hz:g} S/s", flush=True)
+        logger.info("recording into %s from %s at %g S/s, settings %s", args.out, device.name, rate_hz, settings)
         synchronous = args.device == SIMULATED_DEVICE_NAME and args.pacing == "fast"
         with recorder.stop_on_signals(), device, contextlib.closing(_stream(device, synchronous)) as chunks:
             for data, overload, end_sample in chunks:
@@ -290,23 +323,36 @@ def _record(args: argparse.Namespace) -> int:
                     break
     except (DeviceError, RecordingStopped) as error:
         progress.done()
+        if session is None:
+            _close_device(device)
+            raise
+        accepted = recorder.accepted_count if recorder is not None else _accepted(session)
         logger.error("%s: %s; session closed as aborted, %d accepted hits kept",
-                     "device fault" if isinstance(error, DeviceError) else "stopped", error, recorder.accepted_count)
+                     "device fault" if isinstance(error, DeviceError) else "stopped", error, accepted)
         session.close("aborted", str(error))
         raise DeviceError(
-            f"{error} — session {args.out} closed as aborted, {recorder.accepted_count} accepted hits kept",
+            f"{error} — session {args.out} closed as aborted, {accepted} accepted hits kept",
             getattr(error, "code", None),
         ) from None
-    except KeyboardInterrupt as interrupt:  # Ctrl-C, or SIGTERM/SIGHUP through recorder.stop_on_signals
+    except KeyboardInterrupt as interrupt:  # Ctrl-C, or SIGTERM/SIGHUP through the stop-signal handlers
         progress.done()
         signum = interrupt.signum if isinstance(interrupt, StopSignal) else 2
         how = "interrupted by the user" if signum == 2 else f"stopped by {interrupt}"
+        _close_device(device)
+        if session is None:
+            logger.info("%s before recording into %s started", how, args.out)
+            print(f"{how} before recording started: {args.out} not created", flush=True)
+            return 128 + signum
+        accepted = recorder.accepted_count if recorder is not None else _accepted(session)
         session.close("aborted", how)
-        logger.info("%s: %s, %d accepted hits kept", args.out, how, recorder.accepted_count)
-        print(f"{how}: session {args.out} closed with {recorder.accepted_count} accepted hits", flush=True)
+        logger.info("%s: %s, %d accepted hits kept", args.out, how, accepted)
+        print(f"{how}: session {args.out} closed with {accepted} accepted hits", flush=True)
         return 128 + signum
     except BaseException as error:
         progress.done()
+        _close_device(device)
+        if session is None:
+            raise
         logger.error("stopped by %s: %s; session closed as aborted", type(error).__name__, error)
         session.close("aborted", f"{type(error).__name__}: {error}")
         raise
