@@ -217,6 +217,17 @@ class RigSpec:
             object.__setattr__(updated, "effects", tuple(effects))
         return updated
 
+    def at_conditions(self, conditions: Mapping[str, Any]) -> "RigSpec":
+        """The rig at an operating point: film coefficients moved along their laws to ``conditions`` (the laws
+        kept, re-based there; :mod:`gasfilm.analysis.physics.laws`). A spec without laws is returned unchanged."""
+        if not self.film_laws:
+            return self
+        from gasfilm.analysis.physics.laws import film_at_conditions
+
+        parameters, reference = film_at_conditions(self.film_parameters, self.film_conditions, self.film_laws,
+                                                   conditions, self.source)
+        return dataclasses.replace(self, film_parameters=parameters, film_conditions=reference)
+
     # derived --------------------------------------------------------------------------------------------------
 
     @property
