@@ -50,12 +50,18 @@ def condition_unit(key: str) -> str | None:
     return None
 
 
-def check_condition(key: Any, value: Any, where: str) -> float | str:
-    """A condition's value as stored (a float for a key with a unit, else a float or text); one
-    :class:`SettingError` line starting with ``where`` when the key or value is not usable."""
+def check_condition_name(key: Any, where: str) -> str:
+    """A condition name as typed (lower-case identifier, unit at its end) or one :class:`SettingError` line."""
     if not isinstance(key, str) or not _KEY_PATTERN.fullmatch(key):
         raise SettingError(f"{where}: condition name {key!r} must be lower-case letters, digits and _ (starting "
                            f"with a letter, ≤ 48 characters), its unit at the end, e.g. supply_pressure_mpa")
+    return key
+
+
+def check_condition(key: Any, value: Any, where: str) -> float | str:
+    """A condition's value as stored (a float for a key with a unit, else a float or text); one
+    :class:`SettingError` line starting with ``where`` when the key or value is not usable."""
+    check_condition_name(key, where)
     unit = condition_unit(key)
     if isinstance(value, bool):
         value = str(value).lower()
