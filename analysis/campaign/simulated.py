@@ -18,6 +18,8 @@ from gasfilm.drivers.errors import GasfilmError
 SAMPLE_RATE_HZ = 12800.0
 #: The demo campaign's grid: 3 supply pressures × 2 gaps.
 DEMO_GRID: dict[str, tuple[float, ...]] = {"supply_pressure_mpa": (0.3, 0.4, 0.6), "gap_um": (8.0, 12.0)}
+#: The demo campaign's rig: an SD film whose k and c follow supply pressure and gap (docs/rig-spec.md).
+DEMO_RIG_PATH = Path(__file__).with_name("demo-rig.toml")
 #: Simulated seconds of signal after which a session that still lacks its hits is given up.
 MAX_STREAM_S = 120.0
 
