@@ -40,8 +40,9 @@ def session_name(conditions: Mapping[str, Any], repeat: int = 0) -> str:
 
 
 def record_session(path: Path, spec: Any, conditions: Mapping[str, Any], hits: int = 4, seed: int = 0,
-                   record_s: float = 0.5) -> Path:
-    """Record ``hits`` accepted hits of ``spec`` played at ``conditions`` into a new session at ``path``."""
+                   record_s: float = 0.5, sample_rate_hz: float = SAMPLE_RATE_HZ) -> Path:
+    """Record ``hits`` accepted hits of ``spec`` played at ``conditions`` into a new session at ``path``
+    (``record_s`` seconds per hit at ``sample_rate_hz``, one of the NI 9234's 51 200/n S/s)."""
     import numpy as np
 
     from gasfilm.analysis.capture import ImpactCapture, TriggerSettings
@@ -54,7 +55,7 @@ def record_session(path: Path, spec: Any, conditions: Mapping[str, Any], hits: i
     from gasfilm.drivers.interface import ChannelKind, default_hammer_and_accelerometer
 
     played = spec.at_conditions(conditions)
-    config = default_hammer_and_accelerometer(SAMPLE_RATE_HZ)
+    config = default_hammer_and_accelerometer(sample_rate_hz)
     trigger = TriggerSettings(level_n=20.0, pretrigger_s=0.01, record_s=record_s)
     validation, window = ValidationSettings(), WindowSettings()
     device = open_device("sim", plant=RigPlant(played), seed=seed, pacing="fast",
@@ -86,14 +87,14 @@ def record_session(path: Path, spec: Any, conditions: Mapping[str, Any], hits: i
 
 
 def record_campaign(folder: Path, spec: Any, grid: Mapping[str, Sequence[float]] = DEMO_GRID, hits: int = 4,
-                    repeats: int = 1, seed: int = 0, record_s: float = 0.5,
+                    repeats: int = 1, seed: int = 0, record_s: float = 0.5, sample_rate_hz: float = SAMPLE_RATE_HZ,
                     on_session: Callable[[Path, dict[str, float]], None] | None = None) -> list[Path]:
     """One session per grid point (× ``repeats``) in ``folder``; each session has its own simulator seed."""
     folder.mkdir(parents=True, exist_ok=True)
     paths = []
     for number, (conditions, repeat) in enumerate(itertools.product(grid_points(grid), range(repeats))):
         path = record_session(folder / session_name(conditions, repeat), spec, conditions, hits, seed + number,
-                              record_s)
+                              record_s, sample_rate_hz)
         paths.append(path)
         if on_session:
             on_session(path, conditions)
