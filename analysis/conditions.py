@@ -101,6 +101,13 @@ def parse_condition_flags(texts: Iterable[str], flag: str = "--condition") -> Co
     return conditions
 
 
+def parse_condition_table(table: Mapping[str, str], where: str = "operating condition") -> Conditions:
+    """A table of typed texts (the GUI's editor: name → value as typed) as conditions; rows with an empty value
+    are left out."""
+    return parse_condition_flags([f"{key.strip()}={value}" for key, value in table.items()
+                                  if str(value).strip() and key.strip()], where)
+
+
 def decode_conditions(stored_settings: Mapping[str, Any] | None, source: str = "session") -> Conditions:
     """The conditions stored in a session's settings (``{}`` when none were recorded); ``source`` (the file name)
     starts the line of a damaged entry."""

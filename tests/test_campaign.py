@@ -191,3 +191,38 @@ def test_campaign_refuses_bad_flags(sessions, tmp_path, capsys):
         status, out, err = gasfilm(capsys, "campaign", *argv)
         assert status == 2 and words in err, err
         assert "Traceback" not in err
+
+
+def test_gui_setup_conditions_editor_records_the_conditions(qtbot, tmp_path):
+    from PySide6.QtCore import Qt
+    from PySide6.QtWidgets import QPushButton
+
+    from gui_driving import arm, hit, open_window, stop
+
+    window = open_window(qtbot, tmp_path, rig_spec_path=str(DEMO_RIG_PATH))
+    try:
+        tab = window.setup_tab
+        table = tab.conditions_table
+        names = [table.item(row, 0).text() for row in range(table.rowCount())]
+        assert names[:4] == ["supply_pressure_mpa", "gap_um", "load_n", "temperature_c"]
+        table.item(names.index("gap_um"), 1).setText("twelve")
+        assert "gap_um = 'twelve': must be a number in µm" in tab.problem_label.text()
+        table.item(names.index("gap_um"), 1).setText("12")
+        table.item(names.index("supply_pressure_mpa"), 1).setText("0.6")
+        (add,) = [button for button in tab.findChildren(QPushButton) if button.text() == "Add a condition"]
+        qtbot.mouseClick(add, Qt.MouseButton.LeftButton)
+        table.item(table.rowCount() - 1, 0).setText("bearing")
+        table.item(table.rowCount() - 1, 1).setText("B-17")
+        assert tab.state().conditions == {"supply_pressure_mpa": "0.6", "gap_um": "12", "bearing": "B-17"}
+        assert "Setup is valid" in tab.problem_label.text()
+        window.controller.new_session(tmp_path / "gui.h5")
+        arm(qtbot, window)
+        hit(qtbot, window)
+        stop(qtbot, window)
+        with Session.open(tmp_path / "gui.h5") as session:
+            assert decode_conditions(session.settings) == {"supply_pressure_mpa": 0.6, "gap_um": 12.0,
+                                                           "bearing": "B-17"}
+            k = RigSpec.from_toml(session.rig_spec_toml).film_parameters["k"]
+        assert k == pytest.approx(37.8e6 * 1.5 / 1.2)  # the simulated film followed the conditions
+    finally:
+        window.controller.shutdown()

@@ -12,6 +12,7 @@ from __future__ import annotations
 import dataclasses
 import logging
 import math
+import os
 import re
 import resource
 import socket
@@ -92,7 +93,7 @@ def analyse_session(path: str, options: CampaignOptions = CampaignOptions()) -> 
         row["error"] = f"{path}: internal error: {type(error).__name__}: {_one_line(error)}"
     row["seconds"] = time.perf_counter() - started
     row["worker_peak_rss_mb"] = _peak_rss_mb()
-    row["worker"] = socket.gethostname()
+    row["worker"] = f"{socket.gethostname()}:{os.getpid()}"
     return row
 
 

@@ -18,7 +18,7 @@ values at the given conditions *as* the new reference: a spec played at an opera
 from __future__ import annotations
 
 import math
-from typing import Mapping
+from typing import Any, Mapping
 
 from gasfilm.drivers.errors import SettingError
 
@@ -41,6 +41,15 @@ def law_keys(laws: Mapping[str, Mapping[str, float]]) -> list[str]:
     for exponents in laws.values():
         keys.extend(key for key in exponents if key not in keys)
     return keys
+
+
+def played_at(spec: Any, conditions: Mapping[str, Any]) -> tuple[Any, dict[str, Any], dict[str, float]]:
+    """How the simulator plays a rig spec at an operating point: the spec at ``conditions``, the conditions to store
+    with the session, and those of them taken from the spec's reference because the film laws need them and
+    ``conditions`` lacks them (they are stored too, so the session says where its film was)."""
+    missing = {key: spec.film_conditions[key] for key in law_keys(spec.film_laws) if key not in conditions}
+    conditions = {**conditions, **missing}
+    return spec.at_conditions(conditions), conditions, missing
 
 
 def film_at_conditions(parameters: Mapping[str, float], reference: Mapping[str, float],

@@ -179,17 +179,17 @@ def _check_same_conditions(path: Path, session: Any, conditions: dict) -> None:
 def rig_at_conditions(rig_spec: Any, conditions: dict, simulated: bool) -> tuple[Any, dict]:
     """The rig spec at the session's operating point and the conditions to store: on the simulator, a condition the
     spec's film laws need and ``--condition`` does not give is played (and stored) at the spec's reference value."""
-    from gasfilm.analysis.physics.laws import law_keys
+    from gasfilm.analysis.physics.laws import played_at
 
     if rig_spec is None or not rig_spec.film_laws:
         return rig_spec, conditions
-    if simulated:
-        missing = {key: rig_spec.film_conditions[key] for key in law_keys(rig_spec.film_laws) if key not in conditions}
-        if missing:
-            logger.warning("the rig spec's film laws are played at its reference %s (not given by --condition)",
-                           ", ".join(f"{key} = {value:g}" for key, value in missing.items()))
-        conditions = {**conditions, **missing}
-    return rig_spec.at_conditions(conditions), conditions
+    if not simulated:
+        return rig_spec.at_conditions(conditions), conditions
+    played, conditions, missing = played_at(rig_spec, conditions)
+    if missing:
+        logger.warning("the rig spec's film laws are played at its reference %s (not given by --condition)",
+                       ", ".join(f"{key} = {value:g}" for key, value in missing.items()))
+    return played, conditions
 
 
 class _Progress:
