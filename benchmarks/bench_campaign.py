@@ -81,8 +81,9 @@ def main() -> None:
               f"{parallel_s / len(paths):.2f} s per session; peak memory per worker: "
               + ", ".join(f"{peak:.0f} MB" for peak in peaks.values()), flush=True)
         task_s = sorted(row["seconds"] for row in parallel.rows)
-        print(f"task time per session on the workers: median {task_s[len(task_s) // 2]:.2f} s, "
-              f"max {task_s[-1]:.2f} s")
+        cpu_s = sorted(row["cpu_seconds"] for row in parallel.rows)
+        print(f"task time per session on the workers: median {task_s[len(task_s) // 2]:.2f} s wall, "
+              f"{cpu_s[len(cpu_s) // 2]:.2f} s CPU (max {task_s[-1]:.2f} s wall, {cpu_s[-1]:.2f} s CPU)")
         failed = sum(1 for row in serial if row.get("error"))
         same = comparable(serial) == comparable(parallel.rows)
         print(f"speed-up {serial_s / parallel_s:.2f}× (goal ≥ 1.8× on 2 otherwise idle cores); failed sessions "

@@ -146,18 +146,18 @@ def _start(command: list[str], log: Path) -> subprocess.Popen:
 
 
 def test_campaign_through_a_separately_started_scheduler_gives_the_local_table(sessions, tmp_path, capsys):
-    dask = [sys.executable, "-m", "distributed.cli.dask_scheduler"]
+    dask = str(Path(sys.executable).with_name("dask"))  # the `dask` command installed with distributed
     scheduler_file = tmp_path / "scheduler.json"
-    processes = [_start([*dask, "--host", "127.0.0.1", "--port", "0", "--no-dashboard", "--scheduler-file",
-                         str(scheduler_file)], tmp_path / "scheduler.log")]
+    processes = [_start([dask, "scheduler", "--host", "127.0.0.1", "--port", "0", "--no-dashboard",
+                         "--scheduler-file", str(scheduler_file)], tmp_path / "scheduler.log")]
     try:
         deadline = time.monotonic() + 60
         while not scheduler_file.exists() and time.monotonic() < deadline:
             time.sleep(0.2)
         address = json.loads(scheduler_file.read_text())["address"]
         for number in range(2):
-            processes.append(_start([sys.executable, "-m", "distributed.cli.dask_worker", address, "--nworkers", "1",
-                                     "--nthreads", "1", "--no-dashboard"], tmp_path / f"worker{number}.log"))
+            processes.append(_start([dask, "worker", address, "--nworkers", "1", "--nthreads", "1", "--no-dashboard"],
+                                    tmp_path / f"worker{number}.log"))
         from distributed import Client
 
         with Client(address, timeout="60s") as client:

@@ -52,7 +52,7 @@ def find_sessions(inputs: Sequence[Path]) -> list[Path]:
     for item in inputs:
         if item.is_dir():
             inside = sorted(path for path in item.rglob("*") if path.suffix.lower() in SESSION_SUFFIXES
-                            and path.is_file() and CACHE_FOLDER not in path.relative_to(item).parts[:-1])
+                            and path.is_file())
             if not inside:
                 raise SettingError(f"{item}: no session files (*.h5) in this folder")
             found.extend(inside)

@@ -29,7 +29,7 @@ ROW_VERSION = 1
 #: The default identification band in Hz (capped at 0.45·fs, the module's alias-free band), as ``gasfilm fit``'s.
 DEFAULT_BAND_HZ = (20.0, 1000.0)
 #: Columns that depend on where and how fast a task ran, not on the session (left out when comparing runs).
-RUN_COLUMNS = ("seconds", "worker_peak_rss_mb", "worker", "cached")
+RUN_COLUMNS = ("seconds", "cpu_seconds", "worker_peak_rss_mb", "worker", "cached")
 
 
 @dataclass(frozen=True)
@@ -80,7 +80,7 @@ def analyse_session(path: str, options: CampaignOptions = CampaignOptions()) -> 
     """The campaign row of the session at ``path`` (``error`` holds one line when it could not be analysed)."""
     from gasfilm.drivers.errors import GasfilmError
 
-    started = time.perf_counter()
+    started, started_cpu = time.perf_counter(), time.process_time()
     row: dict[str, Any] = {"session": str(path), "error": None}
     try:
         row.update(_analyse(Path(path), options))
@@ -92,6 +92,7 @@ def analyse_session(path: str, options: CampaignOptions = CampaignOptions()) -> 
         logger.exception("%s: internal error", path)
         row["error"] = f"{path}: internal error: {type(error).__name__}: {_one_line(error)}"
     row["seconds"] = time.perf_counter() - started
+    row["cpu_seconds"] = time.process_time() - started_cpu
     row["worker_peak_rss_mb"] = _peak_rss_mb()
     row["worker"] = f"{socket.gethostname()}:{os.getpid()}"
     return row

@@ -5,7 +5,7 @@ Columns: ``session``, ``error`` (one line, empty when the session was analysed),
 band, ``best_model`` (lowest BIC), per model ``<model>.<parameter> [unit]`` and ``... sigma [unit]`` (1 σ; empty
 for a parameter at its bound, which is not a measurement), ``<model>.rms [(m/s²)/N]``, ``<model>.E [%]``,
 ``<model>.BIC``, ``<model>.at_bound``, the diagnosis verdict, findings and unexplained bands, and what the task
-cost (``seconds``, ``worker_peak_rss_mb``, ``worker``, ``cached``).
+cost (``seconds`` of wall time, ``cpu_seconds``, ``worker_peak_rss_mb``, ``worker``, ``cached``).
 """
 
 from __future__ import annotations
@@ -22,7 +22,7 @@ REPORT_NAME = "campaign.html"
 
 _FIRST = ("session", "error", "status", "hits", "accepted_hits", "sample_rate_hz")
 _LAST = ("diagnosis_verdict", "diagnosis_findings", "diagnosis_unexplained", "diagnosis_rms_before_m_s2_per_n",
-         "diagnosis_rms_after_m_s2_per_n", "seconds", "worker_peak_rss_mb", "worker", "cached")
+         "diagnosis_rms_after_m_s2_per_n", "seconds", "cpu_seconds", "worker_peak_rss_mb", "worker", "cached")
 
 
 def column_order(rows: Sequence[dict[str, Any]]) -> list[str]:
