@@ -226,3 +226,23 @@ def test_gui_setup_conditions_editor_records_the_conditions(qtbot, tmp_path):
         assert k == pytest.approx(37.8e6 * 1.5 / 1.2)  # the simulated film followed the conditions
     finally:
         window.controller.shutdown()
+
+
+def test_campaign_report_marks_a_finding_seen_at_some_conditions_only():
+    from gasfilm.analysis.campaign.report import campaign_html
+
+    def row(pressure: float, findings: str) -> dict:
+        k, eta = 3.78e7 * pressure / 0.4, 3450.0
+        return {"session": f"p{pressure}.h5", "error": None, "accepted_hits": 3, "condition.supply_pressure_mpa":
+                pressure, "band_low_hz": 20.0, "band_high_hz": 1000.0, "best_model": "SD", "spec.film_model": "SD",
+                "spec.k [N/m]": k, "spec.eta [N·s/m]": eta, "SD.k [N/m]": k * 1.001, "SD.k sigma [N/m]": 1e4,
+                "SD.eta [N·s/m]": eta, "SD.eta sigma [N·s/m]": 2.0, "diagnosis_verdict": "physics found" if findings
+                else "consistent", "diagnosis_findings": findings, "diagnosis_unexplained": "", "seconds": 1.0}
+
+    rows = [row(0.3, ""), row(0.3, ""), row(0.6, "pneumatic-lag"),
+            {"session": "bad.h5", "error": "bad.h5: an HDF5 file, but not a gasfilm session"}]
+    page = campaign_html(rows, ["supply_pressure_mpa"])
+    assert "finding: pneumatic-lag (at some conditions only)" in page and "class='news'" in page
+    assert "SD ×2" in page and "Sessions that failed (1)" in page and "not a gasfilm session" in page
+    assert page.count("<img") == 2  # K(f)/C(f) per condition, parameters against the condition
+    assert "2.838e+07 ± 7.1e+03 (spec 2.835e+07)" in page  # two sessions' weighted mean ± σ next to the law
