@@ -11,7 +11,6 @@ import sys
 import time
 from pathlib import Path
 
-import numpy as np
 import pytest
 
 from gasfilm.analysis.campaign import RUN_COLUMNS, read_table
