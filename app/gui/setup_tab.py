@@ -165,9 +165,11 @@ class SetupTab(QWidget):
 
         self.conditions_table = QTableWidget(0, 2)
         self.conditions_table.setObjectName("conditions_table")
-        self.conditions_table.setHorizontalHeaderLabels(("Condition (unit in the name)", "Value"))
+        self.conditions_table.setHorizontalHeaderLabels(("Condition, unit in the name", "Value"))
+        self.conditions_table.horizontalHeader().setSectionResizeMode(0, QHeaderView.ResizeMode.ResizeToContents)
         self.conditions_table.horizontalHeader().setStretchLastSection(True)
         self.conditions_table.verticalHeader().setVisible(False)
+        self.conditions_table.verticalHeader().setDefaultSectionSize(self.fontMetrics().height() + 6)
         self.conditions_table.setToolTip("Stored with the session and shown by replay, fit, diagnose, the report and "
                                          "campaigns; an empty value is not recorded. Add a label such as bearing = "
                                          "B-17 in an empty row. A rig spec with film laws is played at these.")
@@ -186,11 +188,13 @@ class SetupTab(QWidget):
         grid.addWidget(device_box, 0, 0)
         grid.addWidget(rig_box, 0, 1, 1, 2)
         grid.addWidget(channels_box, 1, 0, 1, 3)
-        grid.addWidget(trigger_box, 2, 0)
+        left = QVBoxLayout()
+        left.addWidget(trigger_box)
+        left.addWidget(conditions_box)
+        grid.addLayout(left, 2, 0)
         side = QVBoxLayout()
         side.addWidget(window_box)
         side.addWidget(rules_box)
-        side.addWidget(conditions_box)
         side.addStretch(1)
         grid.addLayout(side, 2, 1)
         grid.addWidget(validation_box, 2, 2)
