@@ -16,7 +16,7 @@ import sys
 from pathlib import Path
 from typing import Any, Callable
 
-from gasfilm.app.commands.common import check_output_folder, is_terminal, load_frf
+from gasfilm.app.commands.common import check_output_folder, is_terminal, load_frf, source_conditions
 from gasfilm.drivers.errors import SettingError
 
 logger = logging.getLogger(__name__)
@@ -147,7 +147,10 @@ def run(args: argparse.Namespace) -> int:
     stem = args.source[0].stem
     figure_paths = check_output_folder(out, "--out" if args.out is not None else "",
                                        (f"{stem}-figure18.png", f"{stem}-figure19.png"), args.overwrite)
+    from gasfilm.analysis.conditions import format_conditions
+
     frf, what, rig_spec_toml = load_frf(args.source, args.frf)
+    conditions = source_conditions(args.source)
     low, high = parse_band(args.band, frf.sample_rate_hz)
     keep = (frf.freq_hz >= max(low, 1e-9)) & (frf.freq_hz <= high)
     if np.count_nonzero(keep) < MIN_BAND_LINES:
@@ -179,6 +182,7 @@ def run(args: argparse.Namespace) -> int:
         print(json.dumps({
             "source": [str(path) for path in args.source],
             "frf": what,
+            "conditions": conditions,
             "band_hz": [float(freq_hz[0]), float(freq_hz[-1])],
             "mass_kg": mass_kg,
             "method": args.method,
@@ -191,6 +195,7 @@ def run(args: argparse.Namespace) -> int:
         return 0
     print(f"{args.source[0]}: {what}, {len(freq_hz)} lines, {freq_hz[0]:g}–{freq_hz[-1]:g} Hz, m = {mass_kg:g} kg, "
           f"method {args.method}")
+    print(f"conditions: {format_conditions(conditions)}")
     print("\nTable 2 (g/N)\n" + format_table2(rows, "g/N"))
     print("\nTable 2 (SI)\n" + format_table2(rows, "SI"))
     print("\nIdentified parameters (± 1σ)\n" + format_parameters(fits))

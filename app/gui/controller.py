@@ -18,10 +18,12 @@ from PySide6.QtCore import QCoreApplication, QEvent, QObject, QStandardPaths, QT
 
 from gasfilm.analysis.acquisition import AcquisitionLoop
 from gasfilm.analysis.capture import TriggerSettings
+from gasfilm.analysis.conditions import decode_conditions, parse_condition_table
 from gasfilm.analysis.diagnosis import diagnose, load_recordings
 from gasfilm.analysis.diagnosis.plots import write_outputs
 from gasfilm.analysis.identification import compare_models, fit_model
 from gasfilm.analysis.physics.elements import get_model
+from gasfilm.analysis.physics.laws import played_at
 from gasfilm.analysis.physics.spec import RigSpec
 from gasfilm.analysis.spectra import usable_band_hz
 from gasfilm.analysis.session import Session, to_jsonable
@@ -148,11 +150,18 @@ class SessionController(QObject):
         setup = setup or self.setup
         try:
             config = setup.daq_config()
+            conditions = parse_condition_table(setup.conditions)
+            rig_spec = self.rig_spec(setup)
+            if setup.device == SIMULATED_DEVICE_NAME:  # the simulated film follows the conditions (film laws)
+                rig_spec, conditions, _missing = played_at(rig_spec, conditions)
+            else:
+                rig_spec = rig_spec.at_conditions(conditions)
             plan = AcquisitionPlan(
                 device_name=setup.device,
                 config=config,
                 response_row=setup.response_row(config),
-                rig_spec=self.rig_spec(setup),
+                rig_spec=rig_spec,
+                conditions=conditions,
                 trigger=settings_from_dict(TriggerSettings, setup.trigger),
                 validation=settings_from_dict(ValidationSettings, setup.validation),
                 window=settings_from_dict(WindowSettings, setup.window),
@@ -250,6 +259,8 @@ class SessionController(QObject):
         for key, value in (("trigger", plan.trigger), ("window", plan.window)):
             if stored.get(key) != to_jsonable(value):
                 differences.append(f"{key} settings")
+        if decode_conditions(stored, str(session.path)) != plan.conditions:
+            differences.append("operating conditions")
         return differences
 
     def _session_time_s(self) -> float:
@@ -278,7 +289,8 @@ class SessionController(QObject):
             path,
             plan.config,
             plan.rig_spec.to_toml(),
-            {"trigger": plan.trigger, "validation": plan.validation, "window": plan.window, "gui": self._gui_settings()},
+            {"trigger": plan.trigger, "validation": plan.validation, "window": plan.window, "gui": self._gui_settings(),
+             "conditions": plan.conditions},
             device_name=plan.device_name,
         )
         self.session_path = path

@@ -95,6 +95,8 @@ class SetupState:
     target_averages: int = 10  # acquisition stops once this many hits are accepted (0: no target)
     min_coherence: float = 0.9  # auto-accept also needs the band's mean γ² to stay above this (0: no check)
     usable_drop_db: float = 20.0  # the FRF is trusted where the force spectrum is within this of its low-f level
+    #: Operating conditions as typed (name with its unit → value text; empty values are not recorded)
+    conditions: dict[str, str] = field(default_factory=dict)
 
     def enabled_channels(self) -> list[ChannelSetup]:
         return [channel for channel in self.channels if channel.enabled]
@@ -140,6 +142,10 @@ class SetupState:
                 value = _channels_from_json(value)
             elif f.name in _SETTINGS_GROUPS:
                 _check_group(f.name, value, _SETTINGS_GROUPS[f.name])
+            elif f.name == "conditions":
+                if not isinstance(value, dict) or not all(isinstance(k, str) and isinstance(v, str)
+                                                          for k, v in value.items()):
+                    raise SettingError("'conditions': expected an object of condition names and value texts")
             else:
                 _check_like(f.name, value, getattr(defaults, f.name))
             values[f.name] = value

@@ -11,7 +11,7 @@ from __future__ import annotations
 import queue
 import threading
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any, Callable
 
 import numpy as np
@@ -61,6 +61,7 @@ class AcquisitionPlan:
     sim_pacing: str = "realtime"
     ring_seconds: float = 10.0
     time_offset_s: float = 0.0  # session time of the stream's first sample (hit times continue across re-arms)
+    conditions: dict = field(default_factory=dict)  # the session's operating conditions (analysis/conditions.py)
 
 
 @dataclass
