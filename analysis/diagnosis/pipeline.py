@@ -73,6 +73,9 @@ AMPLITUDE_TERMS = ("cubic-stiffness", "friction", "quadratic-damping")
 #: at least OWN_BAND_SHARE of the excess there; otherwise it is a partial description.
 OWN_BAND_CHI2_PER_POINT = ADEQUATE_CHI2_PER_POINT
 OWN_BAND_SHARE = 0.5
+#: Below this χ² per point a band is at the noise within the noise model's own uncertainty: what excess is left there
+#: is not counted against the term.
+OWN_BAND_AT_NOISE = 1.15
 
 
 @dataclass
@@ -484,9 +487,12 @@ def _claim(
     in_written = (100.0 * (measure(spectra, without) - measure(spectra, final.spec)) / reference if reference > 0
                   else 0.0)
     band_text = f"{band[0]:.0f}–{band[1]:.0f} Hz"
-    undetermined = [f"{name} {row['value']:.3g} ± {row['uncertainty']:.2g}"
-                    for name, row in _term_parameters(final, index).items()
-                    if float(row["uncertainty"]) > abs(float(row["value"]))]
+    # a magnitude (a log-scaled parameter: a mass, a stiffness, a coefficient) known to worse than a factor e is not
+    # measured; a signed parameter consistent with zero (a drift's damping part, a delay) is a result
+    undetermined = [f"{slot.name} {slot.value(final.spec):.3g} ± {final.uncertainty(number):.2g}"
+                    for number, slot in enumerate(final.slots)
+                    if slot.effect == index and slot.range.scale == "log"
+                    and final.uncertainty(number) > abs(slot.value(final.spec))]
     reason = None
     if undetermined:
         reason = (f"its parameters are not determined by these data ({', '.join(undetermined)}): it trades off "
@@ -494,7 +500,7 @@ def _claim(
     elif after > OWN_BAND_CHI2_PER_POINT:
         reason = (f"a partial description: with it, its own band {band_text} stays at χ²/point {after:.1f} "
                   f"(1 = noise)")
-    elif share < OWN_BAND_SHARE:
+    elif share < OWN_BAND_SHARE and after > OWN_BAND_AT_NOISE:
         reason = f"it removes only {100 * share:.0f} % of the excess over the noise in its own band {band_text}"
     elif alone <= 0 or in_written <= 0:
         reason = (f"the written spec replayed is not closer to the recordings with it: RMS gain over the "

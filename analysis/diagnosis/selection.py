@@ -146,7 +146,19 @@ class Evidence:
         return (weight * predicted).sum(axis=0) / weight.sum(axis=0)
 
 
-def fit(evidence: Evidence, spec: RigSpec, slots: list[Slot], hits: np.ndarray | None = None) -> FitOutcome:
+#: Relative tolerance of a final fit, and of a screening fit (the starting values of a candidate: the best start is
+#: finished to the full tolerance).
+FIT_TOLERANCE = 1e-7
+SCREENING_TOLERANCE = 1e-4
+
+
+def fit(
+    evidence: Evidence,
+    spec: RigSpec,
+    slots: list[Slot],
+    hits: np.ndarray | None = None,
+    tolerance: float = FIT_TOLERANCE,
+) -> FitOutcome:
     """Weighted least squares of the slots (scaled search space) from the spec's current values."""
     if not slots:
         return FitOutcome(spec, evidence.chi2(spec, hits), [], np.zeros((0, 0)), 1)
@@ -159,7 +171,7 @@ def fit(evidence: Evidence, spec: RigSpec, slots: list[Slot], hits: np.ndarray |
     # MINPACK's Levenberg-Marquardt (bounds by clipping inside the residual): several times faster than a
     # bounded trust-region solver on these tall problems
     result = least_squares(residual, start, x_scale="jac", method="lm", max_nfev=40 * (len(slots) + 1),
-                           xtol=1e-7, ftol=1e-7)
+                           xtol=tolerance, ftol=tolerance)
     fitted = write_vector(spec, slots, np.clip(result.x, bounds[0], bounds[1]))
     return FitOutcome(fitted, evidence.chi2(fitted, hits), slots, _covariance(result.jac), int(result.nfev))
 
@@ -255,14 +267,16 @@ def disagreement(first: FitOutcome, second: FitOutcome, effect_index: int, point
 
 
 def best_candidate_fit(evidence: Evidence, spec: RigSpec, identifier: str, context: FitContext) -> FitOutcome | None:
-    """The best full-data fit of the spec plus one candidate term over its starting values (None: no start)."""
+    """The best full-data fit of the spec plus one candidate term over its starting values (None: no start): every
+    start fitted to the screening tolerance, the best one finished to the full tolerance."""
     outcomes = []
     for effect in starting_effects(identifier, spec, evidence, context):
         candidate = with_effect(spec, effect)
-        outcomes.append(fit(evidence, candidate, spec_slots(candidate, context)))
+        outcomes.append(fit(evidence, candidate, spec_slots(candidate, context), tolerance=SCREENING_TOLERANCE))
     if not outcomes:
         return None
     best = min(outcomes, key=lambda outcome: outcome.chi2)
+    best = fit(evidence, best.spec, best.slots)
     logger.debug("candidate %s: χ² %.1f after %d starts", identifier, best.chi2, len(outcomes))
     return best
 
