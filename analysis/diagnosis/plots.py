@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 from pathlib import Path
+import matplotlib
 import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
@@ -22,7 +23,7 @@ RESIDUAL_FILE = "diagnosis-residual.png"
 RESTORING_FILE = "diagnosis-restoring-force.png"
 OUTPUT_FILES = (SPEC_FILE, OVERLAY_FILE, RESIDUAL_FILE, RESTORING_FILE)
 #: At most this many samples are drawn in the restoring-force figure (a scatter of every sample takes seconds).
-MAX_DRAWN_SAMPLES = 6000
+MAX_DRAWN_SAMPLES = 8000
 
 
 def write_figures(diagnosis: Diagnosis, out_dir: Path) -> list[str]:
@@ -99,9 +100,12 @@ def write_restoring_force_figure(restoring: RestoringForce, path: Path) -> Path:
     k, c = restoring.stiffness_n_per_m, restoring.damping_ns_per_m
     stiffness_part = restoring.force_n[::step] - c * restoring.velocity_m_s[::step]
     damping_part = restoring.force_n[::step] - k * restoring.displacement_m[::step]
-    colour = restoring.hit_index[::step]
-    axes[0].scatter(x_um, stiffness_part, c=colour, s=1.5, cmap="viridis", rasterized=True)
-    axes[1].scatter(v_mm_s, damping_part, c=colour, s=1.5, cmap="viridis", rasterized=True)
+    hit = restoring.hit_index[::step]
+    colours = matplotlib.colormaps["viridis"](np.linspace(0.0, 1.0, int(hit.max()) + 1))
+    for number in np.unique(hit):  # one line of pixel markers per hit: far faster than a coloured scatter
+        rows = hit == number
+        axes[0].plot(x_um[rows], stiffness_part[rows], ".", ms=1.5, color=colours[number])
+        axes[1].plot(v_mm_s[rows], damping_part[rows], ".", ms=1.5, color=colours[number])
     x_line = np.linspace(x_um.min(), x_um.max(), 50)
     v_line = np.linspace(v_mm_s.min(), v_mm_s.max(), 50)
     axes[0].plot(x_line, k * x_line * 1e-6, "k--", lw=1, label=f"linear film k = {k:.3g} N/m")
