@@ -228,7 +228,8 @@ def _select_one(
         if identifier in hopeless:
             continue
         try:
-            outcome, candidate_evidence = _candidate_fit(spectra, evidence, current.spec, identifier, context)
+            outcome, candidate_evidence = _candidate_fit(spectra, evidence, current.spec, identifier, context,
+                                                         noise_scale)
         except GasfilmError as error:  # a nonlinear replay that does not converge is no candidate
             logger.info("candidate %s skipped: %s", identifier, error)
             continue
@@ -311,14 +312,16 @@ def _not_a_finding(outcome: FitOutcome, index: int, context: FitContext) -> str 
 
 
 def _candidate_fit(
-    spectra: HitSpectra, evidence: Evidence, spec: RigSpec, identifier: str, context: FitContext
+    spectra: HitSpectra, evidence: Evidence, spec: RigSpec, identifier: str, context: FitContext,
+    noise_scale: float = 1.0,
 ) -> tuple[FitOutcome | None, Evidence]:
     """Fit the spec plus one candidate; a cubic film spring is refitted against its exact nonlinear replay until
-    k3 settles (the equivalent-linear fit only starts it)."""
+    k3 settles (the equivalent-linear fit only starts it), when its equivalent-linear fit alone would already pay its
+    BIC cost (every exact replay plays each hit through the nonlinear solver)."""
     outcome = best_candidate_fit(evidence, spec, identifier, context)
     if outcome is None or identifier != "cubic-stiffness":
         return outcome, evidence
-    if evidence.chi2(spec) - outcome.chi2 < np.log(evidence.point_count):
+    if (evidence.chi2(spec) - outcome.chi2) / noise_scale < np.log(evidence.point_count) + BIC_MARGIN:
         return outcome, evidence  # not even the equivalent linear term pays for itself: no nonlinear replay
     for _ in range(NONLINEAR_ITERATIONS):
         previous = outcome.spec.cubic_stiffness_n_per_m3
