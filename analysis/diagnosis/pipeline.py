@@ -490,12 +490,15 @@ def _claim(
     in_written = (100.0 * (measure(spectra, without) - measure(spectra, final.spec)) / reference if reference > 0
                   else 0.0)
     band_text = f"{band[0]:.0f}–{band[1]:.0f} Hz"
-    # a magnitude (a log-scaled parameter: a mass, a stiffness, a coefficient) known to worse than a factor e is not
-    # measured; a signed parameter consistent with zero (a drift's damping part, a delay) is a result
+    # a term none of whose magnitudes (log-scaled parameters: masses, stiffnesses, coefficients) is known to better than
+    # a factor e measures nothing (one magnitude may be loose where it trades off against an order, as a spring-pot's
+    # coefficient does; a signed parameter consistent with zero, a drift's damping part, is a result)
+    magnitudes = [(number, slot) for number, slot in enumerate(final.slots)
+                  if slot.effect == index and slot.range.scale == "log"]
     undetermined = [f"{slot.name} {slot.value(final.spec):.3g} ± {final.uncertainty(number):.2g}"
-                    for number, slot in enumerate(final.slots)
-                    if slot.effect == index and slot.range.scale == "log"
-                    and final.uncertainty(number) > abs(slot.value(final.spec))]
+                    for number, slot in magnitudes if final.uncertainty(number) > abs(slot.value(final.spec))]
+    if len(undetermined) < len(magnitudes) or not magnitudes:
+        undetermined = []
     reason = None
     if undetermined:
         reason = (f"its parameters are not determined by these data ({', '.join(undetermined)}): it trades off "
