@@ -149,7 +149,7 @@ class Evidence:
 #: Relative tolerance of a final fit, and of a screening fit (the starting values of a candidate: the best start is
 #: finished to the full tolerance).
 FIT_TOLERANCE = 1e-7
-SCREENING_TOLERANCE = 1e-4
+SCREENING_TOLERANCE = 1e-6
 
 
 def fit(
@@ -252,6 +252,10 @@ def disagreement(first: FitOutcome, second: FitOutcome, effect_index: int, point
     worst: tuple[float, str] | None = None
     for index, slot in enumerate(first.slots):
         if slot.effect != effect_index:
+            continue
+        if slot.at_bound(first.spec) or slot.at_bound(second.spec):
+            continue  # a value at a bound (the term degenerate there) has no uncertainty to compare with
+        if min(first.covariance[index, index], second.covariance[index, index]) <= 0:
             continue
         variances = []
         for outcome, count in zip((first, second), points):
