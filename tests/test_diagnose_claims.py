@@ -27,7 +27,7 @@ C_NS_PER_M = 3.45e3
 RATE_HZ = 6400.0
 
 
-def _free_decays(law, hits: int = 8, seconds: float = 0.3, seed: int = 0) -> np.ndarray:
+def _free_decays(law, hits: int = 8, seconds: float = 0.2, seed: int = 0) -> np.ndarray:
     """Records (hits, 2, samples) of the mover on a spring-damper film plus ``law(x, v)`` (N), hit by half-sine
     pulses of 100–300 N: fixed-step RK4 on a grid 8× the sample rate, every 8th sample kept, sensor noise added."""
     rng = np.random.default_rng(seed)
