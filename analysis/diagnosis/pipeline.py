@@ -136,9 +136,8 @@ def diagnose_spectra(
 
     steps: list[Step] = []
     rejected: list[CandidateDescription] = []
-    hopeless: set[str] = set()
     while len(steps) < MAX_TERMS:
-        accepted = _select_one(spectra, evidence, current, context, points, rejected, progress, restoring, hopeless)
+        accepted = _select_one(spectra, evidence, current, context, points, rejected, progress, restoring)
         if accepted is None:
             break
         step, outcome, evidence = accepted
@@ -210,13 +209,9 @@ def _select_one(
     rejected: list[CandidateDescription],
     progress: Callable[[str], None],
     restoring: RestoringForce | None = None,
-    hopeless: set[str] | None = None,
 ) -> tuple[Step, FitOutcome, Evidence] | None:
     """The next term of the forward selection, or None when no candidate earns its place. An amplitude-dependent
-    term whose shape the measured restoring force contradicts is not tried, nor a term that could not lower χ² by
-    the cost of its parameters at an earlier step (``hopeless``, updated here): adding other terms does not make
-    room for it."""
-    hopeless = set() if hopeless is None else hopeless
+    term whose shape the measured restoring force contradicts is not tried."""
     present = {effect.type_name for effect in current.spec.effects}
     noise_scale = _noise_scale(current, points)
     trials = []
@@ -224,8 +219,6 @@ def _select_one(
         if identifier in present or (identifier in ("drift", "step-change") and context.session_span_s <= 0):
             continue
         if identifier in AMPLITUDE_TERMS and restoring is not None and not restoring.allows(identifier):
-            continue
-        if identifier in hopeless:
             continue
         try:
             outcome, candidate_evidence = _candidate_fit(spectra, evidence, current.spec, identifier, context,
@@ -236,8 +229,6 @@ def _select_one(
         if outcome is None:
             continue
         extra = len(outcome.slots) - len(current.slots)
-        if current.chi2 - outcome.chi2 < extra * np.log(points):
-            hopeless.add(identifier)
         score = (current.chi2 - outcome.chi2) / noise_scale - extra * np.log(points)
         share = (current.chi2 - outcome.chi2) / max(current.chi2 - points, 1e-9)
         padding = noise_scale > SHARE_RULE_NOISE_SCALE and share < MIN_EXCESS_SHARE
