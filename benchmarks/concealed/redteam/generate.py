@@ -250,8 +250,9 @@ def hit_schedule(case: Case, rng: np.random.Generator) -> np.ndarray:
     return 1.0 + np.sort(rng.uniform(0, free, case.hits)) + np.arange(case.hits) * gap_s
 
 
-def synthesise(case: Case) -> tuple[np.ndarray, np.ndarray, dict]:
-    """Records (hits, 2, samples) in N and m/s², record start times (s), what was drawn (for the key)."""
+def synthesise(case: Case, noise: bool = True) -> tuple[np.ndarray, np.ndarray, dict]:
+    """Records (hits, 2, samples) in N and m/s², record start times (s), what was drawn (for the key).
+    ``noise=False`` leaves out the sensor noise (for the physics checks only)."""
     rng = np.random.default_rng(case.seed)
     fs = case.sample_rate_hz
     fine_hz = OVERSAMPLE * fs
@@ -324,9 +325,11 @@ def synthesise(case: Case) -> tuple[np.ndarray, np.ndarray, dict]:
             response[hit, cut] = dr["level_m_s2"]
             info.append({"hit": int(hit), "from_s": round(float(t0), 5), "length_ms": round(1e3 * length, 2)})
         drawn_extra["dropouts"] = info
-    forces_measured = forces + FORCE_NOISE_N_PER_RTHZ * np.sqrt(fine_hz / 2) * rng.standard_normal(forces.shape)
-    response = response + white_noise(rng, response.shape, fine_hz, ACCEL_NOISE_M_S2_PER_RTHZ * case.accel_noise_factor,
-                                      case.accel_noise_pink_corner_hz)
+    scale = 1.0 if noise else 0.0
+    forces_measured = forces + scale * FORCE_NOISE_N_PER_RTHZ * np.sqrt(fine_hz / 2) * rng.standard_normal(forces.shape)
+    response = response + scale * white_noise(rng, response.shape, fine_hz,
+                                              ACCEL_NOISE_M_S2_PER_RTHZ * case.accel_noise_factor,
+                                              case.accel_noise_pink_corner_hz)
     if case.force_full_scale_n:
         clipped = np.max(forces_measured, axis=1) > case.force_full_scale_n
         forces_measured = np.clip(forces_measured, -case.force_full_scale_n, case.force_full_scale_n)

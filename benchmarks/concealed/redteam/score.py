@@ -111,7 +111,7 @@ def classify(key: dict, result: dict) -> tuple[str, str]:
     allowed = set(key["allowed"])
     forbidden = effects & set(key["must_not_claim"])
     notes = [kind.lower() for kind in quality_kinds(result)]
-    bad_notes = [word for word in key.get("must_not_quality", []) if any(note.startswith(word) for note in notes)]
+    bad_notes = [word for word in key.get("must_not_quality", []) if any(word in note for note in notes)]
     if forbidden or bad_notes:
         return "must-not claimed", "claimed " + ", ".join(sorted(forbidden) + [f"quality '{w}'" for w in bad_notes])
     if key["control"] and findings:
@@ -159,6 +159,7 @@ def score_case(key_path: Path, data: Path, loop: bool) -> dict:
     row["wall_time_s"] = round(wall, 2)
     if result is None:
         return row | {"outcome": "error", "reason": error}
+    (out_dir / "diagnosis.json").write_text(json.dumps(result, indent=1, default=str))
     outcome, reason = classify(key, result)
     findings = result.get("findings") or []
     row |= {
@@ -259,7 +260,12 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--only", nargs="+", metavar="CASE", help="score these cases only")
     parser.add_argument("--no-loop", action="store_true", help="skip the closed-loop diagnosis")
     parser.add_argument("--label", default="", help="name of this run, stored in scores-<label>.json")
+    parser.add_argument("--tables-from", type=Path, metavar="SCORES_JSON",
+                        help="print the tables of a stored scores-*.json instead of diagnosing")
     args = parser.parse_args(argv)
+    if args.tables_from:
+        print_tables(json.loads(args.tables_from.read_text())["cases"])
+        return 0
     keys = sorted(args.data.glob("*.key.json"))
     if not keys:
         print(f"--data: no answer keys (*.key.json) in {args.data}; run generate.py first", file=sys.stderr)
