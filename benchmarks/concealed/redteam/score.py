@@ -260,11 +260,13 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--only", nargs="+", metavar="CASE", help="score these cases only")
     parser.add_argument("--no-loop", action="store_true", help="skip the closed-loop diagnosis")
     parser.add_argument("--label", default="", help="name of this run, stored in scores-<label>.json")
-    parser.add_argument("--tables-from", type=Path, metavar="SCORES_JSON",
-                        help="print the tables of a stored scores-*.json instead of diagnosing")
+    parser.add_argument("--tables-from", type=Path, nargs="+", metavar="SCORES_JSON",
+                        help="print the tables of stored scores-*.json files (several: combined) instead of diagnosing")
     args = parser.parse_args(argv)
     if args.tables_from:
-        print_tables(json.loads(args.tables_from.read_text())["cases"])
+        order = {category: index for index, category in enumerate(CATEGORIES)}
+        rows = [row for path in args.tables_from for row in json.loads(path.read_text())["cases"]]
+        print_tables(sorted(rows, key=lambda row: (order.get(row["category"], 9), row["case"])))
         return 0
     keys = sorted(args.data.glob("*.key.json"))
     if not keys:
