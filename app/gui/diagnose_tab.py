@@ -30,6 +30,15 @@ from gasfilm.drivers.errors import GasfilmError
 from gasfilm.drivers.interface import STANDARD_GRAVITY_M_S2
 
 G = STANDARD_GRAVITY_M_S2
+INTRO_TEXT = "Compares the session with its rig spec under the same test conditions."
+WAITING_TEXT = "The diagnosis waits until the acquisition is stopped."
+READY_TEXT = "Acquisition stopped: diagnose the session's accepted hits against its rig spec."
+
+
+def finding_title(finding: Finding) -> str:
+    """A finding's line in the list: where its own signature is, in the words its details use ("extra-mode near
+    640 Hz", not the wider band its χ² gain spans)."""
+    return f"{finding.effect} — {finding.where.split(';')[0]}   ({finding.hits})"
 
 
 class DiagnoseTab(QWidget):
@@ -46,7 +55,7 @@ class DiagnoseTab(QWidget):
         self.progress = QProgressBar()
         self.progress.setRange(0, 0)
         self.progress.hide()
-        self.status = QLabel("Compares the session with its rig spec under the same test conditions.")
+        self.status = QLabel(INTRO_TEXT)
         self.status.setWordWrap(True)
         self.export_button = QPushButton("Export improved rig spec…")
         self.play_button = QPushButton("Play improved spec on the simulated rig")
@@ -123,11 +132,14 @@ class DiagnoseTab(QWidget):
             self.reference_path.setText(path)
 
     def _on_acquisition_state(self, state: str) -> None:
-        """While armed the button stays, and says why it will refuse: hits are still arriving."""
+        """While armed the button stays, and says why it will refuse: hits are still arriving. Once stopped, the
+        waiting note gives way to what can be done now."""
         reason = "Stop the acquisition first: hits are still arriving and the FRF changes with each one."
         self.run_button.setToolTip(reason if state != "idle" else "")
         if state == "starting":
-            self.status.setText("The diagnosis waits until the acquisition is stopped.")
+            self.status.setText(WAITING_TEXT)
+        elif state == "idle" and self.status.text() == WAITING_TEXT:
+            self.status.setText(READY_TEXT if self.controller.accepted_count else INTRO_TEXT)
 
     def _on_running(self, job: str, running: bool) -> None:
         if job != "diagnose":
@@ -159,9 +171,7 @@ class DiagnoseTab(QWidget):
             f"{diagnosis.evidence.hit_count} hits, {diagnosis.wall_time_s:.1f} s"
         )
         for finding in diagnosis.findings:
-            item = QListWidgetItem(
-                f"{finding.effect}   {finding.band_hz[0]:.0f}–{finding.band_hz[1]:.0f} Hz   ({finding.hits})"
-            )
+            item = QListWidgetItem(finding_title(finding))
             item.setData(Qt.ItemDataRole.UserRole, finding)
             self.findings.addItem(item)
         if not diagnosis.findings:
@@ -185,9 +195,7 @@ class DiagnoseTab(QWidget):
         )
         for values in stored["findings"]:
             finding = Finding.from_dict(values)
-            item = QListWidgetItem(
-                f"{finding.effect}   {finding.band_hz[0]:.0f}–{finding.band_hz[1]:.0f} Hz   ({finding.hits})"
-            )
+            item = QListWidgetItem(finding_title(finding))
             item.setData(Qt.ItemDataRole.UserRole, finding)
             self.findings.addItem(item)
         if not stored["findings"]:

@@ -33,6 +33,8 @@ from gasfilm.drivers.interface import STANDARD_GRAVITY_M_S2
 
 DEFAULT_MODELS = ("SD", "FOMGF")
 TABLE2_COLUMNS = ("#", "Model", "k", "RMS (g/N)", "E", "Peak error (g/N)", "E_m", "AIC", "BIC")
+WAITING_TEXT = "Fitting waits until the acquisition is stopped."
+READY_TEXT = "Acquisition stopped: the FRF is final. Pick the models and fit."
 METHOD_LABELS = {"default": "default (fast, multi-start least squares)", "gapso": "GA-PSO (the paper's)"}
 
 
@@ -207,11 +209,14 @@ class IdentifyTab(QWidget):
             self.status.setText(text)
 
     def _on_acquisition_state(self, state: str) -> None:
-        """While armed the button stays, and says why it will refuse: hits are still arriving."""
+        """While armed the button stays, and says why it will refuse: hits are still arriving. Once stopped, the
+        waiting note gives way to what can be done now."""
         reason = "Stop the acquisition first: hits are still arriving and the FRF changes with each one."
         self.run_button.setToolTip(reason if state != "idle" else "")
         if state == "starting":
-            self.status.setText("Fitting waits until the acquisition is stopped.")
+            self.status.setText(WAITING_TEXT)
+        elif state == "idle" and self.status.text() == WAITING_TEXT:
+            self.status.setText(READY_TEXT if self.controller.frf is not None else "")
 
     def _on_running(self, job: str, running: bool) -> None:
         if job != "fit":

@@ -161,6 +161,8 @@ class MeasureTab(QWidget):
         self.reject_button.setObjectName("reject")
         self.accept_button.clicked.connect(lambda: self._decide(True))
         self.reject_button.clicked.connect(lambda: self._decide(False))
+        for button in (self.accept_button, self.reject_button):
+            button.setEnabled(False)  # until a hit is selected
         self.hit_plot = make_plot(
             "Selected hit: <span style='color:#0072B2'>force</span> · "
             "<span style='color:#D55E00'>response</span>",
@@ -375,6 +377,8 @@ class MeasureTab(QWidget):
             self.hit_table.selectRow(self.hit_table.rowCount() - 1)
         else:
             self.verdict_label.setText("No hit yet")
+            self.accept_button.setEnabled(False)  # nothing to decide on
+            self.reject_button.setEnabled(False)
             self.hit_force_curve.setData([], [])
             self.hit_response_curve.setData([], [])
             self.hit_spectrum_curve.setData([], [])

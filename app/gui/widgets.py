@@ -118,7 +118,8 @@ class Banner(QFrame):
 
 
 class DataclassForm(QWidget):
-    """An editor for a settings dataclass: one row per field, the unit taken from the field name's suffix."""
+    """An editor for a settings dataclass: one row per field, labelled from ``labels`` (field → (words with unit,
+    tooltip)), else from the field name with the unit its suffix says."""
 
     changed = Signal()
 
@@ -127,15 +128,18 @@ class DataclassForm(QWidget):
         settings_type: type,
         choices: dict[str, tuple[str, ...]] | None = None,
         optional_defaults: dict[str, float] | None = None,
+        labels: dict[str, tuple[str, str]] | None = None,
         parent: QWidget | None = None,
     ) -> None:
         super().__init__(parent)
         self.settings_type = settings_type
+        labels = labels or {}
         self._defaults = settings_type()
         self._choices = choices or {}
         self._optional_defaults = optional_defaults or {}
         self._editors: dict[str, QWidget] = {}
         self._switches: dict[str, QCheckBox] = {}
+        self.labels: dict[str, str] = {}  # field name → the words shown beside its editor
         layout = QFormLayout(self)
         layout.setFieldGrowthPolicy(QFormLayout.FieldGrowthPolicy.FieldsStayAtSizeHint)
         for f in dataclasses.fields(settings_type):
@@ -149,6 +153,10 @@ class DataclassForm(QWidget):
             if editor is None:
                 continue
             self._editors[f.name] = editor
+            label, help_text = labels.get(f.name, (field_label(f.name), ""))
+            self.labels[f.name] = label
+            if help_text:
+                editor.setToolTip(help_text)
             if optional:
                 switch = QCheckBox()
                 switch.setObjectName(f"{f.name}_on")
@@ -161,9 +169,9 @@ class DataclassForm(QWidget):
                 row = QHBoxLayout()
                 row.addWidget(switch)
                 row.addWidget(editor)
-                layout.addRow(field_label(f.name), row)
+                layout.addRow(label, row)
             else:
-                layout.addRow(field_label(f.name), editor)
+                layout.addRow(label, editor)
 
     def _editor_for(self, name: str, default: Any) -> QWidget | None:
         if isinstance(default, bool):
