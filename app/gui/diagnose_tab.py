@@ -2,10 +2,11 @@
 
 from __future__ import annotations
 
+import time
 from typing import Any
 
 import numpy as np
-from PySide6.QtCore import Qt
+from PySide6.QtCore import Qt, QTimer
 from PySide6.QtWidgets import (
     QFileDialog,
     QGroupBox,
@@ -52,9 +53,22 @@ class DiagnoseTab(QWidget):
         self.run_button.setObjectName("diagnose")
         self.cancel_button = QPushButton("Cancel")
         self.cancel_button.setEnabled(False)
+        # A busy bar (the diagnosis cannot say how far it is) with the time it has run beside it, in room kept while
+        # hidden: nothing in the row moves when it starts.
         self.progress = QProgressBar()
         self.progress.setRange(0, 0)
-        self.progress.hide()
+        self.progress.setFixedWidth(110)
+        self.elapsed = QLabel()
+        self.elapsed.setFixedWidth(self.elapsed.fontMetrics().horizontalAdvance("running 000 s") + 6)
+        self._started_s = 0.0
+        self._clock = QTimer(self)
+        self._clock.setInterval(500)
+        self._clock.timeout.connect(self._show_elapsed)
+        for widget in (self.progress, self.elapsed):
+            policy = widget.sizePolicy()
+            policy.setRetainSizeWhenHidden(True)
+            widget.setSizePolicy(policy)
+            widget.hide()
         self.status = QLabel(INTRO_TEXT)
         self.status.setWordWrap(True)
         self.export_button = QPushButton("Export improved rig spec…")
@@ -74,6 +88,7 @@ class DiagnoseTab(QWidget):
         top.addWidget(self.run_button)
         top.addWidget(self.cancel_button)
         top.addWidget(self.progress)
+        top.addWidget(self.elapsed)
         top.addWidget(self.export_button)
         top.addWidget(self.play_button)
 
@@ -147,6 +162,16 @@ class DiagnoseTab(QWidget):
         self.run_button.setEnabled(not running)
         self.cancel_button.setEnabled(running)
         self.progress.setVisible(running)
+        self.elapsed.setVisible(running)
+        if running:
+            self._started_s = time.monotonic()
+            self._show_elapsed()
+            self._clock.start()
+        else:
+            self._clock.stop()
+
+    def _show_elapsed(self) -> None:
+        self.elapsed.setText(f"running {time.monotonic() - self._started_s:.0f} s")
 
     def _on_progress(self, job: str, fraction: float, text: str) -> None:
         if job == "diagnose":
