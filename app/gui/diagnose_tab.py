@@ -26,7 +26,7 @@ from PySide6.QtWidgets import (
 from gasfilm.analysis.diagnosis import Finding
 from gasfilm.analysis.diagnosis.pipeline import replayed_mean
 from gasfilm.app.gui.controller import SessionController
-from gasfilm.app.gui.widgets import MEASURED_COLOR, PALETTE, make_plot, pen
+from gasfilm.app.gui.widgets import MEASURED_COLOR, PALETTE, FixedHeightLabel, make_plot, pen
 from gasfilm.drivers.errors import GasfilmError
 from gasfilm.drivers.interface import STANDARD_GRAVITY_M_S2
 
@@ -69,8 +69,7 @@ class DiagnoseTab(QWidget):
             policy.setRetainSizeWhenHidden(True)
             widget.setSizePolicy(policy)
             widget.hide()
-        self.status = QLabel(INTRO_TEXT)
-        self.status.setWordWrap(True)
+        self.status = FixedHeightLabel(INTRO_TEXT, lines=2)  # progress text changes: the findings list stays put
         self.export_button = QPushButton("Export improved rig spec…")
         self.play_button = QPushButton("Play improved spec on the simulated rig")
         self.play_button.setObjectName("play_improved")
@@ -164,6 +163,7 @@ class DiagnoseTab(QWidget):
         self.progress.setVisible(running)
         self.elapsed.setVisible(running)
         if running:
+            self.status.setText("Diagnosing the session's accepted hits against the rig spec…")
             self._started_s = time.monotonic()
             self._show_elapsed()
             self._clock.start()

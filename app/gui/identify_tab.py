@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 from PySide6.QtCore import Qt
+from PySide6.QtGui import QColor
 from PySide6.QtWidgets import (
     QAbstractItemView,
     QComboBox,
@@ -27,7 +28,7 @@ from PySide6.QtWidgets import (
 from gasfilm.analysis.identification import METHODS
 from gasfilm.analysis.physics.elements import PAPER_MODEL_ORDER, PAPER_MODEL_TEXT, get_model
 from gasfilm.app.gui.controller import SessionController
-from gasfilm.app.gui.widgets import MEASURED_COLOR, PALETTE, make_plot, pen, phase_deg
+from gasfilm.app.gui.widgets import MEASURED_COLOR, PALETTE, FixedHeightLabel, make_plot, pen, phase_deg
 from gasfilm.drivers.errors import GasfilmError
 from gasfilm.drivers.interface import STANDARD_GRAVITY_M_S2
 
@@ -70,7 +71,7 @@ class IdentifyTab(QWidget):
         self.cancel_button.setEnabled(False)
         self.progress = QProgressBar()
         self.progress.setRange(0, 1000)
-        self.status = QLabel()
+        self.status = FixedHeightLabel(lines=2)  # its text changes with every progress report: nothing may move
         self.status.setWordWrap(True)
         left_box = QGroupBox("Models and fitter")
         left = QVBoxLayout(left_box)
@@ -120,13 +121,20 @@ class IdentifyTab(QWidget):
         table_panel.setSizes([640, 460])
 
         self.fig18 = {
-            "magnitude": make_plot("Fig. 18a  log |H|", ("|H|", "g/N"), log_y=True),
+            # The models' colours are shown in Table 2 (a swatch by each name): a legend of nine models would
+            # cover the curves in a plot this size.
+            "magnitude": make_plot(
+                "Fig. 18a  log |H| — <b>measured</b>, models dashed in Table 2's colours", ("|H|", "g/N"),
+                log_y=True, legend=False,
+            ),
             "real": make_plot("Fig. 18b  Real part", ("Re H", "g/N"), legend=False),
             "imag": make_plot("Fig. 18c  Imaginary part", ("Im H", "g/N"), legend=False),
             "phase": make_plot("Fig. 18d  Phase", ("Phase", "°"), legend=False),
         }
         self.fig19 = {
-            "magnitude": make_plot("Fig. 19a  Error of |H|", ("| |H| − |H_d| |", "g/N")),
+            "magnitude": make_plot(
+                "Fig. 19a  Error of |H| (Table 2's colours)", ("| |H| − |H_d| |", "g/N"), legend=False
+            ),
             "real": make_plot("Fig. 19b  Error of the real part", ("|Re H − Re H_d|", "g/N"), legend=False),
             "imag": make_plot("Fig. 19c  Error of the imaginary part", ("|Im H − Im H_d|", "g/N"), legend=False),
         }
@@ -248,6 +256,8 @@ class IdentifyTab(QWidget):
                 item = QTableWidgetItem(value)
                 if c != 1:
                     item.setTextAlignment(Qt.AlignmentFlag.AlignRight | Qt.AlignmentFlag.AlignVCenter)
+                else:  # the swatch of the model's curves in Figures 18 and 19 (they have no legend)
+                    item.setData(Qt.ItemDataRole.DecorationRole, QColor(PALETTE[r % len(PALETTE)]))
                 self.table.setItem(r, c, item)
         self.table.resizeColumnsToContents()
         if rows:
@@ -296,9 +306,7 @@ class IdentifyTab(QWidget):
         fig18["real"].plot(freq, measured.real, pen=pen(MEASURED_COLOR, 2.5), name="measured")
         fig18["imag"].plot(freq, measured.imag, pen=pen(MEASURED_COLOR, 2.5), name="measured")
         fig18["phase"].plot(freq, phase_deg(measured), pen=pen(MEASURED_COLOR, 2.5), name="measured")
-        order = [row.model_name for row in self.controller.comparison] or list(fits)
-        for plot in (fig18["magnitude"], self.fig19["magnitude"]):
-            plot.getPlotItem().legend.setColumnCount(1 if len(order) < 4 else 2)
+        order = [row.model_name for row in self.controller.comparison] or list(fits)  # Table 2's rows and colours
         for number, name in enumerate(order):
             fit = fits[name]
             model = fit.accelerance(freq) / STANDARD_GRAVITY_M_S2

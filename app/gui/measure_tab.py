@@ -37,6 +37,7 @@ from gasfilm.app.gui.widgets import (
     PALETTE,
     PENDING_COLOR,
     REJECTED_COLOR,
+    FixedHeightLabel,
     make_plot,
     pen,
     set_region_hz,
@@ -65,14 +66,6 @@ LIVE_RESPONSE_TITLE = "Live: response"
 #: The live force view reaches this far past the trigger level, so the dashed line and its label stay inside.
 TRIGGER_HEADROOM = 1.25  # force pulses are overlaid from 2 ms before to 10 ms after the trigger
 _HIT_COLUMNS = ("Hit", "Time (s)", "Peak force (N)", "Verdict", "Reasons")
-
-
-class FixedHeightLabel(QLabel):
-    """A wrapped label whose height does not follow its text: the layout around it never moves when the text
-    changes (a wrapped QLabel's height-for-width would resize its whole tab widget)."""
-
-    def hasHeightForWidth(self) -> bool:  # noqa: N802 (Qt's name)
-        return False
 
 
 def stacked(*widgets: QWidget) -> QWidget:
@@ -173,7 +166,7 @@ class MeasureTab(QWidget):
         self.hit_table.setWordWrap(True)  # long reasons wrap inside their row instead of being cut off
         self.hit_table.verticalHeader().setSectionResizeMode(QHeaderView.ResizeMode.ResizeToContents)
         self.hit_table.itemSelectionChanged.connect(self._show_selected_hit)
-        self.verdict_label = QLabel("No hit yet")
+        self.verdict_label = FixedHeightLabel("No hit yet", lines=2)  # a long reason list moves nothing
         self.verdict_label.setWordWrap(True)
         self.accept_button = QPushButton("Accept hit")
         self.accept_button.setObjectName("accept")
@@ -233,11 +226,8 @@ class MeasureTab(QWidget):
         self.spectrum_band.setZValue(-10)
         self.spectrum_plot.addItem(self.spectrum_band, ignoreBounds=True)
         self.spectrum_plot.setYRange(-45, 5)
-        self.spectrum_label = FixedHeightLabel()
-        self.spectrum_label.setWordWrap(True)
         # Room for three lines, whatever the text: the page never asks for more height than the other views.
-        self.spectrum_label.setFixedHeight(3 * self.spectrum_label.fontMetrics().lineSpacing() + 4)
-        self.spectrum_label.setAlignment(Qt.AlignmentFlag.AlignLeft | Qt.AlignmentFlag.AlignTop)
+        self.spectrum_label = FixedHeightLabel(lines=3)
         spectrum_page = stacked(self.spectrum_plot, self.spectrum_label)
 
         self.overlay_force_plot = make_plot(

@@ -24,6 +24,8 @@ from PySide6.QtWidgets import (
     QWidget,
 )
 
+from gasfilm.analysis.identification import DEFAULT_FIT_BAND_HZ
+
 #: Curve colours (Okabe–Ito based, colour-blind safe; never the measured curve's near-black) in the order models and channels are drawn.
 PALETTE = ("#0072B2", "#D55E00", "#009E73", "#CC79A7", "#E69F00", "#56B4E9", "#882255", "#8C564B", "#999999")
 MEASURED_COLOR = "#222222"
@@ -73,6 +75,20 @@ def sensible_decimals(typical: float) -> int:
     if not typical or not np.isfinite(typical):
         return 2
     return int(min(6, max(1, 2 - np.floor(np.log10(abs(typical))))))
+
+
+class FixedHeightLabel(QLabel):
+    """A word-wrapped label with room for ``lines`` lines whatever its text: the layout around it never moves when
+    the text changes (a wrapped QLabel's height-for-width would resize its neighbours, or its whole tab widget)."""
+
+    def __init__(self, text: str = "", lines: int = 2, parent: QWidget | None = None) -> None:
+        super().__init__(text, parent)
+        self.setWordWrap(True)
+        self.setAlignment(Qt.AlignmentFlag.AlignLeft | Qt.AlignmentFlag.AlignTop)
+        self.setFixedHeight(lines * self.fontMetrics().lineSpacing() + 4)
+
+    def hasHeightForWidth(self) -> bool:  # noqa: N802 (Qt's name)
+        return False
 
 
 class Banner(QFrame):
@@ -377,6 +393,8 @@ def make_plot(
             pen=pg.mkPen("#bbbbbb"),
         )
         item.legend.setVisible(False)  # until a curve has data
+    if bottom[1] == "Hz":  # an empty plot shows the default fit band, not 0–1 Hz; data autoranges as usual
+        item.vb.setRange(xRange=DEFAULT_FIT_BAND_HZ, padding=0.02, disableAutoRange=False)
     item.setDownsampling(auto=True, mode="peak")
     item.setClipToView(True)
     return widget
