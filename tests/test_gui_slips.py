@@ -191,3 +191,20 @@ def test_session_through_the_gui_without_slips(qtbot, window):
         if item.legend is not None and any(c.getData()[0] is not None and len(c.getData()[0]) for c in item.listDataItems()):
             assert item.legend.isVisible(), name
         assert not _legend_covers_extremes(plot), (name, _legend_covers_extremes(plot))
+
+
+def test_sigterm_closes_the_session_without_asking(qtbot, tmp_path):
+    """``kill`` (SIGTERM) or a closed terminal (SIGHUP): the window quits like *Quit* without a dialog — waiting hits
+    stay undecided — and the session file is closed cleanly with every hit."""
+    window = open_window(qtbot, tmp_path, auto_accept=False)
+    controller = window.controller
+    controller.new_session(tmp_path / "signal.h5")
+    arm(qtbot, window)
+    hit(qtbot, window)
+    assert controller.pending_count == 1
+    window.close_on_signal(15)
+    assert window.pending_dialog is None and not window.isVisible()
+    from gasfilm.analysis.session import Session
+
+    with Session.open(tmp_path / "signal.h5") as session:
+        assert session.status == "complete" and session.hit_count == 1
