@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import dataclasses
 import datetime
+import functools
 import logging
 import shutil
 import time
@@ -19,9 +20,8 @@ from PySide6.QtCore import QCoreApplication, QEvent, QObject, QStandardPaths, QT
 
 from gasfilm.analysis.acquisition import AcquisitionLoop
 from gasfilm.analysis.capture import TriggerSettings
-from gasfilm.analysis.diagnosis import diagnose, load_recordings
-from gasfilm.analysis.diagnosis.plots import write_outputs
-from gasfilm.analysis.identification import DEFAULT_FIT_BAND_HZ, compare_models, fit_model
+from gasfilm.analysis.diagnosis import load_recordings
+from gasfilm.analysis.identification import DEFAULT_FIT_BAND_HZ, compare_models
 from gasfilm.analysis.physics.elements import get_model
 from gasfilm.analysis.physics.spec import RigSpec
 from gasfilm.analysis.spectra import usable_band_hz
@@ -29,6 +29,7 @@ from gasfilm.analysis.session import Session, to_jsonable
 from gasfilm.analysis.spectra import FrfAccumulator, FrfResult, WindowSettings, session_frf, write_frf_csv
 from gasfilm.analysis.uff import export_frf_uff
 from gasfilm.analysis.validation import ValidationSettings, Verdict, recorded_full_scale_si, validate_hit
+from gasfilm.app.gui import jobs
 from gasfilm.app.gui.settings import SetupState, settings_from_dict
 from gasfilm.app.gui.workers import (
     PENDING_REASON,
@@ -498,28 +499,13 @@ class SessionController(QObject):
             return
         freq_hz, h = frf.freq_hz[band], frf.h1[band]
         mass_kg = self.rig_spec().mass_kg
-        models = [get_model(name) for name in model_names]
-        names = list(model_names)
-
-        def work(report, cancelled):
-            fits = {}
-            for number, (name, model) in enumerate(zip(names, models)):
-                report(number / len(models), f"fitting {name} ({number + 1} of {len(models)})")
-                fits[name] = fit_model(
-                    model,
-                    freq_hz,
-                    h,
-                    mass_kg,
-                    method=method,
-                    decay_rate_1_s=frf.decay_rate_1_s,
-                    progress=lambda done, n=number, m=name: report(
-                        (n + done) / len(models), f"fitting {m} ({n + 1} of {len(models)})"
-                    ),
-                    cancel=cancelled,
-                )
-            report(1.0, "comparing the models")
-            return fits, compare_models(list(fits.values()), freq_hz, h)
-
+        try:
+            for name in model_names:
+                get_model(name)  # an unknown name is refused here, in one line, before a process starts
+        except GasfilmError as error:
+            self.message.emit(f"fit: {error}", "error")
+            return
+        work = functools.partial(jobs.fit_models, list(model_names), method, freq_hz, h, mass_kg, frf.decay_rate_1_s)
         self.fit_band_hz = (low, high)
         self._start_job("fit", work, self._on_fits_done)
 
@@ -565,11 +551,7 @@ class SessionController(QObject):
             self.message.emit(f"diagnose: {error}", "error")
             return
 
-        def work(report, _cancelled):  # the diagnosis has no cancel hook: Cancel acts at its next progress report
-            diagnosis = diagnose(recordings, spec, progress=lambda text: report(0.0, text))
-            write_outputs(diagnosis, out_dir)
-            return diagnosis
-
+        work = functools.partial(jobs.diagnose_session, recordings, spec, out_dir)
         self._start_job("diagnose", work, self._on_diagnosis_done)
 
     def rig_spec_of_session(self) -> RigSpec:
@@ -620,7 +602,7 @@ class SessionController(QObject):
     # --- background jobs -------------------------------------------------------------------------------------------------
 
     def _start_job(self, name: str, work: Any, on_success: Any) -> None:
-        job = BackgroundJob(work)
+        job = BackgroundJob(work, in_process=True)
         job.progress.connect(lambda fraction, text: self.job_progress.emit(name, fraction, text))
         job.succeeded.connect(on_success)
         job.failed.connect(lambda text: self.message.emit(f"{name}: {text}", "error"))

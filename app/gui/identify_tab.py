@@ -124,7 +124,7 @@ class IdentifyTab(QWidget):
             # The models' colours are shown in Table 2 (a swatch by each name): a legend of nine models would
             # cover the curves in a plot this size.
             "magnitude": make_plot(
-                "Fig. 18a  log |H| — <b>measured</b>, models dashed in Table 2's colours", ("|H|", "g/N"),
+                "Fig. 18a  log |H| (colours: Table 2)", ("|H|", "g/N"),
                 log_y=True, legend=False,
             ),
             "real": make_plot("Fig. 18b  Real part", ("Re H", "g/N"), legend=False),
@@ -133,7 +133,7 @@ class IdentifyTab(QWidget):
         }
         self.fig19 = {
             "magnitude": make_plot(
-                "Fig. 19a  Error of |H| (Table 2's colours)", ("| |H| − |H_d| |", "g/N"), legend=False
+                "Fig. 19a  Error of |H| (colours: Table 2)", ("| |H| − |H_d| |", "g/N"), legend=False
             ),
             "real": make_plot("Fig. 19b  Error of the real part", ("|Re H − Re H_d|", "g/N"), legend=False),
             "imag": make_plot("Fig. 19c  Error of the imaginary part", ("|Im H − Im H_d|", "g/N"), legend=False),

@@ -8,6 +8,7 @@ fast device can never flood the GUI's event loop: the GUI receives one signal pe
 
 from __future__ import annotations
 
+import multiprocessing
 import queue
 import threading
 import time
@@ -356,9 +357,51 @@ class JobCancelled(GasfilmError):
 Report = Callable[[float, str], None]
 
 
+#: Modules the job processes' fork server imports once, so that each job starts in milliseconds.
+JOB_MODULES = ("gasfilm.app.gui.jobs",)
+#: How long a cancelled job's process may take to reach its next progress report before it is terminated, in s.
+CANCEL_GRACE_S = 10.0
+
+
+def _job_context() -> Any:
+    """Processes forked from a fork server (started once, without Qt or threads) that has imported the analysis."""
+    context = multiprocessing.get_context("forkserver")
+    context.set_forkserver_preload(list(JOB_MODULES))
+    return context
+
+
+def _run_job_in_child(work: Callable[..., Any], messages: Any, cancel: Any) -> None:
+    """Child process: run ``work(report, cancelled)``, sending progress (at most 10 a second) and the outcome."""
+    last_emit_s = [0.0]
+
+    def report(fraction: float, text: str) -> None:
+        if cancel.is_set():
+            raise JobCancelled("cancelled")
+        now = time.monotonic()
+        if now - last_emit_s[0] >= PROGRESS_INTERVAL_S or fraction >= 1.0:
+            last_emit_s[0] = now
+            messages.put(("progress", float(fraction), text))
+
+    try:
+        result = work(report, cancel.is_set)
+    except JobCancelled:
+        messages.put(("cancelled",))
+    except GasfilmError as error:
+        messages.put(("cancelled",) if cancel.is_set() else ("failed", str(error)))
+    except Exception as error:  # a bug in a job must reach the banner, not vanish with the process
+        messages.put(("failed", f"internal error: {type(error).__name__}: {error}"))
+    else:
+        messages.put(("cancelled",) if cancel.is_set() else ("done", result))
+
+
 class BackgroundJob(QObject):
-    """Run ``work(report, cancelled)`` on a worker thread; ``report(fraction, text)`` drives a progress bar and
-    raises :class:`JobCancelled` once Cancel was pressed; ``cancelled()`` can be polled by long computations."""
+    """Run ``work(report, cancelled)`` away from the GUI thread; ``report(fraction, text)`` drives a progress bar and
+    raises :class:`JobCancelled` once Cancel was pressed; ``cancelled()`` can be polled by long computations.
+
+    With ``in_process`` (the fits and the diagnosis) ``work`` must be picklable (a module-level function, or a
+    ``functools.partial`` of one, see :mod:`gasfilm.app.gui.jobs`) and runs in a child process: it has its own
+    interpreter lock, so the live view, the acquisition and the simulated device never slow it down. The thread
+    that owns the job only relays the child's progress and result."""
 
     progress = Signal(float, str)
     succeeded = Signal(object)
@@ -366,14 +409,55 @@ class BackgroundJob(QObject):
     cancelled = Signal()
     finished = Signal()
 
-    def __init__(self, work: Callable[[Report, Callable[[], bool]], Any]) -> None:
+    def __init__(self, work: Callable[[Report, Callable[[], bool]], Any], in_process: bool = False) -> None:
         super().__init__()
         self._work = work
+        self._in_process = in_process
         self._cancel = threading.Event()
 
     def cancel(self) -> None:
         """Thread-safe: the job stops at its next check."""
         self._cancel.set()
+
+    def _run_in_process(self, report: Report) -> Any:
+        """Start the child, relay its progress, return its result (or raise its failure or cancellation)."""
+        context = _job_context()
+        messages = context.Queue()
+        cancel = context.Event()
+        child = context.Process(target=_run_job_in_child, args=(self._work, messages, cancel), daemon=True)
+        child.start()
+        cancel_sent_s: float | None = None
+        try:
+            while True:
+                if self._cancel.is_set() and cancel_sent_s is None:
+                    cancel.set()
+                    cancel_sent_s = time.monotonic()
+                if cancel_sent_s is not None and time.monotonic() - cancel_sent_s > CANCEL_GRACE_S:
+                    raise JobCancelled("cancelled")
+                try:
+                    message = messages.get(timeout=0.05)
+                except queue.Empty:
+                    if not child.is_alive() and messages.empty():
+                        raise GasfilmError(
+                            f"the job's process ended unexpectedly (exit code {child.exitcode})"
+                        ) from None
+                    continue
+                kind = message[0]
+                if kind == "progress":
+                    if not self._cancel.is_set():
+                        self.progress.emit(message[1], message[2])
+                elif kind == "done":
+                    return message[1]
+                elif kind == "cancelled":
+                    raise JobCancelled("cancelled")
+                else:
+                    raise GasfilmError(message[1])
+        finally:
+            child.join(1.0)
+            if child.is_alive():
+                child.terminate()
+                child.join(1.0)
+            messages.close()
 
     @Slot()
     def run(self) -> None:
@@ -388,7 +472,7 @@ class BackgroundJob(QObject):
                 self.progress.emit(float(fraction), text)
 
         try:
-            result = self._work(report, self._cancel.is_set)
+            result = self._run_in_process(report) if self._in_process else self._work(report, self._cancel.is_set)
         except GasfilmError as error:
             if self._cancel.is_set():
                 self.cancelled.emit()
