@@ -364,7 +364,10 @@ CANCEL_GRACE_S = 10.0
 
 
 def _job_context() -> Any:
-    """Processes forked from a fork server (started once, without Qt or threads) that has imported the analysis."""
+    """Processes forked from a fork server (started once, without Qt or threads) that has imported the analysis;
+    where there is none (Windows), freshly started ones."""
+    if "forkserver" not in multiprocessing.get_all_start_methods():
+        return multiprocessing.get_context("spawn")
     context = multiprocessing.get_context("forkserver")
     context.set_forkserver_preload(list(JOB_MODULES))
     return context
