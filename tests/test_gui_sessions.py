@@ -315,5 +315,6 @@ def test_nothing_is_cut_off_at_the_default_size_and_banners_do_not_shift_the_tab
     controller.close_session()
     controller.open_session(tmp_path / "layout.h5")
     assert controller.session_path == tmp_path / "layout.h5" and len(controller.hits) == 1
-    assert window.measure_tab.force_plot.getPlotItem().listDataItems() == []
+    assert all(item.xData is None or len(item.xData) == 0  # cleared (the trigger-level span item stays, empty)
+               for item in window.measure_tab.force_plot.getPlotItem().listDataItems())
     assert not window.measure_tab.trigger_line.isVisible()

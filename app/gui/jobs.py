@@ -3,10 +3,12 @@ Qt: :class:`gasfilm.app.gui.workers.BackgroundJob` runs them in a child process,
 the live view and the acquisition from slowing them down (``benchmarks/bench_gui_jobs.py``).
 
 Each takes ``report(fraction, text)`` (progress; raises once Cancel was pressed) and ``cancelled()`` last.
+:func:`run_job_in_child` is what the child process runs. Nothing here imports Qt: a job's process starts light.
 """
 
 from __future__ import annotations
 
+import time
 from pathlib import Path
 from typing import Any, Callable, Sequence
 
@@ -17,8 +19,17 @@ from gasfilm.analysis.diagnosis.plots import write_outputs
 from gasfilm.analysis.identification import compare_models, fit_model
 from gasfilm.analysis.physics.elements import get_model
 from gasfilm.analysis.physics.spec import RigSpec
+from gasfilm.drivers.errors import GasfilmError
 
 Report = Callable[[float, str], None]
+#: Progress reaches the GUI at most this often, in s (never flooding its event loop).
+PROGRESS_INTERVAL_S = 0.1
+
+
+class JobCancelled(GasfilmError):
+    """Raised inside a background job when the technician pressed Cancel."""
+
+
 
 
 def fit_models(
@@ -58,3 +69,35 @@ def diagnose_session(recordings: Any, spec: RigSpec, out_dir: Path, report: Repo
     diagnosis = diagnose(recordings, spec, progress=lambda text: report(0.0, text))
     write_outputs(diagnosis, out_dir)
     return diagnosis
+
+
+def run_job_in_child(work: Callable[..., Any], messages: Any, cancel: Any) -> None:
+    """Child process: run ``work(report, cancelled)``, sending progress (at most 10 a second) and the outcome."""
+    last_emit_s = [0.0]
+    checked = [0.0, False]  # when the cancel event was last read, and what it said
+
+    def cancelled() -> bool:
+        """The cancel event, read at most every 50 ms (a read takes a lock between processes; fitters ask often)."""
+        now = time.monotonic()
+        if now - checked[0] >= 0.05:
+            checked[:] = [now, cancel.is_set()]
+        return checked[1]
+
+    def report(fraction: float, text: str) -> None:
+        if cancelled():
+            raise JobCancelled("cancelled")
+        now = time.monotonic()
+        if now - last_emit_s[0] >= PROGRESS_INTERVAL_S or fraction >= 1.0:
+            last_emit_s[0] = now
+            messages.put(("progress", float(fraction), text))
+
+    try:
+        result = work(report, cancelled)
+    except JobCancelled:
+        messages.put(("cancelled",))
+    except GasfilmError as error:
+        messages.put(("cancelled",) if cancel.is_set() else ("failed", str(error)))
+    except Exception as error:  # a bug in a job must reach the banner, not vanish with the process
+        messages.put(("failed", f"internal error: {type(error).__name__}: {error}"))
+    else:
+        messages.put(("cancelled",) if cancel.is_set() else ("done", result))

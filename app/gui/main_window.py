@@ -35,6 +35,7 @@ from gasfilm.app.gui.settings import (
 )
 from gasfilm.app.gui.setup_tab import SetupTab
 from gasfilm.app.gui.widgets import Banner, configure_pyqtgraph
+from gasfilm.app.gui.workers import warm_up_job_processes
 from gasfilm.drivers import SIMULATED_DEVICE_NAME
 from gasfilm.drivers.errors import GasfilmError
 
@@ -291,6 +292,7 @@ class MainWindow(QMainWindow):
 def run_gui(device: str | None = None, session: str | Path | None = None) -> int:
     """Start the GUI (``gasfilm gui``); ``device`` overrides the remembered device, ``session`` opens a file."""
     app = QApplication.instance() or QApplication(sys.argv[:1])
+    warm_up_job_processes()  # fits and diagnoses run in child processes: have their fork server ready
     app.setOrganizationName(SETTINGS_ORGANIZATION)
     app.setApplicationName(SETTINGS_APPLICATION)
     window = MainWindow()

@@ -9,6 +9,7 @@ fast device can never flood the GUI's event loop: the GUI receives one signal pe
 from __future__ import annotations
 
 import multiprocessing
+import multiprocessing.forkserver
 import queue
 import threading
 import time
@@ -26,12 +27,12 @@ from gasfilm.analysis.physics.spec import RigSpec
 from gasfilm.analysis.session import Session
 from gasfilm.analysis.spectra import WindowSettings
 from gasfilm.analysis.validation import ValidationSettings, Verdict
+from gasfilm.app.gui.jobs import PROGRESS_INTERVAL_S, JobCancelled, run_job_in_child
 from gasfilm.drivers import SIMULATED_DEVICE_NAME, open_device
 from gasfilm.drivers.errors import GasfilmError
 from gasfilm.drivers.interface import ChannelKind, DaqConfig, DaqDevice
 
 POLL_INTERVAL_MS = 50
-PROGRESS_INTERVAL_S = 0.1
 SIM_HIT_INTERVAL_S = (1.5, 3.0)
 #: Stored with a hit that waits for the technician's decision: until then the session counts it as not accepted.
 PENDING_REASON = "awaiting decision"
@@ -350,10 +351,6 @@ class ReaderThreadHooks:
         return self._device.read(out, timeout_s)
 
 
-class JobCancelled(GasfilmError):
-    """Raised inside a background job when the technician pressed Cancel."""
-
-
 Report = Callable[[float, str], None]
 
 
@@ -361,6 +358,14 @@ Report = Callable[[float, str], None]
 JOB_MODULES = ("gasfilm.app.gui.jobs",)
 #: How long a cancelled job's process may take to reach its next progress report before it is terminated, in s.
 CANCEL_GRACE_S = 10.0
+
+
+def warm_up_job_processes() -> None:
+    """Start the fork server now (it imports the analysis in its own process, seconds on a busy machine), so the
+    first fit or diagnosis starts at once. Returns immediately."""
+    if "forkserver" in multiprocessing.get_all_start_methods():
+        _job_context()
+        threading.Thread(target=multiprocessing.forkserver.ensure_running, name="gasfilm-job-warm-up", daemon=True).start()
 
 
 def _job_context() -> Any:
@@ -371,30 +376,6 @@ def _job_context() -> Any:
     context = multiprocessing.get_context("forkserver")
     context.set_forkserver_preload(list(JOB_MODULES))
     return context
-
-
-def _run_job_in_child(work: Callable[..., Any], messages: Any, cancel: Any) -> None:
-    """Child process: run ``work(report, cancelled)``, sending progress (at most 10 a second) and the outcome."""
-    last_emit_s = [0.0]
-
-    def report(fraction: float, text: str) -> None:
-        if cancel.is_set():
-            raise JobCancelled("cancelled")
-        now = time.monotonic()
-        if now - last_emit_s[0] >= PROGRESS_INTERVAL_S or fraction >= 1.0:
-            last_emit_s[0] = now
-            messages.put(("progress", float(fraction), text))
-
-    try:
-        result = work(report, cancel.is_set)
-    except JobCancelled:
-        messages.put(("cancelled",))
-    except GasfilmError as error:
-        messages.put(("cancelled",) if cancel.is_set() else ("failed", str(error)))
-    except Exception as error:  # a bug in a job must reach the banner, not vanish with the process
-        messages.put(("failed", f"internal error: {type(error).__name__}: {error}"))
-    else:
-        messages.put(("cancelled",) if cancel.is_set() else ("done", result))
 
 
 class BackgroundJob(QObject):
@@ -427,7 +408,7 @@ class BackgroundJob(QObject):
         context = _job_context()
         messages = context.Queue()
         cancel = context.Event()
-        child = context.Process(target=_run_job_in_child, args=(self._work, messages, cancel), daemon=True)
+        child = context.Process(target=run_job_in_child, args=(self._work, messages, cancel), daemon=True)
         child.start()
         cancel_sent_s: float | None = None
         try:
