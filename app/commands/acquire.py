@@ -22,9 +22,6 @@ from gasfilm.drivers.errors import DeviceError, SettingError
 logger = logging.getLogger(__name__)
 
 SIMULATED_DEVICE_NAME = "sim"  # gasfilm.drivers.SIMULATED_DEVICE_NAME, without importing the drivers to register
-#: Longest record accepted per hit in s: a hammer test's response has decayed long before (a 100 s record
-#: at 51.2 kS/s is 80 MB per hit, and the session fills the disk with rejected hits).
-MAX_RECORD_S = 20.0
 #: Longest wait for a chunk before the run is declared stuck (the reader has its own device timeout).
 CHUNK_WAIT_S = 30.0
 
@@ -85,7 +82,7 @@ def _open_device(args: argparse.Namespace, rig_spec: Any) -> Any:
 def _settings(args: argparse.Namespace) -> dict[str, Any]:
     """The trigger, validation and window settings from the flags, refused up front (naming the flag) when they
     cannot produce a valid hit."""
-    from gasfilm.analysis.capture import TriggerSettings
+    from gasfilm.analysis.capture import TriggerSettings, check_record_length
     from gasfilm.analysis.spectra import WindowSettings
     from gasfilm.analysis.validation import ValidationSettings
 
@@ -95,9 +92,7 @@ def _settings(args: argparse.Namespace) -> dict[str, Any]:
     positive_flag("--rate", args.rate, "S/s")
     positive_flag("--trigger-n", args.trigger_n, "N")
     positive_flag("--record-s", args.record_s, "s")
-    if args.record_s > MAX_RECORD_S:
-        raise SettingError(f"--record-s: {args.record_s} s is longer than a hammer test needs "
-                           f"(at most {MAX_RECORD_S:g} s per hit)")
+    check_record_length(args.record_s, "--record-s")
     if args.hit_interval is not None:
         low, high = args.hit_interval
         if not 0 < low <= high:

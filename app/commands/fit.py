@@ -21,7 +21,6 @@ from gasfilm.drivers.errors import SettingError
 
 logger = logging.getLogger(__name__)
 
-DEFAULT_BAND_HZ = (20.0, 1000.0)
 MIN_BAND_LINES = 10
 #: The top fraction of the band (in lines) where |H1| is compared with the mass line 1/m.
 MASS_LINE_TOP_FRACTION = 0.2
@@ -53,7 +52,9 @@ def parse_band(text: str | None, sample_rate_hz: float) -> tuple[float, float]:
     import math
 
     if text is None:
-        return DEFAULT_BAND_HZ[0], min(DEFAULT_BAND_HZ[1], 0.45 * sample_rate_hz)
+        from gasfilm.analysis.identification import default_fit_band_hz
+
+        return default_fit_band_hz(sample_rate_hz)
     parts = text.split(":")
     try:
         low, high = (float(part) for part in parts)

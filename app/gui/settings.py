@@ -13,7 +13,8 @@ from typing import Any, TypeVar
 
 from PySide6.QtCore import QSettings
 
-from gasfilm.analysis.capture import TriggerSettings
+from gasfilm.analysis.capture import TriggerSettings, check_record_length
+from gasfilm.analysis.settings import setting_label
 from gasfilm.analysis.spectra import WindowSettings
 from gasfilm.analysis.validation import ValidationSettings
 from gasfilm.drivers.errors import SettingError
@@ -108,6 +109,13 @@ class SetupState:
         config.channel_index(ChannelKind.FORCE)
         self.response_row(config)
         return config
+
+    def trigger_settings(self) -> TriggerSettings:
+        """The trigger of a live acquisition: refused, naming the Setup tab's field, where the command line's
+        ``acquire`` refuses it too (one rule: :func:`gasfilm.analysis.capture.check_record_length`)."""
+        trigger = settings_from_dict(TriggerSettings, self.trigger)
+        check_record_length(trigger.record_s, setting_label("trigger", "record_s"))
+        return trigger
 
     def response_row(self, config: DaqConfig) -> int:
         """Row of the FRF's response channel in ``config``'s read order."""

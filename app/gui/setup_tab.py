@@ -30,6 +30,7 @@ import gasfilm.drivers as drivers
 from gasfilm.analysis.capture import SLOPES, TriggerSettings
 from gasfilm.analysis.conditions import STANDARD_CONDITIONS, parse_condition_table
 from gasfilm.analysis.physics.spec import RigSpec
+from gasfilm.analysis.settings import SETTING_LABELS
 from gasfilm.analysis.spectra import WindowSettings
 from gasfilm.analysis.validation import ValidationSettings
 from gasfilm.app.gui.sensors import DEFAULT_SENSOR_LIBRARY, Sensor, load_sensor_library
@@ -96,7 +97,9 @@ class SetupTab(QWidget):
         self.live_view_s = QDoubleSpinBox()
         self.live_view_s.setRange(0.2, 10.0)
         self.live_view_s.setSuffix(" s")
-        self.trigger_form = DataclassForm(TriggerSettings, choices={"slope": SLOPES})
+        self.trigger_form = DataclassForm(
+            TriggerSettings, choices={"slope": SLOPES}, labels=SETTING_LABELS["trigger"]
+        )
         trigger_box = QGroupBox("Sampling and trigger")
         trigger_layout = QFormLayout(trigger_box)
         trigger_layout.addRow("Sample rate", self.rate_combo)
@@ -104,12 +107,14 @@ class SetupTab(QWidget):
         trigger_layout.addRow(self.trigger_form)
 
         self.window_form = DataclassForm(
-            WindowSettings, optional_defaults={"force_window_ms": 10.0, "exponential_end_fraction": 0.01}
+            WindowSettings,
+            optional_defaults={"force_window_ms": 10.0, "exponential_end_fraction": 0.01},
+            labels=SETTING_LABELS["window"],
         )
         window_box = QGroupBox("Windows")
         QVBoxLayout(window_box).addWidget(self.window_form)
 
-        self.validation_form = DataclassForm(ValidationSettings)
+        self.validation_form = DataclassForm(ValidationSettings, labels=SETTING_LABELS["validation"])
         self.auto_accept = QCheckBox("Accept hits that pass every check (double hit included) without asking")
         self.auto_reject = QCheckBox("Reject hits that fail a check without asking")
         self.min_coherence = QDoubleSpinBox()
@@ -292,7 +297,7 @@ class SetupTab(QWidget):
         state = self.state()
         try:
             state.daq_config()
-            settings_from_dict(TriggerSettings, state.trigger)
+            state.trigger_settings()
             settings_from_dict(WindowSettings, state.window)
             settings_from_dict(ValidationSettings, state.validation)
             if state.rig_spec_path:
