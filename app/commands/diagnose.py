@@ -59,10 +59,8 @@ def run(args: argparse.Namespace) -> int:
     from gasfilm.analysis.diagnosis import diagnose
     from gasfilm.analysis.diagnosis.plots import OUTPUT_FILES, write_outputs
     from gasfilm.analysis.diagnosis.report import report_text
-    from gasfilm.analysis.physics.spec import RigSpec
+    from gasfilm.analysis.physics.spec import MASS_RANGE_KG, RigSpec
     from gasfilm.analysis.session import Session
-
-    from gasfilm.analysis.physics.spec import MASS_RANGE_KG
 
     if args.mass is not None and not MASS_RANGE_KG[0] <= args.mass <= MASS_RANGE_KG[1]:
         raise SettingError(f"--mass {args.mass:g}: must be {MASS_RANGE_KG[0]:g} to {MASS_RANGE_KG[1]:g} kg")
@@ -76,6 +74,11 @@ def run(args: argparse.Namespace) -> int:
         def progress(message: str) -> None:
             print(f"  {message}", file=sys.stderr)
 
+        from gasfilm.analysis.conditions import format_conditions
+        from gasfilm.app.commands.common import source_conditions
+
+        conditions = source_conditions([args.source])
+        progress(f"{args.source}: conditions {format_conditions(conditions)}")
         diagnosis = diagnose(args.source, spec, args.mass, band, progress)
         write_outputs(diagnosis, args.out)
     except BaseException:
@@ -91,7 +94,8 @@ def run(args: argparse.Namespace) -> int:
         except GasfilmError as error:
             progress(f"diagnosis not stored in the session: {error}")
     if args.json:
-        print(json.dumps(diagnosis.to_dict(), indent=2))
+        print(json.dumps({**diagnosis.to_dict(), "conditions": conditions}, indent=2))
     else:
+        print(f"conditions: {format_conditions(conditions)}")
         print(report_text(diagnosis))
     return 0

@@ -12,7 +12,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from gasfilm.app.commands.common import check_output_file, check_output_suffix, load_frf_and_hits
+from gasfilm.app.commands.common import (check_output_file, check_output_suffix, load_frf_and_hits,
+                                         source_conditions)
 from gasfilm.drivers.errors import SettingError
 
 
@@ -37,6 +38,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from gasfilm.analysis.conditions import format_conditions
     from gasfilm.analysis.spectra import write_frf_csv
     from gasfilm.analysis.uff import export_frf_uff
 
@@ -48,11 +50,13 @@ def run(args: argparse.Namespace) -> int:
     with_hits = args.uff is not None and args.time_records is not False
     loaded = load_frf_and_hits(args.source, args.frf, with_hits=with_hits)
     frf = loaded.frf
+    conditions = source_conditions(args.source)
     if args.uff is not None:
         export_frf_uff(frf, args.uff, tuple(args.response_dof), tuple(args.reference_dof),
-                       description=f"gasfilm {args.source[0].name}", hits=loaded.hits)
+                       description=f"gasfilm {args.source[0].name}", hits=loaded.hits,
+                       conditions=format_conditions(conditions) if conditions else "")
     else:
-        write_frf_csv(frf, args.csv)
+        write_frf_csv(frf, args.csv, conditions)
     records = f", with the time records of {len(loaded.hits)} hits" if loaded.hits else ""
     if with_hits and not loaded.hits:
         records = ", no time records (the source holds none)"

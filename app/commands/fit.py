@@ -16,15 +16,13 @@ import sys
 from pathlib import Path
 from typing import Any, Callable
 
-from gasfilm.app.commands.common import (UNITS, accelerance_text, add_units_flag, check_output_folder, is_terminal,
-                                         load_frf_and_hits)
+from gasfilm.app.commands.common import (UNITS, accelerance_text, add_units_flag, check_output_folder,
+                                         is_terminal,
+                                         load_frf_and_hits, source_conditions)
 from gasfilm.drivers.errors import SettingError
 
 logger = logging.getLogger(__name__)
 
-DEFAULT_BAND_HZ = (20.0, 1000.0)
-#: The fit band ends at most at this fraction of the sample rate: the NI 9234's alias-free band.
-ALIAS_FREE_FRACTION = 0.45
 MIN_BAND_LINES = 10
 #: The top fraction of the band (in lines) where |H1| is compared with the mass line 1/m.
 MASS_LINE_TOP_FRACTION = 0.2
@@ -58,9 +56,12 @@ def parse_band(text: str | None, sample_rate_hz: float) -> tuple[float, float]:
     alias-free band), said in one warning when a given band reaches above it."""
     import math
 
+    from gasfilm.analysis.identification import default_fit_band_hz
+    from gasfilm.analysis.identification.fitter import ALIAS_FREE_FRACTION
+
     top_hz = ALIAS_FREE_FRACTION * sample_rate_hz
     if text is None:
-        return DEFAULT_BAND_HZ[0], min(DEFAULT_BAND_HZ[1], top_hz)
+        return default_fit_band_hz(sample_rate_hz)
     parts = text.split(":")
     try:
         low, high = (float(part) for part in parts)
@@ -69,8 +70,8 @@ def parse_band(text: str | None, sample_rate_hz: float) -> tuple[float, float]:
     if not (math.isfinite(low) and math.isfinite(high) and 0 <= low < high):
         raise SettingError(f"--band '{text}': needs 0 ≤ LO < HI")
     if low >= top_hz:
-        raise SettingError(f"--band '{text}': starts above {ALIAS_FREE_FRACTION:g}·fs = {top_hz:g} Hz, the top of the "
-                           f"alias-free band")
+        raise SettingError(f"--band '{text}': starts above {ALIAS_FREE_FRACTION:g}·fs = {top_hz:g} Hz, the top of "
+                           f"the alias-free band")
     if high > top_hz:
         logger.warning("--band %s: the top is capped at %g·fs = %g Hz (the alias-free band)", text,
                        ALIAS_FREE_FRACTION, top_hz)
@@ -180,8 +181,11 @@ def run(args: argparse.Namespace) -> int:
     stem = args.source[0].stem
     figure_paths = check_output_folder(out, "--out" if args.out is not None else "",
                                        (f"{stem}-figure18.png", f"{stem}-figure19.png"), args.overwrite)
+    from gasfilm.analysis.conditions import format_conditions
+
     loaded = load_frf_and_hits(args.source, args.frf)
     frf, what, rig_spec_toml = loaded.frf, loaded.what, loaded.rig_spec_toml
+    conditions = source_conditions(args.source)
     low, high = parse_band(args.band, frf.sample_rate_hz)
     keep = (frf.freq_hz >= max(low, 1e-9)) & (frf.freq_hz <= high)
     if np.count_nonzero(keep) < MIN_BAND_LINES:
@@ -217,6 +221,7 @@ def run(args: argparse.Namespace) -> int:
         print(json.dumps({
             "source": [str(path) for path in args.source],
             "frf": what,
+            "conditions": conditions,
             "band_hz": [float(freq_hz[0]), float(freq_hz[-1])],
             "mass_kg": mass_kg,
             "method": args.method,
@@ -229,6 +234,7 @@ def run(args: argparse.Namespace) -> int:
         return 0
     print(f"{args.source[0]}: {what}, {len(freq_hz)} lines, {freq_hz[0]:g}–{freq_hz[-1]:g} Hz, m = {mass_kg:g} kg, "
           f"method {args.method}")
+    print(f"conditions: {format_conditions(conditions)}")
     table_units = "g/N" if args.units == "g" else "SI"
     print(f"\nTable 2 ({UNITS[args.units]}; --units {'si' if args.units == 'g' else 'g'} for "
           f"{UNITS['si' if args.units == 'g' else 'g']})\n" + format_table2(rows, table_units))
