@@ -125,37 +125,10 @@ def decode_settings(stored: Mapping[str, Any] | None, source: str = "settings") 
     )
 
 
-#: Each stored setting in words with its unit ("1" for a ratio), for reports and forms: (table, field) → (label,
-#: unit). A ratio is shown as a percentage where that reads better (unit "%").
-SETTING_LABELS: dict[tuple[str, str], tuple[str, str]] = {
-    ("trigger", "level_n"): ("trigger level on the force", "N"),
-    ("trigger", "slope"): ("trigger slope", ""),
-    ("trigger", "hysteresis_n"): ("trigger hysteresis", "N"),
-    ("trigger", "pretrigger_s"): ("pre-trigger length", "s"),
-    ("trigger", "record_s"): ("record length per hit", "s"),
-    ("trigger", "holdoff_s"): ("hold-off after a record", "s"),
-    ("window", "force_window_ms"): ("force window after the peak", "ms"),
-    ("window", "force_taper_ms"): ("force window taper", "ms"),
-    ("window", "exponential_end_fraction"): ("exponential window, value at the record end", "%"),
-    ("validation", "double_hit_fraction"): ("double hit: second impact above, of the first peak", "%"),
-    ("validation", "min_force_snr"): ("lowest peak force over force noise", "1"),
-    ("validation", "decay_fraction"): ("largest response level left at the record end, of its start", "%"),
-    ("validation", "tail_fraction"): ("record end judged for decay", "%"),
-    ("validation", "decay_fit_fraction"): ("record end fitted for the decay rate", "%"),
-    ("validation", "pretrigger_quiet_fraction"): ("largest response before the trigger, of its peak", "%"),
-    ("validation", "full_scale_fraction"): ("overload at, of full scale", "%"),
-    ("validation", "clip_run_samples"): ("clipping: flat samples at the extreme", "samples"),
-    ("validation", "noise_margin"): ("tail counts as noise below, × pre-trigger noise", "1"),
-}
-
-
 def describe_setting(table: str, name: str, value: Any) -> tuple[str, str]:
-    """A stored setting as (label in words, value with its unit); unknown fields keep their name."""
-    label, unit = SETTING_LABELS.get((table, name), (name.replace("_", " "), ""))
+    """A stored setting as (its label in words with the unit, :data:`SETTING_LABELS`; its value, "off" for None)."""
     if value is None:
-        return label, "off"
+        return setting_label(table, name), "off"
     if isinstance(value, bool) or not isinstance(value, (int, float)):
-        return label, str(value)
-    if unit == "%":
-        return label, f"{100 * value:g} %"
-    return label, f"{value:g} {unit}".rstrip() if unit != "1" else f"{value:g}"
+        return setting_label(table, name), str(value)
+    return setting_label(table, name), f"{value:g}"

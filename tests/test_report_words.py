@@ -31,9 +31,9 @@ def test_the_setup_names_the_device_and_the_settings_in_words_with_units(demo_se
     assert "Device sim " in text and "not recorded" not in text  # before: "Device not recorded" for a demo
     for internal in ("level_n", "exponential_end_fraction", "double_hit_fraction", "pretrigger_s"):
         assert internal not in text
-    assert "trigger level on the force 20 N" in text and "record length per hit 0.5 s" in text
-    assert "exponential window, value at the record end off" in text
-    assert "double hit: second impact above, of the first peak 10 %" in text
+    assert "Trigger level (N) 20" in text and "Record length (s) 0.5" in text
+    assert "Exponential window, value at record end (fraction) off" in text
+    assert "Double hit above (fraction of 1st peak) 0.1" in text
 
 
 def test_parameters_show_a_reason_for_a_missing_sigma_and_flags_once_per_model(demo_session, tmp_path):
