@@ -299,6 +299,7 @@ def _frf_dataset(
     description: str,
     ordinate: tuple[int, str],
     denominator: tuple[int, str],
+    note: str = "",
 ) -> dict[str, Any]:
     increment_hz = float(freq_hz[1] - freq_hz[0]) if len(freq_hz) > 1 else 0.0
     even = bool(len(freq_hz) > 1 and np.allclose(np.diff(freq_hz), increment_hz, rtol=1e-9, atol=0.0))
@@ -306,6 +307,7 @@ def _frf_dataset(
         binary=0,
         id1=description[:80] or "NONE",
         id2="gasfilm",
+        id4=note[:80] or "NONE",
         func_type=func_type,
         rsp_node=int(response_dof[0]),
         rsp_dir=int(response_dof[1]),
@@ -329,8 +331,10 @@ def export_frf_uff(
     response_dof: Dof = (1, 3),
     reference_dof: Dof = (1, 3),
     description: str = "gasfilm averaged FRF",
+    conditions: str = "",
 ) -> Path:
-    """Write the averaged H1 (accelerance, m/s²/N) and the coherence of an ``FrfResult`` as UFF 58."""
+    """Write the averaged H1 (accelerance, m/s²/N) and the coherence of an ``FrfResult`` as UFF 58; ``conditions``
+    (the session's operating conditions as text) goes into ID line 4 of each dataset (80 characters)."""
     path = Path(path)
     if not path.parent.is_dir():
         raise UffError(f"{path}: the folder {path.parent} does not exist")
@@ -364,6 +368,7 @@ def export_frf_uff(
             f"{description} H1 accelerance",
             (DATA_TYPE_ACCELERATION, "m/s^2"),
             (DATA_TYPE_EXCITATION_FORCE, "N"),
+            conditions,
         ),
         _frf_dataset(
             FUNCTION_COHERENCE,
@@ -374,6 +379,7 @@ def export_frf_uff(
             f"{description} coherence",
             (0, "NONE"),
             (0, "NONE"),
+            conditions,
         ),
     ]
     try:

@@ -22,9 +22,6 @@ from gasfilm.drivers.errors import DeviceError, SettingError
 logger = logging.getLogger(__name__)
 
 SIMULATED_DEVICE_NAME = "sim"  # gasfilm.drivers.SIMULATED_DEVICE_NAME, without importing the drivers to register
-#: Longest record accepted per hit in s: a hammer test's response has decayed long before (a 100 s record
-#: at 51.2 kS/s is 80 MB per hit, and the session fills the disk with rejected hits).
-MAX_RECORD_S = 20.0
 #: Longest wait for a chunk before the run is declared stuck (the reader has its own device timeout).
 CHUNK_WAIT_S = 30.0
 
@@ -42,6 +39,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     limit.add_argument("--hits", type=int, help="stop after this many accepted hits")
     limit.add_argument("--seconds", type=float, help="stop after this many seconds of signal")
     parser.add_argument("--rig", type=Path, help="rig spec TOML (drives the simulator; stored with the session)")
+    parser.add_argument("--condition", action="append", default=[], metavar="KEY=VALUE",
+                        help="operating condition of the session, the unit at the end of the key (repeatable): "
+                        "supply_pressure_mpa=0.4, gap_um=10, load_n=250, temperature_c=21, or a label such as "
+                        "bearing=B-17; a rig spec with film laws is played at these conditions")
     parser.add_argument("--rate", type=float, default=12800.0, help="sample rate in S/s (51200/n; default 12800)")
     parser.add_argument("--record-s", type=float, default=1.0, help="record length per hit in s (default 1.0)")
     parser.add_argument("--trigger-n", type=float, default=20.0, help="trigger level on the force in N (default 20)")
@@ -81,7 +82,7 @@ def _open_device(args: argparse.Namespace, rig_spec: Any) -> Any:
 def _settings(args: argparse.Namespace) -> dict[str, Any]:
     """The trigger, validation and window settings from the flags, refused up front (naming the flag) when they
     cannot produce a valid hit."""
-    from gasfilm.analysis.capture import TriggerSettings
+    from gasfilm.analysis.capture import TriggerSettings, check_record_length
     from gasfilm.analysis.spectra import WindowSettings
     from gasfilm.analysis.validation import ValidationSettings
 
@@ -91,9 +92,7 @@ def _settings(args: argparse.Namespace) -> dict[str, Any]:
     positive_flag("--rate", args.rate, "S/s")
     positive_flag("--trigger-n", args.trigger_n, "N")
     positive_flag("--record-s", args.record_s, "s")
-    if args.record_s > MAX_RECORD_S:
-        raise SettingError(f"--record-s: {args.record_s} s is longer than a hammer test needs "
-                           f"(at most {MAX_RECORD_S:g} s per hit)")
+    check_record_length(args.record_s, "--record-s")
     if args.hit_interval is not None:
         low, high = args.hit_interval
         if not 0 < low <= high:
@@ -166,10 +165,38 @@ def _open_session(args: argparse.Namespace, config: Any, rate_hz: float, device_
                 f"{args.out}: holds records of {stored_samples} samples; --record-s {args.record_s} gives "
                 f"{record_samples}"
             )
-        session.update_settings(settings)
+        _check_same_conditions(args.out, session, settings["conditions"])
+        session.update_settings({key: value for key, value in settings.items() if key != "conditions"})
         return session
     return Session.create(args.out, config, rig_toml, settings, actual_sample_rate_hz=rate_hz,
                           device_name=device_name, record_samples=settings["trigger"].record_samples(rate_hz))
+
+
+def _check_same_conditions(path: Path, session: Any, conditions: dict) -> None:
+    """A session is one operating point: hits appended with other ``--condition`` values are refused."""
+    from gasfilm.analysis.conditions import decode_conditions, format_conditions
+
+    stored = decode_conditions(session.settings, str(path))
+    if conditions and conditions != stored:
+        session.close()
+        raise SettingError(f"--condition: {path} was recorded at {format_conditions(stored)}; a session holds one "
+                           f"operating point (record {format_conditions(conditions)} into a new session)")
+
+
+def rig_at_conditions(rig_spec: Any, conditions: dict, simulated: bool) -> tuple[Any, dict]:
+    """The rig spec at the session's operating point and the conditions to store: on the simulator, a condition the
+    spec's film laws need and ``--condition`` does not give is played (and stored) at the spec's reference value."""
+    from gasfilm.analysis.physics.laws import played_at
+
+    if rig_spec is None or not rig_spec.film_laws:
+        return rig_spec, conditions
+    if not simulated:
+        return rig_spec.at_conditions(conditions), conditions
+    played, conditions, missing = played_at(rig_spec, conditions)
+    if missing:
+        logger.warning("the rig spec's film laws are played at its reference %s (not given by --condition)",
+                       ", ".join(f"{key} = {value:g}" for key, value in missing.items()))
+    return played, conditions
 
 
 class _Progress:
@@ -271,7 +298,10 @@ def _record_until_stopped(args: argparse.Namespace) -> int:
     from gasfilm.analysis.spectra import session_frf
     from gasfilm.drivers.interface import ChannelKind, default_hammer_and_accelerometer
 
+    from gasfilm.analysis.conditions import format_conditions, parse_condition_flags
+
     settings = _settings(args)
+    conditions = parse_condition_flags(args.condition)
     trigger, validation, window = settings["trigger"], settings["validation"], settings["window"]
     if not args.append:
         if args.out.exists() or args.out.is_symlink():
@@ -282,6 +312,8 @@ def _record_until_stopped(args: argparse.Namespace) -> int:
         rig_spec = RigSpec.load(args.rig)
     elif args.device == SIMULATED_DEVICE_NAME:
         rig_spec = RigSpec.nominal("FOMGF")  # the simulated rig's default
+    rig_spec, settings["conditions"] = rig_at_conditions(rig_spec, conditions,
+                                                         args.device == SIMULATED_DEVICE_NAME)
     config = default_hammer_and_accelerometer(args.rate)
     session = None
     recorder = None
@@ -309,7 +341,8 @@ def _record_until_stopped(args: argparse.Namespace) -> int:
             max_consecutive_rejections=args.max_rejected or DEFAULT_MAX_CONSECUTIVE_REJECTIONS,
         )
         accepted_before = recorder.accepted_count
-        print(f"recording into {args.out} from {device.name} at {rate_hz:g} S/s", flush=True)
+        print(f"recording into {args.out} from {device.name} at {rate_hz:g} S/s; conditions: "
+              f"{format_conditions(settings['conditions'])}", flush=True)
         logger.info("recording into %s from %s at %g S/s, settings %s", args.out, device.name, rate_hz, settings)
         synchronous = args.device == SIMULATED_DEVICE_NAME and args.pacing == "fast"
         with recorder.stop_on_signals(), device, contextlib.closing(_stream(device, synchronous)) as chunks:
