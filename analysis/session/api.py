@@ -529,7 +529,9 @@ class Session:
                     write_session_file(file, content, salvage, _rebuilt_status(salvage, closed, content))
             except _WRITE_ERRORS as error:
                 file.close()
-                raise SessionError(f"{path}: the session cannot be rebuilt from its journal ({one_line(error)})") from None
+                raise SessionError(
+                    f"{path}: the session cannot be rebuilt from its journal ({one_line(error)})"
+                ) from None
         finally:
             if salvage is not None:
                 salvage.close()
