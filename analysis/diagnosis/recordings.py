@@ -41,9 +41,22 @@ class Recordings:
     quality: list[QualityNote] = field(default_factory=list)
 
 
-def load_recordings(path: str | Path) -> Recordings:
-    """Accepted hits of a gasfilm session (HDF5) or every hit of a UFF 58 file with time records."""
-    path = Path(path)
+def load_recordings(path: str | Path | list[Path]) -> Recordings:
+    """Accepted hits of a gasfilm session (HDF5), every hit of a UFF 58 file with time records, or .npy hit records
+    (one hit per file, rows time/force/response; a list of paths)."""
+    paths = [Path(p) for p in path] if isinstance(path, (list, tuple)) else [Path(path)]
+    if paths[0].suffix.lower() == ".npy":
+        from gasfilm.analysis.sources import load_source
+
+        source = load_source(paths)
+        records = np.stack([hit.data[[hit.force_channel, hit.response_channel]] for hit in source.hits])
+        times = np.array([hit.start_time_s for hit in source.hits], float)
+        return Recordings(records, source.sample_rate_hz, times, None, None, None,
+                          str(paths[0]) if len(paths) == 1 else f"{len(paths)} .npy records in {paths[0].parent}")
+    if len(paths) > 1:
+        raise SettingError(f"{paths[1]}: several input files are read only as .npy records; give one session or UFF "
+                           f"file")
+    path = paths[0]
     if path.suffix.lower() in (".uff", ".unv"):
         from gasfilm.analysis.uff import read_uff_time_records
 
@@ -193,7 +206,7 @@ def starting_spec(
 
 
 def diagnose(
-    source: str | Path | Recordings,
+    source: str | Path | list[Path] | Recordings,
     rig_spec: RigSpec | None = None,
     mass_kg: float | None = None,
     band_hz: tuple[float, float] | None = None,
