@@ -5,10 +5,13 @@ still normal input. A full diagnosis of it is in benchmarks/real_recording.py (m
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import numpy as np
 import pytest
+
+from gasfilm.app.cli import main as gasfilm
 
 from gasfilm.analysis.diagnosis.measurement import hit_spectra
 from gasfilm.analysis.diagnosis.recordings import Recordings, read_start
@@ -59,3 +62,12 @@ def test_real_recording_start_reads_its_first_mode_and_mass_line(measured):
     resonance_hz = np.sqrt(spec.film_parameters["k"] / (spec.mass_kg + sum(e.mass_kg for e in spec.effects)))
     assert abs(resonance_hz / (2 * np.pi) - 808.0) < 10.0
     assert "multi-mode structure" in text and spec.effects
+
+
+def test_fit_says_which_resonances_no_film_model_explains(tmp_path, capsys):
+    files = [str(FIXTURE / f"measurements_{i}.npy") for i in range(1, 4)]
+    assert gasfilm(["fit", *files, "--models", "SD", "--mass", "0.8", "--band", "20:3000", "--json",
+                    "--out", str(tmp_path)]) == 0
+    result = json.loads(capsys.readouterr().out)
+    assert any(abs(f - 2640.0) < 10.0 for f in result["not_explained_resonances_hz"])
+    assert all(20.0 <= f <= 3000.0 for f in result["not_explained_resonances_hz"])

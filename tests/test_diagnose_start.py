@@ -85,3 +85,11 @@ def test_replay_of_one_hit_reports_the_resonance_not_a_hammer_null(session, tmp_
     assert gasfilm(["replay", str(session), "--json", "--out", str(tmp_path / "r.h5")]) == 0
     summary = json.loads(capsys.readouterr().out)
     assert abs(summary["peak_frequency_hz"] - 199.0) < 3.0
+
+
+def test_fit_of_the_default_session_stays_in_the_hammers_band_and_claims_nothing_unexplained(session, tmp_path,
+                                                                                             capsys):
+    capsys.readouterr()
+    assert gasfilm(["fit", str(session), "--models", "SD", "--json", "--out", str(tmp_path)]) == 0
+    result = json.loads(capsys.readouterr().out)
+    assert result["not_explained_resonances_hz"] == []
