@@ -20,6 +20,7 @@ from typing import Callable
 
 import numpy as np
 import scipy.fft
+import scipy.signal
 
 from gasfilm.analysis.physics.response import HitConditions
 from gasfilm.analysis.spectra import WindowSettings, exponential_window, force_window
@@ -350,7 +351,6 @@ def hit_spectra(
     force_w = force_window(records[:, 0], sample_rate_hz, window) * exponential
     force_spectra = np.fft.rfft(records[:, 0] * force_w, axis=1)
     response_spectra = np.fft.rfft(records[:, 1] * exponential, axis=1)
-    sum_w2_response = np.sum(exponential**2, axis=1)
     full_freq_hz = np.fft.rfftfreq(n_samples, 1.0 / sample_rate_hz)
 
     floor = 1e-30
@@ -369,17 +369,38 @@ def hit_spectra(
         variance_full = output_noise[np.newaxis, :] / force_power
     else:
         quiet = records[:, :, quiet_slice]
-        noise_force = _noise_spectrum(quiet[:, 0], full_freq_hz, sample_rate_hz)
-        noise_response = _noise_spectrum(quiet[:, 1], full_freq_hz, sample_rate_hz)
+        steps = [_quantisation_step(records[:, channel]) for channel in (0, 1)]
+        noise_force = _noise_spectrum(quiet[:, 0], full_freq_hz, sample_rate_hz, steps[0])
+        noise_response = _noise_spectrum(quiet[:, 1], full_freq_hz, sample_rate_hz, steps[1])
+        coarse = [name for name, step, channel in zip(("force", "response"), steps, (0, 1))
+                  if step > 0.5 * np.median(np.std(quiet[:, channel], axis=1))]
+        if coarse:
+            quality.append(QualityNote(
+                "quantisation",
+                f"the {' and '.join(coarse)} records are coarsely quantised (steps of "
+                + ", ".join(f"{steps[i]:.3g} {('N', 'm/s²')[i]}" for i in (0, 1) if ("force", "response")[i] in coarse)
+                + "): the quantisation noise (step²/12 per sample) is part of the noise model — a property of the "
+                  "recording, not physics"))
         dof = float(2 * len(used) * max(quiet.shape[-1] // 2, 1))
         where = ("the quiet record tails (last 25 %)" if noise_source == "record tails"
                  else f"the quiet pre-trigger ({quiet.shape[-1]} samples per hit)")
         noise = NoiseSource(noise_source, dof, f"measured on {where} of {len(used)} hits, both channels")
         # the replayed response carries the recorded force's noise through the whole record: same window as the
         # response
+        vibration = _narrowband_lines_hz(quiet[:, 1], sample_rate_hz, mains_harmonics)
+        if vibration:
+            quality.append(QualityNote(
+                "floor vibration",
+                f"narrowband vibration near {', '.join(f'{f:.0f}' for f in vibration)} Hz in the quiet records, "
+                f"uncorrelated with the hammer: its leakage through the windows is part of the noise model — not "
+                f"physics", band_hz=(min(vibration), max(vibration))))
+        # the replayed response carries the recorded force's noise through the whole record: same window as the
+        # response; a line in the noise leaks through that window beyond its own frequency
+        window_row = exponential[0]
         variance_full = (
-            (noise_response[np.newaxis, :] + np.abs(h1_full[np.newaxis, :]) ** 2 * noise_force[np.newaxis, :])
-            * sum_w2_response[:, np.newaxis] / force_power
+            (_through_window(noise_response, window_row)[np.newaxis, :]
+             + np.abs(h1_full[np.newaxis, :]) ** 2 * _through_window(noise_force, window_row)[np.newaxis, :])
+            / force_power
         )
     variance_full = np.maximum(variance_full, (1e-7 * np.abs(h1_full)) ** 2 + 1e-30)
 
@@ -522,7 +543,47 @@ def _exponential_prewindow_1_s(
     return decay_1_s
 
 
-def _noise_spectrum(segments: np.ndarray, freq_hz: np.ndarray, sample_rate_hz: float) -> np.ndarray:
+def _through_window(power_per_sample: np.ndarray, window: np.ndarray) -> np.ndarray:
+    """Variance of a windowed record's spectrum at each rfft line for noise of ``power_per_sample`` (on the rfft
+    grid of the record): the noise spectrum convolved with the window's |W|² (white noise gives ``P·Σw²``; a
+    narrowband disturbance also leaks where the window's spectrum carries it)."""
+    n_samples = window.size
+    two_sided = np.concatenate((power_per_sample, power_per_sample[1 : (n_samples + 1) // 2][::-1]))
+    kernel = np.abs(np.fft.fft(window)) ** 2
+    convolved = np.fft.ifft(np.fft.fft(two_sided) * np.fft.fft(kernel)).real / n_samples
+    return np.maximum(convolved[: power_per_sample.size], 0.0)
+
+
+def _narrowband_lines_hz(quiet: np.ndarray, sample_rate_hz: float, mains_hz: list[float]) -> list[float]:
+    """Frequencies of narrowband lines in quiet records (hits, samples) standing 30× above the noise level
+    (mains lines already removed are not counted), against the local median level."""
+    length = quiet.shape[1]
+    if length < 64:
+        return []
+    hann = np.hanning(length)
+    centred = quiet - quiet.mean(axis=1, keepdims=True)
+    periodogram = np.mean(np.abs(np.fft.rfft(centred * hann, axis=1)) ** 2, axis=0)
+    freq_hz = np.fft.rfftfreq(length, 1.0 / sample_rate_hz)
+    floor = scipy.signal.medfilt(periodogram, 41)  # the local noise level around each line
+    if not np.all(floor[1:] > 0):
+        return []
+    resolution_hz = 4 * sample_rate_hz / length
+    peaks, _ = scipy.signal.find_peaks(periodogram / np.maximum(floor, 1e-300), height=30.0)
+    return [float(freq_hz[p]) for p in peaks if freq_hz[p] > 0
+            and all(abs(freq_hz[p] - m) > resolution_hz for m in mains_hz)]
+
+
+def _quantisation_step(records: np.ndarray) -> float:
+    """The smallest step between the distinct values of a channel's records (its quantisation step when it was
+    stored quantised; negligible for floating-point data)."""
+    steps = np.diff(np.unique(records))
+    steps = steps[steps > 0]
+    return float(steps.min()) if steps.size else 0.0
+
+
+def _noise_spectrum(
+    segments: np.ndarray, freq_hz: np.ndarray, sample_rate_hz: float, step: float = 0.0
+) -> np.ndarray:
     """Noise power per sample at each frequency (white noise of variance σ² gives σ²) from quiet segments
     (hits, samples): Hann-windowed periodograms averaged over hits, lightly smoothed, interpolated onto ``freq_hz``."""
     length = segments.shape[1]
@@ -536,11 +597,12 @@ def _noise_spectrum(segments: np.ndarray, freq_hz: np.ndarray, sample_rate_hz: f
         smooth = np.convolve(periodogram, np.ones(3) / 3, mode="same")
         smooth[0], smooth[-1] = periodogram[0], periodogram[-1]
         periodogram = smooth
-    # a quiet signal that quantises to a few levels still carries at least the quantisation noise LSB²/12
+    # a quiet signal that quantises to a few levels (or to one) still carries at least the quantisation noise
+    # step²/12 of the whole record
     steps = np.diff(np.unique(segments))
     steps = steps[steps > 0]
-    if steps.size:
-        periodogram = np.maximum(periodogram, float(steps.min()) ** 2 / 12.0)
+    step = max(step, float(steps.min()) if steps.size else 0.0)
+    periodogram = np.maximum(periodogram, step**2 / 12.0)
     return np.interp(freq_hz, coarse_freq_hz, periodogram)
 
 
