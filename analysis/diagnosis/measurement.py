@@ -629,7 +629,7 @@ def _remove_mains(
         count = harmonics.size
         power = coefficients[:count] ** 2 + coefficients[count : 2 * count] ** 2
         noise_power = 4.0 * residual_variance / tail_time_s.size  # E(a² + b²) for noise alone
-        ratio = np.mean(power / noise_power[np.newaxis, :], axis=1)
+        ratio = np.mean(power / np.maximum(noise_power, 1e-300)[np.newaxis, :], axis=1)  # all-zero tails: 0
         found = [float(h) for h, r in zip(harmonics, ratio) if r > 25.0]
         if found and (best is None or len(found) > len(best[1])):
             best = (base, found, coefficients)
