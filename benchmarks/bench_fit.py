@@ -1,9 +1,12 @@
 """Benchmark the fitters: all nine paper models on one 1000-point FRF, default fitter vs GA-PSO vs
-``scipy.optimize.differential_evolution``; prints wall time, evaluations and final RMS (eq. 33) of each.
+``scipy.optimize.differential_evolution``; prints wall time, evaluations and final RMS (eq. 33) of each, and the
+evaluations GA-PSO needed to come within 1 % of the best RMS of the three.
 
 The FRF: the paper's FOMGF film (Table 1, m = 25.05 kg) on the simulated rig and NI 9234 (sensor and module noise),
-4 hammer hits of 2 s at 2560 S/s, H1 over 50–549.5 Hz (1000 lines). Goals: default fitter ≤ 3 s for all nine
-together, RMS within 0.1 % of the best of the three, ≥ 10× fewer evaluations than GA-PSO.
+4 hammer hits of 2 s at 2560 S/s, H1 over 50–549.5 Hz (1000 lines). Goals (issue 18): default fitter ≥ 20× faster
+than DE with its RMS within 0.1 % of the best of the three; GA-PSO within 1 % of the best on all nine. The paper
+gives no population sizes for its GA-PSO, only its convergence rule (best RMS unchanged for 50 iterations), which
+``GapsoSettings`` follows.
 
     .venv/bin/python benchmarks/bench_fit.py [--seed N] [--models SD,FOMGF,...]
 """
@@ -17,7 +20,7 @@ import numpy as np
 from scipy.optimize import differential_evolution
 
 from gasfilm.analysis.identification import fit_model
-from gasfilm.analysis.identification.gapso import UnitObjective
+from gasfilm.analysis.identification.gapso import UnitObjective, gapso_search
 from gasfilm.analysis.identification.problem import Problem
 from gasfilm.analysis.physics.elements import PAPER_MASS_KG, PAPER_MODEL_ORDER, PAPER_MODELS
 from gasfilm.analysis.spectra import compute_frf
@@ -47,7 +50,7 @@ def fit_de(name: str, freq_hz: np.ndarray, h: np.ndarray, seed: int) -> tuple[fl
     started = time.perf_counter()
     model = PAPER_MODELS[name]
     problem = Problem(model, freq_hz, h, PAPER_MASS_KG, 0.0, False, None, None)
-    objective = UnitObjective(problem, PAPER_MASS_KG, False)
+    objective = UnitObjective(problem)
     result = differential_evolution(
         lambda u: objective(np.asarray(u).T),
         [(0.0, 1.0)] * objective.dimension,
@@ -58,10 +61,25 @@ def fit_de(name: str, freq_hz: np.ndarray, h: np.ndarray, seed: int) -> tuple[fl
         tol=1e-6,
         polish=True,
     )
-    params, _ = objective.to_params(result.x[np.newaxis, :])
-    residual = problem.acc_complex_residual(problem.coords.from_params(params[0], PAPER_MASS_KG))
+    residual = problem.acc_complex_residual(objective.to_coordinates(result.x))
     rms = float(np.sqrt(np.mean(np.abs(residual) ** 2)))
     return time.perf_counter() - started, problem.evaluations, rms
+
+
+def gapso_trace(name: str, freq_hz: np.ndarray, h: np.ndarray, seed: int) -> list[tuple[int, float]]:
+    """(evaluations so far, best RMS so far) after every population GA-PSO evaluates, as ``fit_model`` runs it."""
+    problem = Problem(PAPER_MODELS[name], freq_hz, h, PAPER_MASS_KG, 0.0, False, None, None)
+    objective = UnitObjective(problem)
+    trace: list[tuple[int, float]] = []
+
+    def traced(u: np.ndarray) -> np.ndarray:
+        values = objective(u)
+        best = min(float(np.min(values)), trace[-1][1] if trace else np.inf)
+        trace.append((problem.evaluations, best))
+        return values
+
+    gapso_search(traced, objective.dimension, seed, repair=objective.repair)
+    return trace
 
 
 def main() -> None:
@@ -74,9 +92,10 @@ def main() -> None:
     peak_g_per_n = np.max(np.abs(h)) / STANDARD_GRAVITY_M_S2
     print(f"FRF: {len(freq_hz)} lines, {freq_hz[0]:g}–{freq_hz[-1]:g} Hz, peak {peak_g_per_n:.4f} g/N")
     header = f"{'model':<8}" + "".join(f"{m:>36}" for m in ("default: s / evals / RMS g/N", "GA-PSO", "DE"))
+    header += f"{'GA-PSO 1 %':>12}"
     print(header)
     totals = {"default": [0.0, 0], "gapso": [0.0, 0], "de": [0.0, 0]}
-    worst_gap = 0.0
+    worst_gap = gapso_gap = 0.0
     for name in names:
         row = {}
         for method in ("default", "gapso"):
@@ -88,13 +107,19 @@ def main() -> None:
             totals[method][1] += evaluations
         best = min(r[2] for r in row.values())
         worst_gap = max(worst_gap, row["default"][2] / best - 1.0)
+        gapso_gap = max(gapso_gap, row["gapso"][2] / best - 1.0)
+        reached = next((e for e, rms in gapso_trace(name, freq_hz, h, args.seed) if rms <= 1.01 * best), None)
         cells = (f"{w:>10.2f} {e:>10d} {r / STANDARD_GRAVITY_M_S2:>14.6e}" for w, e, r in row.values())
-        print(f"{name:<8}" + "".join(cells))
+        print(f"{name:<8}" + "".join(cells) + f"{reached if reached is not None else 'never':>12}")
     print(f"{'total':<8}" + "".join(f"{w:>10.2f} {e:>10d} {'':>14}" for w, e in totals.values()))
     print(
-        f"default: {totals['default'][0]:.2f} s for all (goal ≤ 3 s); RMS at most {100 * worst_gap:.3f} % above the "
-        f"best of the three (goal ≤ 0.1 %); {totals['gapso'][1] / totals['default'][1]:.1f}× fewer evaluations than "
-        f"GA-PSO (goal ≥ 10×); DE used {totals['de'][1]} evaluations"
+        f"default: {totals['default'][0]:.2f} s for all, {totals['de'][0] / totals['default'][0]:.1f}× faster than DE "
+        f"(goal ≥ 20×); RMS at most {100 * worst_gap:.3f} % above the best of the three (goal ≤ 0.1 %); "
+        f"{totals['gapso'][1] / totals['default'][1]:.1f}× fewer evaluations than GA-PSO"
+    )
+    print(
+        f"GA-PSO: RMS at most {100 * gapso_gap:.3f} % above the best of the three (goal ≤ 1 %); 'GA-PSO 1 %' is the "
+        f"evaluations it needed to come within 1 % of that best"
     )
 
 

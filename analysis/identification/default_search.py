@@ -48,7 +48,7 @@ def _subsample(n: int, count: int) -> np.ndarray:
     return np.arange(n) if n <= count else np.unique(np.linspace(0, n - 1, count).round().astype(int))
 
 
-class _Projection:
+class Projection:
     """Variable projection of the log-stiffness problem onto the branch shapes.
 
     The top of a network is a parallel (``Z = Σ c_b φ_b``) or series (``1/Z = Σ φ_b⁻¹ / c_b``) combination of
@@ -137,6 +137,15 @@ class _Projection:
     def residual(self, psi: np.ndarray) -> np.ndarray:
         return self.project(psi)[1]
 
+    def shape_of(self, theta: np.ndarray) -> np.ndarray:
+        """Shapes (..., free) of coordinates (..., size): the inverse of :meth:`project` for its own output."""
+        psi = np.array(theta[..., self.free], dtype=float)
+        position = {int(index): k for k, index in enumerate(self.free)}
+        for anchor, members in zip(self.anchors, self.members):
+            for member in members:
+                psi[..., position[member]] -= theta[..., anchor]
+        return psi
+
     def split_starts(self, psi: np.ndarray) -> list[np.ndarray]:
         """Starts that copy one branch's shape onto another branch of the same structure, orders pulled apart.
 
@@ -222,7 +231,7 @@ def _levenberg_marquardt(
 
 
 def _projected_searches(
-    projection: _Projection, searches: int, rng: np.random.Generator
+    projection: Projection, searches: int, rng: np.random.Generator
 ) -> list[tuple[float, np.ndarray, np.ndarray]]:
     """Local searches over the branch shapes from the best-scored distinct Latin-hypercube shapes, then from
     split branches; (log cost, coordinates, shape) of each, stopping early on an exact fit."""
@@ -248,7 +257,16 @@ def _projected_searches(
         local_search(np.zeros(0))
         return found
     unit = qmc.LatinHypercube(d=projection.size, seed=rng).random(_SAMPLES_PER_SHAPE * projection.size)
-    shapes = projection.start_lower + unit * (projection.start_upper - projection.start_lower)
+    # Each sample also with one order at 0: a spring-pot of order 0 is a spring, and a network whose best fit
+    # degenerates that way lies on the edge of the box, where a search started inside rarely ends.
+    span = projection.start_upper - projection.start_lower
+    edges = [unit]
+    for i in np.flatnonzero(problem.coords.is_order[projection.free]):
+        edge = unit.copy()
+        edge[:, i] = (projection.lower[i] - projection.start_lower[i]) / span[i]
+        edges.append(edge)
+    unit = np.vstack(edges)
+    shapes = projection.start_lower + unit * span
     thetas, residuals = projection.project(shapes)
     scores = np.mean(residuals**2, axis=-1)
     scores = np.where(np.isfinite(scores), scores, np.inf)
@@ -281,7 +299,7 @@ def default_search(problem: Problem, seed: int, progress: Callable[[float], None
     candidates: list[tuple[float, np.ndarray]] = []
     stages = ((1.0, _LOCAL_SEARCHES), (2.0, _LOCAL_SEARCHES // 2))
     for stage, (power, searches) in enumerate(stages):
-        projection = _Projection(problem, index, problem.log_weights(power))
+        projection = Projection(problem, index, problem.log_weights(power))
         found = _projected_searches(projection, searches, rng)
         candidates += [(cost, theta) for cost, theta, _ in found]
         if progress is not None:

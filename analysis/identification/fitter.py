@@ -67,14 +67,14 @@ def fit_model(
         params, mass = problem.coords.to_params(theta)
         mass = float(mass)
     else:
-        objective = UnitObjective(problem, float(mass_kg), fit_mass)
-        best_unit, _ = gapso_search(objective, objective.dimension, seed, gapso_settings, progress)
-        params_2d, mass_1d = objective.to_params(best_unit[np.newaxis, :])
-        params, mass = params_2d[0], float(mass_1d[0])
-        theta = problem.coords.from_params(params, mass)
+        objective = UnitObjective(problem)
+        best_unit, _ = gapso_search(objective, objective.dimension, seed, gapso_settings, progress, objective.repair)
+        theta = objective.to_coordinates(best_unit)
+        params, mass = problem.coords.to_params(theta)
+        mass = float(mass)
     if progress is not None:
         progress(1.0)
-    at_bound = uncertainty.parameters_at_bounds(problem, theta, params, searched_coordinates=method == "default")
+    at_bound = uncertainty.parameters_at_bounds(problem, theta, params)
     result = _result(problem, method, theta, params, mass, at_bound, started)
     logger.info(
         "fit %s done: RMS %.6g (m/s²)/N, peak error %.6g (m/s²)/N, %d evaluations, %.3f s",

@@ -11,7 +11,8 @@ from typing import Callable
 
 import numpy as np
 
-from gasfilm.analysis.identification.problem import MASS_BOX, Problem
+from gasfilm.analysis.identification.default_search import Projection
+from gasfilm.analysis.identification.problem import Problem
 
 logger = logging.getLogger(__name__)
 
@@ -30,6 +31,9 @@ class GapsoSettings:
     c1: float = 1.49445
     c2: float = 1.49445
     max_velocity: float = 0.2
+    #: spread (standard deviation in the unit cube) of each swarm around its GA candidate: 0.005 is 0.08 decades
+    #: of a coefficient and 0.01 of an order, so the swarm refines its candidate's basin instead of searching anew
+    swarm_spread: float = 0.005
     stall_iterations: int = 50
     relative_tolerance: float = 1e-9
     max_generations: int = 1000
@@ -37,30 +41,52 @@ class GapsoSettings:
 
 
 class UnitObjective:
-    """Weighted RMS (eq. 33) of whole populations in the parameters' unit intervals, in one model call."""
+    """Weighted RMS (eq. 33) of whole populations in the unit cube of the fitter's search coordinates, in one
+    model call.
 
-    def __init__(self, problem: Problem, mass_kg: float, fit_mass: bool):
+    The cube spans :class:`~gasfilm.analysis.identification.problem.Coordinates`' box: each coefficient as the
+    element's stiffness at the reference frequency relative to the measured dynamic stiffness there (log scale,
+    ± 8 decades, inside the physical bounds), orders linear. A spring-pot's coefficient then no longer trades off
+    against its order (in the raw parameters, η·ω^α: a change of 0.01 in α moves the element by a factor ω^0.01,
+    and the optimum lies in a narrow diagonal valley across 17 decades that a swarm cannot follow).
+    """
+
+    def __init__(self, problem: Problem):
         self.problem = problem
-        self.mass_kg = mass_kg
-        self.fit_mass = fit_mass
-        self.dimension = len(problem.model.parameters) + int(fit_mass)
+        self.lower = problem.coords.lower
+        self.span = problem.coords.upper - problem.coords.lower
+        self.dimension = problem.coords.size
+        self.projection = None
+        if not problem.coords.fit_mass:
+            index = np.arange(len(problem.freq_hz))[:: max(1, len(problem.freq_hz) // 200)]
+            self.projection = Projection(problem, index, problem.log_weights(2.0))
+
+    def to_coordinates(self, u: np.ndarray) -> np.ndarray:
+        """Search coordinates (..., dimension) of unit-cube points (..., dimension)."""
+        return self.lower + np.asarray(u) * self.span
+
+    def to_unit(self, theta: np.ndarray) -> np.ndarray:
+        """Unit-cube points of search coordinates (inverse of :meth:`to_coordinates`), clipped to the cube."""
+        return np.clip((theta - self.lower) / self.span, 0.0, 1.0)
 
     def to_params(self, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Model parameter vectors (..., P) and masses (...) in kg from unit-cube points (..., dimension)."""
-        model = self.problem.model
-        params = np.stack([p.from_unit_interval(u[..., i]) for i, p in enumerate(model.parameters)], axis=-1)
-        if self.fit_mass:
-            low, high = np.log(MASS_BOX[0]), np.log(MASS_BOX[1])
-            mass = self.mass_kg * np.exp(low + u[..., -1] * (high - low))
-        else:
-            mass = np.full(u.shape[:-1], self.mass_kg)
-        return params, mass
+        return self.problem.coords.to_params(self.to_coordinates(u))
+
+    def repair(self, u: np.ndarray) -> np.ndarray:
+        """Each individual with its branch scales replaced by the best ones for its branch shapes (a Lamarckian
+        step of the GA: the scales enter the log dynamic stiffness linearly and are solved by least squares,
+        weighted as the linearised accelerance residual), so the GA searches over the shapes; unchanged when the
+        mass is fitted."""
+        if self.projection is None:
+            return u
+        theta = self.to_coordinates(u)
+        repaired, _ = self.projection.project(self.projection.shape_of(theta))
+        return self.to_unit(repaired)
 
     def __call__(self, u: np.ndarray) -> np.ndarray:
-        problem = self.problem
-        problem.check_cancel()
-        params, mass = self.to_params(u)
-        return np.sqrt(problem.accelerance_cost(problem.model.stiffness(problem.s, params), mass))
+        self.problem.check_cancel()
+        return np.sqrt(self.problem.acc_cost(self.to_coordinates(u), slice(None)))
 
 
 def _unchanged(previous: float, current: float, tolerance: float) -> bool:
@@ -73,6 +99,7 @@ def gapso_search(
     seed: int = 0,
     settings: GapsoSettings = GapsoSettings(),
     progress: Callable[[float], None] | None = None,
+    repair: Callable[[np.ndarray], np.ndarray] | None = None,
 ) -> tuple[np.ndarray, float]:
     """Minimise ``objective`` (vectorised over rows) on the unit cube by GA then PSO; returns (best point, value).
 
@@ -82,8 +109,9 @@ def gapso_search(
     value is unchanged for ``stall_iterations`` iterations.
     """
     rng = np.random.default_rng(seed)
+    repair = repair or (lambda u: u)
     n = settings.population
-    population = rng.random((n, dimension))
+    population = repair(rng.random((n, dimension)))
     values = objective(population)
     best = float(values.min())
     stall = 0
@@ -98,6 +126,7 @@ def gapso_search(
         children = np.clip(children + mutate * rng.normal(0.0, settings.mutation_sigma, (n, dimension)), 0.0, 1.0)
         elite = np.argsort(values)[: settings.elite]
         children[: settings.elite] = population[elite]
+        children[settings.elite :] = repair(children[settings.elite :])
         child_values = objective(children[settings.elite :])
         population = children
         values = np.concatenate([values[elite], child_values])
@@ -118,7 +147,7 @@ def gapso_search(
             break
     k, m = len(candidates), settings.swarm_size
     centres = np.array(candidates)
-    positions = np.clip(centres[:, np.newaxis, :] + rng.normal(0.0, 0.05, (k, m, dimension)), 0.0, 1.0)
+    positions = np.clip(centres[:, np.newaxis, :] + rng.normal(0.0, settings.swarm_spread, (k, m, dimension)), 0.0, 1.0)
     positions[:, 0] = centres
     velocities = np.zeros_like(positions)
     personal = positions.copy()

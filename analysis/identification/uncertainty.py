@@ -20,13 +20,11 @@ NOT_IDENTIFIABLE_RELATIVE_STD = 1.0
 CORRELATION_FLAG = 0.999
 
 
-def parameters_at_bounds(
-    problem: Problem, theta: np.ndarray, params: np.ndarray, searched_coordinates: bool
-) -> tuple[str, ...]:
+def parameters_at_bounds(problem: Problem, theta: np.ndarray, params: np.ndarray) -> tuple[str, ...]:
     """Names of the parameters (and ``mass_kg``) that ended within :data:`AT_BOUND_RELATIVE` of a bound.
 
     Bounds are each parameter's own (relative to the value for coefficients, to the range for orders), the mass
-    box, and with ``searched_coordinates`` (the default fitter) the box of its search coordinates.
+    box, and the box of the search coordinates (both fitters search it).
     """
     coords = problem.coords
     at_bound = []
@@ -36,7 +34,7 @@ def parameters_at_bounds(
             distance = min(math.log(value / parameter.lower), math.log(parameter.upper / value))
         else:
             distance = min(value - parameter.lower, parameter.upper - value) / (parameter.upper - parameter.lower)
-        if searched_coordinates and not coords.is_order[i]:
+        if not coords.is_order[i]:
             distance = min(distance, theta[i] - coords.lower[i], coords.upper[i] - theta[i])
         if distance <= AT_BOUND_RELATIVE:
             at_bound.append(parameter.name)
