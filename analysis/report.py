@@ -18,6 +18,7 @@ from typing import Any, Sequence
 
 import numpy as np
 
+from gasfilm.analysis.conditions import decode_conditions, format_conditions, format_value
 from gasfilm.analysis.session import Session
 from gasfilm.analysis.spectra import (
     CAUTION_DROP_DB,
@@ -50,6 +51,7 @@ class ReportData:
     channels: list[dict[str, str]]
     settings: dict[str, Any]
     rig_spec_toml: str | None
+    conditions: dict[str, Any]  # operating conditions (analysis/conditions.py)
     hits: list[dict[str, Any]]
     records: list[Any]  # HitRecord of every hit, in order
     frf: FrfResult | None
@@ -115,6 +117,7 @@ def read_report_data(path: str | Path) -> ReportData:
             channels=channels,
             settings=session.settings,
             rig_spec_toml=session.rig_spec_toml,
+            conditions=decode_conditions(session.settings, str(path)),
             hits=hits,
             records=records,
             frf=frf,
@@ -262,6 +265,51 @@ def _fits_html(data: ReportData) -> str:
     )
 
 
+def control_models(data: ReportData) -> list[tuple[Any, Any]]:
+    """Each stored fit with its rational model for control design within 0.5 % (or the reason there is none)."""
+    from gasfilm.analysis.control import DEFAULT_MAX_ERROR, PlantSource, approximate
+
+    order = [row.model_name for row in data.comparison] or [fit.model_name for fit in data.fits]
+    fits = {fit.model_name: fit for fit in data.fits}
+    models = []
+    for name in order:
+        try:
+            models.append((fits[name], approximate(PlantSource.from_fit(fits[name]), max_error=DEFAULT_MAX_ERROR)))
+        except GasfilmError as error:
+            models.append((fits[name], str(error)))
+    return models
+
+
+def _control_html(models: list[tuple[Any, Any]]) -> str:
+    if not models:
+        return "<p>No fits stored: nothing to approximate.</p>"
+    from gasfilm.analysis.control.timedomain import error_figure
+
+    rows = []
+    for fit, model in models:
+        if isinstance(model, str):
+            rows.append((fit.model_name, "—", "—", "—", "—", "—", html.escape(model)))
+            continue
+        rows.append((fit.model_name, model.order, f"{100 * model.max_error_band:.3g}",
+                     f"{100 * model.max_error_outside:.3g}", "yes" if model.stable else "NO",
+                     "yes" if model.passive.passed else "NO",
+                     "" if model.storage.passed else "storage stiffness Re Z < 0 somewhere"
+                     + (" (as in the fractional film)" if model.source_storage_minimum < 0 else "")))
+    best = next((model for _fit, model in models if not isinstance(model, str)), None)
+    figure = "" if best is None else (
+        f"<img alt='rational model error' src='data:image/png;base64,{_png_base64(error_figure(best))}'>")
+    band = next((m.band_hz for _f, m in models if not isinstance(m, str)), None)
+    where = f" over {band[0]:g}–{band[1]:g} Hz (a decade beyond the fitted band)" if band else ""
+    return (
+        f"<p>Each fit as a rational state-space plant (force → acceleration) for control design: the lowest order "
+        f"within 0.5 % complex relative error of the fractional model{where}, by vector fitting; exported with "
+        f"<code>gasfilm model SESSION --model NAME --out plant.json|.mat|.npz</code> (docs/control.md).</p>"
+        + _table(("Model", "States (1)", "Max error in band (%)", "Max error outside (%)", "Stable", "Film passive",
+                  "Note"), rows)
+        + figure
+    )
+
+
 def _diagnosis_html(diagnosis: dict[str, Any] | None) -> str:
     if diagnosis is None:
         return "<p>No diagnosis stored in the session (run <code>gasfilm diagnose</code> or the GUI's Diagnose tab).</p>"
@@ -323,6 +371,10 @@ def report_html(data: ReportData, drop_db: float = USABLE_DROP_DB) -> str:
         _table(("Channel", "Name", "Type", "Sensitivity", "IEPE", "Coupling"),
                [tuple(c.values()) for c in data.channels]),
         _table(("Group", "Setting (unit in the name)", "Value"), _settings_rows(data.settings)),
+        "<h3>Operating conditions</h3>",
+        _table(("Condition (unit in the name)", "Value"),
+               [(key, format_value(key, value).split(" = ", 1)[1]) for key, value in data.conditions.items()])
+        if data.conditions else "<p>No operating conditions recorded with this session.</p>",
     ]
     if data.rig_spec_toml:
         sections.append(f"<details><summary>Rig spec</summary><pre>{html.escape(data.rig_spec_toml)}</pre></details>")
@@ -350,6 +402,8 @@ def report_html(data: ReportData, drop_db: float = USABLE_DROP_DB) -> str:
     sections.append(_fits_html(data))
     if data.fits and data.frf is not None:
         sections.append(f"<img alt='fits' src='data:image/png;base64,{_png_base64(fits_figure(data.frf, data.fits))}'>")
+    sections.append("<h2>Control design: rational models</h2>")
+    sections.append(_control_html(control_models(data)))
     sections.append("<h2>Diagnosis</h2>")
     sections.append(_diagnosis_html(data.diagnosis))
     title = html.escape(f"gasfilm report — {data.path.name}")
@@ -364,7 +418,8 @@ def _report_pdf(data: ReportData, drop_db: float) -> bytes:
     from matplotlib.backends.backend_pdf import PdfPages
 
     lines = [f"gasfilm session report — {data.path}", "",
-             f"Device {data.device_name}, {data.sample_rate_hz:g} S/s, status {data.status}"]
+             f"Device {data.device_name}, {data.sample_rate_hz:g} S/s, status {data.status}",
+             f"Conditions: {format_conditions(data.conditions)}"]
     lines += [f"  {c['channel']} {c['name']} ({c['kind']}): {c['sensitivity']}, IEPE {c['iepe']}, {c['coupling']}"
               for c in data.channels]
     lines += ["", f"Hits: {sum(h['accepted'] for h in data.hits)} accepted of {len(data.hits)}"]
@@ -374,6 +429,11 @@ def _report_pdf(data: ReportData, drop_db: float) -> bytes:
         from gasfilm.analysis.identification import format_table2
 
         lines += ["", "Identified models (Table 2, g/N):", *format_table2(data.comparison).splitlines()]
+    models = control_models(data)
+    if models:
+        lines += ["", "Rational models for control design (0.5 %, gasfilm model):"]
+        lines += [f"  {fit.model_name:<8} " + (model if isinstance(model, str) else model.summary())
+                  for fit, model in models]
     if data.diagnosis is not None:
         lines += ["", f"Diagnosis verdict: {data.diagnosis.get('verdict', '?')}"]
     buffer = io.BytesIO()

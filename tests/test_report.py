@@ -24,7 +24,7 @@ def test_report_holds_setup_hits_frf_force_spectrum_and_fits(session_path, tmp_p
     assert f"wrote {out}" in capsys.readouterr().out
     text = out.read_text(encoding="utf-8")
     images = re.findall(r"src='data:image/png;base64,([A-Za-z0-9+/=]+)'", text)
-    assert len(images) == 3  # hits overlay, FRF with coherence and force spectrum, fitted models
+    assert len(images) == 4  # hits overlay, FRF with coherence and force spectrum, fitted models, rational model error
     assert all(base64.b64decode(image)[:8] == b"\x89PNG\r\n\x1a\n" for image in images)
     assert "http" not in text.replace("http-equiv", "")  # self-contained: nothing fetched from elsewhere
     with Session.open(session_path) as session:

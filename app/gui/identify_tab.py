@@ -3,10 +3,14 @@
 from __future__ import annotations
 
 import numpy as np
+from pathlib import Path
+
 from PySide6.QtCore import Qt
+from PySide6.QtGui import QColor, QGuiApplication
 from PySide6.QtWidgets import (
     QAbstractItemView,
     QComboBox,
+    QFileDialog,
     QGridLayout,
     QGroupBox,
     QHBoxLayout,
@@ -24,15 +28,19 @@ from PySide6.QtWidgets import (
     QWidget,
 )
 
+from gasfilm.analysis.control import DEFAULT_MAX_ERROR, PlantSource, RationalModel, approximate
+from gasfilm.analysis.control.export import SUFFIXES, write_model
 from gasfilm.analysis.identification import METHODS
 from gasfilm.analysis.physics.elements import PAPER_MODEL_ORDER, PAPER_MODEL_TEXT, get_model
 from gasfilm.app.gui.controller import SessionController
-from gasfilm.app.gui.widgets import MEASURED_COLOR, PALETTE, make_plot, pen, phase_deg
+from gasfilm.app.gui.widgets import MEASURED_COLOR, PALETTE, FixedHeightLabel, make_plot, pen, phase_deg
 from gasfilm.drivers.errors import GasfilmError
 from gasfilm.drivers.interface import STANDARD_GRAVITY_M_S2
 
 DEFAULT_MODELS = ("SD", "FOMGF")
 TABLE2_COLUMNS = ("#", "Model", "k", "RMS (g/N)", "E", "Peak error (g/N)", "E_m", "AIC", "BIC")
+WAITING_TEXT = "Fitting waits until the acquisition is stopped."
+READY_TEXT = "Acquisition stopped: the FRF is final. Pick the models and fit."
 METHOD_LABELS = {"default": "default (fast, multi-start least squares)", "gapso": "GA-PSO (the paper's)"}
 
 
@@ -68,7 +76,7 @@ class IdentifyTab(QWidget):
         self.cancel_button.setEnabled(False)
         self.progress = QProgressBar()
         self.progress.setRange(0, 1000)
-        self.status = QLabel()
+        self.status = FixedHeightLabel(lines=2)  # its text changes with every progress report: nothing may move
         self.status.setWordWrap(True)
         left_box = QGroupBox("Models and fitter")
         left = QVBoxLayout(left_box)
@@ -112,25 +120,51 @@ class IdentifyTab(QWidget):
         parameters_layout.addWidget(QLabel("<b>Parameters</b> of the selected model (± standard error)"))
         parameters_layout.addWidget(self.parameters)
         parameters_layout.addWidget(self.flags_label)
+        self.control_button = QPushButton("Control model")
+        self.control_button.setToolTip(f"a rational state-space model of the selected fit within "
+                                       f"{100 * DEFAULT_MAX_ERROR:g} % of it, stable and passive (gasfilm model)")
+        self.export_control_button = QPushButton("Export for control design…")
+        self.export_control_button.setToolTip("write the selected fit's state-space model as .json, .mat or .npz")
+        self.control_label = QLabel()
+        self.control_label.setWordWrap(True)
+        control_row = QHBoxLayout()
+        control_row.addWidget(self.control_button)
+        control_row.addWidget(self.export_control_button)
+        control_row.addStretch(1)
+        parameters_layout.addLayout(control_row)
+        parameters_layout.addWidget(self.control_label)
+        self._control_models: dict[str, RationalModel] = {}
         table_panel = QSplitter(Qt.Orientation.Horizontal)
         table_panel.addWidget(table_box)
         table_panel.addWidget(parameters_box)
         table_panel.setSizes([640, 460])
 
         self.fig18 = {
-            "magnitude": make_plot("Fig. 18a  log |H|", ("|H|", "g/N"), log_y=True),
+            # The models' colours are shown in Table 2 (a swatch by each name): a legend of nine models would
+            # cover the curves in a plot this size.
+            "magnitude": make_plot(
+                "Fig. 18a  log |H| (colours: Table 2)", ("|H|", "g/N"),
+                log_y=True, legend=False,
+            ),
             "real": make_plot("Fig. 18b  Real part", ("Re H", "g/N"), legend=False),
             "imag": make_plot("Fig. 18c  Imaginary part", ("Im H", "g/N"), legend=False),
             "phase": make_plot("Fig. 18d  Phase", ("Phase", "°"), legend=False),
         }
         self.fig19 = {
-            "magnitude": make_plot("Fig. 19a  Error of |H|", ("| |H| − |H_d| |", "g/N")),
+            "magnitude": make_plot(
+                "Fig. 19a  Error of |H| (colours: Table 2)", ("| |H| − |H_d| |", "g/N"), legend=False
+            ),
             "real": make_plot("Fig. 19b  Error of the real part", ("|Re H − Re H_d|", "g/N"), legend=False),
             "imag": make_plot("Fig. 19c  Error of the imaginary part", ("|Im H − Im H_d|", "g/N"), legend=False),
         }
+        self.control_plot = make_plot("Rational model of the selected fit: error against the fractional one",
+                                      ("|G_rational / G_fractional − 1|", "%"), log_y=True)
+        self.control_plot.getPlotItem().setLogMode(x=True, y=True)
+        self.control_plot.getPlotItem().getAxis("bottom").enableAutoSIPrefix(False)
         figures = QTabWidget()
         figures.addTab(self._grid(list(self.fig18.values()), 2), "Figure 18 — fits")
         figures.addTab(self._grid(list(self.fig19.values()), 3), "Figure 19 — errors")
+        figures.addTab(self.control_plot, "Control model — error")
         self.figures = figures
 
         right = QSplitter(Qt.Orientation.Vertical)
@@ -144,6 +178,8 @@ class IdentifyTab(QWidget):
         QVBoxLayout(self).addWidget(splitter)
 
         self.run_button.clicked.connect(self.run_fits)
+        self.control_button.clicked.connect(self._on_control_button)
+        self.export_control_button.clicked.connect(lambda: self.export_control_model())
         self.cancel_button.clicked.connect(lambda: controller.cancel_job("fit"))
         controller.job_progress.connect(self._on_progress)
         controller.job_running.connect(self._on_running)
@@ -207,11 +243,14 @@ class IdentifyTab(QWidget):
             self.status.setText(text)
 
     def _on_acquisition_state(self, state: str) -> None:
-        """While armed the button stays, and says why it will refuse: hits are still arriving."""
+        """While armed the button stays, and says why it will refuse: hits are still arriving. Once stopped, the
+        waiting note gives way to what can be done now."""
         reason = "Stop the acquisition first: hits are still arriving and the FRF changes with each one."
         self.run_button.setToolTip(reason if state != "idle" else "")
         if state == "starting":
-            self.status.setText("Fitting waits until the acquisition is stopped.")
+            self.status.setText(WAITING_TEXT)
+        elif state == "idle" and self.status.text() == WAITING_TEXT:
+            self.status.setText(READY_TEXT if self.controller.frf is not None else "")
 
     def _on_running(self, job: str, running: bool) -> None:
         if job != "fit":
@@ -224,6 +263,9 @@ class IdentifyTab(QWidget):
     # --- results -------------------------------------------------------------------------------------------------
 
     def show_fits(self) -> None:
+        self._control_models.clear()
+        self.control_plot.clear()
+        self.control_label.clear()
         rows = self.controller.comparison
         g = STANDARD_GRAVITY_M_S2
         self.table.setRowCount(len(rows))
@@ -243,6 +285,8 @@ class IdentifyTab(QWidget):
                 item = QTableWidgetItem(value)
                 if c != 1:
                     item.setTextAlignment(Qt.AlignmentFlag.AlignRight | Qt.AlignmentFlag.AlignVCenter)
+                else:  # the swatch of the model's curves in Figures 18 and 19 (they have no legend)
+                    item.setData(Qt.ItemDataRole.DecorationRole, QColor(PALETTE[r % len(PALETTE)]))
                 self.table.setItem(r, c, item)
         self.table.resizeColumnsToContents()
         if rows:
@@ -274,6 +318,74 @@ class IdentifyTab(QWidget):
             f"{fit.model_name}: {fit.network} · {fit.method} fitter · {fit.evaluations} evaluations in "
             f"{fit.wall_time_s:.2f} s" + (f"<br><span style='color:#a66300'>⚠ {flags}</span>" if flags else "")
         )
+        if fit.model_name in self._control_models:  # the error curve shown is always the selected model's
+            self.show_control_model()
+        else:
+            self.control_plot.clear()
+            self.control_label.clear()
+
+    # --- control design ------------------------------------------------------------------------------------------
+
+    def _selected_fit(self) -> object | None:
+        selected = self.table.selectionModel().selectedRows()
+        return self.controller.fits.get(self.table.item(selected[0].row(), 1).text()) if selected else None
+
+    def show_control_model(self) -> RationalModel | None:
+        """The selected fit's rational model (lowest order within 0.5 %): its error curve and summary."""
+        fit = self._selected_fit()
+        if fit is None:
+            self.control_label.setText("Select a fitted model in Table 2 first.")
+            return None
+        model = self._control_models.get(fit.model_name)
+        if model is None:
+            where = self.controller.session_path.name if self.controller.session_path is not None else ""
+            QGuiApplication.setOverrideCursor(Qt.CursorShape.WaitCursor)
+            try:
+                model = approximate(PlantSource.from_fit(fit, where), max_error=DEFAULT_MAX_ERROR)
+            except GasfilmError as error:
+                self.control_label.setText(f"<span style='color:#b3261e'>{error}</span>")
+                return None
+            finally:
+                QGuiApplication.restoreOverrideCursor()
+            self._control_models[fit.model_name] = model
+        plot = self.control_plot
+        plot.clear()
+        freq = model.curve_freq_hz
+        plot.plot(freq, 100 * model.curve_plant_error + 1e-12, pen=pen(PALETTE[0], 1.5), name="plant (accelerance)")
+        plot.plot(freq, 100 * model.curve_film_error + 1e-12, pen=pen(PALETTE[1], 1.5, Qt.PenStyle.DashLine),
+                  name="film (stiffness)")
+        plot.plot(list(model.band_hz), [100 * DEFAULT_MAX_ERROR] * 2, pen=pen("#b3261e", 1.0), name="target, band")
+        self.control_label.setText(f"<b>{fit.model_name}</b> as a rational plant: {model.summary()}")
+        return model
+
+    def _on_control_button(self) -> None:
+        if self.show_control_model() is not None:
+            self.figures.setCurrentWidget(self.control_plot)
+
+    def export_control_model(self, path: str | Path | None = None) -> Path | None:
+        """Write the selected fit's rational model (.json, .mat or .npz; asks for the file when ``path`` is None)."""
+        model = self.show_control_model()
+        if model is None:
+            return None
+        if path is None:
+            default = ""
+            if self.controller.session_path is not None:
+                session = self.controller.session_path
+                default = str(session.with_name(f"{session.stem}-{model.source.origin['fit']['model_name']}.json"))
+            path, _ = QFileDialog.getSaveFileName(self, "Export for control design", default,
+                                                  "State-space model (*.json *.mat *.npz)")
+            if not path:
+                return None
+        path = Path(path)
+        if path.suffix.lower() not in SUFFIXES:
+            path = path.with_name(path.name + ".json")
+        try:
+            written = write_model(model, path)
+        except (GasfilmError, OSError) as error:
+            self.controller.message.emit(f"{path}: cannot write the control model ({error})", "error")
+            return None
+        self.controller.message.emit(f"control model ({model.order} states) written to {written}", "info")
+        return written
 
     def _draw_figures(self) -> None:
         for plot in list(self.fig18.values()) + list(self.fig19.values()):
@@ -291,9 +403,7 @@ class IdentifyTab(QWidget):
         fig18["real"].plot(freq, measured.real, pen=pen(MEASURED_COLOR, 2.5), name="measured")
         fig18["imag"].plot(freq, measured.imag, pen=pen(MEASURED_COLOR, 2.5), name="measured")
         fig18["phase"].plot(freq, phase_deg(measured), pen=pen(MEASURED_COLOR, 2.5), name="measured")
-        order = [row.model_name for row in self.controller.comparison] or list(fits)
-        for plot in (fig18["magnitude"], self.fig19["magnitude"]):
-            plot.getPlotItem().legend.setColumnCount(1 if len(order) < 4 else 2)
+        order = [row.model_name for row in self.controller.comparison] or list(fits)  # Table 2's rows and colours
         for number, name in enumerate(order):
             fit = fits[name]
             model = fit.accelerance(freq) / STANDARD_GRAVITY_M_S2

@@ -1,0 +1,111 @@
+"""What ``gasfilm model`` approximates, read from what the user names: a session's stored fit, a fit written by
+``gasfilm fit --json`` (or one fit's own JSON), or a rig spec (a whole plant, e.g. the spec ``gasfilm diagnose``
+writes). Every failure is one line naming the file or the flag."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from gasfilm.analysis.control.rational import PlantSource
+from gasfilm.analysis.identification import FitResult
+from gasfilm.analysis.physics.spec import RigSpec
+from gasfilm.drivers.errors import GasfilmError, SettingError
+
+MAX_JSON_BYTES = 50_000_000
+
+
+@dataclass
+class LoadedSource:
+    """The plant to approximate and, for a session, what the time-domain check needs."""
+
+    plant: PlantSource
+    fit: FitResult | None = None
+    records: np.ndarray | None = None  # (hits, channels, samples) accepted hits, N and m/s²
+    hit_indices: tuple[int, ...] = ()
+    trigger_index: np.ndarray | None = None
+    force_channel: int = 0
+    response_channel: int = 1
+    sample_rate_hz: float = 0.0
+    frf: Any = None
+
+
+def _choose(fits: dict[str, dict], model: str | None, path: Path) -> dict:
+    if not fits:
+        raise SettingError(f"{path}: holds no fitted model (run gasfilm fit first)")
+    if model is None:
+        if len(fits) == 1:
+            return next(iter(fits.values()))
+        raise SettingError(f"--model: {path} holds several fits ({', '.join(fits)}); name one")
+    for name, fit in fits.items():
+        if name.lower() == model.strip().lower():
+            return fit
+    raise SettingError(f"--model {model}: {path} holds no fit of it (it holds {', '.join(fits)}; run gasfilm fit "
+                       f"with --models {model})")
+
+
+def _fit_from_dict(data: Any, path: Path) -> FitResult:
+    try:
+        fit = FitResult.from_dict(data)
+    except (KeyError, TypeError, ValueError, AttributeError, IndexError) as error:
+        raise SettingError(f"{path}: not a gasfilm fit ({type(error).__name__}: {error})") from None
+    bad = [name for name, value in fit.params.items() if not np.isfinite(value)]
+    if bad or not (np.isfinite(fit.mass_kg) and fit.mass_kg > 0):
+        what = f"parameter(s) {', '.join(bad)} not finite" if bad else f"mass {fit.mass_kg} kg is not positive"
+        raise SettingError(f"{path}: fit {fit.model_name}: {what}")
+    if not (np.all(np.isfinite(fit.band_hz)) and 0 <= fit.band_hz[0] < fit.band_hz[1]):
+        raise SettingError(f"{path}: fit {fit.model_name}: band {fit.band_hz} Hz is not LO < HI")
+    return fit
+
+
+def load_source(path: Path, model: str | None) -> LoadedSource:
+    """The plant in ``path`` (.h5 session, .json fit, .toml rig spec); ``model`` names the fit to use."""
+    suffix = path.suffix.lower()
+    if not path.is_file():
+        raise SettingError(f"{path}: no such file")
+    if suffix == ".toml":
+        if model is not None:
+            raise SettingError(f"--model {model}: {path} is a rig spec; its film is the spec's own (leave --model out)")
+        return LoadedSource(PlantSource.from_spec(RigSpec.load(path), str(path)))
+    if suffix == ".json":
+        if path.stat().st_size > MAX_JSON_BYTES:
+            raise SettingError(f"{path}: too large for a fit ({path.stat().st_size} bytes)")
+        try:
+            data = json.loads(path.read_text(encoding="utf-8"))
+        except (OSError, UnicodeDecodeError, json.JSONDecodeError) as error:
+            raise SettingError(f"{path}: not a readable JSON fit ({type(error).__name__}: {error})") from None
+        if isinstance(data, dict) and isinstance(data.get("fits"), list):
+            fits = {str(fit.get("model_name")): fit for fit in data["fits"] if isinstance(fit, dict)}
+        elif isinstance(data, dict) and "model_name" in data:
+            fits = {str(data["model_name"]): data}
+        else:
+            raise SettingError(f"{path}: not a gasfilm fit (expected the output of gasfilm fit --json)")
+        fit = _fit_from_dict(_choose(fits, model, path), path)
+        return LoadedSource(PlantSource.from_fit(fit, str(path)), fit=fit)
+    return _from_session(path, model)
+
+
+def _from_session(path: Path, model: str | None) -> LoadedSource:
+    from gasfilm.analysis.session import Session
+
+    try:
+        with Session.open(path, "r") as session:
+            fits = {name: session.read_fit(name) for name in session.result_names("fits")}
+            fit = _fit_from_dict(_choose(fits, model, path), path)
+            hits = [hit for hit in session.hits() if hit.verdict.accepted]
+            sample_rate_hz = session.sample_rate_hz
+    except GasfilmError:
+        raise
+    except OSError as error:
+        raise SettingError(f"{path}: not a session, a .json fit or a .toml rig spec ({error})") from None
+    loaded = LoadedSource(PlantSource.from_fit(fit, str(path)), fit=fit, sample_rate_hz=sample_rate_hz)
+    if hits:
+        loaded.records = np.stack([hit.data for hit in hits])
+        loaded.hit_indices = tuple(hit.index for hit in hits)
+        loaded.trigger_index = np.array([hit.trigger_index for hit in hits])
+        loaded.force_channel, loaded.response_channel = hits[0].force_channel, hits[0].response_channel
+    return loaded

@@ -1,0 +1,234 @@
+"""The time-domain truth check: the identified fractional model and its rational approximation, each driven by every
+recorded hit's force, against the recorded acceleration.
+
+* fractional: :func:`gasfilm.analysis.physics.response.simulate_response` — the fractional model's exact response
+  to the sampled force (its transfer function applied to the zero-padded force spectrum, long enough for the
+  response to decay: no wrap-around, no truncation of the fractional memory);
+* rational: the state-space plant discretised with a first-order hold at 8× the sample rate, driven by the force
+  up-sampled band-limited (:func:`scipy.signal.resample_poly`), run as second-order sections (:func:`scipy.signal.sosfilt`);
+* all three signals pass through the same band the recordings are alias-free in (0.45·fs, the NI 9234's pass band,
+  applied as a zero-phase brick wall) before they are compared.
+
+Errors are relative RMS per hit: ``RMS(a_recorded − a_model) / RMS(a_recorded)`` over the record.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import scipy.fft
+import scipy.signal
+
+from gasfilm.analysis.control.rational import RationalModel
+from gasfilm.analysis.physics.response import simulate_response
+from gasfilm.analysis.physics.spec import RigSpec
+
+logger = logging.getLogger(__name__)
+
+#: the recordings' alias-free band as a fraction of the sample rate (the NI 9234's pass band)
+ALIAS_FREE_FRACTION = 0.45
+UPSAMPLING = 8
+#: the noise floor is measured from here to the end of each record (fraction of its length)
+TAIL_START_FRACTION = 0.8
+
+
+@dataclass(frozen=True)
+class TimeDomainCheck:
+    """Per-hit relative RMS errors (fractions) and the signals behind them (band-limited, m/s²)."""
+
+    sample_rate_hz: float
+    hit_indices: tuple[int, ...]
+    error_fractional: np.ndarray  # (hits,) RMS(recorded − fractional)/RMS(recorded)
+    error_rational: np.ndarray  # (hits,) RMS(recorded − rational)/RMS(recorded)
+    rational_vs_fractional: np.ndarray  # (hits,) RMS(rational − fractional)/RMS(fractional)
+    recorded: np.ndarray  # (hits, samples)
+    fractional: np.ndarray
+    rational: np.ndarray
+    trigger_index: np.ndarray  # (hits,)
+    noise_floor: np.ndarray  # (hits,) RMS of the recording's quiet tail / RMS(recorded); NaN when the tail is not quiet
+    frf_relative_error: float | None = None  # the FRF fit's RMS / RMS(|H_d|) in its band
+
+    @property
+    def excess_fractional(self) -> np.ndarray:
+        """The fractional model's error beyond the sensor noise, ``sqrt(error² − floor²)`` (NaN without a floor)."""
+        return np.sqrt(np.maximum(self.error_fractional**2 - self.noise_floor**2, 0.0))
+
+    @property
+    def excess_rational(self) -> np.ndarray:
+        """The rational model's error beyond the sensor noise (NaN without a floor)."""
+        return np.sqrt(np.maximum(self.error_rational**2 - self.noise_floor**2, 0.0))
+
+    def summary_lines(self) -> list[str]:
+        lines = [f"hit {index:3d}: RMS error fractional {100 * f:.3g} % (beyond the noise {100 * xf:.3g} %), rational "
+                 f"{100 * r:.3g} % (beyond the noise {100 * xr:.3g} %), noise floor {100 * n:.3g} %; rational vs "
+                 f"fractional {100 * a:.3g} %"
+                 for index, f, xf, r, xr, n, a in zip(self.hit_indices, self.error_fractional, self.excess_fractional,
+                                                      self.error_rational, self.excess_rational, self.noise_floor,
+                                                      self.rational_vs_fractional)]
+        lines.append(f"mean RMS error: fractional {100 * self.error_fractional.mean():.3g} %, rational "
+                     f"{100 * self.error_rational.mean():.3g} %, noise floor {100 * np.nanmean(self.noise_floor):.3g} %"
+                     f"; rational vs fractional at most {100 * self.rational_vs_fractional.max():.3g} %"
+                     + ("" if self.frf_relative_error is None else
+                        f"; the FRF fit's relative RMS error {100 * self.frf_relative_error:.3g} %"))
+        return lines
+
+    def to_dict(self) -> dict:
+        """Per-hit figures as plain data (fractions)."""
+        return {"hits": list(self.hit_indices), "error_fractional": self.error_fractional.tolist(),
+                "error_rational": self.error_rational.tolist(), "noise_floor": self.noise_floor.tolist(),
+                "excess_fractional": self.excess_fractional.tolist(), "excess_rational": self.excess_rational.tolist(),
+                "rational_vs_fractional": self.rational_vs_fractional.tolist(),
+                "frf_relative_error": self.frf_relative_error, "band_hz": [0.0, ALIAS_FREE_FRACTION * self.sample_rate_hz]}
+
+
+def band_limited(signal: np.ndarray, sample_rate_hz: float, fraction: float = ALIAS_FREE_FRACTION) -> np.ndarray:
+    """``signal`` (last axis time) with everything above ``fraction``·fs removed, zero-phase (zero-padded FFT)."""
+    n = signal.shape[-1]
+    n_fft = scipy.fft.next_fast_len(2 * n, real=True)
+    spectrum = scipy.fft.rfft(signal, n_fft, axis=-1)
+    freq_hz = scipy.fft.rfftfreq(n_fft, 1.0 / sample_rate_hz)
+    spectrum[..., freq_hz > fraction * sample_rate_hz] = 0.0
+    return scipy.fft.irfft(spectrum, n_fft, axis=-1)[..., :n]
+
+
+def simulate_rational(model: RationalModel, force_n: np.ndarray, sample_rate_hz: float,
+                      upsampling: int = UPSAMPLING) -> np.ndarray:
+    """Acceleration (m/s²) of the rational plant for sampled forces (last axis time), from rest."""
+    dt = 1.0 / (upsampling * sample_rate_hz)
+    a_d, b_d, c_d, d_d, _ = scipy.signal.cont2discrete(
+        (model.a, model.b[:, None], model.c[None, :], np.array([[model.d]])), dt, method="foh")
+    zeros, poles, gain = scipy.signal.ss2zpk(a_d, b_d, c_d, d_d)
+    sos = scipy.signal.zpk2sos(zeros, poles, gain)
+    fine = scipy.signal.resample_poly(np.asarray(force_n, dtype=float), upsampling, 1, axis=-1)
+    return scipy.signal.sosfilt(sos, fine, axis=-1)[..., ::upsampling]
+
+
+def frf_relative_error(fit: object, freq_hz: np.ndarray, h: np.ndarray) -> float:
+    """The FRF fit's relative RMS error in its band: ``RMS(H_d − H) / RMS(|H_d|)``."""
+    low, high = fit.band_hz
+    keep = (freq_hz >= low) & (freq_hz <= high)
+    measured = h[keep]
+    residual = measured - fit.accelerance(freq_hz[keep])
+    return float(np.sqrt(np.mean(np.abs(residual) ** 2) / np.mean(np.abs(measured) ** 2)))
+
+
+def _relative_rms(error: np.ndarray, reference: np.ndarray) -> np.ndarray:
+    return np.sqrt(np.mean(error**2, axis=-1) / np.mean(reference**2, axis=-1))
+
+
+def noise_floor(recorded: np.ndarray, simulated: np.ndarray) -> np.ndarray:
+    """The sensor noise relative to each record's RMS: the RMS of the record's last fifth, where a hit's response has
+    decayed, less the simulated response's power there. NaN when the tail is not quiet (the simulated response there
+    is over a third of the recording's RMS)."""
+    start = int(TAIL_START_FRACTION * recorded.shape[-1])
+    tail_power = np.mean(recorded[..., start:] ** 2, axis=-1)
+    response_power = np.mean(simulated[..., start:] ** 2, axis=-1)
+    floor = np.sqrt(np.maximum(tail_power - response_power, 0.0) / np.mean(recorded**2, axis=-1))
+    return np.where(response_power < tail_power / 9.0, floor, np.nan)
+
+
+def time_domain_check(
+    spec: RigSpec,
+    model: RationalModel,
+    records: np.ndarray,
+    sample_rate_hz: float,
+    force_channel: int = 0,
+    response_channel: int = 1,
+    hit_indices: tuple[int, ...] | None = None,
+    trigger_index: np.ndarray | None = None,
+    frf_error: float | None = None,
+) -> TimeDomainCheck:
+    """Drive the fractional ``spec`` (a mass on the identified film) and the rational ``model`` with each record's
+    force; ``records`` is (hits, channels, samples) in N and m/s²."""
+    records = np.asarray(records, dtype=float)
+    force = records[:, force_channel]
+    recorded = band_limited(records[:, response_channel], sample_rate_hz)
+    fractional = band_limited(simulate_response(spec, force, sample_rate_hz), sample_rate_hz)
+    # one hit at a time: the 8× up-sampled force of a long session would not fit in memory at once
+    rational = band_limited(np.stack([simulate_rational(model, hit, sample_rate_hz) for hit in force]),
+                            sample_rate_hz)
+    check = TimeDomainCheck(
+        sample_rate_hz=float(sample_rate_hz),
+        hit_indices=tuple(hit_indices) if hit_indices is not None else tuple(range(len(records))),
+        error_fractional=_relative_rms(recorded - fractional, recorded),
+        error_rational=_relative_rms(recorded - rational, recorded),
+        rational_vs_fractional=_relative_rms(rational - fractional, fractional),
+        recorded=recorded, fractional=fractional, rational=rational,
+        trigger_index=np.zeros(len(records), int) if trigger_index is None else np.asarray(trigger_index),
+        noise_floor=noise_floor(recorded, fractional),
+        frf_relative_error=frf_error,
+    )
+    logger.info("time-domain check of %s on %d hits: %s", model.source.description, len(records),
+                check.summary_lines()[-1])
+    return check
+
+
+def spec_of_fit(fit: object) -> RigSpec:
+    """A rig spec of the fit alone (its film under its mass, no effects): the fractional model to simulate."""
+    bounds = {parameter.name: parameter for parameter in fit.model().parameters}
+    # a fitted value at its bound may sit a rounding error outside it (1e-16 relative): a spec holds it at the bound
+    inside = {name: min(max(value, bounds[name].lower), bounds[name].upper) for name, value in fit.params.items()}
+    return RigSpec(name=f"{fit.model_name} fit", mass_kg=fit.mass_kg, film_model=fit.network,
+                   film_parameters=inside, source=f"{fit.model_name} fit")
+
+
+def figure_hits(path: str | Path, check: TimeDomainCheck, max_hits: int = 4, window_s: float = 0.08) -> Path:
+    """Overlay of recorded, fractional and rational acceleration for the first hits (from 5 ms before the trigger)."""
+    from matplotlib.figure import Figure
+
+    count = min(max_hits, len(check.hit_indices))
+    figure = Figure(figsize=(11, 2.6 * count + 0.6), layout="tight")
+    axes = np.atleast_1d(figure.subplots(count, 1, sharex=True))
+    fs = check.sample_rate_hz
+    for row, axis in enumerate(axes):
+        start = max(0, int(check.trigger_index[row] - 0.005 * fs))
+        stop = min(check.recorded.shape[-1], start + int(window_s * fs))
+        time_ms = 1e3 * (np.arange(start, stop) - check.trigger_index[row]) / fs
+        axis.plot(time_ms, check.recorded[row, start:stop], color="black", linewidth=2.0, label="recorded")
+        axis.plot(time_ms, check.fractional[row, start:stop], color="tab:blue", linewidth=1.2,
+                  label="fractional model")
+        axis.plot(time_ms, check.rational[row, start:stop], color="tab:orange", linewidth=1.0, linestyle="--",
+                  label="rational model")
+        axis.set_ylabel("acceleration (m/s²)")
+        axis.set_title(f"hit {check.hit_indices[row]}: RMS error fractional {100 * check.error_fractional[row]:.3g} %,"
+                       f" rational {100 * check.error_rational[row]:.3g} % (noise floor "
+                       f"{100 * check.noise_floor[row]:.3g} %), rational vs fractional "
+                       f"{100 * check.rational_vs_fractional[row]:.3g} %", fontsize=9)
+        axis.grid(True, alpha=0.3)
+    axes[0].legend(loc="upper right", fontsize=8)
+    axes[-1].set_xlabel("time after the trigger (ms)")
+    path = Path(path)
+    figure.savefig(path, dpi=110, format="png")
+    return path
+
+
+def error_figure(model: RationalModel) -> Any:
+    """The approximation's complex relative error of the plant and the film against frequency, band shaded."""
+    from matplotlib.figure import Figure
+
+    figure = Figure(figsize=(9, 4.5), layout="tight")
+    axis = figure.subplots()
+    floor = 1e-12
+    axis.loglog(model.curve_freq_hz, np.maximum(100 * model.curve_plant_error, floor), label="plant (accelerance)")
+    axis.loglog(model.curve_freq_hz, np.maximum(100 * model.curve_film_error, floor), label="film (stiffness)",
+                linestyle="--")
+    axis.axvspan(*model.band_hz, color="tab:green", alpha=0.08, label="approximation band")
+    if model.target_error:
+        axis.axhline(100 * model.target_error, color="tab:red", linewidth=1.0, label="target")
+    axis.set_xlabel("frequency (Hz)")
+    axis.set_ylabel("|G_rational / G_fractional − 1| (%)")
+    axis.set_title(f"{model.source.description}: {model.summary()}", fontsize=8, wrap=True)
+    axis.grid(True, which="both", alpha=0.3)
+    axis.legend(fontsize=8)
+    return figure
+
+
+def figure_error(path: str | Path, model: RationalModel) -> Path:
+    """:func:`error_figure` written as PNG."""
+    path = Path(path)
+    error_figure(model).savefig(path, dpi=110, format="png")
+    return path

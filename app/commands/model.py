@@ -1,0 +1,128 @@
+"""``gasfilm model SOURCE``: a rational (state-space) model of an identified film or a whole rig for control design,
+of a chosen order or the lowest order within a stated error, written as .json, .mat or .npz; with a session's hits,
+the time-domain check of the fractional and the rational model against the recordings.
+
+SOURCE is a session (its stored fit ``--model NAME``), a fit written by ``gasfilm fit --json``, or a rig spec
+(.toml, e.g. the spec ``gasfilm diagnose`` writes: the film and its mechanical effects under the moving mass).
+Next to ``--out`` go ``<stem>-error.png`` (the approximation's error against frequency) and, with hits,
+``<stem>-hits.png`` (recorded, fractional and rational acceleration).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+from pathlib import Path
+
+from gasfilm.app.commands.common import check_output_file
+from gasfilm.drivers.errors import SettingError
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    parser = subparsers.add_parser(
+        "model", help="rational state-space model of a fitted film or a rig spec for control design (.json/.mat/.npz)"
+    )
+    parser.add_argument("source", type=Path, metavar="SESSION.h5|FIT.json|RIG.toml",
+                        help="a session with stored fits, the JSON of gasfilm fit --json, or a rig spec")
+    parser.add_argument("--model", help="which fit (SD, FOMGF, ...); not for a rig spec")
+    size = parser.add_mutually_exclusive_group()
+    size.add_argument("--order", type=int, help="number of states of the plant")
+    size.add_argument("--max-error", default="0.5%",
+                      help="the lowest order whose complex relative error is within this (default 0.5%%)")
+    parser.add_argument("--band", help="LO:HI in Hz (default: a decade beyond the fitted band on each side)")
+    parser.add_argument("--out", type=Path, required=True, help="the model file: .json, .mat or .npz")
+    parser.add_argument("--json", action="store_true", help="print one JSON object instead of the summary")
+    parser.add_argument("--overwrite", action="store_true", help="replace the model file and figures if they exist")
+    parser.set_defaults(func=run)
+
+
+def parse_fraction(text: str) -> float:
+    """``0.5%`` or ``0.005`` as a fraction."""
+    try:
+        value = float(text[:-1]) / 100 if text.strip().endswith("%") else float(text)
+    except ValueError:
+        raise SettingError(f"--max-error '{text}': write a percentage such as 0.5% or a fraction such as 0.005") \
+            from None
+    if not (math.isfinite(value) and 0 < value < 1):
+        raise SettingError(f"--max-error '{text}': must be between 0 and 100 %")
+    return value
+
+
+def parse_band(text: str | None) -> tuple[float, float] | None:
+    if text is None:
+        return None
+    try:
+        low, high = (float(part) for part in text.split(":"))
+    except ValueError:
+        raise SettingError(f"--band '{text}': write LO:HI in Hz, e.g. 2:10000") from None
+    if not (math.isfinite(low) and math.isfinite(high) and 0 < low < high):
+        raise SettingError(f"--band '{text}': needs 0 < LO < HI")
+    return low, high
+
+
+def run(args: argparse.Namespace) -> int:
+    from gasfilm.analysis.control.export import SUFFIXES, model_to_dict, write_model
+    from gasfilm.analysis.control.inputs import load_source
+    from gasfilm.analysis.control.rational import approximate, oustaloup_order
+    from gasfilm.analysis.control.timedomain import (
+        figure_error, figure_hits, frf_relative_error, spec_of_fit, time_domain_check)
+
+    if args.out.suffix.lower() not in SUFFIXES:
+        raise SettingError(f"--out {args.out}: name a .json, .mat or .npz file")
+    if args.order is not None and args.order < 1:
+        raise SettingError(f"--order {args.order}: must be a positive number of states")
+    max_error = parse_fraction(args.max_error)
+    band = parse_band(args.band)
+    loaded = load_source(args.source, args.model)
+    stem = args.out.with_suffix("")
+    error_png = Path(f"{stem}-error.png")
+    hits_png = Path(f"{stem}-hits.png") if loaded.records is not None else None
+    for path, flag in ((args.out, "--out"), (error_png, ""), (hits_png, "")):
+        if path is not None:
+            check_output_file(path, flag, args.overwrite)
+
+    model = approximate(loaded.plant, band, order=args.order, max_error=max_error)
+    written = write_model(model, args.out)
+    figures = [figure_error(error_png, model)]
+    oustaloup = None
+    if loaded.plant.network and "pot(" in loaded.plant.network and loaded.fit is not None:
+        oustaloup = oustaloup_order(loaded.plant, model.band_hz, max_error)
+    check = None
+    if hits_png is not None and loaded.fit is not None:
+        from gasfilm.app.commands.common import load_frf
+
+        frf = load_frf([args.source])[0]
+        check = time_domain_check(spec_of_fit(loaded.fit), model, loaded.records, loaded.sample_rate_hz,
+                                  loaded.force_channel, loaded.response_channel, loaded.hit_indices,
+                                  loaded.trigger_index, frf_relative_error(loaded.fit, frf.freq_hz, frf.h1))
+        figures.append(figure_hits(hits_png, check))
+    if args.json:
+        data = model_to_dict(model)
+        data.pop("origin")
+        print(json.dumps({"out": str(written), "figures": [str(path) for path in figures], "model": data,
+                          "oustaloup_order": None if oustaloup is None else oustaloup[0],
+                          "time_domain": None if check is None else check.to_dict()}))
+        return 0
+    print(f"{loaded.plant.description}: m = {loaded.plant.mass_kg:g} kg")
+    print(f"rational model ({model.method}): {model.summary()}")
+    print(f"  plant {100 * model.max_error_plant_band:.3g} %, film {100 * model.max_error_film_band:.3g} % "
+          f"(max |G_rational/G_fractional − 1| in the band)")
+    if not model.storage.passed:
+        print("  note: the film's storage stiffness Re Z(jω) is negative somewhere"
+              + (" — so is the fractional film's" if model.source_storage_minimum < 0 else ""))
+    if model.target_error is not None and model.max_error_band > model.target_error:
+        print(f"  note: no order reached {100 * model.target_error:.3g} %; this is the most accurate one found")
+    for excluded in loaded.plant.excluded:
+        print(f"  left out: {excluded}")
+    if oustaloup is not None:
+        needed = f"order {oustaloup[0]}" if oustaloup[0] is not None else f"more than any order tried " \
+                                                                           f"(best {100 * oustaloup[1]:.3g} %)"
+        print(f"  a plain Oustaloup approximation of each s^α needs {needed} for the same error")
+    if check is not None:
+        print("time-domain check against the recorded hits (relative RMS, 0–"
+              f"{0.45 * check.sample_rate_hz:g} Hz):")
+        for line in check.summary_lines():
+            print("  " + line)
+    print(f"written: {written}; figures: {', '.join(str(path) for path in figures)}")
+    return 0
