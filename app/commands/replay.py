@@ -23,11 +23,6 @@ from gasfilm.drivers.errors import SettingError
 
 #: Band edges (Hz) for the coherence summary; bands above the Nyquist frequency are left out.
 COHERENCE_BAND_EDGES_HZ = (0.0, 100.0, 300.0, 1000.0, 3000.0, 10000.0, 30000.0)
-#: Lines below this frequency are not searched for the peak (the DC line and the rigid-body rise).
-PEAK_SEARCH_FROM_HZ = 5.0
-#: Only lines with at least this coherence are searched for the peak (zeros of the hammer spectrum give noisy
-#: spikes in |H1|); when no line has it, all lines are searched.
-PEAK_MIN_COHERENCE = 0.9
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -137,6 +132,8 @@ def summarise(frf: Any, verdicts: list, dropped: int, record_samples: int) -> di
     """Hits and reasons, peak frequency of |H1| and mean coherence by band (``frf``: an FrfResult or None)."""
     import numpy as np
 
+    from gasfilm.analysis.spectra import RESONANCE_SEARCH_FROM_HZ, readable_lines, resonance_lines
+
     reasons: dict[str, int] = {}
     for verdict in verdicts:
         for reason in verdict.reasons:
@@ -153,11 +150,14 @@ def summarise(frf: Any, verdicts: list, dropped: int, record_samples: int) -> di
     }
     if frf is not None:
         magnitude = np.abs(frf.h1)
-        search = (frf.freq_hz >= PEAK_SEARCH_FROM_HZ) & np.isfinite(magnitude)
-        coherent = search & (frf.coherence >= PEAK_MIN_COHERENCE)
-        if np.any(coherent):
-            search = coherent
-        peak = int(np.flatnonzero(search)[np.argmax(magnitude[search])])
+        resonances = resonance_lines(frf)
+        if resonances:
+            peak = resonances[0]
+        else:  # no clear resonance: the largest readable line (all lines above 5 Hz when none is readable)
+            search = readable_lines(frf)
+            if not np.any(search):
+                search = (frf.freq_hz >= RESONANCE_SEARCH_FROM_HZ) & np.isfinite(magnitude)
+            peak = int(np.flatnonzero(search)[np.argmax(magnitude[search])])
         summary.update(
             peak_frequency_hz=float(frf.freq_hz[peak]),
             peak_accelerance_m_s2_per_n=float(magnitude[peak]),
@@ -183,7 +183,7 @@ def _print_summary(summary: dict[str, Any], source: Path, written: str) -> None:
         more = len(summary["notes"]) - 1
         print(f"  note: {summary['notes'][0]}" + (f" (and {more} more notes; --json lists them)" if more else ""))
     if "peak_frequency_hz" in summary:
-        print(f"  peak of |H1| (lines with coherence >= {PEAK_MIN_COHERENCE}): {summary['peak_frequency_hz']:.2f} Hz, "
+        print(f"  peak of |H1| (usable band, coherence >= 0.9): {summary['peak_frequency_hz']:.2f} Hz, "
               f"{summary['peak_accelerance_m_s2_per_n']:.4g} (m/s^2)/N")
         for band in summary["coherence_bands"]:
             print(f"  coherence {band['low_hz']:.0f}-{band['high_hz']:.0f} Hz: mean {band['mean_coherence']:.4f}")
