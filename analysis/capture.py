@@ -22,6 +22,18 @@ import numpy as np
 from gasfilm.drivers.errors import SettingError
 
 SLOPES = ("rising", "falling")
+#: Longest record per hit in s for a live acquisition (GUI and CLI alike): a hammer test's response has decayed long
+#: before, and a 100 s record at 51.2 kS/s is 80 MB per hit (a session of rejected hits fills the disk).
+MAX_RECORD_S = 20.0
+
+
+def check_record_length(record_s: float, setting: str = "record length") -> None:
+    """Refuse a live record length beyond :data:`MAX_RECORD_S`; ``setting`` is the name the user typed or sees (the
+    CLI's ``--record-s``, the GUI's "Record (s)"). Stored recordings of any length can still be read and replayed."""
+    if record_s > MAX_RECORD_S:
+        raise SettingError(
+            f"{setting}: {record_s:g} s is longer than a hammer test needs (at most {MAX_RECORD_S:g} s per hit)"
+        )
 
 
 @dataclass(frozen=True)

@@ -8,7 +8,7 @@ present the events.
 
 A recorder stops itself (:class:`RecordingStopped`) after a run of consecutive rejected hits, and
 :meth:`HitRecorder.stop_on_signals` turns SIGINT, SIGTERM and SIGHUP into :class:`StopSignal` between hits, never
-while one is being stored.
+while one is being stored; :func:`stop_signals_raised` does the same at once for the setup before it.
 """
 
 from __future__ import annotations
@@ -154,9 +154,6 @@ class HitRecorder:
         """While the block runs, SIGINT, SIGTERM and SIGHUP raise :class:`StopSignal` (a ``KeyboardInterrupt``) so the
         caller closes the session as on Ctrl-C; a signal that arrives while a hit is being stored is raised once the
         hit is stored and reported. Only in the main thread (where Python runs signal handlers); elsewhere a no-op."""
-        if threading.current_thread() is not threading.main_thread():
-            yield
-            return
 
         def handler(signum: int, frame: Any) -> None:
             if self._storing:
@@ -164,10 +161,32 @@ class HitRecorder:
             else:
                 raise StopSignal(signum)
 
-        previous = {signum: signal.signal(signum, handler) for signum in STOP_SIGNALS}
-        try:
+        with _stop_signals_handled_by(handler):
             yield
             self._raise_pending_signal()
-        finally:
-            for signum, action in previous.items():
-                signal.signal(signum, action)
+
+
+@contextlib.contextmanager
+def stop_signals_raised() -> Iterator[None]:
+    """While the block runs, SIGINT, SIGTERM and SIGHUP raise :class:`StopSignal` at once: for the setup before a
+    recording (opening the device and the session), so that a signal arriving then ends the process through the
+    caller's cleanup, not by the default handler. Only in the main thread; elsewhere a no-op."""
+
+    def handler(signum: int, frame: Any) -> None:
+        raise StopSignal(signum)
+
+    with _stop_signals_handled_by(handler):
+        yield
+
+
+@contextlib.contextmanager
+def _stop_signals_handled_by(handler: Callable[[int, Any], None]) -> Iterator[None]:
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = {signum: signal.signal(signum, handler) for signum in STOP_SIGNALS}
+    try:
+        yield
+    finally:
+        for signum, action in previous.items():
+            signal.signal(signum, action)

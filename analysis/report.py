@@ -18,6 +18,7 @@ from typing import Any, Sequence
 
 import numpy as np
 
+from gasfilm.analysis.conditions import decode_conditions, format_conditions, format_value
 from gasfilm.analysis.session import Session
 from gasfilm.analysis.spectra import (
     CAUTION_DROP_DB,
@@ -50,6 +51,7 @@ class ReportData:
     channels: list[dict[str, str]]
     settings: dict[str, Any]
     rig_spec_toml: str | None
+    conditions: dict[str, Any]  # operating conditions (analysis/conditions.py)
     hits: list[dict[str, Any]]
     records: list[Any]  # HitRecord of every hit, in order
     frf: FrfResult | None
@@ -115,6 +117,7 @@ def read_report_data(path: str | Path) -> ReportData:
             channels=channels,
             settings=session.settings,
             rig_spec_toml=session.rig_spec_toml,
+            conditions=decode_conditions(session.settings, str(path)),
             hits=hits,
             records=records,
             frf=frf,
@@ -368,6 +371,10 @@ def report_html(data: ReportData, drop_db: float = USABLE_DROP_DB) -> str:
         _table(("Channel", "Name", "Type", "Sensitivity", "IEPE", "Coupling"),
                [tuple(c.values()) for c in data.channels]),
         _table(("Group", "Setting (unit in the name)", "Value"), _settings_rows(data.settings)),
+        "<h3>Operating conditions</h3>",
+        _table(("Condition (unit in the name)", "Value"),
+               [(key, format_value(key, value).split(" = ", 1)[1]) for key, value in data.conditions.items()])
+        if data.conditions else "<p>No operating conditions recorded with this session.</p>",
     ]
     if data.rig_spec_toml:
         sections.append(f"<details><summary>Rig spec</summary><pre>{html.escape(data.rig_spec_toml)}</pre></details>")
@@ -411,7 +418,8 @@ def _report_pdf(data: ReportData, drop_db: float) -> bytes:
     from matplotlib.backends.backend_pdf import PdfPages
 
     lines = [f"gasfilm session report — {data.path}", "",
-             f"Device {data.device_name}, {data.sample_rate_hz:g} S/s, status {data.status}"]
+             f"Device {data.device_name}, {data.sample_rate_hz:g} S/s, status {data.status}",
+             f"Conditions: {format_conditions(data.conditions)}"]
     lines += [f"  {c['channel']} {c['name']} ({c['kind']}): {c['sensitivity']}, IEPE {c['iepe']}, {c['coupling']}"
               for c in data.channels]
     lines += ["", f"Hits: {sum(h['accepted'] for h in data.hits)} accepted of {len(data.hits)}"]

@@ -27,6 +27,69 @@ SETTINGS_TABLES: dict[str, type] = {
 }
 
 
+#: Each setting in words with its unit, and a sentence saying what it does: what the GUI's forms and the report show
+#: instead of the field names. Table name → field name → (label, help).
+SETTING_LABELS: dict[str, dict[str, tuple[str, str]]] = {
+    "trigger": {
+        "level_n": ("Trigger level (N)", "A hit starts where the force crosses this level"),
+        "slope": ("Slope", "Trigger on the force rising through the level, or falling"),
+        "hysteresis_n": ("Hysteresis (N)", "The force must fall this far below the level before the trigger re-arms"),
+        "pretrigger_s": ("Pre-trigger (s)", "Time kept before the trigger: the quiet part that measures the noise"),
+        "record_s": ("Record length (s)", "Time kept per hit, pre-trigger included"),
+        "holdoff_s": ("Hold-off (s)", "After a trigger, no new trigger is searched for this long"),
+    },
+    "window": {
+        "force_window_ms": ("Force window (ms after the peak)", "The force is kept this long after its peak"),
+        "force_taper_ms": ("Force window taper (ms)", "Cosine taper at the end of the force window"),
+        "exponential_end_fraction": (
+            "Exponential window, value at record end (fraction)",
+            "The response is multiplied by an exponential falling to this fraction at the record's end",
+        ),
+    },
+    "validation": {
+        "double_hit_fraction": (
+            "Double hit above (fraction of 1st peak)",
+            "A second impact above this fraction of the first peak rejects the hit (double hit)",
+        ),
+        "min_force_snr": (
+            "Least force peak / noise (ratio)",
+            "The force peak must be at least this many times the RMS noise before the pulse (force too low)",
+        ),
+        "decay_fraction": (
+            "Decayed below (fraction of start)",
+            "The response's envelope must end below this fraction of its start (response not decayed)",
+        ),
+        "tail_fraction": (
+            "Tail length (fraction of record)", "The end of the record whose RMS is compared with the noise"
+        ),
+        "decay_fit_fraction": (
+            "Decay fit length (fraction of record)", "The end of the record where the envelope's decay is fitted"
+        ),
+        "pretrigger_quiet_fraction": (
+            "Quiet pre-trigger below (fraction of peak)",
+            "The response's RMS before the pulse must stay below this fraction of its peak (pre-trigger not quiet)",
+        ),
+        "full_scale_fraction": (
+            "Overload above (fraction of full scale)",
+            "A channel reaching this fraction of its input range rejects the hit (overload)",
+        ),
+        "clip_run_samples": (
+            "Clipping: flat run of (samples)",
+            "This many consecutive samples flat at the signal's extreme count as clipping (overload)",
+        ),
+        "noise_margin": (
+            "Tail above noise by (× noise RMS)",
+            "A record tail louder than this many times the pre-trigger noise still rings (response not decayed)",
+        ),
+    },
+}
+
+
+def setting_label(table: str, name: str) -> str:
+    """The setting ``name`` of the settings table ``table`` in words with its unit (the name itself if unknown)."""
+    return SETTING_LABELS.get(table, {}).get(name, (name, ""))[0]
+
+
 @dataclass(frozen=True)
 class ProcessingSettings:
     """How hits were (or are to be) triggered, validated and windowed."""

@@ -438,9 +438,10 @@ FRF_CSV_COLUMNS = (
 )
 
 
-def write_frf_csv(frf: FrfResult, path: str | Path) -> Path:
+def write_frf_csv(frf: FrfResult, path: str | Path, conditions: Mapping[str, Any] | None = None) -> Path:
     """The FRF as CSV with a header row (:data:`FRF_CSV_COLUMNS`): H1 in (m/s²)/N and g/N, H2, coherence and the
-    two uncertainties."""
+    two uncertainties. The session's operating ``conditions``, if any, come first as ``# condition KEY = VALUE``
+    comment lines."""
     path = Path(path)
     if not path.parent.is_dir():
         raise SettingError(f"{path}: the folder {path.parent} does not exist")
@@ -460,7 +461,9 @@ def write_frf_csv(frf: FrfResult, path: str | Path) -> Path:
         )
     )
     try:
-        np.savetxt(path, columns, delimiter=",", header=",".join(FRF_CSV_COLUMNS), comments="", fmt="%.12g")
+        header = "".join(f"# condition {key} = {value}\n" for key, value in (conditions or {}).items())
+        np.savetxt(path, columns, delimiter=",", header=header + ",".join(FRF_CSV_COLUMNS), comments="",
+                   fmt="%.12g")
     except OSError as error:
         raise SettingError(f"{path}: cannot write the CSV ({error.strerror or error})") from None
     return path

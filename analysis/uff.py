@@ -22,8 +22,10 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 import pyuff
 
+from gasfilm.analysis.session.layout import MAX_ABS_SI as LAYOUT_MAX_ABS_SI
+from gasfilm.analysis.session.layout import MAX_SAMPLE_RATE_HZ
 from gasfilm.drivers.errors import GasfilmError
-from gasfilm.drivers.interface import NI9234_VALID_RATES_HZ
+from gasfilm.drivers.interface import NI9234_VALID_RATES_HZ, ChannelKind
 from gasfilm.drivers.units import STANDARD_GRAVITY_M_S2
 
 FUNCTION_TIME_RESPONSE = 1
@@ -49,9 +51,9 @@ ACCELERATION_UNITS_TO_M_S2 = {
 }
 NO_LABEL = ("", "none")
 MAX_HEADER_INTEGER = 2**31
-SAMPLE_RATE_RANGE_HZ = (1.0, 1e7)
+SAMPLE_RATE_RANGE_HZ = (1.0, MAX_SAMPLE_RATE_HZ)
 #: Largest magnitudes a time record may hold after conversion to SI: beyond them the file is damaged, not a test.
-MAX_ABS_SI = {"force": 1e7, "response": 1e8}  # N, m/s²
+MAX_ABS_SI = {"force": LAYOUT_MAX_ABS_SI[ChannelKind.FORCE], "response": LAYOUT_MAX_ABS_SI[ChannelKind.ACCELERATION]}
 RATE_SNAP_RELATIVE = 1e-4  # UFF stores the abscissa increment with 5 significant digits
 
 
@@ -297,6 +299,7 @@ def _frf_dataset(
     description: str,
     ordinate: tuple[int, str],
     denominator: tuple[int, str],
+    note: str = "",
 ) -> dict[str, Any]:
     increment_hz = float(freq_hz[1] - freq_hz[0]) if len(freq_hz) > 1 else 0.0
     even = bool(len(freq_hz) > 1 and np.allclose(np.diff(freq_hz), increment_hz, rtol=1e-9, atol=0.0))
@@ -304,6 +307,7 @@ def _frf_dataset(
         binary=0,
         id1=description[:80] or "NONE",
         id2="gasfilm",
+        id4=note[:80] or "NONE",
         func_type=func_type,
         rsp_node=int(response_dof[0]),
         rsp_dir=int(response_dof[1]),
@@ -327,8 +331,10 @@ def export_frf_uff(
     response_dof: Dof = (1, 3),
     reference_dof: Dof = (1, 3),
     description: str = "gasfilm averaged FRF",
+    conditions: str = "",
 ) -> Path:
-    """Write the averaged H1 (accelerance, m/s²/N) and the coherence of an ``FrfResult`` as UFF 58."""
+    """Write the averaged H1 (accelerance, m/s²/N) and the coherence of an ``FrfResult`` as UFF 58; ``conditions``
+    (the session's operating conditions as text) goes into ID line 4 of each dataset (80 characters)."""
     path = Path(path)
     if not path.parent.is_dir():
         raise UffError(f"{path}: the folder {path.parent} does not exist")
@@ -362,6 +368,7 @@ def export_frf_uff(
             f"{description} H1 accelerance",
             (DATA_TYPE_ACCELERATION, "m/s^2"),
             (DATA_TYPE_EXCITATION_FORCE, "N"),
+            conditions,
         ),
         _frf_dataset(
             FUNCTION_COHERENCE,
@@ -372,6 +379,7 @@ def export_frf_uff(
             f"{description} coherence",
             (0, "NONE"),
             (0, "NONE"),
+            conditions,
         ),
     ]
     try:

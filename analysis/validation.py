@@ -295,11 +295,16 @@ def response_decay(
     noise_square = np.square(noise_at[first:].reshape(10, block).mean(axis=1))
     above = mean_square > settings.noise_margin**2 * noise_square
     power = mean_square - noise_square
-    times_s = (first + block * (np.arange(10) + 0.5) - start) / sample_rate_hz
-    record_s = (response.size - 1 - start) / sample_rate_hz
+    # fitted against time in samples (well conditioned at any sample rate), converted to seconds afterwards
+    times_samples = first + block * (np.arange(10) + 0.5) - start
+    record_samples = response.size - 1 - start
     over_noise = math.inf if tail_noise == 0 else tail_rms / tail_noise
     if np.count_nonzero(above) < 3:
         return None
-    slope, _ = np.polyfit(times_s[above], 0.5 * np.log(power[above]), 1)
-    rate_1_s = max(0.0, -float(slope))
-    return ResponseDecay(math.exp(-rate_1_s * record_s), rate_1_s, over_noise, record_s, end_fraction)
+    log_amplitude = 0.5 * np.log(power[above])
+    if not np.all(np.isfinite(log_amplitude)):
+        return None
+    slope_per_sample, _ = np.polyfit(times_samples[above], log_amplitude, 1)
+    decay_per_sample = max(0.0, -float(slope_per_sample))
+    return ResponseDecay(math.exp(-decay_per_sample * record_samples), decay_per_sample * sample_rate_hz,
+                         over_noise, record_samples / sample_rate_hz, end_fraction)

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import contextlib
 import io
+import json
 import os
 import re
 import shutil
@@ -550,3 +551,79 @@ def test_uff_records_of_absurd_magnitude_or_mismatched_length_are_refused(tmp_pa
         read_uff_time_records(write(pulse * 1e12, pulse))
     with pytest.raises(UffError, match=r"records.uff: time records have inconsistent lengths \(200, 256 samples\)"):
         read_uff_time_records(write(pulse, pulse[:200]))
+
+
+# --- the causes of issue 15 item 26, one by one --------------------------------------------------------------------
+
+
+def _set_channel_units(file: h5py.File) -> None:
+    config = json.loads(file["daq"].attrs["config"])
+    config["channels"][0]["sensitivity_units"] = "mV/g"  # an acceleration unit on the force channel
+    file["daq"].attrs["config"] = json.dumps(config)
+
+
+def _set_hit_sample_rate(file: h5py.File) -> None:
+    row = file["hits/table"][1]
+    row["sample_rate_hz"] = 1e308
+    file["hits/table"][1] = row
+
+
+def _scale_hit_record(file: h5py.File) -> None:
+    records = file["hits/data"][()]
+    records[1, 1] *= 1e200  # finite, but beyond any accelerometer: squaring it overflowed in the replay
+    file["hits/data"][...] = records
+
+
+@pytest.mark.parametrize(
+    "edit, expected, command",
+    [
+        (_set_channel_units, r"the DAQ configuration cannot be read \(channel 0 is a force sensor with sensitivity "
+                             r"units 'mV/g'\)", "replay"),
+        (_set_channel_units, r"channel 0 is a force sensor with sensitivity units 'mV/g'", "export"),
+        (_set_hit_sample_rate, r"hit 1 has sample rate 1e\+308, out of range", "replay"),
+        (_scale_hit_record, r"hit 1 has samples beyond 1e\+08 m/s\^2 in channel 1 \(accelerometer\)", "replay"),
+    ],
+    ids=["replay-channel-kind-and-units-disagree", "export-channel-kind-and-units-disagree", "replay-hit-rate-1e308",
+         "replay-record-1e200"],
+)
+def test_session_damage_found_by_fuzzing_is_refused_in_one_line(seeds, edit, expected, command, tmp_path):
+    session = tmp_path / "damaged.h5"
+    shutil.copyfile(seeds["session"][0], session)
+    with h5py.File(session, "r+") as file:
+        edit(file)
+    argv = {"replay": ["replay", str(session), "--json"],
+            "export": ["export", str(session), "--csv", str(tmp_path / "frf.csv")]}[command]
+    line = refusal(argv)
+    assert line.startswith(f"gasfilm {command}: error: {session}: damaged session: "), line
+    assert re.search(expected, line), line
+
+
+def test_response_decay_at_an_absurd_sample_rate_prints_nothing(capfd):
+    """A record's decay is fitted against samples, so no sample rate makes the fit ill-conditioned (LAPACK printed
+    "On entry to DLASCL parameter number 4 had an illegal value" and numpy raised LinAlgError at 1e308 S/s)."""
+    from gasfilm.analysis.validation import response_decay
+
+    samples = np.arange(4096)
+    ringing = np.exp(-samples / 3000) * np.sin(0.3 * samples)
+    decays = [response_decay(ringing, 100, rate, noise_rms=1e-6) for rate in (2560.0, 1e308, 1e-300)]
+    assert all(decay is not None for decay in decays)
+    assert decays[0].end_ratio == pytest.approx(decays[1].end_ratio) == pytest.approx(decays[2].end_ratio)
+    assert decays[1].decay_rate_1_s > 1e300
+    captured = capfd.readouterr()
+    assert captured.out == "" and captured.err == ""
+
+
+def test_replays_of_odd_but_readable_sessions_print_no_warnings(seeds, tmp_path):
+    """Issue 15 item 26: numpy overflow warnings were printed on replays that succeed."""
+    def huge_start_time(file: h5py.File) -> None:
+        row = file["hits/table"][1]
+        row["start_time_s"] = 1e300
+        file["hits/table"][1] = row
+
+    for edit in (lambda file: None, huge_start_time):
+        session = tmp_path / "odd.h5"
+        shutil.copyfile(seeds["session"][0], session)
+        with h5py.File(session, "r+") as file:
+            edit(file)
+        code, stderr, _, origin = run_cli(["replay", str(session), "--json"])
+        assert code in (0, 1) and not origin and "Warning" not in stderr, stderr

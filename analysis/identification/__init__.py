@@ -10,18 +10,20 @@
 """
 
 from gasfilm.analysis.identification.comparison import ComparisonRow, compare_models, format_table2
-from gasfilm.analysis.identification.fitter import METHODS, fit_model
+from gasfilm.analysis.identification.fitter import DEFAULT_FIT_BAND_HZ, METHODS, default_fit_band_hz, fit_model
 from gasfilm.analysis.identification.gapso import GapsoSettings
 from gasfilm.analysis.identification.problem import FitCancelledError
 from gasfilm.analysis.identification.result import FitResult
 
 __all__ = [
+    "DEFAULT_FIT_BAND_HZ",
     "METHODS",
     "ComparisonRow",
     "FitCancelledError",
     "FitResult",
     "GapsoSettings",
     "compare_models",
+    "default_fit_band_hz",
     "fit_model",
     "format_table2",
 ]

@@ -28,6 +28,16 @@ from gasfilm.drivers.errors import SettingError
 logger = logging.getLogger(__name__)
 
 METHODS = ("default", "gapso")
+#: The band models are fitted in unless the user says otherwise (GUI and CLI alike), in Hz; it is capped at
+#: :data:`ALIAS_FREE_FRACTION` of the sample rate.
+DEFAULT_FIT_BAND_HZ = (20.0, 1000.0)
+#: The NI 9234's alias-free band ends at 0.45·fs.
+ALIAS_FREE_FRACTION = 0.45
+
+
+def default_fit_band_hz(sample_rate_hz: float) -> tuple[float, float]:
+    """The default fit band for a recording at ``sample_rate_hz``: 20–1000 Hz, capped at 0.45·fs."""
+    return DEFAULT_FIT_BAND_HZ[0], min(DEFAULT_FIT_BAND_HZ[1], ALIAS_FREE_FRACTION * sample_rate_hz)
 
 
 def fit_model(

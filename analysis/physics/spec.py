@@ -116,10 +116,17 @@ class RigSpec:
     hammer: HammerSpec | None = None
     effects: tuple[Effect, ...] = ()
     source: str = field(default="rig spec", compare=False)
+    #: The operating conditions ``film_parameters`` hold at (``[film.conditions]``; keys name their unit).
+    film_conditions: Mapping[str, float] = field(default_factory=dict)
+    #: Power laws of film coefficients in the conditions: parameter → {condition: exponent} (``[film.laws.*]``).
+    film_laws: Mapping[str, Mapping[str, float]] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "film_parameters", {k: float(v) for k, v in self.film_parameters.items()})
         object.__setattr__(self, "effects", tuple(self.effects))
+        object.__setattr__(self, "film_conditions", {k: float(v) for k, v in self.film_conditions.items()})
+        object.__setattr__(self, "film_laws", {k: {c: float(e) for c, e in v.items()} for k, v in
+                                               self.film_laws.items()})
         _validate_spec(self)
         if not self.moving_mass_kg > 0:
             raise SettingError(f"{self.source}: the moving mass with the added masses is {self.moving_mass_kg:.4g} kg; "
@@ -186,6 +193,9 @@ class RigSpec:
         """The spec as TOML text (written by tomli-w; floats round-trip exactly)."""
         table: dict[str, Any] = {"name": self.name, "mass_kg": self.mass_kg,
                                  "film": {"model": self.film_model, "parameters": dict(self.film_parameters)}}
+        if self.film_laws:
+            table["film"]["conditions"] = dict(self.film_conditions)
+            table["film"]["laws"] = {name: dict(exponents) for name, exponents in self.film_laws.items()}
         table["sensors"] = {
             channel: {_SENSOR_KEYS[channel][0]: sensor.sensitivity_mv, _SENSOR_KEYS[channel][1]: sensor.noise_per_sqrt_hz}
             for channel, sensor in (("force", self.force_sensor), ("acceleration", self.acceleration_sensor))
@@ -206,6 +216,17 @@ class RigSpec:
         if effects is not None:
             object.__setattr__(updated, "effects", tuple(effects))
         return updated
+
+    def at_conditions(self, conditions: Mapping[str, Any]) -> "RigSpec":
+        """The rig at an operating point: film coefficients moved along their laws to ``conditions`` (the laws
+        kept, re-based there; :mod:`gasfilm.analysis.physics.laws`). A spec without laws is returned unchanged."""
+        if not self.film_laws:
+            return self
+        from gasfilm.analysis.physics.laws import film_at_conditions
+
+        parameters, reference = film_at_conditions(self.film_parameters, self.film_conditions, self.film_laws,
+                                                   conditions, self.source)
+        return dataclasses.replace(self, film_parameters=parameters, film_conditions=reference)
 
     # derived --------------------------------------------------------------------------------------------------
 
@@ -293,7 +314,7 @@ def _spec_from_table(table: Mapping[str, Any], source: str) -> RigSpec:
     if not isinstance(name, str):
         raise SettingError(f"{source} key 'name': must be a string")
     film = _table(table, "film", source)
-    _check_keys(film, ("model", "parameters"), f"{source} [film]")
+    _check_keys(film, ("model", "parameters", "conditions", "laws"), f"{source} [film]")
     model_text = film.get("model")
     if not isinstance(model_text, str):
         raise SettingError(f"{source} key 'film.model': missing; a paper model name or a network such as "
@@ -302,6 +323,16 @@ def _spec_from_table(table: Mapping[str, Any], source: str) -> RigSpec:
     parameters = {
         key: _float_value(value, f"{source} key 'film.parameters.{key}'", _any_number, "SI")
         for key, value in _table(film, "parameters", f"{source} [film]").items()
+    }
+    film_conditions = {
+        key: _float_value(value, f"{source} key 'film.conditions.{key}'", _within(0.0, 1e9, low_included=False),
+                          "the unit in its name")
+        for key, value in _table(film, "conditions", f"{source} [film]").items()
+    }
+    film_laws = {
+        name: {key: _float_value(value, f"{source} key 'film.laws.{name}.{key}'", _any_number, "exponent")
+               for key, value in _table(laws, name, f"{source} [film.laws]").items()}
+        for laws in (_table(film, "laws", f"{source} [film]"),) for name in laws
     }
     sensors = _table(table, "sensors", source)
     _check_keys(sensors, CHANNELS, f"{source} [sensors]")
@@ -344,7 +375,7 @@ def _spec_from_table(table: Mapping[str, Any], source: str) -> RigSpec:
     effects = tuple(_effect_from_table(item, f"{source} effects[{index}]") for index, item in
                     enumerate(effect_tables))
     return RigSpec(name, mass_kg, model_text, parameters, sensor_specs["force"], sensor_specs["acceleration"],
-                   hammer, effects, source)
+                   hammer, effects, source, film_conditions=film_conditions, film_laws=film_laws)
 
 
 def _effect_from_table(table: Any, where: str) -> Effect:
@@ -442,6 +473,32 @@ def _check_resonance(spec: RigSpec, model: FilmModel) -> None:
                            f"(|Z| = {film[1]:.3g} N/m there); supported: {low_hz:g} Hz to {high_hz:g} Hz")
 
 
+def _check_laws(spec: RigSpec, model: FilmModel) -> None:
+    """Laws only on the film's coefficients (not its orders), in conditions named with their unit and given at the
+    reference, with exponents of at most ``MAX_EXPONENT``."""
+    from gasfilm.analysis.conditions import check_condition, condition_unit
+    from gasfilm.analysis.physics.laws import MAX_EXPONENT
+
+    where = f"{spec.source} [film.laws]"
+    coefficients = {parameter.name for parameter in model.parameters if parameter.scale == "log"}
+    for key, value in spec.film_conditions.items():
+        check_condition(key, value, f"{spec.source} [film.conditions]")
+        if condition_unit(key) is None or not value > 0:
+            raise SettingError(f"{spec.source} key 'film.conditions.{key}' = {value!r}: a law's condition needs its "
+                               f"unit in its name (e.g. gap_um) and a positive value")
+    for name, exponents in spec.film_laws.items():
+        if name not in coefficients:
+            raise SettingError(f"{where}: '{name}' is not a coefficient of {model.name} (laws apply to "
+                               f"{', '.join(sorted(coefficients))})")
+        for key, exponent in exponents.items():
+            if key not in spec.film_conditions:
+                raise SettingError(f"{where} key '{name}.{key}': the condition {key} needs its reference value in "
+                                   f"[film.conditions]")
+            if not abs(exponent) <= MAX_EXPONENT:
+                raise SettingError(f"{where} key '{name}.{key}' = {exponent!r}: an exponent must be within "
+                                   f"±{MAX_EXPONENT:g}")
+
+
 def _check_unit_range(value: float, where: str, unit: str, upper_only: bool = False) -> None:
     low, high = EFFECT_UNIT_RANGES.get(unit, (0.0, math.inf))
     if value == 0.0:
@@ -472,6 +529,7 @@ def _validate_spec(spec: RigSpec) -> None:
         if name not in model.parameter_names:
             raise SettingError(f"{source} key 'film.parameters.{name}': not a parameter of {model.name} "
                                f"({', '.join(model.parameter_names)})")
+    _check_laws(spec, model)
     _check_resonance(spec, model)
     for index, effect in enumerate(spec.effects):
         if type(effect).type_name not in EFFECT_TYPES:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import contextlib
 import functools
+import io
 import json
 import logging
 import os
@@ -25,13 +26,26 @@ from gasfilm.analysis.session.files import (
     check_unclosed_file,
     describe_open_failure,
     move_into_place,
+    open_for_salvage,
     open_h5,
-    recover,
     remove_leftovers,
+    replace_durably,
+)
+from gasfilm.analysis.session.journal import (
+    Journal,
+    JournalContent,
+    hit_digest,
+    journal_held_elsewhere,
+    journal_path,
+    read_journal,
+    setup_of,
+    write_session_file,
 )
 from gasfilm.analysis.session.layout import (
     DEFAULT_SAMPLES_PER_CHUNK,
     FORMAT_NAME,
+    MAX_ABS_SI,
+    MAX_SAMPLE_RATE_HZ,
     MAX_SAMPLES_PER_CHUNK,
     SCHEMA_VERSION,
     SessionError,
@@ -62,6 +76,8 @@ FREE_SPACE_MARGIN_BYTES = 1 << 20
 #: What a damaged file's metadata can make h5py, numpy or the decoders raise while it is read.
 _READ_ERRORS = (OSError, KeyError, ValueError, TypeError, RuntimeError, IndexError, AttributeError, MemoryError,
                 OverflowError, UnicodeError)
+#: What a failing write (full disk, I/O error) or HDF5 writing over damaged metadata can raise.
+_WRITE_ERRORS = (OSError, RuntimeError, KeyError, ValueError, TypeError, IndexError, AttributeError, OverflowError)
 #: The groups every session holds.
 _GROUPS = ("rig", "daq", "settings", "hits", "frf", "fits", "diagnoses")
 #: FrfResult fields with one value per frequency line.
@@ -133,10 +149,40 @@ def _detach(file: h5py.File, path: Path) -> None:
     if os.name == "nt":
         return
     try:
-        null = os.open(os.devnull, os.O_RDWR)
-        os.dup2(null, file.id.get_vfd_handle())
-        os.close(null)
+        _detach_descriptor(file.id.get_vfd_handle(), path)
     except (OSError, RuntimeError) as error:
+        logger.warning("%s: cannot detach the file after the write failure: %s", path, one_line(error))
+
+
+def _close_or_detach(file: h5py.File, path: Path) -> BaseException | None:
+    """Close an HDF5 file; when closing fails (its last writes fail), point its descriptor at /dev/null and close it
+    again, so that HDF5 lets go of it instead of retrying, and crashing, when the process exits. Returns the
+    failure, or None."""
+    try:
+        handle = file.id.get_vfd_handle()
+    except RuntimeError:  # a session rebuilt in memory: no descriptor
+        handle = None
+    try:
+        with _h5py_errors_raised():
+            file.close()
+    except (OSError, RuntimeError) as error:
+        if handle is not None:
+            _detach_descriptor(handle, path)
+        with contextlib.suppress(OSError, RuntimeError), _h5py_errors_raised():
+            file.close()
+        return error
+    return None
+
+
+def _detach_descriptor(handle: int, path: Path) -> None:
+    """Point the file descriptor ``handle`` at /dev/null (see :func:`_detach`)."""
+    if os.name == "nt":
+        return
+    try:
+        null = os.open(os.devnull, os.O_RDWR)
+        os.dup2(null, handle)
+        os.close(null)
+    except OSError as error:
         logger.warning("%s: cannot detach the file after the write failure: %s", path, one_line(error))
 
 
@@ -146,6 +192,104 @@ def _write_error_text(error: BaseException) -> str:
     if match:
         return match.group(1)
     return getattr(error, "strerror", None) or one_line(error)
+
+
+#: Passed as the status of a rebuild from a journal left behind: :func:`_rebuilt_status` decides it.
+_STATUS_OF_A_LEFT_JOURNAL = ("", "")
+
+
+def _rebuilt_status(salvage: h5py.File | None, closed: bool, content: JournalContent) -> tuple[str, str] | None:
+    """The status of a session rebuilt from a journal its writer left: the old file's when that was closed as
+    complete or aborted (the journal outlived a clean close), else "interrupted"."""
+    if closed and salvage is not None and salvage.attrs.get("status") in ("complete", "aborted"):
+        return None
+    return ("interrupted", f"the recording process ended without closing the session; {content.hit_count} hits "
+                           f"rebuilt from its journal")
+
+
+def _rebuild_on_disk(path: Path, content: JournalContent, status: tuple[str, str] | None) -> WriterLock | None:
+    """Write the session the journal describes into a fresh file (with what the old file still holds besides the
+    hits) and put it in place of ``path``; return the writer lock on it. Raises :class:`SessionWriteError` when the
+    fresh file cannot be written (the old file and the journal are left as they are)."""
+    building = building_path(path, "recovering")
+    with contextlib.suppress(OSError):
+        old_bytes = os.path.getsize(path) if path.exists() else 0
+        needed = max(old_bytes, content.records.nbytes + content.rows.nbytes) + FREE_SPACE_MARGIN_BYTES
+        free_bytes = shutil.disk_usage(path.parent).free
+        if free_bytes < needed:  # refused before HDF5 writes: a write failing inside HDF5 can crash the process later
+            raise SessionWriteError(
+                f"{path}: cannot rewrite the session: disk full ({free_bytes / 1e6:.3g} MB free, "
+                f"{needed / 1e6:.3g} MB needed); its {content.hit_count} hits are safe in {journal_path(path).name}, "
+                f"which gasfilm reads and rebuilds from when the session is opened"
+            )
+    salvage, closed = open_for_salvage(path)
+    if status == _STATUS_OF_A_LEFT_JOURNAL:
+        status = _rebuilt_status(salvage, closed, content)
+    try:
+        target = open_h5(building, "w")
+        try:
+            with _h5py_errors_raised():
+                lost = write_session_file(target, content, salvage, status)
+        finally:
+            failure = _close_or_detach(target, building)
+        if failure is not None:
+            raise failure
+        if salvage is not None:
+            salvage.close()
+            salvage = None
+        _check_rebuilt(building, content)
+        lock = replace_durably(building, path, lock=True)
+    except (*_WRITE_ERRORS, SessionError) as error:
+        building.unlink(missing_ok=True)
+        logger.error("%s: rebuilding the session from its journal failed: %s", path, one_line(error))
+        raise SessionWriteError(
+            f"{path}: cannot rewrite the session ({_write_error_text(error)}); its {content.hit_count} hits are safe "
+            f"in {journal_path(path).name}, which gasfilm reads and rebuilds from when the session is opened"
+        ) from None
+    finally:
+        if salvage is not None:
+            salvage.close()
+    for what in lost:
+        logger.warning("%s: not carried over from the damaged file: %s", path, what)
+    return lock
+
+
+def _check_rebuilt(building: Path, content: JournalContent) -> None:
+    """Read a rebuilt file back before it replaces anything: the setup and every hit as the journal has them (HDF5
+    does not report every failed write)."""
+    with _h5py_errors_raised(), open_h5(building, "r") as file:
+        setup, _ = setup_of(file)
+        for name in ("rig", "daq", "settings"):
+            if setup["attrs"][name] != content.setup["attrs"][name]:
+                raise ValueError(f"the rebuilt file's '{name}' differs from the journal's")
+        if setup["rig_spec_toml"] != content.setup["rig_spec_toml"]:
+            raise ValueError("the rebuilt file's rig spec differs from the journal's")
+        table, data = file["hits/table"], file["hits/data"]
+        if committed_hits(table, data) != content.hit_count or content.digests() != [
+                hit_digest(record, row) for record, row in zip(data[:content.hit_count], table[:content.hit_count])]:
+            raise ValueError("the rebuilt file's hits differ from the journal's")
+
+
+def _remove_empty_journal(path: Path, overwrite: bool) -> None:
+    """Before creating ``path``: remove a journal left by a killed creation (no hits), or by the session being
+    replaced (``overwrite``); refuse to create over a journal that holds hits of a session whose file is gone."""
+    journal = Journal.resume(path)
+    if journal is None:
+        return
+    try:
+        try:
+            hits = read_journal(journal.folder).hit_count
+        except SessionError:
+            hits = 0
+        if hits and not overwrite:
+            raise SessionError(
+                f"{path}: {journal.folder.name} holds {hits} hits of a session whose file is missing; open "
+                f"{path.name} to rebuild it from them, or move the journal away"
+            )
+        journal.remove()
+        logger.warning("%s: removed the journal %s (%d hits) left before this creation", path, journal.folder, hits)
+    finally:
+        journal.release()
 
 
 @dataclass(frozen=True)
@@ -200,6 +344,10 @@ class Session:
         self.size_limit_bytes = DEFAULT_SIZE_LIMIT_BYTES
         self._write_failure: str | None = None  # why writing failed: the file is then closed without more writes
         self._hit_count = 0
+        #: A writer's journal (``NAME.journal``) and the fingerprint of each hit it holds, in order.
+        self._journal: Journal | None = None
+        self._digests: list[bytes] = []
+        self._close_failed = False  # closing the HDF5 file failed: its h5py object is left alone
         try:
             self._check_layout()
         except SessionError:
@@ -237,6 +385,8 @@ class Session:
         if not path.parent.is_dir():
             raise SessionError(f"{path}: the folder {path.parent} does not exist")
         remove_leftovers(path)
+        remove_leftovers(journal_path(path))
+        _remove_empty_journal(path, overwrite)
         free_bytes = shutil.disk_usage(path.parent).free
         if free_bytes < FREE_SPACE_MARGIN_BYTES:  # HDF5 failing mid-creation can crash the process when it exits
             raise SessionWriteError(f"{path}: disk full ({free_bytes / 1e6:.3g} MB free); the session is not created")
@@ -249,6 +399,7 @@ class Session:
                 replaced.release()
             raise SessionError(f"{path}: cannot create the session file ({_write_error_text(error)})") from None
         lock = None
+        journal = None
         try:
             lock = WriterLock(building)
             with _h5py_errors_raised(on_error=lambda: _detach(file, building)):
@@ -292,8 +443,19 @@ class Session:
                 file.flush()
                 file.swmr_mode = True
                 del rig, daq, settings_group, hits
+                setup, table_template = setup_of(file)
+            try:
+                journal = Journal.start(path, setup, table_template, np.zeros((0, channel_count, 0)),
+                                        table_template)
+            except FileExistsError:
+                raise SessionError(
+                    f"{path}: the session file exists already (another process created it at the same moment)"
+                ) from None
             move_into_place(building, path, overwrite)
         except BaseException as error:
+            if journal is not None:
+                with contextlib.suppress(OSError):
+                    journal.remove()
             if isinstance(error, (OSError, RuntimeError)):
                 logger.error("%s: creating the session failed: %s", path, error)
                 error = SessionError(f"{path}: cannot create the session file ({_write_error_text(error)})")
@@ -309,51 +471,138 @@ class Session:
             if replaced is not None:
                 replaced.release()
         session = cls(path, file, lock)
+        session._journal = journal
         session.sync_each_hit = sync_each_hit
         return session
 
     @classmethod
     def open(cls, path: str | Path, mode: str = "r") -> "Session":
-        """Open a session for reading (``"r"``) or for appending and adding results (``"a"``)."""
+        """Open a session for reading (``"r"``) or for appending and adding results (``"a"``).
+
+        A session whose writer failed or was killed has a journal left next to it: reading rebuilds the session from
+        it in memory, appending rebuilds the file on disk first (``recovered`` is then True)."""
         path = Path(path)
         if mode not in ("r", "a"):
             raise SessionError(f"{path}: mode '{mode}' is not valid; use 'r' or 'a'")
-        if not path.exists():
-            raise SessionError(f"{path}: no such session file")
         if path.is_dir():
             raise SessionError(f"{path}: is a folder, not a session file")
-        lock = WriterLock(path) if mode == "a" else None
-        if lock is not None:
-            remove_leftovers(path)
+        leftover_journal = journal_path(path).is_dir() and not journal_held_elsewhere(path)
+        if not path.exists() and not leftover_journal:
+            raise SessionError(f"{path}: no such session file")
+        if mode == "a":
+            return cls._open_for_writing(path)
+        if leftover_journal:
+            return cls._rebuilt_in_memory(path)
+        return cls._open_read_only(path, writer_lock_held=False)
+
+    @classmethod
+    def _open_read_only(cls, path: Path, writer_lock_held: bool) -> "Session":
+        """The session file as it is on disk (``writer_lock_held``: this process holds its writer lock)."""
         try:
-            file = open_h5(path, mode)
+            file = open_h5(path, "r")
         except OSError as error:
             if "already open for write" not in str(error):
-                if lock is not None:
-                    lock.release()
                 raise describe_open_failure(path, error) from None
-            # The flags of a writer that is still recording (mode "r" only: else the lock would have failed)
-            # or that ended without closing the file (killed, crashed, power lost).
-            live = lock is None and WriterLock.held_elsewhere(path)
+            # The flags of a writer that is still recording or that ended without closing the file (killed, crashed,
+            # power lost): the latter is checked first (reading a truncated one in SWMR mode can run for minutes).
+            live = not writer_lock_held and WriterLock.held_elsewhere(path)
             if not live:
-                try:
-                    check_unclosed_file(path)
-                except SessionError:
-                    if lock is not None:
-                        lock.release()
-                    raise
-            if mode == "r":
-                try:
-                    file = open_h5(path, "r", swmr=True)
-                except OSError as swmr_error:
-                    raise describe_open_failure(path, swmr_error) from None
-                return cls(path, file, recovered=not live)
+                check_unclosed_file(path)
             try:
-                recovered_lock = recover(path)
-            finally:
+                file = open_h5(path, "r", swmr=True)
+            except OSError as swmr_error:
+                raise describe_open_failure(path, swmr_error) from None
+            return cls(path, file, recovered=not live)
+        return cls(path, file)
+
+    @classmethod
+    def _rebuilt_in_memory(cls, path: Path) -> "Session":
+        """A read-only session rebuilt from the journal a failed or killed writer left (nothing is written to disk)."""
+        content = read_journal(journal_path(path))
+        salvage, closed = open_for_salvage(path)
+        try:
+            file = h5py.File(io.BytesIO(), "w")
+            try:
+                with _h5py_errors_raised():
+                    write_session_file(file, content, salvage, _rebuilt_status(salvage, closed, content))
+            except _WRITE_ERRORS as error:
+                file.close()
+                raise SessionError(f"{path}: the session cannot be rebuilt from its journal ({one_line(error)})") from None
+        finally:
+            if salvage is not None:
+                salvage.close()
+        logger.warning("%s: read from its journal %s (%d hits): its writer did not close it", path,
+                       journal_path(path), content.hit_count)
+        return cls(path, file, recovered=True)
+
+    @classmethod
+    def _open_for_writing(cls, path: Path) -> "Session":
+        """Take the writer lock; journal the committed hits (or take over a journal left behind); rewrite the session
+        file from the journal, so that the writes to come go into a file this process made; open it for appending."""
+        lock = WriterLock(path) if path.exists() else None
+        journal = None
+        try:
+            remove_leftovers(path)
+            remove_leftovers(journal_path(path))
+            journal = Journal.resume(path)
+            started = journal is None
+            if journal is not None:
+                content = journal.read()
+                status = _STATUS_OF_A_LEFT_JOURNAL
+            else:
+                if lock is None:
+                    raise SessionError(f"{path}: no such session file")
+                with cls._open_read_only(path, writer_lock_held=True) as source:
+                    content = source._committed_content()
+                    status = None
+                    if source.recovered:
+                        status = ("interrupted", f"the recording process ended without closing the session; "
+                                                 f"{content.hit_count} hits recovered")
+                try:
+                    journal = Journal.start(path, content.setup, content.rows[:0], content.records, content.rows)
+                except OSError as error:
+                    raise SessionWriteError(
+                        f"{path}: cannot start the session's journal for writing ({_write_error_text(error)}); "
+                        f"nothing was changed"
+                    ) from None
+            try:
+                new_lock = _rebuild_on_disk(path, content, status)
+            except SessionWriteError:
+                if started:  # the session file is untouched: the journal just started holds nothing more
+                    journal.remove()
+                    journal = None
+                raise
+            if lock is not None:
                 lock.release()
-            return cls(path, open_h5(path, "a"), recovered_lock, recovered=True)
-        return cls(path, file, lock)
+            lock = new_lock
+            try:
+                file = open_h5(path, "a")
+            except OSError as error:
+                raise SessionWriteError(
+                    f"{path}: cannot open the session for writing ({_write_error_text(error)}); its "
+                    f"{content.hit_count} hits are safe in {journal_path(path).name}"
+                ) from None
+            session = cls(path, file, lock, recovered=status is not None)
+            if status is not None:
+                logger.warning("%s: rebuilt before writing (status %s: %s)", path, session.status,
+                               session.status_reason)
+        except BaseException:
+            if journal is not None:
+                journal.release()
+            if lock is not None:
+                lock.release()
+            raise
+        session._journal = journal
+        session._digests = content.digests()
+        return session
+
+    @_reading("the hits")
+    def _committed_content(self) -> JournalContent:
+        """The setup and every committed hit, as a journal starts with them."""
+        rows = self._rows()
+        records = self._read_data(slice(0, len(rows)))
+        setup, _ = setup_of(self._file)
+        return JournalContent(setup, np.asarray(records, dtype=np.float64), rows, [])
 
     @_reading("its layout")
     def _check_layout(self) -> None:
@@ -394,7 +643,7 @@ class Session:
             name not in table.dtype.names or table.dtype[name].shape != expected[name].shape for name in expected.names
         ):
             raise SessionError(f"{self.path}: damaged session: 'hits/table' does not have the hit table's columns")
-        check_declared_rows(self.path, table, data)
+        check_declared_rows(self.path, table, data, self._file.id.get_filesize())
         self._hit_count = committed_hits(table, data)
 
     # ----- context manager and closing ----------------------------------------------------------------------
@@ -405,25 +654,28 @@ class Session:
     def __exit__(self, exc_type: type | None, exc: BaseException | None, traceback: object) -> None:
         if not self.is_open:
             return
-        if exc is not None and self.writable and self._file.attrs["status"] == "recording":
+        failed = self._write_failure is not None
+        if exc is not None and self.writable and not failed and self._file.attrs["status"] == "recording":
             self.close("aborted", f"{type(exc).__name__}: {exc}" if str(exc) else type(exc).__name__)
         else:
             self.close()
 
     @property
     def is_open(self) -> bool:
-        return bool(self._file.id.valid)
+        return not self._close_failed and bool(self._file.id.valid)
 
     def close(self, status: str | None = None, reason: str = "") -> None:
         """Close the file, recording how the session ended: ``"complete"`` or ``"aborted"`` (with a reason).
 
         Without a status, a session that was recording becomes ``"complete"`` and any other keeps its status (so
         adding a fit to an aborted session does not make it complete)."""
+        if self._write_failure is not None:
+            if self._journal is not None or self._lock is not None:
+                self._close_after_write_failure()
+            return
         if not self.is_open:
             return
-        if self._write_failure is not None:
-            self._close_after_write_failure()
-            return
+        final_status = None
         if self.writable:
             if status is None:
                 status = "complete" if self._file.attrs["status"] == "recording" else None
@@ -438,9 +690,17 @@ class Session:
                 except SessionWriteError:
                     self._close_after_write_failure()
                     raise
-        self._file.close()
-        if self._lock is not None:
-            self._lock.release()
+            final_status = (str(self._file.attrs["status"]), str(self._file.attrs["status_reason"]))
+        failure = _close_or_detach(self._file, self.path)
+        if failure is not None:
+            self._write_failure = _write_error_text(failure)
+            logger.error("%s: closing the file failed: %s", self.path, one_line(failure))
+        try:
+            if self._journal is not None:
+                self._settle_journal(final_status if self._write_failure is None else None)
+        finally:
+            if self._lock is not None:
+                self._lock.release()
 
     @contextlib.contextmanager
     def _writing(self, what: str) -> Iterator[None]:
@@ -449,13 +709,15 @@ class Session:
         try:
             with _h5py_errors_raised(on_error=self._detach_file):
                 yield
-        except (OSError, RuntimeError) as error:
+        except _WRITE_ERRORS as error:
             self._detach_file()
             self._write_failure = _write_error_text(error)
-            logger.error("%s: writing %s failed: %s; %d hits kept", self.path, what, one_line(error), self._hit_count)
+            kept = len(self._digests) if self._journal is not None else self._hit_count
+            logger.error("%s: writing %s failed: %s; %d hits kept", self.path, what, one_line(error), kept)
+            also = " and this one" if kept > self._hit_count else ""
             raise SessionWriteError(
                 f"{self.path}: writing {what} failed ({self._write_failure}); recording stopped, the "
-                f"{self._hit_count} hits before it are kept"
+                f"{self._hit_count} hits before it{also} are kept"
             ) from None
 
     def _detach_file(self) -> None:
@@ -465,14 +727,65 @@ class Session:
             _detach(self._file, self.path)
 
     def _close_after_write_failure(self) -> None:
-        """Let go of a file that could not be written (detached, so nothing more reaches the disk)."""
+        """Let go of a file that could not be written (detached, so nothing more reaches the disk), then rebuild it
+        from the journal where the disk allows (else the journal stays, and the next open rebuilds from it)."""
+        if not self._close_failed:
+            try:
+                with _h5py_errors_raised():
+                    self._file.close()
+            except (OSError, RuntimeError) as error:
+                logger.info("%s: closing after the write failure: %s", self.path, one_line(error))
         try:
-            with _h5py_errors_raised():
-                self._file.close()
-        except (OSError, RuntimeError) as error:
-            logger.warning("%s: closing after the write failure: %s", self.path, one_line(error))
-        if self._lock is not None:
-            self._lock.release()
+            if self._journal is not None:
+                self._settle_journal(None)
+        finally:
+            if self._lock is not None:
+                self._lock.release()
+                self._lock = None
+
+    def _settle_journal(self, final_status: tuple[str, str] | None) -> None:
+        """After the file is closed: remove the journal once the file on disk holds exactly the journaled hits,
+        rebuilding the file from the journal first when it does not (or when writing failed: ``final_status`` None).
+        When the rebuild fails (a full disk), the journal stays for the next open, which rebuilds from it."""
+        journal, self._journal = self._journal, None
+        try:
+            if final_status is None or not self._file_holds_journaled_hits():
+                content = journal.read()
+                if final_status is None:
+                    status = ("interrupted", f"writing failed ({self._write_failure}); {content.hit_count} hits "
+                                             f"rebuilt from its journal")
+                else:
+                    status = (final_status[0], f"{final_status[1]}; {content.hit_count} hits rebuilt from its journal"
+                              .lstrip("; "))
+                    logger.error("%s: the closed file does not hold the %d journaled hits; rebuilding it",
+                                 self.path, len(self._digests))
+                lock = _rebuild_on_disk(self.path, content, status)
+                if lock is not None:
+                    lock.release()
+                logger.info("%s: rebuilt from its journal: %d hits", self.path, content.hit_count)
+            journal.remove()
+        except (SessionError, OSError) as error:
+            logger.error("%s: the journal %s is kept (%s)", self.path, journal.folder, one_line(error))
+            journal.release()
+
+    def _file_holds_journaled_hits(self) -> bool:
+        """Whether the closed session file reads back with exactly the hits of the journal, sample for sample."""
+        try:
+            with _h5py_errors_raised(), open_h5(self.path, "r") as file:
+                table, data = file["hits/table"], file["hits/data"]
+                count = committed_hits(table, data)
+                if count != len(self._digests):
+                    return False
+                for start in range(0, count, 64):
+                    stop = min(start + 64, count)
+                    rows, records = table[start:stop], data[start:stop]
+                    if any(hit_digest(record, row) != self._digests[start + offset]
+                           for offset, (record, row) in enumerate(zip(records, rows))):
+                        return False
+        except _READ_ERRORS as error:
+            logger.error("%s: the closed file cannot be read back: %s", self.path, one_line(error))
+            return False
+        return True
 
     def _set_status(self, status: str, reason: str) -> None:
         self._structural()
@@ -494,7 +807,10 @@ class Session:
         """Leave SWMR mode (by reopening the file) so groups and attributes can be created."""
         self._require_writable()
         if self._file.swmr_mode:
-            self._file.close()
+            failure = _close_or_detach(self._file, self.path)  # raised here, before the file is opened again
+            if failure is not None:
+                self._close_failed = True  # the h5py object must not be used again (HDF5 crashes on it)
+                raise failure
             self._file = open_h5(self.path, "a")
 
     def _appending(self) -> None:
@@ -587,10 +903,14 @@ class Session:
 
     def update_settings(self, settings: Mapping[str, Any]) -> None:
         """Store (or replace) processing settings by key."""
-        self._structural()
-        for key, value in settings.items():
-            self._group("settings").attrs[key] = json_dumps(value)
-        self._file.flush()
+        self._require_writable()
+        encoded = {key: json_dumps(value) for key, value in settings.items()}
+        with self._writing("the settings"):
+            self._journal_write().set_settings(encoded)
+            self._structural()
+            for key, value in encoded.items():
+                self._group("settings").attrs[key] = value
+            self._file.flush()
 
     # ----- hits ---------------------------------------------------------------------------------------------------
 
@@ -641,8 +961,10 @@ class Session:
         row["force_channel"] = int(hit.force_channel)
         row["response_channel"] = int(hit.response_channel)
         row["overload"] = np.asarray(hit.overload, dtype=bool).reshape(channels)
-        self._check_room(data.nbytes + row.nbytes)
+        self._check_room(2 * (data.nbytes + row.nbytes))  # the journal's copy and the file's
         with self._writing("a new hit"):
+            self._journal_write().add_hits(index, data[np.newaxis], row.reshape(1), sync=self.sync_each_hit)
+            self._digests.append(hit_digest(data, row))
             self._appending()
             records, table = self._data, self._table
             records.resize((index + 1, channels, samples))
@@ -656,6 +978,11 @@ class Session:
             self._sync()
         self._hit_count = index + 1
         return index
+
+    def _journal_write(self) -> Journal:
+        if self._journal is None:
+            raise SessionError(f"{self.path}: the session has no journal to write to")
+        return self._journal
 
     def _check_room(self, hit_bytes: int) -> None:
         """Refuse a hit that would pass the size limit or leave the disk without room to close the session."""
@@ -685,7 +1012,8 @@ class Session:
             ("force channel", "force_channel", (rows["force_channel"] >= 0) & (rows["force_channel"] < channels)),
             ("response channel", "response_channel",
              (rows["response_channel"] >= 0) & (rows["response_channel"] < channels)),
-            ("sample rate", "sample_rate_hz", np.isfinite(rows["sample_rate_hz"]) & (rows["sample_rate_hz"] > 0)),
+            ("sample rate", "sample_rate_hz",
+             (rows["sample_rate_hz"] > 0) & (rows["sample_rate_hz"] <= MAX_SAMPLE_RATE_HZ)),
             ("trigger sample", "trigger_index", (rows["trigger_index"] >= 0) & (rows["trigger_index"] <= samples)),
             ("start time", "start_time_s", np.isfinite(rows["start_time_s"])),
         )
@@ -717,12 +1045,21 @@ class Session:
         return self._data[indices]
 
     def _check_finite(self, records: np.ndarray, indices: np.ndarray) -> None:
+        """Raise naming the first hit and channel with NaN samples, or with samples beyond any sensor's range."""
         bad = ~np.all(np.isfinite(records), axis=(1, 2))
         if np.any(bad):
             hit = int(indices[np.argmax(bad)])
             channel = int(np.argmax(~np.all(np.isfinite(records[np.argmax(bad)]), axis=1)))
             label = self.daq_config.channels[channel].label
             raise SessionError(f"{self.path}: hit {hit} has NaN samples in channel {channel} ({label})")
+        for channel, config in enumerate(self.daq_config.channels):
+            peaks = np.max(np.abs(records[:, channel]), axis=1) if records.shape[2] else np.zeros(len(records))
+            beyond = peaks > MAX_ABS_SI[config.kind]
+            if np.any(beyond):
+                raise SessionError(
+                    f"{self.path}: damaged session: hit {int(indices[np.argmax(beyond)])} has samples beyond "
+                    f"{MAX_ABS_SI[config.kind]:g} {config.kind.unit} in channel {channel} ({config.label})"
+                )
 
     @_reading("the hits")
     def hits(self, check_finite: bool = True) -> list[StoredHit]:
@@ -769,12 +1106,14 @@ class Session:
             raise SessionError(f"{self.path}: hit {index} does not exist (the session holds {self.hit_count})")
         reasons = encode_reasons(tuple(verdict.reasons), self.path)
         with self._writing(f"the verdict of hit {index}"):
-            self._appending()
             table = self._table
             row = table[index]
             row["accepted"] = bool(verdict.accepted)
             row["overridden"] = bool(getattr(verdict, "overridden", False))
             row["reasons"] = reasons
+            self._journal_write().set_row(index, row)
+            self._digests[index] = hit_digest(self._data[index], row)
+            self._appending()
             table[index] = row
             table.flush()
             self._file.flush()
@@ -805,7 +1144,7 @@ class Session:
     @_reading("a stored result")
     def _read_result_group(self, kind: str, name: str) -> dict[str, Any]:
         group = self._group(kind)[name]
-        file_bytes = os.path.getsize(self.path)
+        file_bytes = self._file.id.get_filesize()
         for key, dataset in group.items():
             if not isinstance(dataset, h5py.Dataset):
                 raise SessionError(f"{self.path}: damaged session: {kind} result '{name}': '{key}' is not a dataset")

@@ -1,12 +1,15 @@
-"""Session files on disk: the writer lock, opening with HDF5, checking and recovering a file whose writer died."""
+"""Session files on disk: the writer lock, opening with HDF5, checking a file whose writer died, replacing a file\nwith its rebuilt copy."""
 
 from __future__ import annotations
 
+import contextlib
+import ctypes
 import errno
 import glob
 import logging
 import os
 import re
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -22,10 +25,7 @@ except ImportError:  # Windows: HDF5's own file locking guards the file instead 
 from gasfilm.analysis.session.layout import (
     FORMAT_NAME,
     SessionError,
-    check_declared_rows,
-    committed_hits,
     one_line,
-    utc_now,
 )
 
 logger = logging.getLogger(__name__)
@@ -56,8 +56,9 @@ with h5py.File(fid) as f:
         f[name].id.chunk_iter(lambda chunk: ends.append(chunk.byte_offset + chunk.size))
     sys.exit(3 if ends and max(ends) > size else 0)
 """
-#: Hidden files a creation or a recovery builds before it moves them into place: ``.NAME.PID.creating``.
-BUILDING_SUFFIXES = ("creating", "recovering")
+#: Hidden files a creation or a recovery builds before it moves them into place: ``.NAME.PID.creating``; and the
+#: folder a journal is started in, ``.NAME.journal.PID.starting``.
+BUILDING_SUFFIXES = ("creating", "recovering", "starting")
 
 
 def describe_open_failure(path: Path, error: OSError) -> SessionError:
@@ -138,46 +139,74 @@ def check_unclosed_file(path: Path) -> None:
 
 
 
-def recover(path: Path) -> WriterLock:
-    """Rewrite a session whose writer ended without closing it into a clean file, committed hits only; return the
-    writer lock on the clean file (taken before it replaces the damaged one)."""
-    clean = building_path(path, "recovering")
+def open_for_salvage(path: Path) -> tuple[h5py.File | None, bool]:
+    """The old session file opened read-only to take what it still holds, and whether it was closed properly;
+    (None, False) when it cannot be opened (missing, damaged, not a session, or reading it would run past its end)."""
     try:
-        source = open_h5(path, "r", swmr=True)
-    except OSError as error:
-        raise describe_open_failure(path, error) from None
+        return _checked_session(open_h5(path, "r")), True
+    except (OSError, SessionError) as error:
+        if "already open for write" not in str(error):
+            return None, False
     try:
-        if source.attrs.get("format") != FORMAT_NAME:
-            raise SessionError(f"{path}: an HDF5 file, but not a gasfilm session (no '{FORMAT_NAME}' format mark)")
-        check_declared_rows(path, source["hits/table"], source["hits/data"])
-        with open_h5(clean, "w") as target:
-            for key, value in source.attrs.items():
-                target.attrs[key] = value
-            for name in source:
-                source.copy(source[name], target, name=name)
-            committed = committed_hits(target["hits/table"], target["hits/data"])
-            data = target["hits/data"]
-            data.resize((committed, data.shape[1], data.shape[2]))
-            target["hits/table"].resize((committed,))
-            target.attrs["recovered_utc"] = utc_now()
-            if target.attrs["status"] == "recording":
-                target.attrs["status"] = "interrupted"
-                target.attrs["status_reason"] = (
-                    f"the recording process ended without closing the session; {committed} hits recovered"
-                )
-        lock = WriterLock(clean)
-    except (OSError, KeyError, ValueError, RuntimeError) as error:
-        clean.unlink(missing_ok=True)
-        logger.error("%s: recovery failed: %s", path, error)
-        raise SessionError(f"{path}: the session cannot be recovered ({one_line(error)})") from None
-    except BaseException:
-        clean.unlink(missing_ok=True)
-        raise
+        fapl = _single_read_attempt_access()
+        if fapl is None:  # no way to stop HDF5's retries in this process: check the file in a child first
+            check_unclosed_file(path)
+            return _checked_session(open_h5(path, "r", swmr=True)), False
+        file_id = h5py.h5f.open(os.fsencode(path), h5py.h5f.ACC_RDONLY | h5py.h5f.ACC_SWMR_READ, fapl=fapl)
+        return _checked_session(h5py.File(file_id)), False
+    except (OSError, SessionError):
+        return None, False
+
+
+def _single_read_attempt_access() -> Any:
+    """File access properties that read a file left open by its writer in SWMR mode with a single attempt per metadata
+    read (HDF5's default retries and sleeps for minutes past the end of a truncated file); None where HDF5's library
+    cannot be found in this process (H5Pset_metadata_read_attempts is called through ctypes: h5py does not wrap it)."""
+    try:
+        with open("/proc/self/maps") as maps:
+            libraries = [line.split()[-1] for line in maps if "/libhdf5" in line]
+        function = ctypes.CDLL(libraries[0]).H5Pset_metadata_read_attempts
+    except (OSError, IndexError, AttributeError):
+        return None
+    fapl = h5py.h5p.create(h5py.h5p.FILE_ACCESS)
+    if fcntl is not None:
+        fapl.set_file_locking(False, True)
+    if function(ctypes.c_int64(fapl.id), ctypes.c_uint(1)) < 0:
+        return None
+    return fapl
+
+
+def _checked_session(file: h5py.File) -> h5py.File:
+    if file.attrs.get("format") != FORMAT_NAME:
+        file.close()
+        raise SessionError("not a session")
+    return file
+
+
+def replace_durably(building: Path, path: Path, lock: bool) -> "WriterLock | None":
+    """Move the finished file ``building`` over ``path`` after an fsync of its data, and fsync the folder; with
+    ``lock``, take the writer lock on it first (so no other writer gets in between) and return it."""
+    fd = os.open(building, os.O_RDONLY)
+    try:
+        os.fsync(fd)
     finally:
-        source.close()
-    os.replace(clean, path)
-    logger.warning("%s: recovered after its writer ended without closing it: %d committed hits kept", path, committed)
-    return lock
+        os.close(fd)
+    with contextlib.suppress(OSError):
+        shutil.copymode(path, building)
+    writer_lock = WriterLock(building) if lock else None
+    try:
+        os.replace(building, path)
+        if os.name != "nt":
+            folder = os.open(path.parent, os.O_RDONLY)
+            try:
+                os.fsync(folder)
+            finally:
+                os.close(folder)
+    except BaseException:
+        if writer_lock is not None:
+            writer_lock.release()
+        raise
+    return writer_lock
 
 
 def building_path(path: Path, suffix: str) -> Path:
@@ -214,13 +243,16 @@ def remove_leftovers(path: Path) -> None:
         if pid == os.getpid() or _process_alive(pid) or WriterLock.held_elsewhere(leftover):
             continue
         try:
-            leftover.unlink()
+            if leftover.is_dir():
+                shutil.rmtree(leftover)
+            else:
+                leftover.unlink()
         except OSError as error:
             logger.warning("%s: cannot remove the leftover of an interrupted %s (%s)", leftover, match.group(2),
                            error.strerror)
         else:
             logger.warning("%s: removed the leftover of a killed %s (process %d)", leftover,
-                           "creation" if match.group(2) == "creating" else "recovery", pid)
+                           {"creating": "creation", "recovering": "recovery"}.get(match.group(2), "journal start"), pid)
 
 
 def move_into_place(building: Path, path: Path, overwrite: bool) -> None:

@@ -7,7 +7,7 @@ import dataclasses
 import datetime
 import enum
 import json
-import os
+import math
 import re
 from pathlib import Path
 from typing import Any, Mapping
@@ -16,13 +16,17 @@ import h5py
 import numpy as np
 
 from gasfilm.drivers.errors import GasfilmError
-from gasfilm.drivers.interface import ChannelConfig, ChannelKind, Coupling, DaqConfig
+from gasfilm.drivers.interface import SENSITIVITY_UNITS, ChannelConfig, ChannelKind, Coupling, DaqConfig
 
 SCHEMA_VERSION = 1
 FORMAT_NAME = "gasfilm-session"
 REASONS_LENGTH = 256
 MAX_SAMPLES_PER_CHUNK = 16384  # per channel: 128 KiB per channel and chunk
 DEFAULT_SAMPLES_PER_CHUNK = 4096  # when the record length is not known in advance
+#: A recording's sample rate above this is damage, not a test (the NI 9234 runs at up to 51.2 kS/s).
+MAX_SAMPLE_RATE_HZ = 1e7
+#: Largest magnitudes a recorded sample may have in SI units, by channel kind: beyond them a file is damaged.
+MAX_ABS_SI = {ChannelKind.FORCE: 1e7, ChannelKind.ACCELERATION: 1e8}  # N, m/s²
 
 
 class SessionError(GasfilmError):
@@ -118,6 +122,8 @@ def config_to_dict(config: DaqConfig) -> dict[str, Any]:
 
 
 def config_from_dict(data: Mapping[str, Any]) -> DaqConfig:
+    """The stored DAQ configuration; raises ``ValueError`` for a channel whose sensitivity cannot be used (units
+    that do not fit its kind, a sensitivity that is not a positive number)."""
     channels = tuple(
         ChannelConfig(
             physical_channel=channel["physical_channel"],
@@ -130,6 +136,12 @@ def config_from_dict(data: Mapping[str, Any]) -> DaqConfig:
         )
         for channel in data["channels"]
     )
+    for number, channel in enumerate(channels):
+        if channel.sensitivity_units not in SENSITIVITY_UNITS[channel.kind]:
+            raise ValueError(f"channel {number} is a {channel.kind.value} sensor with sensitivity units "
+                             f"'{channel.sensitivity_units}'")
+        if not (math.isfinite(channel.sensitivity) and channel.sensitivity > 0):
+            raise ValueError(f"channel {number} has sensitivity {channel.sensitivity}")
     return DaqConfig(channels, float(data["sample_rate_hz"]), int(data["samples_per_chunk"]))
 
 
@@ -175,11 +187,10 @@ def one_line(error: BaseException, limit: int = 200) -> str:
     return text if len(text) <= limit else text[: limit - 3] + "..."
 
 
-def check_declared_rows(path: Path, table: h5py.Dataset, data: h5py.Dataset) -> None:
-    """Refuse hit datasets declaring more rows than the file can hold (one more for a hit whose write was cut short):
-    shrinking a dataset that declares 2^40 rows walks every chunk it could have, for hours."""
+def check_declared_rows(path: Path, table: h5py.Dataset, data: h5py.Dataset, file_bytes: int) -> None:
+    """Refuse hit datasets declaring more rows than the file of ``file_bytes`` can hold (one more for a hit whose
+    write was cut short): shrinking a dataset that declares 2^40 rows walks every chunk it could have, for hours."""
     record_bytes = int(np.prod(data.shape[1:])) * data.dtype.itemsize
-    file_bytes = os.path.getsize(path)
     for name, rows, row_bytes in (("hits/data", data.shape[0], record_bytes),
                                   ("hits/table", table.shape[0], table.dtype.itemsize)):
         if (name == "hits/table" or data.compression is None) and (rows - 1) * row_bytes > file_bytes:

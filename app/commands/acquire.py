@@ -22,9 +22,6 @@ from gasfilm.drivers.errors import DeviceError, SettingError
 logger = logging.getLogger(__name__)
 
 SIMULATED_DEVICE_NAME = "sim"  # gasfilm.drivers.SIMULATED_DEVICE_NAME, without importing the drivers to register
-#: Longest record accepted per hit in s: a hammer test's response has decayed long before (a 100 s record
-#: at 51.2 kS/s is 80 MB per hit, and the session fills the disk with rejected hits).
-MAX_RECORD_S = 20.0
 #: Longest wait for a chunk before the run is declared stuck (the reader has its own device timeout).
 CHUNK_WAIT_S = 30.0
 
@@ -42,6 +39,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     limit.add_argument("--hits", type=int, help="stop after this many accepted hits")
     limit.add_argument("--seconds", type=float, help="stop after this many seconds of signal")
     parser.add_argument("--rig", type=Path, help="rig spec TOML (drives the simulator; stored with the session)")
+    parser.add_argument("--condition", action="append", default=[], metavar="KEY=VALUE",
+                        help="operating condition of the session, the unit at the end of the key (repeatable): "
+                        "supply_pressure_mpa=0.4, gap_um=10, load_n=250, temperature_c=21, or a label such as "
+                        "bearing=B-17; a rig spec with film laws is played at these conditions")
     parser.add_argument("--rate", type=float, default=12800.0, help="sample rate in S/s (51200/n; default 12800)")
     parser.add_argument("--record-s", type=float, default=1.0, help="record length per hit in s (default 1.0)")
     parser.add_argument("--trigger-n", type=float, default=20.0, help="trigger level on the force in N (default 20)")
@@ -81,7 +82,7 @@ def _open_device(args: argparse.Namespace, rig_spec: Any) -> Any:
 def _settings(args: argparse.Namespace) -> dict[str, Any]:
     """The trigger, validation and window settings from the flags, refused up front (naming the flag) when they
     cannot produce a valid hit."""
-    from gasfilm.analysis.capture import TriggerSettings
+    from gasfilm.analysis.capture import TriggerSettings, check_record_length
     from gasfilm.analysis.spectra import WindowSettings
     from gasfilm.analysis.validation import ValidationSettings
 
@@ -91,9 +92,7 @@ def _settings(args: argparse.Namespace) -> dict[str, Any]:
     positive_flag("--rate", args.rate, "S/s")
     positive_flag("--trigger-n", args.trigger_n, "N")
     positive_flag("--record-s", args.record_s, "s")
-    if args.record_s > MAX_RECORD_S:
-        raise SettingError(f"--record-s: {args.record_s} s is longer than a hammer test needs "
-                           f"(at most {MAX_RECORD_S:g} s per hit)")
+    check_record_length(args.record_s, "--record-s")
     if args.hit_interval is not None:
         low, high = args.hit_interval
         if not 0 < low <= high:
@@ -121,10 +120,22 @@ def _settings(args: argparse.Namespace) -> dict[str, Any]:
     return {"trigger": trigger, "validation": validation, "window": window}
 
 
+class _SessionLog(logging.FileHandler):
+    """The session's log file; when it cannot be written (the disk is full), its messages still reach the user on
+    stderr and the session's journal keeps the hits: the log's failure is not reported on top."""
+
+    def handleError(self, record: logging.LogRecord) -> None:  # noqa: N802 - logging's name
+        pass
+
+    def close(self) -> None:
+        with contextlib.suppress(OSError):
+            super().close()
+
+
 def _attach_log(session_path: Path) -> logging.Handler:
     """Faults, dropped chunks, recoveries and the run's summary, appended to ``<session>.log`` next to it (the file
     is made at the first message, so a run refused up front leaves none)."""
-    handler = logging.FileHandler(session_path.with_suffix(".log"), encoding="utf-8", delay=True)
+    handler = _SessionLog(session_path.with_suffix(".log"), encoding="utf-8", delay=True)
     handler.setLevel(logging.INFO)
     handler.setFormatter(logging.Formatter("%(asctime)s %(levelname)s %(name)s: %(message)s"))
     logging.getLogger("gasfilm").addHandler(handler)
@@ -154,10 +165,38 @@ def _open_session(args: argparse.Namespace, config: Any, rate_hz: float, device_
                 f"{args.out}: holds records of {stored_samples} samples; --record-s {args.record_s} gives "
                 f"{record_samples}"
             )
-        session.update_settings(settings)
+        _check_same_conditions(args.out, session, settings["conditions"])
+        session.update_settings({key: value for key, value in settings.items() if key != "conditions"})
         return session
     return Session.create(args.out, config, rig_toml, settings, actual_sample_rate_hz=rate_hz,
                           device_name=device_name, record_samples=settings["trigger"].record_samples(rate_hz))
+
+
+def _check_same_conditions(path: Path, session: Any, conditions: dict) -> None:
+    """A session is one operating point: hits appended with other ``--condition`` values are refused."""
+    from gasfilm.analysis.conditions import decode_conditions, format_conditions
+
+    stored = decode_conditions(session.settings, str(path))
+    if conditions and conditions != stored:
+        session.close()
+        raise SettingError(f"--condition: {path} was recorded at {format_conditions(stored)}; a session holds one "
+                           f"operating point (record {format_conditions(conditions)} into a new session)")
+
+
+def rig_at_conditions(rig_spec: Any, conditions: dict, simulated: bool) -> tuple[Any, dict]:
+    """The rig spec at the session's operating point and the conditions to store: on the simulator, a condition the
+    spec's film laws need and ``--condition`` does not give is played (and stored) at the spec's reference value."""
+    from gasfilm.analysis.physics.laws import played_at
+
+    if rig_spec is None or not rig_spec.film_laws:
+        return rig_spec, conditions
+    if not simulated:
+        return rig_spec.at_conditions(conditions), conditions
+    played, conditions, missing = played_at(rig_spec, conditions)
+    if missing:
+        logger.warning("the rig spec's film laws are played at its reference %s (not given by --condition)",
+                       ", ".join(f"{key} = {value:g}" for key, value in missing.items()))
+    return played, conditions
 
 
 class _Progress:
@@ -186,6 +225,16 @@ class _Progress:
         if self.live:
             sys.stderr.write("\r\033[K")
             sys.stderr.flush()
+
+
+def _accepted(session: Any) -> int:
+    return sum(1 for verdict in session.verdicts() if verdict.accepted)
+
+
+def _close_device(device: Any) -> None:
+    """Close a device the recording loop did not reach (closing twice is harmless)."""
+    with contextlib.suppress(DeviceError):
+        device.close()
 
 
 def _stream(device: Any, synchronous: bool) -> Iterator[tuple[Any, Any, int]]:
@@ -235,13 +284,24 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _record(args: argparse.Namespace) -> int:
+    from gasfilm.analysis.recording import stop_signals_raised
+
+    # before anything is opened or printed: a SIGTERM or SIGHUP from now on ends the run through the cleanup below
+    with stop_signals_raised():
+        return _record_until_stopped(args)
+
+
+def _record_until_stopped(args: argparse.Namespace) -> int:
     from gasfilm.analysis.capture import ImpactCapture
     from gasfilm.analysis.physics.spec import RigSpec
     from gasfilm.analysis.recording import DEFAULT_MAX_CONSECUTIVE_REJECTIONS, HitRecorder, RecordingStopped, StopSignal
     from gasfilm.analysis.spectra import session_frf
     from gasfilm.drivers.interface import ChannelKind, default_hammer_and_accelerometer
 
+    from gasfilm.analysis.conditions import format_conditions, parse_condition_flags
+
     settings = _settings(args)
+    conditions = parse_condition_flags(args.condition)
     trigger, validation, window = settings["trigger"], settings["validation"], settings["window"]
     if not args.append:
         if args.out.exists() or args.out.is_symlink():
@@ -252,32 +312,38 @@ def _record(args: argparse.Namespace) -> int:
         rig_spec = RigSpec.load(args.rig)
     elif args.device == SIMULATED_DEVICE_NAME:
         rig_spec = RigSpec.nominal("FOMGF")  # the simulated rig's default
+    rig_spec, settings["conditions"] = rig_at_conditions(rig_spec, conditions,
+                                                         args.device == SIMULATED_DEVICE_NAME)
     config = default_hammer_and_accelerometer(args.rate)
-    device = _open_device(args, rig_spec)
-    device.configure(config)
-    rate_hz = device.sample_rate_hz
-    session = _open_session(args, config, rate_hz, device.name, rig_spec.to_toml() if rig_spec else None, settings)
-    if args.max_session_gb is not None:
-        session.size_limit_bytes = int(args.max_session_gb * 1e9)
-    force_row = config.channel_index(ChannelKind.FORCE)
-    response_row = config.channel_index(ChannelKind.ACCELERATION)
-    capture = ImpactCapture(trigger, rate_hz, len(config.channels), force_row, response_row)
-    progress = _Progress()
-    recorder = HitRecorder(
-        session,
-        capture,
-        validation,
-        full_scale_si=[channel.full_scale_si for channel in config.channels],
-        window=window,
-        on_hit=progress.hit,
-        max_consecutive_rejections=args.max_rejected or DEFAULT_MAX_CONSECUTIVE_REJECTIONS,
-    )
-    accepted_before = recorder.accepted_count
-    print(f"recording into {args.out} from {device.name} at {rate_hz:g} S/s", flush=True)
-    logger.info("recording into %s from %s at %g S/s, settings %s", args.out, device.name, rate_hz, settings)
+    session = None
+    recorder = None
     started = time.monotonic()
     stream_s = 0.0
+    progress = _Progress()
+    device = _open_device(args, rig_spec)
     try:
+        device.configure(config)
+        rate_hz = device.sample_rate_hz
+        session = _open_session(args, config, rate_hz, device.name, rig_spec.to_toml() if rig_spec else None,
+                                settings)
+        if args.max_session_gb is not None:
+            session.size_limit_bytes = int(args.max_session_gb * 1e9)
+        force_row = config.channel_index(ChannelKind.FORCE)
+        response_row = config.channel_index(ChannelKind.ACCELERATION)
+        capture = ImpactCapture(trigger, rate_hz, len(config.channels), force_row, response_row)
+        recorder = HitRecorder(
+            session,
+            capture,
+            validation,
+            full_scale_si=[channel.full_scale_si for channel in config.channels],
+            window=window,
+            on_hit=progress.hit,
+            max_consecutive_rejections=args.max_rejected or DEFAULT_MAX_CONSECUTIVE_REJECTIONS,
+        )
+        accepted_before = recorder.accepted_count
+        print(f"recording into {args.out} from {device.name} at {rate_hz:g} S/s; conditions: "
+              f"{format_conditions(settings['conditions'])}", flush=True)
+        logger.info("recording into %s from %s at %g S/s, settings %s", args.out, device.name, rate_hz, settings)
         synchronous = args.device == SIMULATED_DEVICE_NAME and args.pacing == "fast"
         with recorder.stop_on_signals(), device, contextlib.closing(_stream(device, synchronous)) as chunks:
             for data, overload, end_sample in chunks:
@@ -290,23 +356,36 @@ def _record(args: argparse.Namespace) -> int:
                     break
     except (DeviceError, RecordingStopped) as error:
         progress.done()
+        if session is None:
+            _close_device(device)
+            raise
+        accepted = recorder.accepted_count if recorder is not None else _accepted(session)
         logger.error("%s: %s; session closed as aborted, %d accepted hits kept",
-                     "device fault" if isinstance(error, DeviceError) else "stopped", error, recorder.accepted_count)
+                     "device fault" if isinstance(error, DeviceError) else "stopped", error, accepted)
         session.close("aborted", str(error))
         raise DeviceError(
-            f"{error} — session {args.out} closed as aborted, {recorder.accepted_count} accepted hits kept",
+            f"{error} — session {args.out} closed as aborted, {accepted} accepted hits kept",
             getattr(error, "code", None),
         ) from None
-    except KeyboardInterrupt as interrupt:  # Ctrl-C, or SIGTERM/SIGHUP through recorder.stop_on_signals
+    except KeyboardInterrupt as interrupt:  # Ctrl-C, or SIGTERM/SIGHUP through the stop-signal handlers
         progress.done()
         signum = interrupt.signum if isinstance(interrupt, StopSignal) else 2
         how = "interrupted by the user" if signum == 2 else f"stopped by {interrupt}"
+        _close_device(device)
+        if session is None:
+            logger.info("%s before recording into %s started", how, args.out)
+            print(f"{how} before recording started: {args.out} not created", flush=True)
+            return 128 + signum
+        accepted = recorder.accepted_count if recorder is not None else _accepted(session)
         session.close("aborted", how)
-        logger.info("%s: %s, %d accepted hits kept", args.out, how, recorder.accepted_count)
-        print(f"{how}: session {args.out} closed with {recorder.accepted_count} accepted hits", flush=True)
+        logger.info("%s: %s, %d accepted hits kept", args.out, how, accepted)
+        print(f"{how}: session {args.out} closed with {accepted} accepted hits", flush=True)
         return 128 + signum
     except BaseException as error:
         progress.done()
+        _close_device(device)
+        if session is None:
+            raise
         logger.error("stopped by %s: %s; session closed as aborted", type(error).__name__, error)
         session.close("aborted", f"{type(error).__name__}: {error}")
         raise

@@ -91,6 +91,18 @@ def is_terminal(stream: Any = None) -> bool:
         return False
 
 
+def source_conditions(paths: list[Path]) -> dict[str, Any]:
+    """The operating conditions stored in a session (``{}`` for UFF or .npy records, which carry none)."""
+    from gasfilm.analysis.conditions import decode_conditions
+    from gasfilm.analysis.session import Session
+    from gasfilm.analysis.sources import is_time_record_file
+
+    if len(paths) != 1 or is_time_record_file(paths[0]):
+        return {}
+    with Session.open(paths[0], "r") as session:
+        return decode_conditions(session.settings, str(paths[0]))
+
+
 def load_frf(paths: list[Path], name: str | None = None) -> tuple[Any, str, str | None]:
     """The FRF to export or fit, its description and the rig spec TOML it was recorded with (None for files).
 

@@ -3,6 +3,10 @@
 The main job end to end on the simulated NI 9234, paced in real time: stream, trigger, validate, store every hit in an
 HDF5 session, average the FRF, identify the film (SD and FOMGF), and print what a technician would check first. An
 existing ``--out`` file is replaced only with ``--overwrite``; without ``--out`` a new file is chosen.
+
+``gasfilm demo --campaign`` records a small campaign instead (3 supply pressures × 2 gaps on a rig whose film follows
+them, ``analysis/campaign/demo-rig.toml``) and runs ``gasfilm campaign`` on it: table, report, and the identified
+stiffness at each condition against the rig's law.
 """
 
 from __future__ import annotations
@@ -12,30 +16,89 @@ import sys
 import time
 from pathlib import Path
 
-from gasfilm.app.commands.common import check_output_file, positive_flag
+from gasfilm.app.commands.common import check_output_file, check_output_folder, positive_flag
+from gasfilm.drivers.errors import SettingError
 
 DEFAULT_OUT = Path("out/demo-session.h5")
+DEFAULT_CAMPAIGN_OUT = Path("out/demo-campaign")
+#: Accepted hits per session: a single demo session, a campaign's session.
+DEFAULT_HITS, DEFAULT_CAMPAIGN_HITS = 8, 4
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     parser = subparsers.add_parser("demo", help="run a short hammer session on the simulated rig and summarise it")
-    parser.add_argument("--hits", type=int, default=8, help="accepted hits to collect (default 8)")
+    parser.add_argument("--hits", type=int, help=f"accepted hits to collect (default {DEFAULT_HITS}; per session "
+                        f"with --campaign {DEFAULT_CAMPAIGN_HITS})")
     parser.add_argument("--rig", type=Path, help="rig spec TOML (default: the paper's FOMGF film on 25.05 kg)")
     parser.add_argument("--out", type=Path, help="session file to write (default: out/demo-session.h5, or the next "
                         "free out/demo-session-N.h5: an earlier demo is never replaced)")
     parser.add_argument("--overwrite", action="store_true", help="replace --out if it exists")
     parser.add_argument("--seed", type=int, default=1, help="simulator seed")
     parser.add_argument("--no-fit", action="store_true", help="skip the film identification")
+    parser.add_argument("--campaign", action="store_true",
+                        help="record a small campaign (3 supply pressures × 2 gaps) and run `gasfilm campaign` on it; "
+                        "--out is then a folder (default out/demo-campaign, or the next free out/demo-campaign-N)")
+    parser.add_argument("--workers", type=int, default=2, help="--campaign: dask worker processes (default 2)")
     parser.set_defaults(func=run)
 
 
-def _free_default_path() -> Path:
-    """out/demo-session.h5, else the first out/demo-session-N.h5 that does not exist."""
-    path, number = DEFAULT_OUT, 1
+def _free_default_path(default: Path = DEFAULT_OUT) -> Path:
+    """``default`` (out/demo-session.h5), else the first out/demo-session-N.h5 that does not exist."""
+    path, number = default, 1
     while path.exists() or path.is_symlink():
         number += 1
-        path = DEFAULT_OUT.with_name(f"{DEFAULT_OUT.stem}-{number}{DEFAULT_OUT.suffix}")
+        path = default.with_name(f"{default.stem}-{number}{default.suffix}")
     return path
+
+
+def run_campaign_demo(args: argparse.Namespace) -> int:
+    """Record the demo campaign into ``--out``/sessions, run the campaign on it, compare k with the rig's law."""
+    from gasfilm.analysis.campaign import CSV_NAME, PARQUET_NAME, REPORT_NAME, CampaignOptions, run_campaign
+    from gasfilm.analysis.campaign.simulated import DEMO_GRID, DEMO_RIG_PATH, record_campaign
+    from gasfilm.analysis.physics.spec import RigSpec
+    from gasfilm.app.commands.campaign import _Progress
+
+    hits = args.hits if args.hits is not None else DEFAULT_CAMPAIGN_HITS
+    positive_flag("--hits", hits)
+    positive_flag("--workers", args.workers)
+    out = args.out if args.out is not None else _free_default_path(DEFAULT_CAMPAIGN_OUT)
+    if out.exists() and not out.is_dir():
+        raise SettingError(f"--out {out}: is a file; --campaign writes a folder")
+    if out.is_dir() and any(out.iterdir()) and not args.overwrite:
+        raise SettingError(f"--out {out}: the folder is not empty (add --overwrite to record the campaign again)")
+    check_output_folder(out, "--out", (PARQUET_NAME, CSV_NAME, REPORT_NAME), overwrite=True)
+    spec = RigSpec.load(args.rig) if args.rig else RigSpec.load(DEMO_RIG_PATH)
+    by = list(DEMO_GRID)
+    started = time.monotonic()
+    print(f"gasfilm demo --campaign — rig '{spec.name}', {len(by)} conditions: "
+          + ", ".join(f"{key} {', '.join(f'{v:g}' for v in values)}" for key, values in DEMO_GRID.items()))
+    sessions = out / "sessions"
+    if sessions.exists() and args.overwrite:
+        for old in sessions.glob("*.h5"):
+            old.unlink()
+    record_campaign(sessions, spec, DEMO_GRID, hits=hits, seed=args.seed, on_session=lambda path, conditions: print(
+        f"  recorded {path.name}: {hits} hits at " + ", ".join(f"{k} = {v:g}" for k, v in conditions.items()),
+        flush=True))
+    result = run_campaign([sessions], by, out, CampaignOptions(), workers=args.workers, progress=_Progress())
+    analysed = [row for row in result.run.rows if not row.get("error")]
+    model = spec.film.name
+    print(f"identified {model} film against the rig's law (± 1 σ of the fit, which holds the noise only):")
+    for row in sorted(analysed, key=lambda r: tuple(r.get(f"condition.{key}", 0) for key in by)):
+        for parameter in spec.film.parameters:
+            if parameter.name not in spec.film_laws:
+                continue
+            column = f"{model}.{parameter.name} [{parameter.unit}]"
+            value, sigma = row.get(column), row.get(f"{model}.{parameter.name} sigma [{parameter.unit}]")
+            law = row.get(f"spec.{parameter.name} [{parameter.unit}]")
+            where = ", ".join(f"{key} = {row.get(f'condition.{key}'):g}" for key in by)
+            if value is None or law is None:
+                continue
+            spread = f"± {sigma:.3g} ({abs(value - law) / sigma:.1f} σ)" if sigma else "(at a bound, no σ)"
+            print(f"  {where}: {parameter.name} = {value:.6g} {spread} {parameter.unit}; law {law:.6g}, "
+                  f"{100 * (value - law) / law:+.4f} %")
+    print(f"  table:  {result.parquet_path}, {result.csv_path}")
+    print(f"  report: {result.report_path}  ({time.monotonic() - started:.1f} s, {result.run.failed} failed)")
+    return 0 if not result.run.failed else 1
 
 
 def run(args: argparse.Namespace) -> int:
@@ -56,6 +119,10 @@ def run(args: argparse.Namespace) -> int:
     from gasfilm.drivers.interface import ChannelKind, default_hammer_and_accelerometer
     from gasfilm.drivers.units import STANDARD_GRAVITY_M_S2 as G_M_S2
 
+    if args.campaign:
+        return run_campaign_demo(args)
+    if args.hits is None:
+        args.hits = DEFAULT_HITS
     positive_flag("--hits", args.hits)
     if args.out is None:
         args.out = _free_default_path()

@@ -59,6 +59,11 @@ def run(args: argparse.Namespace) -> int:
     def progress(message: str) -> None:
         print(f"  {message}", file=sys.stderr)
 
+    from gasfilm.analysis.conditions import format_conditions
+    from gasfilm.app.commands.common import source_conditions
+
+    conditions = source_conditions([args.source])
+    progress(f"{args.source}: conditions {format_conditions(conditions)}")
     diagnosis = diagnose(args.source, spec, args.mass, band, progress)
     write_outputs(diagnosis, args.out)
     if args.source.suffix.lower() not in (".uff", ".unv"):
@@ -69,7 +74,8 @@ def run(args: argparse.Namespace) -> int:
         except GasfilmError as error:
             progress(f"diagnosis not stored in the session: {error}")
     if args.json:
-        print(json.dumps(diagnosis.to_dict(), indent=2))
+        print(json.dumps({**diagnosis.to_dict(), "conditions": conditions}, indent=2))
     else:
+        print(f"conditions: {format_conditions(conditions)}")
         print(report_text(diagnosis))
     return 0

@@ -10,7 +10,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from gasfilm.app.commands.common import check_output_file, load_frf
+from gasfilm.app.commands.common import check_output_file, load_frf, source_conditions
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -31,16 +31,19 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from gasfilm.analysis.conditions import format_conditions
     from gasfilm.analysis.spectra import write_frf_csv
     from gasfilm.analysis.uff import export_frf_uff
 
     flag, target = ("--uff", args.uff) if args.uff is not None else ("--csv", args.csv)
     check_output_file(target, flag, args.overwrite)
     frf, what, _rig = load_frf(args.source, args.frf)
+    conditions = source_conditions(args.source)
     if args.uff is not None:
         export_frf_uff(frf, args.uff, tuple(args.response_dof), tuple(args.reference_dof),
-                       description=f"gasfilm {args.source[0].name}")
+                       description=f"gasfilm {args.source[0].name}",
+                       conditions=format_conditions(conditions) if conditions else "")
     else:
-        write_frf_csv(frf, args.csv)
+        write_frf_csv(frf, args.csv, conditions)
     print(f"{what} of {args.source[0]} ({len(frf.freq_hz)} lines, {frf.n_averages} averages) written to {target}")
     return 0

@@ -16,12 +16,11 @@ import sys
 from pathlib import Path
 from typing import Any, Callable
 
-from gasfilm.app.commands.common import check_output_folder, is_terminal, load_frf
+from gasfilm.app.commands.common import check_output_folder, is_terminal, load_frf, source_conditions
 from gasfilm.drivers.errors import SettingError
 
 logger = logging.getLogger(__name__)
 
-DEFAULT_BAND_HZ = (20.0, 1000.0)
 MIN_BAND_LINES = 10
 #: The top fraction of the band (in lines) where |H1| is compared with the mass line 1/m.
 MASS_LINE_TOP_FRACTION = 0.2
@@ -53,7 +52,9 @@ def parse_band(text: str | None, sample_rate_hz: float) -> tuple[float, float]:
     import math
 
     if text is None:
-        return DEFAULT_BAND_HZ[0], min(DEFAULT_BAND_HZ[1], 0.45 * sample_rate_hz)
+        from gasfilm.analysis.identification import default_fit_band_hz
+
+        return default_fit_band_hz(sample_rate_hz)
     parts = text.split(":")
     try:
         low, high = (float(part) for part in parts)
@@ -147,7 +148,10 @@ def run(args: argparse.Namespace) -> int:
     stem = args.source[0].stem
     figure_paths = check_output_folder(out, "--out" if args.out is not None else "",
                                        (f"{stem}-figure18.png", f"{stem}-figure19.png"), args.overwrite)
+    from gasfilm.analysis.conditions import format_conditions
+
     frf, what, rig_spec_toml = load_frf(args.source, args.frf)
+    conditions = source_conditions(args.source)
     low, high = parse_band(args.band, frf.sample_rate_hz)
     keep = (frf.freq_hz >= max(low, 1e-9)) & (frf.freq_hz <= high)
     if np.count_nonzero(keep) < MIN_BAND_LINES:
@@ -179,6 +183,7 @@ def run(args: argparse.Namespace) -> int:
         print(json.dumps({
             "source": [str(path) for path in args.source],
             "frf": what,
+            "conditions": conditions,
             "band_hz": [float(freq_hz[0]), float(freq_hz[-1])],
             "mass_kg": mass_kg,
             "method": args.method,
@@ -191,6 +196,7 @@ def run(args: argparse.Namespace) -> int:
         return 0
     print(f"{args.source[0]}: {what}, {len(freq_hz)} lines, {freq_hz[0]:g}–{freq_hz[-1]:g} Hz, m = {mass_kg:g} kg, "
           f"method {args.method}")
+    print(f"conditions: {format_conditions(conditions)}")
     print("\nTable 2 (g/N)\n" + format_table2(rows, "g/N"))
     print("\nTable 2 (SI)\n" + format_table2(rows, "SI"))
     print("\nIdentified parameters (± 1σ)\n" + format_parameters(fits))

@@ -57,6 +57,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--out", type=Path, help="write the result as a new session file (HDF5); without it a "
                         "session's result is stored as its FRF group 'replay' and a file's is only printed")
     parser.add_argument("--overwrite", action="store_true", help="replace --out if it exists")
+    parser.add_argument("--condition", action="append", default=[], metavar="KEY=VALUE",
+                        help="with --out: the new session's operating condition, the unit at the end of the key "
+                        "(repeatable; replaces the input's value of that key), e.g. supply_pressure_mpa=0.4")
     parser.add_argument("--json", action="store_true", help="print the summary as JSON")
     parser.set_defaults(func=run)
 
@@ -165,7 +168,10 @@ def summarise(frf: Any, verdicts: list, dropped: int, record_samples: int) -> di
 
 
 def _print_summary(summary: dict[str, Any], source: Path, written: str) -> None:
+    from gasfilm.analysis.conditions import format_conditions
+
     print(f"replay of {source}")
+    print(f"  conditions: {format_conditions(summary['conditions'])}")
     print(f"  hits: {summary['hits']} of {summary['record_samples']} samples ({summary['accepted']} accepted, "
           f"{summary['rejected']} rejected"
           f"{', %d overridden by hand' % summary['overridden'] if summary['overridden'] else ''})")
@@ -189,6 +195,7 @@ def _print_summary(summary: dict[str, Any], source: Path, written: str) -> None:
 def run(args: argparse.Namespace) -> int:
     import numpy as np
 
+    from gasfilm.analysis.conditions import decode_conditions, parse_condition_flags
     from gasfilm.analysis.session import Session, SessionError
     from gasfilm.analysis.sources import load_source
     from gasfilm.analysis.spectra import session_frf
@@ -198,7 +205,11 @@ def run(args: argparse.Namespace) -> int:
         if any(args.out.resolve() == path.resolve() for path in args.source):
             raise SettingError(f"--out: {args.out} is the input; leave --out out to store the result in the input")
         check_output_file(args.out, "--out", args.overwrite)
+    given_conditions = parse_condition_flags(args.condition)
+    if given_conditions and args.out is None:
+        raise SettingError("--condition: only with --out (a session keeps the operating point it was recorded at)")
     source = load_source(args.source, args.force_dof, args.response_dof)
+    conditions = {**decode_conditions(source.settings, str(source.path)), **given_conditions}
     if not source.hits:
         raise SessionError(f"{source.path}: holds no hits to replay")
     trigger, retrigger, validation, window = _new_settings(args, source)
@@ -216,7 +227,8 @@ def run(args: argparse.Namespace) -> int:
     settings = {"trigger": trigger, "validation": validation, "window": window,
                 "replay": {"source": [str(path) for path in args.source], "retriggered": retrigger}}
     if args.out is not None:
-        with Session.create(args.out, source.config, source.rig_spec_toml, {**source.settings, **settings},
+        with Session.create(args.out, source.config, source.rig_spec_toml,
+                            {**source.settings, **settings, "conditions": conditions},
                             overwrite=args.overwrite, actual_sample_rate_hz=source.sample_rate_hz,
                             sync_each_hit=False, record_samples=hits[0].n_samples if hits else None) as result:
             for hit, verdict in zip(hits, verdicts):
@@ -233,7 +245,7 @@ def run(args: argparse.Namespace) -> int:
         written = "printed only (add --out SESSION.h5 to keep it as a session)"
     else:
         written = "nothing written (no accepted hits)"
-    summary = summarise(frf, verdicts, dropped, hits[0].n_samples if hits else 0)
+    summary = {"conditions": conditions, **summarise(frf, verdicts, dropped, hits[0].n_samples if hits else 0)}
     shown = source.path if len(args.source) == 1 else f"{source.path} and {len(args.source) - 1} more files"
     if args.json:
         json.dump({"source": str(shown), "result": written, **summary}, sys.stdout, indent=2)

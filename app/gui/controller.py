@@ -8,8 +8,10 @@ from __future__ import annotations
 
 import dataclasses
 import datetime
+import functools
 import logging
 import shutil
+import time
 from pathlib import Path
 from typing import Any, Sequence
 
@@ -18,16 +20,18 @@ from PySide6.QtCore import QCoreApplication, QEvent, QObject, QStandardPaths, QT
 
 from gasfilm.analysis.acquisition import AcquisitionLoop
 from gasfilm.analysis.capture import TriggerSettings
-from gasfilm.analysis.diagnosis import diagnose, load_recordings
-from gasfilm.analysis.diagnosis.plots import write_outputs
-from gasfilm.analysis.identification import compare_models, fit_model
+from gasfilm.analysis.conditions import decode_conditions, parse_condition_table
+from gasfilm.analysis.diagnosis import load_recordings
+from gasfilm.analysis.identification import DEFAULT_FIT_BAND_HZ, compare_models
 from gasfilm.analysis.physics.elements import get_model
+from gasfilm.analysis.physics.laws import played_at
 from gasfilm.analysis.physics.spec import RigSpec
 from gasfilm.analysis.spectra import usable_band_hz
 from gasfilm.analysis.session import Session, to_jsonable
 from gasfilm.analysis.spectra import FrfAccumulator, FrfResult, WindowSettings, session_frf, write_frf_csv
 from gasfilm.analysis.uff import export_frf_uff
 from gasfilm.analysis.validation import ValidationSettings, Verdict, recorded_full_scale_si, validate_hit
+from gasfilm.app.gui import jobs
 from gasfilm.app.gui.settings import SetupState, settings_from_dict
 from gasfilm.app.gui.workers import (
     PENDING_REASON,
@@ -43,7 +47,6 @@ from gasfilm.drivers import SIMULATED_DEVICE_NAME
 from gasfilm.drivers.errors import GasfilmError, SettingError
 from gasfilm.drivers.interface import DaqConfig
 
-DEFAULT_FIT_BAND_HZ = (20.0, 800.0)
 logger = logging.getLogger(__name__)
 
 
@@ -107,6 +110,9 @@ class SessionController(QObject):
         self._plan: AcquisitionPlan | None = None
         self._armed_setup: SetupState = setup  # the setup of the running acquisition (Play may use another spec)
         self._stream_end_s = 0.0  # session time where the last acquisition into the open session ended
+        self._created_by_arm = False  # the open session was created by the running Arm (removed if it stays empty)
+        self._streamed = False  # the running acquisition's device has streamed
+        self._job_started_s: dict[str, float] = {}
 
     # --- settings --------------------------------------------------------------------------------------------------
 
@@ -146,14 +152,22 @@ class SessionController(QObject):
         if self.acquiring:
             return
         setup = setup or self.setup
+        previous_session = self.session
         try:
             config = setup.daq_config()
+            conditions = parse_condition_table(setup.conditions)
+            rig_spec = self.rig_spec(setup)
+            if setup.device == SIMULATED_DEVICE_NAME:  # the simulated film follows the conditions (film laws)
+                rig_spec, conditions, _missing = played_at(rig_spec, conditions)
+            else:
+                rig_spec = rig_spec.at_conditions(conditions)
             plan = AcquisitionPlan(
                 device_name=setup.device,
                 config=config,
                 response_row=setup.response_row(config),
-                rig_spec=self.rig_spec(setup),
-                trigger=settings_from_dict(TriggerSettings, setup.trigger),
+                rig_spec=rig_spec,
+                conditions=conditions,
+                trigger=setup.trigger_settings(),
                 validation=settings_from_dict(ValidationSettings, setup.validation),
                 window=settings_from_dict(WindowSettings, setup.window),
                 auto_accept=setup.auto_accept,
@@ -170,6 +184,8 @@ class SessionController(QObject):
             return
         self._plan = plan
         self._armed_setup = setup
+        self._created_by_arm = self.session is not previous_session
+        self._streamed = False
         worker = AcquisitionWorker(plan, self.session)
         worker.streaming.connect(self._on_streaming)
         worker.hit_recorded.connect(self._on_hit)
@@ -250,6 +266,8 @@ class SessionController(QObject):
         for key, value in (("trigger", plan.trigger), ("window", plan.window)):
             if stored.get(key) != to_jsonable(value):
                 differences.append(f"{key} settings")
+        if decode_conditions(stored, str(session.path)) != plan.conditions:
+            differences.append("operating conditions")
         return differences
 
     def _session_time_s(self) -> float:
@@ -278,7 +296,8 @@ class SessionController(QObject):
             path,
             plan.config,
             plan.rig_spec.to_toml(),
-            {"trigger": plan.trigger, "validation": plan.validation, "window": plan.window, "gui": self._gui_settings()},
+            {"trigger": plan.trigger, "validation": plan.validation, "window": plan.window, "gui": self._gui_settings(),
+             "conditions": plan.conditions},
             device_name=plan.device_name,
         )
         self.session_path = path
@@ -295,6 +314,7 @@ class SessionController(QObject):
 
     def _on_streaming(self, loop: AcquisitionLoop) -> None:
         self.loop = loop
+        self._streamed = True
         self.streaming.emit(loop)
 
     def _on_hit(self, entry: HitEntry) -> None:
@@ -335,8 +355,15 @@ class SessionController(QObject):
         self.update_running_frf()
 
     def _on_device_fault(self, text: str) -> None:
+        if not self._streamed:
+            self.message.emit(f"{text} — the device did not start; nothing was recorded", "error")
+            return
         kept = sum(entry.accepted for entry in self.hits)
-        self.message.emit(f"{text} — acquisition stopped; the {kept} accepted hits are safe in the session", "error")
+        if not self.hits:
+            self.message.emit(f"{text} — acquisition stopped before any hit; nothing was recorded", "error")
+            return
+        hits = "the accepted hit is" if kept == 1 else f"the {kept} accepted hits are"
+        self.message.emit(f"{text} — acquisition stopped; {hits} safe in {self.session_path.name}", "error")
 
     def _on_worker_finished(self) -> None:
         if self.loop is not None and self._plan is not None:
@@ -349,6 +376,27 @@ class SessionController(QObject):
         self.loop = None
         self.streaming.emit(None)
         self._set_state("idle")
+        self._drop_empty_created_session()
+
+    def _drop_empty_created_session(self) -> None:
+        """A session this Arm created that holds no hit (the device did not start, or stopped before a hit) is
+        removed: a failed Arm leaves no empty file behind. The next Arm records into the same path."""
+        session = self.session
+        if not self._created_by_arm or session is None or self.hits or not session.is_open:
+            return
+        if session.hit_count > 0:
+            return
+        path = self.session_path
+        session.close("aborted", "no hit recorded")
+        self.session = None
+        self._created_by_arm = False
+        try:
+            path.unlink()
+        except OSError as error:
+            logger.warning("could not remove the empty session %s: %s", path, error)
+            return
+        logger.info("removed the empty session %s (no hit was recorded)", path)
+        self.session_changed.emit("")
 
     def _set_state(self, state: str) -> None:
         self.state = state
@@ -463,28 +511,13 @@ class SessionController(QObject):
             return
         freq_hz, h = frf.freq_hz[band], frf.h1[band]
         mass_kg = self.rig_spec().mass_kg
-        models = [get_model(name) for name in model_names]
-        names = list(model_names)
-
-        def work(report, cancelled):
-            fits = {}
-            for number, (name, model) in enumerate(zip(names, models)):
-                report(number / len(models), f"fitting {name} ({number + 1} of {len(models)})")
-                fits[name] = fit_model(
-                    model,
-                    freq_hz,
-                    h,
-                    mass_kg,
-                    method=method,
-                    decay_rate_1_s=frf.decay_rate_1_s,
-                    progress=lambda done, n=number, m=name: report(
-                        (n + done) / len(models), f"fitting {m} ({n + 1} of {len(models)})"
-                    ),
-                    cancel=cancelled,
-                )
-            report(1.0, "comparing the models")
-            return fits, compare_models(list(fits.values()), freq_hz, h)
-
+        try:
+            for name in model_names:
+                get_model(name)  # an unknown name is refused here, in one line, before a process starts
+        except GasfilmError as error:
+            self.message.emit(f"fit: {error}", "error")
+            return
+        work = functools.partial(jobs.fit_models, list(model_names), method, freq_hz, h, mass_kg, frf.decay_rate_1_s)
         self.fit_band_hz = (low, high)
         self._start_job("fit", work, self._on_fits_done)
 
@@ -492,6 +525,14 @@ class SessionController(QObject):
         self.fits, self.comparison = result
         self.fits_changed.emit()
         self._store_results()
+        low, high = self.fit_band_hz
+        best = f"; best (lowest BIC): {self.comparison[0].model_name}" if self.comparison else ""
+        count = len(self.fits)
+        self.message.emit(
+            f"fit finished: {count} model{'s' if count != 1 else ''} fitted in {low:g}–{high:g} Hz in "
+            f"{self._job_seconds('fit'):.1f} s{best} (Identify tab)",
+            "info",
+        )
 
     def cancel_job(self, name: str) -> None:
         job = self._jobs.get(name)
@@ -522,11 +563,7 @@ class SessionController(QObject):
             self.message.emit(f"diagnose: {error}", "error")
             return
 
-        def work(report, _cancelled):  # the diagnosis has no cancel hook: Cancel acts at its next progress report
-            diagnosis = diagnose(recordings, spec, progress=lambda text: report(0.0, text))
-            write_outputs(diagnosis, out_dir)
-            return diagnosis
-
+        work = functools.partial(jobs.diagnose_session, recordings, spec, out_dir)
         self._start_job("diagnose", work, self._on_diagnosis_done)
 
     def rig_spec_of_session(self) -> RigSpec:
@@ -538,6 +575,13 @@ class SessionController(QObject):
         self.diagnosis = diagnosis
         self.diagnosis_changed.emit(diagnosis)
         self._store_results()
+        count = len(diagnosis.findings)
+        found = f"{count} finding{'s' if count != 1 else ''}" if count else "no finding"
+        self.message.emit(
+            f"diagnosis finished in {self._job_seconds('diagnose'):.1f} s: verdict {diagnosis.verdict}, {found}; "
+            f"figures and improved spec in {self.session_path.stem}-diagnosis/ (Diagnose tab)",
+            "info",
+        )
 
     def export_improved_spec(self, path: str | Path) -> Path:
         if self.diagnosis is None:
@@ -570,12 +614,13 @@ class SessionController(QObject):
     # --- background jobs -------------------------------------------------------------------------------------------------
 
     def _start_job(self, name: str, work: Any, on_success: Any) -> None:
-        job = BackgroundJob(work)
+        job = BackgroundJob(work, in_process=True)
         job.progress.connect(lambda fraction, text: self.job_progress.emit(name, fraction, text))
         job.succeeded.connect(on_success)
         job.failed.connect(lambda text: self.message.emit(f"{name}: {text}", "error"))
         job.cancelled.connect(lambda: self.message.emit(f"{name}: cancelled", "info"))
         job.finished.connect(lambda: self._job_finished(name))
+        self._job_started_s[name] = time.monotonic()
         thread = start_on_thread(job, job.run, self)
         self._jobs[name] = (job, thread)
         self.job_running.emit(name, True)
@@ -586,6 +631,10 @@ class SessionController(QObject):
             job[1].wait(5_000)
             job[1].deleteLater()
         self.job_running.emit(name, False)
+
+    def _job_seconds(self, name: str) -> float:
+        """Wall time of the job ``name`` so far (or of its last run) in s."""
+        return time.monotonic() - self._job_started_s.get(name, time.monotonic())
 
     def job_active(self, name: str) -> bool:
         return name in self._jobs

@@ -2,10 +2,11 @@
 
 from __future__ import annotations
 
+import time
 from typing import Any
 
 import numpy as np
-from PySide6.QtCore import Qt
+from PySide6.QtCore import Qt, QTimer
 from PySide6.QtWidgets import (
     QFileDialog,
     QGroupBox,
@@ -25,11 +26,20 @@ from PySide6.QtWidgets import (
 from gasfilm.analysis.diagnosis import Finding
 from gasfilm.analysis.diagnosis.pipeline import replayed_mean
 from gasfilm.app.gui.controller import SessionController
-from gasfilm.app.gui.widgets import MEASURED_COLOR, PALETTE, make_plot, pen
+from gasfilm.app.gui.widgets import MEASURED_COLOR, PALETTE, FixedHeightLabel, make_plot, pen
 from gasfilm.drivers.errors import GasfilmError
 from gasfilm.drivers.interface import STANDARD_GRAVITY_M_S2
 
 G = STANDARD_GRAVITY_M_S2
+INTRO_TEXT = "Compares the session with its rig spec under the same test conditions."
+WAITING_TEXT = "The diagnosis waits until the acquisition is stopped."
+READY_TEXT = "Acquisition stopped: diagnose the session's accepted hits against its rig spec."
+
+
+def finding_title(finding: Finding) -> str:
+    """A finding's line in the list: where its own signature is, in the words its details use ("extra-mode near
+    640 Hz", not the wider band its χ² gain spans)."""
+    return f"{finding.effect} — {finding.where.split(';')[0]}   ({finding.hits})"
 
 
 class DiagnoseTab(QWidget):
@@ -43,11 +53,23 @@ class DiagnoseTab(QWidget):
         self.run_button.setObjectName("diagnose")
         self.cancel_button = QPushButton("Cancel")
         self.cancel_button.setEnabled(False)
+        # A busy bar (the diagnosis cannot say how far it is) with the time it has run beside it, in room kept while
+        # hidden: nothing in the row moves when it starts.
         self.progress = QProgressBar()
         self.progress.setRange(0, 0)
-        self.progress.hide()
-        self.status = QLabel("Compares the session with its rig spec under the same test conditions.")
-        self.status.setWordWrap(True)
+        self.progress.setFixedWidth(110)
+        self.elapsed = QLabel()
+        self.elapsed.setFixedWidth(self.elapsed.fontMetrics().horizontalAdvance("running 000 s") + 6)
+        self._started_s = 0.0
+        self._clock = QTimer(self)
+        self._clock.setInterval(500)
+        self._clock.timeout.connect(self._show_elapsed)
+        for widget in (self.progress, self.elapsed):
+            policy = widget.sizePolicy()
+            policy.setRetainSizeWhenHidden(True)
+            widget.setSizePolicy(policy)
+            widget.hide()
+        self.status = FixedHeightLabel(INTRO_TEXT, lines=2)  # progress text changes: the findings list stays put
         self.export_button = QPushButton("Export improved rig spec…")
         self.play_button = QPushButton("Play improved spec on the simulated rig")
         self.play_button.setObjectName("play_improved")
@@ -65,6 +87,7 @@ class DiagnoseTab(QWidget):
         top.addWidget(self.run_button)
         top.addWidget(self.cancel_button)
         top.addWidget(self.progress)
+        top.addWidget(self.elapsed)
         top.addWidget(self.export_button)
         top.addWidget(self.play_button)
 
@@ -123,11 +146,14 @@ class DiagnoseTab(QWidget):
             self.reference_path.setText(path)
 
     def _on_acquisition_state(self, state: str) -> None:
-        """While armed the button stays, and says why it will refuse: hits are still arriving."""
+        """While armed the button stays, and says why it will refuse: hits are still arriving. Once stopped, the
+        waiting note gives way to what can be done now."""
         reason = "Stop the acquisition first: hits are still arriving and the FRF changes with each one."
         self.run_button.setToolTip(reason if state != "idle" else "")
         if state == "starting":
-            self.status.setText("The diagnosis waits until the acquisition is stopped.")
+            self.status.setText(WAITING_TEXT)
+        elif state == "idle" and self.status.text() == WAITING_TEXT:
+            self.status.setText(READY_TEXT if self.controller.accepted_count else INTRO_TEXT)
 
     def _on_running(self, job: str, running: bool) -> None:
         if job != "diagnose":
@@ -135,6 +161,17 @@ class DiagnoseTab(QWidget):
         self.run_button.setEnabled(not running)
         self.cancel_button.setEnabled(running)
         self.progress.setVisible(running)
+        self.elapsed.setVisible(running)
+        if running:
+            self.status.setText("Diagnosing the session's accepted hits against the rig spec…")
+            self._started_s = time.monotonic()
+            self._show_elapsed()
+            self._clock.start()
+        else:
+            self._clock.stop()
+
+    def _show_elapsed(self) -> None:
+        self.elapsed.setText(f"running {time.monotonic() - self._started_s:.0f} s")
 
     def _on_progress(self, job: str, fraction: float, text: str) -> None:
         if job == "diagnose":
@@ -159,9 +196,7 @@ class DiagnoseTab(QWidget):
             f"{diagnosis.evidence.hit_count} hits, {diagnosis.wall_time_s:.1f} s"
         )
         for finding in diagnosis.findings:
-            item = QListWidgetItem(
-                f"{finding.effect}   {finding.band_hz[0]:.0f}–{finding.band_hz[1]:.0f} Hz   ({finding.hits})"
-            )
+            item = QListWidgetItem(finding_title(finding))
             item.setData(Qt.ItemDataRole.UserRole, finding)
             self.findings.addItem(item)
         if not diagnosis.findings:
@@ -185,9 +220,7 @@ class DiagnoseTab(QWidget):
         )
         for values in stored["findings"]:
             finding = Finding.from_dict(values)
-            item = QListWidgetItem(
-                f"{finding.effect}   {finding.band_hz[0]:.0f}–{finding.band_hz[1]:.0f} Hz   ({finding.hits})"
-            )
+            item = QListWidgetItem(finding_title(finding))
             item.setData(Qt.ItemDataRole.UserRole, finding)
             self.findings.addItem(item)
         if not stored["findings"]:

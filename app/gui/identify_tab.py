@@ -6,7 +6,7 @@ import numpy as np
 from pathlib import Path
 
 from PySide6.QtCore import Qt
-from PySide6.QtGui import QGuiApplication
+from PySide6.QtGui import QColor, QGuiApplication
 from PySide6.QtWidgets import (
     QAbstractItemView,
     QComboBox,
@@ -33,12 +33,14 @@ from gasfilm.analysis.control.export import SUFFIXES, write_model
 from gasfilm.analysis.identification import METHODS
 from gasfilm.analysis.physics.elements import PAPER_MODEL_ORDER, PAPER_MODEL_TEXT, get_model
 from gasfilm.app.gui.controller import SessionController
-from gasfilm.app.gui.widgets import MEASURED_COLOR, PALETTE, make_plot, pen, phase_deg
+from gasfilm.app.gui.widgets import MEASURED_COLOR, PALETTE, FixedHeightLabel, make_plot, pen, phase_deg
 from gasfilm.drivers.errors import GasfilmError
 from gasfilm.drivers.interface import STANDARD_GRAVITY_M_S2
 
 DEFAULT_MODELS = ("SD", "FOMGF")
 TABLE2_COLUMNS = ("#", "Model", "k", "RMS (g/N)", "E", "Peak error (g/N)", "E_m", "AIC", "BIC")
+WAITING_TEXT = "Fitting waits until the acquisition is stopped."
+READY_TEXT = "Acquisition stopped: the FRF is final. Pick the models and fit."
 METHOD_LABELS = {"default": "default (fast, multi-start least squares)", "gapso": "GA-PSO (the paper's)"}
 
 
@@ -74,7 +76,7 @@ class IdentifyTab(QWidget):
         self.cancel_button.setEnabled(False)
         self.progress = QProgressBar()
         self.progress.setRange(0, 1000)
-        self.status = QLabel()
+        self.status = FixedHeightLabel(lines=2)  # its text changes with every progress report: nothing may move
         self.status.setWordWrap(True)
         left_box = QGroupBox("Models and fitter")
         left = QVBoxLayout(left_box)
@@ -138,13 +140,20 @@ class IdentifyTab(QWidget):
         table_panel.setSizes([640, 460])
 
         self.fig18 = {
-            "magnitude": make_plot("Fig. 18a  log |H|", ("|H|", "g/N"), log_y=True),
+            # The models' colours are shown in Table 2 (a swatch by each name): a legend of nine models would
+            # cover the curves in a plot this size.
+            "magnitude": make_plot(
+                "Fig. 18a  log |H| (colours: Table 2)", ("|H|", "g/N"),
+                log_y=True, legend=False,
+            ),
             "real": make_plot("Fig. 18b  Real part", ("Re H", "g/N"), legend=False),
             "imag": make_plot("Fig. 18c  Imaginary part", ("Im H", "g/N"), legend=False),
             "phase": make_plot("Fig. 18d  Phase", ("Phase", "°"), legend=False),
         }
         self.fig19 = {
-            "magnitude": make_plot("Fig. 19a  Error of |H|", ("| |H| − |H_d| |", "g/N")),
+            "magnitude": make_plot(
+                "Fig. 19a  Error of |H| (colours: Table 2)", ("| |H| − |H_d| |", "g/N"), legend=False
+            ),
             "real": make_plot("Fig. 19b  Error of the real part", ("|Re H − Re H_d|", "g/N"), legend=False),
             "imag": make_plot("Fig. 19c  Error of the imaginary part", ("|Im H − Im H_d|", "g/N"), legend=False),
         }
@@ -234,11 +243,14 @@ class IdentifyTab(QWidget):
             self.status.setText(text)
 
     def _on_acquisition_state(self, state: str) -> None:
-        """While armed the button stays, and says why it will refuse: hits are still arriving."""
+        """While armed the button stays, and says why it will refuse: hits are still arriving. Once stopped, the
+        waiting note gives way to what can be done now."""
         reason = "Stop the acquisition first: hits are still arriving and the FRF changes with each one."
         self.run_button.setToolTip(reason if state != "idle" else "")
         if state == "starting":
-            self.status.setText("Fitting waits until the acquisition is stopped.")
+            self.status.setText(WAITING_TEXT)
+        elif state == "idle" and self.status.text() == WAITING_TEXT:
+            self.status.setText(READY_TEXT if self.controller.frf is not None else "")
 
     def _on_running(self, job: str, running: bool) -> None:
         if job != "fit":
@@ -273,6 +285,8 @@ class IdentifyTab(QWidget):
                 item = QTableWidgetItem(value)
                 if c != 1:
                     item.setTextAlignment(Qt.AlignmentFlag.AlignRight | Qt.AlignmentFlag.AlignVCenter)
+                else:  # the swatch of the model's curves in Figures 18 and 19 (they have no legend)
+                    item.setData(Qt.ItemDataRole.DecorationRole, QColor(PALETTE[r % len(PALETTE)]))
                 self.table.setItem(r, c, item)
         self.table.resizeColumnsToContents()
         if rows:
@@ -389,9 +403,7 @@ class IdentifyTab(QWidget):
         fig18["real"].plot(freq, measured.real, pen=pen(MEASURED_COLOR, 2.5), name="measured")
         fig18["imag"].plot(freq, measured.imag, pen=pen(MEASURED_COLOR, 2.5), name="measured")
         fig18["phase"].plot(freq, phase_deg(measured), pen=pen(MEASURED_COLOR, 2.5), name="measured")
-        order = [row.model_name for row in self.controller.comparison] or list(fits)
-        for plot in (fig18["magnitude"], self.fig19["magnitude"]):
-            plot.getPlotItem().legend.setColumnCount(1 if len(order) < 4 else 2)
+        order = [row.model_name for row in self.controller.comparison] or list(fits)  # Table 2's rows and colours
         for number, name in enumerate(order):
             fit = fits[name]
             model = fit.accelerance(freq) / STANDARD_GRAVITY_M_S2

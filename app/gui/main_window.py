@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import logging
+import signal
 import sys
 from pathlib import Path
 
@@ -33,6 +35,7 @@ from gasfilm.app.gui.settings import (
 )
 from gasfilm.app.gui.setup_tab import SetupTab
 from gasfilm.app.gui.widgets import Banner, configure_pyqtgraph
+from gasfilm.app.gui.workers import warm_up_job_processes
 from gasfilm.drivers import SIMULATED_DEVICE_NAME
 from gasfilm.drivers.errors import GasfilmError
 
@@ -42,6 +45,7 @@ SIM_FAULTS = {
     "open_sensor": "Open sensor (cable pulled)",
     "overload": "Overload on the next hit",
 }
+logger = logging.getLogger(__name__)
 STATUS_INTERVAL_MS = 500
 #: The window's size at start: every tab is laid out (and its screenshot taken) at this size.
 DEFAULT_WINDOW_SIZE = (1500, 950)
@@ -60,6 +64,7 @@ class MainWindow(QMainWindow):
         self.banner = Banner()
         self.pending_dialog: QMessageBox | None = None
         self._closed = False
+        self._closing_on_signal = False
         try:
             self.setup_tab = SetupTab(setup)
         except (GasfilmError, ValueError, TypeError, KeyError, OverflowError) as error:  # stored values Qt refuses
@@ -264,11 +269,18 @@ class MainWindow(QMainWindow):
             self.controller.reject_all_pending()
         return clicked in (accept, reject, keep)
 
+    def close_on_signal(self, signal_number: int) -> None:
+        """SIGTERM or SIGHUP (``kill``, a closed terminal, a logout): quit like *Quit*, without asking — hits that
+        wait for a decision stay undecided (stored as not accepted) — and close the session cleanly."""
+        logger.warning("signal %d: closing the window and the session", signal_number)
+        self._closing_on_signal = True
+        self.close()
+
     def closeEvent(self, event: QCloseEvent) -> None:
         if self._closed:
             super().closeEvent(event)
             return
-        if not self.ask_about_pending_hits():
+        if not self._closing_on_signal and not self.ask_about_pending_hits():
             event.ignore()
             return
         save_setup(self.settings, self.setup_tab.state())
@@ -280,6 +292,7 @@ class MainWindow(QMainWindow):
 def run_gui(device: str | None = None, session: str | Path | None = None) -> int:
     """Start the GUI (``gasfilm gui``); ``device`` overrides the remembered device, ``session`` opens a file."""
     app = QApplication.instance() or QApplication(sys.argv[:1])
+    warm_up_job_processes()  # fits and diagnoses run in child processes: have their fork server ready
     app.setOrganizationName(SETTINGS_ORGANIZATION)
     app.setApplicationName(SETTINGS_APPLICATION)
     window = MainWindow()
@@ -289,5 +302,10 @@ def run_gui(device: str | None = None, session: str | Path | None = None) -> int
         window.setup_tab.set_state(state)
     if session:
         window.controller.open_session(session)
+    for number in (signal.SIGTERM, signal.SIGHUP):
+        signal.signal(number, lambda received, _frame: QTimer.singleShot(0, lambda: window.close_on_signal(received)))
+    heartbeat = QTimer(window)  # Python runs signal handlers only between bytecodes: wake it while Qt waits
+    heartbeat.timeout.connect(lambda: None)
+    heartbeat.start(250)
     window.show()
     return app.exec()

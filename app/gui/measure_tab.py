@@ -18,6 +18,7 @@ from PySide6.QtWidgets import (
     QHBoxLayout,
     QLabel,
     QPushButton,
+    QSizePolicy,
     QSplitter,
     QTableWidget,
     QTableWidgetItem,
@@ -36,6 +37,7 @@ from gasfilm.app.gui.widgets import (
     PALETTE,
     PENDING_COLOR,
     REJECTED_COLOR,
+    FixedHeightLabel,
     make_plot,
     pen,
     set_region_hz,
@@ -46,6 +48,9 @@ from gasfilm.drivers.errors import GasfilmError
 from gasfilm.drivers.interface import ChannelKind
 
 REDRAW_INTERVAL_MS = 40  # 25 frames per second
+#: While a fit or diagnosis runs, the live view draws 5 frames per second: the drawing shares the Python interpreter
+#: with the job, which then runs nearly as fast as on the command line (benchmarks/bench_gui_jobs.py).
+BUSY_REDRAW_INTERVAL_MS = 200
 _STATE_STYLE = {
     "idle": ("STOPPED", "#666666"),
     "starting": ("STARTING…", "#0b5394"),
@@ -55,7 +60,11 @@ _STATE_STYLE = {
 }
 OUTSIDE_BAND_COLOR = "#bbbbbb"
 BAND_BRUSH = (0, 114, 178, 25)
-OVERLAY_PULSE_MS = (-2.0, 10.0)  # force pulses are overlaid from 2 ms before to 10 ms after the trigger
+OVERLAY_PULSE_MS = (-2.0, 10.0)
+LIVE_FORCE_TITLE = "Live: force"
+LIVE_RESPONSE_TITLE = "Live: response"
+#: The live force view reaches this far past the trigger level, so the dashed line and its label stay inside.
+TRIGGER_HEADROOM = 1.25  # force pulses are overlaid from 2 ms before to 10 ms after the trigger
 _HIT_COLUMNS = ("Hit", "Time (s)", "Peak force (N)", "Verdict", "Reasons")
 
 
@@ -121,22 +130,26 @@ class MeasureTab(QWidget):
 
         # Time runs to 0 = now on a fixed axis, and the live plots have no grid: their axes are then not redrawn
         # with every frame, which keeps the view at 25 fps with 4 channels at 51.2 kS/s.
-        self.force_plot = make_plot("Live: force", ("Force", "N"), ("Time before now", "s"), grid=False)
+        # The channels are named in the titles, in their colours: a legend box would hide the newest hits.
+        self.force_plot = make_plot(
+            LIVE_FORCE_TITLE, ("Force", "N"), ("Time before now", "s"), grid=False, legend=False
+        )
         self.response_plot = make_plot(
-            "Live: response", ("Acceleration", "m/s²"), ("Time before now", "s"), grid=False
+            LIVE_RESPONSE_TITLE, ("Acceleration", "m/s²"), ("Time before now", "s"), grid=False, legend=False
         )
         self.response_plot.setXLink(self.force_plot)
         self.force_plot.getPlotItem().enableAutoRange(x=False)
         self.response_plot.getPlotItem().enableAutoRange(x=False)
-        for plot in (self.force_plot, self.response_plot):
-            plot.getPlotItem().legend.setOffset((70, 10))  # top left, clear of the newest samples
-            plot.getPlotItem().legend.setVisible(False)
         self.trigger_line = pg.InfiniteLine(
             angle=0, pen=pen(REJECTED_COLOR, 1.0, Qt.PenStyle.DashLine), label="trigger {value:g} N",
             labelOpts={"position": 0.08, "color": REJECTED_COLOR, "anchors": [(0, 1), (0, 1)]},
         )
         self.trigger_line.setVisible(False)
         self.force_plot.addItem(self.trigger_line, ignoreBounds=True)
+        # Invisible, but in the force view's autorange: the trigger level stays on the scale between hits, when the
+        # force is only noise in mN.
+        self.trigger_span = pg.PlotDataItem(pen=pg.mkPen((0, 0, 0, 0)))  # transparent: drawn, so autoranged
+        self.force_plot.addItem(self.trigger_span)
         self._live_curves: list[pg.PlotDataItem] = []
         live = stacked(self.force_plot, self.response_plot)
 
@@ -153,7 +166,7 @@ class MeasureTab(QWidget):
         self.hit_table.setWordWrap(True)  # long reasons wrap inside their row instead of being cut off
         self.hit_table.verticalHeader().setSectionResizeMode(QHeaderView.ResizeMode.ResizeToContents)
         self.hit_table.itemSelectionChanged.connect(self._show_selected_hit)
-        self.verdict_label = QLabel("No hit yet")
+        self.verdict_label = FixedHeightLabel("No hit yet", lines=2)  # a long reason list moves nothing
         self.verdict_label.setWordWrap(True)
         self.accept_button = QPushButton("Accept hit")
         self.accept_button.setObjectName("accept")
@@ -161,6 +174,8 @@ class MeasureTab(QWidget):
         self.reject_button.setObjectName("reject")
         self.accept_button.clicked.connect(lambda: self._decide(True))
         self.reject_button.clicked.connect(lambda: self._decide(False))
+        for button in (self.accept_button, self.reject_button):
+            button.setEnabled(False)  # until a hit is selected
         self.hit_plot = make_plot(
             "Selected hit: <span style='color:#0072B2'>force</span> · "
             "<span style='color:#D55E00'>response</span>",
@@ -211,8 +226,8 @@ class MeasureTab(QWidget):
         self.spectrum_band.setZValue(-10)
         self.spectrum_plot.addItem(self.spectrum_band, ignoreBounds=True)
         self.spectrum_plot.setYRange(-45, 5)
-        self.spectrum_label = QLabel()
-        self.spectrum_label.setWordWrap(True)
+        # Room for three lines, whatever the text: the page never asks for more height than the other views.
+        self.spectrum_label = FixedHeightLabel(lines=3)
         spectrum_page = stacked(self.spectrum_plot, self.spectrum_label)
 
         self.overlay_force_plot = make_plot(
@@ -228,6 +243,12 @@ class MeasureTab(QWidget):
         self.hit_views.addTab(self.hit_plot, "Selected hit")
         self.hit_views.addTab(spectrum_page, "Force spectrum")
         self.hit_views.addTab(overlay_page, "Overlay of accepted hits")
+        # The hit list and the views share the column 2 : 3 whatever the views' pages ask for: switching to the
+        # force spectrum moves nothing.
+        for widget in (self.hit_table, self.hit_views):
+            policy = widget.sizePolicy()
+            policy.setVerticalPolicy(QSizePolicy.Policy.Ignored)
+            widget.setSizePolicy(policy)
         hits_layout.addWidget(self.hit_views, 3)
 
         self.h1_plot = make_plot("Running H1", ("|H1|", "(m/s²)/N"), log_y=True)
@@ -275,6 +296,7 @@ class MeasureTab(QWidget):
         controller.hit_changed.connect(self._on_hit_changed)
         controller.frf_changed.connect(self._on_frf)
         controller.session_changed.connect(self._clear_live)
+        controller.job_running.connect(self._pace_live_view)
         self._on_state("idle")
         self._update_counter()
         self._on_frf(None)
@@ -288,36 +310,50 @@ class MeasureTab(QWidget):
         config = self.controller.running_config()
         self._clear_live()
         self._live_curves = []
+        names: dict[str, list[str]] = {"force": [], "response": []}
         response_number = 0
         for channel in config.channels:
             if channel.kind is ChannelKind.FORCE:
-                curve = self.force_plot.plot(pen=pen(PALETTE[0], 1.0), name=channel.label)
+                color, plot, group = PALETTE[0], self.force_plot, "force"
             else:
-                curve = self.response_plot.plot(pen=pen(PALETTE[1 + response_number], 1.0), name=channel.label)
+                color, plot, group = PALETTE[1 + response_number], self.response_plot, "response"
                 response_number += 1
+            curve = plot.plot(pen=pen(color, 1.0))
+            names[group].append(f"<span style='color:{color}'>{channel.label}</span>")
             curve.setDownsampling(auto=True, method="peak")
             curve.setClipToView(True)
             curve.setSkipFiniteCheck(True)
             self._live_curves.append(curve)
-        for plot in (self.force_plot, self.response_plot):
-            plot.getPlotItem().legend.setVisible(True)
+        self.force_plot.setTitle(f"{LIVE_FORCE_TITLE}: {', '.join(names['force'])}")
+        self.response_plot.setTitle(f"{LIVE_RESPONSE_TITLE}: {', '.join(names['response'])}")
+        level_n = self.controller.running_trigger().level_n
+        live_s = self.controller.setup.live_view_s
         self.trigger_line.setVisible(True)  # first: a hidden line's label does not follow its value
-        self.trigger_line.setValue(self.controller.running_trigger().level_n)
-        self.force_plot.setXRange(-self.controller.setup.live_view_s, 0.0, padding=0.0)
+        self.trigger_line.setValue(level_n)
+        self.trigger_span.setData([-live_s, -live_s], [0.0, TRIGGER_HEADROOM * level_n])
+        self.force_plot.setXRange(-live_s, 0.0, padding=0.0)
         self.redraw_count = 0
         self.redraw_seconds = 0.0
         self._first_redraw_s = None
+        self._pace_live_view()
         self.redraw_timer.start()
+
+    def _pace_live_view(self, *_: object) -> None:
+        """25 frames per second, or 5 while a background job runs (it needs the interpreter more than the eye)."""
+        busy = any(self.controller.job_active(name) for name in ("fit", "diagnose"))
+        self.redraw_timer.setInterval(BUSY_REDRAW_INTERVAL_MS if busy else REDRAW_INTERVAL_MS)
 
     def _clear_live(self, *_: object) -> None:
         """Empty the live plots (a new stream, or another session opened)."""
-        for plot in (self.force_plot, self.response_plot):
-            for curve in plot.getPlotItem().listDataItems():
-                plot.removeItem(curve)
-            plot.getPlotItem().legend.clear()
-            plot.getPlotItem().legend.setVisible(False)
+        for curve in self._live_curves:
+            for plot in (self.force_plot, self.response_plot):
+                if curve in plot.getPlotItem().listDataItems():
+                    plot.removeItem(curve)
+        self.force_plot.setTitle(LIVE_FORCE_TITLE)
+        self.response_plot.setTitle(LIVE_RESPONSE_TITLE)
         self._live_curves = []
         self.trigger_line.setVisible(False)
+        self.trigger_span.setData([], [])
 
     def redraw_live(self) -> None:
         """Timer slot: draw the newest samples from the ring buffer (peak-downsampled, clipped to view)."""
@@ -375,6 +411,8 @@ class MeasureTab(QWidget):
             self.hit_table.selectRow(self.hit_table.rowCount() - 1)
         else:
             self.verdict_label.setText("No hit yet")
+            self.accept_button.setEnabled(False)  # nothing to decide on
+            self.reject_button.setEnabled(False)
             self.hit_force_curve.setData([], [])
             self.hit_response_curve.setData([], [])
             self.hit_spectrum_curve.setData([], [])

@@ -13,7 +13,8 @@ from typing import Any, TypeVar
 
 from PySide6.QtCore import QSettings
 
-from gasfilm.analysis.capture import TriggerSettings
+from gasfilm.analysis.capture import TriggerSettings, check_record_length
+from gasfilm.analysis.settings import setting_label
 from gasfilm.analysis.spectra import WindowSettings
 from gasfilm.analysis.validation import ValidationSettings
 from gasfilm.drivers.errors import SettingError
@@ -95,6 +96,8 @@ class SetupState:
     target_averages: int = 10  # acquisition stops once this many hits are accepted (0: no target)
     min_coherence: float = 0.9  # auto-accept also needs the band's mean γ² to stay above this (0: no check)
     usable_drop_db: float = 20.0  # the FRF is trusted where the force spectrum is within this of its low-f level
+    #: Operating conditions as typed (name with its unit → value text; empty values are not recorded)
+    conditions: dict[str, str] = field(default_factory=dict)
 
     def enabled_channels(self) -> list[ChannelSetup]:
         return [channel for channel in self.channels if channel.enabled]
@@ -106,6 +109,13 @@ class SetupState:
         config.channel_index(ChannelKind.FORCE)
         self.response_row(config)
         return config
+
+    def trigger_settings(self) -> TriggerSettings:
+        """The trigger of a live acquisition: refused, naming the Setup tab's field, where the command line's
+        ``acquire`` refuses it too (one rule: :func:`gasfilm.analysis.capture.check_record_length`)."""
+        trigger = settings_from_dict(TriggerSettings, self.trigger)
+        check_record_length(trigger.record_s, setting_label("trigger", "record_s"))
+        return trigger
 
     def response_row(self, config: DaqConfig) -> int:
         """Row of the FRF's response channel in ``config``'s read order."""
@@ -140,6 +150,10 @@ class SetupState:
                 value = _channels_from_json(value)
             elif f.name in _SETTINGS_GROUPS:
                 _check_group(f.name, value, _SETTINGS_GROUPS[f.name])
+            elif f.name == "conditions":
+                if not isinstance(value, dict) or not all(isinstance(k, str) and isinstance(v, str)
+                                                          for k, v in value.items()):
+                    raise SettingError("'conditions': expected an object of condition names and value texts")
             else:
                 _check_like(f.name, value, getattr(defaults, f.name))
             values[f.name] = value

@@ -1,4 +1,5 @@
-"""Setup tab: device, channels and sensors, sample rate, trigger, windows, validation rules and rig spec."""
+"""Setup tab: device, channels and sensors, sample rate, trigger, windows, validation rules, rig spec and the
+session's operating conditions."""
 
 from __future__ import annotations
 
@@ -20,13 +21,16 @@ from PySide6.QtWidgets import (
     QPushButton,
     QSpinBox,
     QTableWidget,
+    QTableWidgetItem,
     QVBoxLayout,
     QWidget,
 )
 
 import gasfilm.drivers as drivers
 from gasfilm.analysis.capture import SLOPES, TriggerSettings
+from gasfilm.analysis.conditions import STANDARD_CONDITIONS, parse_condition_table
 from gasfilm.analysis.physics.spec import RigSpec
+from gasfilm.analysis.settings import SETTING_LABELS
 from gasfilm.analysis.spectra import WindowSettings
 from gasfilm.analysis.validation import ValidationSettings
 from gasfilm.app.gui.sensors import DEFAULT_SENSOR_LIBRARY, Sensor, load_sensor_library
@@ -93,7 +97,9 @@ class SetupTab(QWidget):
         self.live_view_s = QDoubleSpinBox()
         self.live_view_s.setRange(0.2, 10.0)
         self.live_view_s.setSuffix(" s")
-        self.trigger_form = DataclassForm(TriggerSettings, choices={"slope": SLOPES})
+        self.trigger_form = DataclassForm(
+            TriggerSettings, choices={"slope": SLOPES}, labels=SETTING_LABELS["trigger"]
+        )
         trigger_box = QGroupBox("Sampling and trigger")
         trigger_layout = QFormLayout(trigger_box)
         trigger_layout.addRow("Sample rate", self.rate_combo)
@@ -101,12 +107,14 @@ class SetupTab(QWidget):
         trigger_layout.addRow(self.trigger_form)
 
         self.window_form = DataclassForm(
-            WindowSettings, optional_defaults={"force_window_ms": 10.0, "exponential_end_fraction": 0.01}
+            WindowSettings,
+            optional_defaults={"force_window_ms": 10.0, "exponential_end_fraction": 0.01},
+            labels=SETTING_LABELS["window"],
         )
         window_box = QGroupBox("Windows")
         QVBoxLayout(window_box).addWidget(self.window_form)
 
-        self.validation_form = DataclassForm(ValidationSettings)
+        self.validation_form = DataclassForm(ValidationSettings, labels=SETTING_LABELS["validation"])
         self.auto_accept = QCheckBox("Accept hits that pass every check (double hit included) without asking")
         self.auto_reject = QCheckBox("Reject hits that fail a check without asking")
         self.min_coherence = QDoubleSpinBox()
@@ -160,6 +168,23 @@ class SetupTab(QWidget):
         rig_layout.addLayout(rig_row)
         rig_layout.addWidget(self.rig_summary)
 
+        self.conditions_table = QTableWidget(0, 2)
+        self.conditions_table.setObjectName("conditions_table")
+        self.conditions_table.setHorizontalHeaderLabels(("Condition, unit in the name", "Value"))
+        self.conditions_table.horizontalHeader().setSectionResizeMode(0, QHeaderView.ResizeMode.ResizeToContents)
+        self.conditions_table.horizontalHeader().setStretchLastSection(True)
+        self.conditions_table.verticalHeader().setVisible(False)
+        self.conditions_table.verticalHeader().setDefaultSectionSize(self.fontMetrics().height() + 6)
+        self.conditions_table.setToolTip("Stored with the session and shown by replay, fit, diagnose, the report and "
+                                         "campaigns; an empty value is not recorded. Add a label such as bearing = "
+                                         "B-17 in an empty row. A rig spec with film laws is played at these.")
+        add_condition = QPushButton("Add a condition")
+        add_condition.clicked.connect(lambda: self._add_condition_row("", ""))
+        conditions_box = QGroupBox("Operating conditions")
+        conditions_layout = QVBoxLayout(conditions_box)
+        conditions_layout.addWidget(self.conditions_table)
+        conditions_layout.addWidget(add_condition)
+
         self.problem_label = QLabel()
         self.problem_label.setWordWrap(True)
 
@@ -168,7 +193,10 @@ class SetupTab(QWidget):
         grid.addWidget(device_box, 0, 0)
         grid.addWidget(rig_box, 0, 1, 1, 2)
         grid.addWidget(channels_box, 1, 0, 1, 3)
-        grid.addWidget(trigger_box, 2, 0)
+        left = QVBoxLayout()
+        left.addWidget(trigger_box)
+        left.addWidget(conditions_box)
+        grid.addLayout(left, 2, 0)
         side = QVBoxLayout()
         side.addWidget(window_box)
         side.addWidget(rules_box)
@@ -193,6 +221,7 @@ class SetupTab(QWidget):
             spin.valueChanged.connect(self._emit_changed)
         self.response_combo.currentIndexChanged.connect(self._emit_changed)
         self.rig_path.editingFinished.connect(self._emit_changed)
+        self.conditions_table.itemChanged.connect(self._emit_changed)
 
         self.refresh_devices()
         header = self.table.horizontalHeader()
@@ -234,6 +263,9 @@ class SetupTab(QWidget):
         self.target_averages.setValue(state.target_averages)
         self.usable_drop_db.setValue(state.usable_drop_db)
         self.rig_path.setText(state.rig_spec_path)
+        self.conditions_table.setRowCount(0)
+        for key, value in {**{key: "" for key in STANDARD_CONDITIONS}, **state.conditions}.items():
+            self._add_condition_row(key, value)
         self._refresh_response_channels(state.response_channel)
         self._loading = False
         self._emit_changed()
@@ -257,6 +289,7 @@ class SetupTab(QWidget):
             target_averages=self.target_averages.value(),
             min_coherence=self.min_coherence.value(),
             usable_drop_db=self.usable_drop_db.value(),
+            conditions=self._conditions(),
         )
 
     def problem(self) -> str:
@@ -264,14 +297,35 @@ class SetupTab(QWidget):
         state = self.state()
         try:
             state.daq_config()
-            settings_from_dict(TriggerSettings, state.trigger)
+            state.trigger_settings()
             settings_from_dict(WindowSettings, state.window)
             settings_from_dict(ValidationSettings, state.validation)
             if state.rig_spec_path:
                 RigSpec.load(state.rig_spec_path)
+            parse_condition_table(state.conditions)
         except GasfilmError as error:
             return str(error)
         return ""
+
+    # --- operating conditions --------------------------------------------------------------------------------------
+
+    def _add_condition_row(self, key: str, value: str) -> None:
+        row = self.conditions_table.rowCount()
+        self.conditions_table.insertRow(row)
+        name = QTableWidgetItem(key)
+        name.setToolTip(STANDARD_CONDITIONS.get(key, "a name ending in its unit (…_mpa, …_um), or a label"))
+        self.conditions_table.setItem(row, 0, name)
+        self.conditions_table.setItem(row, 1, QTableWidgetItem(value))
+
+    def _conditions(self) -> dict[str, str]:
+        """The table as typed: name → value text (rows without a value left out)."""
+        table = {}
+        for row in range(self.conditions_table.rowCount()):
+            name, value = (self.conditions_table.item(row, column) for column in (0, 1))
+            key, text = (name.text().strip() if name else ""), (value.text().strip() if value else "")
+            if key and text:
+                table[key] = text
+        return table
 
     # --- channel table ---------------------------------------------------------------------------------------------
 

@@ -9,7 +9,7 @@ from typing import Any
 
 import numpy as np
 import pyqtgraph as pg
-from PySide6.QtCore import Qt, Signal
+from PySide6.QtCore import Qt, QTimer, Signal
 from PySide6.QtWidgets import (
     QCheckBox,
     QComboBox,
@@ -23,6 +23,8 @@ from PySide6.QtWidgets import (
     QSpinBox,
     QWidget,
 )
+
+from gasfilm.analysis.identification import DEFAULT_FIT_BAND_HZ
 
 #: Curve colours (Okabe–Ito based, colour-blind safe; never the measured curve's near-black) in the order models and channels are drawn.
 PALETTE = ("#0072B2", "#D55E00", "#009E73", "#CC79A7", "#E69F00", "#56B4E9", "#882255", "#8C564B", "#999999")
@@ -75,6 +77,20 @@ def sensible_decimals(typical: float) -> int:
     return int(min(6, max(1, 2 - np.floor(np.log10(abs(typical))))))
 
 
+class FixedHeightLabel(QLabel):
+    """A word-wrapped label with room for ``lines`` lines whatever its text: the layout around it never moves when
+    the text changes (a wrapped QLabel's height-for-width would resize its neighbours, or its whole tab widget)."""
+
+    def __init__(self, text: str = "", lines: int = 2, parent: QWidget | None = None) -> None:
+        super().__init__(text, parent)
+        self.setWordWrap(True)
+        self.setAlignment(Qt.AlignmentFlag.AlignLeft | Qt.AlignmentFlag.AlignTop)
+        self.setFixedHeight(lines * self.fontMetrics().lineSpacing() + 4)
+
+    def hasHeightForWidth(self) -> bool:  # noqa: N802 (Qt's name)
+        return False
+
+
 class Banner(QFrame):
     """A non-modal message strip above the tabs: device faults, refused settings, finished jobs."""
 
@@ -118,7 +134,8 @@ class Banner(QFrame):
 
 
 class DataclassForm(QWidget):
-    """An editor for a settings dataclass: one row per field, the unit taken from the field name's suffix."""
+    """An editor for a settings dataclass: one row per field, labelled from ``labels`` (field → (words with unit,
+    tooltip)), else from the field name with the unit its suffix says."""
 
     changed = Signal()
 
@@ -127,15 +144,18 @@ class DataclassForm(QWidget):
         settings_type: type,
         choices: dict[str, tuple[str, ...]] | None = None,
         optional_defaults: dict[str, float] | None = None,
+        labels: dict[str, tuple[str, str]] | None = None,
         parent: QWidget | None = None,
     ) -> None:
         super().__init__(parent)
         self.settings_type = settings_type
+        labels = labels or {}
         self._defaults = settings_type()
         self._choices = choices or {}
         self._optional_defaults = optional_defaults or {}
         self._editors: dict[str, QWidget] = {}
         self._switches: dict[str, QCheckBox] = {}
+        self.labels: dict[str, str] = {}  # field name → the words shown beside its editor
         layout = QFormLayout(self)
         layout.setFieldGrowthPolicy(QFormLayout.FieldGrowthPolicy.FieldsStayAtSizeHint)
         for f in dataclasses.fields(settings_type):
@@ -149,6 +169,10 @@ class DataclassForm(QWidget):
             if editor is None:
                 continue
             self._editors[f.name] = editor
+            label, help_text = labels.get(f.name, (field_label(f.name), ""))
+            self.labels[f.name] = label
+            if help_text:
+                editor.setToolTip(help_text)
             if optional:
                 switch = QCheckBox()
                 switch.setObjectName(f"{f.name}_on")
@@ -161,9 +185,9 @@ class DataclassForm(QWidget):
                 row = QHBoxLayout()
                 row.addWidget(switch)
                 row.addWidget(editor)
-                layout.addRow(field_label(f.name), row)
+                layout.addRow(label, row)
             else:
-                layout.addRow(field_label(f.name), editor)
+                layout.addRow(label, editor)
 
     def _editor_for(self, name: str, default: Any) -> QWidget | None:
         if isinstance(default, bool):
@@ -252,6 +276,95 @@ def configure_pyqtgraph() -> None:
     pg.setConfigOptions(background="w", foreground="#222222", antialias=False)
 
 
+#: Gap between a legend and the edge of the plot's view, in pixels.
+LEGEND_MARGIN_PX = 8
+#: Where a legend may sit, in the order tried: (horizontal, vertical) signs of pyqtgraph's legend offset
+#: (−1: right or bottom, +1: left or top): top right, top left, bottom right, bottom left.
+_LEGEND_CORNERS = ((-1, 1), (1, 1), (-1, -1), (1, -1))
+
+
+class TidyPlotItem(pg.PlotItem):
+    """A plot whose legend shows only while one of its curves has data (an empty plot has no empty legend box) and
+    sits in the corner of the view where it hides the fewest drawn points, never over a curve's highest or lowest
+    point while another corner is free of them. It is placed again whenever the data, the range or the size
+    changes (once per event-loop turn, however many curves changed)."""
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        self._legend_timer = QTimer()
+        self._legend_timer.setSingleShot(True)
+        self._legend_timer.setInterval(0)
+        self._legend_timer.timeout.connect(self.tidy_legend)
+        self.vb.sigRangeChanged.connect(self._legend_timer.start)
+        self.vb.sigResized.connect(self._legend_timer.start)
+        self.legend_corner = _LEGEND_CORNERS[0]
+
+    def addItem(self, item: Any, *args: Any, **kwargs: Any) -> None:
+        super().addItem(item, *args, **kwargs)
+        changed = getattr(item, "sigPlotChanged", None)
+        if changed is not None:
+            changed.connect(self._legend_timer.start)
+
+    def _drawn_points_px(self) -> tuple[np.ndarray, np.ndarray, list[tuple[float, float]]]:
+        """Every drawn point of the visible curves in view pixels (x right, y down), and each curve's highest and
+        lowest point."""
+        (x0, x1), (y0, y1) = self.vb.viewRange()
+        width, height = self.vb.width(), self.vb.height()
+        xs, ys, extremes = [], [], []
+        for item in self.listDataItems():
+            if not item.isVisible():
+                continue
+            x, y = item.getData()
+            if x is None or y is None or len(x) == 0:
+                continue
+            finite = np.isfinite(x) & np.isfinite(y)
+            x, y = np.asarray(x)[finite], np.asarray(y)[finite]
+            if x.size == 0 or x1 == x0 or y1 == y0:
+                continue
+            px = (x - x0) / (x1 - x0) * width
+            py = (y1 - y) / (y1 - y0) * height
+            xs.append(px)
+            ys.append(py)
+            extremes += [(px[np.argmax(y)], py[np.argmax(y)]), (px[np.argmin(y)], py[np.argmin(y)])]
+        if not xs:
+            return np.empty(0), np.empty(0), []
+        return np.concatenate(xs), np.concatenate(ys), extremes
+
+    def legend_rect_px(self, corner: tuple[int, int]) -> tuple[float, float, float, float]:
+        """(left, top, right, bottom) of the legend in view pixels when it sits in ``corner``."""
+        rect = self.legend.boundingRect()
+        width, height = self.vb.width(), self.vb.height()
+        left = LEGEND_MARGIN_PX if corner[0] > 0 else width - LEGEND_MARGIN_PX - rect.width()
+        top = LEGEND_MARGIN_PX if corner[1] > 0 else height - LEGEND_MARGIN_PX - rect.height()
+        return left, top, left + rect.width(), top + rect.height()
+
+    def tidy_legend(self) -> None:
+        legend = self.legend
+        if legend is None:
+            return
+        has_data = any(
+            getattr(sample.item, "xData", None) is not None and len(sample.item.xData) > 0
+            for sample, _ in legend.items
+        )
+        legend.setVisible(has_data)
+        if not has_data:
+            return
+        xs, ys, extremes = self._drawn_points_px()
+
+        def cost(corner: tuple[int, int]) -> tuple[int, int]:
+            left, top, right, bottom = self.legend_rect_px(corner)
+            covered_extremes = sum(left <= x <= right and top <= y <= bottom for x, y in extremes)
+            covered = int(np.count_nonzero((xs >= left) & (xs <= right) & (ys >= top) & (ys <= bottom)))
+            return covered_extremes, covered
+
+        costs = {corner: cost(corner) for corner in _LEGEND_CORNERS}
+        best = min(_LEGEND_CORNERS, key=lambda corner: costs[corner])
+        if costs[self.legend_corner] > costs[best]:  # stay put unless another corner hides less
+            self.legend_corner = best
+        horizontal, vertical = self.legend_corner
+        legend.setOffset((horizontal * LEGEND_MARGIN_PX, vertical * LEGEND_MARGIN_PX))
+
+
 def make_plot(
     title: str,
     left: tuple[str, str],
@@ -261,13 +374,14 @@ def make_plot(
     grid: bool = True,
 ) -> pg.PlotWidget:
     """A plot with labelled axes and units, a grid (off for live views: it is redrawn with every frame) and
-    (optionally) a legend."""
-    widget = pg.PlotWidget(title=title)
+    (optionally) a legend kept clear of the data (:class:`TidyPlotItem`). Frequencies stay in Hz (no mHz on an
+    empty plot's 0–1 range)."""
+    widget = pg.PlotWidget(plotItem=TidyPlotItem(title=title))
     item = widget.getPlotItem()
     item.setLabel("left", left[0], units=left[1] or None)
     item.setLabel("bottom", bottom[0], units=bottom[1] or None)
     for side, (_, unit) in (("left", left), ("bottom", bottom)):
-        if "/" in unit or "°" in unit or unit in ("", "1"):
+        if "/" in unit or "°" in unit or unit in ("", "1", "Hz"):
             item.getAxis(side).enableAutoSIPrefix(False)
     if grid:
         item.showGrid(x=True, y=True, alpha=0.25)
@@ -275,22 +389,22 @@ def make_plot(
         item.setLogMode(y=True)
     if legend:
         item.addLegend(
-            offset=(-10, 10), labelTextSize="9pt", brush=pg.mkBrush(255, 255, 255, 210), pen=pg.mkPen("#bbbbbb")
+            offset=(-LEGEND_MARGIN_PX, LEGEND_MARGIN_PX), labelTextSize="9pt", brush=pg.mkBrush(255, 255, 255, 210),
+            pen=pg.mkPen("#bbbbbb"),
         )
+        item.legend.setVisible(False)  # until a curve has data
+    if bottom[1] == "Hz":  # an empty plot shows the default fit band, not 0–1 Hz; data autoranges as usual
+        item.vb.setRange(xRange=DEFAULT_FIT_BAND_HZ, padding=0.02, disableAutoRange=False)
     item.setDownsampling(auto=True, mode="peak")
     item.setClipToView(True)
     return widget
 
 
 def show_legend_only_with_data(plot: pg.PlotWidget) -> None:
-    """Hide a plot's legend while none of its curves has data (an empty plot shows no empty legend)."""
-    legend = plot.getPlotItem().legend
-    if legend is None:
-        return
-    has_data = any(
-        getattr(sample.item, "xData", None) is not None and len(sample.item.xData) > 0 for sample, _ in legend.items
-    )
-    legend.setVisible(has_data)
+    """Hide a plot's legend while none of its curves has data, and place it clear of the data now."""
+    item = plot.getPlotItem()
+    if isinstance(item, TidyPlotItem):
+        item.tidy_legend()
 
 
 def set_region_hz(region: pg.LinearRegionItem, low_hz: float, high_hz: float, log_x: bool) -> None:

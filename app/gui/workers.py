@@ -8,10 +8,12 @@ fast device can never flood the GUI's event loop: the GUI receives one signal pe
 
 from __future__ import annotations
 
+import multiprocessing
+import multiprocessing.forkserver
 import queue
 import threading
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any, Callable
 
 import numpy as np
@@ -25,12 +27,12 @@ from gasfilm.analysis.physics.spec import RigSpec
 from gasfilm.analysis.session import Session
 from gasfilm.analysis.spectra import WindowSettings
 from gasfilm.analysis.validation import ValidationSettings, Verdict
+from gasfilm.app.gui.jobs import PROGRESS_INTERVAL_S, JobCancelled, run_job_in_child
 from gasfilm.drivers import SIMULATED_DEVICE_NAME, open_device
 from gasfilm.drivers.errors import GasfilmError
 from gasfilm.drivers.interface import ChannelKind, DaqConfig, DaqDevice
 
 POLL_INTERVAL_MS = 50
-PROGRESS_INTERVAL_S = 0.1
 SIM_HIT_INTERVAL_S = (1.5, 3.0)
 #: Stored with a hit that waits for the technician's decision: until then the session counts it as not accepted.
 PENDING_REASON = "awaiting decision"
@@ -61,6 +63,7 @@ class AcquisitionPlan:
     sim_pacing: str = "realtime"
     ring_seconds: float = 10.0
     time_offset_s: float = 0.0  # session time of the stream's first sample (hit times continue across re-arms)
+    conditions: dict = field(default_factory=dict)  # the session's operating conditions (analysis/conditions.py)
 
 
 @dataclass
@@ -349,16 +352,41 @@ class ReaderThreadHooks:
         return self._device.read(out, timeout_s)
 
 
-class JobCancelled(GasfilmError):
-    """Raised inside a background job when the technician pressed Cancel."""
-
-
 Report = Callable[[float, str], None]
 
 
+#: Modules the job processes' fork server imports once, so that each job starts in milliseconds.
+JOB_MODULES = ("gasfilm.app.gui.jobs",)
+#: How long a cancelled job's process may take to reach its next progress report before it is terminated, in s.
+CANCEL_GRACE_S = 10.0
+
+
+def warm_up_job_processes() -> None:
+    """Start the fork server now (it imports the analysis in its own process, seconds on a busy machine), so the
+    first fit or diagnosis starts at once. Returns immediately."""
+    if "forkserver" in multiprocessing.get_all_start_methods():
+        _job_context()
+        threading.Thread(target=multiprocessing.forkserver.ensure_running, name="gasfilm-job-warm-up", daemon=True).start()
+
+
+def _job_context() -> Any:
+    """Processes forked from a fork server (started once, without Qt or threads) that has imported the analysis;
+    where there is none (Windows), freshly started ones."""
+    if "forkserver" not in multiprocessing.get_all_start_methods():
+        return multiprocessing.get_context("spawn")
+    context = multiprocessing.get_context("forkserver")
+    context.set_forkserver_preload(list(JOB_MODULES))
+    return context
+
+
 class BackgroundJob(QObject):
-    """Run ``work(report, cancelled)`` on a worker thread; ``report(fraction, text)`` drives a progress bar and
-    raises :class:`JobCancelled` once Cancel was pressed; ``cancelled()`` can be polled by long computations."""
+    """Run ``work(report, cancelled)`` away from the GUI thread; ``report(fraction, text)`` drives a progress bar and
+    raises :class:`JobCancelled` once Cancel was pressed; ``cancelled()`` can be polled by long computations.
+
+    With ``in_process`` (the fits and the diagnosis) ``work`` must be picklable (a module-level function, or a
+    ``functools.partial`` of one, see :mod:`gasfilm.app.gui.jobs`) and runs in a child process: it has its own
+    interpreter lock, so the live view, the acquisition and the simulated device never slow it down. The thread
+    that owns the job only relays the child's progress and result."""
 
     progress = Signal(float, str)
     succeeded = Signal(object)
@@ -366,14 +394,55 @@ class BackgroundJob(QObject):
     cancelled = Signal()
     finished = Signal()
 
-    def __init__(self, work: Callable[[Report, Callable[[], bool]], Any]) -> None:
+    def __init__(self, work: Callable[[Report, Callable[[], bool]], Any], in_process: bool = False) -> None:
         super().__init__()
         self._work = work
+        self._in_process = in_process
         self._cancel = threading.Event()
 
     def cancel(self) -> None:
         """Thread-safe: the job stops at its next check."""
         self._cancel.set()
+
+    def _run_in_process(self, report: Report) -> Any:
+        """Start the child, relay its progress, return its result (or raise its failure or cancellation)."""
+        context = _job_context()
+        messages = context.Queue()
+        cancel = context.Event()
+        child = context.Process(target=run_job_in_child, args=(self._work, messages, cancel), daemon=True)
+        child.start()
+        cancel_sent_s: float | None = None
+        try:
+            while True:
+                if self._cancel.is_set() and cancel_sent_s is None:
+                    cancel.set()
+                    cancel_sent_s = time.monotonic()
+                if cancel_sent_s is not None and time.monotonic() - cancel_sent_s > CANCEL_GRACE_S:
+                    raise JobCancelled("cancelled")
+                try:
+                    message = messages.get(timeout=0.05)
+                except queue.Empty:
+                    if not child.is_alive() and messages.empty():
+                        raise GasfilmError(
+                            f"the job's process ended unexpectedly (exit code {child.exitcode})"
+                        ) from None
+                    continue
+                kind = message[0]
+                if kind == "progress":
+                    if not self._cancel.is_set():
+                        self.progress.emit(message[1], message[2])
+                elif kind == "done":
+                    return message[1]
+                elif kind == "cancelled":
+                    raise JobCancelled("cancelled")
+                else:
+                    raise GasfilmError(message[1])
+        finally:
+            child.join(1.0)
+            if child.is_alive():
+                child.terminate()
+                child.join(1.0)
+            messages.close()
 
     @Slot()
     def run(self) -> None:
@@ -388,7 +457,7 @@ class BackgroundJob(QObject):
                 self.progress.emit(float(fraction), text)
 
         try:
-            result = self._work(report, self._cancel.is_set)
+            result = self._run_in_process(report) if self._in_process else self._work(report, self._cancel.is_set)
         except GasfilmError as error:
             if self._cancel.is_set():
                 self.cancelled.emit()

@@ -1,0 +1,103 @@
+"""The GUI's long jobs — fitting models, diagnosing a session — as plain functions of picklable arguments, without
+Qt: :class:`gasfilm.app.gui.workers.BackgroundJob` runs them in a child process, whose own interpreter lock keeps
+the live view and the acquisition from slowing them down (``benchmarks/bench_gui_jobs.py``).
+
+Each takes ``report(fraction, text)`` (progress; raises once Cancel was pressed) and ``cancelled()`` last.
+:func:`run_job_in_child` is what the child process runs. Nothing here imports Qt: a job's process starts light.
+"""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+from typing import Any, Callable, Sequence
+
+import numpy as np
+
+from gasfilm.analysis.diagnosis import diagnose
+from gasfilm.analysis.diagnosis.plots import write_outputs
+from gasfilm.analysis.identification import compare_models, fit_model
+from gasfilm.analysis.physics.elements import get_model
+from gasfilm.analysis.physics.spec import RigSpec
+from gasfilm.drivers.errors import GasfilmError
+
+Report = Callable[[float, str], None]
+#: Progress reaches the GUI at most this often, in s (never flooding its event loop).
+PROGRESS_INTERVAL_S = 0.1
+
+
+class JobCancelled(GasfilmError):
+    """Raised inside a background job when the technician pressed Cancel."""
+
+
+
+
+def fit_models(
+    names: Sequence[str],
+    method: str,
+    freq_hz: np.ndarray,
+    h: np.ndarray,
+    mass_kg: float,
+    decay_rate_1_s: float,
+    report: Report,
+    cancelled: Callable[[], bool],
+) -> tuple[dict[str, Any], list[Any]]:
+    """Fit each model (a paper name or a network) to ``h`` (accelerance in (m/s²)/N) at ``freq_hz`` in Hz; returns
+    the fits by name and their Table 2 comparison."""
+    fits = {}
+    for number, name in enumerate(names):
+        report(number / len(names), f"fitting {name} ({number + 1} of {len(names)})")
+        fits[name] = fit_model(
+            get_model(name),
+            freq_hz,
+            h,
+            mass_kg,
+            method=method,
+            decay_rate_1_s=decay_rate_1_s,
+            progress=lambda done, n=number, m=name: report(
+                (n + done) / len(names), f"fitting {m} ({n + 1} of {len(names)})"
+            ),
+            cancel=cancelled,
+        )
+    report(1.0, "comparing the models")
+    return fits, compare_models(list(fits.values()), freq_hz, h)
+
+
+def diagnose_session(recordings: Any, spec: RigSpec, out_dir: Path, report: Report, _cancelled: Callable[[], bool]) -> Any:
+    """Diagnose ``recordings`` against ``spec`` and write the figures and the improved spec into ``out_dir``; the
+    diagnosis has no cancel hook: Cancel acts at its next progress report."""
+    diagnosis = diagnose(recordings, spec, progress=lambda text: report(0.0, text))
+    write_outputs(diagnosis, out_dir)
+    return diagnosis
+
+
+def run_job_in_child(work: Callable[..., Any], messages: Any, cancel: Any) -> None:
+    """Child process: run ``work(report, cancelled)``, sending progress (at most 10 a second) and the outcome."""
+    last_emit_s = [0.0]
+    checked = [0.0, False]  # when the cancel event was last read, and what it said
+
+    def cancelled() -> bool:
+        """The cancel event, read at most every 50 ms (a read takes a lock between processes; fitters ask often)."""
+        now = time.monotonic()
+        if now - checked[0] >= 0.05:
+            checked[:] = [now, cancel.is_set()]
+        return checked[1]
+
+    def report(fraction: float, text: str) -> None:
+        if cancelled():
+            raise JobCancelled("cancelled")
+        now = time.monotonic()
+        if now - last_emit_s[0] >= PROGRESS_INTERVAL_S or fraction >= 1.0:
+            last_emit_s[0] = now
+            messages.put(("progress", float(fraction), text))
+
+    try:
+        result = work(report, cancelled)
+    except JobCancelled:
+        messages.put(("cancelled",))
+    except GasfilmError as error:
+        messages.put(("cancelled",) if cancel.is_set() else ("failed", str(error)))
+    except Exception as error:  # a bug in a job must reach the banner, not vanish with the process
+        messages.put(("failed", f"internal error: {type(error).__name__}: {error}"))
+    else:
+        messages.put(("cancelled",) if cancel.is_set() else ("done", result))
