@@ -28,6 +28,7 @@ from pathlib import Path
 from typing import Any, Mapping, Sequence
 
 import numpy as np
+import scipy.signal
 
 from gasfilm.drivers.errors import SettingError
 from gasfilm.drivers.units import STANDARD_GRAVITY_M_S2
@@ -248,6 +249,40 @@ def usable_band_hz(freq_hz: np.ndarray, gff: np.ndarray, drop_db: float = USABLE
     below = positive[level[positive] < -abs(drop_db)]
     upper = freq_hz[below[0]] if below.size else freq_hz[positive[-1]]
     return float(freq_hz[positive[0]]), float(upper)
+
+
+#: Lines below this frequency are never read as a resonance (the DC line and the rigid-body rise).
+RESONANCE_SEARCH_FROM_HZ = 5.0
+#: Lines whose coherence is below this are not read (zeros of the hammer spectrum give noisy spikes in |H1|).
+READ_MIN_COHERENCE = 0.9
+#: A local maximum of |H1| is a resonance when it stands this many times above the lowest |H1| on each side of it
+#: (down to the neighbouring higher maximum): a noise wiggle never does, a lightly damped mode by far.
+RESONANCE_PROMINENCE = 1.5
+
+
+def readable_lines(frf: FrfResult, drop_db: float = USABLE_DROP_DB) -> np.ndarray:
+    """Mask of the lines where an FRF can be read: above 5 Hz, inside the usable band (the force spectrum within
+    ``drop_db`` of its low-frequency level) and with coherence ≥ 0.9 (a single hit's coherence is 1 everywhere, so
+    the usable band is what keeps it off the hammer's spectral nulls)."""
+    _, upper_hz = usable_band_hz(frf.freq_hz, frf.gff, drop_db)
+    magnitude = np.abs(frf.h1)
+    return ((frf.freq_hz >= RESONANCE_SEARCH_FROM_HZ) & (frf.freq_hz <= upper_hz) & np.isfinite(magnitude)
+            & (np.nan_to_num(frf.coherence) >= READ_MIN_COHERENCE))
+
+
+def resonance_lines(frf: FrfResult, drop_db: float = USABLE_DROP_DB) -> list[int]:
+    """Line indices of the resonances of |H1| inside the readable band (:func:`readable_lines`), strongest first:
+    local maxima standing :data:`RESONANCE_PROMINENCE` times above the lowest |H1| on either side down to the next
+    higher maximum or the band's edge. A maximum on the band's edge is not a resonance."""
+    readable = readable_lines(frf, drop_db)
+    lines = np.flatnonzero(readable)
+    if lines.size < 3:
+        return []
+    magnitude = np.abs(frf.h1[lines])
+    peaks, properties = scipy.signal.find_peaks(np.log(magnitude), prominence=np.log(RESONANCE_PROMINENCE))
+    # a peak must be one of the band's own: neighbours read on both sides (no gap of unreadable lines)
+    peaks = [p for p in peaks if lines[p + 1] - lines[p] == 1 and lines[p] - lines[p - 1] == 1]
+    return [int(lines[p]) for p in sorted(peaks, key=lambda p: -magnitude[p])]
 
 
 class FrfAccumulator:

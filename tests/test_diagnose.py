@@ -12,7 +12,7 @@ import pyuff
 import pytest
 
 from gasfilm.analysis.capture import ImpactCapture, TriggerSettings
-from gasfilm.analysis.diagnosis import diagnose
+from gasfilm.analysis.diagnosis import diagnose, load_recordings
 from gasfilm.analysis.diagnosis.plots import write_outputs
 from gasfilm.analysis.recording import HitRecorder
 from gasfilm.analysis.physics.effects import AddedMass, ChannelDelay, Drift, ExtraMode, Mains
@@ -123,7 +123,9 @@ def test_drift_over_the_session_is_a_per_hit_trend(tmp_path):
 
 def test_fractional_film_behind_a_spring_damper_spec_is_named_film_memory(tmp_path):
     """The paper's FOMGF rig diagnosed with only the mass: its first fractional Maxwell arm is what is missing."""
-    diagnosis = diagnose(record(RigSpec.nominal("FOMGF"), tmp_path / "fomgf.h5", seed=7), None, 25.05)
+    recordings = load_recordings(record(RigSpec.nominal("FOMGF"), tmp_path / "fomgf.h5", seed=7))
+    recordings.rig_spec_toml = None  # as from a file without a spec: the start is read off the FRF
+    diagnosis = diagnose(recordings, None, 25.05)
     assert effects_of(diagnosis) == ["film-memory"]
     alpha = diagnosis.findings[0].parameters["alpha_memory"]
     assert abs(alpha["value"] - 1.7472) < 4 * alpha["uncertainty"] + 0.02

@@ -57,7 +57,8 @@ def test_a_failed_write_anywhere_in_a_session_loses_no_reported_hit(failing_writ
     """Create, three hits, an overruled verdict, a fit, close, append a hit, close — with write N failing (the disk
     full from N on, or N alone failing with EIO) for every 6th N, or the disk full at every 60 kB: after each, every
     hit reported is read back by gasfilm and, once gasfilm has opened the session for writing, by plain h5py.
-    (``session_write_faults.py SHIM MODE`` without ``--every`` runs every write: 102 writes, 0 problems in each mode.)"""
+    (``session_write_faults.py SHIM MODE`` without ``--every`` runs every write, 101, and every 4096 bytes, 167
+    positions: 0 problems in each mode.)"""
     options = ["--bytes-step", "60000"] if mode == "disk-full-at-byte" else ["--every", str(every)]
     run = subprocess.run([sys.executable, str(FAULTS / "session_write_faults.py"), str(failing_writes), mode,
                           *options], env=preloaded(failing_writes), capture_output=True, text=True, timeout=600)

@@ -4,7 +4,7 @@ not explained. Entry point :func:`diagnose`; parts: ``measurement`` (per-hit spe
 ``recordings``, ``report`` (text) and ``plots`` (figures, written by callers).
 """
 
-from gasfilm.analysis.diagnosis.recordings import Recordings, diagnose, load_recordings, nominal_spec
+from gasfilm.analysis.diagnosis.recordings import Recordings, diagnose, load_recordings, starting_spec
 from gasfilm.analysis.diagnosis.result import Diagnosis, Finding, Unexplained
 
-__all__ = ["Diagnosis", "Finding", "Recordings", "Unexplained", "diagnose", "load_recordings", "nominal_spec"]
+__all__ = ["Diagnosis", "Finding", "Recordings", "Unexplained", "diagnose", "load_recordings", "starting_spec"]

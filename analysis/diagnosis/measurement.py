@@ -20,6 +20,7 @@ from typing import Callable
 
 import numpy as np
 import scipy.fft
+import scipy.signal
 
 from gasfilm.analysis.physics.response import HitConditions
 from gasfilm.analysis.spectra import WindowSettings, exponential_window, force_window
@@ -35,6 +36,10 @@ MIN_QUIET_SAMPLES = 16
 PREWINDOW_MIN_DECAY = 0.1
 PREWINDOW_FIT = 0.05
 MAINS_HARMONICS = 20
+#: Hits needed to measure the noise from their scatter when no quiet pre-trigger is recorded.
+MIN_SCATTER_HITS = 3
+#: Lines (at least) over which the scatter of the hits' FRFs is smoothed into a noise spectrum.
+SCATTER_SMOOTH_LINES = 41
 
 
 @dataclass
@@ -48,6 +53,20 @@ class QualityNote:
 
     def to_dict(self) -> dict:
         return {"kind": self.kind, "message": self.message, "band_hz": self.band_hz, "hits": list(self.hits)}
+
+
+@dataclass
+class NoiseSource:
+    """Where the noise of the FRFs was measured: ``source`` is "record tails", "pre-trigger" or "hit scatter";
+    ``degrees_of_freedom`` of the noise estimate (real numbers, over the band a line's estimate draws on)."""
+
+    source: str
+    degrees_of_freedom: float
+    detail: str
+
+    def to_dict(self) -> dict:
+        return {"source": self.source, "degrees_of_freedom": round(self.degrees_of_freedom, 1),
+                "detail": self.detail}
 
 
 @dataclass
@@ -70,6 +89,7 @@ class HitSpectra:
     n_samples: int
     quality: list[QualityNote] = field(default_factory=list)
     replay: "Replay | None" = None
+    noise: "NoiseSource | None" = None
 
     @property
     def weight(self) -> np.ndarray:
@@ -250,74 +270,73 @@ def hit_spectra(
     trigger = np.array([start for start, _, _ in extents])
     margin = int(QUIET_MARGIN_S * sample_rate_hz)
     short = np.flatnonzero(trigger - margin < MIN_QUIET_SAMPLES)
-    if short.size:
+    from_scatter = short.size > used.size - 2 and used.size >= MIN_SCATTER_HITS
+    if short.size and not from_scatter:
         quality.append(QualityNote(
             "pre-trigger", f"{short.size} hit(s) with fewer than {MIN_QUIET_SAMPLES} quiet samples before the impact "
             f"were left out: their noise cannot be measured", hits=tuple(int(used[i]) for i in short)))
         keep_quiet = np.setdiff1d(np.arange(used.size), short)
         if keep_quiet.size < 2:
             raise SettingError(
-                f"diagnosis records: only {keep_quiet.size} hit(s) have a quiet pre-trigger; the noise cannot be "
-                f"measured (record at least {MIN_QUIET_SAMPLES / sample_rate_hz * 1e3 + QUIET_MARGIN_S * 1e3:.1f} ms "
-                f"before the hit)")
+                f"diagnosis records: only {keep_quiet.size} hit(s) have a quiet pre-trigger and {used.size} hit(s) are "
+                f"too few to measure the noise from their scatter (at least {MIN_SCATTER_HITS}); record at least "
+                f"{MIN_QUIET_SAMPLES / sample_rate_hz * 1e3 + QUIET_MARGIN_S * 1e3:.1f} ms before the hit, or more hits")
         used, records, trigger = used[keep_quiet], records[keep_quiet], trigger[keep_quiet]
         extents = [extents[i] for i in keep_quiet]
-    quiet_samples = int(np.min(trigger)) - margin
-    # quiet samples to measure the noise: the record tails when every response has decayed, else the pre-trigger
-    tail_start = int((1 - TAIL_FRACTION) * n_samples)
-    tail_rms = np.sqrt(np.mean(records[:, 1, tail_start:] ** 2, axis=1))
-    pretrigger_rms = np.sqrt(np.mean(records[:, 1, :quiet_samples] ** 2, axis=1)) + 1e-30
-    truncated = np.flatnonzero(tail_rms > 3 * pretrigger_rms)
     mains_base: float | None = None
     mains_harmonics: list[float] = []
-    if truncated.size:
-        quality.append(
-            QualityNote(
-                "truncation",
-                f"the response has not decayed by the end of the record in {truncated.size} hit(s): leakage is "
-                f"controlled only by the exponential window (the replay goes through the same window); the noise is "
-                f"measured before the hits",
-                hits=tuple(int(used[i]) for i in truncated),
-            )
-        )
-        quiet_slice = slice(0, quiet_samples)
-    else:
-        records, mains_base, mains_harmonics = _remove_mains(records, tail_start, sample_rate_hz,
-                                                             MAINS_HARMONICS * max(MAINS_BASES_HZ))
+    tail_start = int((1 - TAIL_FRACTION) * n_samples)
+    if from_scatter:
+        quiet_slice = None
+        noise_source = "hit scatter"
+        records, mains_base, mains_harmonics = _remove_mains_seen_on_force(records, extents, sample_rate_hz)
         if mains_base is not None:
+            quality.append(_mains_note(mains_base, mains_harmonics, "found on the quiet force records after the "
+                                                                      "impacts"))
+    else:
+        quiet_samples = int(np.min(trigger)) - margin
+        # quiet samples to measure the noise: the record tails when every response has decayed, else the pre-trigger
+        tail_rms = np.sqrt(np.mean(records[:, 1, tail_start:] ** 2, axis=1))
+        pretrigger_rms = np.sqrt(np.mean(records[:, 1, :quiet_samples] ** 2, axis=1)) + 1e-30
+        truncated = np.flatnonzero(tail_rms > 3 * pretrigger_rms)
+        if truncated.size:
             quality.append(
                 QualityNote(
-                    "interference",
-                    f"mains interference at {mains_base:.0f} Hz"
-                    + (f" and harmonics ({', '.join(f'{h:.0f}' for h in mains_harmonics[1:])} Hz)"
-                       if len(mains_harmonics) > 1 else "")
-                    + ": removed from every record, and the lines left out of the comparison",
-                    band_hz=(min(mains_harmonics), max(mains_harmonics)),
-                )
-            )
-        quiet_slice = slice(tail_start, n_samples)
-        prewindow_1_s = _exponential_prewindow_1_s(records, quiet_samples, tail_start, sample_rate_hz)
-        if prewindow_1_s is not None:
-            records = records * np.exp(prewindow_1_s * np.arange(n_samples) / sample_rate_hz)
-            quality.append(QualityNote(
-                "exponential window",
-                f"the records carry an exponential window already (the noise falls as exp(−σt), σ = "
-                f"{prewindow_1_s:.3g} 1/s, as in records exported windowed): divided out of both channels before the "
-                f"comparison — a processing property, not physics"))
-        tail_noise = np.median(np.std(records[:, 1, tail_start:], axis=1))
-        before_noise = np.median(np.std(records[:, 1, :quiet_samples], axis=1))
-        if tail_noise < 0.8 * before_noise:
-            quality.append(
-                QualityNote(
-                    "noise",
-                    f"the noise at the end of the records is {before_noise / tail_noise:.1f}× lower than before the "
-                    f"hits: the records look windowed already (or the noise is not steady); the noise is measured "
-                    f"before the hits, which makes the comparison conservative",
+                    "truncation",
+                    f"the response has not decayed by the end of the record in {truncated.size} hit(s): leakage is "
+                    f"controlled only by the exponential window (the replay goes through the same window); the noise is "
+                    f"measured before the hits",
+                    hits=tuple(int(used[i]) for i in truncated),
                 )
             )
             quiet_slice = slice(0, quiet_samples)
-    quiet_force = records[:, 0, quiet_slice]
-    quiet_response = records[:, 1, quiet_slice]
+        else:
+            records, mains_base, mains_harmonics = _remove_mains(records, tail_start, sample_rate_hz,
+                                                                 MAINS_HARMONICS * max(MAINS_BASES_HZ))
+            if mains_base is not None:
+                quality.append(_mains_note(mains_base, mains_harmonics, "found on the quiet record tails"))
+            quiet_slice = slice(tail_start, n_samples)
+            prewindow_1_s = _exponential_prewindow_1_s(records, quiet_samples, tail_start, sample_rate_hz)
+            if prewindow_1_s is not None:
+                records = records * np.exp(prewindow_1_s * np.arange(n_samples) / sample_rate_hz)
+                quality.append(QualityNote(
+                    "exponential window",
+                    f"the records carry an exponential window already (the noise falls as exp(−σt), σ = "
+                    f"{prewindow_1_s:.3g} 1/s, as in records exported windowed): divided out of both channels before the "
+                    f"comparison — a processing property, not physics"))
+            tail_noise = np.median(np.std(records[:, 1, tail_start:], axis=1))
+            before_noise = np.median(np.std(records[:, 1, :quiet_samples], axis=1))
+            if tail_noise < 0.8 * before_noise:
+                quality.append(
+                    QualityNote(
+                        "noise",
+                        f"the noise at the end of the records is {before_noise / tail_noise:.1f}× lower than before the "
+                        f"hits: the records look windowed already (or the noise is not steady); the noise is measured "
+                        f"before the hits, which makes the comparison conservative",
+                    )
+                )
+                quiet_slice = slice(0, quiet_samples)
+        noise_source = "record tails" if quiet_slice.start == tail_start else "pre-trigger"
     window = window or default_window(records, sample_rate_hz)
     if window.force_window_ms is None or window.exponential_end_fraction is None:
         fallback = default_window(records, sample_rate_hz)
@@ -332,21 +351,57 @@ def hit_spectra(
     force_w = force_window(records[:, 0], sample_rate_hz, window) * exponential
     force_spectra = np.fft.rfft(records[:, 0] * force_w, axis=1)
     response_spectra = np.fft.rfft(records[:, 1] * exponential, axis=1)
-    sum_w2_response = np.sum(exponential**2, axis=1)
     full_freq_hz = np.fft.rfftfreq(n_samples, 1.0 / sample_rate_hz)
 
-    noise_force = _noise_spectrum(quiet_force, full_freq_hz, sample_rate_hz)
-    noise_response = _noise_spectrum(quiet_response, full_freq_hz, sample_rate_hz)
     floor = 1e-30
     force_power = np.abs(force_spectra) ** 2 + floor
     h_full = response_spectra / (force_spectra + floor)
     cross = (response_spectra * np.conj(force_spectra)).sum(axis=0)
     h1_full = cross / force_power.sum(axis=0)
-    # the replayed response carries the recorded force's noise through the whole record: same window as the response
-    variance_full = (
-        (noise_response[np.newaxis, :] + np.abs(h1_full[np.newaxis, :]) ** 2 * noise_force[np.newaxis, :])
-        * sum_w2_response[:, np.newaxis] / force_power
-    )
+    correlation_step = int(np.ceil(decay_rate_1_s * n_samples / sample_rate_hz))
+    if quiet_slice is None:
+        output_noise, dof = _scatter_noise(h_full, h1_full, force_power, max(SCATTER_SMOOTH_LINES, 8 * correlation_step))
+        noise = NoiseSource(
+            "hit scatter", dof,
+            f"measured from the scatter of the {len(used)} hits' FRFs about their mean ({2 * (len(used) - 1)} degrees "
+            f"of freedom per line, about {dof:.0f} over the smoothing band): the pre-trigger is too short to measure "
+            f"it; hit-to-hit changes count as noise, which makes the comparison conservative")
+        variance_full = output_noise[np.newaxis, :] / force_power
+    else:
+        quiet = records[:, :, quiet_slice]
+        steps = [_quantisation_step(records[:, channel]) for channel in (0, 1)]
+        noise_force = _noise_spectrum(quiet[:, 0], full_freq_hz, sample_rate_hz, steps[0])
+        noise_response = _noise_spectrum(quiet[:, 1], full_freq_hz, sample_rate_hz, steps[1])
+        coarse = [name for name, step, channel in zip(("force", "response"), steps, (0, 1))
+                  if step > 0.5 * np.median(np.std(quiet[:, channel], axis=1))]
+        if coarse:
+            quality.append(QualityNote(
+                "quantisation",
+                f"the {' and '.join(coarse)} records are coarsely quantised (steps of "
+                + ", ".join(f"{steps[i]:.3g} {('N', 'm/s²')[i]}" for i in (0, 1) if ("force", "response")[i] in coarse)
+                + "): the quantisation noise (step²/12 per sample) is part of the noise model — a property of the "
+                  "recording, not physics"))
+        dof = float(2 * len(used) * max(quiet.shape[-1] // 2, 1))
+        where = ("the quiet record tails (last 25 %)" if noise_source == "record tails"
+                 else f"the quiet pre-trigger ({quiet.shape[-1]} samples per hit)")
+        noise = NoiseSource(noise_source, dof, f"measured on {where} of {len(used)} hits, both channels")
+        # the replayed response carries the recorded force's noise through the whole record: same window as the
+        # response
+        vibration = _narrowband_lines_hz(quiet[:, 1], sample_rate_hz, mains_harmonics)
+        if vibration:
+            quality.append(QualityNote(
+                "floor vibration",
+                f"narrowband vibration near {', '.join(f'{f:.0f}' for f in vibration)} Hz in the quiet records, "
+                f"uncorrelated with the hammer: its leakage through the windows is part of the noise model — not "
+                f"physics", band_hz=(min(vibration), max(vibration))))
+        # the replayed response carries the recorded force's noise through the whole record: same window as the
+        # response; a line in the noise leaks through that window beyond its own frequency
+        window_row = exponential[0]
+        variance_full = (
+            (_through_window(noise_response, window_row)[np.newaxis, :]
+             + np.abs(h1_full[np.newaxis, :]) ** 2 * _through_window(noise_force, window_row)[np.newaxis, :])
+            / force_power
+        )
     variance_full = np.maximum(variance_full, (1e-7 * np.abs(h1_full)) ** 2 + 1e-30)
 
     # analysis band: where the hammer puts energy in (within 20 dB of its low-frequency level), below 0.4 fs
@@ -375,7 +430,6 @@ def hit_spectra(
             )
         )
     selected = np.flatnonzero(mask)
-    correlation_step = int(np.ceil(decay_rate_1_s * n_samples / sample_rate_hz))
     step = max(1, correlation_step, int(np.ceil(selected.size / max_points)))
     grid = selected[::step]
     impulses = np.array(
@@ -406,7 +460,61 @@ def hit_spectra(
         n_samples=int(n_samples),
         quality=quality,
         replay=replay,
+        noise=noise,
     )
+
+
+def _scatter_noise(
+    h: np.ndarray, h1: np.ndarray, force_power: np.ndarray, width_lines: int
+) -> tuple[np.ndarray, float]:
+    """Output noise power S(f) with ``Var(H_i) = S/|F_i|²``, from the scatter of the per-hit FRFs ``h`` (hits, lines)
+    about their weighted mean ``h1``, and its degrees of freedom.
+
+    ``Σ_i |F_i|² |H_i − H1|²`` has expectation ``(n − 1)·S`` (2(n − 1) real degrees of freedom per line). A line's
+    estimate is a local least-squares fit ``S ≈ a + b·|H1|²`` over ``width_lines`` lines (response noise, and force
+    noise carried by the FRF), so a resonance does not smear its noise onto its neighbours."""
+    hits = h.shape[0]
+    raw = (force_power * np.abs(h - h1[np.newaxis, :]) ** 2).sum(axis=0) / (hits - 1)
+    level = np.abs(h1) ** 2
+    kernel = np.ones(width_lines)
+
+    def local(values: np.ndarray) -> np.ndarray:
+        return np.convolve(values, kernel, mode="same")
+
+    n, sx, sxx, sy, sxy = local(np.ones_like(raw)), local(level), local(level**2), local(raw), local(level * raw)
+    determinant = n * sxx - sx**2
+    safe = np.where(np.abs(determinant) > 1e-12 * np.maximum(n * sxx, 1e-300), determinant, np.inf)
+    a = (sxx * sy - sx * sxy) / safe
+    b = (n * sxy - sx * sy) / safe
+    mean_only = sy / n
+    through_level = sxy / np.maximum(sxx, 1e-300)
+    noise = np.where((a >= 0) & (b >= 0), a + b * level, np.where(b < 0, mean_only, through_level * level))
+    noise = np.where(np.isfinite(determinant) & (np.abs(safe) < np.inf), noise, mean_only)
+    dof = 2.0 * (hits - 1) * width_lines / max(1.0, width_lines / 8.0)
+    return np.maximum(noise, 1e-3 * mean_only + 1e-300), dof
+
+
+def _mains_note(base_hz: float, harmonics_hz: list[float], where: str) -> QualityNote:
+    return QualityNote(
+        "interference",
+        f"mains interference at {base_hz:.0f} Hz"
+        + (f" and harmonics ({', '.join(f'{h:.0f}' for h in harmonics_hz[1:])} Hz)" if len(harmonics_hz) > 1 else "")
+        + f" ({where}): removed from every record, and the lines left out of the comparison",
+        band_hz=(min(harmonics_hz), max(harmonics_hz)),
+    )
+
+
+def _remove_mains_seen_on_force(
+    records: np.ndarray, extents: list[tuple[int, int, int]], sample_rate_hz: float
+) -> tuple[np.ndarray, float | None, list[float]]:
+    """Mains lines when the responses ring to the end of the records: found on the force records after the impacts
+    (quiet there), then fitted and removed on both channels at those lines only."""
+    last_end = max(end for _, _, end in extents)
+    start = min(records.shape[-1] // 2, last_end + int(0.01 * sample_rate_hz))
+    _, base, found = _remove_mains(records[:, :1], start, sample_rate_hz, MAINS_HARMONICS * max(MAINS_BASES_HZ))
+    if base is None:
+        return records, None, []
+    return _subtract_lines(records, start, sample_rate_hz, np.array(found)), base, found
 
 
 def _exponential_prewindow_1_s(
@@ -435,7 +543,47 @@ def _exponential_prewindow_1_s(
     return decay_1_s
 
 
-def _noise_spectrum(segments: np.ndarray, freq_hz: np.ndarray, sample_rate_hz: float) -> np.ndarray:
+def _through_window(power_per_sample: np.ndarray, window: np.ndarray) -> np.ndarray:
+    """Variance of a windowed record's spectrum at each rfft line for noise of ``power_per_sample`` (on the rfft
+    grid of the record): the noise spectrum convolved with the window's |W|² (white noise gives ``P·Σw²``; a
+    narrowband disturbance also leaks where the window's spectrum carries it)."""
+    n_samples = window.size
+    two_sided = np.concatenate((power_per_sample, power_per_sample[1 : (n_samples + 1) // 2][::-1]))
+    kernel = np.abs(np.fft.fft(window)) ** 2
+    convolved = np.fft.ifft(np.fft.fft(two_sided) * np.fft.fft(kernel)).real / n_samples
+    return np.maximum(convolved[: power_per_sample.size], 0.0)
+
+
+def _narrowband_lines_hz(quiet: np.ndarray, sample_rate_hz: float, mains_hz: list[float]) -> list[float]:
+    """Frequencies of narrowband lines in quiet records (hits, samples) standing 30× above the noise level
+    (mains lines already removed are not counted), against the local median level."""
+    length = quiet.shape[1]
+    if length < 64:
+        return []
+    hann = np.hanning(length)
+    centred = quiet - quiet.mean(axis=1, keepdims=True)
+    periodogram = np.mean(np.abs(np.fft.rfft(centred * hann, axis=1)) ** 2, axis=0)
+    freq_hz = np.fft.rfftfreq(length, 1.0 / sample_rate_hz)
+    floor = scipy.signal.medfilt(periodogram, 41)  # the local noise level around each line
+    if not np.all(floor[1:] > 0):
+        return []
+    resolution_hz = 4 * sample_rate_hz / length
+    peaks, _ = scipy.signal.find_peaks(periodogram / np.maximum(floor, 1e-300), height=30.0)
+    return [float(freq_hz[p]) for p in peaks if freq_hz[p] > 0
+            and all(abs(freq_hz[p] - m) > resolution_hz for m in mains_hz)]
+
+
+def _quantisation_step(records: np.ndarray) -> float:
+    """The smallest step between the distinct values of a channel's records (its quantisation step when it was
+    stored quantised; negligible for floating-point data)."""
+    steps = np.diff(np.unique(records))
+    steps = steps[steps > 0]
+    return float(steps.min()) if steps.size else 0.0
+
+
+def _noise_spectrum(
+    segments: np.ndarray, freq_hz: np.ndarray, sample_rate_hz: float, step: float = 0.0
+) -> np.ndarray:
     """Noise power per sample at each frequency (white noise of variance σ² gives σ²) from quiet segments
     (hits, samples): Hann-windowed periodograms averaged over hits, lightly smoothed, interpolated onto ``freq_hz``."""
     length = segments.shape[1]
@@ -449,11 +597,12 @@ def _noise_spectrum(segments: np.ndarray, freq_hz: np.ndarray, sample_rate_hz: f
         smooth = np.convolve(periodogram, np.ones(3) / 3, mode="same")
         smooth[0], smooth[-1] = periodogram[0], periodogram[-1]
         periodogram = smooth
-    # a quiet signal that quantises to a few levels still carries at least the quantisation noise LSB²/12
+    # a quiet signal that quantises to a few levels (or to one) still carries at least the quantisation noise
+    # step²/12 of the whole record
     steps = np.diff(np.unique(segments))
     steps = steps[steps > 0]
-    if steps.size:
-        periodogram = np.maximum(periodogram, float(steps.min()) ** 2 / 12.0)
+    step = max(step, float(steps.min()) if steps.size else 0.0)
+    periodogram = np.maximum(periodogram, step**2 / 12.0)
     return np.interp(freq_hz, coarse_freq_hz, periodogram)
 
 
@@ -480,7 +629,7 @@ def _remove_mains(
         count = harmonics.size
         power = coefficients[:count] ** 2 + coefficients[count : 2 * count] ** 2
         noise_power = 4.0 * residual_variance / tail_time_s.size  # E(a² + b²) for noise alone
-        ratio = np.mean(power / noise_power[np.newaxis, :], axis=1)
+        ratio = np.mean(power / np.maximum(noise_power, 1e-300)[np.newaxis, :], axis=1)  # all-zero tails: 0
         found = [float(h) for h, r in zip(harmonics, ratio) if r > 25.0]
         if found and (best is None or len(found) > len(best[1])):
             best = (base, found, coefficients)
@@ -494,3 +643,15 @@ def _remove_mains(
     lines = np.cos(phase) @ coefficients[:count][keep] + np.sin(phase) @ coefficients[count : 2 * count][keep]
     cleaned = records - lines.T.reshape(records.shape)
     return cleaned, base, found
+
+
+def _subtract_lines(records: np.ndarray, start: int, sample_rate_hz: float, lines_hz: np.ndarray) -> np.ndarray:
+    """Records with sinusoids at ``lines_hz`` removed: amplitudes and phases fitted per hit and channel by least
+    squares on the samples from ``start`` on, subtracted from the whole record."""
+    time_s = np.arange(records.shape[-1]) / sample_rate_hz
+    phase = 2 * np.pi * np.outer(time_s, lines_hz)
+    basis = np.hstack((np.cos(phase), np.sin(phase)))
+    design = np.hstack((basis[start:], np.ones((time_s.size - start, 1))))
+    flat = records.reshape(-1, time_s.size).T
+    coefficients, *_ = np.linalg.lstsq(design, flat[start:], rcond=None)
+    return (flat - basis @ coefficients[:-1]).T.reshape(records.shape)

@@ -11,12 +11,12 @@ from typing import Callable
 
 import numpy as np
 
-from gasfilm.analysis.diagnosis.measurement import QualityNote, hit_spectra
+from gasfilm.analysis.diagnosis.measurement import QualityNote, default_window, hit_spectra
 from gasfilm.analysis.diagnosis.pipeline import diagnose_spectra
 from gasfilm.analysis.diagnosis.result import Diagnosis
-from gasfilm.analysis.physics.elements import PAPER_MASS_KG
+from gasfilm.analysis.physics.effects import MIN_DAMPING_RATIO, ExtraMode
 from gasfilm.analysis.physics.spec import RigSpec
-from gasfilm.analysis.spectra import WindowSettings
+from gasfilm.analysis.spectra import WindowSettings, compute_frf, readable_lines, resonance_lines
 from gasfilm.drivers.errors import SettingError
 
 logger = logging.getLogger(__name__)
@@ -41,9 +41,22 @@ class Recordings:
     quality: list[QualityNote] = field(default_factory=list)
 
 
-def load_recordings(path: str | Path) -> Recordings:
-    """Accepted hits of a gasfilm session (HDF5) or every hit of a UFF 58 file with time records."""
-    path = Path(path)
+def load_recordings(path: str | Path | list[Path]) -> Recordings:
+    """Accepted hits of a gasfilm session (HDF5), every hit of a UFF 58 file with time records, or .npy hit records
+    (one hit per file, rows time/force/response; a list of paths)."""
+    paths = [Path(p) for p in path] if isinstance(path, (list, tuple)) else [Path(path)]
+    if paths[0].suffix.lower() == ".npy":
+        from gasfilm.analysis.sources import load_source
+
+        source = load_source(paths)
+        records = np.stack([hit.data[[hit.force_channel, hit.response_channel]] for hit in source.hits])
+        times = np.array([hit.start_time_s for hit in source.hits], float)
+        return Recordings(records, source.sample_rate_hz, times, None, None, None,
+                          str(paths[0]) if len(paths) == 1 else f"{len(paths)} .npy records in {paths[0].parent}")
+    if len(paths) > 1:
+        raise SettingError(f"{paths[1]}: several input files are read only as .npy records; give one session or UFF "
+                           f"file")
+    path = paths[0]
     if path.suffix.lower() in (".uff", ".unv"):
         from gasfilm.analysis.uff import read_uff_time_records
 
@@ -80,40 +93,135 @@ def load_recordings(path: str | Path) -> Recordings:
                           str(path), quality)
 
 
-def nominal_spec(recordings: Recordings, mass_kg: float) -> RigSpec:
-    """A spring-damper film on ``mass_kg`` with k and c read off the recordings' resonance (peak and height)."""
-    records = recordings.records
-    force = np.fft.rfft(records[:, 0], axis=1)
-    response = np.fft.rfft(records[:, 1], axis=1)
-    freq_hz = np.fft.rfftfreq(records.shape[-1], 1.0 / recordings.sample_rate_hz)
-    h1 = (response * np.conj(force)).sum(axis=0) / (np.abs(force) ** 2).sum(axis=0)
-    band = (freq_hz >= 5.0) & (freq_hz <= 0.4 * recordings.sample_rate_hz)
-    peak = np.flatnonzero(band)[np.argmax(np.abs(h1[band]))]
-    omega = 2 * np.pi * freq_hz[peak]
-    return RigSpec.nominal("SD", mass_kg=mass_kg,
-                           parameters={"k": mass_kg * omega**2, "eta": omega / np.abs(h1[peak])})
+#: Above the film resonance by this factor, |H1| approaches the mass line 1/m (within ~10 % at 3×).
+MASS_LINE_FROM = 3.0
+#: Lines this close (relative) to another resonance are left out of the mass-line reading.
+MASS_LINE_CLEARANCE = 0.1
+#: A structure with at least this many resonances above the film's is described in the start (one extra mode each);
+#: a single further resonance is left to the diagnosis, which tests it as a candidate extra mode against the noise.
+MULTI_MODE_MIN = 2
+#: At most this many extra modes (the strongest) in a start read off the FRF; weaker ones are left to the diagnosis.
+MAX_START_MODES = 6
+
+
+def read_start(recordings: Recordings, mass_kg: float | None = None) -> tuple[RigSpec, str]:
+    """The starting spec read off the recordings' FRF when no rig spec is known, and what was read, in words.
+
+    Only readable lines count (:func:`gasfilm.analysis.spectra.readable_lines`: the usable band of the hammer and
+    coherence ≥ 0.9), never a noise peak. The lowest resonance is the mover on its film (a spring-damper: k = m·ω²,
+    c from the peak height less the exponential window's damping); the mass is ``mass_kg`` or, without it, read off
+    the mass line 1/|H1| well above that resonance; every further resonance in the band is an extra mode riding on
+    the mover when there are at least :data:`MULTI_MODE_MIN` of them (its own frequency at the antiresonance below
+    the peak, its mass from their spacing; one alone is left to the diagnosis to test as a candidate). Raises
+    :class:`SettingError` (one line) when no resonance or mass can be read: a start that cannot be read is not
+    recalibrated into parameters at their bounds."""
+    records, rate_hz = recordings.records, recordings.sample_rate_hz
+    window = recordings.window
+    fallback = default_window(records, rate_hz)
+    if window is None or window.force_window_ms is None or window.exponential_end_fraction is None:
+        window = WindowSettings(
+            force_window_ms=(window.force_window_ms if window else None) or fallback.force_window_ms,
+            force_taper_ms=window.force_taper_ms if window else fallback.force_taper_ms,
+            exponential_end_fraction=(window.exponential_end_fraction if window else None)
+            or fallback.exponential_end_fraction)
+    frf = compute_frf(records, rate_hz, window)
+    readable = readable_lines(frf)
+    resonances = sorted(resonance_lines(frf))
+    if not resonances:
+        band = (f"{frf.freq_hz[readable][0]:.0f}–{frf.freq_hz[readable][-1]:.0f} Hz" if readable.any()
+                else "no line of it")
+        raise SettingError(f"{recordings.source}: no resonance can be read off the FRF in the band the hammer "
+                           f"excites with coherence ≥ 0.9 ({band}); give the rig spec with --rig")
+    freq_hz, magnitude, sigma = frf.freq_hz, np.abs(frf.h1), frf.decay_rate_1_s
+    main = resonances[0]
+    main_hz = float(freq_hz[main])
+    how = "--mass"
+    if mass_kg is None:
+        clear = readable & (freq_hz >= MASS_LINE_FROM * main_hz)
+        for line in resonances[1:]:
+            clear &= np.abs(freq_hz - freq_hz[line]) > MASS_LINE_CLEARANCE * freq_hz[line]
+        if np.count_nonzero(clear) < 5:
+            raise SettingError(f"{recordings.source}: the mass cannot be read off the FRF (no clean line above "
+                               f"{MASS_LINE_FROM:g}× the resonance at {main_hz:.0f} Hz inside the hammer's band); "
+                               f"give --mass or --rig")
+        mass_kg = float(1.0 / np.median(magnitude[clear]))
+        how = f"mass line above {MASS_LINE_FROM * main_hz:.0f} Hz"
+    modes = []
+    further = resonances[1:] if len(resonances) - 1 >= MULTI_MODE_MIN else []
+    further = sorted(sorted(further, key=lambda line: -magnitude[line])[:MAX_START_MODES])
+    for line in further:
+        previous = resonances[resonances.index(line) - 1]
+        between = np.arange(previous + 1, line)
+        dip = int(between[np.argmin(magnitude[between])]) if between.size else line
+        peak_hz = float(freq_hz[line])
+        own_hz = float(freq_hz[dip]) if dip != line else peak_hz / 1.01
+        ratio = min(max((peak_hz / own_hz) ** 2 - 1.0, 1e-4), 0.2)
+        zeta = max(_half_power_width_hz(freq_hz, magnitude, line) / (2 * peak_hz) - sigma / (2 * np.pi * peak_hz),
+                   2 * MIN_DAMPING_RATIO)
+        modes.append(ExtraMode(freq_hz=own_hz, damping_ratio=min(zeta, 0.05), mass_kg=ratio * mass_kg))
+    total_kg = mass_kg + sum(mode.mass_kg for mode in modes)
+    omega = 2 * np.pi * main_hz
+    damping = max(omega / magnitude[main] - 2 * total_kg * sigma, 1e-4 * total_kg * omega)
+    spec = RigSpec.nominal("SD", mass_kg=mass_kg, parameters={"k": total_kg * omega**2, "eta": damping},
+                           effects=modes)
+    spec = dataclasses.replace(spec, name=f"read off the FRF of {Path(recordings.source).name}")
+    text = (f"resonance at {main_hz:.1f} Hz inside the hammer's band (force within 20 dB, coherence ≥ 0.9, "
+            f"{freq_hz[readable][0]:.0f}–{freq_hz[readable][-1]:.0f} Hz): spring-damper film k ≈ "
+            f"{spec.film_parameters['k']:.3g} N/m, c ≈ {damping:.3g} N·s/m on {mass_kg:.4g} kg ({how})")
+    if modes:
+        text += ("; a multi-mode structure: extra modes at " + ", ".join(f"{mode.freq_hz:.0f}" for mode in modes)
+                 + " Hz are part of the start (read, not findings)")
+    return spec, text
+
+
+def _half_power_width_hz(freq_hz: np.ndarray, magnitude: np.ndarray, peak: int) -> float:
+    """Width (Hz) where |H| stays above peak/√2 around ``peak`` (at least one line)."""
+    level = magnitude[peak] / np.sqrt(2.0)
+    low = peak
+    while low > 0 and magnitude[low - 1] > level:
+        low -= 1
+    high = peak
+    while high < magnitude.size - 1 and magnitude[high + 1] > level:
+        high += 1
+    return float(max(freq_hz[high] - freq_hz[low], freq_hz[1] - freq_hz[0]))
+
+
+def starting_spec(
+    recordings: Recordings, rig_spec: RigSpec | None, mass_kg: float | None
+) -> tuple[RigSpec, str]:
+    """The spec to start from, and where it comes from in words: ``rig_spec`` (--rig), else the rig spec the session
+    was recorded with, else one read off the FRF (:func:`read_start`); ``mass_kg`` overrides the spec's mass."""
+    if rig_spec is not None:
+        origin = f"the given rig spec '{rig_spec.name}'"
+    elif recordings.rig_spec_toml:
+        rig_spec = RigSpec.from_toml(recordings.rig_spec_toml, f"{recordings.source} rig spec")
+        origin = f"the rig spec recorded in the session ('{rig_spec.name}')"
+    else:
+        spec, text = read_start(recordings, mass_kg)
+        return spec, f"no rig spec given: a start read off the FRF: {text}"
+    if mass_kg is not None:
+        rig_spec = dataclasses.replace(rig_spec, mass_kg=mass_kg)
+        origin += f" with the mass set to {mass_kg:g} kg (--mass)"
+    return rig_spec, f"starting from {origin}"
 
 
 def diagnose(
-    source: str | Path | Recordings,
+    source: str | Path | list[Path] | Recordings,
     rig_spec: RigSpec | None = None,
     mass_kg: float | None = None,
     band_hz: tuple[float, float] | None = None,
     progress: Callable[[str], None] = _silent,
 ) -> Diagnosis:
-    """Diagnose a session or UFF file against a rig spec (default: a spring-damper film on ``mass_kg``, its k and c
-    then found by the recalibration). Writes nothing: ``Diagnosis.improved`` is the spec to write."""
+    """Diagnose a session or UFF file against a rig spec (default: the session's recorded spec, else one read off
+    the FRF, :func:`starting_spec`). Writes nothing: ``Diagnosis.improved`` is the spec to write; ``Diagnosis.notes``
+    starts with where the starting spec came from."""
     recordings = source if isinstance(source, Recordings) else load_recordings(source)
-    if rig_spec is None:
-        rig_spec = nominal_spec(recordings, mass_kg if mass_kg is not None else PAPER_MASS_KG)
-        progress(f"no rig spec given: spring-damper film on {rig_spec.mass_kg:g} kg "
-                 f"(k ≈ {rig_spec.film_parameters['k']:.3g} N/m, c ≈ {rig_spec.film_parameters['eta']:.3g} N·s/m "
-                 f"from the resonance)")
-    elif mass_kg is not None:
-        rig_spec = dataclasses.replace(rig_spec, mass_kg=mass_kg)
+    rig_spec, origin = starting_spec(recordings, rig_spec, mass_kg)
+    progress(origin)
     spectra = hit_spectra(recordings.records, recordings.sample_rate_hz, recordings.window,
                           hit_times_s=recordings.hit_times_s, overload=recordings.overload, band_hz=band_hz)
     spectra.quality[:0] = recordings.quality
     diagnosis = diagnose_spectra(spectra, rig_spec, progress)
+    diagnosis.notes.insert(0, origin)
     logger.info("diagnosed %s against %s: %s", recordings.source, rig_spec.name, diagnosis.verdict)
     return diagnosis

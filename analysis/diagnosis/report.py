@@ -20,6 +20,8 @@ def report_text(diagnosis: Diagnosis) -> str:
     evidence = diagnosis.evidence
     lines.append(f"  compared {evidence.hit_count} hits, {evidence.freq_hz[0]:.0f}–{evidence.freq_hz[-1]:.0f} Hz, "
                  f"replayed with the recorded forces through the same windows")
+    if diagnosis.spectra.noise is not None:
+        lines.append(f"  noise: {diagnosis.spectra.noise.source} — {diagnosis.spectra.noise.detail}")
     if diagnosis.recalibration:
         lines.append("  recalibrated spec parameters:")
         for name, row in diagnosis.recalibration.items():

@@ -127,6 +127,7 @@ class Diagnosis:
             "findings": [finding.to_dict() for finding in self.findings],
             "unexplained": [item.to_dict() for item in self.unexplained],
             "quality": [note.to_dict() for note in self.quality],
+            "noise": self.spectra.noise.to_dict() if self.spectra.noise else None,
             "recalibration": self.recalibration,
             "rms_before": self.rms_before,
             "rms_recalibrated": self.rms_recalibrated,

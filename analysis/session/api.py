@@ -73,6 +73,8 @@ logger = logging.getLogger(__name__)
 DEFAULT_SIZE_LIMIT_BYTES = 4_000_000_000
 #: Free space kept on the disk besides the next hit: room for HDF5's metadata and for closing the session properly.
 FREE_SPACE_MARGIN_BYTES = 1 << 20
+#: Free space a rebuild needs besides 110 % of the larger of the old file and the hits (HDF5's metadata).
+REBUILD_MARGIN_BYTES = 64 << 10
 #: What a damaged file's metadata can make h5py, numpy or the decoders raise while it is read.
 _READ_ERRORS = (OSError, KeyError, ValueError, TypeError, RuntimeError, IndexError, AttributeError, MemoryError,
                 OverflowError, UnicodeError)
@@ -214,7 +216,7 @@ def _rebuild_on_disk(path: Path, content: JournalContent, status: tuple[str, str
     building = building_path(path, "recovering")
     with contextlib.suppress(OSError):
         old_bytes = os.path.getsize(path) if path.exists() else 0
-        needed = max(old_bytes, content.records.nbytes + content.rows.nbytes) + FREE_SPACE_MARGIN_BYTES
+        needed = int(1.1 * max(old_bytes, content.records.nbytes + content.rows.nbytes)) + REBUILD_MARGIN_BYTES
         free_bytes = shutil.disk_usage(path.parent).free
         if free_bytes < needed:  # refused before HDF5 writes: a write failing inside HDF5 can crash the process later
             raise SessionWriteError(
@@ -527,7 +529,9 @@ class Session:
                     write_session_file(file, content, salvage, _rebuilt_status(salvage, closed, content))
             except _WRITE_ERRORS as error:
                 file.close()
-                raise SessionError(f"{path}: the session cannot be rebuilt from its journal ({one_line(error)})") from None
+                raise SessionError(
+                    f"{path}: the session cannot be rebuilt from its journal ({one_line(error)})"
+                ) from None
         finally:
             if salvage is not None:
                 salvage.close()

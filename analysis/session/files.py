@@ -1,4 +1,5 @@
-"""Session files on disk: the writer lock, opening with HDF5, checking a file whose writer died, replacing a file\nwith its rebuilt copy."""
+"""Session files on disk: the writer lock, opening with HDF5, checking a file whose writer died, replacing a file
+with its rebuilt copy."""
 
 from __future__ import annotations
 

@@ -21,9 +21,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "diagnose",
         help="find where the rig spec and the recordings differ, name the missing physics, write an improved spec",
     )
-    parser.add_argument("source", type=Path, help="session file (.h5) or UFF 58 time records (.uff/.unv)")
-    parser.add_argument("--rig", type=Path, help="rig spec TOML (default: a spring-damper film on --mass)")
-    parser.add_argument("--mass", type=float, help="moving mass in kg (default: the spec's, else 25.05 kg)")
+    parser.add_argument("source", type=Path, nargs="+", metavar="SESSION.h5|FILE.uff|HIT.npy",
+                        help="a session (.h5), UFF 58 time records (.uff/.unv) or .npy hit records (one per hit)")
+    parser.add_argument("--rig", type=Path, help="rig spec TOML (default: the one the session was recorded with, "
+                                                 "else a start read off the FRF)")
+    parser.add_argument("--mass", type=float, help="moving mass in kg (overrides the spec's; without a spec, default "
+                                                   "the mass line read off the FRF)")
     parser.add_argument("--band", help="analysis band LO:HI in Hz (default: where the hammer excites, ≤ 0.4 fs)")
     parser.add_argument("--json", action="store_true", help="print one JSON object instead of the report")
     parser.add_argument("--out", type=Path, default=Path("out/diagnosis"),
@@ -45,14 +48,11 @@ def _band(text: str | None) -> tuple[float, float] | None:
 
 
 def _check_source(path: Path) -> None:
-    """The input exists and is a kind the diagnosis reads (a session or UFF time records); one line otherwise."""
+    """The input exists and is a file; one line naming it otherwise (before any folder is made)."""
     if not path.exists():
         raise SettingError(f"{path}: no such file")
     if path.is_dir():
-        raise SettingError(f"{path}: is a folder, not a session or UFF file")
-    if path.suffix.lower() == ".npy":
-        raise SettingError(f"{path}: diagnose reads a session (.h5) or UFF time records (.uff); bring .npy records "
-                           f"in as a session first: gasfilm replay HIT.npy ... --out S.h5")
+        raise SettingError(f"{path}: is a folder, not a session, UFF or .npy file")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -65,7 +65,8 @@ def run(args: argparse.Namespace) -> int:
     if args.mass is not None and not MASS_RANGE_KG[0] <= args.mass <= MASS_RANGE_KG[1]:
         raise SettingError(f"--mass {args.mass:g}: must be {MASS_RANGE_KG[0]:g} to {MASS_RANGE_KG[1]:g} kg")
     band = _band(args.band)
-    _check_source(args.source)
+    for path in args.source:
+        _check_source(path)
     made = not args.out.exists()
     check_output_folder(args.out, "--out", OUTPUT_FILES, args.overwrite)
     try:
@@ -77,20 +78,21 @@ def run(args: argparse.Namespace) -> int:
         from gasfilm.analysis.conditions import format_conditions
         from gasfilm.app.commands.common import source_conditions
 
-        conditions = source_conditions([args.source])
-        progress(f"{args.source}: conditions {format_conditions(conditions)}")
-        diagnosis = diagnose(args.source, spec, args.mass, band, progress)
+        conditions = source_conditions(list(args.source))
+        progress(f"{args.source[0]}: conditions {format_conditions(conditions)}")
+        source = args.source[0] if len(args.source) == 1 else list(args.source)
+        diagnosis = diagnose(source, spec, args.mass, band, progress)
         write_outputs(diagnosis, args.out)
     except BaseException:
         if made:  # a failed run leaves no empty folder behind
             with contextlib.suppress(OSError):
                 args.out.rmdir()
         raise
-    if args.source.suffix.lower() not in (".uff", ".unv"):
+    if len(args.source) == 1 and args.source[0].suffix.lower() not in (".uff", ".unv", ".npy"):
         try:
-            with Session.open(args.source, "a") as session:
+            with Session.open(args.source[0], "a") as session:
                 session.write_diagnosis("latest", diagnosis.to_dict())
-            progress(f"diagnosis stored in {args.source} (diagnoses/latest)")
+            progress(f"diagnosis stored in {args.source[0]} (diagnoses/latest)")
         except GasfilmError as error:
             progress(f"diagnosis not stored in the session: {error}")
     if args.json:

@@ -135,6 +135,14 @@ def mass_line_warning(freq_hz: Any, h1: Any, mass_kg: float) -> str | None:
             f"gas film (or the mass is wrong); the fitted parameters mean little")
 
 
+def other_resonances_hz(frf: Any, band_hz: tuple[float, float]) -> list[float]:
+    """Resonances of |H1| inside ``band_hz`` beyond the strongest one (which the film models describe), in Hz."""
+    from gasfilm.analysis.spectra import resonance_lines
+
+    inside = [int(line) for line in resonance_lines(frf) if band_hz[0] <= frf.freq_hz[line] <= band_hz[1]]
+    return sorted(float(frf.freq_hz[line]) for line in inside[1:])
+
+
 def format_parameters(fits: list) -> str:
     """Each fit's identified parameters with units and 1-σ uncertainties."""
     lines = []
@@ -171,6 +179,7 @@ def run(args: argparse.Namespace) -> int:
     from gasfilm.analysis.identification import METHODS, compare_models, fit_model, format_table2
     from gasfilm.analysis.session import Session
     from gasfilm.analysis.sources import is_time_record_file
+    from gasfilm.analysis.spectra import usable_band_hz
 
     if args.method not in METHODS:
         raise SettingError(f"--method '{args.method}': choose one of {', '.join(METHODS)}")
@@ -187,6 +196,13 @@ def run(args: argparse.Namespace) -> int:
     frf, what, rig_spec_toml = loaded.frf, loaded.what, loaded.rig_spec_toml
     conditions = source_conditions(args.source)
     low, high = parse_band(args.band, frf.sample_rate_hz)
+    band_note = None
+    if args.band is None:  # the default band stays where the hammer excites: force within 20 dB of its low level
+        _, usable_hz = usable_band_hz(frf.freq_hz, frf.gff)
+        if usable_hz < high:
+            band_note = (f"the band ends at {usable_hz:.0f} Hz, where the force spectrum falls 20 dB below its "
+                         f"low-frequency level (above it the FRF is not measured)")
+            high = usable_hz
     keep = (frf.freq_hz >= max(low, 1e-9)) & (frf.freq_hz <= high)
     if np.count_nonzero(keep) < MIN_BAND_LINES:
         raise SettingError(
@@ -215,6 +231,13 @@ def run(args: argparse.Namespace) -> int:
         with Session.open(args.source[0], "a") as session:
             for fit in fits:
                 session.write_fit(fit.model_name, fit.to_dict())
+    unexplained_hz = other_resonances_hz(frf, (float(freq_hz[0]), float(freq_hz[-1])))
+    not_explained = None
+    if unexplained_hz:
+        not_explained = (f"NOT explained by any film model (one resonance on a mass): resonances at "
+                         f"{', '.join(f'{f:.0f}' for f in unexplained_hz)} Hz in the band — a structure with more "
+                         f"modes; the fits describe the strongest resonance only")
+        logger.warning(not_explained)
     rows = compare_models(fits, freq_hz, h)
     figures = [figure18(figure_paths[0], freq_hz, h, fits), figure19(figure_paths[1], freq_hz, h, fits)]
     if args.json:
@@ -227,6 +250,8 @@ def run(args: argparse.Namespace) -> int:
             "method": args.method,
             "decay_rate_1_s": frf.decay_rate_1_s,
             "mass_line_warning": warning,
+            "band_note": band_note,
+            "not_explained_resonances_hz": unexplained_hz,
             "fits": [fit.to_dict() for fit in fits],
             "table": [dataclasses.asdict(row) for row in rows],
             "figures": [str(path) for path in figures],
@@ -235,6 +260,9 @@ def run(args: argparse.Namespace) -> int:
     print(f"{args.source[0]}: {what}, {len(freq_hz)} lines, {freq_hz[0]:g}–{freq_hz[-1]:g} Hz, m = {mass_kg:g} kg, "
           f"method {args.method}")
     print(f"conditions: {format_conditions(conditions)}")
+    for line in (band_note, not_explained):
+        if line:
+            print(f"note: {line}")
     table_units = "g/N" if args.units == "g" else "SI"
     print(f"\nTable 2 ({UNITS[args.units]}; --units {'si' if args.units == 'g' else 'g'} for "
           f"{UNITS['si' if args.units == 'g' else 'g']})\n" + format_table2(rows, table_units))

@@ -24,11 +24,6 @@ from gasfilm.drivers.errors import SettingError
 
 #: Band edges (Hz) for the coherence summary; bands above the Nyquist frequency are left out.
 COHERENCE_BAND_EDGES_HZ = (0.0, 100.0, 300.0, 1000.0, 3000.0, 10000.0, 30000.0)
-#: Lines below this frequency are not searched for the peak (the DC line and the rigid-body rise).
-PEAK_SEARCH_FROM_HZ = 5.0
-#: Only lines with at least this coherence are searched for the peak (zeros of the hammer spectrum give noisy
-#: spikes in |H1|); when no line has it, all lines are searched.
-PEAK_MIN_COHERENCE = 0.9
 #: Said instead of the coherence figures when the FRF averages one hit.
 ONE_AVERAGE_NOTE = ("not meaningful: one average gives a coherence of 1 at every line by construction; "
                     "average at least 2 hits (5 or more to judge the noise)")
@@ -153,6 +148,8 @@ def summarise(frf: Any, verdicts: list, dropped: int, record_samples: int) -> di
     numbered from 1, as everywhere the user sees them."""
     import numpy as np
 
+    from gasfilm.analysis.spectra import RESONANCE_SEARCH_FROM_HZ, readable_lines, resonance_lines
+
     reasons: dict[str, int] = {}
     flagged: dict[str, int] = {}
     for verdict in verdicts:
@@ -174,11 +171,14 @@ def summarise(frf: Any, verdicts: list, dropped: int, record_samples: int) -> di
     }
     if frf is not None:
         magnitude = np.abs(frf.h1)
-        search = (frf.freq_hz >= PEAK_SEARCH_FROM_HZ) & np.isfinite(magnitude)
-        coherent = search & (frf.coherence >= PEAK_MIN_COHERENCE)
-        if np.any(coherent):
-            search = coherent
-        peak = int(np.flatnonzero(search)[np.argmax(magnitude[search])])
+        resonances = resonance_lines(frf)
+        if resonances:
+            peak = resonances[0]
+        else:  # no clear resonance: the largest readable line (all lines above 5 Hz when none is readable)
+            search = readable_lines(frf)
+            if not np.any(search):
+                search = (frf.freq_hz >= RESONANCE_SEARCH_FROM_HZ) & np.isfinite(magnitude)
+            peak = int(np.flatnonzero(search)[np.argmax(magnitude[search])])
         summary.update(
             peak_frequency_hz=float(frf.freq_hz[peak]),
             peak_accelerance_m_s2_per_n=float(magnitude[peak]),
@@ -212,7 +212,7 @@ def _print_summary(summary: dict[str, Any], source: Path, written: str, units: s
     if summary["advised_exp_end"] is not None:
         print(f"  advice: add --exp-end {summary['advised_exp_end']:g} to window the ringing away")
     if "peak_frequency_hz" in summary:
-        print(f"  peak of |H1| (lines with coherence >= {PEAK_MIN_COHERENCE}): {summary['peak_frequency_hz']:.2f} Hz, "
+        print(f"  peak of |H1| (usable band, coherence >= 0.9): {summary['peak_frequency_hz']:.2f} Hz, "
               f"{accelerance_text(summary['peak_accelerance_m_s2_per_n'], units)}")
         if summary["coherence_note"]:
             print(f"  coherence: {summary['coherence_note']}")
