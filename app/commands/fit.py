@@ -197,7 +197,9 @@ def run(args: argparse.Namespace) -> int:
     conditions = source_conditions(args.source)
     low, high = parse_band(args.band, frf.sample_rate_hz)
     band_note = None
-    if args.band is None:  # the default band stays where the hammer excites: force within 20 dB of its low level
+    # the default band stays where the hammer excites: force within 20 dB of its low level (an FRF read from a UFF
+    # file carries no force spectrum: its band is the default one)
+    if args.band is None and np.all(np.isfinite(frf.gff)):
         _, usable_hz = usable_band_hz(frf.freq_hz, frf.gff)
         if usable_hz < high:
             band_note = (f"the band ends at {usable_hz:.0f} Hz, where the force spectrum falls 20 dB below its "
