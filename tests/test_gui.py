@@ -69,6 +69,7 @@ def test_full_hammer_session_through_the_gui(qtbot, window, tmp_path):
     qtbot.mouseClick(window.diagnose_tab.run_button, Qt.MouseButton.LeftButton)
     qtbot.waitUntil(lambda: not controller.job_active("diagnose"), timeout=60_000)
     assert controller.diagnosis is not None, window.banner.history
+    notes_header = "".join(f"# {note}\n" for note in controller.diagnosis.notes)  # the spec file opens with them
     assert window.diagnose_tab.findings.count() >= 1
     shown_findings = [window.diagnose_tab.findings.item(i).text() for i in range(window.diagnose_tab.findings.count())]
 
@@ -84,7 +85,8 @@ def test_full_hammer_session_through_the_gui(qtbot, window, tmp_path):
     assert controller.session_path != session_path
     # the improved spec plays in the new session only: the Setup tab and the saved setup keep their rig spec (issue 10.7)
     improved = (session_path.parent / f"{session_path.stem}-improved-rig.toml").read_text()
-    assert controller.session.rig_spec_toml == improved
+    assert improved.startswith(notes_header)
+    assert controller.session.rig_spec_toml == improved[len(notes_header):]
     assert controller.setup.rig_spec_path == window.setup_tab.state().rig_spec_path == ""
     assert load_setup(window.settings)[0].rig_spec_path == ""
     _hit(qtbot, window)
