@@ -168,3 +168,15 @@ def test_cli_names_a_missing_file_in_one_line(tmp_path, capsys):
 
 if __name__ == "__main__":
     sys.exit(pytest.main([__file__, "-q"]))
+
+
+def test_a_fitted_value_at_its_bound_is_written_inside_it():
+    """exp(log(1e10)) is 1.0000000000000004e10: a spec written with it was refused when read back (red team,
+    mount-resonance closed loop)."""
+    from gasfilm.analysis.diagnosis.fitspace import Slot
+    from gasfilm.analysis.physics.effects import FitRange
+
+    slot = Slot(None, "eta", FitRange("log", 1e-2, 1e10))
+    assert slot.from_search(slot.to_search(1e10)) <= 1e10
+    assert slot.from_search(slot.to_search(1e-2)) >= 1e-2
+    assert slot.from_search(slot.to_search(3.5e3)) == pytest.approx(3.5e3, rel=1e-15)

@@ -35,7 +35,10 @@ class Slot:
         return float(np.log(value)) if self.range.scale == "log" else float(value)
 
     def from_search(self, value: float) -> float:
-        return float(np.exp(value)) if self.range.scale == "log" else float(value)
+        """The parameter value of a search coordinate, inside its range: exp(log(1e10)) is 1.0000000000000004e10,
+        which a spec written with it could not be read back with (the range's bound is the effect's rule)."""
+        result = float(np.exp(value)) if self.range.scale == "log" else float(value)
+        return min(max(result, self.range.lower), self.range.upper)
 
     def search_bounds(self) -> tuple[float, float]:
         return self.to_search(self.range.lower), self.to_search(self.range.upper)
