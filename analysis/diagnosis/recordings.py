@@ -11,8 +11,9 @@ from typing import Callable
 
 import numpy as np
 
-from gasfilm.analysis.diagnosis.measurement import QualityNote, default_window, hit_spectra
+from gasfilm.analysis.diagnosis.measurement import HitSpectra, QualityNote, default_window, hit_spectra
 from gasfilm.analysis.diagnosis.pipeline import diagnose_spectra
+from gasfilm.analysis.diagnosis.restoring import RestoringForce, restoring_force
 from gasfilm.analysis.diagnosis.result import Diagnosis
 from gasfilm.analysis.physics.effects import MIN_DAMPING_RATIO, ExtraMode
 from gasfilm.analysis.physics.spec import RigSpec
@@ -205,6 +206,14 @@ def starting_spec(
     return rig_spec, f"starting from {origin}"
 
 
+def film_restoring_force(recordings: Recordings, spectra: HitSpectra, mass_kg: float) -> RestoringForce | None:
+    """The film's restoring force from the hits the spectra use, in the band around the recorded resonance."""
+    mean, _ = spectra.mean()
+    resonance_hz = float(spectra.freq_hz[np.argmax(np.abs(mean))])
+    return restoring_force(recordings.records[spectra.hit_numbers], recordings.sample_rate_hz, mass_kg,
+                           resonance_hz, (float(spectra.freq_hz[0]), float(spectra.freq_hz[-1])))
+
+
 def diagnose(
     source: str | Path | list[Path] | Recordings,
     rig_spec: RigSpec | None = None,
@@ -221,7 +230,8 @@ def diagnose(
     spectra = hit_spectra(recordings.records, recordings.sample_rate_hz, recordings.window,
                           hit_times_s=recordings.hit_times_s, overload=recordings.overload, band_hz=band_hz)
     spectra.quality[:0] = recordings.quality
-    diagnosis = diagnose_spectra(spectra, rig_spec, progress)
+    restoring = film_restoring_force(recordings, spectra, rig_spec.moving_mass_kg)
+    diagnosis = diagnose_spectra(spectra, rig_spec, progress, restoring)
     diagnosis.notes.insert(0, origin)
     logger.info("diagnosed %s against %s: %s", recordings.source, rig_spec.name, diagnosis.verdict)
     return diagnosis

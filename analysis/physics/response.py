@@ -104,7 +104,9 @@ def resonance_omega_rad_s(spec: RigSpec) -> float:
     omega = float(np.sqrt(abs(spec.film.stiffness(np.array([1j]), spec.film_parameters)[0]) / mass_kg))
     for _ in range(20):
         stiffness = spec.film.stiffness(np.array([1j * omega]), spec.film_parameters)[0].real
-        omega = float(np.sqrt(max(stiffness, 1e-9) / mass_kg))
+        previous, omega = omega, float(np.sqrt(max(stiffness, 1e-9) / mass_kg))
+        if abs(omega - previous) <= 1e-12 * omega:
+            break
     return omega
 
 
