@@ -22,6 +22,7 @@ from dataclasses import dataclass, field
 from typing import Callable
 
 import numpy as np
+import scipy.stats
 
 from gasfilm.analysis.diagnosis.candidates import CANDIDATES, EQUIVALENT, separating_measurement
 from gasfilm.analysis.diagnosis.fitspace import fit_context, spec_slots, without_effect
@@ -69,13 +70,13 @@ GROSS_SHARE = 0.5
 ALTERNATIVE_MARGIN = 10.0
 #: Amplitude-dependent terms: chosen among by the shape of the film's restoring force (:mod:`.restoring`).
 AMPLITUDE_TERMS = ("cubic-stiffness", "friction", "quadratic-damping")
-#: A finding leaves its own band (where 80 % of its χ² gain lies) within this χ² per point of the noise, and removes
-#: at least OWN_BAND_SHARE of the excess there; otherwise it is a partial description.
-OWN_BAND_CHI2_PER_POINT = ADEQUATE_CHI2_PER_POINT
-OWN_BAND_SHARE = 0.5
-#: Below this χ² per point a band is at the noise within the noise model's own uncertainty: what excess is left there
-#: is not counted against the term.
-OWN_BAND_AT_NOISE = 1.15
+#: A finding leaves its own band (where 80 % of its χ² gain lies) within the noise: its χ² there, in noise units over
+#: the band's real numbers, is compared with the measured noise by a one-sided F test with the band's and the noise
+#: estimate's degrees of freedom at this false-alarm probability (with 6 hits a 4-line band has 48 real numbers, whose
+#: χ²/point exceeds 1.76 by chance once in a thousand — a fixed 1.5 rejects true terms there); otherwise it is a
+#: partial description. The reference is the level the written spec reaches outside the band, between 1 and
+#: ADEQUATE_CHI2_PER_POINT (the noise model is trusted to that margin, not beyond).
+OWN_BAND_FALSE_ALARM = 1e-3
 
 
 @dataclass
@@ -96,8 +97,8 @@ class Claim:
     """How a term of the final spec fares on the claims every finding must survive on the written spec."""
 
     own_band_chi2_per_point: float
+    own_band_limit: float
     gain_over_recalibrated: float
-    gain_in_written_spec: float
     reason: str | None
 
 
@@ -409,14 +410,13 @@ def _drop_unsupported_terms(
     context: FitContext,
     progress: Callable[[str], None],
 ) -> tuple[list[Step], FitOutcome, Evidence, dict[str, RigSpec], dict[str, Claim]]:
-    """Every term of the final spec must have determined parameters, remove most of the excess in its own band and
-    leave it within the noise, and the written spec replayed must be closer to the recordings with it than without
-    it. A term that fails is a candidate description (with its values and the reason), removed from the spec, the
+    """Every term of the final spec must leave its own band within the noise, and the written spec replayed must be
+    closer to the recordings with it than refitted without it. A term that fails is a candidate description (with its values and the reason), removed from the spec, the
     latest added first; the rest are refitted and checked again."""
     claims: dict[str, Claim] = {}
     while steps:
         claims = {step.identifier: _claim(spectra, evidence, current, refits_without[step.identifier], step.identifier,
-                                           recalibrated, rms_recalibrated, context) for step in steps}
+                                           recalibrated, rms_recalibrated) for step in steps}
         failing = [step for step in steps if claims[step.identifier].reason is not None][-1:]
         if not failing:  # (the latest failing term goes first: the others may stand once it is out)
             break
@@ -463,46 +463,45 @@ def _claim(
     identifier: str,
     recalibrated: RigSpec,
     rms_recalibrated: float,
-    context: FitContext,
 ) -> Claim:
-    """The checks on the written spec: the term's own band within the noise and most of its excess removed; a
-    positive RMS gain over the recalibrated spec (the term alone) and within the written spec (against the written
-    spec refitted without it), both replayed with the recorded forces."""
+    """The checks on the written spec: the term's own band within the noise (:data:`OWN_BAND_FALSE_ALARM`) and a
+    positive RMS gain within the written spec (against the written spec refitted without it, both replayed with the
+    recorded forces; per hit for terms that differ between hits), in % of the recalibrated spec's RMS."""
     band = _term_band(evidence, final.spec, without)
     lines = _band_lines(evidence.freq_hz, band)
-    after = float(evidence.chi2_per_hit_and_frequency(final.spec)[:, lines].mean()) / 2.0
+    per_point = evidence.chi2_per_hit_and_frequency(final.spec) / 2.0
+    after = float(per_point[:, lines].mean())
     before = float(evidence.chi2_per_hit_and_frequency(without)[:, lines].mean()) / 2.0
-    share = (before - after) / (before - 1.0) if before > 1.0 else 1.0
+    limit = own_band_limit(spectra, per_point, lines)
     index = _effect_index(final.spec, identifier)
     per_hit = type(final.spec.effects[index]).per_hit
-    alone = _gain_over_recalibrated(spectra, final.spec, recalibrated, index, rms_recalibrated, context)
     measure = replay_rms_per_hit if per_hit else replay_rms
     reference = measure(spectra, recalibrated) if per_hit else rms_recalibrated
     in_written = (100.0 * (measure(spectra, without) - measure(spectra, final.spec)) / reference if reference > 0
                   else 0.0)
     band_text = f"{band[0]:.0f}–{band[1]:.0f} Hz"
-    # a term none of whose magnitudes (log-scaled parameters: masses, stiffnesses, coefficients) is known to better than
-    # a factor e measures nothing (one magnitude may be loose where it trades off against an order, as a spring-pot's
-    # coefficient does; a signed parameter consistent with zero, a drift's damping part, is a result)
-    magnitudes = [(number, slot) for number, slot in enumerate(final.slots)
-                  if slot.effect == index and slot.range.scale == "log"]
-    undetermined = [f"{slot.name} {slot.value(final.spec):.3g} ± {final.uncertainty(number):.2g}"
-                    for number, slot in magnitudes if final.uncertainty(number) > abs(slot.value(final.spec))]
-    if len(undetermined) < len(magnitudes) or not magnitudes:
-        undetermined = []
     reason = None
-    if undetermined:
-        reason = (f"its parameters are not determined by these data ({', '.join(undetermined)}): it trades off "
-                  f"against the other terms")
-    elif after > OWN_BAND_CHI2_PER_POINT:
-        reason = (f"a partial description: with it, its own band {band_text} stays at χ²/point {after:.1f} "
-                  f"(1 = noise)")
-    elif share < OWN_BAND_SHARE and after > OWN_BAND_AT_NOISE:
-        reason = f"it removes only {100 * share:.0f} % of the excess over the noise in its own band {band_text}"
-    elif alone <= 0 or in_written <= 0:
-        reason = (f"the written spec replayed is not closer to the recordings with it: RMS gain over the "
-                  f"recalibrated spec {alone:+.1f} % (this term alone), {in_written:+.1f} % (within the written spec)")
-    return Claim(after, alone, in_written, reason)
+    if after > limit:
+        share = (before - after) / (before - 1.0) if before > 1.0 else 0.0
+        reason = (f"a partial description: with it, its own band {band_text} stays at χ²/point {after:.2f} (1 = noise; "
+                  f"beyond the noise above {limit:.2f}), {100 * share:.0f} % of the excess there removed")
+    elif in_written <= 0:
+        reason = (f"the written spec replayed is not closer to the recordings with it than refitted without it "
+                  f"(RMS gain {in_written:+.2f} % of the recalibrated spec's)")
+    return Claim(after, limit, in_written, reason)
+
+
+def own_band_limit(spectra: HitSpectra, per_point: np.ndarray, lines: np.ndarray) -> float:
+    """The χ² per point above which a band (``lines`` of the analysis grid) is beyond the noise: the one-sided F
+    test at :data:`OWN_BAND_FALSE_ALARM` with the band's real numbers and the noise estimate's degrees of freedom,
+    scaled by the level the spec reaches outside the band (clipped to 1 … ADEQUATE_CHI2_PER_POINT)."""
+    band_dof = 2 * per_point.shape[0] * max(lines.size, 1)
+    noise_dof = spectra.noise.degrees_of_freedom if spectra.noise is not None else 1e6
+    outside = np.ones(per_point.shape[1], bool)
+    outside[lines] = False
+    rest = float(per_point[:, outside].mean()) if outside.any() else 1.0
+    level = min(max(rest, 1.0), ADEQUATE_CHI2_PER_POINT)
+    return level * float(scipy.stats.f.isf(OWN_BAND_FALSE_ALARM, band_dof, max(noise_dof, 1.0)))
 
 
 def _effect_index(spec: RigSpec, identifier: str) -> int:
@@ -580,35 +579,9 @@ def _finding(
         gain_over_recalibrated=claim.gain_over_recalibrated,
         alternatives=_alternatives(identifier, step.alternatives, final.spec, index),
         held_out_band_gain=step.held_out_band_gain,
-        gain_in_written_spec=claim.gain_in_written_spec,
         own_band_chi2_per_point=claim.own_band_chi2_per_point,
+        own_band_limit=claim.own_band_limit,
     )
-
-
-def _gain_over_recalibrated(
-    spectra: HitSpectra, final: RigSpec, recalibrated: RigSpec, index: int, rms_recalibrated: float,
-    context: FitContext
-) -> float:
-    """RMS reduction (%) over the recalibrated spec of the final spec keeping only this one of the added terms,
-    everything refitted — from the final values and from the recalibrated ones with the term's final values; the
-    better of the two fits is replayed (one start alone can miss the minimum). A term that differs between hits
-    (drift, step change, amplitude terms) is measured on the individual hits: H1 averages it away."""
-    per_hit = type(final.effects[index]).per_hit
-    if per_hit:
-        rms_recalibrated = replay_rms_per_hit(spectra, recalibrated)
-    if rms_recalibrated <= 0:
-        return 0.0
-    added = range(len(recalibrated.effects), len(final.effects))
-    spec = final.with_values(effects=[e for i, e in enumerate(final.effects) if i == index or i not in added])
-    if len(spec.effects) != len(final.effects):
-        starts = (spec, recalibrated.with_values(effects=(*recalibrated.effects, final.effects[index])))
-        outcomes = []
-        for start in starts:
-            evidence = evidence_for(spectra, start)
-            outcomes.append(fit(evidence, start, spec_slots(start, context)))
-        spec = min(outcomes, key=lambda outcome: outcome.chi2).spec
-    rms = replay_rms_per_hit(spectra, spec) if per_hit else replay_rms(spectra, spec)
-    return 100.0 * (rms_recalibrated - rms) / rms_recalibrated
 
 
 def _alternatives(identifier: str, close: list[str], spec: RigSpec, index: int) -> list[Alternative]:
@@ -661,7 +634,8 @@ def _unexplained(
         overlapping = [item for item in items
                        if item.band_hz[0] <= term.band_hz[1] and term.band_hz[0] <= item.band_hz[1]]
         lines = _band_lines(freq_hz, term.band_hz)
-        if not overlapping and lines.size and float(per_frequency[lines].mean()) > OWN_BAND_CHI2_PER_POINT:
+        if (not overlapping and lines.size
+                and float(per_frequency[lines].mean()) > own_band_limit(spectra, per_point, lines)):
             low, high = int(lines[0]), int(lines[-1])
             share = float(excess[low : high + 1].sum()) / total_excess
             overlapping = [Unexplained(term.band_hz, _hits_in(spectra, per_point[:, low : high + 1]), share,

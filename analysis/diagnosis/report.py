@@ -33,9 +33,9 @@ def report_text(diagnosis: Diagnosis) -> str:
             lines.append(f"      {name:30s} {row['value']:.6g} ± {row['uncertainty']:.2g} {row['unit']}")
         lines.append(f"      why:  {finding.evidence}")
         lines.append(f"      what: {finding.explanation}")
-        lines.append(f"      gain over the recalibrated spec: {finding.gain_over_recalibrated:.1f} % RMS "
-                     f"({finding.gain_in_written_spec:.1f} % within the written spec); its own band at χ²/point "
-                     f"{finding.own_band_chi2_per_point:.2f}")
+        lines.append(f"      gain over the recalibrated spec: {finding.gain_over_recalibrated:.1f} % RMS (the written "
+                     f"spec without it, refitted); its own band at χ²/point {finding.own_band_chi2_per_point:.2f} "
+                     f"(beyond the noise above {finding.own_band_limit:.2f})")
         for alternative in finding.alternatives:
             lines.append(f"      or:   {alternative.effect} — {alternative.note}")
     lines.append(f"  {_VERDICT_LINES[diagnosis.verdict]}")

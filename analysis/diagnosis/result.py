@@ -41,11 +41,11 @@ class Finding:
     hits: str
     chi2_gain: float
     held_out_gain: float
-    gain_over_recalibrated: float  # RMS reduction (%) of the recalibrated spec with this term alone
+    gain_over_recalibrated: float  # RMS (% of the recalibrated spec's) the written spec loses without this term
     alternatives: list[Alternative] = field(default_factory=list)
     held_out_band_gain: float = 0.0  # χ² gain (noise units) on interleaved sub-bands left out of the fit
-    gain_in_written_spec: float = 0.0  # RMS (% of the recalibrated spec's) the written spec loses without this term
     own_band_chi2_per_point: float = 0.0  # χ² per point of the written spec in the term's own band (1 = noise)
+    own_band_limit: float = 0.0  # χ² per point beyond which that band is beyond the noise (F test)
 
     def to_dict(self) -> dict:
         return {
@@ -61,8 +61,8 @@ class Finding:
             "held_out_gain": round(self.held_out_gain, 1),
             "gain_over_recalibrated": round(self.gain_over_recalibrated, 2),
             "held_out_band_gain": round(self.held_out_band_gain, 1),
-            "gain_in_written_spec": round(self.gain_in_written_spec, 2),
             "own_band_chi2_per_point": round(self.own_band_chi2_per_point, 3),
+            "own_band_limit": round(self.own_band_limit, 3),
             "alternatives": [alternative.to_dict() for alternative in self.alternatives],
         }
 
@@ -79,8 +79,8 @@ class Finding:
             gain_over_recalibrated=values.get("gain_over_recalibrated", 0.0),
             alternatives=[Alternative(a["effect"], a["note"]) for a in values.get("alternatives", [])],
             held_out_band_gain=values.get("held_out_band_gain", 0.0),
-            gain_in_written_spec=values.get("gain_in_written_spec", 0.0),
             own_band_chi2_per_point=values.get("own_band_chi2_per_point", 0.0),
+            own_band_limit=values.get("own_band_limit", 0.0),
         )
 
 

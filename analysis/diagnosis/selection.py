@@ -150,6 +150,7 @@ class Evidence:
 #: finished to the full tolerance).
 FIT_TOLERANCE = 1e-7
 SCREENING_TOLERANCE = 1e-6
+FINISHED_STARTS = 2
 
 
 def fit(
@@ -272,15 +273,17 @@ def disagreement(first: FitOutcome, second: FitOutcome, effect_index: int, point
 
 def best_candidate_fit(evidence: Evidence, spec: RigSpec, identifier: str, context: FitContext) -> FitOutcome | None:
     """The best full-data fit of the spec plus one candidate term over its starting values (None: no start): every
-    start fitted to the screening tolerance, the best one finished to the full tolerance."""
+    start fitted to the screening tolerance, the best :data:`FINISHED_STARTS` finished to the full tolerance."""
     outcomes = []
     for effect in starting_effects(identifier, spec, evidence, context):
         candidate = with_effect(spec, effect)
         outcomes.append(fit(evidence, candidate, spec_slots(candidate, context), tolerance=SCREENING_TOLERANCE))
     if not outcomes:
         return None
-    best = min(outcomes, key=lambda outcome: outcome.chi2)
-    best = fit(evidence, best.spec, best.slots)
+    # the two best screened starts are finished: the screening order of two close starts is not the final one's
+    finished = [fit(evidence, outcome.spec, outcome.slots)
+                for outcome in sorted(outcomes, key=lambda outcome: outcome.chi2)[:FINISHED_STARTS]]
+    best = min(finished, key=lambda outcome: outcome.chi2)
     logger.debug("candidate %s: χ² %.1f after %d starts", identifier, best.chi2, len(outcomes))
     return best
 
