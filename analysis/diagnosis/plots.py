@@ -11,7 +11,7 @@ from matplotlib.figure import Figure
 from matplotlib.ticker import MaxNLocator
 
 from gasfilm.analysis.diagnosis.pipeline import replayed_mean, residuals
-from gasfilm.analysis.diagnosis.restoring import RestoringForce
+from gasfilm.analysis.diagnosis.restoring import MAX_DRAWN_SAMPLES, RestoringForce
 from gasfilm.analysis.diagnosis.result import Diagnosis
 from gasfilm.drivers.interface import STANDARD_GRAVITY_M_S2 as G_M_S2
 
@@ -22,8 +22,6 @@ OVERLAY_FILE = "diagnosis-overlay.png"
 RESIDUAL_FILE = "diagnosis-residual.png"
 RESTORING_FILE = "diagnosis-restoring-force.png"
 OUTPUT_FILES = (SPEC_FILE, OVERLAY_FILE, RESIDUAL_FILE, RESTORING_FILE)
-#: At most this many samples are drawn in the restoring-force figure (a scatter of every sample takes seconds).
-MAX_DRAWN_SAMPLES = 8000
 
 
 def write_figures(diagnosis: Diagnosis, out_dir: Path) -> list[str]:

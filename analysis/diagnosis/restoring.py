@@ -38,6 +38,8 @@ SHAPE_SHARE = 0.3
 FILM_BAND = (0.4, 2.5)
 #: Samples are used while the hit's displacement envelope exceeds this fraction of its peak and 5× its noise.
 ENVELOPE_FRACTION = 0.03
+#: At most this many samples are drawn in a restoring-force figure (a scatter of every sample takes seconds).
+MAX_DRAWN_SAMPLES = 8000
 #: Shapes whose gain lies within this fraction of the best one's are not told apart from it.
 TIE_FRACTION = 0.2
 
