@@ -115,6 +115,11 @@ class HitSpectra:
                        variance=self.replay.measured_variance / np.abs(ratio) ** 2)
 
 
+#: The replay's circular convolution is damped so that what wraps round after ``n_fft`` samples is attenuated by
+#: e^(−WRAP_DECAY) (see :meth:`Replay.replayed`); the undamping amplifies round-off by at most e^(WRAP_DECAY/2).
+WRAP_DECAY = 20.0
+
+
 @dataclass
 class Replay:
     """The recorded forces and windows, to play a model with them exactly as the recordings were processed."""
@@ -130,21 +135,35 @@ class Replay:
     sample_rate_hz: float
     decay_rate_1_s: float
     nonlinear_cache: dict = field(default_factory=dict)  # model key → replayed FRFs of the exact nonlinear rig
+    damped_force_padded: np.ndarray | None = None  # spectrum of the forces × e^(−σ₀t), see :meth:`replayed`
 
     def replayed(self, model_accelerance: Callable[[np.ndarray, float], np.ndarray]) -> np.ndarray:
-        """Per-hit FRFs (hits, G) of the model played with each hit's recorded force, windowed like the recording."""
+        """Per-hit FRFs (hits, G) of the model played with each hit's recorded force, windowed like the recording.
+
+        The convolution is circular over ``n_fft`` samples: a lightly damped mode still ringing after ``n_fft``
+        would wrap round into the record (5 % of a ζ = 0.0024 mode at 609 Hz with 0.16 s records). It is computed
+        damped — force × e^(−σ₀t), the model at s + σ₀, the response × e^(σ₀t) — which attenuates the wrapped part
+        by e^(−σ₀·n_fft/fs) = e^(−:data:`WRAP_DECAY`) and is otherwise exact."""
+        decay_1_s = WRAP_DECAY * self.sample_rate_hz / self.n_fft
         padded_freq_hz = np.fft.rfftfreq(self.n_fft, 1.0 / self.sample_rate_hz)
-        padded_freq_hz[0] = 1e-9 * self.sample_rate_hz / self.n_fft
-        plain = np.broadcast_to(model_accelerance(padded_freq_hz, 0.0), self.force_padded.shape)
-        response = scipy.fft.irfft(self.force_padded * plain, self.n_fft, axis=1)[:, : self.n_samples]
+        plain = np.broadcast_to(model_accelerance(padded_freq_hz, decay_1_s), self.force_padded.shape)
+        response = scipy.fft.irfft(self._damped_force(decay_1_s) * plain, self.n_fft, axis=1)[:, : self.n_samples]
+        response *= np.exp(decay_1_s * np.arange(self.n_samples) / self.sample_rate_hz)
         return scipy.fft.rfft(response * self.exponential, axis=1)[:, self.grid] / self.force_windowed_grid
+
+    def _damped_force(self, decay_1_s: float) -> np.ndarray:
+        """Spectrum of each recorded force × e^(−σ₀t), zero-padded to ``n_fft`` (remembered)."""
+        if self.damped_force_padded is None:
+            damping = np.exp(-decay_1_s * np.arange(self.n_samples) / self.sample_rate_hz)
+            self.damped_force_padded = np.fft.rfft(self.forces_n * damping, self.n_fft, axis=1)
+        return self.damped_force_padded
 
     def single(self, hit: int) -> "Replay":
         """The replay of one hit only."""
         rows = slice(hit, hit + 1)
         return replace(self, force_padded=self.force_padded[rows], exponential=self.exponential[rows],
                        force_windowed_grid=self.force_windowed_grid[rows], measured_h=self.measured_h[rows],
-                       measured_variance=self.measured_variance[rows], nonlinear_cache={})
+                       measured_variance=self.measured_variance[rows], nonlinear_cache={}, damped_force_padded=None)
 
     def windowed_frf(self, responses: np.ndarray) -> np.ndarray:
         """Per-hit FRFs on the grid of replayed response records (hits, samples), windowed like the recording."""
