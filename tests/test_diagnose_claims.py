@@ -120,7 +120,7 @@ def test_every_finding_survives_the_claims_on_the_written_spec(tmp_path, capsys)
     for finding in diagnosis.findings:
         assert finding.gain_over_recalibrated > 0
         assert finding.held_out_band_gain > HELD_OUT_THRESHOLD
-        assert 1.0 < finding.own_band_limit < 2.5
+        assert 1.5 <= finding.own_band_limit < 2.5
         assert finding.own_band_chi2_per_point <= finding.own_band_limit
     write_outputs(diagnosis, tmp_path / "out")
     assert (tmp_path / "out" / RESTORING_FILE).stat().st_size > 0
