@@ -253,16 +253,9 @@ def _select_one(
         progress(f"  {identifier}: held-out χ² gain {gain_held_out:.0f} (needs > {HELD_OUT_THRESHOLD:.0f})")
         if gain_held_out <= HELD_OUT_THRESHOLD:
             continue
-        band_folds = held_out_band_gain(evidence, current.spec, candidate_evidence, outcome.spec, context)
-        reason = _unstable(band_folds, hit_folds, index, noise_scale, points)
-        if reason is not None:
-            band = _term_band(candidate_evidence, outcome.spec, current.spec)
-            rejected.append(CandidateDescription(identifier, band, _term_parameters(outcome, index), reason))
-            progress(f"  {identifier}: a candidate description, not a finding ({reason})")
-            continue
         close = [other for other_score, other, _, _ in trials if other != identifier
                  and score - other_score < ALTERNATIVE_MARGIN and other_score > BIC_MARGIN]
-        step = Step(identifier, current.chi2, outcome.chi2, gain_held_out, band_folds.gain / noise_scale, close)
+        step = Step(identifier, current.chi2, outcome.chi2, gain_held_out, 0.0, close)
         return step, outcome, evidence_for(spectra, outcome.spec)
     return None
 
@@ -418,6 +411,10 @@ def _drop_unsupported_terms(
     while steps:
         claims = {step.identifier: _claim(spectra, evidence, current, refits_without[step.identifier], step.identifier,
                                            recalibrated, rms_recalibrated) for step in steps}
+        for step in steps:
+            if claims[step.identifier].reason is None:
+                claims[step.identifier].reason = _survives_left_out_data(spectra, evidence, current, step,
+                                                                         refits_without[step.identifier], context)
         failing = [step for step in steps if claims[step.identifier].reason is not None][-1:]
         if not failing:  # (the latest failing term goes first: the others may stand once it is out)
             break
@@ -436,6 +433,23 @@ def _drop_unsupported_terms(
             reduced = without_effect(current.spec, _effect_index(current.spec, step.identifier))
             refits_without[step.identifier] = fit(evidence, reduced, spec_slots(reduced, context)).spec
     return steps, current, evidence, refits_without, claims
+
+
+def _survives_left_out_data(
+    spectra: HitSpectra, evidence: Evidence, final: FitOutcome, step: Step, without: RigSpec, context: FitContext
+) -> str | None:
+    """Why a term of the final spec does not survive data left out of its fit (frequency bands left out, parameters
+    between disjoint halves of the band and of the hits), judged against the final spec refitted without it; sets
+    the step's held-out band gain. Judged on the final spec, not when the term enters: a stand-in that the forward
+    selection takes on the way (and the check back removes) must not push the true terms out of its place."""
+    points = evidence.point_count
+    noise_scale = _noise_scale(final, points)
+    index = _effect_index(final.spec, step.identifier)
+    base_evidence = evidence_for(spectra, without)
+    band_folds = held_out_band_gain(base_evidence, without, evidence, final.spec, context)
+    hit_folds = held_out_gain(base_evidence, without, evidence, final.spec, context)
+    step.held_out_band_gain = band_folds.gain / noise_scale
+    return _unstable(band_folds, hit_folds, index, noise_scale, points)
 
 
 def _refit(spectra: HitSpectra, spec: RigSpec, recalibrated: RigSpec, context: FitContext) -> tuple[FitOutcome, Evidence]:
