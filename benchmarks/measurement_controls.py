@@ -1,0 +1,164 @@
+"""Measurement-property controls for the diagnosis (issue 14 item 5): a nominal simulated session, exported as UFF 58
+time records in five ways — untouched, already windowed (exponential and force windows), quantised to 8 bits of the
+NI 9234's ±5 V range, with narrowband floor vibration on the response only, and triggered 3 ms late (the records
+start after the pulse has begun) — then ``gasfilm diagnose FILE.uff --mass M`` on each. Every one is rig-physics-free:
+the verdict must be ``consistent`` or ``parameters-only`` with the property named under ``quality``.
+
+    python benchmarks/measurement_controls.py [--hits 8] [--out DIR] [--only NAME ...]
+
+Prints one table row per control (verdict, findings, quality kinds, noise source, χ²/point, time).
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import io
+import json
+import sys
+import tempfile
+import time
+from pathlib import Path
+from types import SimpleNamespace
+from typing import Callable
+
+import numpy as np
+
+from gasfilm.analysis.diagnosis.recordings import load_recordings
+from gasfilm.analysis.physics.spec import RigSpec
+from gasfilm.analysis.spectra import WindowSettings, compute_frf, exponential_window, force_window
+from gasfilm.analysis.uff import export_frf_uff
+from gasfilm.app.cli import main as gasfilm
+
+SD_RIG = Path(__file__).resolve().parents[1] / "fixtures" / "rigs" / "sd.toml"
+#: The NI 9234's input range (V, ±).
+FULL_SCALE_V = 5.0
+
+
+def exported_windowed(records: np.ndarray, rate_hz: float, spec: RigSpec) -> np.ndarray:
+    """Records as a recorder exports them after its own windows: a force window (2 ms after the peak, 0.5 ms taper)
+    on the force, a 1 %-at-the-end exponential window on both channels."""
+    window = WindowSettings(force_window_ms=2.0, force_taper_ms=0.5, exponential_end_fraction=0.01)
+    exponential = exponential_window(records.shape[-1], 0.01)
+    out = records * exponential
+    out[:, 0] *= force_window(records[:, 0], rate_hz, window)
+    return out
+
+
+def quantised_8_bit(records: np.ndarray, rate_hz: float, spec: RigSpec) -> np.ndarray:
+    """Records stored with 8 bits over ±5 V at the sensors' sensitivities (the force step ≈ 3.5 N, the response's
+    ≈ 3.8 m/s²)."""
+    volts_per_si = np.array([spec.force_sensor.sensitivity_v_per_si, spec.acceleration_sensor.sensitivity_v_per_si])
+    step_si = 2 * FULL_SCALE_V / 2**8 / volts_per_si
+    return np.round(records / step_si[np.newaxis, :, np.newaxis]) * step_si[np.newaxis, :, np.newaxis]
+
+
+def floor_vibration(records: np.ndarray, rate_hz: float, spec: RigSpec) -> np.ndarray:
+    """Narrowband floor vibration at 30 Hz and 87 Hz on the response only (0.05 and 0.03 m/s², random phase per hit,
+    slowly modulated): uncorrelated with the hammer."""
+    rng = np.random.default_rng(7)
+    time_s = np.arange(records.shape[-1]) / rate_hz
+    out = records.copy()
+    for hit in out:
+        for freq_hz, amplitude in ((30.0, 0.05), (87.0, 0.03)):
+            hit[1] += amplitude * np.sin(2 * np.pi * freq_hz * time_s + rng.uniform(0, 2 * np.pi)) * (
+                1 + 0.3 * np.sin(2 * np.pi * rng.uniform(0.3, 1.0) * time_s))
+    return out
+
+
+def late_trigger(records: np.ndarray, rate_hz: float, spec: RigSpec) -> np.ndarray:
+    """The trigger fired late: the records start 0.3 ms after the force pulse began (its first ~40 %, and the start
+    of the response, are not recorded; the pre-trigger misses the pulse start)."""
+    pulse_start = min(int(np.flatnonzero(np.abs(r[0]) > 0.02 * np.abs(r[0]).max())[0]) for r in records)
+    return records[:, :, pulse_start + int(round(0.3e-3 * rate_hz)):]
+
+
+CONTROLS: dict[str, Callable[[np.ndarray, float, RigSpec], np.ndarray] | None] = {
+    "untouched": None,
+    "exported-windowed": exported_windowed,
+    "quantised-8-bit": quantised_8_bit,
+    "floor-vibration": floor_vibration,
+    "late-trigger": late_trigger,
+}
+#: The quality kind (or noise source) each control must be recognised by.
+EXPECTED_NOTE = {"untouched": None, "exported-windowed": "exponential window", "quantised-8-bit": "quantisation",
+                 "floor-vibration": "floor vibration", "late-trigger": "late trigger"}
+
+
+def write_control(session: Path, name: str, out: Path) -> Path:
+    """The session's accepted hits changed by control ``name``, written as UFF 58 time records to ``out``."""
+    recordings = load_recordings(session)
+    spec = RigSpec.from_toml(recordings.rig_spec_toml, str(session))
+    change = CONTROLS[name]
+    records = recordings.records if change is None else change(recordings.records, recordings.sample_rate_hz, spec)
+    rate_hz = recordings.sample_rate_hz
+    hits = [SimpleNamespace(data=record, force_channel=0, response_channel=1, sample_rate_hz=rate_hz,
+                            start_time_s=float(start_s)) for record, start_s in zip(records, recordings.hit_times_s)]
+    frf = compute_frf(records, rate_hz, WindowSettings(force_window_ms=None, exponential_end_fraction=None))
+    return export_frf_uff(frf, out / f"{session.stem}-{name}.uff", hits=hits, description=f"control {name}")
+
+
+def record_session(path: Path, hits: int, seed: int, rig: Path) -> Path:
+    """``gasfilm acquire --device sim --rig RIG`` with the defaults otherwise; an existing session is reused."""
+    if path.exists():
+        return path
+    with contextlib.redirect_stdout(io.StringIO()):
+        assert gasfilm(["acquire", "--device", "sim", "--out", str(path), "--hits", str(hits), "--pacing", "fast",
+                        "--seed", str(seed), "--rig", str(rig)]) == 0
+    return path
+
+
+def diagnose_control(path: Path, mass_kg: float, out: Path) -> dict:
+    """``gasfilm diagnose FILE --mass M --json`` and its result."""
+    buffer, errors = io.StringIO(), io.StringIO()
+    started = time.monotonic()
+    with contextlib.redirect_stdout(buffer), contextlib.redirect_stderr(errors):
+        code = gasfilm(["diagnose", str(path), "--mass", f"{mass_kg:g}", "--json", "--out", str(out / path.stem),
+                        "--overwrite"])
+    text = buffer.getvalue()
+    result = json.loads(text[text.index("{"):]) if code == 0 else {"verdict": f"exit {code}",
+                                                                     "error": errors.getvalue().strip()[-300:]}
+    result["time_s"] = time.monotonic() - started
+    return result
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--hits", type=int, default=8)
+    parser.add_argument("--seed", type=int, default=3)
+    parser.add_argument("--rig", type=Path, default=SD_RIG,
+                        help="rig the simulator plays (default: the paper's SD film, the class a start read off the "
+                             "FRF has)")
+    parser.add_argument("--out", type=Path, default=None, help="folder for the UFF files and the diagnoses")
+    parser.add_argument("--only", nargs="*", default=list(CONTROLS), choices=list(CONTROLS))
+    args = parser.parse_args()
+    out = args.out or Path(tempfile.mkdtemp(prefix="controls-"))
+    out.mkdir(parents=True, exist_ok=True)
+    session = record_session(out / f"nominal-{args.rig.stem}.h5", args.hits, args.seed, args.rig)
+    mass_kg = RigSpec.from_toml(load_recordings(session).rig_spec_toml, str(session)).mass_kg
+    print(f"controls in {out} ({args.hits} hits, mass {mass_kg:g} kg)")
+    print("| control | verdict | findings | not explained | quality | noise | χ²/point after | time |")
+    print("| --- | --- | --- | --- | --- | --- | --- | --- |")
+    failures = 0
+    for name in args.only:
+        path = write_control(session, name, out)
+        result = diagnose_control(path, mass_kg, out)
+        findings = ", ".join(f["effect"] for f in result.get("findings", [])) or "none"
+        unexplained = ", ".join(f"{u['band_hz'][0]:.0f}–{u['band_hz'][1]:.0f} Hz"
+                                for u in result.get("unexplained", [])) or "none"
+        kinds = [q["kind"] for q in result.get("quality", [])]
+        noise = result.get("noise", {}).get("source", "?")
+        expected = EXPECTED_NOTE[name]
+        ok = (result["verdict"] in ("consistent", "parameters-only")
+              and (expected is None or expected in kinds or expected == noise))
+        failures += not ok
+        chi2 = result.get("chi2_per_point_after", float("nan"))
+        print(f"| {name} | {result['verdict']} | {findings} | {unexplained} | {', '.join(kinds) or 'none'} | {noise} | "
+              f"{chi2:.2f} | {result['time_s']:.1f} s |{'' if ok else ' ✗'}")
+        if "error" in result:
+            print("   ", (result["error"].splitlines() or ["(no message)"])[-1])
+    sys.exit(1 if failures else 0)
+
+
+if __name__ == "__main__":
+    main()
