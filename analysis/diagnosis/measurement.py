@@ -40,6 +40,15 @@ MAINS_HARMONICS = 20
 MIN_SCATTER_HITS = 3
 #: Lines (at least) over which the scatter of the hits' FRFs is smoothed into a noise spectrum.
 SCATTER_SMOOTH_LINES = 41
+#: The NI 9234's AC-coupling corner (Hz): a hit's force record decays this way after the pulse; an exported force
+#: window cuts that decay, and the replay continues it (its corner uncertain by this fraction).
+AC_COUPLING_HZ = 0.5
+AC_COUPLING_UNCERTAINTY = 0.5
+#: The anti-aliasing filter rings this long (s) after a pulse ends.
+FILTER_SETTLE_S = 0.5e-3
+#: A channel with fewer quantisation steps than this to its peak is coarsely quantised: a plateau at its peak is
+#: not by itself a sign of clipping.
+COARSE_LEVELS = 2**12
 
 
 @dataclass
@@ -181,8 +190,13 @@ def _pulse_extent(force_n: np.ndarray) -> tuple[int, int, int]:
     return start, peak, end
 
 
-def _clipped(signal: np.ndarray, run: int = 3) -> bool:
-    """True when the signal sits at its own extreme for ``run`` consecutive samples (a clipped ADC)."""
+def _clipped(signal: np.ndarray, run: int = 3, step: float = 0.0) -> bool:
+    """True when the signal sits at its own extreme for ``run`` consecutive samples (a clipped ADC).
+
+    A coarsely quantised signal (``step``, fewer than :data:`COARSE_LEVELS` steps to its peak) sits on its top level
+    for several samples near any smooth peak: there a plateau counts as clipping only when the samples on either side
+    of it, extrapolated by a parabola, rise more than two steps above it (a clipped peak is cut, a quantised one is
+    not)."""
     magnitude = np.abs(signal)
     peak = magnitude.max()
     if peak == 0:
@@ -190,8 +204,21 @@ def _clipped(signal: np.ndarray, run: int = 3) -> bool:
     at_peak = magnitude >= peak * (1 - 1e-9)
     if at_peak.sum() < run:
         return False
-    runs = np.diff(np.flatnonzero(np.diff(np.concatenate(([0], at_peak.astype(int), [0])))))[::2]
-    return bool(runs.size and runs.max() >= run)
+    edges = np.flatnonzero(np.diff(np.concatenate(([0], at_peak.astype(int), [0]))))
+    starts, stops = edges[::2], edges[1::2]
+    long_runs = [(a, b) for a, b in zip(starts, stops) if b - a >= run]
+    if not long_runs:
+        return False
+    if step <= 0 or peak / step >= COARSE_LEVELS:
+        return True
+    for a, b in long_runs:
+        flank = np.r_[max(a - 3, 0):a, b:min(b + 3, signal.size)]
+        if flank.size < 4:
+            return True
+        coefficients = np.polyfit(flank - 0.5 * (a + b - 1), magnitude[flank], 2)
+        if coefficients[0] < 0 and coefficients[2] > peak + 2 * step:
+            return True
+    return False
 
 
 def _band_text(low_hz: float, high_hz: float) -> str:
@@ -246,12 +273,14 @@ def hit_spectra(
     extents = [_pulse_extent(record[0]) for record in records]
     pulse_samples = int(np.median([end - start + 1 for start, _, end in extents]))
 
+    steps = [_quantisation_step(records[:, channel]) for channel in (0, 1)]
     double_hits, clipped_hits = [], []
     for index, (record, (start, peak, end)) in enumerate(zip(records, extents)):
         after = record[0, end + 1 + pulse_samples :]
         if after.size and np.max(np.abs(after)) > 0.1 * abs(record[0, peak]):
             double_hits.append(index)
-        if _clipped(record[0]) or _clipped(record[1]) or (overload is not None and np.any(overload[index])):
+        if (_clipped(record[0], step=steps[0]) or _clipped(record[1], step=steps[1])
+                or (overload is not None and np.any(overload[index]))):
             clipped_hits.append(index)
     if double_hits:
         quality.append(QualityNote("double hit", f"{len(double_hits)} hit(s) with a second impact were left out",
@@ -285,6 +314,9 @@ def hit_spectra(
         extents = [extents[i] for i in keep_quiet]
     mains_base: float | None = None
     mains_harmonics: list[float] = []
+    force_zero_from: int | None = None
+    force_tail: ForceTail | None = None
+    prewindow_error_1_s = 0.0
     tail_start = int((1 - TAIL_FRACTION) * n_samples)
     if from_scatter:
         quiet_slice = None
@@ -316,14 +348,27 @@ def hit_spectra(
             if mains_base is not None:
                 quality.append(_mains_note(mains_base, mains_harmonics, "found on the quiet record tails"))
             quiet_slice = slice(tail_start, n_samples)
-            prewindow_1_s = _exponential_prewindow_1_s(records, quiet_samples, tail_start, sample_rate_hz)
-            if prewindow_1_s is not None:
+            force_zero_from = _force_windowed_from(records[:, 0], extents)
+            prewindow = _exponential_prewindow_1_s(records, quiet_samples, tail_start, sample_rate_hz,
+                                                   (0, 1) if force_zero_from is None else (1,))
+            if prewindow is not None:
+                prewindow_1_s, prewindow_error_1_s = prewindow
                 records = records * np.exp(prewindow_1_s * np.arange(n_samples) / sample_rate_hz)
                 quality.append(QualityNote(
                     "exponential window",
                     f"the records carry an exponential window already (the noise falls as exp(−σt), σ = "
-                    f"{prewindow_1_s:.3g} 1/s, as in records exported windowed): divided out of both channels before the "
-                    f"comparison — a processing property, not physics"))
+                    f"{prewindow_1_s:.3g} ± {prewindow_error_1_s:.2g} 1/s, as in records exported windowed): divided "
+                    f"out of both channels before the comparison, and its uncertainty (which shifts every decay rate "
+                    f"alike) is part of the noise model — a processing property, not physics"))
+            if force_zero_from is not None:
+                records, force_tail = _continue_windowed_force(records, extents, sample_rate_hz)
+                quality.append(QualityNote(
+                    "force window",
+                    f"the force records are zero from {1e3 * force_zero_from / sample_rate_hz:.1f} ms on (records "
+                    f"exported with a force window already): the replay continues each force after its window as the "
+                    f"AC coupling's decay ({AC_COUPLING_HZ:g} Hz, from the level just after the pulse, median "
+                    f"{np.median(force_tail.level_n):.3g} N) and that decay's uncertainty is part of the noise model; "
+                    f"the force noise is measured before the hits — a processing property, not physics"))
             tail_noise = np.median(np.std(records[:, 1, tail_start:], axis=1))
             before_noise = np.median(np.std(records[:, 1, :quiet_samples], axis=1))
             if tail_noise < 0.8 * before_noise:
@@ -369,11 +414,12 @@ def hit_spectra(
         variance_full = output_noise[np.newaxis, :] / force_power
     else:
         quiet = records[:, :, quiet_slice]
-        steps = [_quantisation_step(records[:, channel]) for channel in (0, 1)]
-        noise_force = _noise_spectrum(quiet[:, 0], full_freq_hz, sample_rate_hz, steps[0])
+        # a force exported with a force window is zero in the tails: its noise is measured before the hits
+        quiet_force = records[:, 0, :quiet_samples] if force_zero_from is not None else quiet[:, 0]
+        noise_force = _noise_spectrum(quiet_force, full_freq_hz, sample_rate_hz, steps[0])
         noise_response = _noise_spectrum(quiet[:, 1], full_freq_hz, sample_rate_hz, steps[1])
-        coarse = [name for name, step, channel in zip(("force", "response"), steps, (0, 1))
-                  if step > 0.5 * np.median(np.std(quiet[:, channel], axis=1))]
+        coarse = [name for name, step, segment in zip(("force", "response"), steps, (quiet_force, quiet[:, 1]))
+                  if step > 0.5 * np.median(np.std(segment, axis=1))]
         if coarse:
             quality.append(QualityNote(
                 "quantisation",
@@ -402,6 +448,11 @@ def hit_spectra(
              + np.abs(h1_full[np.newaxis, :]) ** 2 * _through_window(noise_force, window_row)[np.newaxis, :])
             / force_power
         )
+    if force_tail is not None:
+        variance_full = variance_full + force_tail.variance(h_full, force_spectra, exponential[0], sample_rate_hz)
+    if prewindow_error_1_s > 0:
+        variance_full = variance_full + _prewindow_variance(
+            records, force_w, exponential[0], response_spectra, force_spectra, sample_rate_hz, prewindow_error_1_s)
     variance_full = np.maximum(variance_full, (1e-7 * np.abs(h1_full)) ** 2 + 1e-30)
 
     # analysis band: where the hammer puts energy in (within 20 dB of its low-frequency level), below 0.4 fs
@@ -518,29 +569,120 @@ def _remove_mains_seen_on_force(
 
 
 def _exponential_prewindow_1_s(
-    records: np.ndarray, quiet_samples: int, tail_start: int, sample_rate_hz: float
-) -> float | None:
-    """Decay rate σ (1/s) of an exponential window the records already carry, from the noise level of the quiet
-    pre-trigger and three parts of the quiet tail (both channels, median over hits), or None when the noise is steady
-    or does not fall as one exponential."""
+    records: np.ndarray, quiet_samples: int, tail_start: int, sample_rate_hz: float, channels: tuple[int, ...] = (0, 1)
+) -> tuple[float, float] | None:
+    """Decay rate σ (1/s) of an exponential window the records already carry and its standard error, from the noise
+    level of the quiet pre-trigger and three parts of the quiet tail (the given channels, pooled over hits), or None
+    when the noise is steady or does not fall as one exponential."""
     n_samples = records.shape[-1]
     edges = np.linspace(tail_start, n_samples, 4).astype(int)
     segments = [(0, quiet_samples)] + list(zip(edges[:-1], edges[1:]))
     centres_s = np.array([(a + b) / 2 / sample_rate_hz for a, b in segments])
-    levels = np.array([[np.median(np.std(records[:, channel, a:b], axis=1)) for a, b in segments]
-                       for channel in (0, 1)])
+    # first differences: a slow drift (the AC coupling's decay after a hit) is not noise; white noise doubles
+    levels = np.array([[np.sqrt(np.mean(np.var(np.diff(records[:, channel, a:b], axis=1), axis=1))) for a, b in segments]
+                       for channel in channels])
     if np.any(levels <= 0):
         return None
-    slopes = []
+    # a noise level from N samples is uncertain by 1/√(2N) in its logarithm (white noise)
+    log_sigma = 1.0 / np.sqrt(2.0 * records.shape[0] * np.array([b - a for a, b in segments]))
+    slopes, errors = [], []
     for row in np.log(levels):
-        slope, intercept = np.polyfit(centres_s, row, 1)
-        if np.max(np.abs(row - (slope * centres_s + intercept))) > PREWINDOW_FIT:
+        (slope, intercept), covariance = np.polyfit(centres_s, row, 1, w=1.0 / log_sigma, cov="unscaled")
+        misfit = row - (slope * centres_s + intercept)
+        if np.max(np.abs(misfit)) > PREWINDOW_FIT:
             return None
+        reduced_chi2 = float(np.sum((misfit / log_sigma) ** 2)) / max(len(segments) - 2, 1)
         slopes.append(-slope)
+        errors.append(np.sqrt(covariance[0, 0] * max(1.0, reduced_chi2)))
     decay_1_s = float(np.mean(slopes))
-    if decay_1_s * n_samples / sample_rate_hz < PREWINDOW_MIN_DECAY or abs(slopes[0] - slopes[1]) > 0.2 * decay_1_s:
+    if decay_1_s * n_samples / sample_rate_hz < PREWINDOW_MIN_DECAY or np.ptp(slopes) > 0.2 * decay_1_s:
         return None
-    return decay_1_s
+    return decay_1_s, float(np.sqrt(np.mean(np.square(errors)) / len(errors)))
+
+
+def _prewindow_variance(
+    records: np.ndarray,
+    force_w: np.ndarray,
+    exponential: np.ndarray,
+    response_spectra: np.ndarray,
+    force_spectra: np.ndarray,
+    sample_rate_hz: float,
+    error_1_s: float,
+) -> np.ndarray:
+    """Variance (hits, lines) each hit's FRF gets from an exported exponential window divided out with a decay rate
+    uncertain by ``error_1_s``: to first order a rate error Δ multiplies both records by ``1 − Δt``, so
+    ``δH = Δ·(T[t·x] − H·T[t·f])/F``. The error is the same in every hit, so it does not average out: each hit carries
+    it ``hits`` times over, and their mean carries it once."""
+    time_s = np.arange(records.shape[-1]) / sample_rate_hz
+    d_response = np.fft.rfft(records[:, 1] * exponential * time_s, axis=1)
+    d_force = np.fft.rfft(records[:, 0] * force_w * time_s, axis=1)
+    h = response_spectra / (force_spectra + 1e-30)
+    sensitivity = (d_response - h * d_force) / (force_spectra + 1e-30)
+    return records.shape[0] * error_1_s**2 * np.abs(sensitivity) ** 2
+
+
+@dataclass
+class ForceTail:
+    """The AC-coupling decay a force window cut off each force record: ``level_n`` (hits,) at ``start`` (hits,)."""
+
+    level_n: np.ndarray
+    level_error_n: np.ndarray
+    start: np.ndarray
+
+    def variance(self, h: np.ndarray, force_spectra: np.ndarray, exponential: np.ndarray,
+                 sample_rate_hz: float) -> np.ndarray:
+        """Variance (hits, lines) of each hit's replayed FRF from the continued tail's uncertainty: its level (per
+        hit) and its corner (±:data:`AC_COUPLING_UNCERTAINTY`, alike in every hit, so carried ``hits`` times)."""
+        hits, n_samples = h.shape[0], exponential.size
+        time_s = np.arange(n_samples) / sample_rate_hz
+        omega_c = 2 * np.pi * AC_COUPLING_HZ
+        variance = np.zeros(h.shape)
+        for hit in range(hits):
+            after_s = np.clip(time_s - self.start[hit] / sample_rate_hz, 0.0, None)
+            shape = np.where(time_s >= self.start[hit] / sample_rate_hz, np.exp(-omega_c * after_s), 0.0)
+            d_level = np.fft.rfft(shape * exponential)
+            d_corner = np.fft.rfft(-after_s * shape * exponential) * self.level_n[hit]
+            variance[hit] = (np.abs(h[hit] / (force_spectra[hit] + 1e-30)) ** 2
+                             * (self.level_error_n[hit] ** 2 * np.abs(d_level) ** 2
+                                + hits * (AC_COUPLING_UNCERTAINTY * omega_c) ** 2 * np.abs(d_corner) ** 2))
+        return variance
+
+
+def _continue_windowed_force(
+    records: np.ndarray, extents: list[tuple[int, int, int]], sample_rate_hz: float
+) -> tuple[np.ndarray, ForceTail]:
+    """Force records exported with a force window, continued after the pulse as the AC coupling's decay: from the
+    level averaged over the first half of the samples between the pulse's end (plus the anti-aliasing filter's
+    ringing) and the window's zeros, ``level·exp(−ω_c (t − t_0))`` replaces the record from that half's middle on."""
+    records = records.copy()
+    settle = int(round(FILTER_SETTLE_S * sample_rate_hz))
+    levels, errors, starts = [], [], []
+    for record, (_, _, end) in zip(records, extents):
+        nonzero = np.flatnonzero(record[0])
+        first = min(end + settle, int(nonzero[-1]))
+        stop = max(first + 2, first + (int(nonzero[-1]) + 1 - first) // 2)
+        segment = record[0, first:stop]
+        start = (first + stop) // 2
+        level = float(segment.mean())
+        levels.append(level)
+        errors.append(float(segment.std() / np.sqrt(max(segment.size - 1, 1))) + 1e-12)
+        starts.append(start)
+        after_s = (np.arange(record.shape[-1] - start)) / sample_rate_hz
+        record[0, start:] = level * np.exp(-2 * np.pi * AC_COUPLING_HZ * after_s)
+    return records, ForceTail(np.array(levels), np.array(errors), np.array(starts))
+
+
+def _force_windowed_from(force_n: np.ndarray, extents: list[tuple[int, int, int]]) -> int | None:
+    """First sample from which every hit's force record is exactly zero to its end, after the pulse (records exported
+    with a force window already), or None when the force is recorded to the end of any record."""
+    first = []
+    for row, (_, _, end) in zip(force_n, extents):
+        nonzero = np.flatnonzero(np.abs(row) > 1e-12 * np.abs(row).max())
+        last = int(nonzero[-1]) + 1 if nonzero.size else 0
+        if last <= end or last > row.size - MIN_QUIET_SAMPLES:
+            return None
+        first.append(last)
+    return max(first)
 
 
 def _through_window(power_per_sample: np.ndarray, window: np.ndarray) -> np.ndarray:
