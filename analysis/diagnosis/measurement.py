@@ -20,6 +20,7 @@ from typing import Callable
 
 import numpy as np
 import scipy.fft
+import scipy.interpolate
 import scipy.signal
 
 from gasfilm.analysis.physics.response import HitConditions
@@ -46,6 +47,10 @@ AC_COUPLING_HZ = 0.5
 AC_COUPLING_UNCERTAINTY = 0.5
 #: The anti-aliasing filter rings this long (s) after a pulse ends.
 FILTER_SETTLE_S = 0.5e-3
+#: Tails whose response levels (thirds) differ by less than this fraction of their mean hold steady noise.
+STEADY_TAIL_SPREAD = 0.15
+#: A pulse front reconstructed by mirroring (a late trigger) is uncertain by at least this fraction.
+FRONT_UNCERTAINTY = 0.02
 #: A channel with fewer quantisation steps than this to its peak is coarsely quantised: a plateau at its peak is
 #: not by itself a sign of clipping.
 COARSE_LEVELS = 2**12
@@ -295,7 +300,6 @@ def hit_spectra(
         raise SettingError(f"diagnosis records: only {used.size} usable hit(s) after quality checks; at least 2 needed")
     records = records[used]
     extents = [extents[i] for i in used]
-
     trigger = np.array([start for start, _, _ in extents])
     margin = int(QUIET_MARGIN_S * sample_rate_hz)
     short = np.flatnonzero(trigger - margin < MIN_QUIET_SAMPLES)
@@ -312,12 +316,30 @@ def hit_spectra(
                 f"{MIN_QUIET_SAMPLES / sample_rate_hz * 1e3 + QUIET_MARGIN_S * 1e3:.1f} ms before the hit, or more hits")
         used, records, trigger = used[keep_quiet], records[keep_quiet], trigger[keep_quiet]
         extents = [extents[i] for i in keep_quiet]
+    fronts, front_uncertainty = _missing_pulse_fronts(records[:, 0], extents)
+    late = [index for index, front in enumerate(fronts) if front.size]
+    if late:
+        quality.append(QualityNote(
+            "late trigger",
+            f"{len(late)} record(s) start {1e3 * np.median([fronts[i].size for i in late]) / sample_rate_hz:.2g} ms "
+            f"(median) after their force pulse began (a late trigger, the pre-trigger misses the pulse start): the "
+            f"replay plays each pulse with its missing front mirrored from its fall about the peak, uncertain by "
+            f"{100 * front_uncertainty:.0f} % (the recorded rise against the mirrored fall) in the noise model — a property of the recording, not physics",
+            hits=tuple(int(used[i]) for i in late)))
+
     mains_base: float | None = None
     mains_harmonics: list[float] = []
     force_zero_from: int | None = None
     force_tail: ForceTail | None = None
     prewindow_error_1_s = 0.0
     tail_start = int((1 - TAIL_FRACTION) * n_samples)
+    tails_only = from_scatter and _steady_tails(records, tail_start)
+    if tails_only:
+        from_scatter = False
+        quality.append(QualityNote(
+            "pre-trigger", f"{short.size} hit(s) with fewer than {MIN_QUIET_SAMPLES} quiet samples before the impact: "
+            f"the responses have decayed to a steady noise by the end of the records, so the noise is measured on "
+            f"the record tails", hits=tuple(int(used[i]) for i in short)))
     if from_scatter:
         quiet_slice = None
         noise_source = "hit scatter"
@@ -329,9 +351,15 @@ def hit_spectra(
         quiet_samples = int(np.min(trigger)) - margin
         # quiet samples to measure the noise: the record tails when every response has decayed, else the pre-trigger
         tail_rms = np.sqrt(np.mean(records[:, 1, tail_start:] ** 2, axis=1))
-        pretrigger_rms = np.sqrt(np.mean(records[:, 1, :quiet_samples] ** 2, axis=1)) + 1e-30
-        truncated = np.flatnonzero(tail_rms > 3 * pretrigger_rms)
-        if truncated.size:
+        pretrigger_rms = np.sqrt(np.mean(records[:, 1, : max(quiet_samples, 1)] ** 2, axis=1)) + 1e-30
+        truncated = np.flatnonzero(tail_rms > 3 * pretrigger_rms) if not tails_only else np.zeros(0, int)
+        if tails_only:
+            records, mains_base, mains_harmonics = _remove_mains(records, tail_start, sample_rate_hz,
+                                                                 MAINS_HARMONICS * max(MAINS_BASES_HZ))
+            if mains_base is not None:
+                quality.append(_mains_note(mains_base, mains_harmonics, "found on the quiet record tails"))
+            quiet_slice = slice(tail_start, n_samples)
+        elif truncated.size:
             quality.append(
                 QualityNote(
                     "truncation",
@@ -453,6 +481,10 @@ def hit_spectra(
     if prewindow_error_1_s > 0:
         variance_full = variance_full + _prewindow_variance(
             records, force_w, exponential[0], response_spectra, force_spectra, sample_rate_hz, prewindow_error_1_s)
+    if late:
+        # the replayed response to a mirrored front is uncertain by the front's asymmetry, hit by hit
+        front_spectra = np.abs(np.fft.rfft(_with_fronts(np.zeros_like(records[:, 0]), fronts, n_samples), axis=1))
+        variance_full = variance_full + (front_uncertainty * np.abs(h_full) * front_spectra) ** 2 / force_power
     variance_full = np.maximum(variance_full, (1e-7 * np.abs(h1_full)) ** 2 + 1e-30)
 
     # analysis band: where the hammer puts energy in (within 20 dB of its low-frequency level), below 0.4 fs
@@ -489,7 +521,7 @@ def hit_spectra(
     times = np.arange(hit_count, dtype=float)[used] if hit_times_s is None else np.asarray(hit_times_s, float)[used]
     n_fft = int(scipy.fft.next_fast_len(2 * n_samples, real=True))
     replay = Replay(
-        force_padded=np.fft.rfft(records[:, 0], n_fft, axis=1),
+        force_padded=np.fft.rfft(_with_fronts(records[:, 0], fronts, n_fft), axis=1),
         n_fft=n_fft,
         exponential=np.ascontiguousarray(exponential),
         force_windowed_grid=force_spectra[:, grid],
@@ -670,6 +702,63 @@ def _continue_windowed_force(
         after_s = (np.arange(record.shape[-1] - start)) / sample_rate_hz
         record[0, start:] = level * np.exp(-2 * np.pi * AC_COUPLING_HZ * after_s)
     return records, ForceTail(np.array(levels), np.array(errors), np.array(starts))
+
+
+def _steady_tails(records: np.ndarray, tail_start: int) -> bool:
+    """Whether every response has decayed to steady noise in the record tails: the response level (RMS about the
+    mean, median over hits) of the tail's three thirds agrees within :data:`STEADY_TAIL_SPREAD`, with no line
+    standing out (a ringing mode decays across the tail, or stands 30× above the local level)."""
+    edges = np.linspace(tail_start, records.shape[-1], 4).astype(int)
+    levels = np.array([np.median(np.std(records[:, 1, a:b], axis=1)) for a, b in zip(edges[:-1], edges[1:])])
+    if np.any(levels <= 0) or np.ptp(levels) > STEADY_TAIL_SPREAD * levels.mean():
+        return False
+    tail = records[:, 1, tail_start:]
+    periodogram = np.mean(np.abs(np.fft.rfft((tail - tail.mean(axis=1, keepdims=True)) * np.hanning(tail.shape[1]),
+                                             axis=1)) ** 2, axis=0)[1:]
+    return bool(periodogram.size > 64 and periodogram.max() < 30.0 * np.median(periodogram))
+
+
+def _missing_pulse_fronts(
+    force_n: np.ndarray, extents: list[tuple[int, int, int]]
+) -> tuple[list[np.ndarray], float]:
+    """For each record that starts inside its force pulse (a late trigger: above 2 % of the peak at its first sample,
+    the peak recorded), the samples before the record's start mirrored from the pulse's fall about the peak (time
+    order, the peak located between samples by a parabola, the fall interpolated by a cubic spline); empty for a
+    record whose pulse start is recorded. Also the pulses' asymmetry: the RMS difference between the recorded part of
+    the rise and the mirrored fall, relative to the mirrored fall (at least :data:`FRONT_UNCERTAINTY`)."""
+    fronts, mismatch, scale = [], 0.0, 0.0
+    for row, (start, peak, end) in zip(force_n, extents):
+        if start > 0 or peak == 0 or peak >= row.size - 1 or abs(row[0]) <= 0.02 * abs(row[peak]):
+            fronts.append(np.zeros(0))
+            continue
+        before, at, after = row[peak - 1 : peak + 2]
+        curvature = before - 2 * at + after
+        centre = peak + (0.5 * (before - after) / curvature if curvature != 0 else 0.0)
+        last = min(end + 1, row.size - 1)  # the foot below 2 % belongs to the pulse too
+        fall = scipy.interpolate.CubicSpline(np.arange(peak, last + 1), row[peak : last + 1])
+        missing = int(np.floor(last - 2 * centre))
+        if missing <= 0:
+            fronts.append(np.zeros(0))
+            continue
+        times = np.arange(-missing, 0)
+        fronts.append(fall(np.clip(2 * centre - times, peak, last)))
+        rise = np.arange(0, peak)
+        mirrored = fall(np.clip(2 * centre - rise, peak, last))
+        mismatch += float(np.sum((row[rise] - mirrored) ** 2))
+        scale += float(np.sum(mirrored**2))
+    asymmetry = np.sqrt(mismatch / scale) if scale > 0 else 1.0
+    return fronts, max(float(asymmetry), FRONT_UNCERTAINTY)
+
+
+def _with_fronts(force_n: np.ndarray, fronts: list[np.ndarray], length: int) -> np.ndarray:
+    """Force records zero-padded to ``length`` samples with each hit's reconstructed front at the end of its buffer:
+    at negative times for a circular convolution of ``length`` ≥ twice the record."""
+    padded = np.zeros((force_n.shape[0], length))
+    padded[:, : force_n.shape[1]] = force_n
+    for row, front in zip(padded, fronts):
+        if front.size:
+            row[length - front.size :] = front
+    return padded
 
 
 def _force_windowed_from(force_n: np.ndarray, extents: list[tuple[int, int, int]]) -> int | None:
