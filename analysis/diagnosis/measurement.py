@@ -144,13 +144,23 @@ class Replay:
     sample_rate_hz: float
     decay_rate_1_s: float
     nonlinear_cache: dict = field(default_factory=dict)  # model key → replayed FRFs of the exact nonlinear rig
+    #: A coarsely quantised response (step and offset, m/s²): the replayed response is quantised the same way.
+    response_step: float = 0.0
+    response_offset: float = 0.0
+
+    def quantised(self, responses: np.ndarray) -> np.ndarray:
+        """Replayed response records as the recording's quantiser stores them (unchanged for a fine one)."""
+        if self.response_step <= 0:
+            return responses
+        step, offset = self.response_step, self.response_offset
+        return np.round((responses - offset) / step) * step + offset
 
     def replayed(self, model_accelerance: Callable[[np.ndarray, float], np.ndarray]) -> np.ndarray:
         """Per-hit FRFs (hits, G) of the model played with each hit's recorded force, windowed like the recording."""
         padded_freq_hz = np.fft.rfftfreq(self.n_fft, 1.0 / self.sample_rate_hz)
         padded_freq_hz[0] = 1e-9 * self.sample_rate_hz / self.n_fft
         plain = np.broadcast_to(model_accelerance(padded_freq_hz, 0.0), self.force_padded.shape)
-        response = scipy.fft.irfft(self.force_padded * plain, self.n_fft, axis=1)[:, : self.n_samples]
+        response = self.quantised(scipy.fft.irfft(self.force_padded * plain, self.n_fft, axis=1)[:, : self.n_samples])
         return scipy.fft.rfft(response * self.exponential, axis=1)[:, self.grid] / self.force_windowed_grid
 
     def single(self, hit: int) -> "Replay":
@@ -162,7 +172,8 @@ class Replay:
 
     def windowed_frf(self, responses: np.ndarray) -> np.ndarray:
         """Per-hit FRFs on the grid of replayed response records (hits, samples), windowed like the recording."""
-        return scipy.fft.rfft(responses * self.exponential, axis=1)[:, self.grid] / self.force_windowed_grid
+        return (scipy.fft.rfft(self.quantised(responses) * self.exponential, axis=1)[:, self.grid]
+                / self.force_windowed_grid)
 
     @property
     def forces_n(self) -> np.ndarray:
@@ -279,6 +290,10 @@ def hit_spectra(
     pulse_samples = int(np.median([end - start + 1 for start, _, end in extents]))
 
     steps = [_quantisation_step(records[:, channel]) for channel in (0, 1)]
+    coarse_response = coarsely_quantised_response(records, steps[1])
+    response_step = steps[1] if coarse_response else 0.0
+    response_offset = (steps[1] * float(np.angle(np.mean(np.exp(2j * np.pi * records[:, 1] / steps[1])))) / (2 * np.pi)
+                       if coarse_response else 0.0)
     double_hits, clipped_hits = [], []
     for index, (record, (start, peak, end)) in enumerate(zip(records, extents)):
         after = record[0, end + 1 + pulse_samples :]
@@ -331,6 +346,10 @@ def hit_spectra(
     mains_harmonics: list[float] = []
     force_zero_from: int | None = None
     force_tail: ForceTail | None = None
+    coarse_force = steps[0] > 0 and np.abs(records[:, 0]).max() / steps[0] < COARSE_LEVELS
+    if coarse_force:
+        # the AC coupling's decay after the pulse is below one step: the replay continues it from the impulse
+        records, force_tail = _continue_force_from_impulse(records, extents, sample_rate_hz)
     prewindow_error_1_s = 0.0
     tail_start = int((1 - TAIL_FRACTION) * n_samples)
     tails_only = from_scatter and _steady_tails(records, tail_start)
@@ -376,7 +395,7 @@ def hit_spectra(
             if mains_base is not None:
                 quality.append(_mains_note(mains_base, mains_harmonics, "found on the quiet record tails"))
             quiet_slice = slice(tail_start, n_samples)
-            force_zero_from = _force_windowed_from(records[:, 0], extents)
+            force_zero_from = None if coarse_force else _force_windowed_from(records[:, 0], extents)
             prewindow = _exponential_prewindow_1_s(records, quiet_samples, tail_start, sample_rate_hz,
                                                    (0, 1) if force_zero_from is None else (1,))
             if prewindow is not None:
@@ -453,8 +472,12 @@ def hit_spectra(
                 "quantisation",
                 f"the {' and '.join(coarse)} records are coarsely quantised (steps of "
                 + ", ".join(f"{steps[i]:.3g} {('N', 'm/s²')[i]}" for i in (0, 1) if ("force", "response")[i] in coarse)
-                + "): the quantisation noise (step²/12 per sample) is part of the noise model — a property of the "
-                  "recording, not physics"))
+                + "): the quantisation noise (step²/12 per sample) is part of the noise model"
+                + ("; the force's AC-coupling decay after each pulse, below one step, is continued from the pulse's "
+                   "impulse for the replay" if coarse_force else "")
+                + ("; the replayed response is quantised with the same step, so the quantiser's distortion (the same "
+                   "in every hit) is not mistaken for physics" if coarse_response else "")
+                + " — a property of the recording, not physics"))
         dof = float(2 * len(used) * max(quiet.shape[-1] // 2, 1))
         where = ("the quiet record tails (last 25 %)" if noise_source == "record tails"
                  else f"the quiet pre-trigger ({quiet.shape[-1]} samples per hit)")
@@ -531,6 +554,8 @@ def hit_spectra(
         n_samples=int(n_samples),
         sample_rate_hz=float(sample_rate_hz),
         decay_rate_1_s=float(decay_rate_1_s),
+        response_step=response_step,
+        response_offset=response_offset,
     )
     return HitSpectra(
         freq_hz=full_freq_hz[grid],
@@ -704,6 +729,25 @@ def _continue_windowed_force(
     return records, ForceTail(np.array(levels), np.array(errors), np.array(starts))
 
 
+def _continue_force_from_impulse(
+    records: np.ndarray, extents: list[tuple[int, int, int]], sample_rate_hz: float
+) -> tuple[np.ndarray, ForceTail]:
+    """Coarsely quantised force records, continued after the pulse as the AC coupling's decay predicted from the
+    pulse's impulse J (a first-order high-pass leaves ``−ω_c·J·exp(−ω_c t)`` after a short pulse), in place of the
+    zeros and single steps the quantiser made of it; the level is uncertain as the corner is."""
+    records = records.copy()
+    omega_c = 2 * np.pi * AC_COUPLING_HZ
+    levels, starts = [], []
+    for record, (start, _, end) in zip(records, extents):
+        impulse_ns = float(record[0, start : end + 1].sum()) / sample_rate_hz
+        levels.append(-omega_c * impulse_ns)
+        starts.append(end + 1)
+        after_s = np.arange(record.shape[-1] - end - 1) / sample_rate_hz
+        record[0, end + 1 :] = levels[-1] * np.exp(-omega_c * after_s)
+    levels_n = np.array(levels)
+    return records, ForceTail(levels_n, AC_COUPLING_UNCERTAINTY * np.abs(levels_n), np.array(starts))
+
+
 def _steady_tails(records: np.ndarray, tail_start: int) -> bool:
     """Whether every response has decayed to steady noise in the record tails: the response level (RMS about the
     mean, median over hits) of the tail's three thirds agrees within :data:`STEADY_TAIL_SPREAD`, with no line
@@ -802,6 +846,16 @@ def _narrowband_lines_hz(quiet: np.ndarray, sample_rate_hz: float, mains_hz: lis
     peaks, _ = scipy.signal.find_peaks(periodogram / np.maximum(floor, 1e-300), height=30.0)
     return [float(freq_hz[p]) for p in peaks if freq_hz[p] > 0
             and all(abs(freq_hz[p] - m) > resolution_hz for m in mains_hz)]
+
+
+def coarsely_quantised_response(records: np.ndarray, step: float | None = None) -> bool:
+    """Whether the response records (hits, 2, samples) are stored with steps coarse against their peak (fewer than
+    :data:`COARSE_LEVELS`) and against their noise (the records end within one step): then the quantiser's error is
+    deterministic, not noise, and a replay must be quantised the same way. ``step``: the response's step if known."""
+    step = _quantisation_step(records[:, 1]) if step is None else step
+    ending = records[:, 1, -max(records.shape[-1] // 10, 2):]
+    return bool(step > 0 and np.abs(records[:, 1]).max() / step < COARSE_LEVELS
+                and float(np.median(np.std(np.diff(ending, axis=1), axis=1))) / np.sqrt(2) < step)
 
 
 def _quantisation_step(records: np.ndarray) -> float:
