@@ -108,13 +108,12 @@ def record_session(path: Path, hits: int, seed: int, rig: Path) -> Path:
     return path
 
 
-def diagnose_control(path: Path, mass_kg: float, out: Path) -> dict:
-    """``gasfilm diagnose FILE --mass M --json`` and its result."""
+def diagnose_control(path: Path, start: list[str], out: Path) -> dict:
+    """``gasfilm diagnose FILE START --json`` (START: ``--mass M`` or ``--rig SPEC``) and its result."""
     buffer, errors = io.StringIO(), io.StringIO()
     started = time.monotonic()
     with contextlib.redirect_stdout(buffer), contextlib.redirect_stderr(errors):
-        code = gasfilm(["diagnose", str(path), "--mass", f"{mass_kg:g}", "--json", "--out", str(out / path.stem),
-                        "--overwrite"])
+        code = gasfilm(["diagnose", str(path), *start, "--json", "--out", str(out / path.stem), "--overwrite"])
     text = buffer.getvalue()
     result = json.loads(text[text.index("{"):]) if code == 0 else {"verdict": f"exit {code}",
                                                                      "error": errors.getvalue().strip()[-300:]}
@@ -129,20 +128,27 @@ def main() -> None:
     parser.add_argument("--rig", type=Path, default=SD_RIG,
                         help="rig the simulator plays (default: the paper's SD film, the class a start read off the "
                              "FRF has)")
+    parser.add_argument("--with-rig", action="store_true",
+                        help="diagnose against the rig spec the session was recorded with (--rig) instead of --mass")
     parser.add_argument("--out", type=Path, default=None, help="folder for the UFF files and the diagnoses")
     parser.add_argument("--only", nargs="*", default=list(CONTROLS), choices=list(CONTROLS))
     args = parser.parse_args()
     out = args.out or Path(tempfile.mkdtemp(prefix="controls-"))
     out.mkdir(parents=True, exist_ok=True)
     session = record_session(out / f"nominal-{args.rig.stem}.h5", args.hits, args.seed, args.rig)
-    mass_kg = RigSpec.from_toml(load_recordings(session).rig_spec_toml, str(session)).mass_kg
-    print(f"controls in {out} ({args.hits} hits, mass {mass_kg:g} kg)")
+    recorded = RigSpec.from_toml(load_recordings(session).rig_spec_toml, str(session))
+    start = ["--mass", f"{recorded.mass_kg:g}"]
+    if args.with_rig:
+        rig_path = out / f"{session.stem}-rig.toml"
+        rig_path.write_text(recorded.to_toml())
+        start = ["--rig", str(rig_path)]
+    print(f"controls in {out} ({args.hits} hits of '{recorded.name}'; diagnose {' '.join(start)})")
     print("| control | verdict | findings | not explained | quality | noise | χ²/point after | time |")
     print("| --- | --- | --- | --- | --- | --- | --- | --- |")
     failures = 0
     for name in args.only:
         path = write_control(session, name, out)
-        result = diagnose_control(path, mass_kg, out)
+        result = diagnose_control(path, start, out)
         findings = ", ".join(f["effect"] for f in result.get("findings", [])) or "none"
         unexplained = ", ".join(f"{u['band_hz'][0]:.0f}–{u['band_hz'][1]:.0f} Hz"
                                 for u in result.get("unexplained", [])) or "none"

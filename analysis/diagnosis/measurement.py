@@ -124,6 +124,11 @@ class HitSpectra:
         gives the replayed per-hit FRFs when they come from an exact nonlinear simulation."""
         if self.replay is None:
             return self
+        if self.replay.additive:
+            if replayed is None:
+                replayed = self.replay.replayed(model_accelerance)
+            return replace(self, h=self.replay.measured_h - (replayed - self.replay.laplace(model_accelerance)),
+                           variance=self.replay.measured_variance)
         ratio = self.replay.ratio(model_accelerance, replayed)
         return replace(self, h=self.replay.measured_h / ratio,
                        variance=self.replay.measured_variance / np.abs(ratio) ** 2)
@@ -147,6 +152,9 @@ class Replay:
     #: A coarsely quantised response (step and offset, m/s²): the replayed response is quantised the same way.
     response_step: float = 0.0
     response_offset: float = 0.0
+    #: Correct the measured FRFs by the replay's difference from the model, not its ratio: records that start inside
+    #: the pulse miss part of their response (the mass line's, not the model's shape), which a ratio would scale.
+    additive: bool = False
 
     def quantised(self, responses: np.ndarray) -> np.ndarray:
         """Replayed response records as the recording's quantiser stores them (unchanged for a fine one)."""
@@ -187,9 +195,12 @@ class Replay:
         given) over the model's windowed Laplace accelerance."""
         if replayed is None:
             replayed = self.replayed(model_accelerance)
-        laplace = model_accelerance(np.fft.rfftfreq(self.n_samples, 1.0 / self.sample_rate_hz)[self.grid],
-                                    self.decay_rate_1_s)
-        return replayed / laplace
+        return replayed / self.laplace(model_accelerance)
+
+    def laplace(self, model_accelerance: Callable[[np.ndarray, float], np.ndarray]) -> np.ndarray:
+        """The model's windowed Laplace accelerance on the grid (what the corrected FRFs are compared with)."""
+        return model_accelerance(np.fft.rfftfreq(self.n_samples, 1.0 / self.sample_rate_hz)[self.grid],
+                                 self.decay_rate_1_s)
 
 
 def _pulse_extent(force_n: np.ndarray) -> tuple[int, int, int]:
@@ -512,6 +523,9 @@ def hit_spectra(
 
     # analysis band: where the hammer puts energy in (within 20 dB of its low-frequency level), below 0.4 fs
     mean_force_power = force_power.mean(axis=0)
+    if late:  # the band the hammer excites is the whole pulse's, not the recorded part's (wider: it is shorter)
+        mean_force_power = np.mean(np.abs(np.fft.rfft(_with_fronts(records[:, 0] * force_w, fronts, n_samples),
+                                                      axis=1)) ** 2, axis=0)
     low, high = band_hz if band_hz else (10.0, 0.4 * sample_rate_hz)
     if band_hz is None:
         reference = np.median(mean_force_power[(full_freq_hz >= low) & (full_freq_hz <= low + 50)])
@@ -556,6 +570,7 @@ def hit_spectra(
         decay_rate_1_s=float(decay_rate_1_s),
         response_step=response_step,
         response_offset=response_offset,
+        additive=bool(late),
     )
     return HitSpectra(
         freq_hz=full_freq_hz[grid],
