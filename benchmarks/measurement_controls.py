@@ -67,10 +67,16 @@ def floor_vibration(records: np.ndarray, rate_hz: float, spec: RigSpec) -> np.nd
 
 
 def late_trigger(records: np.ndarray, rate_hz: float, spec: RigSpec) -> np.ndarray:
-    """The trigger fired late: the records start 0.3 ms after the force pulse began (its first ~40 %, and the start
+    """The trigger fired late: each record starts halfway up its force pulse's rise (the first part of the pulse, and
     of the response, are not recorded; the pre-trigger misses the pulse start)."""
-    pulse_start = min(int(np.flatnonzero(np.abs(r[0]) > 0.02 * np.abs(r[0]).max())[0]) for r in records)
-    return records[:, :, pulse_start + int(round(0.3e-3 * rate_hz)):]
+    firsts = []
+    for record in records:
+        magnitude = np.abs(record[0])
+        peak = int(np.argmax(magnitude))
+        start = int(np.flatnonzero(magnitude > 0.02 * magnitude[peak])[0])
+        firsts.append(start + (peak - start) // 2)
+    length = records.shape[-1] - max(firsts)
+    return np.stack([record[:, first : first + length] for record, first in zip(records, firsts)])
 
 
 CONTROLS: dict[str, Callable[[np.ndarray, float, RigSpec], np.ndarray] | None] = {

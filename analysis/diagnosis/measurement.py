@@ -787,12 +787,14 @@ def _missing_pulse_fronts(
     the rise and the mirrored fall, relative to the mirrored fall (at least :data:`FRONT_UNCERTAINTY`)."""
     fronts, mismatch, scale = [], 0.0, 0.0
     for row, (start, peak, end) in zip(force_n, extents):
-        if start > 0 or peak == 0 or peak >= row.size - 1 or abs(row[0]) <= 0.02 * abs(row[peak]):
+        if start > 0 or peak >= row.size - 1 or abs(row[0]) <= 0.02 * abs(row[peak]):
             fronts.append(np.zeros(0))
             continue
-        before, at, after = row[peak - 1 : peak + 2]
-        curvature = before - 2 * at + after
-        centre = peak + (0.5 * (before - after) / curvature if curvature != 0 else 0.0)
+        centre = float(peak)  # a record that starts at its peak is mirrored about its first sample
+        if peak > 0:
+            before, at, after = row[peak - 1 : peak + 2]
+            curvature = before - 2 * at + after
+            centre += 0.5 * (before - after) / curvature if curvature != 0 else 0.0
         last = min(end + 1, row.size - 1)  # the foot below 2 % belongs to the pulse too
         fall = scipy.interpolate.CubicSpline(np.arange(peak, last + 1), row[peak : last + 1])
         missing = int(np.floor(last - 2 * centre))
