@@ -26,6 +26,7 @@ import numpy as np
 from gasfilm.analysis.diagnosis.candidates import CANDIDATES, EQUIVALENT, separating_measurement
 from gasfilm.analysis.diagnosis.fitspace import fit_context, spec_slots, without_effect
 from gasfilm.analysis.diagnosis.measurement import HitSpectra, contiguous_bands, weighted_mean
+from gasfilm.analysis.diagnosis.modes import unmodelled_resonances_hz
 from gasfilm.analysis.diagnosis.result import Alternative, Diagnosis, Finding, Unexplained
 from gasfilm.analysis.diagnosis.selection import (
     BIC_MARGIN,
@@ -487,6 +488,12 @@ def _unexplained(
     if overall > ADEQUATE_CHI2_PER_POINT and not items:
         items.append(Unexplained((float(freq_hz[0]), float(freq_hz[-1])), _hits_in(spectra, per_point), 1.0,
                                  _character(spectra, evidence, spec, 0, len(freq_hz) - 1)))
+    for item in items:
+        item.unmodelled_resonances_hz = unmodelled_resonances_hz(evidence, spec, item.band_hz)
+        if item.unmodelled_resonances_hz:
+            item.character = (f"resonances near {', '.join(f'{f:.0f}' for f in item.unmodelled_resonances_hz)} Hz "
+                              f"that the spec does not have (modes of the structure no term describes); "
+                              + item.character)
     for term in rejected:
         for item in items:
             if item.band_hz[0] <= term.band_hz[1] and term.band_hz[0] <= item.band_hz[1]:
