@@ -11,18 +11,24 @@ from gasfilm.analysis.physics.spec import RigSpec
 
 #: A resonance stands this many times above the lowest |H| on either side (as :func:`spectra.resonance_lines`).
 PROMINENCE = 1.5
-#: A measured resonance is the spec's when the spec has one within this fraction of its frequency.
-SAME_MODE = 0.03
+#: A resonance of the spec accounts for the nearest measured one within this fraction of its frequency (its
+#: parameters may be off: a shifted resonance is the recalibration's, not a missing mode).
+SAME_MODE = 0.15
 
 
 def unmodelled_resonances_hz(evidence: Evidence, spec: RigSpec, band_hz: tuple[float, float]) -> list[float]:
-    """Frequencies (Hz) of the resonances of the recordings' averaged FRF inside ``band_hz`` that ``spec`` replayed
-    the same way has no resonance near (within :data:`SAME_MODE`), lowest first."""
+    """Frequencies (Hz) of the resonances of the recordings' averaged FRF inside ``band_hz`` that no resonance of
+    ``spec`` (replayed the same way) accounts for: each of the spec's resonances takes the nearest measured one within
+    :data:`SAME_MODE`; those left are unmodelled, lowest first."""
     freq_hz = evidence.freq_hz
     measured = np.abs(evidence.spectra.mean()[0])
     model = np.abs(evidence.mean_prediction(spec))
     measured_peaks, _ = scipy.signal.find_peaks(np.log(measured + 1e-300), prominence=np.log(PROMINENCE))
     model_peaks, _ = scipy.signal.find_peaks(np.log(model + 1e-300), prominence=np.log(PROMINENCE))
-    model_hz = freq_hz[model_peaks]
-    return [float(freq_hz[p]) for p in measured_peaks if band_hz[0] <= freq_hz[p] <= band_hz[1]
-            and not np.any(np.abs(model_hz - freq_hz[p]) <= SAME_MODE * freq_hz[p])]
+    left = [float(freq_hz[p]) for p in measured_peaks]
+    for model_hz in sorted(freq_hz[model_peaks], key=lambda f: -model[np.searchsorted(freq_hz, f)]):
+        if left:
+            nearest = min(left, key=lambda f: abs(f - model_hz))
+            if abs(nearest - model_hz) <= SAME_MODE * model_hz:
+                left.remove(nearest)
+    return [f for f in left if band_hz[0] <= f <= band_hz[1]]
