@@ -240,12 +240,16 @@ def force_level_db(freq_hz: np.ndarray, gff: np.ndarray) -> np.ndarray:
 
 def usable_band_hz(freq_hz: np.ndarray, gff: np.ndarray, drop_db: float = USABLE_DROP_DB) -> tuple[float, float]:
     """(lowest line above 0 Hz, frequency where the force spectrum first falls ``drop_db`` below its low-frequency
-    level) in Hz; the upper end is the last line when it never falls that far."""
+    level) in Hz; the upper end is the last line when it never falls that far, or when there is no force spectrum
+    (NaN: an FRF read from UFF)."""
     freq_hz = np.asarray(freq_hz, dtype=float)
     level = force_level_db(freq_hz, gff)
     positive = np.flatnonzero(freq_hz > 0)
     if positive.size == 0:
         return 0.0, 0.0
+    if not np.any(np.isfinite(np.asarray(gff, dtype=float)[positive])):
+        # an FRF read from a file without its force spectrum (UFF 58 H1): the band is not known to be limited
+        return float(freq_hz[positive[0]]), float(freq_hz[positive[-1]])
     below = positive[level[positive] < -abs(drop_db)]
     upper = freq_hz[below[0]] if below.size else freq_hz[positive[-1]]
     return float(freq_hz[positive[0]]), float(upper)

@@ -82,10 +82,12 @@ class Unexplained:
     hits: list[int]  # hit numbers of the recordings (0-based, as loaded)
     chi2_share: float  # fraction of the final χ² excess over the noise that lies here
     character: str  # in words: harmonics → nonlinearity, a jump → a change during the session, ...
+    unmodelled_resonances_hz: list[float] = field(default_factory=list)  # resonances here the spec does not have
 
     def to_dict(self) -> dict:
         return {"band_hz": [round(self.band_hz[0], 1), round(self.band_hz[1], 1)], "hits": self.hits,
-                "chi2_share": round(self.chi2_share, 3), "character": self.character}
+                "chi2_share": round(self.chi2_share, 3), "character": self.character,
+                "unmodelled_resonances_hz": [round(f, 1) for f in self.unmodelled_resonances_hz]}
 
 
 @dataclass
