@@ -31,10 +31,13 @@ _ORDER_START = (0.05, 1.95)
 #: local searches of the default fitter from the best distinct Latin-hypercube starts
 _LOCAL_SEARCHES = 8
 #: best local-search results polished on the accelerance
-_POLISHED = 2
+_POLISHED = 4
 #: projected Latin-hypercube samples with the lowest accelerance residual that are polished as they are
 _ACCELERANCE_STARTS = 6
-#: iterations of the brief polish every local result gets
+#: least difference of two briefly polished results in some coordinate (log coefficient or order) for both to be
+#: polished to convergence
+_DISTINCT = 0.01
+#: iterations of the brief polish every local result gets (on the lines of the log-stiffness stage)
 _BRIEF_POLISH = 15
 #: Latin-hypercube shapes scored per shape coordinate
 _SAMPLES_PER_SHAPE = 32
@@ -166,12 +169,14 @@ class Projection:
         return starts
 
     def jacobian(self, psi: np.ndarray) -> np.ndarray:
-        """Forward differences of :meth:`residual`, all shifted shapes projected in one call."""
+        """Forward differences of :meth:`residual` at shapes (k, free), shape (k, 2n, free): all shifted shapes
+        projected in one call."""
         step = 1e-7 * np.maximum(1.0, np.abs(psi))
         step = np.where(psi + step > self.upper, -step, step)
-        points = np.vstack([psi, psi + np.diag(step)])
+        shifted = psi[:, np.newaxis, :] + step[:, :, np.newaxis] * np.eye(self.size)
+        points = np.concatenate([psi[:, np.newaxis, :], shifted], axis=1)
         residuals = self.project(points)[1]
-        return ((residuals[1:] - residuals[0]) / step[:, np.newaxis]).T
+        return np.swapaxes((residuals[:, 1:] - residuals[:, :1]) / step[:, :, np.newaxis], -1, -2)
 
 
 def _levenberg_marquardt(
@@ -182,79 +187,113 @@ def _levenberg_marquardt(
     upper: np.ndarray,
     max_iterations: int,
     tolerance: float,
-) -> tuple[np.ndarray, float]:
-    """Box-constrained Levenberg–Marquardt (Nielsen's damping update, steps projected onto the box).
+    good_enough: float = 0.0,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Box-constrained Levenberg–Marquardt (Nielsen's damping update) from many starts at once.
 
-    Solves the small scaled normal equations instead of factorising the tall Jacobian: with a few parameters and
-    thousands of residuals this is an order of magnitude faster than a QR/SVD per step, and the damping keeps it
-    stable where the normal equations are ill-conditioned. Stops when a successful step lowers the cost by less
-    than ``tolerance`` (relative) and the local model predicted no more (MINPACK's ftol test), after
-    ``max_iterations``, or when no damping gives a lower cost. Returns (x, sum of squared residuals).
+    ``x0`` (starts, p); ``residual`` maps points (k, p) to residuals (k, m) and ``jacobian`` to (k, m, p), so
+    every iteration makes one call for all starts still running (each start keeps its own damping and stops on
+    its own). A coordinate at a bound whose gradient points out of the box is held there for the step (the
+    other coordinates' step is solved without it) instead of being clipped after the step, which would spoil
+    the step of the others and make the search crawl along the bound. Solves the small scaled normal equations
+    instead of factorising the tall Jacobian. A start stops when a successful step lowers its cost by less than
+    ``tolerance`` (relative) and the local model predicted no more (MINPACK's ftol test), after
+    ``max_iterations``, or when no damping gives a lower cost; all stop as soon as one start's cost is at most
+    ``good_enough``. Returns (x (starts, p), sums of squared residuals (starts,)).
     """
     x = np.clip(np.asarray(x0, dtype=float), lower, upper)
     r = residual(x)
-    cost = float(r @ r)
+    cost = np.einsum("km,km->k", r, r)
     jac = jacobian(x)
-    damping, growth = 1e-3, 2.0
+    starts, size = x.shape
+    damping, growth = np.full(starts, 1e-3), np.full(starts, 2.0)
+    running = np.ones(starts, dtype=bool)
+    identity = np.eye(size)
     for _ in range(max_iterations):
-        normal = jac.T @ jac
-        gradient = jac.T @ r
-        scale = np.sqrt(np.diag(normal))
-        scale[~(scale > 0)] = 1.0
-        scaled = normal / np.outer(scale, scale)
-        try:
-            step = -np.linalg.solve(scaled + damping * np.eye(len(x)), gradient / scale) / scale
-        except np.linalg.LinAlgError:
-            damping *= growth
-            growth *= 2.0
-            continue
-        trial = np.clip(x + step, lower, upper)
+        active = np.flatnonzero(running)
+        if active.size == 0 or np.min(cost) <= good_enough:
+            break
+        x_a, r_a, jac_a, cost_a = x[active], r[active], jac[active], cost[active]
+        jac_t = np.swapaxes(jac_a, -1, -2)
+        normal = jac_t @ jac_a
+        gradient = (jac_t @ r_a[..., np.newaxis])[..., 0]
+        held = ((x_a <= lower) & (gradient > 0)) | ((x_a >= upper) & (gradient < 0))
+        scale = np.sqrt(np.einsum("kii->ki", normal))
+        scale[~(scale > 0) | held] = 1.0
+        scaled = normal / (scale[:, :, np.newaxis] * scale[:, np.newaxis, :])
+        free = ~held
+        scaled = scaled * (free[:, :, np.newaxis] & free[:, np.newaxis, :]) + identity * held[:, np.newaxis, :]
+        system = scaled + damping[active, np.newaxis, np.newaxis] * identity
+        right = np.where(held, 0.0, gradient / scale)
+        step = -_solve_each(system, right) / scale
+        trial = np.clip(x_a + step, lower, upper)
         r_trial = residual(trial)
-        cost_trial = float(r_trial @ r_trial)
-        linear = r + jac @ (trial - x)
-        predicted = cost - float(linear @ linear)
-        if np.isfinite(cost_trial) and cost_trial < cost:
-            gain = (cost - cost_trial) / predicted if predicted > 0 else 0.0
-            converged = cost - cost_trial <= tolerance * cost and predicted <= tolerance * cost
-            x, r, cost = trial, r_trial, cost_trial
-            if converged or cost == 0.0:
-                break
-            jac = jacobian(x)
-            damping *= max(1.0 / 3.0, 1.0 - (2.0 * gain - 1.0) ** 3)
-            growth = 2.0
-        else:
-            damping *= growth
-            growth *= 2.0
-            if damping > 1e16:
-                break
+        cost_trial = np.einsum("km,km->k", r_trial, r_trial)
+        linear = r_a + (jac_a @ (trial - x_a)[..., np.newaxis])[..., 0]
+        predicted = cost_a - np.einsum("km,km->k", linear, linear)
+        better = np.isfinite(cost_trial) & (cost_trial < cost_a)
+        with np.errstate(all="ignore"):
+            gain = np.where(predicted > 0, (cost_a - cost_trial) / predicted, 0.0)
+        converged = better & (
+            ((cost_a - cost_trial <= tolerance * cost_a) & (predicted <= tolerance * cost_a)) | (cost_trial == 0.0)
+        )
+        moved = active[better]
+        x[moved], r[moved], cost[moved] = trial[better], r_trial[better], cost_trial[better]
+        running[active[converged]] = False
+        going_on = better & ~converged
+        if np.any(going_on):
+            jac[active[going_on]] = jacobian(trial[going_on])
+            damping[active[going_on]] *= np.maximum(1.0 / 3.0, 1.0 - (2.0 * gain[going_on] - 1.0) ** 3)
+            growth[active[going_on]] = 2.0
+        failed = active[~better]
+        damping[failed] *= growth[failed]
+        growth[failed] *= 2.0
+        running[failed[damping[failed] > 1e16]] = False
     return x, cost
+
+
+def _solve_each(system: np.ndarray, right: np.ndarray) -> np.ndarray:
+    """Solutions (k, p) of the systems (k, p, p) with right-hand sides (k, p); a singular system gives a zero step
+    (its start then counts the iteration as failed and raises its damping)."""
+    try:
+        return np.linalg.solve(system, right[..., np.newaxis])[..., 0]
+    except np.linalg.LinAlgError:
+        solutions = np.zeros_like(right)
+        for k in range(len(system)):
+            try:
+                solutions[k] = np.linalg.solve(system[k], right[k])
+            except np.linalg.LinAlgError:
+                pass
+        return solutions
 
 
 def _projected_searches(
     projection: Projection, searches: int, rng: np.random.Generator
 ) -> list[tuple[float, np.ndarray, np.ndarray]]:
     """Local searches over the branch shapes from the best-scored distinct Latin-hypercube shapes, then from
-    split branches; (log cost, coordinates, shape) of each, stopping early on an exact fit."""
+    split branches, each group in one batched search; (log cost, coordinates, shape) of each, without the splits
+    when a first search fits exactly."""
     problem, index = projection.problem, projection.index
     found: list[tuple[float, np.ndarray, np.ndarray]] = []
 
-    def local_search(start: np.ndarray) -> float:
-        shape, _ = _levenberg_marquardt(
+    def local_searches(starts: np.ndarray) -> float:
+        shapes, _ = _levenberg_marquardt(
             projection.residual,
             projection.jacobian,
-            start,
+            starts,
             projection.lower,
             projection.upper,
             max_iterations=50 * projection.size,
             tolerance=1e-10,
+            good_enough=_EXACT_LOG_COST * len(index),
         )
-        theta = projection.project(shape)[0]
-        cost = float(problem.log_cost(theta[np.newaxis], index, projection.weights)[0])
-        found.append((cost, theta, shape))
-        return cost
+        thetas = projection.project(shapes)[0]
+        costs = problem.log_cost(thetas, index, projection.weights)
+        found.extend((float(cost), theta, shape) for cost, theta, shape in zip(costs, thetas, shapes))
+        return float(np.min(costs))
 
     if projection.size == 0:
-        local_search(np.zeros(0))
+        local_searches(np.zeros((1, 0)))
         return found
     unit = qmc.LatinHypercube(d=projection.size, seed=rng).random(_SAMPLES_PER_SHAPE * projection.size)
     # Each sample also with one order at 0: a spring-pot of order 0 is a spring, and a network whose best fit
@@ -280,13 +319,11 @@ def _projected_searches(
             break
         if all(np.linalg.norm(unit[start] - unit[other]) > _START_SPACING for other in chosen):
             chosen.append(int(start))
-    for start in chosen:
-        if local_search(shapes[start]) <= _EXACT_LOG_COST:
-            return found
-    best = min(found, key=lambda item: item[0])
-    for start in projection.split_starts(best[2]):
-        if local_search(start) <= _EXACT_LOG_COST:
-            break
+    if chosen and local_searches(shapes[chosen]) <= _EXACT_LOG_COST:
+        return found
+    splits = projection.split_starts(min(found, key=lambda item: item[0])[2])
+    if splits:
+        local_searches(np.array(splits))
     return found
 
 
@@ -312,26 +349,30 @@ def default_search(problem: Problem, seed: int, progress: Callable[[float], None
         if best_log_cost <= _EXACT_LOG_COST:
             break
     # Every local result is polished briefly on the accelerance (the log-stiffness optimum is not the RMS
-    # optimum when the model cannot fit the data), the best ones to convergence.
-    def brief_polish(theta: np.ndarray) -> tuple[float, np.ndarray]:
-        theta, cost = _levenberg_marquardt(
-            problem.acc_residual, problem.acc_jacobian, theta, coords.lower, coords.upper, _BRIEF_POLISH, 1e-10
-        )
-        return cost, theta
-
-    polished = []
-    for count, (_, theta) in enumerate(candidates):
-        if progress is not None:
-            progress(0.6 + 0.3 * count / len(candidates))
-        polished.append(brief_polish(theta))
-    polished.sort(key=lambda item: item[0])
-    final = []
-    for _, theta in polished[:_POLISHED]:
-        theta, cost = _levenberg_marquardt(
-            problem.acc_residual, problem.acc_jacobian, theta, coords.lower, coords.upper, 200, 1e-10
-        )
-        final.append((cost, theta))
-    best_cost, best_theta = min(final, key=lambda item: item[0])
+    # optimum when the model cannot fit the data), the best ones to convergence; each group in one batch.
+    exact = _EXACT_LOG_COST * float(np.sum(np.abs(problem.h[index]) ** 2 * problem.sqrt_w[index] ** 2))
+    thetas, costs = _levenberg_marquardt(
+        lambda theta: problem.acc_residual(theta, index),
+        lambda theta: problem.acc_jacobian(theta, index),
+        np.array([theta for _, theta in candidates]),
+        coords.lower,
+        coords.upper,
+        _BRIEF_POLISH,
+        1e-10,
+        good_enough=exact,
+    )
+    if progress is not None:
+        progress(0.9)
+    best: list[int] = []
+    for candidate in np.argsort(costs, kind="stable"):
+        if len(best) == _POLISHED:
+            break
+        if all(np.max(np.abs(thetas[candidate] - thetas[other])) > _DISTINCT for other in best):
+            best.append(int(candidate))
+    thetas, costs = _levenberg_marquardt(
+        problem.acc_residual, problem.acc_jacobian, thetas[best], coords.lower, coords.upper, 200, 1e-10
+    )
+    best_theta, best_cost = thetas[np.argmin(costs)], float(np.min(costs))
     logger.debug(
         "%s: %d candidates polished on the accelerance, best weighted sum of squares %.4g",
         problem.model.name, len(candidates), best_cost,
