@@ -34,8 +34,7 @@ _LOCAL_SEARCHES = 8
 _POLISHED = 4
 #: projected Latin-hypercube samples with the lowest accelerance residual that are polished as they are
 _ACCELERANCE_STARTS = 6
-#: least difference of two briefly polished results in some coordinate (log coefficient or order) for both to be
-#: polished to convergence
+#: least difference of two candidates in some coordinate (log coefficient or order) for both to be polished
 _DISTINCT = 0.01
 #: iterations of the brief polish every local result gets (on the lines of the log-stiffness stage)
 _BRIEF_POLISH = 15
@@ -43,6 +42,17 @@ _BRIEF_POLISH = 15
 _SAMPLES_PER_SHAPE = 32
 #: least distance between two starts of local searches, in the unit cube of the shapes
 _START_SPACING = 0.1
+#: relative cost decrease at which a local search over the shapes, or the brief polish, stops: their results are
+#: polished on the accelerance anyway
+_SEARCH_TOLERANCE = 1e-6
+#: relative cost decrease at which the final polish on the accelerance stops
+_POLISH_TOLERANCE = 1e-10
+#: relative excess of cost over the best of the final polish at which a start is given up after
+#: :data:`_BEHIND_AFTER` iterations (its RMS then is 0.05 % above the best, half the accuracy asked of the fitter)
+_POLISH_BEHIND = 1e-3
+_BEHIND_AFTER = 20
+#: iterations of a local search over the shapes, per shape coordinate
+_SEARCH_ITERATIONS = 25
 #: mean squared log-stiffness residual at which the data are matched to round-off and the search stops
 _EXACT_LOG_COST = 1e-20
 
@@ -111,11 +121,14 @@ class Projection:
             basis = np.stack([1.0 / b if self.compliance else b for b in basis], axis=-1)
             basis = basis * self.row_weight[:, np.newaxis]
             a = np.concatenate([basis.real, basis.imag], axis=-2)
-            a = np.nan_to_num(a, nan=0.0, posinf=0.0, neginf=0.0)
+            if not np.all(np.isfinite(a)):
+                a = np.nan_to_num(a, nan=0.0, posinf=0.0, neginf=0.0)
             coefficients = self._solve(a)
             # A branch whose best coefficient is negative is dropped and the others solved again.
-            a = a * (coefficients > 0)[..., np.newaxis, :]
-            coefficients = self._solve(a)
+            positive = coefficients > 0
+            if not np.all(positive):
+                a = a * positive[..., np.newaxis, :]
+                coefficients = self._solve(a)
             valid = np.isfinite(coefficients) & (coefficients > 0)
             residual = (a @ np.where(valid, coefficients, 0.0)[..., np.newaxis])[..., 0] - self.target
             log_coefficients = np.log(np.where(valid, coefficients, 1.0))
@@ -131,14 +144,24 @@ class Projection:
                 theta[..., member] += log_scales[..., b]
         return np.clip(theta, coords.lower, coords.upper), residual
 
+    def residual_and_jacobian(self, psi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The weighted relative stiffness residual (k, 2n) at shapes (k, free) and its Jacobian (k, 2n, free) by
+        forward differences: the shapes and all their shifts projected in one call. (The exact variable-projection
+        Jacobian from the branches' analytic gradients was tried: no faster, since a gradient evaluation costs
+        about as much as the shifted projections.)"""
+        step = 1e-7 * np.maximum(1.0, np.abs(psi))
+        step = np.where(psi + step > self.upper, -step, step)
+        shifted = psi[:, np.newaxis, :] + step[:, :, np.newaxis] * np.eye(self.size)
+        points = np.concatenate([psi[:, np.newaxis, :], shifted], axis=1)
+        residuals = self.project(points)[1]
+        jacobian = np.swapaxes((residuals[:, 1:] - residuals[:, :1]) / step[:, :, np.newaxis], -1, -2)
+        return residuals[:, 0], jacobian
+
     def _solve(self, a: np.ndarray) -> np.ndarray:
         normal = np.swapaxes(a, -1, -2) @ a
         ridge = 1e-12 * np.trace(normal, axis1=-2, axis2=-1)[..., np.newaxis, np.newaxis] + 1e-300
         right = (np.swapaxes(a, -1, -2) @ self.target)[..., np.newaxis]
         return np.linalg.solve(normal + ridge * np.eye(len(self.branches)), right)[..., 0]
-
-    def residual(self, psi: np.ndarray) -> np.ndarray:
-        return self.project(psi)[1]
 
     def shape_of(self, theta: np.ndarray) -> np.ndarray:
         """Shapes (..., free) of coordinates (..., size): the inverse of :meth:`project` for its own output."""
@@ -168,88 +191,79 @@ class Projection:
                 starts.append(np.clip(start, self.lower, self.upper))
         return starts
 
-    def jacobian(self, psi: np.ndarray) -> np.ndarray:
-        """Forward differences of :meth:`residual` at shapes (k, free), shape (k, 2n, free): all shifted shapes
-        projected in one call."""
-        step = 1e-7 * np.maximum(1.0, np.abs(psi))
-        step = np.where(psi + step > self.upper, -step, step)
-        shifted = psi[:, np.newaxis, :] + step[:, :, np.newaxis] * np.eye(self.size)
-        points = np.concatenate([psi[:, np.newaxis, :], shifted], axis=1)
-        residuals = self.project(points)[1]
-        return np.swapaxes((residuals[:, 1:] - residuals[:, :1]) / step[:, :, np.newaxis], -1, -2)
-
-
 def _levenberg_marquardt(
-    residual: Callable[[np.ndarray], np.ndarray],
-    jacobian: Callable[[np.ndarray], np.ndarray],
+    evaluate: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]],
     x0: np.ndarray,
     lower: np.ndarray,
     upper: np.ndarray,
     max_iterations: int,
     tolerance: float,
     good_enough: float = 0.0,
+    behind: float = np.inf,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Box-constrained Levenberg–Marquardt (Nielsen's damping update) from many starts at once.
 
-    ``x0`` (starts, p); ``residual`` maps points (k, p) to residuals (k, m) and ``jacobian`` to (k, m, p), so
+    ``x0`` (starts, p); ``evaluate`` maps points (k, p) to residuals (k, m) and their Jacobians (k, m, p), so
     every iteration makes one call for all starts still running (each start keeps its own damping and stops on
-    its own). A coordinate at a bound whose gradient points out of the box is held there for the step (the
+    its own; the Jacobian comes with every trial point, which costs little next to a second call per iteration). A coordinate at a bound whose gradient points out of the box is held there for the step (the
     other coordinates' step is solved without it) instead of being clipped after the step, which would spoil
     the step of the others and make the search crawl along the bound. Solves the small scaled normal equations
     instead of factorising the tall Jacobian. A start stops when a successful step lowers its cost by less than
     ``tolerance`` (relative) and the local model predicted no more (MINPACK's ftol test), after
-    ``max_iterations``, or when no damping gives a lower cost; all stop as soon as one start's cost is at most
-    ``good_enough``. Returns (x (starts, p), sums of squared residuals (starts,)).
+    ``max_iterations``, when no damping gives a lower cost, or, after :data:`_BEHIND_AFTER` iterations, when its cost
+    is more than a factor ``1 + behind`` above the lowest cost of all starts; all stop as soon as one start's cost is
+    at most ``good_enough``. Returns (x (starts, p), sums of squared residuals (starts,)).
     """
     x = np.clip(np.asarray(x0, dtype=float), lower, upper)
-    r = residual(x)
+    r, jac = evaluate(x)
     cost = np.einsum("km,km->k", r, r)
-    jac = jacobian(x)
-    starts, size = x.shape
-    damping, growth = np.full(starts, 1e-3), np.full(starts, 2.0)
-    running = np.ones(starts, dtype=bool)
-    identity = np.eye(size)
-    for _ in range(max_iterations):
-        active = np.flatnonzero(running)
-        if active.size == 0 or np.min(cost) <= good_enough:
+    x_out, cost_out = x.copy(), cost.copy()
+    rows = np.arange(len(x))  # the working arrays hold the starts still running: rows of the output
+    damping, growth = np.full(len(x), 1e-3), np.full(len(x), 2.0)
+    identity = np.eye(x.shape[1])
+    for iteration in range(max_iterations):
+        if rows.size == 0 or np.min(cost_out) <= good_enough:
             break
-        x_a, r_a, jac_a, cost_a = x[active], r[active], jac[active], cost[active]
-        jac_t = np.swapaxes(jac_a, -1, -2)
-        normal = jac_t @ jac_a
-        gradient = (jac_t @ r_a[..., np.newaxis])[..., 0]
-        held = ((x_a <= lower) & (gradient > 0)) | ((x_a >= upper) & (gradient < 0))
+        jac_t = np.swapaxes(jac, -1, -2)
+        normal = jac_t @ jac
+        gradient = (jac_t @ r[..., np.newaxis])[..., 0]
+        held = ((x <= lower) & (gradient > 0)) | ((x >= upper) & (gradient < 0))
         scale = np.sqrt(np.einsum("kii->ki", normal))
         scale[~(scale > 0) | held] = 1.0
         scaled = normal / (scale[:, :, np.newaxis] * scale[:, np.newaxis, :])
         free = ~held
         scaled = scaled * (free[:, :, np.newaxis] & free[:, np.newaxis, :]) + identity * held[:, np.newaxis, :]
-        system = scaled + damping[active, np.newaxis, np.newaxis] * identity
+        system = scaled + damping[:, np.newaxis, np.newaxis] * identity
         right = np.where(held, 0.0, gradient / scale)
-        step = -_solve_each(system, right) / scale
-        trial = np.clip(x_a + step, lower, upper)
-        r_trial = residual(trial)
+        trial = np.clip(x - _solve_each(system, right) / scale, lower, upper)
+        step = trial - x
+        r_trial, jac_trial = evaluate(trial)
         cost_trial = np.einsum("km,km->k", r_trial, r_trial)
-        linear = r_a + (jac_a @ (trial - x_a)[..., np.newaxis])[..., 0]
-        predicted = cost_a - np.einsum("km,km->k", linear, linear)
-        better = np.isfinite(cost_trial) & (cost_trial < cost_a)
-        with np.errstate(all="ignore"):
-            gain = np.where(predicted > 0, (cost_a - cost_trial) / predicted, 0.0)
+        # cost − |r + J·step|², from the normal equations
+        predicted = -2.0 * np.einsum("ki,ki->k", gradient, step) - np.einsum("ki,kij,kj->k", step, normal, step)
+        better = np.isfinite(cost_trial) & (cost_trial < cost)
+        gain = np.divide(cost - cost_trial, predicted, out=np.zeros_like(cost), where=predicted > 0)
         converged = better & (
-            ((cost_a - cost_trial <= tolerance * cost_a) & (predicted <= tolerance * cost_a)) | (cost_trial == 0.0)
+            ((cost - cost_trial <= tolerance * cost) & (predicted <= tolerance * cost)) | (cost_trial == 0.0)
         )
-        moved = active[better]
-        x[moved], r[moved], cost[moved] = trial[better], r_trial[better], cost_trial[better]
-        running[active[converged]] = False
-        going_on = better & ~converged
-        if np.any(going_on):
-            jac[active[going_on]] = jacobian(trial[going_on])
-            damping[active[going_on]] *= np.maximum(1.0 / 3.0, 1.0 - (2.0 * gain[going_on] - 1.0) ** 3)
-            growth[active[going_on]] = 2.0
-        failed = active[~better]
-        damping[failed] *= growth[failed]
-        growth[failed] *= 2.0
-        running[failed[damping[failed] > 1e16]] = False
-    return x, cost
+        if np.all(better):
+            x, r, cost, jac = trial, r_trial, cost_trial, jac_trial
+        else:
+            x[better], r[better], cost[better], jac[better] = (
+                trial[better], r_trial[better], cost_trial[better], jac_trial[better])
+        x_out[rows[better]], cost_out[rows[better]] = x[better], cost[better]
+        damping[better] *= np.maximum(1.0 / 3.0, 1.0 - (2.0 * gain[better] - 1.0) ** 3)
+        growth[better] = 2.0
+        damping[~better] *= growth[~better]
+        growth[~better] *= 2.0
+        stopped = converged | (damping > 1e16)
+        if iteration >= _BEHIND_AFTER:
+            stopped |= cost > (1.0 + behind) * np.min(cost_out)
+        if np.any(stopped):
+            going = ~stopped
+            rows, x, r, cost, jac, damping, growth = (
+                rows[going], x[going], r[going], cost[going], jac[going], damping[going], growth[going])
+    return x_out, cost_out
 
 
 def _solve_each(system: np.ndarray, right: np.ndarray) -> np.ndarray:
@@ -278,13 +292,12 @@ def _projected_searches(
 
     def local_searches(starts: np.ndarray) -> float:
         shapes, _ = _levenberg_marquardt(
-            projection.residual,
-            projection.jacobian,
+            projection.residual_and_jacobian,
             starts,
             projection.lower,
             projection.upper,
-            max_iterations=50 * projection.size,
-            tolerance=1e-10,
+            max_iterations=_SEARCH_ITERATIONS * projection.size,
+            tolerance=_SEARCH_TOLERANCE,
             good_enough=_EXACT_LOG_COST * len(index),
         )
         thetas = projection.project(shapes)[0]
@@ -327,6 +340,18 @@ def _projected_searches(
     return found
 
 
+def _distinct(thetas: np.ndarray, count: int) -> list[int]:
+    """Indices of the first ``count`` rows of ``thetas`` that differ from every earlier chosen row by more than
+    :data:`_DISTINCT` in some coordinate: the same point reached from several starts is polished once."""
+    chosen: list[int] = []
+    for row, theta in enumerate(thetas):
+        if len(chosen) == count:
+            break
+        if all(np.max(np.abs(theta - thetas[other])) > _DISTINCT for other in chosen):
+            chosen.append(row)
+    return chosen
+
+
 def default_search(problem: Problem, seed: int, progress: Callable[[float], None] | None) -> np.ndarray:
     """Latin-hypercube shapes → projected local searches (two weightings) → branch splits → polish on the
     accelerance."""
@@ -351,26 +376,22 @@ def default_search(problem: Problem, seed: int, progress: Callable[[float], None
     # Every local result is polished briefly on the accelerance (the log-stiffness optimum is not the RMS
     # optimum when the model cannot fit the data), the best ones to convergence; each group in one batch.
     exact = _EXACT_LOG_COST * float(np.sum(np.abs(problem.h[index]) ** 2 * problem.sqrt_w[index] ** 2))
+    starts = np.array([theta for _, theta in candidates])
     thetas, costs = _levenberg_marquardt(
-        lambda theta: problem.acc_residual(theta, index),
-        lambda theta: problem.acc_jacobian(theta, index),
-        np.array([theta for _, theta in candidates]),
+        lambda theta: problem.acc_residual_and_jacobian(theta, index),
+        starts[_distinct(starts, len(starts))],
         coords.lower,
         coords.upper,
         _BRIEF_POLISH,
-        1e-10,
+        _SEARCH_TOLERANCE,
         good_enough=exact,
     )
     if progress is not None:
         progress(0.9)
-    best: list[int] = []
-    for candidate in np.argsort(costs, kind="stable"):
-        if len(best) == _POLISHED:
-            break
-        if all(np.max(np.abs(thetas[candidate] - thetas[other])) > _DISTINCT for other in best):
-            best.append(int(candidate))
+    best = np.argsort(costs, kind="stable")
     thetas, costs = _levenberg_marquardt(
-        problem.acc_residual, problem.acc_jacobian, thetas[best], coords.lower, coords.upper, 200, 1e-10
+        problem.acc_residual_and_jacobian, thetas[best[_distinct(thetas[best], _POLISHED)]], coords.lower, coords.upper, 200, _POLISH_TOLERANCE,
+        behind=_POLISH_BEHIND,
     )
     best_theta, best_cost = thetas[np.argmin(costs)], float(np.min(costs))
     logger.debug(
