@@ -233,6 +233,7 @@ class SimulatedNI9234:
         self._noise_rms_v = nyquist_bandwidth * np.hypot(sensor_noise_v, module_noise_v) if self.noise else None
         self._hp_b, self._hp_a = scipy.signal.butter(1, AC_COUPLING_HZ, "highpass", fs=fs)
         self._hp_state = np.zeros((channel_count, 1))
+        self._filter_groups: tuple[bytes, np.ndarray, np.ndarray] | None = None
         sequence = np.random.SeedSequence(self.seed)
         schedule_seq, demand_seq, *noise_seqs = sequence.spawn(2 + channel_count)
         self._schedule_rng = np.random.default_rng(schedule_seq)
@@ -490,15 +491,20 @@ class SimulatedNI9234:
         """The AC-coupling high-pass on every channel (volts, channels × samples), its state carried across chunks.
 
         Channels that carry the same signal through the same sensor kind (several accelerometers on the one simulated
-        mover) and are in the same filter state give the same output: each distinct one is filtered once.
+        mover) and are in the same filter state give the same output: each distinct one is filtered once. The groups
+        are formed again only when a sensor opens or closes (a member that left its group keeps its own state).
         """
-        leaders: dict[tuple, int] = {}
-        source = np.array([
-            leaders.setdefault((self._signal_of_channel[row], self._channel_kinds[row], self._true_v_per_si[row],
-                                bool(self._open_sensor[row]), float(self._hp_state[row, 0])), row)
-            for row in range(len(volts))
-        ])
-        distinct, position = np.unique(source, return_inverse=True)
+        open_now = self._open_sensor.tobytes()
+        if self._filter_groups is None or self._filter_groups[0] != open_now:
+            leaders: dict[tuple, int] = {}
+            source = np.array([
+                leaders.setdefault((self._signal_of_channel[row], self._channel_kinds[row], self._true_v_per_si[row],
+                                    bool(self._open_sensor[row]), float(self._hp_state[row, 0])), row)
+                for row in range(len(volts))
+            ])
+            distinct, position = np.unique(source, return_inverse=True)
+            self._filter_groups = (open_now, distinct, position)
+        _, distinct, position = self._filter_groups
         filtered, state = scipy.signal.lfilter(self._hp_b, self._hp_a, volts[distinct], axis=1,
                                                zi=self._hp_state[distinct])
         self._hp_state = state[position]
