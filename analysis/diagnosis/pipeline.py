@@ -27,6 +27,7 @@ import scipy.stats
 from gasfilm.analysis.diagnosis.candidates import CANDIDATES, EQUIVALENT, separating_measurement
 from gasfilm.analysis.diagnosis.fitspace import fit_context, spec_slots, without_effect
 from gasfilm.analysis.diagnosis.measurement import HitSpectra, contiguous_bands, weighted_mean
+from gasfilm.analysis.diagnosis.modes import unmodelled_resonances_hz
 from gasfilm.analysis.diagnosis.restoring import RestoringForce
 from gasfilm.analysis.diagnosis.result import Alternative, CandidateDescription, Diagnosis, Finding, Unexplained
 from gasfilm.analysis.diagnosis.selection import (
@@ -51,6 +52,8 @@ from gasfilm.drivers.errors import GasfilmError
 logger = logging.getLogger(__name__)
 
 MAX_TERMS = 3
+#: Refits at most against the replay of their own result when the replay quantises the response.
+QUANTISED_REFITS = 8
 NONLINEAR_ITERATIONS = 3
 #: χ² per point above which the final spec does not explain the recordings (1 is the measured noise; the noise
 #: estimate itself is uncertain by some 10–20 %).
@@ -125,7 +128,7 @@ def diagnose_spectra(
              f"{evidence.freq_hz[0]:.0f}–{evidence.freq_hz[-1]:.0f} Hz: χ²/point {chi2_given / points:.2f}")
 
     own_slots = spec_slots(spec, context)
-    recalibrated = fit(evidence, spec, own_slots)
+    recalibrated = _settle_quantised_replay(spectra, fit(evidence, spec, own_slots))
     recalibration_significant = chi2_given - recalibrated.chi2 > len(own_slots) * np.log(points) + BIC_MARGIN
     if recalibration_significant:
         evidence = evidence_for(spectra, recalibrated.spec)
@@ -192,6 +195,21 @@ def diagnose_spectra(
     logger.info("diagnosis: %s, %d finding(s), %d unexplained band(s), χ²/point %.2f → %.2f", verdict, len(findings),
                 len(unexplained), diagnosis.chi2_per_point_before, diagnosis.chi2_per_point_after)
     return diagnosis
+
+
+def _settle_quantised_replay(spectra: HitSpectra, outcome: FitOutcome) -> FitOutcome:
+    """A fit whose replay quantises the response (a coarsely quantised recording) refitted against the replay of its
+    own result until χ² stops falling: the quantiser's error changes with the spec, so one replay ratio held fixed
+    through a fit leaves the parameters short of their minimum."""
+    if spectra.replay is None or spectra.replay.response_step <= 0:
+        return outcome
+    for _ in range(QUANTISED_REFITS):
+        evidence = evidence_for(spectra, outcome.spec)
+        refit = fit(evidence, outcome.spec, outcome.slots)
+        if refit.chi2 > 0.98 * evidence.chi2(outcome.spec):
+            return refit
+        outcome = refit
+    return outcome
 
 
 # --- forward selection ---------------------------------------------------------------------------------------------
@@ -648,6 +666,12 @@ def _unexplained(
     if overall > ADEQUATE_CHI2_PER_POINT and not items:
         items.append(Unexplained((float(freq_hz[0]), float(freq_hz[-1])), _hits_in(spectra, per_point), 1.0,
                                  _character(spectra, evidence, spec, 0, len(freq_hz) - 1)))
+    for item in items:
+        item.unmodelled_resonances_hz = unmodelled_resonances_hz(evidence, spec, item.band_hz)
+        if item.unmodelled_resonances_hz:
+            item.character = (f"resonances near {', '.join(f'{f:.0f}' for f in item.unmodelled_resonances_hz)} Hz "
+                              f"that the spec does not have (modes of the structure no term describes); "
+                              + item.character)
     for term in rejected:
         overlapping = [item for item in items
                        if item.band_hz[0] <= term.band_hz[1] and term.band_hz[0] <= item.band_hz[1]]

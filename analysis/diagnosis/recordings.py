@@ -11,7 +11,13 @@ from typing import Callable
 
 import numpy as np
 
-from gasfilm.analysis.diagnosis.measurement import HitSpectra, QualityNote, default_window, hit_spectra
+from gasfilm.analysis.diagnosis.measurement import (
+    HitSpectra,
+    QualityNote,
+    coarsely_quantised_response,
+    default_window,
+    hit_spectra,
+)
 from gasfilm.analysis.diagnosis.pipeline import diagnose_spectra
 from gasfilm.analysis.diagnosis.restoring import RestoringForce, restoring_force
 from gasfilm.analysis.diagnosis.result import Diagnosis
@@ -149,6 +155,9 @@ def read_start(recordings: Recordings, mass_kg: float | None = None) -> tuple[Ri
         how = f"mass line above {MASS_LINE_FROM * main_hz:.0f} Hz"
     modes = []
     further = resonances[1:] if len(resonances) - 1 >= MULTI_MODE_MIN else []
+    quantised = coarsely_quantised_response(records)
+    if quantised:  # the quantiser's distortion makes peaks of its own, the same in every hit
+        further = []
     further = sorted(sorted(further, key=lambda line: -magnitude[line])[:MAX_START_MODES])
     for line in further:
         previous = resonances[resonances.index(line) - 1]
@@ -169,6 +178,11 @@ def read_start(recordings: Recordings, mass_kg: float | None = None) -> tuple[Ri
     text = (f"resonance at {main_hz:.1f} Hz inside the hammer's band (force within 20 dB, coherence ≥ 0.9, "
             f"{freq_hz[readable][0]:.0f}–{freq_hz[readable][-1]:.0f} Hz): spring-damper film k ≈ "
             f"{spec.film_parameters['k']:.3g} N/m, c ≈ {damping:.3g} N·s/m on {mass_kg:.4g} kg ({how})")
+    if quantised and len(resonances) > 1:
+        text += (f"; the response is coarsely quantised, so the further peaks near "
+                 + ", ".join(f"{freq_hz[line]:.0f}" for line in sorted(resonances[1:]))
+                 + " Hz may be the quantiser's distortion: they are left to the diagnosis, whose replay is quantised "
+                   "the same way")
     if modes:
         text += ("; a multi-mode structure: extra modes at " + ", ".join(f"{mode.freq_hz:.0f}" for mode in modes)
                  + " Hz are part of the start (read, not findings)")

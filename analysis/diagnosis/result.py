@@ -109,11 +109,13 @@ class Unexplained:
     chi2_share: float  # fraction of the final χ² excess over the noise that lies here
     character: str  # in words: harmonics → nonlinearity, a jump → a change during the session, ...
     candidates: list[CandidateDescription] = field(default_factory=list)  # partial descriptions fitted here
+    unmodelled_resonances_hz: list[float] = field(default_factory=list)  # resonances here the spec does not have
 
     def to_dict(self) -> dict:
         return {"band_hz": [round(self.band_hz[0], 1), round(self.band_hz[1], 1)], "hits": self.hits,
                 "chi2_share": round(self.chi2_share, 3), "character": self.character,
-                "candidates": [candidate.to_dict() for candidate in self.candidates]}
+                "candidates": [candidate.to_dict() for candidate in self.candidates],
+                "unmodelled_resonances_hz": [round(f, 1) for f in self.unmodelled_resonances_hz]}
 
 
 @dataclass
