@@ -184,10 +184,14 @@ class Replay:
         return scipy.fft.rfft(response * self.exponential, axis=1)[:, self.grid] / self.force_windowed_grid
 
     def _damped_force(self, decay_1_s: float) -> np.ndarray:
-        """Spectrum of each recorded force × e^(−σ₀t), zero-padded to ``n_fft`` (remembered)."""
+        """Spectrum of each recorded force × e^(−σ₀t), zero-padded to ``n_fft`` (remembered). The buffer beyond the
+        record is negative time: a late trigger's reconstructed pulse front sits at its end (:func:`_with_fronts`)."""
         if self.damped_force_padded is None:
-            damping = np.exp(-decay_1_s * np.arange(self.n_samples) / self.sample_rate_hz)
-            self.damped_force_padded = np.fft.rfft(self.forces_n * damping, self.n_fft, axis=1)
+            time_samples = np.arange(self.n_fft, dtype=float)
+            time_samples[self.n_samples :] -= self.n_fft
+            damping = np.exp(-decay_1_s * time_samples / self.sample_rate_hz)
+            padded = scipy.fft.irfft(self.force_padded, self.n_fft, axis=1)
+            self.damped_force_padded = np.fft.rfft(padded * damping, axis=1)
         return self.damped_force_padded
 
     def single(self, hit: int) -> "Replay":
