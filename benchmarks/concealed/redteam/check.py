@@ -81,7 +81,8 @@ def check_coarse_adc(case, force, accel, fs, drawn) -> str:
     _, noiseless, _ = noiseless_h1(case, fs)
     return (f" LSB {lsb['force_n']:.4g} N, {lsb['accel_m_s2']:.4g} m/s² (off grid ≤ {off_grid:.1g} LSB); "
             f"tail samples exactly 0: {100 * np.mean(tail == 0):.0f} %, tail RMS {tail.std():.3g} m/s² vs "
-            f"LSB/√12 = {lsb['accel_m_s2'] / np.sqrt(12):.3g}; peak |a| {np.abs(accel).max() / lsb['accel_m_s2']:.0f} LSB"
+            f"LSB/√12 = {lsb['accel_m_s2'] / np.sqrt(12):.3g}; "
+            f"peak |a| {np.abs(accel).max() / lsb['accel_m_s2']:.0f} LSB"
             f" | H1/analytic − 1: {band_errors(freq, measured, model, level)}"
             f" | rounding only (no ADC noise): {band_errors(freq, noiseless, model, level)}")
 

@@ -822,8 +822,8 @@ def second_round(rig_all: list[str]) -> list[Case]:
         reasoning="The part of the pulse before the record is missing from the force but its effect (the "
                   "mover's initial velocity) is in the response: a constant −δ/m is added to each hit's FRF, "
                   "different per hit. Cross-talk (a constant added), an added mass, a level-dependent "
-                  "'nonlinearity' or a film term would all be artefacts. Issue 14 item 5: recognised, noted, taken into "
-                  "the noise model, verdict consistent or parameters-only.", seed=404))
+                  "'nonlinearity' or a film term would all be artefacts. Issue 14 item 5: recognised, noted, "
+                  "taken into the noise model, verdict consistent or parameters-only.", seed=404))
 
     gain = 9.6 / 10.2
     listed.append(Case(
