@@ -19,6 +19,11 @@ import tempfile
 import time
 from pathlib import Path
 
+# one BLAS/OpenMP thread in the serial process, as dask's nanny sets for every worker (distributed's
+# ``nanny.pre-spawn-environ``): otherwise "serial" would use both cores inside numpy and the comparison would be unfair
+for _variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_variable, "1")
+
 from gasfilm.analysis.campaign import RUN_COLUMNS, CampaignOptions, analyse_session
 from gasfilm.analysis.campaign.runner import run_sessions
 from gasfilm.analysis.campaign.simulated import DEMO_RIG_PATH, grid_points, record_session

@@ -109,6 +109,7 @@ class RowCache:
 def dask_client(workers: int | None, scheduler: str | None) -> Iterator[Any]:
     """A dask client: on a new LocalCluster of ``workers`` single-threaded processes, or connected to ``scheduler``
     (``tcp://HOST:PORT``)."""
+    import dask
     from distributed import Client, LocalCluster
 
     if scheduler is not None:
@@ -122,8 +123,11 @@ def dask_client(workers: int | None, scheduler: str | None) -> Iterator[Any]:
             client.close()
         return
     count = workers or max(1, min(os.cpu_count() or 1, 8))
-    with LocalCluster(n_workers=count, threads_per_worker=1, processes=True, dashboard_address=None,
-                      silence_logs=logging.ERROR) as cluster, Client(cluster) as client:
+    # no dashboard shows the workers' statistical profiler here, and its 10 ms stack sampling cost ~8 % of each
+    # session's CPU time (benchmarks/bench_campaign.py): the local workers run without it
+    with dask.config.set({"distributed.worker.profile.enabled": False}), \
+            LocalCluster(n_workers=count, threads_per_worker=1, processes=True, dashboard_address=None,
+                         silence_logs=logging.ERROR) as cluster, Client(cluster) as client:
         yield client
 
 

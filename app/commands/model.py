@@ -95,7 +95,8 @@ def run(args: argparse.Namespace) -> int:
         frf = load_frf([args.source])[0]
         check = time_domain_check(spec_of_fit(loaded.fit), model, loaded.records, loaded.sample_rate_hz,
                                   loaded.force_channel, loaded.response_channel, loaded.hit_indices,
-                                  loaded.trigger_index, frf_relative_error(loaded.fit, frf.freq_hz, frf.h1))
+                                  loaded.trigger_index, frf_relative_error(loaded.fit, frf.freq_hz, frf.h1),
+                                  band_hz=loaded.fit.band_hz)
         figures.append(figure_hits(hits_png, check))
     if args.json:
         data = model_to_dict(model)
@@ -120,8 +121,7 @@ def run(args: argparse.Namespace) -> int:
                                                                            f"(best {100 * oustaloup[1]:.3g} %)"
         print(f"  a plain Oustaloup approximation of each s^α needs {needed} for the same error")
     if check is not None:
-        print("time-domain check against the recorded hits (relative RMS, 0–"
-              f"{0.45 * check.sample_rate_hz:g} Hz):")
+        print("time-domain check against the recorded hits (relative RMS, in the fit's band):")
         for line in check.summary_lines():
             print("  " + line)
     print(f"written: {written}; figures: {', '.join(str(path) for path in figures)}")
