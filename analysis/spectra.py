@@ -240,12 +240,16 @@ def force_level_db(freq_hz: np.ndarray, gff: np.ndarray) -> np.ndarray:
 
 def usable_band_hz(freq_hz: np.ndarray, gff: np.ndarray, drop_db: float = USABLE_DROP_DB) -> tuple[float, float]:
     """(lowest line above 0 Hz, frequency where the force spectrum first falls ``drop_db`` below its low-frequency
-    level) in Hz; the upper end is the last line when it never falls that far."""
+    level) in Hz; the upper end is the last line when it never falls that far, or when there is no force spectrum
+    (NaN: an FRF read from UFF)."""
     freq_hz = np.asarray(freq_hz, dtype=float)
     level = force_level_db(freq_hz, gff)
     positive = np.flatnonzero(freq_hz > 0)
     if positive.size == 0:
         return 0.0, 0.0
+    if not np.any(np.isfinite(np.asarray(gff, dtype=float)[positive])):
+        # an FRF read from a file without its force spectrum (UFF 58 H1): the band is not known to be limited
+        return float(freq_hz[positive[0]]), float(freq_hz[positive[-1]])
     below = positive[level[positive] < -abs(drop_db)]
     upper = freq_hz[below[0]] if below.size else freq_hz[positive[-1]]
     return float(freq_hz[positive[0]]), float(upper)
@@ -340,7 +344,11 @@ class FrfAccumulator:
             cross = np.conj(force_fft, out=force_fft)
             cross *= response_fft  # conj(F_i)·X_i
             self._sum_fx += cross.sum(axis=0)
-            np.divide(cross, force_power, out=self._h1_per_hit[first : first + count])  # X_i/F_i
+            # X_i/F_i = conj(F_i)·X_i/|F_i|², on the real and imaginary parts: a complex array divided by a real one
+            # would be promoted to a complex division (three times slower)
+            h1 = self._h1_per_hit[first : first + count]
+            np.divide(cross.real, force_power, out=h1.real)
+            np.divide(cross.imag, force_power, out=h1.imag)
         self.n_averages += count
 
     def _work_buffers(self, count: int) -> tuple[np.ndarray, ...]:

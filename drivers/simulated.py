@@ -213,12 +213,15 @@ class SimulatedNI9234:
         channel_count = len(config.channels)
         kinds = [ChannelKind(channel.kind) for channel in config.channels]
         self._force_row = kinds.index(ChannelKind.FORCE) if ChannelKind.FORCE in kinds else None
-        # which synthesised signal each channel carries: 0 hammer, 1 response, None nothing (noise only)
-        self._signal_of_channel = [
-            0 if row == self._force_row else (1 if kind is ChannelKind.ACCELERATION else None)
+        # which synthesised signal each channel carries: 0 hammer, 1 response, 2 nothing (noise only)
+        self._signal_of_channel = np.array([
+            0 if row == self._force_row else (1 if kind is ChannelKind.ACCELERATION else 2)
             for row, kind in enumerate(kinds)
-        ]
-        self._channel_names = [kind.value for kind in kinds]
+        ])
+        self._channel_kinds = [kind.value for kind in kinds]
+        self._rows_of_channel_kind = {
+            name: np.array([row for row, kind in enumerate(kinds) if kind.value == name]) for name in {k.value for k in kinds}
+        }
         self._true_v_per_si = np.array([self.plant.sensitivity_v_per_si(kind.value) for kind in kinds])
         self._configured_v_per_si = np.array([channel.sensitivity_v_per_si for channel in config.channels])
         nyquist_bandwidth = np.sqrt(fs / 2)
@@ -230,6 +233,7 @@ class SimulatedNI9234:
         self._noise_rms_v = nyquist_bandwidth * np.hypot(sensor_noise_v, module_noise_v) if self.noise else None
         self._hp_b, self._hp_a = scipy.signal.butter(1, AC_COUPLING_HZ, "highpass", fs=fs)
         self._hp_state = np.zeros((channel_count, 1))
+        self._filter_groups: tuple[bytes, np.ndarray, np.ndarray] | None = None
         sequence = np.random.SeedSequence(self.seed)
         schedule_seq, demand_seq, *noise_seqs = sequence.spawn(2 + channel_count)
         self._schedule_rng = np.random.default_rng(schedule_seq)
@@ -237,6 +241,7 @@ class SimulatedNI9234:
         self._noise_rngs = [np.random.default_rng(seq) for seq in noise_seqs]
         tail_s = self.plant.response_duration_s(fs)
         self._segment_samples = scipy.fft.next_fast_len(PRE_HIT_SAMPLES + int(np.ceil(tail_s * fs)), real=True)
+        self._prepare_synthesis()
         self._contributions: list[tuple[int, np.ndarray]] = []
         self._hits = []
         self._next_auto_time_s = (
@@ -374,31 +379,41 @@ class SimulatedNI9234:
             pulses.append(_Pulse(width_s + gap_s, fraction * peak_n, width_s))
         return pulses, double
 
+    def _prepare_synthesis(self) -> None:
+        """What every hit's synthesis shares, computed once per start: the ×2 grid (2·n_out samples at 2·fs, bin
+        spacing fs/n_out), the bins the module keeps (up to its AA stopband; a nonlinear plant solves the motion over
+        the whole grid), each channel's chain (AA filter × the plant's channel transfer × fs, from the continuous
+        spectrum in N·s to the DFT of the sampled signal) and the decimation's folding indices."""
+        fs, n_out = self.sample_rate_hz, self._segment_samples
+        band = int(np.floor(AA_STOPBAND_FRACTION * n_out)) + 1
+        self._freq_hz = np.arange(band if self.plant.is_linear else n_out + 1) * fs / n_out
+        self._s = 2j * np.pi * self._freq_hz
+        self._s[0] = 2j * np.pi * 1e-9 * fs / n_out
+        aa = anti_alias_response(self._freq_hz[:band], fs)
+        self._chain = np.stack([aa * self.plant.channel_transfer(channel, self._s[:band]) * fs
+                                for channel in ("force", "acceleration")])
+        n_half = n_out // 2 + 1
+        mirror = n_out - np.arange(n_half)
+        self._fold_kept = min(n_half, band)
+        self._fold_inside = np.flatnonzero(mirror < band)
+        self._fold_mirror = mirror[self._fold_inside]
+        self._pulse_shapes: dict[float, np.ndarray] = {}
+
     def _synthesise_hit(
         self, hit_time_s: float, tip: str, pulses: list[_Pulse], double: bool, on_demand: bool
     ) -> SimulatedHit:
         """Compute one impact's force and response records and queue them for overlap-add into the stream."""
         fs = self.sample_rate_hz
-        n_out = self._segment_samples
         start_index = int(np.floor(hit_time_s * fs)) - PRE_HIT_SAMPLES
         offset_s = hit_time_s - start_index / fs
-        # a grid twice as fine as the sample rate (2·n_out samples at 2·fs, bin spacing fs / n_out); the module keeps
-        # the bins up to its AA stopband, and a nonlinear plant solves the motion over the whole grid
-        band = slice(0, int(np.floor(AA_STOPBAND_FRACTION * n_out)) + 1)
-        freq_hz = np.arange(band.stop if self.plant.is_linear else n_out + 1) * fs / n_out
-        s = 2j * np.pi * freq_hz
-        s[0] = 2j * np.pi * 1e-9 * fs / n_out
+        s = self._s
         force_spectrum = sum(
-            p.peak_force_n * half_sine_spectrum(freq_hz, p.width_s) * np.exp(-s * (offset_s + p.delay_s))
-            for p in pulses
+            p.peak_force_n * self._pulse_shape(p.width_s) * np.exp(-s * (offset_s + p.delay_s)) for p in pulses
         )
         acceleration_spectrum = self.plant.acceleration_spectrum(force_spectrum, s, 2 * fs, hit_time_s)
-        aa = anti_alias_response(freq_hz[band], fs)
-        records = np.empty((2, n_out))
-        for row, (channel, spectrum) in enumerate((("force", force_spectrum), ("acceleration", acceleration_spectrum))):
-            # × fs: from the continuous spectrum (N·s) to the DFT of the sampled signal
-            measured = spectrum[band] * aa * self.plant.channel_transfer(channel, s[band]) * fs
-            records[row] = scipy.fft.irfft(self._fold_to_sample_rate(measured, n_out), n_out)
+        band = self._chain.shape[1]
+        measured = np.stack([force_spectrum[:band], acceleration_spectrum[:band]]) * self._chain
+        records = scipy.fft.irfft(self._fold_to_sample_rate(measured), self._segment_samples, axis=-1)
         self._contributions.append((start_index, records))
         hit = SimulatedHit(hit_time_s, max(p.peak_force_n for p in pulses), tip, double,
                            overload=self._overload_next_hit, on_demand=on_demand)
@@ -406,19 +421,22 @@ class SimulatedNI9234:
         self._hits.append(hit)
         return hit
 
-    @staticmethod
-    def _fold_to_sample_rate(spectrum: np.ndarray, n_out: int) -> np.ndarray:
-        """rfft (length ``n_out``) of every 2nd sample of a signal given on the ×2 grid (bins ``k·fs/n_out``).
+    def _pulse_shape(self, width_s: float) -> np.ndarray:
+        """The half-sine pulse spectrum of one tip on the synthesis grid, computed once per start."""
+        shape = self._pulse_shapes.get(width_s)
+        if shape is None:
+            shape = self._pulse_shapes[width_s] = half_sine_spectrum(self._freq_hz, width_s)
+        return shape
+
+    def _fold_to_sample_rate(self, spectra: np.ndarray) -> np.ndarray:
+        """rfft (length ``n_out``) of every 2nd sample of signals (rows) given on the ×2 grid (bins ``k·fs/n_out``).
 
         Decimating by 2 folds bin ``k`` with the mirror of bin ``n_out − k``: ``X_d[k] = (X[k] + conj X[n_out−k])/2``,
         scaled ×2 back because the ×2 grid's inverse transform is normalised by ``2·n_out``.
         """
-        n_half = n_out // 2 + 1
-        folded = np.zeros(n_half, dtype=complex)
-        folded[: min(n_half, spectrum.size)] = spectrum[:n_half]
-        mirror = n_out - np.arange(n_half)
-        inside = mirror < spectrum.size
-        folded[inside] += np.conj(spectrum[mirror[inside]])
+        folded = np.zeros((spectra.shape[0], self._segment_samples // 2 + 1), dtype=complex)
+        folded[:, : self._fold_kept] = spectra[:, : self._fold_kept]
+        folded[:, self._fold_inside] += np.conj(spectra[:, self._fold_mirror])
         return folded
 
     def _schedule_hits_until(self, end_index: int) -> None:
@@ -434,38 +452,63 @@ class SimulatedNI9234:
         n_samples = out.shape[1]
         first, end = self._position, self._position + n_samples
         self._schedule_hits_until(end)
-        physical = np.zeros((2, n_samples))
+        physical = np.zeros((3, n_samples))  # hammer, response, nothing
         remaining = []
         for start_index, records in self._contributions:
             lo, hi = max(start_index, first), min(start_index + records.shape[1], end)
             if lo < hi:
-                physical[:, lo - first : hi - first] += records[:, lo - start_index : hi - start_index]
+                physical[:2, lo - first : hi - first] += records[:, lo - start_index : hi - start_index]
             if start_index + records.shape[1] > end:
                 remaining.append((start_index, records))
         self._contributions = remaining
         fs = self.sample_rate_hz
         time_s = np.arange(first, end) / fs
-        interference = {name: self.plant.interference(name, time_s) for name in set(self._channel_names)}
-        volts = np.zeros_like(out)
-        for row, signal in enumerate(self._signal_of_channel):
-            if signal is not None:
-                volts[row] = physical[signal]
-            if interference[self._channel_names[row]] is not None:
-                volts[row] += interference[self._channel_names[row]]
-            volts[row] *= self._true_v_per_si[row]
-            if self._open_sensor[row]:
-                volts[row] = 0.0
-        volts, self._hp_state = scipy.signal.lfilter(self._hp_b, self._hp_a, volts, axis=1, zi=self._hp_state)
+        volts = physical[self._signal_of_channel]
+        for name, rows in self._rows_of_channel_kind.items():
+            interference = self.plant.interference(name, time_s)
+            if interference is not None:
+                volts[rows] += interference
+        volts *= self._true_v_per_si[:, np.newaxis]
+        volts[self._open_sensor] = 0.0
+        volts = self._ac_coupled(volts)
         if self._noise_rms_v is not None:
+            noise = physical[0]  # the stream's signals are in volts now: a scratch row
             for row, rng in enumerate(self._noise_rngs):
-                volts[row] += self._noise_rms_v[row] * rng.standard_normal(n_samples)
-        overload = np.any((volts > NI9234_INPUT_RANGE_V) | (volts < -NI9234_INPUT_RANGE_V), axis=1)
+                rng.standard_normal(out=noise)
+                noise *= self._noise_rms_v[row]
+                volts[row] += noise
+        overload = (volts.max(axis=1) > NI9234_INPUT_RANGE_V) | (volts.min(axis=1) < -NI9234_INPUT_RANGE_V)
         np.clip(volts, CODE_MIN_V, CODE_MAX_V, out=volts)
         if self.quantize:
-            volts = np.round(volts / LSB_V) * LSB_V
+            volts /= LSB_V
+            np.round(volts, out=volts)
+            volts *= LSB_V
         np.divide(volts, self._configured_v_per_si[:, np.newaxis], out=out)
         self._position = end
         return overload
+
+    def _ac_coupled(self, volts: np.ndarray) -> np.ndarray:
+        """The AC-coupling high-pass on every channel (volts, channels × samples), its state carried across chunks.
+
+        Channels that carry the same signal through the same sensor kind (several accelerometers on the one simulated
+        mover) and are in the same filter state give the same output: each distinct one is filtered once. The groups
+        are formed again only when a sensor opens or closes (a member that left its group keeps its own state).
+        """
+        open_now = self._open_sensor.tobytes()
+        if self._filter_groups is None or self._filter_groups[0] != open_now:
+            leaders: dict[tuple, int] = {}
+            source = np.array([
+                leaders.setdefault((self._signal_of_channel[row], self._channel_kinds[row], self._true_v_per_si[row],
+                                    bool(self._open_sensor[row]), float(self._hp_state[row, 0])), row)
+                for row in range(len(volts))
+            ])
+            distinct, position = np.unique(source, return_inverse=True)
+            self._filter_groups = (open_now, distinct, position)
+        _, distinct, position = self._filter_groups
+        filtered, state = scipy.signal.lfilter(self._hp_b, self._hp_a, volts[distinct], axis=1,
+                                               zi=self._hp_state[distinct])
+        self._hp_state = state[position]
+        return filtered[position]
 
     def _wait_for(self, n_samples: int, timeout_s: float) -> None:
         """Realtime pacing: overflow if the unread backlog exceeds the buffer, else wait until the samples exist."""

@@ -4,17 +4,15 @@ one line. The same peak finder serves ``replay``."""
 
 from __future__ import annotations
 
-import dataclasses
 import json
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from gasfilm.analysis.diagnosis import diagnose
 from gasfilm.analysis.diagnosis.recordings import load_recordings, read_start, starting_spec
 from gasfilm.analysis.physics.spec import RigSpec
-from gasfilm.analysis.spectra import WindowSettings, compute_frf, exponential_window, resonance_lines
+from gasfilm.analysis.spectra import WindowSettings, compute_frf, resonance_lines
 from gasfilm.app.cli import main as gasfilm
 from gasfilm.drivers.errors import SettingError
 
@@ -97,43 +95,3 @@ def test_fit_of_the_default_session_stays_in_the_hammers_band_and_claims_nothing
     assert gasfilm(["fit", str(session), "--models", "SD", "--json", "--out", str(tmp_path)]) == 0
     result = json.loads(capsys.readouterr().out)
     assert result["not_explained_resonances_hz"] == []
-
-
-def _exported_windowed(records: np.ndarray, rate_hz: float) -> np.ndarray:
-    return records * exponential_window(records.shape[-1], 0.05)
-
-
-def _quantised(records: np.ndarray, rate_hz: float) -> np.ndarray:
-    step = np.abs(records).max(axis=(0, 2), keepdims=True) / 2**7  # 8-bit records
-    return np.round(records / step) * step
-
-
-def _floor_vibration(records: np.ndarray, rate_hz: float) -> np.ndarray:
-    rng = np.random.default_rng(1)
-    time_s = np.arange(records.shape[-1]) / rate_hz
-    shaken = records.copy()
-    for hit in shaken:  # 33 Hz, slowly modulated, at a random phase to each hit: the floor, not the hammer
-        hit[1] += 0.02 * np.sin(2 * np.pi * 33 * time_s + rng.uniform(0, 2 * np.pi)) * (
-            1 + 0.3 * np.sin(2 * np.pi * 0.7 * time_s))
-    return shaken
-
-
-def _late_trigger(records: np.ndarray, rate_hz: float) -> np.ndarray:
-    start = np.flatnonzero(np.abs(records[0, 0]) > 0.02 * np.abs(records[0, 0]).max())[0]
-    return records[:, :, start - int(0.5e-3 * rate_hz):]
-
-
-@pytest.mark.slow
-@pytest.mark.parametrize("change, noted", [(_exported_windowed, "exponential window"), (_quantised, "quantisation"),
-                                           (_floor_vibration, "floor vibration"), (_late_trigger, "hit scatter")])
-def test_measurement_properties_are_noted_never_physics(session, change, noted):
-    """Records exported windowed, 8-bit records, floor vibration and a 0.5 ms pre-trigger, made from the default
-    session in software: recognised, noted (or, for the trigger, the noise taken from the hit scatter), and the
-    verdict stays consistent or parameters-only."""
-    recordings = load_recordings(session)
-    recordings = dataclasses.replace(recordings, records=change(recordings.records, recordings.sample_rate_hz),
-                                     window=None if change is _late_trigger else recordings.window)
-    diagnosis = diagnose(recordings)
-    assert diagnosis.verdict in ("consistent", "parameters-only"), [f.effect for f in diagnosis.findings]
-    assert not diagnosis.findings
-    assert noted in [note.kind for note in diagnosis.quality] + [diagnosis.spectra.noise.source]

@@ -72,6 +72,10 @@ def test_full_hammer_session_through_the_gui(qtbot, window, tmp_path):
     notes_header = "".join(f"# {note}\n" for note in controller.diagnosis.notes)  # the spec file opens with them
     assert window.diagnose_tab.findings.count() >= 1
     shown_findings = [window.diagnose_tab.findings.item(i).text() for i in range(window.diagnose_tab.findings.count())]
+    # the film's restoring force is shown beside the overlay, one scatter per hit and the linear film's line
+    assert controller.diagnosis.restoring_force is not None
+    assert len(window.diagnose_tab.restoring_stiffness_plot.getPlotItem().listDataItems()) >= 2
+    assert "restoring force" in window.diagnose_tab.restoring_label.text()
 
     # save; then play the improved spec on the simulated rig (a new session)
     shown_h1 = frf.h1.copy()

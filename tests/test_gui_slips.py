@@ -57,6 +57,8 @@ def _all_plots(window) -> dict[str, object]:
         "FRF magnitude": frf.magnitude_plot, "FRF phase": frf.phase_plot, "FRF coherence": frf.coherence_plot,
         "FRF real": frf.real_plot, "FRF imaginary": frf.imag_plot,
         "diagnose overlay": diagnose.overlay_plot, "diagnose residual": diagnose.residual_plot,
+        "restoring force stiffness": diagnose.restoring_stiffness_plot,
+        "restoring force damping": diagnose.restoring_damping_plot,
     }
     plots.update({f"Fig. 18 {name}": plot for name, plot in identify.fig18.items()})
     plots.update({f"Fig. 19 {name}": plot for name, plot in identify.fig19.items()})

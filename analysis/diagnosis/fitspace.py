@@ -29,7 +29,14 @@ class Slot:
     range: FitRange
 
     def label(self, spec: RigSpec) -> str:
-        return self.name if self.effect is None else f"{spec.effects[self.effect].type_name}.{self.name}"
+        """``name`` for a film parameter, ``type.name`` for an effect's, ``type#n.name`` (n from 1) when the spec has
+        several effects of that type (several extra modes)."""
+        if self.effect is None:
+            return self.name
+        type_name = spec.effects[self.effect].type_name
+        same = [i for i, effect in enumerate(spec.effects) if effect.type_name == type_name]
+        return (f"{type_name}.{self.name}" if len(same) == 1
+                else f"{type_name}#{same.index(self.effect) + 1}.{self.name}")
 
     def to_search(self, value: float) -> float:
         return float(np.log(value)) if self.range.scale == "log" else float(value)

@@ -11,8 +11,15 @@ from typing import Callable
 
 import numpy as np
 
-from gasfilm.analysis.diagnosis.measurement import QualityNote, default_window, hit_spectra
+from gasfilm.analysis.diagnosis.measurement import (
+    HitSpectra,
+    QualityNote,
+    coarsely_quantised_response,
+    default_window,
+    hit_spectra,
+)
 from gasfilm.analysis.diagnosis.pipeline import diagnose_spectra
+from gasfilm.analysis.diagnosis.restoring import RestoringForce, restoring_force
 from gasfilm.analysis.diagnosis.result import Diagnosis
 from gasfilm.analysis.physics.effects import MIN_DAMPING_RATIO, ExtraMode
 from gasfilm.analysis.physics.spec import RigSpec
@@ -148,6 +155,9 @@ def read_start(recordings: Recordings, mass_kg: float | None = None) -> tuple[Ri
         how = f"mass line above {MASS_LINE_FROM * main_hz:.0f} Hz"
     modes = []
     further = resonances[1:] if len(resonances) - 1 >= MULTI_MODE_MIN else []
+    quantised = coarsely_quantised_response(records)
+    if quantised:  # the quantiser's distortion makes peaks of its own, the same in every hit
+        further = []
     further = sorted(sorted(further, key=lambda line: -magnitude[line])[:MAX_START_MODES])
     for line in further:
         previous = resonances[resonances.index(line) - 1]
@@ -168,6 +178,11 @@ def read_start(recordings: Recordings, mass_kg: float | None = None) -> tuple[Ri
     text = (f"resonance at {main_hz:.1f} Hz inside the hammer's band (force within 20 dB, coherence ≥ 0.9, "
             f"{freq_hz[readable][0]:.0f}–{freq_hz[readable][-1]:.0f} Hz): spring-damper film k ≈ "
             f"{spec.film_parameters['k']:.3g} N/m, c ≈ {damping:.3g} N·s/m on {mass_kg:.4g} kg ({how})")
+    if quantised and len(resonances) > 1:
+        text += (f"; the response is coarsely quantised, so the further peaks near "
+                 + ", ".join(f"{freq_hz[line]:.0f}" for line in sorted(resonances[1:]))
+                 + " Hz may be the quantiser's distortion: they are left to the diagnosis, whose replay is quantised "
+                   "the same way")
     if modes:
         text += ("; a multi-mode structure: extra modes at " + ", ".join(f"{mode.freq_hz:.0f}" for mode in modes)
                  + " Hz are part of the start (read, not findings)")
@@ -205,6 +220,14 @@ def starting_spec(
     return rig_spec, f"starting from {origin}"
 
 
+def film_restoring_force(recordings: Recordings, spectra: HitSpectra, mass_kg: float) -> RestoringForce | None:
+    """The film's restoring force from the hits the spectra use, in the band around the recorded resonance."""
+    mean, _ = spectra.mean()
+    resonance_hz = float(spectra.freq_hz[np.argmax(np.abs(mean))])
+    return restoring_force(recordings.records[spectra.hit_numbers], recordings.sample_rate_hz, mass_kg,
+                           resonance_hz, (float(spectra.freq_hz[0]), float(spectra.freq_hz[-1])))
+
+
 def diagnose(
     source: str | Path | list[Path] | Recordings,
     rig_spec: RigSpec | None = None,
@@ -221,7 +244,8 @@ def diagnose(
     spectra = hit_spectra(recordings.records, recordings.sample_rate_hz, recordings.window,
                           hit_times_s=recordings.hit_times_s, overload=recordings.overload, band_hz=band_hz)
     spectra.quality[:0] = recordings.quality
-    diagnosis = diagnose_spectra(spectra, rig_spec, progress)
+    restoring = film_restoring_force(recordings, spectra, rig_spec.moving_mass_kg)
+    diagnosis = diagnose_spectra(spectra, rig_spec, progress, restoring)
     diagnosis.notes.insert(0, origin)
     logger.info("diagnosed %s against %s: %s", recordings.source, rig_spec.name, diagnosis.verdict)
     return diagnosis

@@ -33,7 +33,9 @@ def report_text(diagnosis: Diagnosis) -> str:
             lines.append(f"      {name:30s} {row['value']:.6g} ± {row['uncertainty']:.2g} {row['unit']}")
         lines.append(f"      why:  {finding.evidence}")
         lines.append(f"      what: {finding.explanation}")
-        lines.append(f"      gain over the recalibrated spec: {finding.gain_over_recalibrated:.1f} % RMS")
+        lines.append(f"      gain over the recalibrated spec: {finding.gain_over_recalibrated:.1f} % RMS (the written "
+                     f"spec without it, refitted); its own band at χ²/point {finding.own_band_chi2_per_point:.2f} "
+                     f"(beyond the noise above {finding.own_band_limit:.2f})")
         for alternative in finding.alternatives:
             lines.append(f"      or:   {alternative.effect} — {alternative.note}")
     lines.append(f"  {_VERDICT_LINES[diagnosis.verdict]}")
@@ -42,6 +44,19 @@ def report_text(diagnosis: Diagnosis) -> str:
             f"hits {', '.join(str(hit + 1) for hit in item.hits)}"  # numbered from 1, as everywhere the user sees
         lines.append(f"  NOT explained: {item.band_hz[0]:.0f}–{item.band_hz[1]:.0f} Hz, {hits}, "
                      f"{100 * item.chi2_share:.0f} % of the excess χ²: {item.character}")
+        for candidate in item.candidates:
+            values = ", ".join(f"{name} {row['value']:.4g} ± {row['uncertainty']:.2g} {row['unit']}".rstrip()
+                               for name, row in candidate.parameters.items())
+            lines.append(f"      candidate description (not a finding): {candidate.effect} ({values})")
+    listed = {id(candidate) for item in diagnosis.unexplained for candidate in item.candidates}
+    others = [candidate for candidate in diagnosis.candidates if id(candidate) not in listed]
+    if others:
+        lines.append("  terms tried and not claimed:")
+        for candidate in others:
+            lines.append(f"    {candidate.effect} ({candidate.band_hz[0]:.0f}–{candidate.band_hz[1]:.0f} Hz): "
+                         f"{candidate.reason}")
+    if diagnosis.restoring_force is not None:
+        lines.append(f"  restoring force: {diagnosis.restoring_force.description()}")
     if diagnosis.quality:
         lines.append("  measurement quality (not physics):")
         lines.extend(f"    {note.kind}: {note.message}" for note in diagnosis.quality)

@@ -8,6 +8,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 from gasfilm.analysis.diagnosis.measurement import HitSpectra, QualityNote
+from gasfilm.analysis.diagnosis.restoring import RestoringForce
 from gasfilm.analysis.diagnosis.selection import Evidence
 from gasfilm.analysis.physics.spec import RigSpec
 from gasfilm.drivers.interface import STANDARD_GRAVITY_M_S2
@@ -40,8 +41,11 @@ class Finding:
     hits: str
     chi2_gain: float
     held_out_gain: float
-    gain_over_recalibrated: float  # RMS reduction (%) of the recalibrated spec with this term alone
+    gain_over_recalibrated: float  # RMS (% of the recalibrated spec's) the written spec loses without this term
     alternatives: list[Alternative] = field(default_factory=list)
+    held_out_band_gain: float = 0.0  # χ² gain (noise units) on interleaved sub-bands left out of the fit
+    own_band_chi2_per_point: float = 0.0  # χ² per point of the written spec in the term's own band (1 = noise)
+    own_band_limit: float = 0.0  # χ² per point beyond which that band is beyond the noise (F test)
 
     def to_dict(self) -> dict:
         return {
@@ -56,6 +60,9 @@ class Finding:
             "chi2_gain": round(self.chi2_gain, 1),
             "held_out_gain": round(self.held_out_gain, 1),
             "gain_over_recalibrated": round(self.gain_over_recalibrated, 2),
+            "held_out_band_gain": round(self.held_out_band_gain, 1),
+            "own_band_chi2_per_point": round(self.own_band_chi2_per_point, 3),
+            "own_band_limit": round(self.own_band_limit, 3),
             "alternatives": [alternative.to_dict() for alternative in self.alternatives],
         }
 
@@ -71,7 +78,26 @@ class Finding:
             held_out_gain=values.get("held_out_gain", 0.0),
             gain_over_recalibrated=values.get("gain_over_recalibrated", 0.0),
             alternatives=[Alternative(a["effect"], a["note"]) for a in values.get("alternatives", [])],
+            held_out_band_gain=values.get("held_out_band_gain", 0.0),
+            own_band_chi2_per_point=values.get("own_band_chi2_per_point", 0.0),
+            own_band_limit=values.get("own_band_limit", 0.0),
         )
+
+
+@dataclass
+class CandidateDescription:
+    """A term that fitted better but did not survive as a finding (at a bound, absurd, not predicting data left out
+    of its fit, parameters that change between halves of the data, its own band left beyond the noise, or no gain in
+    the written spec): reported with its fitted values and the reason, never as a finding."""
+
+    effect: str
+    band_hz: tuple[float, float]
+    parameters: dict[str, dict[str, float | str]]  # name → {"value", "uncertainty", "unit"}
+    reason: str
+
+    def to_dict(self) -> dict:
+        return {"effect": self.effect, "band_hz": [round(self.band_hz[0], 1), round(self.band_hz[1], 1)],
+                "parameters": self.parameters, "reason": self.reason}
 
 
 @dataclass
@@ -82,10 +108,14 @@ class Unexplained:
     hits: list[int]  # hit numbers of the recordings (0-based, as loaded)
     chi2_share: float  # fraction of the final χ² excess over the noise that lies here
     character: str  # in words: harmonics → nonlinearity, a jump → a change during the session, ...
+    candidates: list[CandidateDescription] = field(default_factory=list)  # partial descriptions fitted here
+    unmodelled_resonances_hz: list[float] = field(default_factory=list)  # resonances here the spec does not have
 
     def to_dict(self) -> dict:
         return {"band_hz": [round(self.band_hz[0], 1), round(self.band_hz[1], 1)], "hits": self.hits,
-                "chi2_share": round(self.chi2_share, 3), "character": self.character}
+                "chi2_share": round(self.chi2_share, 3), "character": self.character,
+                "candidates": [candidate.to_dict() for candidate in self.candidates],
+                "unmodelled_resonances_hz": [round(f, 1) for f in self.unmodelled_resonances_hz]}
 
 
 @dataclass
@@ -112,6 +142,8 @@ class Diagnosis:
     evidence: Evidence
     wall_time_s: float
     notes: list[str] = field(default_factory=list)
+    candidates: list[CandidateDescription] = field(default_factory=list)  # every term that is not a finding
+    restoring_force: RestoringForce | None = None  # model-free shape of the film's force (amplitude physics)
     improved_spec_path: str | None = None  # where a caller wrote ``improved``
     figures: list[str] = field(default_factory=list)
 
@@ -126,6 +158,8 @@ class Diagnosis:
             "verdict": self.verdict,
             "findings": [finding.to_dict() for finding in self.findings],
             "unexplained": [item.to_dict() for item in self.unexplained],
+            "candidates": [candidate.to_dict() for candidate in self.candidates],
+            "restoring_force": self.restoring_force.to_dict() if self.restoring_force is not None else None,
             "quality": [note.to_dict() for note in self.quality],
             "noise": self.spectra.noise.to_dict() if self.spectra.noise else None,
             "recalibration": self.recalibration,

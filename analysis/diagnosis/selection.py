@@ -10,6 +10,7 @@ lowers it on hits that were not used to fit it (odd hits predict even hits and t
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 from dataclasses import dataclass
 from typing import Callable
@@ -81,9 +82,23 @@ class Evidence:
         self.decay_rate_1_s = spectra.decay_rate_1_s
         self.hit_count = spectra.h.shape[0]
         self.point_count = 2 * spectra.h.size
+        self._means: dict[tuple[int, ...] | None, tuple[np.ndarray, np.ndarray]] = {}
 
     def _subset(self, hits: np.ndarray | None) -> np.ndarray:
         return np.arange(self.hit_count) if hits is None else hits
+
+    def _mean(self, hits: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
+        """Weighted mean FRF and total weight of a subset of hits (remembered: a fit asks for it at every step)."""
+        key = None if hits is None else tuple(int(i) for i in hits)
+        if key not in self._means:
+            self._means[key] = self.spectra.mean(hits)
+        return self._means[key]
+
+    def restricted(self, lines: np.ndarray) -> "Evidence":
+        """The same evidence on a subset of the analysis frequencies (indices into ``freq_hz``)."""
+        spectra = dataclasses.replace(self.spectra, freq_hz=self.freq_hz[lines], h=self.spectra.h[:, lines],
+                                      variance=self.spectra.variance[:, lines], replay=None)
+        return Evidence(spectra)
 
     def predicted(self, spec: RigSpec, hits: np.ndarray | None = None) -> np.ndarray:
         """The spec's accelerance on the grid: (hits, G) when it differs between hits, else (G,)."""
@@ -100,14 +115,14 @@ class Evidence:
         if spec.is_per_hit:
             difference = (self.spectra.h[rows] - self.predicted(spec, rows)) * np.sqrt(self.spectra.weight[rows])
         else:
-            mean, total = self.spectra.mean(rows)
+            mean, total = self._mean(hits)
             difference = (mean - self.predicted(spec)) * np.sqrt(total)
         return np.concatenate((difference.real.ravel(), difference.imag.ravel()))
 
     def scatter_constant(self, hits: np.ndarray | None = None) -> float:
         """``Σ_i w_i |H_i − H̄|²``: the part of χ² no hit-independent model can remove."""
         rows = self._subset(hits)
-        mean, _ = self.spectra.mean(rows)
+        mean, _ = self._mean(hits)
         return float(np.sum(self.spectra.weight[rows] * np.abs(self.spectra.h[rows] - mean) ** 2))
 
     def chi2(self, spec: RigSpec, hits: np.ndarray | None = None) -> float:
@@ -131,7 +146,20 @@ class Evidence:
         return (weight * predicted).sum(axis=0) / weight.sum(axis=0)
 
 
-def fit(evidence: Evidence, spec: RigSpec, slots: list[Slot], hits: np.ndarray | None = None) -> FitOutcome:
+#: Relative tolerance of a final fit, and of a screening fit (the starting values of a candidate: the best start is
+#: finished to the full tolerance).
+FIT_TOLERANCE = 1e-7
+SCREENING_TOLERANCE = 1e-6
+FINISHED_STARTS = 2
+
+
+def fit(
+    evidence: Evidence,
+    spec: RigSpec,
+    slots: list[Slot],
+    hits: np.ndarray | None = None,
+    tolerance: float = FIT_TOLERANCE,
+) -> FitOutcome:
     """Weighted least squares of the slots (scaled search space) from the spec's current values."""
     if not slots:
         return FitOutcome(spec, evidence.chi2(spec, hits), [], np.zeros((0, 0)), 1)
@@ -144,7 +172,7 @@ def fit(evidence: Evidence, spec: RigSpec, slots: list[Slot], hits: np.ndarray |
     # MINPACK's Levenberg-Marquardt (bounds by clipping inside the residual): several times faster than a
     # bounded trust-region solver on these tall problems
     result = least_squares(residual, start, x_scale="jac", method="lm", max_nfev=40 * (len(slots) + 1),
-                           xtol=1e-7, ftol=1e-7)
+                           xtol=tolerance, ftol=tolerance)
     fitted = write_vector(spec, slots, np.clip(result.x, bounds[0], bounds[1]))
     return FitOutcome(fitted, evidence.chi2(fitted, hits), slots, _covariance(result.jac), int(result.nfev))
 
@@ -162,30 +190,100 @@ def bic(chi2: float, parameter_count: int, point_count: int) -> float:
     return chi2 + parameter_count * np.log(point_count)
 
 
+@dataclass
+class HeldOut:
+    """A term judged on data left out of its fit: the χ² gain of the augmented spec over the base spec on the left-out
+    part (both folds summed) and the augmented spec's fits on each fold (to compare their parameters)."""
+
+    gain: float
+    fold_fits: tuple[FitOutcome, FitOutcome]
+
+
 def held_out_gain(
     base_evidence: Evidence, base: RigSpec, augmented_evidence: Evidence, augmented: RigSpec, context: FitContext
-) -> float:
-    """χ² improvement of ``augmented`` over ``base`` on hits not used to fit either (two folds, summed); each spec
-    is judged on the evidence replayed with it."""
+) -> HeldOut:
+    """χ² improvement of ``augmented`` over ``base`` on hits not used to fit either (odd hits fitted, even hits
+    predicted, and the reverse); each spec is judged on the evidence replayed with it."""
     hits = np.arange(base_evidence.hit_count)
     folds = (hits[0::2], hits[1::2])
     gain = 0.0
+    fits = []
     for train, test in (folds, folds[::-1]):
         base_fit = fit(base_evidence, base, spec_slots(base, context), train)
         augmented_fit = fit(augmented_evidence, augmented, spec_slots(augmented, context), train)
         gain += base_evidence.chi2(base_fit.spec, test) - augmented_evidence.chi2(augmented_fit.spec, test)
-    return gain
+        fits.append(augmented_fit)
+    return HeldOut(gain, (fits[0], fits[1]))
+
+
+#: Width, in analysis lines, of the interleaved sub-bands of :func:`held_out_band_gain`.
+SUB_BAND_LINES = 3
+
+
+def held_out_band_gain(
+    base_evidence: Evidence, base: RigSpec, augmented_evidence: Evidence, augmented: RigSpec, context: FitContext
+) -> HeldOut:
+    """χ² improvement of ``augmented`` over ``base`` on frequencies left out of the fit: the band is cut into
+    interleaved sub-bands of :data:`SUB_BAND_LINES` lines, the specs are fitted on every other sub-band and predict
+    the rest, and the reverse."""
+    lines = np.arange(len(base_evidence.freq_hz))
+    folds = (lines[(lines // SUB_BAND_LINES) % 2 == 0], lines[(lines // SUB_BAND_LINES) % 2 == 1])
+    gain = 0.0
+    fits = []
+    for train, test in (folds, folds[::-1]):
+        base_train, augmented_train = base_evidence.restricted(train), augmented_evidence.restricted(train)
+        base_fit = fit(base_train, base, spec_slots(base, context))
+        augmented_fit = fit(augmented_train, augmented, spec_slots(augmented, context))
+        gain += (base_evidence.restricted(test).chi2(base_fit.spec)
+                 - augmented_evidence.restricted(test).chi2(augmented_fit.spec))
+        fits.append(augmented_fit)
+    return HeldOut(gain, (fits[0], fits[1]))
+
+
+#: Two fits of a term on disjoint data disagree when one of its parameters differs by more than this many standard
+#: deviations (both fits' uncertainties combined, each scaled by its own noise scale, and a floor of
+#: MODEL_UNCERTAINTY — 5 % of the value — for what no fit's covariance shows: the spec is a model).
+AGREEMENT_SIGMA = 4.0
+MODEL_UNCERTAINTY = 0.05
+
+
+def disagreement(first: FitOutcome, second: FitOutcome, effect_index: int, points: tuple[int, int]) -> str | None:
+    """Which parameter of effect ``effect_index`` differs between two fits on disjoint data beyond their
+    uncertainties (in search space: logarithms of log-scaled values), or None when they agree."""
+    worst: tuple[float, str] | None = None
+    for index, slot in enumerate(first.slots):
+        if slot.effect != effect_index:
+            continue
+        if slot.at_bound(first.spec) or slot.at_bound(second.spec):
+            continue  # a value at a bound (the term degenerate there) has no uncertainty to compare with
+        if min(first.covariance[index, index], second.covariance[index, index]) <= 0:
+            continue
+        variances = []
+        for outcome, count in zip((first, second), points):
+            scale = max(1.0, outcome.chi2 / max(count - len(outcome.slots), 1))
+            variances.append(max(float(outcome.covariance[index, index]), 0.0) * scale)
+        a, b = (slot.to_search(slot.value(outcome.spec)) if slot.range.scale != "log" or slot.value(outcome.spec) > 0
+                else slot.search_bounds()[0] for outcome in (first, second))
+        floor = MODEL_UNCERTAINTY * (1.0 if slot.range.scale == "log" else max(abs(a), abs(b)))
+        z = abs(a - b) / max(np.sqrt(sum(variances) + 2 * floor**2), 1e-300)
+        if z > AGREEMENT_SIGMA and (worst is None or z > worst[0]):
+            worst = (z, f"{slot.name} {slot.value(first.spec):.4g} vs {slot.value(second.spec):.4g} ({z:.0f} σ apart)")
+    return None if worst is None else worst[1]
 
 
 def best_candidate_fit(evidence: Evidence, spec: RigSpec, identifier: str, context: FitContext) -> FitOutcome | None:
-    """The best full-data fit of the spec plus one candidate term over its starting values (None: no start)."""
+    """The best full-data fit of the spec plus one candidate term over its starting values (None: no start): every
+    start fitted to the screening tolerance, the best :data:`FINISHED_STARTS` finished to the full tolerance."""
     outcomes = []
     for effect in starting_effects(identifier, spec, evidence, context):
         candidate = with_effect(spec, effect)
-        outcomes.append(fit(evidence, candidate, spec_slots(candidate, context)))
+        outcomes.append(fit(evidence, candidate, spec_slots(candidate, context), tolerance=SCREENING_TOLERANCE))
     if not outcomes:
         return None
-    best = min(outcomes, key=lambda outcome: outcome.chi2)
+    # the two best screened starts are finished: the screening order of two close starts is not the final one's
+    finished = [fit(evidence, outcome.spec, outcome.slots)
+                for outcome in sorted(outcomes, key=lambda outcome: outcome.chi2)[:FINISHED_STARTS]]
+    best = min(finished, key=lambda outcome: outcome.chi2)
     logger.debug("candidate %s: χ² %.1f after %d starts", identifier, best.chi2, len(outcomes))
     return best
 

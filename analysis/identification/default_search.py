@@ -31,15 +31,28 @@ _ORDER_START = (0.05, 1.95)
 #: local searches of the default fitter from the best distinct Latin-hypercube starts
 _LOCAL_SEARCHES = 8
 #: best local-search results polished on the accelerance
-_POLISHED = 2
+_POLISHED = 4
 #: projected Latin-hypercube samples with the lowest accelerance residual that are polished as they are
 _ACCELERANCE_STARTS = 6
-#: iterations of the brief polish every local result gets
+#: least difference of two candidates in some coordinate (log coefficient or order) for both to be polished
+_DISTINCT = 0.01
+#: iterations of the brief polish every local result gets (on the lines of the log-stiffness stage)
 _BRIEF_POLISH = 15
 #: Latin-hypercube shapes scored per shape coordinate
 _SAMPLES_PER_SHAPE = 32
 #: least distance between two starts of local searches, in the unit cube of the shapes
 _START_SPACING = 0.1
+#: relative cost decrease at which a local search over the shapes, or the brief polish, stops: their results are
+#: polished on the accelerance anyway
+_SEARCH_TOLERANCE = 1e-6
+#: relative cost decrease at which the final polish on the accelerance stops
+_POLISH_TOLERANCE = 1e-10
+#: relative excess of cost over the best of the final polish at which a start is given up after
+#: :data:`_BEHIND_AFTER` iterations (its RMS then is 0.05 % above the best, half the accuracy asked of the fitter)
+_POLISH_BEHIND = 1e-3
+_BEHIND_AFTER = 20
+#: iterations of a local search over the shapes, per shape coordinate
+_SEARCH_ITERATIONS = 25
 #: mean squared log-stiffness residual at which the data are matched to round-off and the search stops
 _EXACT_LOG_COST = 1e-20
 
@@ -108,11 +121,14 @@ class Projection:
             basis = np.stack([1.0 / b if self.compliance else b for b in basis], axis=-1)
             basis = basis * self.row_weight[:, np.newaxis]
             a = np.concatenate([basis.real, basis.imag], axis=-2)
-            a = np.nan_to_num(a, nan=0.0, posinf=0.0, neginf=0.0)
+            if not np.all(np.isfinite(a)):
+                a = np.nan_to_num(a, nan=0.0, posinf=0.0, neginf=0.0)
             coefficients = self._solve(a)
             # A branch whose best coefficient is negative is dropped and the others solved again.
-            a = a * (coefficients > 0)[..., np.newaxis, :]
-            coefficients = self._solve(a)
+            positive = coefficients > 0
+            if not np.all(positive):
+                a = a * positive[..., np.newaxis, :]
+                coefficients = self._solve(a)
             valid = np.isfinite(coefficients) & (coefficients > 0)
             residual = (a @ np.where(valid, coefficients, 0.0)[..., np.newaxis])[..., 0] - self.target
             log_coefficients = np.log(np.where(valid, coefficients, 1.0))
@@ -128,14 +144,24 @@ class Projection:
                 theta[..., member] += log_scales[..., b]
         return np.clip(theta, coords.lower, coords.upper), residual
 
+    def residual_and_jacobian(self, psi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The weighted relative stiffness residual (k, 2n) at shapes (k, free) and its Jacobian (k, 2n, free) by
+        forward differences: the shapes and all their shifts projected in one call. (The exact variable-projection
+        Jacobian from the branches' analytic gradients was tried: no faster, since a gradient evaluation costs
+        about as much as the shifted projections.)"""
+        step = 1e-7 * np.maximum(1.0, np.abs(psi))
+        step = np.where(psi + step > self.upper, -step, step)
+        shifted = psi[:, np.newaxis, :] + step[:, :, np.newaxis] * np.eye(self.size)
+        points = np.concatenate([psi[:, np.newaxis, :], shifted], axis=1)
+        residuals = self.project(points)[1]
+        jacobian = np.swapaxes((residuals[:, 1:] - residuals[:, :1]) / step[:, :, np.newaxis], -1, -2)
+        return residuals[:, 0], jacobian
+
     def _solve(self, a: np.ndarray) -> np.ndarray:
         normal = np.swapaxes(a, -1, -2) @ a
         ridge = 1e-12 * np.trace(normal, axis1=-2, axis2=-1)[..., np.newaxis, np.newaxis] + 1e-300
         right = (np.swapaxes(a, -1, -2) @ self.target)[..., np.newaxis]
         return np.linalg.solve(normal + ridge * np.eye(len(self.branches)), right)[..., 0]
-
-    def residual(self, psi: np.ndarray) -> np.ndarray:
-        return self.project(psi)[1]
 
     def shape_of(self, theta: np.ndarray) -> np.ndarray:
         """Shapes (..., free) of coordinates (..., size): the inverse of :meth:`project` for its own output."""
@@ -165,96 +191,122 @@ class Projection:
                 starts.append(np.clip(start, self.lower, self.upper))
         return starts
 
-    def jacobian(self, psi: np.ndarray) -> np.ndarray:
-        """Forward differences of :meth:`residual`, all shifted shapes projected in one call."""
-        step = 1e-7 * np.maximum(1.0, np.abs(psi))
-        step = np.where(psi + step > self.upper, -step, step)
-        points = np.vstack([psi, psi + np.diag(step)])
-        residuals = self.project(points)[1]
-        return ((residuals[1:] - residuals[0]) / step[:, np.newaxis]).T
-
-
 def _levenberg_marquardt(
-    residual: Callable[[np.ndarray], np.ndarray],
-    jacobian: Callable[[np.ndarray], np.ndarray],
+    evaluate: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]],
     x0: np.ndarray,
     lower: np.ndarray,
     upper: np.ndarray,
     max_iterations: int,
     tolerance: float,
-) -> tuple[np.ndarray, float]:
-    """Box-constrained Levenberg–Marquardt (Nielsen's damping update, steps projected onto the box).
+    good_enough: float = 0.0,
+    behind: float = np.inf,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Box-constrained Levenberg–Marquardt (Nielsen's damping update) from many starts at once.
 
-    Solves the small scaled normal equations instead of factorising the tall Jacobian: with a few parameters and
-    thousands of residuals this is an order of magnitude faster than a QR/SVD per step, and the damping keeps it
-    stable where the normal equations are ill-conditioned. Stops when a successful step lowers the cost by less
-    than ``tolerance`` (relative) and the local model predicted no more (MINPACK's ftol test), after
-    ``max_iterations``, or when no damping gives a lower cost. Returns (x, sum of squared residuals).
+    ``x0`` (starts, p); ``evaluate`` maps points (k, p) to residuals (k, m) and their Jacobians (k, m, p), so
+    every iteration makes one call for all starts still running (each start keeps its own damping and stops on
+    its own; the Jacobian comes with every trial point, which costs little next to a second call per iteration). A coordinate at a bound whose gradient points out of the box is held there for the step (the
+    other coordinates' step is solved without it) instead of being clipped after the step, which would spoil
+    the step of the others and make the search crawl along the bound. Solves the small scaled normal equations
+    instead of factorising the tall Jacobian. A start stops when a successful step lowers its cost by less than
+    ``tolerance`` (relative) and the local model predicted no more (MINPACK's ftol test), after
+    ``max_iterations``, when no damping gives a lower cost, or, after :data:`_BEHIND_AFTER` iterations, when its cost
+    is more than a factor ``1 + behind`` above the lowest cost of all starts; all stop as soon as one start's cost is
+    at most ``good_enough``. Returns (x (starts, p), sums of squared residuals (starts,)).
     """
     x = np.clip(np.asarray(x0, dtype=float), lower, upper)
-    r = residual(x)
-    cost = float(r @ r)
-    jac = jacobian(x)
-    damping, growth = 1e-3, 2.0
-    for _ in range(max_iterations):
-        normal = jac.T @ jac
-        gradient = jac.T @ r
-        scale = np.sqrt(np.diag(normal))
-        scale[~(scale > 0)] = 1.0
-        scaled = normal / np.outer(scale, scale)
-        try:
-            step = -np.linalg.solve(scaled + damping * np.eye(len(x)), gradient / scale) / scale
-        except np.linalg.LinAlgError:
-            damping *= growth
-            growth *= 2.0
-            continue
-        trial = np.clip(x + step, lower, upper)
-        r_trial = residual(trial)
-        cost_trial = float(r_trial @ r_trial)
-        linear = r + jac @ (trial - x)
-        predicted = cost - float(linear @ linear)
-        if np.isfinite(cost_trial) and cost_trial < cost:
-            gain = (cost - cost_trial) / predicted if predicted > 0 else 0.0
-            converged = cost - cost_trial <= tolerance * cost and predicted <= tolerance * cost
-            x, r, cost = trial, r_trial, cost_trial
-            if converged or cost == 0.0:
-                break
-            jac = jacobian(x)
-            damping *= max(1.0 / 3.0, 1.0 - (2.0 * gain - 1.0) ** 3)
-            growth = 2.0
+    r, jac = evaluate(x)
+    cost = np.einsum("km,km->k", r, r)
+    x_out, cost_out = x.copy(), cost.copy()
+    rows = np.arange(len(x))  # the working arrays hold the starts still running: rows of the output
+    damping, growth = np.full(len(x), 1e-3), np.full(len(x), 2.0)
+    identity = np.eye(x.shape[1])
+    for iteration in range(max_iterations):
+        if rows.size == 0 or np.min(cost_out) <= good_enough:
+            break
+        jac_t = np.swapaxes(jac, -1, -2)
+        normal = jac_t @ jac
+        gradient = (jac_t @ r[..., np.newaxis])[..., 0]
+        held = ((x <= lower) & (gradient > 0)) | ((x >= upper) & (gradient < 0))
+        scale = np.sqrt(np.einsum("kii->ki", normal))
+        scale[~(scale > 0) | held] = 1.0
+        scaled = normal / (scale[:, :, np.newaxis] * scale[:, np.newaxis, :])
+        free = ~held
+        scaled = scaled * (free[:, :, np.newaxis] & free[:, np.newaxis, :]) + identity * held[:, np.newaxis, :]
+        system = scaled + damping[:, np.newaxis, np.newaxis] * identity
+        right = np.where(held, 0.0, gradient / scale)
+        trial = np.clip(x - _solve_each(system, right) / scale, lower, upper)
+        step = trial - x
+        r_trial, jac_trial = evaluate(trial)
+        cost_trial = np.einsum("km,km->k", r_trial, r_trial)
+        # cost − |r + J·step|², from the normal equations
+        predicted = -2.0 * np.einsum("ki,ki->k", gradient, step) - np.einsum("ki,kij,kj->k", step, normal, step)
+        better = np.isfinite(cost_trial) & (cost_trial < cost)
+        gain = np.divide(cost - cost_trial, predicted, out=np.zeros_like(cost), where=predicted > 0)
+        converged = better & (
+            ((cost - cost_trial <= tolerance * cost) & (predicted <= tolerance * cost)) | (cost_trial == 0.0)
+        )
+        if np.all(better):
+            x, r, cost, jac = trial, r_trial, cost_trial, jac_trial
         else:
-            damping *= growth
-            growth *= 2.0
-            if damping > 1e16:
-                break
-    return x, cost
+            x[better], r[better], cost[better], jac[better] = (
+                trial[better], r_trial[better], cost_trial[better], jac_trial[better])
+        x_out[rows[better]], cost_out[rows[better]] = x[better], cost[better]
+        damping[better] *= np.maximum(1.0 / 3.0, 1.0 - (2.0 * gain[better] - 1.0) ** 3)
+        growth[better] = 2.0
+        damping[~better] *= growth[~better]
+        growth[~better] *= 2.0
+        stopped = converged | (damping > 1e16)
+        if iteration >= _BEHIND_AFTER:
+            stopped |= cost > (1.0 + behind) * np.min(cost_out)
+        if np.any(stopped):
+            going = ~stopped
+            rows, x, r, cost, jac, damping, growth = (
+                rows[going], x[going], r[going], cost[going], jac[going], damping[going], growth[going])
+    return x_out, cost_out
+
+
+def _solve_each(system: np.ndarray, right: np.ndarray) -> np.ndarray:
+    """Solutions (k, p) of the systems (k, p, p) with right-hand sides (k, p); a singular system gives a zero step
+    (its start then counts the iteration as failed and raises its damping)."""
+    try:
+        return np.linalg.solve(system, right[..., np.newaxis])[..., 0]
+    except np.linalg.LinAlgError:
+        solutions = np.zeros_like(right)
+        for k in range(len(system)):
+            try:
+                solutions[k] = np.linalg.solve(system[k], right[k])
+            except np.linalg.LinAlgError:
+                pass
+        return solutions
 
 
 def _projected_searches(
     projection: Projection, searches: int, rng: np.random.Generator
 ) -> list[tuple[float, np.ndarray, np.ndarray]]:
     """Local searches over the branch shapes from the best-scored distinct Latin-hypercube shapes, then from
-    split branches; (log cost, coordinates, shape) of each, stopping early on an exact fit."""
+    split branches, each group in one batched search; (log cost, coordinates, shape) of each, without the splits
+    when a first search fits exactly."""
     problem, index = projection.problem, projection.index
     found: list[tuple[float, np.ndarray, np.ndarray]] = []
 
-    def local_search(start: np.ndarray) -> float:
-        shape, _ = _levenberg_marquardt(
-            projection.residual,
-            projection.jacobian,
-            start,
+    def local_searches(starts: np.ndarray) -> float:
+        shapes, _ = _levenberg_marquardt(
+            projection.residual_and_jacobian,
+            starts,
             projection.lower,
             projection.upper,
-            max_iterations=50 * projection.size,
-            tolerance=1e-10,
+            max_iterations=_SEARCH_ITERATIONS * projection.size,
+            tolerance=_SEARCH_TOLERANCE,
+            good_enough=_EXACT_LOG_COST * len(index),
         )
-        theta = projection.project(shape)[0]
-        cost = float(problem.log_cost(theta[np.newaxis], index, projection.weights)[0])
-        found.append((cost, theta, shape))
-        return cost
+        thetas = projection.project(shapes)[0]
+        costs = problem.log_cost(thetas, index, projection.weights)
+        found.extend((float(cost), theta, shape) for cost, theta, shape in zip(costs, thetas, shapes))
+        return float(np.min(costs))
 
     if projection.size == 0:
-        local_search(np.zeros(0))
+        local_searches(np.zeros((1, 0)))
         return found
     unit = qmc.LatinHypercube(d=projection.size, seed=rng).random(_SAMPLES_PER_SHAPE * projection.size)
     # Each sample also with one order at 0: a spring-pot of order 0 is a spring, and a network whose best fit
@@ -280,14 +332,24 @@ def _projected_searches(
             break
         if all(np.linalg.norm(unit[start] - unit[other]) > _START_SPACING for other in chosen):
             chosen.append(int(start))
-    for start in chosen:
-        if local_search(shapes[start]) <= _EXACT_LOG_COST:
-            return found
-    best = min(found, key=lambda item: item[0])
-    for start in projection.split_starts(best[2]):
-        if local_search(start) <= _EXACT_LOG_COST:
-            break
+    if chosen and local_searches(shapes[chosen]) <= _EXACT_LOG_COST:
+        return found
+    splits = projection.split_starts(min(found, key=lambda item: item[0])[2])
+    if splits:
+        local_searches(np.array(splits))
     return found
+
+
+def _distinct(thetas: np.ndarray, count: int) -> list[int]:
+    """Indices of the first ``count`` rows of ``thetas`` that differ from every earlier chosen row by more than
+    :data:`_DISTINCT` in some coordinate: the same point reached from several starts is polished once."""
+    chosen: list[int] = []
+    for row, theta in enumerate(thetas):
+        if len(chosen) == count:
+            break
+        if all(np.max(np.abs(theta - thetas[other])) > _DISTINCT for other in chosen):
+            chosen.append(row)
+    return chosen
 
 
 def default_search(problem: Problem, seed: int, progress: Callable[[float], None] | None) -> np.ndarray:
@@ -312,26 +374,26 @@ def default_search(problem: Problem, seed: int, progress: Callable[[float], None
         if best_log_cost <= _EXACT_LOG_COST:
             break
     # Every local result is polished briefly on the accelerance (the log-stiffness optimum is not the RMS
-    # optimum when the model cannot fit the data), the best ones to convergence.
-    def brief_polish(theta: np.ndarray) -> tuple[float, np.ndarray]:
-        theta, cost = _levenberg_marquardt(
-            problem.acc_residual, problem.acc_jacobian, theta, coords.lower, coords.upper, _BRIEF_POLISH, 1e-10
-        )
-        return cost, theta
-
-    polished = []
-    for count, (_, theta) in enumerate(candidates):
-        if progress is not None:
-            progress(0.6 + 0.3 * count / len(candidates))
-        polished.append(brief_polish(theta))
-    polished.sort(key=lambda item: item[0])
-    final = []
-    for _, theta in polished[:_POLISHED]:
-        theta, cost = _levenberg_marquardt(
-            problem.acc_residual, problem.acc_jacobian, theta, coords.lower, coords.upper, 200, 1e-10
-        )
-        final.append((cost, theta))
-    best_cost, best_theta = min(final, key=lambda item: item[0])
+    # optimum when the model cannot fit the data), the best ones to convergence; each group in one batch.
+    exact = _EXACT_LOG_COST * float(np.sum(np.abs(problem.h[index]) ** 2 * problem.sqrt_w[index] ** 2))
+    starts = np.array([theta for _, theta in candidates])
+    thetas, costs = _levenberg_marquardt(
+        lambda theta: problem.acc_residual_and_jacobian(theta, index),
+        starts[_distinct(starts, len(starts))],
+        coords.lower,
+        coords.upper,
+        _BRIEF_POLISH,
+        _SEARCH_TOLERANCE,
+        good_enough=exact,
+    )
+    if progress is not None:
+        progress(0.9)
+    best = np.argsort(costs, kind="stable")
+    thetas, costs = _levenberg_marquardt(
+        problem.acc_residual_and_jacobian, thetas[best[_distinct(thetas[best], _POLISHED)]], coords.lower, coords.upper, 200, _POLISH_TOLERANCE,
+        behind=_POLISH_BEHIND,
+    )
+    best_theta, best_cost = thetas[np.argmin(costs)], float(np.min(costs))
     logger.debug(
         "%s: %d candidates polished on the accelerance, best weighted sum of squares %.4g",
         problem.model.name, len(candidates), best_cost,

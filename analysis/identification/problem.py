@@ -96,12 +96,8 @@ class Coordinates:
         """Parameter vectors (..., P) for the network at ``s/ω_r`` (coefficients g in N/m, orders) and masses (...)
         in kg from coordinates (..., size)."""
         theta = np.asarray(theta, dtype=float)
-        values = np.empty(theta.shape[:-1] + (len(self.names),))
-        for i, name in enumerate(self.names):
-            if name in self.orders:
-                values[..., i] = theta[..., i]
-            else:
-                values[..., i] = self.stiffness_ref * np.exp(theta[..., i])
+        values = theta[..., : len(self.names)]
+        values = np.where(self.is_order[: len(self.names)], values, self.stiffness_ref * np.exp(values))
         mass = self.mass_ref * np.exp(theta[..., -1]) if self.fit_mass else np.full(theta.shape[:-1], self.mass_ref)
         return values, mass
 
@@ -228,38 +224,54 @@ class Problem:
             cost = np.mean(np.abs((h_model - self.h[index]) * self.sqrt_w[index]) ** 2, axis=-1)
         return np.where(np.isfinite(cost), cost, np.inf)
 
-    def acc_residual(self, theta: np.ndarray) -> np.ndarray:
-        """Weighted accelerance residual at one point, real and imaginary parts stacked."""
+    def acc_residual(self, theta: np.ndarray, index: np.ndarray | slice = slice(None)) -> np.ndarray:
+        """Weighted accelerance residual at coordinates (..., size) on the lines ``index``, real and imaginary parts
+        stacked (..., 2·lines); one evaluation per point."""
         self.check_cancel()
-        self.evaluations += 1
-        return stack(self.acc_complex_residual(theta) * self.sqrt_w)
+        self.evaluations += int(np.prod(np.shape(theta)[:-1]))
+        return stack(self.acc_complex_residual(theta, index) * self.sqrt_w[index])
 
-    def acc_complex_residual(self, theta: np.ndarray) -> np.ndarray:
-        """``H(θ) - H_d`` in (m/s²)/N, unweighted; non-finite values become large finite ones."""
+    def acc_complex_residual(self, theta: np.ndarray, index: np.ndarray | slice = slice(None)) -> np.ndarray:
+        """``H(θ) - H_d`` in (m/s²)/N at coordinates (..., size) on the lines ``index``, unweighted, shape
+        (..., lines); non-finite values become large finite ones."""
         values, mass = self.coords.reference_values(theta)
+        s2 = self.s2[index]
         with np.errstate(all="ignore"):
-            residual = self.s2 / (self.stiffness(values) + mass * self.s2) - self.h
+            residual = s2 / (self.stiffness(values, index) + mass[..., np.newaxis] * s2) - self.h[index]
         if np.all(np.isfinite(residual)):  # the usual case, without nan_to_num's cost
             return residual
         return np.nan_to_num(residual, nan=1e6, posinf=1e6, neginf=-1e6)
 
-    def acc_jacobian(self, theta: np.ndarray) -> np.ndarray:
-        """Jacobian of :meth:`acc_residual` with respect to the coordinates, shape (2·lines, size): the model's
-        analytic dZ/d(reference values) times ``g`` for a coefficient ``g = K0·e^θ`` (1 for an order), and
-        ``H = s²/(Z + m s²)`` gives ``dH = -H²/s² · dZ`` and ``dH/dθ_m = -H² m``."""
-        self.evaluations += self.coords.size
+    def acc_jacobian(self, theta: np.ndarray, index: np.ndarray | slice = slice(None)) -> np.ndarray:
+        """Jacobian of :meth:`acc_residual` on the lines ``index`` with respect to the coordinates (..., size), shape
+        (..., 2·lines, size)."""
+        return self.acc_residual_and_jacobian(theta, index)[1]
+
+    def acc_residual_and_jacobian(
+        self, theta: np.ndarray, index: np.ndarray | slice = slice(None)
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`acc_residual` and its Jacobian at coordinates (..., size), shapes (..., 2·lines) and
+        (..., 2·lines, size), from one model evaluation: the model's analytic dZ/d(reference values) times ``g`` for
+        a coefficient ``g = K0·e^θ`` (1 for an order), and ``H = s²/(Z + m s²)`` gives ``dH = -H²/s² · dZ`` and
+        ``dH/dθ_m = -H² m``."""
+        self.check_cancel()
+        self.evaluations += (1 + self.coords.size) * int(np.prod(np.shape(theta)[:-1]))
         values, mass = self.coords.reference_values(theta)
-        z, dz_dvalues = self.model.stiffness_and_gradient(self.s_rel, values, self.log_s_rel)
-        dz_dtheta = dz_dvalues * np.where(self.coords.is_order[: len(values)], 1.0, values)
+        z, dz_dvalues = self.model.stiffness_and_gradient(self.s_rel[index], values, self.log_s_rel[index])
+        dz_dtheta = dz_dvalues * np.where(self.coords.is_order[: values.shape[-1]], 1.0, values)[..., np.newaxis, :]
+        s2 = self.s2[index]
         with np.errstate(all="ignore"):
-            h_model = self.s2 / (z + mass * self.s2)
-        columns = (-(h_model**2) / self.s2)[:, np.newaxis] * dz_dtheta
+            h_model = s2 / (z + mass[..., np.newaxis] * s2)
+        residual = h_model - self.h[index]
+        if not np.all(np.isfinite(residual)):
+            residual = np.nan_to_num(residual, nan=1e6, posinf=1e6, neginf=-1e6)
+        columns = (-(h_model**2) / s2)[..., np.newaxis] * dz_dtheta
         if self.coords.fit_mass:
-            columns = np.column_stack([columns, -(h_model**2) * mass])
-        jac = columns * self.sqrt_w[:, np.newaxis]
-        return np.concatenate([jac.real, jac.imag], axis=0)
+            columns = np.concatenate([columns, (-(h_model**2) * mass[..., np.newaxis])[..., np.newaxis]], axis=-1)
+        jac = columns * self.sqrt_w[index, np.newaxis]
+        return stack(residual * self.sqrt_w[index]), np.concatenate([jac.real, jac.imag], axis=-2)
 
 
 def stack(r: np.ndarray) -> np.ndarray:
-    """Real and imaginary parts of a complex residual as one real vector."""
-    return np.concatenate([r.real, r.imag])
+    """Real and imaginary parts of complex residuals (..., n) as real vectors (..., 2n)."""
+    return np.concatenate([r.real, r.imag], axis=-1)

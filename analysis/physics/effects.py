@@ -451,7 +451,16 @@ class Mains(Effect):
         if channel != self.channel:
             return None
         phase = 2 * np.pi * self.frequency_hz * np.asarray(time_s, dtype=float)
-        return self.amplitude * sum(h * np.sin((n + 1) * phase) for n, h in enumerate(self.harmonics))
+        # sin(nφ) of the harmonics by sin((n+1)φ) = 2cos φ·sin(nφ) − sin((n−1)φ): two sines instead of one per harmonic
+        sine = np.sin(phase)
+        total = self.harmonics[0] * sine
+        if len(self.harmonics) > 1:
+            twice_cosine = 2.0 * np.cos(phase)
+            previous = np.zeros_like(sine)
+            for harmonic in self.harmonics[1:]:
+                previous, sine = sine, twice_cosine * sine - previous
+                total += harmonic * sine
+        return self.amplitude * total
 
 
 def _time_constant_range(context: FitContext) -> FitRange:

@@ -17,7 +17,7 @@ import numpy as np
 import scipy.fft
 from scipy.sparse.linalg import LinearOperator, bicgstab
 
-from gasfilm.analysis.physics.elements import laplace_variable
+from gasfilm.analysis.physics.elements import FilmModel, laplace_variable
 from gasfilm.drivers.errors import GasfilmError
 
 from gasfilm.analysis.physics.effects import CUBIC_EQUIVALENT, DECAY_TOLERANCE, MAX_RESPONSE_DURATION_S
@@ -56,8 +56,30 @@ def film_stiffness(spec: RigSpec, s: np.ndarray, time_s: np.ndarray | float = 0.
         vector = np.broadcast_to(vector, viscous.shape + vector.shape).copy()
         vector[..., columns] *= viscous[..., np.newaxis]
     whole = np.asarray(spec.film_scale(time_s), dtype=float)
-    stiffness = model.stiffness(s, vector)
+    stiffness = _network_stiffness(model, vector, s)
     return stiffness * whole[..., np.newaxis] if whole.ndim else stiffness * float(whole)
+
+
+class _LastNetwork:
+    """``model.stiffness(s, vector)``, kept for the last model, single parameter vector and ``s``: the simulator asks
+    for the same film on the same grid at every hit (a drifting film only scales it), and evaluating the spring-pots
+    is most of a simulated hit's cost. The returned array must not be modified."""
+
+    def __init__(self) -> None:
+        self._kept: tuple[FilmModel, np.ndarray, np.ndarray, np.ndarray] | None = None
+
+    def stiffness(self, model: FilmModel, vector: np.ndarray, s: np.ndarray) -> np.ndarray:
+        kept = self._kept  # one read: another thread may replace it meanwhile
+        if (kept is not None and kept[0] is model and kept[1].shape == vector.shape and np.array_equal(kept[1], vector)
+                and kept[2].shape == s.shape and np.array_equal(kept[2], s)):
+            return kept[3]
+        stiffness = model.stiffness(s, vector)
+        if vector.ndim == 1:
+            self._kept = (model, vector.copy(), s.copy(), stiffness)
+        return stiffness
+
+
+_network_stiffness = _LastNetwork().stiffness
 
 
 def rig_dynamic_stiffness(
@@ -104,7 +126,9 @@ def resonance_omega_rad_s(spec: RigSpec) -> float:
     omega = float(np.sqrt(abs(spec.film.stiffness(np.array([1j]), spec.film_parameters)[0]) / mass_kg))
     for _ in range(20):
         stiffness = spec.film.stiffness(np.array([1j * omega]), spec.film_parameters)[0].real
-        omega = float(np.sqrt(max(stiffness, 1e-9) / mass_kg))
+        previous, omega = omega, float(np.sqrt(max(stiffness, 1e-9) / mass_kg))
+        if abs(omega - previous) <= 1e-12 * omega:
+            break
     return omega
 
 

@@ -25,6 +25,7 @@ from PySide6.QtWidgets import (
 
 from gasfilm.analysis.diagnosis import Finding
 from gasfilm.analysis.diagnosis.pipeline import replayed_mean
+from gasfilm.analysis.diagnosis.restoring import MAX_DRAWN_SAMPLES
 from gasfilm.app.gui.controller import SessionController
 from gasfilm.app.gui.widgets import MEASURED_COLOR, PALETTE, FixedHeightLabel, make_plot, pen
 from gasfilm.drivers.errors import GasfilmError
@@ -116,11 +117,24 @@ class DiagnoseTab(QWidget):
         self.overlay_plot = make_plot("Measured vs rig spec, before and after", ("|H|", "g/N"), log_y=True)
         self.residual_plot = make_plot("Residual |H_model − H_measured|", ("|ΔH|", "g/N"))
         self.residual_plot.setXLink(self.overlay_plot)
+        # the film's restoring force r = F − m·a of every hit's free decay (model-free; diagnosis-restoring-force.png)
+        self.restoring_stiffness_plot = make_plot("Film restoring force: r − c·v against x", ("r − c·v", "N"),
+                                                  ("displacement x", "µm"))
+        self.restoring_damping_plot = make_plot("r − k·x against v", ("r − k·x", "N"), ("velocity v", "mm/s"))
+        restoring = QWidget()
+        restoring_layout = QHBoxLayout(restoring)
+        restoring_layout.setContentsMargins(0, 0, 0, 0)
+        restoring_layout.addWidget(self.restoring_stiffness_plot)
+        restoring_layout.addWidget(self.restoring_damping_plot)
+        self.restoring_label = QLabel()
+        self.restoring_label.setWordWrap(True)
         plots = QWidget()
         plots_layout = QVBoxLayout(plots)
         plots_layout.setContentsMargins(0, 0, 0, 0)
         plots_layout.addWidget(self.overlay_plot, 3)
         plots_layout.addWidget(self.residual_plot, 2)
+        plots_layout.addWidget(restoring, 2)
+        plots_layout.addWidget(self.restoring_label)
 
         splitter = QSplitter(Qt.Orientation.Horizontal)
         splitter.addWidget(left)
@@ -183,6 +197,9 @@ class DiagnoseTab(QWidget):
         self.details.clear()
         self.overlay_plot.clear()
         self.residual_plot.clear()
+        self.restoring_stiffness_plot.clear()
+        self.restoring_damping_plot.clear()
+        self.restoring_label.clear()
         has_spec = diagnosis is not None and diagnosis.improved_spec_path is not None
         self.export_button.setEnabled(has_spec)
         self.play_button.setEnabled(has_spec)
@@ -297,6 +314,34 @@ class DiagnoseTab(QWidget):
         self.overlay_plot.plot(freq, np.abs(after) / G, pen=pen(PALETTE[0], 1.5), name="improved spec (after)")
         self.residual_plot.plot(freq, np.abs(before - measured) / G, pen=pen(PALETTE[1], 1.5), name="before")
         self.residual_plot.plot(freq, np.abs(after - measured) / G, pen=pen(PALETTE[0], 1.5), name="after")
+        self._plot_restoring_force(diagnosis.restoring_force)
+
+    def _plot_restoring_force(self, restoring: Any) -> None:
+        """The restoring force's stiffness and damping sections, one colour per hit, with the linear film's lines
+        and the catalogue shape it has (as in diagnosis-restoring-force.png)."""
+        if restoring is None:
+            self.restoring_label.setText("Film restoring force: not measured (no quiet free decay to read it from).")
+            return
+        step = max(1, restoring.force_n.size // MAX_DRAWN_SAMPLES)
+        x_um = restoring.displacement_m[::step] * 1e6
+        v_mm_s = restoring.velocity_m_s[::step] * 1e3
+        k, c = restoring.stiffness_n_per_m, restoring.damping_ns_per_m
+        stiffness_part = restoring.force_n[::step] - c * restoring.velocity_m_s[::step]
+        damping_part = restoring.force_n[::step] - k * restoring.displacement_m[::step]
+        hits = restoring.hit_index[::step]
+        for number in np.unique(hits):
+            rows = hits == number
+            colour = PALETTE[int(number) % len(PALETTE)]
+            for plot, x, y in ((self.restoring_stiffness_plot, x_um, stiffness_part),
+                               (self.restoring_damping_plot, v_mm_s, damping_part)):
+                plot.plot(x[rows], y[rows], pen=None, symbol="o", symbolSize=2, symbolPen=None, symbolBrush=colour)
+        x_line = np.linspace(x_um.min(), x_um.max(), 50)
+        v_line = np.linspace(v_mm_s.min(), v_mm_s.max(), 50)
+        self.restoring_stiffness_plot.plot(x_line, k * x_line * 1e-6, pen=pen(MEASURED_COLOR, 1.5, Qt.PenStyle.DashLine),
+                                           name=f"linear film k = {k:.3g} N/m")
+        self.restoring_damping_plot.plot(v_line, c * v_line * 1e-3, pen=pen(MEASURED_COLOR, 1.5, Qt.PenStyle.DashLine),
+                                         name=f"linear film c = {c:.3g} N·s/m")
+        self.restoring_label.setText(f"Film restoring force (F − m·a, colour = hit): {restoring.description()}")
 
     def _export(self) -> None:
         default = ""

@@ -1,0 +1,92 @@
+"""Measurement properties are never physics (issue 14, item 5): a short simulated session of the paper's SD film,
+changed in software the way recorders and exports change records (benchmarks/measurement_controls.py, which prints
+the same table at full size), diagnosed from a start read off the FRF with only the mass, as a user with UFF time
+records would: each property is recognised and noted under ``quality``, taken into the noise model or the replay, and
+the verdict stays ``consistent`` or ``parameters-only``."""
+
+from __future__ import annotations
+
+import dataclasses
+import importlib.util
+import json
+import re
+from pathlib import Path
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from gasfilm.analysis.diagnosis import diagnose
+from gasfilm.analysis.diagnosis.recordings import Recordings, load_recordings
+from gasfilm.analysis.physics.spec import RigSpec
+from gasfilm.analysis.spectra import WindowSettings, compute_frf
+from gasfilm.analysis.uff import export_frf_uff
+from gasfilm.app.cli import main as gasfilm
+
+ROOT = Path(__file__).resolve().parents[1]
+_spec = importlib.util.spec_from_file_location("measurement_controls", ROOT / "benchmarks" / "measurement_controls.py")
+controls = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(controls)
+
+MASS_KG = 25.05
+
+
+@pytest.fixture(scope="module")
+def recorded(tmp_path_factory) -> tuple[Recordings, RigSpec]:
+    """4 hits of 0.5 s of the SD rig on the simulator, as UFF time records carry them (no spec, no windows)."""
+    path = tmp_path_factory.mktemp("measurement") / "sd.h5"
+    assert gasfilm(["acquire", "--device", "sim", "--out", str(path), "--hits", "4", "--pacing", "fast",
+                    "--record-s", "0.5", "--seed", "5", "--rig", str(controls.SD_RIG)]) == 0
+    recordings = load_recordings(path)
+    spec = RigSpec.from_toml(recordings.rig_spec_toml, str(path))
+    return dataclasses.replace(recordings, rig_spec_toml=None, window=None), spec
+
+
+def _diagnosed(recorded, change):
+    recordings, spec = recorded
+    changed = dataclasses.replace(recordings, records=change(recordings.records, recordings.sample_rate_hz, spec))
+    diagnosis = diagnose(changed, mass_kg=MASS_KG)
+    assert diagnosis.verdict in ("consistent", "parameters-only"), (
+        [f.effect for f in diagnosis.findings], [u.band_hz for u in diagnosis.unexplained])
+    assert not diagnosis.findings and not diagnosis.unexplained
+    return diagnosis, {note.kind: note.message for note in diagnosis.quality}
+
+
+def test_records_quantised_to_8_bits_of_the_input_range(recorded):
+    diagnosis, notes = _diagnosed(recorded, controls.quantised_8_bit)
+    assert "quantisation" in notes and "replayed response is quantised" in notes["quantisation"]
+    assert "overload" not in notes  # a quantiser's plateau at the peak is not clipping
+    assert list(diagnosis.spectra.hit_numbers) == [0, 1, 2, 3]
+
+
+def test_floor_vibration_on_the_response_only(recorded):
+    _, notes = _diagnosed(recorded, controls.floor_vibration)
+    found_hz = [float(f) for f in re.search(r"near ([\d, ]+) Hz", notes["floor vibration"]).group(1).split(",")]
+    assert any(abs(f - 30) < 5 for f in found_hz) and any(abs(f - 87) < 5 for f in found_hz)
+
+
+def test_late_trigger_that_misses_the_pulse_start(recorded):
+    diagnosis, notes = _diagnosed(recorded, controls.late_trigger)
+    assert "late trigger" in notes and "4 record(s)" in notes["late trigger"]
+    assert diagnosis.spectra.noise.source == "record tails"  # the responses decayed: no need for the hit scatter
+
+
+def test_records_exported_with_force_and_exponential_windows(recorded, tmp_path, capsys):
+    """The user's path: UFF time records exported after a force window and a 1 % exponential window, ``gasfilm
+    diagnose FILE --mass M``: both windows recognised, the exponential's rate measured."""
+    recordings, spec = recorded
+    records = controls.exported_windowed(recordings.records, recordings.sample_rate_hz, spec)
+    hits = [SimpleNamespace(data=record, force_channel=0, response_channel=1, sample_rate_hz=recordings.sample_rate_hz,
+                            start_time_s=float(start)) for record, start in zip(records, recordings.hit_times_s)]
+    frf = compute_frf(records, recordings.sample_rate_hz, WindowSettings(force_window_ms=None,
+                                                                         exponential_end_fraction=None))
+    path = export_frf_uff(frf, tmp_path / "windowed.uff", hits=hits)
+    capsys.readouterr()
+    assert gasfilm(["diagnose", str(path), "--mass", str(MASS_KG), "--json", "--out", str(tmp_path / "d")]) == 0
+    result = json.loads(capsys.readouterr().out)
+    assert result["verdict"] in ("consistent", "parameters-only") and not result["findings"]
+    notes = {note["kind"]: note["message"] for note in result["quality"]}
+    assert "AC coupling" in notes["force window"]
+    true_1_s = np.log(100) * recordings.sample_rate_hz / (records.shape[-1] - 1)  # 1 % at the end
+    found_1_s, error_1_s = map(float, re.search(r"σ = ([\d.]+) ± ([\d.e-]+) 1/s", notes["exponential window"]).groups())
+    assert abs(found_1_s - true_1_s) < max(4 * error_1_s, 0.02 * true_1_s)
