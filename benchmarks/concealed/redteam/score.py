@@ -103,12 +103,38 @@ def quality_kinds(result: dict) -> list[str]:
     return out
 
 
+def condition_problem(key: dict, result: dict, findings: list[dict]) -> str:
+    """What keeps a matching set from counting ('' when nothing): a finding without the alternative the key
+    requires (``needs_alternative``), or an empty set whose recalibration did not move the parameter the key names
+    (``empty_needs_recalibrated``: a name holding one of the strings, moved by more than 2 %)."""
+    for finding in findings:
+        needed = key.get("needs_alternative", {}).get(key_name(str(finding.get("effect", "?"))))
+        if needed:
+            named = {key_name(str(a.get("effect") if isinstance(a, dict) else a))
+                     for a in finding.get("alternatives") or []}
+            if needed not in named:
+                return f"{finding.get('effect')} without the alternative {needed}"
+    wanted = key.get("empty_needs_recalibrated", [])
+    if wanted and not findings:
+        moved = []
+        for name, entry in (result.get("recalibration") or {}).items():
+            if not any(word in name.lower() for word in wanted) or not isinstance(entry, dict):
+                continue
+            spec, fitted = entry.get("spec"), entry.get("fitted")
+            if isinstance(spec, (int, float)) and isinstance(fitted, (int, float)) and spec and \
+                    abs(fitted / spec - 1) > 0.02:
+                moved.append(name)
+        if not moved:
+            return f"nothing found and no recalibrated parameter named {' or '.join(wanted)} moved by > 2 %"
+    return ""
+
+
 def classify(key: dict, result: dict) -> tuple[str, str]:
     """(outcome, reason) of one diagnosis against its answer key."""
     verdict = result.get("verdict")
     findings = result.get("findings") or []
     effects = {key_name(str(f.get("effect", "?"))) for f in findings}
-    allowed = set(key["allowed"])
+    allowed = set(key["allowed"]) | set(key.get("partial_ok", []))  # partial: only beside an unexplained rest
     forbidden = effects & set(key["must_not_claim"])
     notes = [kind.lower() for kind in quality_kinds(result)]
     bad_notes = [word for word in key.get("must_not_quality", []) if any(word in note for note in notes)]
@@ -123,6 +149,9 @@ def classify(key: dict, result: dict) -> tuple[str, str]:
         if effects in [set(names) for names in sets]:
             if not effects and verdict not in EXPLAINED_VERDICTS:
                 break  # nothing found: judged below by its verdict
+            problem = condition_problem(key, result, findings)
+            if problem:
+                return "wrong", problem
             return outcome, ""
     if key.get("honest_not_explained_ok") and verdict in HONEST_VERDICTS:
         if not result.get("unexplained"):
