@@ -11,7 +11,7 @@ from matplotlib.figure import Figure
 from matplotlib.ticker import MaxNLocator
 
 from gasfilm.analysis.diagnosis.pipeline import replayed_mean, residuals
-from gasfilm.analysis.diagnosis.restoring import MAX_DRAWN_SAMPLES, RestoringForce
+from gasfilm.analysis.diagnosis.restoring import RestoringForce
 from gasfilm.analysis.diagnosis.result import Diagnosis
 from gasfilm.drivers.interface import STANDARD_GRAVITY_M_S2 as G_M_S2
 
@@ -92,13 +92,10 @@ def write_restoring_force_figure(restoring: RestoringForce, path: Path) -> Path:
     figure = Figure(figsize=(10, 4.8))
     FigureCanvasAgg(figure)
     axes = figure.subplots(1, 2)
-    step = max(1, restoring.force_n.size // MAX_DRAWN_SAMPLES)
-    x_um = restoring.displacement_m[::step] * 1e6
-    v_mm_s = restoring.velocity_m_s[::step] * 1e3
+    sections = restoring.sections()
+    x_um, v_mm_s, hit = sections.displacement_um, sections.velocity_mm_s, sections.hit_index
+    stiffness_part, damping_part = sections.stiffness_part_n, sections.damping_part_n
     k, c = restoring.stiffness_n_per_m, restoring.damping_ns_per_m
-    stiffness_part = restoring.force_n[::step] - c * restoring.velocity_m_s[::step]
-    damping_part = restoring.force_n[::step] - k * restoring.displacement_m[::step]
-    hit = restoring.hit_index[::step]
     colours = matplotlib.colormaps["viridis"](np.linspace(0.0, 1.0, int(hit.max()) + 1))
     for number in np.unique(hit):  # one line of pixel markers per hit: far faster than a coloured scatter
         rows = hit == number

@@ -65,6 +65,17 @@ class Shape:
                 "significant": self.significant}
 
 
+@dataclass(frozen=True)
+class RestoringSections:
+    """The restoring force's two sections as drawn: per sample its hit, x (µm), v (mm/s), r − c·v and r − k·x (N)."""
+
+    hit_index: np.ndarray
+    displacement_um: np.ndarray
+    velocity_mm_s: np.ndarray
+    stiffness_part_n: np.ndarray
+    damping_part_n: np.ndarray
+
+
 @dataclass
 class RestoringForce:
     """The film's restoring force from every hit, its linear plane and the catalogue shapes, best first."""
@@ -84,6 +95,18 @@ class RestoringForce:
     @property
     def significant(self) -> list[Shape]:
         return [shape for shape in self.shapes if shape.significant]
+
+    def sections(self) -> RestoringSections:
+        """The stiffness section (r − c·v against x) and damping section (r − k·x against v) to draw, thinned to at
+        most :data:`MAX_DRAWN_SAMPLES` samples."""
+        step = max(1, self.force_n.size // MAX_DRAWN_SAMPLES)
+        return RestoringSections(
+            hit_index=self.hit_index[::step],
+            displacement_um=self.displacement_m[::step] * 1e6,
+            velocity_mm_s=self.velocity_m_s[::step] * 1e3,
+            stiffness_part_n=self.force_n[::step] - self.damping_ns_per_m * self.velocity_m_s[::step],
+            damping_part_n=self.force_n[::step] - self.stiffness_n_per_m * self.displacement_m[::step],
+        )
 
     @property
     def best(self) -> Shape | None:

@@ -25,7 +25,6 @@ from PySide6.QtWidgets import (
 
 from gasfilm.analysis.diagnosis import Finding
 from gasfilm.analysis.diagnosis.pipeline import replayed_mean
-from gasfilm.analysis.diagnosis.restoring import MAX_DRAWN_SAMPLES
 from gasfilm.app.gui.controller import SessionController
 from gasfilm.app.gui.widgets import MEASURED_COLOR, PALETTE, FixedHeightLabel, make_plot, pen
 from gasfilm.drivers.errors import GasfilmError
@@ -322,13 +321,10 @@ class DiagnoseTab(QWidget):
         if restoring is None:
             self.restoring_label.setText("Film restoring force: not measured (no quiet free decay to read it from).")
             return
-        step = max(1, restoring.force_n.size // MAX_DRAWN_SAMPLES)
-        x_um = restoring.displacement_m[::step] * 1e6
-        v_mm_s = restoring.velocity_m_s[::step] * 1e3
+        sections = restoring.sections()
+        x_um, v_mm_s, hits = sections.displacement_um, sections.velocity_mm_s, sections.hit_index
+        stiffness_part, damping_part = sections.stiffness_part_n, sections.damping_part_n
         k, c = restoring.stiffness_n_per_m, restoring.damping_ns_per_m
-        stiffness_part = restoring.force_n[::step] - c * restoring.velocity_m_s[::step]
-        damping_part = restoring.force_n[::step] - k * restoring.displacement_m[::step]
-        hits = restoring.hit_index[::step]
         for number in np.unique(hits):
             rows = hits == number
             colour = PALETTE[int(number) % len(PALETTE)]
