@@ -37,6 +37,13 @@ MIN_QUIET_SAMPLES = 16
 PREWINDOW_MIN_DECAY = 0.1
 PREWINDOW_FIT = 0.05
 MAINS_HARMONICS = 20
+#: A mains line lies within this fraction of its harmonic's nominal frequency (grids hold 50/60 Hz within ±1 %; a
+#: self-excited line near a harmonic is not mains).
+MAINS_FREQUENCY_TOLERANCE = 0.01
+#: Mains is stationary: the lines fitted on the tails, carried back to the pre-trigger, must be found there with the
+#: same phase (one-sided z score of their correlation) and at least this fraction of their power.
+MAINS_COHERENCE_Z = 3.0
+MAINS_COHERENCE_SHARE = 0.5
 #: Hits needed to measure the noise from their scatter when no quiet pre-trigger is recorded.
 MIN_SCATTER_HITS = 3
 #: Lines (at least) over which the scatter of the hits' FRFs is smoothed into a noise spectrum.
@@ -440,7 +447,7 @@ def hit_spectra(
             quiet_slice = slice(0, quiet_samples)
         else:
             records, mains_base, mains_harmonics = _remove_mains(records, tail_start, sample_rate_hz,
-                                                                 MAINS_HARMONICS * max(MAINS_BASES_HZ))
+                                                                 MAINS_HARMONICS * max(MAINS_BASES_HZ), quiet_samples)
             if mains_base is not None:
                 quality.append(_mains_note(mains_base, mains_harmonics, "found on the quiet record tails"))
             quiet_slice = slice(tail_start, n_samples)
@@ -945,12 +952,16 @@ def _noise_spectrum(
 
 
 def _remove_mains(
-    records: np.ndarray, tail_start: int, sample_rate_hz: float, top_hz: float
+    records: np.ndarray, tail_start: int, sample_rate_hz: float, top_hz: float, before: int = 0
 ) -> tuple[np.ndarray, float | None, list[float]]:
     """Find mains lines (50 or 60 Hz and harmonics) in the quiet record tails and subtract them from every record.
 
     Each hit and channel gets its own amplitudes and phases, fitted by least squares on the tail where nothing else
-    happens; a harmonic counts when its power over all hits stands 25 times above what noise alone gives."""
+    happens; a harmonic counts when its power over all hits stands 25 times above what noise alone gives, and when
+    the line's own frequency is the harmonic's (:data:`MAINS_FREQUENCY_TOLERANCE`). Lines at harmonics only, without
+    the mains frequency itself, need two harmonics. With ``before`` samples of pre-trigger, the lines carried back
+    there must be found with their phase (:func:`_coherent_before`): mains is there before the hit too, a line the
+    hit excites (a self-excited limit cycle, a ringing mode) is not mains."""
     n_samples = records.shape[-1]
     time_s = np.arange(n_samples) / sample_rate_hz
     tail_time_s = time_s[tail_start:]
@@ -968,7 +979,10 @@ def _remove_mains(
         power = coefficients[:count] ** 2 + coefficients[count : 2 * count] ** 2
         noise_power = 4.0 * residual_variance / tail_time_s.size  # E(a² + b²) for noise alone
         ratio = np.mean(power / np.maximum(noise_power, 1e-300)[np.newaxis, :], axis=1)  # all-zero tails: 0
-        found = [float(h) for h, r in zip(harmonics, ratio) if r > 25.0]
+        found = [float(h) for h, r in zip(harmonics, ratio)
+                 if r > 25.0 and _line_at(tails, tail_time_s, float(h))]
+        if found and found[0] != base and len(found) < 2:
+            found = []
         if found and (best is None or len(found) > len(best[1])):
             best = (base, found, coefficients)
     if best is None:
@@ -979,8 +993,37 @@ def _remove_mains(
     count = harmonics.size
     phase = 2 * np.pi * np.outer(time_s, harmonics[keep])
     lines = np.cos(phase) @ coefficients[:count][keep] + np.sin(phase) @ coefficients[count : 2 * count][keep]
+    if not _coherent_before(records.reshape(-1, n_samples).T[:before], lines[:before]):
+        return records, None, []
     cleaned = records - lines.T.reshape(records.shape)
     return cleaned, base, found
+
+
+def _line_at(tails: np.ndarray, time_s: np.ndarray, nominal_hz: float) -> bool:
+    """Whether the line near ``nominal_hz`` in the tails (samples × records) peaks within the mains tolerance of it:
+    the power summed over records, scanned ±3 % around the nominal frequency on a grid finer than the resolution."""
+    centred = tails - tails.mean(axis=0)
+    trial_hz = nominal_hz * np.linspace(0.97, 1.03, 121)
+    phase = 2 * np.pi * np.outer(trial_hz, time_s)
+    power = (np.cos(phase) @ centred) ** 2 + (np.sin(phase) @ centred) ** 2
+    peak_hz = float(trial_hz[np.argmax(power.sum(axis=1))])
+    return abs(peak_hz - nominal_hz) <= MAINS_FREQUENCY_TOLERANCE * nominal_hz
+
+
+def _coherent_before(before: np.ndarray, lines: np.ndarray) -> bool:
+    """Whether mains lines fitted on the tails and carried back (``lines``: samples × records) are in the pre-trigger
+    (``before``, same shape) with their phase and most of their power; True when the pre-trigger is too short or too
+    noisy to tell (then the frequency alone decides)."""
+    if before.shape[0] < 16:
+        return True
+    before = before - before.mean(axis=0)
+    lines = lines - lines.mean(axis=0)
+    energy = float(np.sum(lines**2))
+    sigma = float(np.sqrt(np.mean((before - lines) ** 2)))
+    if energy <= 0 or np.sqrt(energy) / max(sigma, 1e-300) < 2 * MAINS_COHERENCE_Z:
+        return True  # even a coherent line would not stand out of the pre-trigger's noise
+    correlation = float(np.sum(before * lines))
+    return correlation / (sigma * np.sqrt(energy)) > MAINS_COHERENCE_Z and correlation > MAINS_COHERENCE_SHARE * energy
 
 
 def _subtract_lines(records: np.ndarray, start: int, sample_rate_hz: float, lines_hz: np.ndarray) -> np.ndarray:
