@@ -289,7 +289,8 @@ def restoring_force(
         rss = float(np.sum((r - design @ fitted) ** 2))
         variance = max(noise_n**2, rss / max(r.size - design.shape[1], 1))
         gain = (rss_reference - rss) / variance * independent / r.size
-        share = (rss_reference - rss) / max(rss_reference - r.size * noise_n**2, 1e-300)
+        beyond_noise = rss_reference - r.size * noise_n**2  # the reference's misfit beyond the noise
+        share = (rss_reference - rss) / beyond_noise if beyond_noise > 0 else 0.0
         fitted = _least_squares(np.column_stack((x, v, shape_basis)), r)  # the shape's own coefficient, as drawn
         shapes.append(Shape(_named(name, fitted[2]), term if _term_sign_ok(term, fitted[2]) else None, gain,
                             float(np.clip(share, 0.0, 1.0)), float(fitted[2]), unit))
