@@ -245,3 +245,17 @@ def test_campaign_report_marks_a_finding_seen_at_some_conditions_only():
     assert "SD ×2" in page and "Sessions that failed (1)" in page and "not a gasfilm session" in page
     assert page.count("<img") == 2  # K(f)/C(f) per condition, parameters against the condition
     assert "2.838e+07 ± 7.1e+03 (spec 2.835e+07)" in page  # two sessions' weighted mean ± σ next to the law
+
+
+def _worker_environment() -> tuple[str | None, str | None]:
+    return os.environ.get("MALLOC_TRIM_THRESHOLD_"), os.environ.get("OMP_NUM_THREADS")
+
+
+def test_local_workers_keep_glibc_malloc_tuning_and_one_blas_thread():
+    """dask's default MALLOC_TRIM_THRESHOLD_ cost a session 21-24 % more CPU (every array over 128 kB mapped afresh):
+    the local cluster's worker processes start without it, single-threaded in BLAS/OpenMP as dask's default."""
+    from gasfilm.analysis.campaign.runner import dask_client
+
+    with dask_client(1, None) as client:
+        environments = list(client.run(_worker_environment).values())
+    assert environments == [(None, "1")]
