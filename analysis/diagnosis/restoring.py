@@ -18,12 +18,6 @@ of ``r`` (from the quiet pre-trigger) and per independent sample (the band-limit
 | bilinear stiffness | max(x, 0) (different stiffness on either side) | none |
 | asymmetric (quadratic) stiffness | x² | none |
 
-An odd-symmetric shape (cubic, quadratic damping, friction, clearance) changes the stiffness or damping along the
-decay, and so does a *linear* film whose stiffness depends on frequency (its free decay is not one exponential): such
-a shape is judged against its level-blind twin (the shape on each hit's motion scaled to a common level, scaled back),
-added to the plane — it is evidence only where hits of different levels differ the way the shape says. The even
-shapes (bilinear, x²) make even harmonics no linear film can, and are judged against the plane alone.
-
 Each basis function goes through the same band-pass as the measured force, so that the harmonics the nonlinearity
 creates outside the band are removed from both sides alike. Only samples after the hammer pulse (free decay, where
 ``r = −m·a`` whatever the force sensor's calibration) whose displacement stands well above the noise are used.
@@ -35,8 +29,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-#: χ² gain (noise units, independent samples) a shape needs over the linear reference to be evidence, and the share
-#: of the reference's misfit beyond the noise it must remove (a linear film with frequency-dependent stiffness leaves
+#: χ² gain (noise units, independent samples) a shape needs over the linear plane to be evidence, and the share of
+#: the linear plane's misfit beyond the noise it must remove (a linear film with frequency-dependent stiffness leaves
 #: a misfit every basis function shaves a little off).
 SHAPE_SIGNIFICANCE = 25.0
 SHAPE_SHARE = 0.3
@@ -266,46 +260,27 @@ def restoring_force(
     linear = np.column_stack((x, v))
     coefficients = _least_squares(linear, r)
     rss_linear = float(np.sum((r - linear @ coefficients) ** 2))
-    # each hit's level relative to the largest: a linear film's records are the same motion scaled by it
-    hit_peak = np.array([np.max(np.abs(displacement[hit, s]), initial=0.0) for hit, s in enumerate(selected)])
-    level = np.clip(hit_peak / max(float(hit_peak.max()), 1e-300), 1e-6, None)[:, np.newaxis]
-    catalogue = (  # name, catalog term, basis, unit, odd-symmetric
-        ("cubic stiffness", "cubic-stiffness", lambda d, u: d**3, "N/m³", True),
-        ("quadratic damping", "quadratic-damping", lambda d, u: u * np.abs(u), "N·s²/m²", True),
-        ("Coulomb friction", "friction", lambda d, u: np.tanh(u / (0.01 * v_peak)), "N", True),
-        ("clearance / dead zone", None, lambda d, u: np.clip(d, -0.2 * x_peak, 0.2 * x_peak), "N/m", True),
-        ("bilinear stiffness", None, lambda d, u: np.maximum(d, 0.0), "N/m", False),
-        ("asymmetric (quadratic) stiffness", None, lambda d, u: d**2, "N/m²", False),
+    catalogue = (
+        ("cubic stiffness", "cubic-stiffness", lambda d, u: d**3, "N/m³"),
+        ("quadratic damping", "quadratic-damping", lambda d, u: u * np.abs(u), "N·s²/m²"),
+        ("Coulomb friction", "friction", lambda d, u: np.tanh(u / (0.01 * v_peak)), "N"),
+        ("clearance / dead zone", None, lambda d, u: np.clip(d, -0.2 * x_peak, 0.2 * x_peak), "N/m"),
+        ("bilinear stiffness", None, lambda d, u: np.maximum(d, 0.0), "N/m"),
+        ("asymmetric (quadratic) stiffness", None, lambda d, u: d**2, "N/m²"),
     )
     shapes = []
-    for name, term, function, unit, odd in catalogue:
-        shape_basis = basis(function)
-        reference, rss_reference = linear, rss_linear
-        if odd:
-            reference = np.column_stack((x, v, _level_blind(basis, function, level)))
-            rss_reference = float(np.sum((r - reference @ _least_squares(reference, r)) ** 2))
-        design = np.column_stack((reference, shape_basis))
+    for name, term, function, unit in catalogue:
+        design = np.column_stack((x, v, basis(function)))
         fitted = _least_squares(design, r)
         rss = float(np.sum((r - design @ fitted) ** 2))
-        variance = max(noise_n**2, rss / max(r.size - design.shape[1], 1))
-        gain = (rss_reference - rss) / variance * independent / r.size
-        beyond_noise = rss_reference - r.size * noise_n**2  # the reference's misfit beyond the noise
-        share = (rss_reference - rss) / beyond_noise if beyond_noise > 0 else 0.0
-        fitted = _least_squares(np.column_stack((x, v, shape_basis)), r)  # the shape's own coefficient, as drawn
+        variance = max(noise_n**2, rss / max(r.size - 3, 1))
+        gain = (rss_linear - rss) / variance * independent / r.size
+        share = (rss_linear - rss) / max(rss_linear - r.size * noise_n**2, 1e-300)
         shapes.append(Shape(_named(name, fitted[2]), term if _term_sign_ok(term, fitted[2]) else None, gain,
                             float(np.clip(share, 0.0, 1.0)), float(fitted[2]), unit))
     shapes.sort(key=lambda shape: shape.chi2_gain, reverse=True)
     return RestoringForce(band, mass_kg, x, v, r, rows, float(coefficients[0]), float(coefficients[1]), noise_n,
                           independent, shapes)
-
-
-def _level_blind(basis, function, level: np.ndarray) -> np.ndarray:
-    """The shape's level-blind twin: the shape evaluated on each hit's motion scaled to the largest hit's level,
-    scaled back by the hit's level. It is what a *linear* film leaves when its misfit changes along the decay (a
-    stiffness that depends on frequency, a response that is not one exponential): the same in every hit but for the
-    hit's level. An odd-symmetric shape is evidence of amplitude dependence only beyond its twin, that is, when
-    hits of different levels differ the way the shape says (Worden & Tomlinson 2001, ch. 2: homogeneity)."""
-    return basis(lambda d, u: level * function(d / level, u / level))
 
 
 def _least_squares(design: np.ndarray, target: np.ndarray) -> np.ndarray:
