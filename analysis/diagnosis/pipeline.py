@@ -47,6 +47,7 @@ from gasfilm.analysis.diagnosis.selection import (
 from gasfilm.analysis.physics.effects import FitContext
 from gasfilm.analysis.physics.response import simulate_response
 from gasfilm.analysis.physics.spec import RigSpec
+from gasfilm.analysis.threads import one_blas_thread
 from gasfilm.drivers.errors import GasfilmError
 
 logger = logging.getLogger(__name__)
@@ -110,6 +111,7 @@ def _silent(message: str) -> None:
     del message
 
 
+@one_blas_thread
 def diagnose_spectra(
     spectra: HitSpectra,
     spec: RigSpec,
