@@ -70,3 +70,9 @@ def test_a_diagnosis_shared_with_a_copy_equals_one_computed_alone(tmp_path):
     assert shared.improved.to_toml() == alone.improved.to_toml()
     assert shared.chi2_per_point_after == alone.chi2_per_point_after
     assert np.array_equal(shared.evidence.spectra.h, alone.evidence.spectra.h)
+
+
+@needs_fork
+def test_longest_first_changes_only_the_order_of_work_not_of_results():
+    with worker_processes(2):
+        assert shared_map(lambda value: value + 1, list(range(12)), longest_first=True) == list(range(1, 13))

@@ -54,14 +54,17 @@ def worker_count() -> int:
     return max(1, min(cpus, MAX_WORKERS))
 
 
-def shared_map(function: Callable[[Item], Any], items: Sequence[Item]) -> list[Any]:
+def shared_map(function: Callable[[Item], Any], items: Sequence[Item], longest_first: bool = False) -> list[Any]:
     """``[function(item) for item in items]``, where an item whose call raised an :class:`Exception` gives that
-    exception as its result; computed by this process and a forked copy of it (see the module's description)."""
+    exception as its result; computed by this process and a forked copy of it (see the module's description).
+    ``longest_first``: the items are listed from the quickest to the slowest, so the two processes take them from the
+    end (then neither is left alone with a long item at the finish)."""
     items = list(items)
     if len(items) < 2 or len(items) > MAX_ITEMS or worker_count() < 2:
         return [_called(function, item) for item in items]
+    order = range(len(items) - 1, -1, -1) if longest_first else range(len(items))
     queue_read, queue_write = os.pipe()
-    os.write(queue_write, bytes(range(len(items))))
+    os.write(queue_write, bytes(order))
     os.close(queue_write)
     result_read, result_write = os.pipe()
     try:

@@ -256,7 +256,8 @@ def _select_one(
         made = {key: value for key, value in replays.items() if key not in known}
         return outcome, (candidate_evidence.spectra.h, candidate_evidence.spectra.variance, made)
 
-    for identifier, fitted in zip(identifiers, shared_map(candidate, identifiers)):
+    # CANDIDATES lists the terms with fewest parameters (and starts) first: the quickest fits
+    for identifier, fitted in zip(identifiers, shared_map(candidate, identifiers, longest_first=True)):
         if isinstance(fitted, GasfilmError):  # a nonlinear replay that does not converge is no candidate
             logger.info("candidate %s skipped: %s", identifier, fitted)
             continue
