@@ -183,12 +183,17 @@ class FrfResult:
 
 
 def _squared_magnitude(
-    spectra: np.ndarray, out: np.ndarray | None = None, scratch: np.ndarray | None = None
+    spectra: np.ndarray, out: np.ndarray | None = None, parts: np.ndarray | None = None
 ) -> np.ndarray:
-    """|z|² of a complex array, without complex temporaries (into ``out``, using ``scratch``, when given)."""
-    power = np.square(spectra.real, out=out)
-    power += np.square(spectra.imag, out=scratch)
-    return power
+    """|z|² of a complex array, without complex temporaries (into ``out``; ``parts`` is scratch for the squared real
+    and imaginary parts side by side, shape (..., 2·lines), used when the lines of ``spectra`` are adjacent in
+    memory)."""
+    if parts is None or spectra.strides[-1] != spectra.itemsize:
+        power = np.square(spectra.real, out=out)
+        power += np.square(spectra.imag)
+        return power
+    squares = np.square(spectra.view(np.float64), out=parts)  # one pass over the real and imaginary parts
+    return np.add(squares[..., 0::2], squares[..., 1::2], out=out)
 
 
 def _summed_squared_magnitude(spectra: np.ndarray) -> np.ndarray:
@@ -330,6 +335,8 @@ class FrfAccumulator:
         self._sum_deviation_sq = np.zeros(n_lines)
         self._h1_per_hit = np.empty((max(1, capacity_hits), n_lines), complex)
         self._work: tuple[np.ndarray, ...] | None = None
+        # strips of about _STRIP_LINES, of equal width (no strip of a few lines that costs its calls for nothing)
+        self._strip_lines = -(-n_lines // max(1, round(n_lines / _STRIP_LINES)))
         self.n_averages = 0
 
     def add(self, force_n: np.ndarray, response: np.ndarray) -> None:
@@ -358,8 +365,8 @@ class FrfAccumulator:
             if self._h1_reference is None:
                 self._h1_reference = response_fft[0] / force_fft[0]
             # the sums line by line in strips of a few thousand lines, so that every pass over a strip stays in cache
-            for start in range(0, force_fft.shape[1], _STRIP_LINES):
-                lines = slice(start, start + _STRIP_LINES)
+            for start in range(0, force_fft.shape[1], self._strip_lines):
+                lines = slice(start, start + self._strip_lines)
                 self._add_strip(lines, force_fft[:, lines], response_fft[:, lines], h1[:, lines], scratch)
         self.n_averages += count
 
@@ -368,10 +375,11 @@ class FrfAccumulator:
         """Add a block of hits' spectra on the frequency ``lines`` to the sums, and their per-hit FRFs into ``h1``
         (``force_fft`` is overwritten)."""
         width = force_fft.shape[1]
-        force_power, power, real_scratch, deviation = (buffer[:, :width] for buffer in scratch)
-        _squared_magnitude(force_fft, out=force_power, scratch=real_scratch)
+        force_power, power, deviation = (buffer[:, :width] for buffer in (scratch[0], scratch[1], scratch[3]))
+        parts = scratch[2][:, : 2 * width]
+        _squared_magnitude(force_fft, out=force_power, parts=parts)
         self._sum_ff[lines] += force_power.sum(axis=0)
-        self._sum_xx[lines] += _squared_magnitude(response_fft, out=power, scratch=real_scratch).sum(axis=0)
+        self._sum_xx[lines] += _squared_magnitude(response_fft, out=power, parts=parts).sum(axis=0)
         cross = np.conj(force_fft, out=force_fft)
         cross *= response_fft  # conj(F_i)·X_i
         self._sum_fx[lines] += cross.sum(axis=0)
@@ -388,9 +396,9 @@ class FrfAccumulator:
         this size would be mapped from the operating system, and zero-filled, on every block."""
         if self._work is None or self._work[0].shape[0] < count:
             n_lines = len(self._sum_ff)
-            strip = min(n_lines, _STRIP_LINES)
+            strip = self._strip_lines
             self._work = (np.empty((count, n_lines), complex), np.empty((count, n_lines), complex),
-                          np.empty((count, strip)), np.empty((count, strip)), np.empty((count, strip)),
+                          np.empty((count, strip)), np.empty((count, strip)), np.empty((count, 2 * strip)),
                           np.empty((count, strip), complex))
         return tuple(buffer[:count] for buffer in self._work)
 
@@ -448,6 +456,12 @@ class FrfAccumulator:
         )
 
 
+def _block_hits(n_samples: int) -> int:
+    """Hits transformed at once: about :data:`_BLOCK_VALUES` complex values per channel, so that a block stays in
+    cache, and an even number (numpy's FFT transforms rows two at a time, an odd one out alone at 1.4× the cost)."""
+    return 2 * max(1, round(_BLOCK_VALUES / (n_samples // 2 + 1) / 2))
+
+
 def compute_frf(
     records: Sequence[np.ndarray] | np.ndarray,
     sample_rate_hz: float,
@@ -465,7 +479,7 @@ def compute_frf(
         if not 0 <= row < n_rows:
             raise SettingError(f"{name}: {row} is not a row of records with {n_rows} rows")
     accumulator = FrfAccumulator(sample_rate_hz, n_samples, window, capacity_hits=n_hits)
-    block = max(1, _BLOCK_VALUES // (n_samples // 2 + 1))  # hits transformed at once, so a block stays in cache
+    block = _block_hits(n_samples)
     for first in range(0, n_hits, block):
         accumulator.add(data[first : first + block, force_row, :], data[first : first + block, response_row, :])
     return accumulator.result()
@@ -483,7 +497,7 @@ def session_frf(hits: Sequence[Any], window: WindowSettings = WindowSettings()) 
     if len(lengths) != 1:
         raise SettingError(f"hits: records of different lengths ({', '.join(map(str, sorted(lengths)))} samples)")
     accumulator = FrfAccumulator(rates.pop(), lengths.pop(), window, capacity_hits=len(hits))
-    block = max(1, _BLOCK_VALUES // (accumulator.n_samples // 2 + 1))
+    block = _block_hits(accumulator.n_samples)
     for first in range(0, len(hits), block):
         chunk = hits[first : first + block]
         accumulator.add(np.stack([hit.data[hit.force_channel] for hit in chunk]),
