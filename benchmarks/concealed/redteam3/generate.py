@@ -517,7 +517,7 @@ def cases() -> list[Case]:
     listed.append(Case(
         "response-clipping", "measurement",
         "a 10 V/g seismic accelerometer (1.02 V/(m/s²)) on the ±5 V range: the response clips at ±4.9 m/s² "
-        "(after the AC coupling, before the ADC's filter); hits 135 N ± 25 % (60–200 N), about half of them clip",
+        "(after the AC coupling, before the ADC's filter); hits 135 N ± 25 % (60–200 N), 13 of the 20 clip (peaks up to 7.1 m/s² before clipping)",
         "NI 9234 datasheet (±5 V input range, overload); PCB 393B12 data sheet (10 V/g, ±0.5 g); Avitabile, Modal "
         "Testing: A Practitioner's Guide (2017) (overloads)",
         "Clipped responses are not the structure: the right answer notes clipped hits, leaves them out and claims "
