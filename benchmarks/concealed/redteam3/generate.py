@@ -97,6 +97,9 @@ class Case:
     response_clip: bool = False  # the response channel clips at the ±5 V range
     dropped: dict | None = None  # lost response samples: count (hits), samples, after_s range
     response_scale: float = 1.0  # a wrong scale factor in software (digital)
+    pulse_growth: float = 0.0  # the pulse width grows by this fraction from the first to the last hit (tip wear)
+    response_gain_drift: float = 0.0  # the accelerometer's sensitivity changes by this fraction over the session,
+    #   as an exponential warm-up with a time constant of half the session (sensor heating)
     # the answer
     exact: list[list[str]] = field(default_factory=lambda: [[]])
     acceptable: list[list[str]] = field(default_factory=list)
@@ -217,6 +220,8 @@ def synthesise(case: Case, noise: bool = True) -> tuple[np.ndarray, np.ndarray, 
     peaks = np.clip(case.force_n * (1 + case.force_spread * rng.standard_normal(case.hits)), *case.force_clip)
     widths = case.pulse_ms * 1e-3 * rng.uniform(0.95, 1.05, case.hits)
     t0 = case.pretrigger_s - 0.05e-3 + rng.uniform(0, 1 / fs, case.hits)
+    progress = (hit_times - hit_times[0]) / (hit_times[-1] - hit_times[0])
+    widths = widths * (1 + case.pulse_growth * progress)  # (no further draws: other cases stay bit-identical)
     mod_phase = rng.uniform(0, 2 * np.pi, case.hits)
     force = contact_force(case, t, t0, widths, peaks, mod_phase)
     gain = case.axial_gain(rng, case.hits) if case.axial_gain else np.ones(case.hits)
@@ -273,8 +278,13 @@ def synthesise(case: Case, noise: bool = True) -> tuple[np.ndarray, np.ndarray, 
         records = out
         drawn["dropped_blocks"] = info
     records[:, 1, :] *= case.response_scale
+    if case.response_gain_drift:
+        warm = (1 - np.exp(-2 * progress)) / (1 - np.exp(-2.0))
+        gains = 1 + case.response_gain_drift * warm
+        records[:, 1, :] *= gains[:, None]
+        drawn["response_gain_per_hit"] = np.round(gains, 5).tolist()
     lsb_v = 2 * ADC_RANGE_V / 2**ADC_BITS
-    for row, volts_per_unit in ((0, HAMMER_V_PER_N), (1, case.accel_v_per_m_s2 * case.response_scale)):
+    for row, volts_per_unit in ((0, HAMMER_V_PER_N), (1, case.accel_v_per_m_s2 / case.response_scale)):  # V per unit the software used
         step = lsb_v / volts_per_unit
         records[:, row, :] = np.round(records[:, row, :] / step) * step
     drawn["anti_aliasing"] = "elliptic, 0.02 dB to 0.42 fs, 110 dB from 0.5 fs, on the 8x grid; AC coupling 0.5 Hz"
@@ -428,6 +438,17 @@ def cases() -> list[Case]:
         "force spectrum is usable. No physics, no double hit (the force never returns to zero inside the pulse).",
         pulse_ms=1.2, pulse_modulation={"depth": 0.3, "freq_hz": 1350.0}, seed=303, must_not=everything,
         must_not_quality=["double", "mains"], physics={"handle_hz": 1350.0, "modulation_depth": 0.3}))
+
+    listed.append(Case(
+        "control-tip-wear", "control",
+        "the hammer's plastic tip wears and softens during the session: the pulse grows from 0.8 ms to 1.5 ms, "
+        "linearly with the hit's time (force level unchanged); the gauge measures it: H unbiased",
+        "Brandt (2011) §13.7 (tip hardness sets the excited band); PCB impulse hammer manuals (tip wear, replace "
+        "worn tips)",
+        "A property of the excitation that changes over the session (the usable band shrinks from ≈ 1.9 to ≈ 1 kHz); "
+        "the structure does not change, so drift or step-change would be false.",
+        pulse_ms=0.8, pulse_growth=0.875, seed=304, physics={"pulse_ms_first_last": [0.8, 1.5]},
+        must_not=everything, must_not_quality=["mains"]))
 
     # ------------------------------------------------------------------ rig physics
     kappa, transit, loss = 1.0e5, 2.4 / 343.0, 0.05
@@ -596,6 +617,20 @@ def cases() -> list[Case]:
         disturbance=scan_motion, seed=328,
         physics={"scan_amplitude_m": 6e-3, "scan_hz": 0.7, "magnet_pitch_m": 24e-3, "cogging_n": 0.8},
         must_not=list(RIG) + ["cross-talk", "sensitivity-error", "ac-coupling"], must_not_quality=["mains"]))
+    listed.append(Case(
+        "sensor-thermal-drift", "measurement",
+        "the accelerometer warms on the mover (linear-motor coil heat, ≈ 25 K): its sensitivity falls by 3 % over "
+        "the session, an exponential warm-up with a time constant of half the session; the film and mass do not "
+        "change",
+        "PCB/Endevco data sheets (sensitivity temperature coefficient of shear-mode PZT, ≈ −0.1 %/K); "
+        "Serridge & Licht (B&K 1987) §3.4 (temperature sensitivity); Bryan, CIRP Annals 39 (1990) 645",
+        "A measurement gain that drifts: the whole FRF (mass line included) falls with time. A film drift or step "
+        "would send the user to the bearing (must-not); a (mean) sensitivity error, or an added mass with that "
+        "alternative, is acceptable.",
+        response_gain_drift=-0.03, seed=329, physics={"sensitivity_change": -0.03, "time_constant": "span/2"},
+        exact=[["sensor-thermal-drift"]], acceptable=[["sensitivity-error"], ["added-mass"]],
+        needs_alternative={"added-mass": "sensitivity-error"},
+        must_not=but(RIG, "added-mass") + ["channel-delay", "cross-talk", "ac-coupling"]))
     return listed
 
 
