@@ -639,8 +639,12 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--out", type=Path, default=Path("out/redteam3"))
     parser.add_argument("--only", nargs="+", metavar="CASE")
     parser.add_argument("--keys-only", action="store_true", help="write the answer keys only")
+    parser.add_argument("--seed-offset", type=int, default=0,
+                        help="another draw of the same world (noise, hits); the keys' drawn figures are of draw 0")
     args = parser.parse_args(argv)
     listed = cases()
+    for case in listed:
+        case.seed += args.seed_offset
     if args.only:
         unknown = set(args.only) - {c.name for c in listed}
         if unknown:
