@@ -269,7 +269,8 @@ def main(argv: list[str] | None = None) -> int:
     print("\n" + confusion(rows) + "\n")
     print(per_case_table(rows) + "\n")
     controls = [r for r in rows if r["category"] == "control"]
-    print(f"right: {sum(r['outcome'] in RIGHT for r in rows)}/{len(rows)}; controls with physics claimed: "
+    print(f"right: {sum(r['outcome'] in RIGHT for r in rows)}/{len(rows)} (named — exact or acceptable: "
+          f"{sum(r['outcome'] in RIGHT[:2] for r in rows)}/{len(rows)}); controls with physics claimed: "
           f"{sum(r['outcome'] in ('false claim', 'must-not claimed') for r in controls)}/{len(controls)}; must-not "
           f"claimed: {sum(r['outcome'] == 'must-not claimed' for r in rows)}; false claims: "
           f"{sum(r['outcome'] == 'false claim' for r in rows)}; errors: {sum(r['outcome'] == 'error' for r in rows)}; "
