@@ -3,8 +3,10 @@
 Physics (SI units throughout). With ``M = m + Σ added mass``, the mover obeys
 ``(Z_film(s, t) + Σ Z_effect(s) + M s²)·X(s) = F(s)``, plus the force ``k3·x³`` with ``cubic-stiffness``.
 ``Z_film(s, t)`` is the film network at the hit's session time (drift and step changes scale it). The channels see
-``(s² / (Z_film + Σ Z_effect + M s²) + leak) · T_a(s) / T_f(s)``: ``T_a``, ``T_f`` the per-channel transfers
-(delays, AC coupling, sensitivity errors), ``leak`` the force cross-talk into the acceleration channel.
+``(s² / (Z_film + Σ Z_effect + M s²) + Σ A_r s²/(s² + 2ζ_r ω_r s + ω_r²) + leak) · T_a(s) / T_f(s)``: ``T_a``,
+``T_f`` the per-channel transfers (delays, AC coupling, sensitivity errors, polarity), the sum the structure modes in
+modal superposition beside the mover (``structure-mode``), ``leak`` the force cross-talk into the acceleration
+channel.
 The simulated device (through its plant), the replay, identification and the diagnosis all evaluate a spec here.
 """
 
@@ -120,6 +122,14 @@ def channel_transfer(spec: RigSpec, channel: str, s: np.ndarray) -> np.ndarray:
     return transfer
 
 
+def structure_accelerance(spec: RigSpec, s: np.ndarray) -> np.ndarray | float:
+    """Accelerance ((m/s²)/N) of the structure modes beside the mover (modal superposition), 0 without any."""
+    total: np.ndarray | float = 0.0
+    for effect in spec.effects:
+        total = total + effect.added_accelerance(s)
+    return total
+
+
 def resonance_omega_rad_s(spec: RigSpec) -> float:
     """Undamped natural frequency (rad/s) of the moving mass on the real part of the film stiffness (fixed point)."""
     mass_kg = spec.moving_mass_kg
@@ -160,7 +170,7 @@ def rig_accelerance(
             stiffness = stiffness + (CUBIC_EQUIVALENT * k3 * hit_displacement_m(spec, conditions.impulse_ns) ** 2)[
                 :, np.newaxis]
         stiffness = np.broadcast_to(stiffness, (len(conditions.time_s), s.size))
-    return (s**2 / stiffness + spec.force_leak_m_s2_per_n) * (
+    return (s**2 / stiffness + structure_accelerance(spec, s) + spec.force_leak_m_s2_per_n) * (
         channel_transfer(spec, "acceleration", s) / channel_transfer(spec, "force", s))
 
 
@@ -186,7 +196,8 @@ def _cached_response_duration_s(spec_toml: str, sample_rate_hz: float, film_scal
     s = _grid_laplace(n_samples, sample_rate_hz)
     # a smooth band limit (raised cosine 0.2–0.4·fs) keeps the truncation at Nyquist from ringing on for ever
     ramp = np.clip((s.imag / (2 * np.pi * sample_rate_hz) - 0.2) / 0.2, 0.0, 1.0)
-    accelerance = 0.5 * (1.0 + np.cos(np.pi * ramp)) * s**2 / rig_dynamic_stiffness(spec, s, film_scale=film_scale)
+    accelerance = 0.5 * (1.0 + np.cos(np.pi * ramp)) * (s**2 / rig_dynamic_stiffness(spec, s, film_scale=film_scale)
+                                                      + structure_accelerance(spec, s))
     impulse = np.abs(scipy.fft.irfft(accelerance, n_samples))
     causal = impulse[: n_samples // 2]  # the second half holds the band limit's (zero-phase) ringing before t = 0
     envelope_from_end = np.maximum.accumulate(causal[::-1])[::-1]
@@ -284,11 +295,11 @@ def simulate_response(
     force_spectrum = scipy.fft.rfft(force, n_fft)
     s = _grid_laplace(n_fft, sample_rate_hz)
     delays = channel_transfer(spec, "acceleration", s) / channel_transfer(spec, "force", s)
-    leak = spec.force_leak_m_s2_per_n
+    beside_mover = spec.force_leak_m_s2_per_n + structure_accelerance(spec, s)  # both beside the mover's motion
     impulse_ns = force.sum(axis=-1) / sample_rate_hz  # the hit's level, for amplitude-dependent dampers
     if spec.is_linear:
         stiffness = rig_dynamic_stiffness(spec, s, time_s, impulse_ns=impulse_ns)
-        response = force_spectrum * (s**2 / stiffness + leak) * delays
+        response = force_spectrum * (s**2 / stiffness + beside_mover) * delays
         return scipy.fft.irfft(response, n_fft)[..., :n_record]
     oversampling = 2
     n_fine = oversampling * n_fft
@@ -301,6 +312,6 @@ def simulate_response(
         fine_force[spectrum.size - 1] *= 0.5 if n_fft % 2 == 0 else 1.0
         displacement = mover_displacement_spectrum(spec, fine_force, s_fine, n_fine, time_s,
                                                    impulse_ns=float(np.ravel(impulse_ns)[row]))
-        acceleration = ((s_fine**2 * displacement)[: spectrum.size] / oversampling + leak * spectrum) * delays
+        acceleration = ((s_fine**2 * displacement)[: spectrum.size] / oversampling + beside_mover * spectrum) * delays
         out[row] = scipy.fft.irfft(acceleration, n_fft)[:n_record]
     return out.reshape(force.shape)
