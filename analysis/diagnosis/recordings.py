@@ -10,7 +10,6 @@ from pathlib import Path
 from typing import Callable
 
 import numpy as np
-import scipy.optimize
 
 from gasfilm.analysis.diagnosis.measurement import (
     HitSpectra,
@@ -22,7 +21,8 @@ from gasfilm.analysis.diagnosis.measurement import (
 from gasfilm.analysis.diagnosis.pipeline import diagnose_spectra
 from gasfilm.analysis.diagnosis.restoring import RestoringForce, restoring_force
 from gasfilm.analysis.diagnosis.result import Diagnosis
-from gasfilm.analysis.physics.effects import MIN_DAMPING_RATIO, ExtraMode, Polarity, StructureMode
+from gasfilm.analysis.diagnosis.structure import read_structure
+from gasfilm.analysis.physics.effects import MIN_DAMPING_RATIO, ExtraMode, Polarity
 from gasfilm.analysis.physics.spec import RigSpec
 from gasfilm.analysis.spectra import WindowSettings, compute_frf, readable_lines, resonance_lines
 from gasfilm.drivers.errors import SettingError
@@ -194,8 +194,6 @@ def read_start(recordings: Recordings, mass_kg: float | None = None) -> tuple[Ri
 
 #: Below its first resonance a mover on a film rises as ω² (log-log slope 2); a slope under this is a mass line.
 MASS_LINE_SLOPE = 1.0
-#: At most this many modes (the strongest resonances) in a structure read off the FRF.
-MAX_STRUCTURE_MODES = 30
 #: The mover's suspension in a structure read off the FRF resonates this far below the lowest readable line.
 SUSPENSION_BELOW = 0.2
 
@@ -211,92 +209,29 @@ def _mass_line_below(freq_hz: np.ndarray, magnitude: np.ndarray, readable: np.nd
 
 
 def _read_structure(recordings: Recordings, frf, readable: np.ndarray, resonances: list[int]) -> tuple[RigSpec, str]:
-    """A measured structure read off the FRF the way modal analysis does: the poles at the resonances (frequency and
-    damping refined by a weighted least-squares fit of the FRF, the modal constants solved linearly at every step —
-    least-squares frequency-domain constants), a residual mass line and the response polarity. The mover's
-    suspension (a spring-damper film) resonates below the band, so in band the mover is its mass line."""
-    freq_hz, h1, sigma = frf.freq_hz, frf.h1, frf.decay_rate_1_s
+    """A start for a measured structure (:mod:`.structure`): its modes beside a residual mass line with the response
+    polarity; the mover's suspension (a spring-damper film) resonates below the band, so in band the mover is that
+    mass line."""
+    freq_hz = frf.freq_hz
     lines = np.flatnonzero(readable)
-    strongest = sorted(sorted(resonances, key=lambda line: -abs(h1[line]))[:MAX_STRUCTURE_MODES])
-    s = sigma + 2j * np.pi * freq_hz[lines]
-    measured = h1[lines]
-    weight = 1.0 / np.abs(measured)  # relative misfit: the mass line counts as much as the peaks
-    start_hz = freq_hz[strongest]
-    start_zeta = [max(_half_power_width_hz(freq_hz, np.abs(h1), line) / (2 * freq_hz[line])
-                      - sigma / (2 * np.pi * freq_hz[line]), 2 * MIN_DAMPING_RATIO) for line in strongest]
-
-    def columns(vector: np.ndarray) -> np.ndarray:
-        count = vector.size // 2
-        omega = 2 * np.pi * np.exp(vector[:count])
-        zeta = np.exp(vector[count:])
-        modes = s[:, None] ** 2 / (s[:, None] ** 2 + 2 * zeta * omega * s[:, None] + omega**2)
-        return np.column_stack((np.ones_like(s), modes))
-
-    def constants(basis: np.ndarray) -> np.ndarray:
-        weighted = basis * weight[:, None]
-        system = np.vstack((weighted.real, weighted.imag))
-        target = np.concatenate(((measured * weight).real, (measured * weight).imag))
-        return np.linalg.lstsq(system, target, rcond=None)[0]
-
-    def residual_for(count: int) -> Callable[[np.ndarray], np.ndarray]:
-        def residual(vector: np.ndarray) -> np.ndarray:
-            basis = columns(vector)
-            misfit = (basis @ constants(basis) - measured) * weight
-            return np.concatenate((misfit.real, misfit.imag))
-        return residual
-
-    poles_hz, zetas = list(start_hz), list(np.minimum(start_zeta, 0.05))
-    fitted = _refine_poles(residual_for, poles_hz, zetas)
-    for _ in range(MAX_STRUCTURE_MODES - len(poles_hz)):  # a mode where the fit misses most, while it pays
-        misfit = np.abs(residual_for(len(poles_hz))(fitted).reshape(2, -1)).sum(axis=0)
-        smooth = np.convolve(misfit, np.ones(3), mode="same")
-        worst = int(np.argmax(smooth))
-        before = float(np.sum(misfit**2))
-        count = len(poles_hz)
-        trial_hz = list(np.exp(fitted[:count])) + [float(freq_hz[lines[worst]])]
-        trial_zeta = list(np.exp(fitted[count:])) + [0.01]
-        trial = _refine_poles(residual_for, trial_hz, trial_zeta)
-        if float(np.sum(residual_for(count + 1)(trial) ** 2)) > 0.8 * before:
-            break
-        poles_hz, zetas, fitted = trial_hz, trial_zeta, trial
-    values = constants(columns(fitted))
-    residual_line, modal = float(values[0]), values[1:]
-    polarity = -1.0 if residual_line < 0 else 1.0
-    mass_kg = float(np.clip(1.0 / max(abs(residual_line), 1e-12), 1e-3, 1e4))
-    count = len(poles_hz)
-    modes = [StructureMode(freq_hz=float(np.exp(fitted[i])), damping_ratio=float(np.exp(fitted[count + i])),
-                           modal_constant_per_kg=float(polarity * modal[i]))
-             for i in range(count) if abs(modal[i]) > 1e-9]
-    effects: list = ([Polarity(channel="acceleration")] if polarity < 0 else []) + modes
-    suspension_hz = max(SUSPENSION_BELOW * float(freq_hz[lines[0]]), 0.5)
-    omega = 2 * np.pi * suspension_hz
+    structure = read_structure(freq_hz, frf.h1, frf.decay_rate_1_s, lines,
+                               [float(freq_hz[line]) for line in resonances])
+    mass_kg = float(np.clip(structure.mass_kg, 1e-3, 1e4))
+    effects: list = ([Polarity(channel="acceleration")] if structure.polarity < 0 else []) + structure.modes
+    omega = 2 * np.pi * max(SUSPENSION_BELOW * float(freq_hz[lines[0]]), 0.5)
     spec = RigSpec.nominal("SD", mass_kg=mass_kg,
                            parameters={"k": max(mass_kg * omega**2, 1e2), "eta": max(0.1 * mass_kg * omega, 1e-2)},
                            effects=effects)
     spec = dataclasses.replace(spec, name=f"structure read off the FRF of {Path(recordings.source).name}")
-    text = (f"below its first resonance ({freq_hz[strongest[0]]:.0f} Hz) the FRF is a mass line, not a mover on a "
-            f"film: a structure read as modal analysis does, {len(modes)} modes at "
-            + ", ".join(f"{mode.freq_hz:.0f}" for mode in modes)
-            + f" Hz (modal constants fitted, {freq_hz[lines[0]]:.0f}–{freq_hz[lines[-1]]:.0f} Hz) beside a residual "
-              f"mass line of {mass_kg:.4g} kg"
-            + (" read with the opposite sign (response polarity −1)" if polarity < 0 else "")
-            + f", on a suspension resonating below the band ({np.sqrt(spec.film_parameters['k'] / mass_kg) / (2 * np.pi):.2g} Hz)")
+    suspension_hz = np.sqrt(spec.film_parameters["k"] / mass_kg) / (2 * np.pi)
+    text = (f"below its first resonance ({freq_hz[resonances[0]]:.0f} Hz) the FRF is a mass line, not a mover on a "
+            f"film: a structure read as modal analysis does (LSCF poles, LSFD constants, "
+            f"{freq_hz[lines[0]]:.0f}–{freq_hz[lines[-1]]:.0f} Hz), {len(structure.modes)} modes at "
+            + ", ".join(f"{mode.freq_hz:.0f}" for mode in structure.modes)
+            + f" Hz beside a mass line of {mass_kg:.4g} kg"
+            + (" read with the opposite sign (response polarity −1)" if structure.polarity < 0 else "")
+            + f", on a suspension resonating below the band ({suspension_hz:.2g} Hz); read, not findings")
     return spec, text
-
-
-def _refine_poles(residual_for: Callable[[int], Callable[[np.ndarray], np.ndarray]], freq_hz: list[float],
-                  zetas: list[float]) -> np.ndarray:
-    """Poles (log frequencies, then log damping ratios) refined by Levenberg–Marquardt, each frequency within ±3 %
-    of its start and each damping ratio within MIN_DAMPING_RATIO…0.2 (clipped inside the residual)."""
-    start = np.log(np.concatenate((freq_hz, zetas)))
-    count = len(freq_hz)
-    low = np.concatenate((start[:count] + np.log(0.97), np.full(count, np.log(MIN_DAMPING_RATIO))))
-    high = np.concatenate((start[:count] + np.log(1.03), np.full(count, np.log(0.2))))
-    residual = residual_for(count)
-    start = np.clip(start, low, high)
-    result = scipy.optimize.least_squares(lambda v: residual(np.clip(v, low, high)), start, method="lm",
-                                          max_nfev=20 * (start.size + 1))
-    return np.clip(result.x, low, high)
 
 
 def _half_power_width_hz(freq_hz: np.ndarray, magnitude: np.ndarray, peak: int) -> float:

@@ -116,6 +116,9 @@ class Effect:
     per_hit: ClassVar[bool] = False  # the term differs from hit to hit (session time, hit level)
     #: Parameters whose upper fit bound is a valid limiting form of the term, not a failed measurement.
     open_upper: ClassVar[frozenset[str]] = frozenset()
+    #: Fitted with the spec's own parameters in a diagnosis's recalibration, then held while candidate terms are
+    #: tried (a measured structure's modes: many parameters that no candidate term competes with).
+    held_after_recalibration: ClassVar[bool] = False
 
     def validate(self) -> None:
         """Cross-field checks; raise :class:`EffectValueError` naming the key."""
@@ -273,6 +276,7 @@ class StructureMode(Effect):
     explanation: ClassVar[str] = (
         "The measured structure has a resonance of its own that the mover on its film does not make: a mode in the "
         "modal superposition of the FRF, with its frequency, damping and signed modal constant.")
+    held_after_recalibration: ClassVar[bool] = True
 
     freq_hz: float = _number("Hz", _positive)
     damping_ratio: float = _number("1", _positive)
