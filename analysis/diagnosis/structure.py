@@ -67,7 +67,7 @@ def read_structure(freq_hz: np.ndarray, h1: np.ndarray, decay_rate_1_s: float, l
         omega = 2 * np.pi * np.exp(vector[:count])
         zeta = np.exp(vector[count:])
         modes = s[:, None] ** 2 / (s[:, None] ** 2 + 2 * zeta * omega * s[:, None] + omega**2)
-        return np.column_stack((np.ones_like(s), modes))
+        return np.column_stack((np.ones_like(s), modes, modes * s[:, None] / omega))
 
     def constants(columns: np.ndarray) -> np.ndarray:
         weighted = columns * weight[:, None]
@@ -79,9 +79,10 @@ def read_structure(freq_hz: np.ndarray, h1: np.ndarray, decay_rate_1_s: float, l
     values = constants(basis(vector))
     count = vector.size // 2
     polarity = -1.0 if values[0] < 0 else 1.0
+    limit = MAX_MODAL_CONSTANT_PER_KG
     modes = [StructureMode(freq_hz=float(np.exp(vector[i])), damping_ratio=float(np.exp(vector[count + i])),
-                           modal_constant_per_kg=float(np.clip(polarity * values[1 + i], -MAX_MODAL_CONSTANT_PER_KG,
-                                                               MAX_MODAL_CONSTANT_PER_KG)))
+                           modal_constant_per_kg=float(np.clip(polarity * values[1 + i], -limit, limit)),
+                           quadrature_per_kg=float(np.clip(polarity * values[1 + count + i], -limit, limit)))
              for i in range(count) if values[1 + i] != 0]
     logger.info("structure read off the FRF: %d modes, mass line %.4g kg, polarity %+d", len(modes),
                 1.0 / abs(values[0]), polarity)

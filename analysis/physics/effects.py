@@ -268,8 +268,9 @@ class ExtraMode(Effect):
 @dataclass(frozen=True)
 class StructureMode(Effect):
     """One mode of the measured structure in modal superposition, beside the mover: accelerance
-    ``A·s² / (s² + 2ζω_r s + ω_r²)`` with a signed modal constant ``A`` (1/kg, the mode's high-frequency accelerance;
-    the product of the mode shape at the response and the excitation points over the modal mass). How experimental
+    ``(A + B·s/ω_r)·s² / (s² + 2ζω_r s + ω_r²)`` with a signed modal constant ``A`` (1/kg, the mode's high-frequency
+    accelerance; the product of the mode shape at the response and the excitation points over the modal mass) and
+    ``B`` the quadrature part of a complex modal constant (non-proportional damping; 0 for a real mode). How experimental
     modal analysis describes a structure whose resonances are not each preceded by an antiresonance (a transfer FRF,
     or modes that do not ride on the mover): the mover's ``s²/Z`` is then the residual (rigid-body) mass line."""
 
@@ -281,24 +282,28 @@ class StructureMode(Effect):
     freq_hz: float = _number("Hz", _positive)
     damping_ratio: float = _number("1", _positive)
     modal_constant_per_kg: float = _number("1/kg", _nonzero)
+    #: The quadrature part of a complex modal constant (non-proportional damping): 0 for a real mode.
+    quadrature_per_kg: float = _number("1/kg", _finite, 0.0)
 
     def validate(self) -> None:
         if self.damping_ratio < MIN_DAMPING_RATIO:
             raise EffectValueError("damping_ratio", f"must be at least {MIN_DAMPING_RATIO:g} (a mode that never "
                                                     f"decays cannot be simulated)")
-        if abs(self.modal_constant_per_kg) > MAX_MODAL_CONSTANT_PER_KG:
-            raise EffectValueError("modal_constant_per_kg", f"must be at most {MAX_MODAL_CONSTANT_PER_KG:g} 1/kg in "
-                                                            f"size")
+        for key in ("modal_constant_per_kg", "quadrature_per_kg"):
+            if abs(getattr(self, key)) > MAX_MODAL_CONSTANT_PER_KG:
+                raise EffectValueError(key, f"must be at most {MAX_MODAL_CONSTANT_PER_KG:g} 1/kg in size")
 
     def added_accelerance(self, s: np.ndarray) -> np.ndarray:
         omega = 2 * np.pi * self.freq_hz
-        return self.modal_constant_per_kg * s**2 / (s**2 + 2 * self.damping_ratio * omega * s + omega**2)
+        numerator = self.modal_constant_per_kg + self.quadrature_per_kg * s / omega
+        return numerator * s**2 / (s**2 + 2 * self.damping_ratio * omega * s + omega**2)
 
     def fit_ranges(self, context: FitContext) -> dict[str, FitRange]:
         low, high = context.band_hz
         limit = MAX_MODAL_CONSTANT_PER_KG
         return {"freq_hz": FitRange("log", 0.5 * low, 1.5 * high), "damping_ratio": FitRange("log", 1e-4, 0.5),
-                "modal_constant_per_kg": FitRange("linear", -limit, limit)}
+                "modal_constant_per_kg": FitRange("linear", -limit, limit),
+                "quadrature_per_kg": FitRange("linear", -limit, limit)}
 
     def evidence(self, sigma: Mapping[str, float], where: str, context: FitContext) -> str:
         return (f"a resonance near {self.freq_hz:.1f} ± {sigma['freq_hz']:.1f} Hz (damping ratio "
