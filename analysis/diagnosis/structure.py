@@ -15,6 +15,7 @@ import warnings
 from dataclasses import dataclass
 
 import numpy as np
+import scipy.optimize
 
 from gasfilm.analysis.physics.effects import MAX_MODAL_CONSTANT_PER_KG, MIN_DAMPING_RATIO, StructureMode
 
@@ -27,6 +28,12 @@ STABLE_FREQUENCY = 0.005
 STABLE_DAMPING = 0.1
 #: Damping ratio of a pole placed at a peak of |H1| that LSCF did not return.
 PEAK_DAMPING_RATIO = 2e-3
+#: The refined poles' frequencies stay within this fraction of their start; the refinement takes about this many
+#: Jacobians.
+POLE_FREEDOM = 0.03
+#: At most this many lines in the fit of the constants and poles (every n-th readable line).
+MAX_FIT_LINES = 900
+REFINE_STEPS = 6
 
 
 @dataclass(frozen=True)
@@ -53,6 +60,7 @@ def read_structure(freq_hz: np.ndarray, h1: np.ndarray, decay_rate_1_s: float, l
                           pol_order_high=LSCF_ORDER, frf_form="accelerance")
         model.get_poles(method="lscf", show_progress=False)
     poles = _stable_poles(model.all_poles[-1], model.all_poles[-2], low_hz, high_hz)
+    lines = lines[:: int(np.ceil(lines.size / MAX_FIT_LINES))]  # the fit's lines: enough to hold every pole
     s = decay_rate_1_s + 2j * np.pi * freq_hz[lines]
     measured = h1[lines]
     weight = 1.0 / np.abs(measured)  # relative misfit: the mass line counts as much as the peaks
@@ -71,11 +79,28 @@ def read_structure(freq_hz: np.ndarray, h1: np.ndarray, decay_rate_1_s: float, l
 
     def constants(columns: np.ndarray) -> np.ndarray:
         weighted = columns * weight[:, None]
-        normal = (weighted.conj().T @ weighted).real
+        stacked = np.vstack((weighted.real, weighted.imag))
+        normal = stacked.T @ stacked
         normal[np.diag_indices_from(normal)] *= 1.0 + 1e-12
-        return np.linalg.solve(normal, (weighted.conj().T @ (measured * weight)).real)
+        target = measured * weight
+        return np.linalg.solve(normal, stacked.T @ np.concatenate((target.real, target.imag)))
 
     vector = np.log(np.concatenate((start_hz, start_zeta)))
+    count = vector.size // 2
+    lower = np.concatenate((vector[:count] + np.log(1 - POLE_FREEDOM), np.full(count, np.log(MIN_DAMPING_RATIO))))
+    upper = np.concatenate((vector[:count] + np.log(1 + POLE_FREEDOM), np.full(count, np.log(0.2))))
+
+    def residual(trial: np.ndarray) -> np.ndarray:
+        columns = basis(np.clip(trial, lower, upper))
+        misfit = (columns @ constants(columns) - measured) * weight
+        return np.concatenate((misfit.real, misfit.imag))
+
+    # the poles refined with the constants solved at every step (variable projection), a few steps: the diagnosis's
+    # recalibration finishes them against the measured noise
+    refined = np.clip(scipy.optimize.least_squares(residual, np.clip(vector, lower, upper), method="lm",
+                                                   max_nfev=REFINE_STEPS * (vector.size + 1)).x, lower, upper)
+    if np.sum(residual(refined) ** 2) < np.sum(residual(vector) ** 2):
+        vector = refined
     values = constants(basis(vector))
     count = vector.size // 2
     polarity = -1.0 if values[0] < 0 else 1.0
