@@ -36,6 +36,8 @@ from gasfilm.drivers.units import STANDARD_GRAVITY_M_S2
 FRF_UNIT_SI = "(m/s^2)/N"
 #: Complex values per block of hits transformed at once (about 4 MB per array, so a block stays in cache).
 _BLOCK_VALUES = 1 << 18
+#: Frequency lines per strip of a block whose spectra are combined at once (each pass over a strip stays in cache).
+_STRIP_LINES = 8192
 FRF_UNIT_G = "g/N"
 
 
@@ -181,12 +183,25 @@ class FrfResult:
 
 
 def _squared_magnitude(
-    spectra: np.ndarray, out: np.ndarray | None = None, scratch: np.ndarray | None = None
+    spectra: np.ndarray, out: np.ndarray | None = None, parts: np.ndarray | None = None
 ) -> np.ndarray:
-    """|z|² of a complex array, without complex temporaries (into ``out``, using ``scratch``, when given)."""
-    power = np.square(spectra.real, out=out)
-    power += np.square(spectra.imag, out=scratch)
-    return power
+    """|z|² of a complex array, without complex temporaries (into ``out``; ``parts`` is scratch for the squared real
+    and imaginary parts side by side, shape (..., 2·lines), used when the lines of ``spectra`` are adjacent in
+    memory)."""
+    if parts is None or spectra.strides[-1] != spectra.itemsize:
+        power = np.square(spectra.real, out=out)
+        power += np.square(spectra.imag)
+        return power
+    squares = np.square(spectra.view(np.float64), out=parts)  # one pass over the real and imaginary parts
+    return np.add(squares[..., 0::2], squares[..., 1::2], out=out)
+
+
+def _summed_squared_magnitude(spectra: np.ndarray) -> np.ndarray:
+    """Σ_i |z_i|² over the rows of a complex array (hits, lines) whose lines are adjacent in memory, in one pass over
+    their real and imaginary parts side by side."""
+    parts = spectra.view(np.float64)
+    summed = np.einsum("ij,ij->j", parts, parts)
+    return summed[0::2] + summed[1::2]
 
 
 def _as_hits_array(records: Sequence[np.ndarray] | np.ndarray) -> np.ndarray:
@@ -312,8 +327,16 @@ class FrfAccumulator:
         self._sum_ff = np.zeros(n_lines)
         self._sum_xx = np.zeros(n_lines)
         self._sum_fx = np.zeros(n_lines, complex)
+        # the hit-to-hit scatter in one pass, from sums of the per-hit FRFs' deviations from the first hit's FRF:
+        # Σ|H_i - m|² = Σ|H_i - H_0|² - |Σ(H_i - H_0)|²/n loses at most a factor n to cancellation, since
+        # n|m - H_0|² ≤ n·Σ|H_i - m|² (the per-hit FRFs are then never read again to average them)
+        self._h1_reference: np.ndarray | None = None
+        self._sum_deviation = np.zeros(n_lines, complex)
+        self._sum_deviation_sq = np.zeros(n_lines)
         self._h1_per_hit = np.empty((max(1, capacity_hits), n_lines), complex)
         self._work: tuple[np.ndarray, ...] | None = None
+        # strips of about _STRIP_LINES, of equal width (no strip of a few lines that costs its calls for nothing)
+        self._strip_lines = -(-n_lines // max(1, round(n_lines / _STRIP_LINES)))
         self.n_averages = 0
 
     def add(self, force_n: np.ndarray, response: np.ndarray) -> None:
@@ -330,34 +353,53 @@ class FrfAccumulator:
             force = force * self._decay
             response = response * self._decay
         first, count = self.n_averages, force.shape[0]
-        force_fft, response_fft, force_power, response_power, scratch = self._work_buffers(count)
-        np.fft.rfft(force, axis=-1, out=force_fft)
-        np.fft.rfft(response, axis=-1, out=response_fft)
-        _squared_magnitude(force_fft, out=force_power, scratch=scratch)
         if first + count > len(self._h1_per_hit):
             grown = np.empty((max(first + count, 2 * len(self._h1_per_hit)), self._h1_per_hit.shape[1]), complex)
             grown[:first] = self._h1_per_hit[:first]
             self._h1_per_hit = grown
+        force_fft, response_fft, *scratch = self._work_buffers(count)
+        np.fft.rfft(force, axis=-1, out=force_fft)
+        np.fft.rfft(response, axis=-1, out=response_fft)
+        h1 = self._h1_per_hit[first : first + count]
         with np.errstate(divide="ignore", invalid="ignore"):
-            self._sum_ff += force_power.sum(axis=0)
-            self._sum_xx += _squared_magnitude(response_fft, out=response_power, scratch=scratch).sum(axis=0)
-            cross = np.conj(force_fft, out=force_fft)
-            cross *= response_fft  # conj(F_i)·X_i
-            self._sum_fx += cross.sum(axis=0)
-            # X_i/F_i = conj(F_i)·X_i/|F_i|², on the real and imaginary parts: a complex array divided by a real one
-            # would be promoted to a complex division (three times slower)
-            h1 = self._h1_per_hit[first : first + count]
-            np.divide(cross.real, force_power, out=h1.real)
-            np.divide(cross.imag, force_power, out=h1.imag)
+            if self._h1_reference is None:
+                self._h1_reference = response_fft[0] / force_fft[0]
+            # the sums line by line in strips of a few thousand lines, so that every pass over a strip stays in cache
+            for start in range(0, force_fft.shape[1], self._strip_lines):
+                lines = slice(start, start + self._strip_lines)
+                self._add_strip(lines, force_fft[:, lines], response_fft[:, lines], h1[:, lines], scratch)
         self.n_averages += count
 
+    def _add_strip(self, lines: slice, force_fft: np.ndarray, response_fft: np.ndarray, h1: np.ndarray,
+                   scratch: list[np.ndarray]) -> None:
+        """Add a block of hits' spectra on the frequency ``lines`` to the sums, and their per-hit FRFs into ``h1``
+        (``force_fft`` is overwritten)."""
+        width = force_fft.shape[1]
+        force_power, power, deviation = (buffer[:, :width] for buffer in (scratch[0], scratch[1], scratch[3]))
+        parts = scratch[2][:, : 2 * width]
+        _squared_magnitude(force_fft, out=force_power, parts=parts)
+        self._sum_ff[lines] += force_power.sum(axis=0)
+        self._sum_xx[lines] += _squared_magnitude(response_fft, out=power, parts=parts).sum(axis=0)
+        cross = np.conj(force_fft, out=force_fft)
+        cross *= response_fft  # conj(F_i)·X_i
+        self._sum_fx[lines] += cross.sum(axis=0)
+        # X_i/F_i = conj(F_i)·X_i/|F_i|², on the real and imaginary parts: a complex array divided by a real one
+        # would be promoted to a complex division (three times slower)
+        np.divide(cross.real, force_power, out=h1.real)
+        np.divide(cross.imag, force_power, out=h1.imag)
+        np.subtract(h1, self._h1_reference[lines], out=deviation)
+        self._sum_deviation[lines] += deviation.sum(axis=0)
+        self._sum_deviation_sq[lines] += _summed_squared_magnitude(deviation)
+
     def _work_buffers(self, count: int) -> tuple[np.ndarray, ...]:
-        """Spectra and powers of a block of ``count`` hits, in buffers kept between blocks: fresh arrays of this size
-        would be mapped from the operating system, and zero-filled, on every block (half the time of a replay)."""
+        """Spectra of a block of ``count`` hits and scratch strips, in buffers kept between blocks: fresh arrays of
+        this size would be mapped from the operating system, and zero-filled, on every block."""
         if self._work is None or self._work[0].shape[0] < count:
             n_lines = len(self._sum_ff)
+            strip = self._strip_lines
             self._work = (np.empty((count, n_lines), complex), np.empty((count, n_lines), complex),
-                          np.empty((count, n_lines)), np.empty((count, n_lines)), np.empty((count, n_lines)))
+                          np.empty((count, strip)), np.empty((count, strip)), np.empty((count, 2 * strip)),
+                          np.empty((count, strip), complex))
         return tuple(buffer[:count] for buffer in self._work)
 
     def add_hit(self, hit: Any) -> None:
@@ -390,15 +432,8 @@ class FrfAccumulator:
             gamma_sq = np.clip(coherence, 0.0, 1.0)
             h1_std_coherence = np.abs(h1) * np.sqrt(1.0 - gamma_sq) / (np.sqrt(gamma_sq) * np.sqrt(2.0 * n_hits))
             if n_hits > 1:
-                mean_per_hit = h1_per_hit.mean(axis=0)
-                block = max(1, _BLOCK_VALUES // n_lines)
-                sum_spread = np.zeros(n_lines)
-                for first in range(0, n_hits, block):
-                    rows = h1_per_hit[first : first + block]
-                    spread, _, power, _, scratch = self._work_buffers(len(rows))
-                    np.subtract(rows, mean_per_hit, out=spread)
-                    sum_spread += _squared_magnitude(spread, out=power, scratch=scratch).sum(axis=0)
-                h1_std_scatter = np.sqrt(sum_spread / (n_hits - 1) / n_hits)
+                spread = self._sum_deviation_sq - _squared_magnitude(self._sum_deviation) / n_hits
+                h1_std_scatter = np.sqrt(np.maximum(spread, 0.0) / (n_hits - 1) / n_hits)
             else:
                 h1_std_scatter = np.full(n_lines, np.nan)
         decay_rate = self.window.decay_rate_1_s(n_samples, self.sample_rate_hz)
@@ -421,6 +456,12 @@ class FrfAccumulator:
         )
 
 
+def _block_hits(n_samples: int) -> int:
+    """Hits transformed at once: about :data:`_BLOCK_VALUES` complex values per channel, so that a block stays in
+    cache, and an even number (numpy's FFT transforms rows two at a time, an odd one out alone at 1.4× the cost)."""
+    return 2 * max(1, round(_BLOCK_VALUES / (n_samples // 2 + 1) / 2))
+
+
 def compute_frf(
     records: Sequence[np.ndarray] | np.ndarray,
     sample_rate_hz: float,
@@ -438,7 +479,7 @@ def compute_frf(
         if not 0 <= row < n_rows:
             raise SettingError(f"{name}: {row} is not a row of records with {n_rows} rows")
     accumulator = FrfAccumulator(sample_rate_hz, n_samples, window, capacity_hits=n_hits)
-    block = max(1, _BLOCK_VALUES // (n_samples // 2 + 1))  # hits transformed at once, so a block stays in cache
+    block = _block_hits(n_samples)
     for first in range(0, n_hits, block):
         accumulator.add(data[first : first + block, force_row, :], data[first : first + block, response_row, :])
     return accumulator.result()
@@ -456,7 +497,7 @@ def session_frf(hits: Sequence[Any], window: WindowSettings = WindowSettings()) 
     if len(lengths) != 1:
         raise SettingError(f"hits: records of different lengths ({', '.join(map(str, sorted(lengths)))} samples)")
     accumulator = FrfAccumulator(rates.pop(), lengths.pop(), window, capacity_hits=len(hits))
-    block = max(1, _BLOCK_VALUES // (accumulator.n_samples // 2 + 1))
+    block = _block_hits(accumulator.n_samples)
     for first in range(0, len(hits), block):
         chunk = hits[first : first + block]
         accumulator.add(np.stack([hit.data[hit.force_channel] for hit in chunk]),

@@ -12,6 +12,8 @@ from __future__ import annotations
 
 import argparse
 import collections
+import concurrent.futures
+import multiprocessing
 import os
 import resource
 import sys
@@ -47,6 +49,8 @@ def main() -> None:
     parser.add_argument("--no-diagnosis", action="store_true")
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--folder", type=Path, help="keep the sessions here (default: a temporary folder)")
+    parser.add_argument("--no-pool", action="store_true",
+                        help="skip the peer: the same tasks on a plain process pool of as many workers, no dask")
     args = parser.parse_args()
 
     models = PAPER_MODEL_ORDER if args.models == "all" else tuple(args.models.split(","))
@@ -75,7 +79,8 @@ def main() -> None:
         serial_s = time.perf_counter() - started
         serial_peak_mb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1e3
         print(f"serial (one process, no dask): {serial_s:.1f} s, {serial_s / len(paths):.2f} s per session, "
-              f"peak memory {serial_peak_mb:.0f} MB", flush=True)
+              f"peak memory {serial_peak_mb:.0f} MB, task CPU median "
+              f"{sorted(row['cpu_seconds'] for row in serial)[len(serial) // 2]:.2f} s", flush=True)
 
         parallel = run_sessions(paths, options, cache_folder=None, workers=args.workers)
         parallel_s = parallel.wall_time_s
@@ -89,6 +94,18 @@ def main() -> None:
         cpu_s = sorted(row["cpu_seconds"] for row in parallel.rows)
         print(f"task time per session on the workers: median {task_s[len(task_s) // 2]:.2f} s wall, "
               f"{cpu_s[len(cpu_s) // 2]:.2f} s CPU (max {task_s[-1]:.2f} s wall, {cpu_s[-1]:.2f} s CPU)")
+        if not args.no_pool:
+            # the peer: what two plain processes reach on this machine, without dask's scheduler, nanny or transport
+            started = time.perf_counter()
+            with concurrent.futures.ProcessPoolExecutor(args.workers,
+                                                        mp_context=multiprocessing.get_context("spawn")) as pool:
+                pooled = list(pool.map(analyse_session, [str(path) for path in paths], [options] * len(paths)))
+            pool_s = time.perf_counter() - started
+            pool_cpu_s = sorted(row["cpu_seconds"] for row in pooled)
+            print(f"peer, plain process pool of {args.workers} (no dask): {pool_s:.1f} s, speed-up "
+                  f"{serial_s / pool_s:.2f}×, task CPU median {pool_cpu_s[len(pool_cpu_s) // 2]:.2f} s; dask reaches "
+                  f"{pool_s / parallel_s:.2f} of the pool's speed; rows identical: "
+                  f"{comparable(pooled) == comparable(serial)}", flush=True)
         failed = sum(1 for row in serial if row.get("error"))
         same = comparable(serial) == comparable(parallel.rows)
         print(f"speed-up {serial_s / parallel_s:.2f}× (goal ≥ 1.8× on 2 otherwise idle cores); failed sessions "

@@ -130,3 +130,11 @@ def test_a_stored_fit_is_not_replaced_by_one_over_another_band(session_path, tmp
     from gasfilm.app.cli import build_parser
 
     assert "0.45·fs" in build_parser()._subparsers._group_actions[0].choices["fit"].format_help()
+
+
+def test_diagnose_of_a_damaged_uff_file_says_one_line(tmp_path, capsys):
+    """A file from elsewhere carries no operating conditions: nothing is said about them before the file's error."""
+    empty = tmp_path / "empty.uff"
+    empty.write_text("")
+    err = one_line_error(capsys, "diagnose", empty, "--mass", "25", "--out", tmp_path / "d")
+    assert f"{empty}: empty UFF file" in err and "conditions" not in err

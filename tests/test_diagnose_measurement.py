@@ -17,6 +17,7 @@ import numpy as np
 import pytest
 
 from gasfilm.analysis.diagnosis import diagnose
+from gasfilm.analysis.diagnosis.measurement import hit_spectra
 from gasfilm.analysis.diagnosis.recordings import Recordings, load_recordings
 from gasfilm.analysis.physics.spec import RigSpec
 from gasfilm.analysis.spectra import WindowSettings, compute_frf
@@ -90,3 +91,13 @@ def test_records_exported_with_force_and_exponential_windows(recorded, tmp_path,
     true_1_s = np.log(100) * recordings.sample_rate_hz / (records.shape[-1] - 1)  # 1 % at the end
     found_1_s, error_1_s = map(float, re.search(r"σ = ([\d.]+) ± ([\d.e-]+) 1/s", notes["exponential window"]).groups())
     assert abs(found_1_s - true_1_s) < max(4 * error_1_s, 0.02 * true_1_s)
+
+
+def test_two_hits_are_said_to_be_too_few_for_a_verdict(recorded):
+    """Two hits cannot check the noise model against their scatter: a quality note says the verdict is provisional;
+    with three hits there is no such note."""
+    recordings, _ = recorded
+    notes = {note.kind: note.message for note in hit_spectra(recordings.records[:2], recordings.sample_rate_hz).quality}
+    assert "only 2 usable hits" in notes["few hits"] and "provisional" in notes["few hits"]
+    assert "few hits" not in {note.kind for note in hit_spectra(recordings.records[:3],
+                                                                recordings.sample_rate_hz).quality}

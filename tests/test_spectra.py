@@ -209,6 +209,23 @@ def test_uncertainty_matches_the_scatter_of_repeated_sessions():
     assert 0.8 < np.median(observed_complex / predicted_complex) < 1.25
 
 
+def test_scatter_in_one_pass_equals_the_standard_deviation_of_the_per_hit_frfs():
+    # the scatter is summed while the hits are transformed, as deviations from the first hit's FRF; it must equal
+    # the two-pass definition, also when the first hit is an outlier and when the spread is at round-off level
+    records, fs = noisy_hits(n_hits=9, n_samples=256)
+    records[0] *= np.array([[1.0], [3.0]])  # the first hit's response three times too large: far from the mean
+    for hits in (records, np.repeat(records[:1], 4, axis=0) * (1.0 + 1e-13 * np.arange(4))[:, None, None]):
+        result = compute_frf(hits, fs)
+        n = len(hits)
+        per_hit = result.h1_per_hit
+        two_pass = np.sqrt(np.sum(np.abs(per_hit - per_hit.mean(axis=0)) ** 2, axis=0) / (n - 1) / n)
+        lines = slice(1, None)
+        np.testing.assert_allclose(result.h1_std_scatter[lines], two_pass[lines], rtol=1e-6,
+                                   atol=1e-12 * np.abs(result.h1[lines]).max())
+    identical = compute_frf(np.repeat(records[:1], 3, axis=0), fs)
+    assert np.all(identical.h1_std_scatter[1:] == 0.0)
+
+
 def test_single_hit_has_unit_coherence_and_no_scatter_estimate():
     records, fs = noisy_hits(n_hits=1, n_samples=64)
     result = compute_frf(records[0], fs)

@@ -28,6 +28,8 @@ logger = logging.getLogger(__name__)
 SESSION_SUFFIXES = (".h5", ".hdf5")
 #: Sub-folder of the output folder that keeps one JSON row per analysed session content.
 CACHE_FOLDER = "cache"
+#: dask configuration of the workers (local ones get it; docs/campaigns.md says how to give it to others).
+WORKER_CONFIG_PATH = Path(__file__).with_name("dask-workers.yaml")
 #: How long to wait for a scheduler given with --scheduler before saying it cannot be reached.
 CONNECT_TIMEOUT_S = 20
 
@@ -123,9 +125,10 @@ def dask_client(workers: int | None, scheduler: str | None) -> Iterator[Any]:
             client.close()
         return
     count = workers or max(1, min(os.cpu_count() or 1, 8))
-    # no dashboard shows the workers' statistical profiler here, and its 10 ms stack sampling cost ~8 % of each
-    # session's CPU time (benchmarks/bench_campaign.py): the local workers run without it
-    with dask.config.set({"distributed.worker.profile.enabled": False}), \
+    # the workers' profiler and malloc tuning cost 8 % and 21-24 % of a session's CPU time (see the YAML file)
+    worker_config = dask.config.merge(dask.config.config,
+                                      dask.config.collect(paths=[str(WORKER_CONFIG_PATH)], env={}))
+    with dask.config.set(worker_config), \
             LocalCluster(n_workers=count, threads_per_worker=1, processes=True, dashboard_address=None,
                          silence_logs=logging.ERROR) as cluster, Client(cluster) as client:
         yield client

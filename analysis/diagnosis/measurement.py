@@ -60,7 +60,8 @@ COARSE_LEVELS = 2**12
 class QualityNote:
     """A measurement-quality observation (never physics)."""
 
-    kind: str  # "interference", "double hit", "overload", "low coherence", "truncation", "noise", "rejected hits"
+    kind: str  # "interference", "double hit", "overload", "low coherence", "truncation", "noise", "rejected hits",
+    # "few hits", …
     message: str
     band_hz: tuple[float, float] | None = None
     hits: tuple[int, ...] = ()
@@ -362,6 +363,10 @@ def hit_spectra(
     used = np.flatnonzero(keep)
     if used.size < 2:
         raise SettingError(f"diagnosis records: only {used.size} usable hit(s) after quality checks; at least 2 needed")
+    if used.size < MIN_SCATTER_HITS:
+        quality.append(QualityNote(
+            "few hits", f"only {used.size} usable hits: too few to check the noise model against the scatter between "
+            f"hits, so any verdict is provisional; record at least {MIN_SCATTER_HITS}", hits=tuple(int(i) for i in used)))
     records = records[used]
     extents = [extents[i] for i in used]
     trigger = np.array([start for start, _, _ in extents])

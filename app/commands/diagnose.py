@@ -79,7 +79,8 @@ def run(args: argparse.Namespace) -> int:
         from gasfilm.app.commands.common import source_conditions
 
         conditions = source_conditions(list(args.source))
-        progress(f"{args.source[0]}: conditions {format_conditions(conditions)}")
+        if conditions:  # files from elsewhere carry none: the report says "not recorded" once, at the end
+            progress(f"{args.source[0]}: conditions {format_conditions(conditions)}")
         source = args.source[0] if len(args.source) == 1 else list(args.source)
         diagnosis = diagnose(source, spec, args.mass, band, progress)
         write_outputs(diagnosis, args.out)
