@@ -58,21 +58,6 @@ def test_two_hits_without_a_pre_trigger_are_one_line(measured):
         hit_spectra(cut(measured, 0.5e-3, 0.25)[:2], FS_HZ)
 
 
-def test_real_recording_start_reads_a_structure_with_its_polarity(measured):
-    """Below its first resonance the recording is a negative mass line, not a mover on a film rising as ω²: the start
-    is a measured structure (modal superposition) with the response polarity −1 and its modes."""
-    recordings = Recordings(cut(measured, 0.5e-3, 0.25), FS_HZ, np.arange(5.0), None, None, None, "pyfrf")
-    spec, text = read_start(recordings)
-    assert "mass line" in text and "polarity −1" in text
-    assert [e.type_name for e in spec.effects if e.type_name == "polarity"] == ["polarity"]
-    assert 0.75 < spec.mass_kg < 1.0  # |H1| ≈ 1.2 (m/s²)/N below 800 Hz
-    modes = [e for e in spec.effects if e.type_name == "structure-mode"]
-    for mode_hz in (900.0, 2640.0, 3669.0, 4128.0):
-        assert any(abs(mode.freq_hz - mode_hz) < 0.01 * mode_hz for mode in modes), mode_hz
-    suspension_hz = np.sqrt(spec.film_parameters["k"] / spec.mass_kg) / (2 * np.pi)
-    assert suspension_hz < 5.0  # below the band: in band the mover is its mass line
-
-
 def test_fit_says_which_resonances_no_film_model_explains(tmp_path, capsys):
     files = [str(FIXTURE / f"measurements_{i}.npy") for i in range(1, 4)]
     assert gasfilm(["fit", *files, "--models", "SD", "--mass", "0.8", "--band", "20:3000", "--json",
