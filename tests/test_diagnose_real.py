@@ -16,7 +16,6 @@ import pytest
 from gasfilm.app.cli import main as gasfilm
 
 from gasfilm.analysis.diagnosis.measurement import hit_spectra
-from gasfilm.analysis.diagnosis.recordings import Recordings, read_start
 from gasfilm.drivers.errors import SettingError
 
 FIXTURE = Path(__file__).resolve().parents[1] / "fixtures" / "real-data" / "pyfrf-5-hits"
