@@ -103,6 +103,7 @@ def _analyse(path: Path, options: CampaignOptions) -> dict[str, Any]:
 
     from gasfilm.analysis.conditions import condition_unit, decode_conditions
     from gasfilm.analysis.diagnosis import diagnose, load_recordings
+    from gasfilm.analysis.diagnosis.parallel import worker_processes
     from gasfilm.analysis.identification import compare_models, fit_model
     from gasfilm.analysis.physics.elements import PAPER_MASS_KG, get_model
     from gasfilm.analysis.physics.spec import RigSpec
@@ -169,7 +170,8 @@ def _analyse(path: Path, options: CampaignOptions) -> dict[str, Any]:
 
     if options.diagnose:
         recordings = load_recordings(path)
-        diagnosis = diagnose(recordings, spec)
+        with worker_processes(1):  # the campaign runs one task per core already
+            diagnosis = diagnose(recordings, spec)
         result = diagnosis.to_dict()
         findings = result.get("findings", [])
         row["diagnosis_verdict"] = str(result.get("verdict", ""))

@@ -28,6 +28,7 @@ from gasfilm.analysis.diagnosis.candidates import CANDIDATES, EQUIVALENT, separa
 from gasfilm.analysis.diagnosis.fitspace import fit_context, spec_slots, without_effect
 from gasfilm.analysis.diagnosis.measurement import HitSpectra, contiguous_bands, weighted_mean
 from gasfilm.analysis.diagnosis.modes import unmodelled_resonances_hz
+from gasfilm.analysis.diagnosis.parallel import shared_map
 from gasfilm.analysis.diagnosis.restoring import RestoringForce
 from gasfilm.analysis.diagnosis.result import Alternative, CandidateDescription, Diagnosis, Finding, Unexplained
 from gasfilm.analysis.diagnosis.selection import (
@@ -47,6 +48,7 @@ from gasfilm.analysis.diagnosis.selection import (
 from gasfilm.analysis.physics.effects import FitContext
 from gasfilm.analysis.physics.response import simulate_response
 from gasfilm.analysis.physics.spec import RigSpec
+from gasfilm.analysis.threads import one_blas_thread
 from gasfilm.drivers.errors import GasfilmError
 
 logger = logging.getLogger(__name__)
@@ -110,6 +112,7 @@ def _silent(message: str) -> None:
     del message
 
 
+@one_blas_thread
 def diagnose_spectra(
     spectra: HitSpectra,
     spec: RigSpec,
@@ -239,19 +242,39 @@ def _select_one(
     present = {effect.type_name for effect in current.spec.effects}
     noise_scale = _noise_scale(current, points)
     trials = []
-    for identifier in CANDIDATES:
-        if identifier in present or (identifier in ("drift", "step-change") and context.session_span_s <= 0):
+    identifiers = [identifier for identifier in CANDIDATES
+                   if identifier not in present
+                   and not (identifier in ("drift", "step-change") and context.session_span_s <= 0)
+                   and not (identifier in AMPLITUDE_TERMS and restoring is not None
+                            and not restoring.allows(identifier))]
+
+    def candidate(identifier: str) -> tuple[FitOutcome | None, tuple | None]:
+        """The candidate's fit and, when it was judged on evidence of its own (the exact nonlinear replay of a cubic
+        spring), that evidence's FRFs and variances and the replays made for it."""
+        replays = spectra.replay.nonlinear_cache if spectra.replay is not None else {}
+        known = set(replays)
+        outcome, candidate_evidence = _candidate_fit(spectra, evidence, current.spec, identifier, context,
+                                                     noise_scale)
+        if candidate_evidence is evidence:
+            return outcome, None
+        made = {key: value for key, value in replays.items() if key not in known}
+        return outcome, (candidate_evidence.spectra.h, candidate_evidence.spectra.variance, made)
+
+    # CANDIDATES lists the terms with fewest parameters (and starts) first: the quickest fits
+    for identifier, fitted in zip(identifiers, shared_map(candidate, identifiers, longest_first=True)):
+        if isinstance(fitted, GasfilmError):  # a nonlinear replay that does not converge is no candidate
+            logger.info("candidate %s skipped: %s", identifier, fitted)
             continue
-        if identifier in AMPLITUDE_TERMS and restoring is not None and not restoring.allows(identifier):
-            continue
-        try:
-            outcome, candidate_evidence = _candidate_fit(spectra, evidence, current.spec, identifier, context,
-                                                         noise_scale)
-        except GasfilmError as error:  # a nonlinear replay that does not converge is no candidate
-            logger.info("candidate %s skipped: %s", identifier, error)
-            continue
+        if isinstance(fitted, Exception):
+            raise fitted
+        outcome, own = fitted
         if outcome is None:
             continue
+        candidate_evidence = evidence
+        if own is not None:  # perhaps computed by the other process: the same evidence, rebuilt here
+            h, variance, replays = own
+            spectra.replay.nonlinear_cache.update(replays)
+            candidate_evidence = Evidence(dataclasses.replace(spectra, h=h, variance=variance))
         extra = len(outcome.slots) - len(current.slots)
         score = (current.chi2 - outcome.chi2) / noise_scale - extra * np.log(points)
         share = (current.chi2 - outcome.chi2) / max(current.chi2 - points, 1e-9)

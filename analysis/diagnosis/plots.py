@@ -13,6 +13,7 @@ from matplotlib.ticker import MaxNLocator
 from gasfilm.analysis.diagnosis.pipeline import replayed_mean, residuals
 from gasfilm.analysis.diagnosis.restoring import RestoringForce
 from gasfilm.analysis.diagnosis.result import Diagnosis
+from gasfilm.analysis.threads import one_blas_thread
 from gasfilm.drivers.interface import STANDARD_GRAVITY_M_S2 as G_M_S2
 
 
@@ -122,6 +123,7 @@ def write_restoring_force_figure(restoring: RestoringForce, path: Path) -> Path:
     return path
 
 
+@one_blas_thread
 def write_outputs(diagnosis: Diagnosis, out_dir: Path) -> None:
     """Write the improved spec (the spec that was fitted, exactly) and the figures into ``out_dir``; the paths are
     kept in ``diagnosis.improved_spec_path`` and ``diagnosis.figures``."""

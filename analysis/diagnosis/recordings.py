@@ -25,6 +25,7 @@ from gasfilm.analysis.diagnosis.structure import read_structure
 from gasfilm.analysis.physics.effects import MIN_DAMPING_RATIO, ExtraMode, Polarity
 from gasfilm.analysis.physics.spec import RigSpec
 from gasfilm.analysis.spectra import WindowSettings, compute_frf, readable_lines, resonance_lines
+from gasfilm.analysis.threads import one_blas_thread
 from gasfilm.drivers.errors import SettingError
 
 logger = logging.getLogger(__name__)
@@ -273,6 +274,7 @@ def film_restoring_force(recordings: Recordings, spectra: HitSpectra, mass_kg: f
                            resonance_hz, (float(spectra.freq_hz[0]), float(spectra.freq_hz[-1])))
 
 
+@one_blas_thread
 def diagnose(
     source: str | Path | list[Path] | Recordings,
     rig_spec: RigSpec | None = None,

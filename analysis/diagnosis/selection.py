@@ -40,7 +40,7 @@ from gasfilm.analysis.physics.effects import (
     StepChange,
     SqueezeFilm,
 )
-from gasfilm.analysis.physics.response import HitConditions, rig_accelerance
+from gasfilm.analysis.physics.response import GridPieces, HitConditions, rig_accelerance
 from gasfilm.analysis.physics.spec import RigSpec
 
 logger = logging.getLogger(__name__)
@@ -83,6 +83,8 @@ class Evidence:
         self.hit_count = spectra.h.shape[0]
         self.point_count = 2 * spectra.h.size
         self._means: dict[tuple[int, ...] | None, tuple[np.ndarray, np.ndarray]] = {}
+        self._rows: dict[tuple[int, ...] | None, tuple[np.ndarray, np.ndarray]] = {}
+        self._pieces = GridPieces(self.freq_hz, self.decay_rate_1_s)
 
     def _subset(self, hits: np.ndarray | None) -> np.ndarray:
         return np.arange(self.hit_count) if hits is None else hits
@@ -94,6 +96,14 @@ class Evidence:
             self._means[key] = self.spectra.mean(hits)
         return self._means[key]
 
+    def _hit_rows(self, hits: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
+        """The per-hit FRFs of a subset of hits and the square roots of their weights (remembered likewise)."""
+        key = None if hits is None else tuple(int(i) for i in hits)
+        if key not in self._rows:
+            rows = self._subset(hits)
+            self._rows[key] = (self.spectra.h[rows], np.sqrt(self.spectra.weight[rows]))
+        return self._rows[key]
+
     def restricted(self, lines: np.ndarray) -> "Evidence":
         """The same evidence on a subset of the analysis frequencies (indices into ``freq_hz``)."""
         spectra = dataclasses.replace(self.spectra, freq_hz=self.freq_hz[lines], h=self.spectra.h[:, lines],
@@ -103,17 +113,17 @@ class Evidence:
     def predicted(self, spec: RigSpec, hits: np.ndarray | None = None) -> np.ndarray:
         """The spec's accelerance on the grid: (hits, G) when it differs between hits, else (G,)."""
         if not spec.is_per_hit:
-            return rig_accelerance(spec, self.freq_hz, self.decay_rate_1_s)
+            return rig_accelerance(spec, self.freq_hz, self.decay_rate_1_s, pieces=self._pieces)
         conditions = self.spectra.conditions
         if hits is not None:
             conditions = conditions.subset(hits)
-        return rig_accelerance(spec, self.freq_hz, self.decay_rate_1_s, conditions=conditions)
+        return rig_accelerance(spec, self.freq_hz, self.decay_rate_1_s, conditions=conditions, pieces=self._pieces)
 
     def residual(self, spec: RigSpec, hits: np.ndarray | None = None) -> np.ndarray:
         """Weighted residual vector (real and imaginary parts) whose squared norm is χ² up to a constant."""
-        rows = self._subset(hits)
         if spec.is_per_hit:
-            difference = (self.spectra.h[rows] - self.predicted(spec, rows)) * np.sqrt(self.spectra.weight[rows])
+            h, sqrt_weight = self._hit_rows(hits)
+            difference = (h - self.predicted(spec, hits)) * sqrt_weight
         else:
             mean, total = self._mean(hits)
             difference = (mean - self.predicted(spec)) * np.sqrt(total)

@@ -11,6 +11,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from gasfilm.analysis.identification.result import FitResult
+from gasfilm.analysis.threads import one_blas_thread
 from gasfilm.drivers.errors import SettingError
 from gasfilm.drivers.interface import STANDARD_GRAVITY_M_S2
 
@@ -31,6 +32,7 @@ class ComparisonRow:
     at_bound: tuple[str, ...]  # parameters that ended at a bound: not measurements
 
 
+@one_blas_thread
 def compare_models(fits: Sequence[FitResult], freq_hz: ArrayLike, h: ArrayLike) -> list[ComparisonRow]:
     """Rank fits by RMS (eq. 33) on the given data; E and E_m (eq. 35) against the SD fit when one is present."""
     freq = np.asarray(freq_hz, dtype=float)

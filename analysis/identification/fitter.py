@@ -23,6 +23,7 @@ from gasfilm.analysis.identification.gapso import GapsoSettings, UnitObjective, 
 from gasfilm.analysis.identification.problem import Problem
 from gasfilm.analysis.identification.result import FitResult
 from gasfilm.analysis.physics.elements import FilmModel, get_model
+from gasfilm.analysis.threads import one_blas_thread
 from gasfilm.drivers.errors import SettingError
 
 logger = logging.getLogger(__name__)
@@ -40,6 +41,7 @@ def default_fit_band_hz(sample_rate_hz: float) -> tuple[float, float]:
     return DEFAULT_FIT_BAND_HZ[0], min(DEFAULT_FIT_BAND_HZ[1], ALIAS_FREE_FRACTION * sample_rate_hz)
 
 
+@one_blas_thread
 def fit_model(
     model: FilmModel | str,
     freq_hz: ArrayLike,

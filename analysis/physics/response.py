@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import functools
 from dataclasses import dataclass
+from typing import Callable
 
 import numpy as np
 import scipy.fft
@@ -22,7 +23,7 @@ from scipy.sparse.linalg import LinearOperator, bicgstab
 from gasfilm.analysis.physics.elements import FilmModel, laplace_variable
 from gasfilm.drivers.errors import GasfilmError
 
-from gasfilm.analysis.physics.effects import CUBIC_EQUIVALENT, DECAY_TOLERANCE, MAX_RESPONSE_DURATION_S
+from gasfilm.analysis.physics.effects import CUBIC_EQUIVALENT, DECAY_TOLERANCE, MAX_RESPONSE_DURATION_S, Effect
 from gasfilm.analysis.physics.spec import RigSpec
 # --- physics -------------------------------------------------------------------------------------------------------
 
@@ -91,21 +92,25 @@ def rig_dynamic_stiffness(
     *,
     film_scale: float | None = None,
     impulse_ns: np.ndarray | float | None = None,
+    pieces: "GridPieces | None" = None,
 ) -> np.ndarray:
     """Linear dynamic stiffness of the mover on its film, ``Z_film(t) + Σ Z_effect + c_eq(v)·s + M s²`` (N/m).
 
     The film is the spec's at ``time_s`` (one time or an array of hit times) unless ``film_scale`` gives its scale.
     With ``impulse_ns`` (one hit's or an array matching ``time_s``), amplitude-dependent dampers add their equivalent
-    viscous damping at the hit's initial velocity ``J / M``.
+    viscous damping at the hit's initial velocity ``J / M``. ``pieces`` (made for this ``s``) remembers the film's and
+    the effects' parts between calls (the same numbers, computed once).
     """
     s = np.asarray(s, dtype=complex)
-    if film_scale is None:
+    if pieces is not None and film_scale is None:
+        total = pieces.film(spec, time_s)
+    elif film_scale is None:
         total = film_stiffness(spec, s, time_s)
     else:
         total = spec.film.stiffness(s, spec.film_parameters) * film_scale
-    total = total + spec.moving_mass_kg * s**2
+    total = total + spec.moving_mass_kg * (s**2 if pieces is None else pieces.s_squared)
     for effect in spec.effects:
-        total = total + effect.added_stiffness(s)
+        total = total + (effect.added_stiffness(s) if pieces is None else pieces.added_stiffness(effect))
     if impulse_ns is not None:
         velocity_m_s = np.abs(np.asarray(impulse_ns, dtype=float)) / spec.moving_mass_kg
         damping = sum(effect.level_damping_ns_per_m(velocity_m_s) for effect in spec.effects)
@@ -130,8 +135,83 @@ def structure_accelerance(spec: RigSpec, s: np.ndarray) -> np.ndarray | float:
     return total
 
 
+class GridPieces:
+    """The parts of :func:`rig_accelerance` on one grid ``s = σ + j2πf`` that a fit evaluates again and again with
+    one parameter changed: the film at the hits' times, each effect's added stiffness, the channel transfers, s².
+    Each is remembered under the values it depends on (at most :data:`KEPT` of each kind) and computed exactly as
+    without it, so results are bit-for-bit the same. Effects are frozen dataclasses: their values are their key."""
+
+    KEPT = 16
+
+    def __init__(self, freq_hz: np.ndarray, decay_rate_1_s: float) -> None:
+        self.freq_hz = freq_hz
+        self.decay_rate_1_s = decay_rate_1_s
+        self.s = laplace_variable(freq_hz, decay_rate_1_s)
+        self.s_squared = self.s**2
+        self._kept: dict[tuple, np.ndarray | float] = {}
+
+    def matches(self, freq_hz: np.ndarray, decay_rate_1_s: float) -> bool:
+        return freq_hz is self.freq_hz and decay_rate_1_s == self.decay_rate_1_s
+
+    def _remembered(self, key: tuple, compute: Callable[[], np.ndarray | float]) -> np.ndarray | float:
+        try:
+            return self._kept[key]
+        except KeyError:
+            pass
+        except TypeError:  # an unhashable effect field: computed every time
+            return compute()
+        value = compute()
+        if len(self._kept) >= 4 * self.KEPT:
+            self._kept.pop(next(iter(self._kept)))
+        self._kept[key] = value
+        return value
+
+    def film(self, spec: RigSpec, time_s: np.ndarray | float) -> np.ndarray:
+        """:func:`film_stiffness` of the spec at ``time_s``."""
+        times = time_s.tobytes() if isinstance(time_s, np.ndarray) else float(time_s)
+        key = ("film", spec.film_model, tuple(spec.film_parameters.items()),
+               tuple(effect for effect in spec.effects if _scales_film(effect)), times)
+        return self._remembered(key, lambda: film_stiffness(spec, self.s, time_s))
+
+    def added_stiffness(self, effect: Effect) -> np.ndarray | float:
+        return self._remembered(("added", effect), lambda: effect.added_stiffness(self.s))
+
+    def structure(self, spec: RigSpec) -> np.ndarray | float:
+        """:func:`structure_accelerance` of the spec (each mode remembered)."""
+        total: np.ndarray | float = 0.0
+        for effect in spec.effects:
+            total = total + self._remembered(("accelerance", effect), lambda: effect.added_accelerance(self.s))
+        return total
+
+    def channel_ratio(self, spec: RigSpec) -> np.ndarray:
+        """``channel_transfer(acceleration) / channel_transfer(force)``."""
+        return self._remembered(("ratio", spec.effects), lambda: channel_transfer(spec, "acceleration", self.s)
+                                / channel_transfer(spec, "force", self.s))
+
+
+def _scales_film(effect: Effect) -> bool:
+    """Whether the effect scales the film with session time (drift, step changes)."""
+    kind = type(effect)
+    return kind.film_scale is not Effect.film_scale or kind.viscous_scale is not Effect.viscous_scale
+
+
 def resonance_omega_rad_s(spec: RigSpec) -> float:
-    """Undamped natural frequency (rad/s) of the moving mass on the real part of the film stiffness (fixed point)."""
+    """Undamped natural frequency (rad/s) of the moving mass on the real part of the film stiffness (fixed point).
+    Remembered per film and mass (a fit of a cubic term asks at every evaluation)."""
+    key = (spec.film_model, tuple(spec.film_parameters.items()), spec.moving_mass_kg)
+    omega = _RESONANCES.get(key)
+    if omega is None:
+        omega = _resonance_omega_rad_s(spec)
+        if len(_RESONANCES) >= 256:
+            _RESONANCES.clear()
+        _RESONANCES[key] = omega
+    return omega
+
+
+_RESONANCES: dict[tuple, float] = {}
+
+
+def _resonance_omega_rad_s(spec: RigSpec) -> float:
     mass_kg = spec.moving_mass_kg
     omega = float(np.sqrt(abs(spec.film.stiffness(np.array([1j]), spec.film_parameters)[0]) / mass_kg))
     for _ in range(20):
@@ -153,25 +233,32 @@ def rig_accelerance(
     decay_rate_1_s: float = 0.0,
     time_s: float = 0.0,
     conditions: HitConditions | None = None,
+    pieces: GridPieces | None = None,
 ) -> np.ndarray:
     """Accelerance (m/s²)/N the channels of ``spec`` show at ``s = σ + j2πf``: (G,), or (hits, G) with ``conditions``.
 
     Measurement-chain effects are included (channel transfers, force cross-talk). With ``conditions``, every hit sees
     the film at its own session time, and a cubic film spring enters by equivalent linearisation at the hit's level
-    (``Δk = CUBIC_EQUIVALENT·k3·x0²``); the exact nonlinear response is :func:`simulate_response`'s.
+    (``Δk = CUBIC_EQUIVALENT·k3·x0²``); the exact nonlinear response is :func:`simulate_response`'s. ``pieces``, made
+    for this ``freq_hz`` (the same array) and decay rate, remembers parts between calls (a fit's many evaluations).
     """
-    s = laplace_variable(freq_hz, decay_rate_1_s)
+    if pieces is not None and not pieces.matches(freq_hz, decay_rate_1_s):
+        pieces = None
+    s = laplace_variable(freq_hz, decay_rate_1_s) if pieces is None else pieces.s
     if conditions is None:
-        stiffness = rig_dynamic_stiffness(spec, s, time_s)
+        stiffness = rig_dynamic_stiffness(spec, s, time_s, pieces=pieces)
     else:
-        stiffness = rig_dynamic_stiffness(spec, s, conditions.time_s, impulse_ns=conditions.impulse_ns)
+        stiffness = rig_dynamic_stiffness(spec, s, conditions.time_s, impulse_ns=conditions.impulse_ns, pieces=pieces)
         k3 = spec.cubic_stiffness_n_per_m3
         if k3:
             stiffness = stiffness + (CUBIC_EQUIVALENT * k3 * hit_displacement_m(spec, conditions.impulse_ns) ** 2)[
                 :, np.newaxis]
         stiffness = np.broadcast_to(stiffness, (len(conditions.time_s), s.size))
-    return (s**2 / stiffness + structure_accelerance(spec, s) + spec.force_leak_m_s2_per_n) * (
-        channel_transfer(spec, "acceleration", s) / channel_transfer(spec, "force", s))
+    if pieces is None:
+        return (s**2 / stiffness + structure_accelerance(spec, s) + spec.force_leak_m_s2_per_n) * (
+            channel_transfer(spec, "acceleration", s) / channel_transfer(spec, "force", s))
+    return (pieces.s_squared / stiffness + pieces.structure(spec) + spec.force_leak_m_s2_per_n) * (
+        pieces.channel_ratio(spec))
 
 
 def _grid_laplace(n_samples: int, sample_rate_hz: float) -> np.ndarray:

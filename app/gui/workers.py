@@ -379,6 +379,15 @@ def _job_context() -> Any:
     return context
 
 
+def _end_child(child: Any, messages: Any) -> None:
+    """Wait for a job's process to end (terminate it after a grace second) and close its queue."""
+    child.join(1.0)
+    if child.is_alive():
+        child.terminate()
+        child.join(1.0)
+    messages.close()
+
+
 class BackgroundJob(QObject):
     """Run ``work(report, cancelled)`` away from the GUI thread; ``report(fraction, text)`` drives a progress bar and
     raises :class:`JobCancelled` once Cancel was pressed; ``cancelled()`` can be polled by long computations.
@@ -438,11 +447,9 @@ class BackgroundJob(QObject):
                 else:
                     raise GasfilmError(message[1])
         finally:
-            child.join(1.0)
-            if child.is_alive():
-                child.terminate()
-                child.join(1.0)
-            messages.close()
+            # The result is delivered at once; the child's own exit (flushing its queue, freeing its memory: tenths
+            # of a second on a busy machine) is awaited on a helper thread, not before the GUI gets the result.
+            threading.Thread(target=_end_child, args=(child, messages), name="gasfilm-job-exit", daemon=True).start()
 
     @Slot()
     def run(self) -> None:
