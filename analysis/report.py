@@ -392,7 +392,9 @@ def _diagnosis_html(diagnosis: dict[str, Any] | None) -> str:
         parts.append(_table(
             ("Parameter", "Spec", "Fitted", "±1σ"),
             [(name, _number_text(v.get("spec"), ".5g"), _number_text(v.get("fitted"), ".5g"),
-              _number_text(v.get("uncertainty"), ".2g", NO_SIGMA)) for name, v in recalibration.items()
+              "at its bound: not a measurement" if v.get("at_bound") else _number_text(v.get("uncertainty"), ".2g",
+                                                                                        NO_SIGMA))
+             for name, v in recalibration.items()
              if isinstance(v, dict)],
         ))
     notes = [quality_note_text(note) for note in diagnosis.get("quality") or []]

@@ -6,12 +6,13 @@ The untouched recording is diagnosed from a start read off its FRF; its written 
 variant is diagnosed against, and the untouched recording is diagnosed against it once more (the loop). Prints one
 row per case: verdict, findings, unexplained bands, noise source, quality notes, χ²/point and time.
 
-    python benchmarks/real_variants.py [--record-s 1.0]
+    python benchmarks/real_variants.py [--record-s 1.0 0.25]
 """
 
 from __future__ import annotations
 
 import argparse
+import os
 import time
 from pathlib import Path
 
@@ -53,18 +54,29 @@ def row(name: str, diagnosis, seconds: float) -> str:
     findings = ", ".join(f.effect for f in diagnosis.findings) or "—"
     unexplained = ", ".join(f"{u.band_hz[0]:.0f}–{u.band_hz[1]:.0f}" for u in diagnosis.unexplained) or "—"
     quality = ", ".join(sorted({note.kind for note in diagnosis.quality})) or "—"
-    return (f"| {name} | {diagnosis.verdict} | {findings} | {unexplained} | {diagnosis.spectra.noise.source} | "
-            f"{quality} | {diagnosis.chi2_per_point_after:.3g} | {seconds:.0f} s |")
+    candidates = ", ".join(sorted({c.effect for c in diagnosis.candidates})) or "—"
+    return (f"| {name} | {diagnosis.verdict} | {findings} | {candidates} | {unexplained} | {diagnosis.spectra.noise.source} | "
+            f"{quality} | {diagnosis.chi2_per_point_before:.3g} → {diagnosis.chi2_per_point_after:.3g} | {seconds:.0f} s |")
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--record-s", type=float, default=1.0, help="cut the 1 s records to this length (s)")
+    parser.add_argument("--record-s", type=float, nargs="+", default=[1.0, 0.25],
+                        help="cut the 1 s records to these lengths (s); one table each")
     args = parser.parse_args()
+    print(f"load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores")
+    for record_s in args.record_s:
+        table(record_s)
+
+
+def table(record_s: float) -> None:
+    """Print the table of one record length."""
     records = np.stack([np.load(FIXTURE / f"measurements_{i}.npy") for i in range(1, 6)])[:, 1:]
-    records = records[:, :, : int(round(args.record_s * RATE_HZ))]
-    print("| recording | verdict | findings | not explained (Hz) | noise | quality | χ²/point after | time |")
-    print("| --- | --- | --- | --- | --- | --- | --- | --- |")
+    records = records[:, :, : int(round(record_s * RATE_HZ))]
+    print(f"\n{record_s:g} s records\n")
+    print("| recording | verdict | findings | candidate descriptions (not findings) | not explained (Hz) | noise | "
+          "quality | χ²/point before → after | time |")
+    print("| --- | --- | --- | --- | --- | --- | --- | --- | --- |")
     written = None
     for name, data in variants(records).items():
         started = time.monotonic()

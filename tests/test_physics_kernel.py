@@ -31,6 +31,8 @@ from gasfilm.analysis.physics.effects import (
     SensitivityError,
     SqueezeFilm,
     StepChange,
+    StructureMode,
+    Polarity,
 )
 from gasfilm.analysis.physics.plant import RigPlant
 from gasfilm.analysis.physics.response import NONLINEAR_TOLERANCE, HitConditions, rig_accelerance, simulate_response
@@ -55,6 +57,9 @@ EXAMPLES: dict[str, Effect] = {
     "squeeze-film": SqueezeFilm(gap_m=3e-5, length_m=0.05),
     "friction": Friction(friction_force_n=3.0),
     "quadratic-damping": QuadraticDamping(coefficient_n_s2_per_m2=1.5e5),
+    "structure-mode": StructureMode(freq_hz=1400.0, damping_ratio=0.004, modal_constant_per_kg=-0.02,
+                                    quadrature_per_kg=0.005),
+    "polarity": Polarity(channel="acceleration"),
 }
 CONDITIONS = HitConditions(time_s=np.array([0.0, 3.0, 7.0, 12.0]), impulse_ns=np.array([0.12, 0.15, 0.16, 0.2]))
 FREQ_HZ = np.linspace(5.0, 2000.0, 257)

@@ -89,12 +89,14 @@ def effect_slots(spec: RigSpec, index: int, context: FitContext) -> list[Slot]:
     return [Slot(index, name, fit_range) for name, fit_range in spec.effects[index].fit_ranges(context).items()]
 
 
-def spec_slots(spec: RigSpec, context: FitContext) -> list[Slot]:
+def spec_slots(spec: RigSpec, context: FitContext, recalibration: bool = False) -> list[Slot]:
     """Every free parameter of a spec: the film's, then each effect's (ranges widened to hold the current values, so
-    a spec a diagnosis wrote is recalibrated from exactly where it is)."""
+    a spec a diagnosis wrote is recalibrated from exactly where it is). Effects held after the recalibration (a
+    structure's modes: many parameters no candidate term competes with) only with ``recalibration``."""
     slots = film_slots(spec)
-    for index in range(len(spec.effects)):
-        slots.extend(effect_slots(spec, index, context))
+    for index, effect in enumerate(spec.effects):
+        if recalibration or not type(effect).held_after_recalibration:
+            slots.extend(effect_slots(spec, index, context))
     return [_holding_value(slot, slot.value(spec)) for slot in slots]
 
 

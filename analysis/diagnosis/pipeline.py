@@ -130,7 +130,7 @@ def diagnose_spectra(
     progress(f"compared {evidence.hit_count} hits on {len(evidence.freq_hz)} frequencies "
              f"{evidence.freq_hz[0]:.0f}–{evidence.freq_hz[-1]:.0f} Hz: χ²/point {chi2_given / points:.2f}")
 
-    own_slots = spec_slots(spec, context)
+    own_slots = spec_slots(spec, context, recalibration=True)
     recalibrated = _settle_quantised_replay(spectra, fit(evidence, spec, own_slots))
     recalibration_significant = chi2_given - recalibrated.chi2 > len(own_slots) * np.log(points) + BIC_MARGIN
     if recalibration_significant:
@@ -138,6 +138,9 @@ def diagnose_spectra(
         current = fit(evidence, recalibrated.spec, own_slots)
     else:
         current = FitOutcome(spec, chi2_given, own_slots, recalibrated.covariance, 0)
+    structure_recalibration = _recalibration_table(spec, current, held_only=True)
+    if len(spec_slots(current.spec, context)) < len(own_slots):  # a structure's modes are held from here on
+        current = fit(evidence, current.spec, spec_slots(current.spec, context))
     recalibrated_spec = current.spec
     progress(f"recalibrated {len(own_slots)} spec parameter(s): χ² {chi2_given:.0f} → {recalibrated.chi2:.0f}"
              + (" (significant)" if recalibration_significant else " (within the noise)"))
@@ -171,7 +174,8 @@ def diagnose_spectra(
         verdict = "parameters-only"
     else:
         verdict = "consistent"
-    recalibration = _recalibration_table(spec, current) if recalibration_significant else {}
+    recalibration = ({**_recalibration_table(spec, current), **structure_recalibration} if recalibration_significant
+                     else {})
     free = len(current.slots) if (steps or recalibration_significant) else 0
     diagnosis = Diagnosis(
         verdict=verdict,
@@ -570,13 +574,20 @@ def _effect_index(spec: RigSpec, identifier: str) -> int:
 # --- reporting ------------------------------------------------------------------------------------------------------
 
 
-def _recalibration_table(given: RigSpec, outcome: FitOutcome) -> dict[str, dict[str, float]]:
+def _recalibration_table(given: RigSpec, outcome: FitOutcome, held_only: bool = False) -> dict[str, dict[str, float]]:
+    """Spec value, fitted value and uncertainty of every recalibrated parameter; one that ran into the edge of its
+    range has no uncertainty (``nan``) and ``at_bound`` set: the data did not measure it. ``held_only``: only the
+    parameters held after the recalibration (a structure's modes)."""
     table = {}
     for index, slot in enumerate(outcome.slots):
         if slot.effect is not None and slot.effect >= len(given.effects):
             continue  # a term the diagnosis added: reported as a finding
+        if held_only and (slot.effect is None or not type(outcome.spec.effects[slot.effect]).held_after_recalibration):
+            continue
+        at_bound = slot.at_bound(outcome.spec)  # a value at the edge of its range is not a measurement
         table[slot.label(outcome.spec)] = {"spec": slot.value(given), "fitted": slot.value(outcome.spec),
-                                           "uncertainty": outcome.uncertainty(index)}
+                                           "uncertainty": float("nan") if at_bound else outcome.uncertainty(index),
+                                           "at_bound": at_bound}
     return table
 
 

@@ -21,7 +21,8 @@ from gasfilm.analysis.diagnosis.measurement import (
 from gasfilm.analysis.diagnosis.pipeline import diagnose_spectra
 from gasfilm.analysis.diagnosis.restoring import RestoringForce, restoring_force
 from gasfilm.analysis.diagnosis.result import Diagnosis
-from gasfilm.analysis.physics.effects import MIN_DAMPING_RATIO, ExtraMode
+from gasfilm.analysis.diagnosis.structure import read_structure
+from gasfilm.analysis.physics.effects import MIN_DAMPING_RATIO, ExtraMode, Polarity
 from gasfilm.analysis.physics.spec import RigSpec
 from gasfilm.analysis.spectra import WindowSettings, compute_frf, readable_lines, resonance_lines
 from gasfilm.analysis.threads import one_blas_thread
@@ -141,6 +142,8 @@ def read_start(recordings: Recordings, mass_kg: float | None = None) -> tuple[Ri
         raise SettingError(f"{recordings.source}: no resonance can be read off the FRF in the band the hammer "
                            f"excites with coherence ≥ 0.9 ({band}); give the rig spec with --rig")
     freq_hz, magnitude, sigma = frf.freq_hz, np.abs(frf.h1), frf.decay_rate_1_s
+    if mass_kg is None and _mass_line_below(freq_hz, magnitude, readable, float(freq_hz[resonances[0]])):
+        return _read_structure(recordings, frf, readable, resonances)
     main = resonances[0]
     main_hz = float(freq_hz[main])
     how = "--mass"
@@ -187,6 +190,48 @@ def read_start(recordings: Recordings, mass_kg: float | None = None) -> tuple[Ri
     if modes:
         text += ("; a multi-mode structure: extra modes at " + ", ".join(f"{mode.freq_hz:.0f}" for mode in modes)
                  + " Hz are part of the start (read, not findings)")
+    return spec, text
+
+
+#: Below its first resonance a mover on a film rises as ω² (log-log slope 2); a slope under this is a mass line.
+MASS_LINE_SLOPE = 1.0
+#: The mover's suspension in a structure read off the FRF resonates this far below the lowest readable line.
+SUSPENSION_BELOW = 0.2
+
+
+def _mass_line_below(freq_hz: np.ndarray, magnitude: np.ndarray, readable: np.ndarray, first_hz: float) -> bool:
+    """Whether |H1| is flat (a mass line, log-log slope < :data:`MASS_LINE_SLOPE`) below the first resonance, where a
+    mover on its film would rise as ω²."""
+    below = readable & (freq_hz <= 0.5 * first_hz)
+    if np.count_nonzero(below) < 5:
+        return False
+    slope = np.polyfit(np.log(freq_hz[below]), np.log(magnitude[below]), 1)[0]
+    return bool(slope < MASS_LINE_SLOPE)
+
+
+def _read_structure(recordings: Recordings, frf, readable: np.ndarray, resonances: list[int]) -> tuple[RigSpec, str]:
+    """A start for a measured structure (:mod:`.structure`): its modes beside a residual mass line with the response
+    polarity; the mover's suspension (a spring-damper film) resonates below the band, so in band the mover is that
+    mass line."""
+    freq_hz = frf.freq_hz
+    lines = np.flatnonzero(readable)
+    structure = read_structure(freq_hz, frf.h1, frf.decay_rate_1_s, lines,
+                               [float(freq_hz[line]) for line in resonances])
+    mass_kg = float(np.clip(structure.mass_kg, 1e-3, 1e4))
+    effects: list = ([Polarity(channel="acceleration")] if structure.polarity < 0 else []) + structure.modes
+    omega = 2 * np.pi * max(SUSPENSION_BELOW * float(freq_hz[lines[0]]), 0.5)
+    spec = RigSpec.nominal("SD", mass_kg=mass_kg,
+                           parameters={"k": max(mass_kg * omega**2, 1e2), "eta": max(0.1 * mass_kg * omega, 1e-2)},
+                           effects=effects)
+    spec = dataclasses.replace(spec, name=f"structure read off the FRF of {Path(recordings.source).name}")
+    suspension_hz = np.sqrt(spec.film_parameters["k"] / mass_kg) / (2 * np.pi)
+    text = (f"below its first resonance ({freq_hz[resonances[0]]:.0f} Hz) the FRF is a mass line, not a mover on a "
+            f"film: a structure read as modal analysis does (LSCF poles, LSFD constants, "
+            f"{freq_hz[lines[0]]:.0f}–{freq_hz[lines[-1]]:.0f} Hz), {len(structure.modes)} modes at "
+            + ", ".join(f"{mode.freq_hz:.0f}" for mode in structure.modes)
+            + f" Hz beside a mass line of {mass_kg:.4g} kg"
+            + (" read with the opposite sign (response polarity −1)" if structure.polarity < 0 else "")
+            + f", on a suspension resonating below the band ({suspension_hz:.2g} Hz); read, not findings")
     return spec, text
 
 

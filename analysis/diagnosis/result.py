@@ -127,7 +127,7 @@ class Diagnosis:
     findings: list[Finding]
     unexplained: list[Unexplained]
     quality: list[QualityNote]
-    recalibration: dict[str, dict[str, float]]  # name → {"spec", "fitted", "uncertainty"}
+    recalibration: dict[str, dict[str, float]]  # name → {"spec", "fitted", "uncertainty", "at_bound"}
     rms_before: float
     rms_recalibrated: float
     rms_after: float

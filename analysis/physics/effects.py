@@ -116,6 +116,9 @@ class Effect:
     per_hit: ClassVar[bool] = False  # the term differs from hit to hit (session time, hit level)
     #: Parameters whose upper fit bound is a valid limiting form of the term, not a failed measurement.
     open_upper: ClassVar[frozenset[str]] = frozenset()
+    #: Fitted with the spec's own parameters in a diagnosis's recalibration, then held while candidate terms are
+    #: tried (a measured structure's modes: many parameters that no candidate term competes with).
+    held_after_recalibration: ClassVar[bool] = False
 
     def validate(self) -> None:
         """Cross-field checks; raise :class:`EffectValueError` naming the key."""
@@ -140,6 +143,11 @@ class Effect:
     def channel_transfer(self, channel: str, s: np.ndarray) -> np.ndarray | float:
         """Multiplicative transfer applied to a channel's signal (``channel`` is "force" or "acceleration")."""
         return 1.0
+
+    def added_accelerance(self, s: np.ndarray) -> np.ndarray | float:
+        """Accelerance ((m/s²)/N) this effect adds beside the mover's ``s²/Z``: a mode of the measured structure in
+        modal superposition (it does not load the mover)."""
+        return 0.0
 
     def force_leak_m_s2_per_n(self) -> float:
         """Part of the force signal that leaks into the acceleration channel, in (m/s²)/N (electrical cross-talk)."""
@@ -254,6 +262,73 @@ class ExtraMode(Effect):
         return (f"a localised peak/dip pattern near {self.freq_hz:.1f} ± {sigma['freq_hz']:.1f} Hz that the film "
                 f"model cannot produce: an additional resonance of {self.mass_kg * 1e3:.3g} g "
                 f"(damping ratio {self.damping_ratio:.3g})")
+
+
+@register_effect("structure-mode")
+@dataclass(frozen=True)
+class StructureMode(Effect):
+    """One mode of the measured structure in modal superposition, beside the mover: accelerance
+    ``(A + B·s/ω_r)·s² / (s² + 2ζω_r s + ω_r²)`` with a signed modal constant ``A`` (1/kg, the mode's high-frequency
+    accelerance; the product of the mode shape at the response and the excitation points over the modal mass) and
+    ``B`` the quadrature part of a complex modal constant (non-proportional damping; 0 for a real mode). How experimental
+    modal analysis describes a structure whose resonances are not each preceded by an antiresonance (a transfer FRF,
+    or modes that do not ride on the mover): the mover's ``s²/Z`` is then the residual (rigid-body) mass line."""
+
+    explanation: ClassVar[str] = (
+        "The measured structure has a resonance of its own that the mover on its film does not make: a mode in the "
+        "modal superposition of the FRF, with its frequency, damping and signed modal constant.")
+    held_after_recalibration: ClassVar[bool] = True
+
+    freq_hz: float = _number("Hz", _positive)
+    damping_ratio: float = _number("1", _positive)
+    modal_constant_per_kg: float = _number("1/kg", _nonzero)
+    #: The quadrature part of a complex modal constant (non-proportional damping): 0 for a real mode.
+    quadrature_per_kg: float = _number("1/kg", _finite, 0.0)
+
+    def validate(self) -> None:
+        if self.damping_ratio < MIN_DAMPING_RATIO:
+            raise EffectValueError("damping_ratio", f"must be at least {MIN_DAMPING_RATIO:g} (a mode that never "
+                                                    f"decays cannot be simulated)")
+        for key in ("modal_constant_per_kg", "quadrature_per_kg"):
+            if abs(getattr(self, key)) > MAX_MODAL_CONSTANT_PER_KG:
+                raise EffectValueError(key, f"must be at most {MAX_MODAL_CONSTANT_PER_KG:g} 1/kg in size")
+
+    def added_accelerance(self, s: np.ndarray) -> np.ndarray:
+        omega = 2 * np.pi * self.freq_hz
+        numerator = self.modal_constant_per_kg + self.quadrature_per_kg * s / omega
+        return numerator * s**2 / (s**2 + 2 * self.damping_ratio * omega * s + omega**2)
+
+    def fit_ranges(self, context: FitContext) -> dict[str, FitRange]:
+        low, high = context.band_hz
+        limit = MAX_MODAL_CONSTANT_PER_KG
+        return {"freq_hz": FitRange("log", 0.5 * low, 1.5 * high), "damping_ratio": FitRange("log", 1e-4, 0.5),
+                "modal_constant_per_kg": FitRange("linear", -limit, limit),
+                "quadrature_per_kg": FitRange("linear", -limit, limit)}
+
+    def evidence(self, sigma: Mapping[str, float], where: str, context: FitContext) -> str:
+        return (f"a resonance near {self.freq_hz:.1f} ± {sigma['freq_hz']:.1f} Hz (damping ratio "
+                f"{self.damping_ratio:.3g}, modal constant {self.modal_constant_per_kg:+.3g} 1/kg), in {where}")
+
+
+#: The largest modal constant a structure mode may have (1/kg): a modal mass of a milligram.
+MAX_MODAL_CONSTANT_PER_KG = 1e3
+
+
+@register_effect("polarity")
+@dataclass(frozen=True)
+class Polarity(Effect):
+    """A channel reads the opposite sign: ``T = −1`` on it (a sensor mounted or wired the other way round, or a
+    transfer FRF whose rigid-body line is negative)."""
+
+    kind: ClassVar[str] = "measurement"
+    explanation: ClassVar[str] = (
+        "The response has the opposite sign to the one a mass on a film gives: the FRF's mass line is negative "
+        "(phase 180° where it should be 0°), as an accelerometer mounted or wired the other way round makes it.")
+
+    channel: str = _channel_field()
+
+    def channel_transfer(self, channel: str, s: np.ndarray) -> np.ndarray | float:
+        return -1.0 if channel == self.channel else 1.0
 
 
 @register_effect("cubic-stiffness")

@@ -58,19 +58,20 @@ class RigPlant:
     def acceleration_spectrum(
         self, force_spectrum: np.ndarray, s: np.ndarray, sample_rate_hz: float, time_s: float
     ) -> np.ndarray:
-        """Linear specs: ``F·s²/Z(s, t)`` bin by bin (plus the force cross-talk). Cubic stiffness: the periodic equation of motion solved on the
+        """Linear specs: ``F·s²/Z(s, t)`` bin by bin (plus the force cross-talk and the structure modes). Cubic stiffness: the periodic equation of motion solved on the
         grid's samples (:func:`~gasfilm.analysis.physics.response.mover_displacement_spectrum`)."""
-        leak = self.spec.force_leak_m_s2_per_n * force_spectrum  # electrical cross-talk of the force signal
+        # electrical cross-talk of the force signal, and the structure modes beside the mover
+        beside_mover = (self.spec.force_leak_m_s2_per_n + response.structure_accelerance(self.spec, s)) * force_spectrum
         impulse_ns = float(force_spectrum[0].real)  # the spectrum at s ≈ 0: the hit's level
         if self.spec.is_linear:
             stiffness = response.rig_dynamic_stiffness(self.spec, s, time_s, impulse_ns=impulse_ns)
-            return force_spectrum * s**2 / stiffness + leak
+            return force_spectrum * s**2 / stiffness + beside_mover
         n_samples = 2 * (len(s) - 1)
         # the solver works on sampled signals, whose DFT is the continuous spectrum × the sample rate
         displacement = response.mover_displacement_spectrum(
             self.spec, force_spectrum * sample_rate_hz, s, n_samples, time_s, impulse_ns=impulse_ns
         )
-        return s**2 * displacement / sample_rate_hz + leak
+        return s**2 * displacement / sample_rate_hz + beside_mover
 
     def channel_transfer(self, channel: str, s: np.ndarray) -> np.ndarray:
         return response.channel_transfer(self.spec, channel, s)

@@ -3,8 +3,10 @@
 Physics (SI units throughout). With ``M = m + Σ added mass``, the mover obeys
 ``(Z_film(s, t) + Σ Z_effect(s) + M s²)·X(s) = F(s)``, plus the force ``k3·x³`` with ``cubic-stiffness``.
 ``Z_film(s, t)`` is the film network at the hit's session time (drift and step changes scale it). The channels see
-``(s² / (Z_film + Σ Z_effect + M s²) + leak) · T_a(s) / T_f(s)``: ``T_a``, ``T_f`` the per-channel transfers
-(delays, AC coupling, sensitivity errors), ``leak`` the force cross-talk into the acceleration channel.
+``(s² / (Z_film + Σ Z_effect + M s²) + Σ A_r s²/(s² + 2ζ_r ω_r s + ω_r²) + leak) · T_a(s) / T_f(s)``: ``T_a``,
+``T_f`` the per-channel transfers (delays, AC coupling, sensitivity errors, polarity), the sum the structure modes in
+modal superposition beside the mover (``structure-mode``), ``leak`` the force cross-talk into the acceleration
+channel.
 The simulated device (through its plant), the replay, identification and the diagnosis all evaluate a spec here.
 """
 
@@ -125,6 +127,14 @@ def channel_transfer(spec: RigSpec, channel: str, s: np.ndarray) -> np.ndarray:
     return transfer
 
 
+def structure_accelerance(spec: RigSpec, s: np.ndarray) -> np.ndarray | float:
+    """Accelerance ((m/s²)/N) of the structure modes beside the mover (modal superposition), 0 without any."""
+    total: np.ndarray | float = 0.0
+    for effect in spec.effects:
+        total = total + effect.added_accelerance(s)
+    return total
+
+
 class GridPieces:
     """The parts of :func:`rig_accelerance` on one grid ``s = σ + j2πf`` that a fit evaluates again and again with
     one parameter changed: the film at the hits' times, each effect's added stiffness, the channel transfers, s².
@@ -165,6 +175,13 @@ class GridPieces:
 
     def added_stiffness(self, effect: Effect) -> np.ndarray | float:
         return self._remembered(("added", effect), lambda: effect.added_stiffness(self.s))
+
+    def structure(self, spec: RigSpec) -> np.ndarray | float:
+        """:func:`structure_accelerance` of the spec (each mode remembered)."""
+        total: np.ndarray | float = 0.0
+        for effect in spec.effects:
+            total = total + self._remembered(("accelerance", effect), lambda: effect.added_accelerance(self.s))
+        return total
 
     def channel_ratio(self, spec: RigSpec) -> np.ndarray:
         """``channel_transfer(acceleration) / channel_transfer(force)``."""
@@ -238,9 +255,10 @@ def rig_accelerance(
                 :, np.newaxis]
         stiffness = np.broadcast_to(stiffness, (len(conditions.time_s), s.size))
     if pieces is None:
-        return (s**2 / stiffness + spec.force_leak_m_s2_per_n) * (
+        return (s**2 / stiffness + structure_accelerance(spec, s) + spec.force_leak_m_s2_per_n) * (
             channel_transfer(spec, "acceleration", s) / channel_transfer(spec, "force", s))
-    return (pieces.s_squared / stiffness + spec.force_leak_m_s2_per_n) * pieces.channel_ratio(spec)
+    return (pieces.s_squared / stiffness + pieces.structure(spec) + spec.force_leak_m_s2_per_n) * (
+        pieces.channel_ratio(spec))
 
 
 def _grid_laplace(n_samples: int, sample_rate_hz: float) -> np.ndarray:
@@ -265,7 +283,8 @@ def _cached_response_duration_s(spec_toml: str, sample_rate_hz: float, film_scal
     s = _grid_laplace(n_samples, sample_rate_hz)
     # a smooth band limit (raised cosine 0.2–0.4·fs) keeps the truncation at Nyquist from ringing on for ever
     ramp = np.clip((s.imag / (2 * np.pi * sample_rate_hz) - 0.2) / 0.2, 0.0, 1.0)
-    accelerance = 0.5 * (1.0 + np.cos(np.pi * ramp)) * s**2 / rig_dynamic_stiffness(spec, s, film_scale=film_scale)
+    accelerance = 0.5 * (1.0 + np.cos(np.pi * ramp)) * (s**2 / rig_dynamic_stiffness(spec, s, film_scale=film_scale)
+                                                      + structure_accelerance(spec, s))
     impulse = np.abs(scipy.fft.irfft(accelerance, n_samples))
     causal = impulse[: n_samples // 2]  # the second half holds the band limit's (zero-phase) ringing before t = 0
     envelope_from_end = np.maximum.accumulate(causal[::-1])[::-1]
@@ -366,11 +385,11 @@ def simulate_response(
     force_spectrum = scipy.fft.rfft(force, n_fft)
     s = _grid_laplace(n_fft, sample_rate_hz)
     delays = channel_transfer(spec, "acceleration", s) / channel_transfer(spec, "force", s)
-    leak = spec.force_leak_m_s2_per_n
+    beside_mover = spec.force_leak_m_s2_per_n + structure_accelerance(spec, s)  # both beside the mover's motion
     impulse_ns = force.sum(axis=-1) / sample_rate_hz  # the hit's level, for amplitude-dependent dampers
     if spec.is_linear:
         stiffness = rig_dynamic_stiffness(spec, s, time_s, impulse_ns=impulse_ns)
-        response = force_spectrum * (s**2 / stiffness + leak) * delays
+        response = force_spectrum * (s**2 / stiffness + beside_mover) * delays
         return scipy.fft.irfft(response, n_fft)[..., :n_record]
     oversampling = 2
     n_fine = oversampling * n_fft
@@ -383,6 +402,6 @@ def simulate_response(
         fine_force[spectrum.size - 1] *= 0.5 if n_fft % 2 == 0 else 1.0
         displacement = mover_displacement_spectrum(spec, fine_force, s_fine, n_fine, time_s,
                                                    impulse_ns=float(np.ravel(impulse_ns)[row]))
-        acceleration = ((s_fine**2 * displacement)[: spectrum.size] / oversampling + leak * spectrum) * delays
+        acceleration = ((s_fine**2 * displacement)[: spectrum.size] / oversampling + beside_mover * spectrum) * delays
         out[row] = scipy.fft.irfft(acceleration, n_fft)[:n_record]
     return out.reshape(force.shape)

@@ -292,7 +292,8 @@ class DiagnoseTab(QWidget):
             return "<p>The spec's own parameters needed no correction.</p>"
         rows = "".join(
             f"<tr><td>{name}</td><td align='right'>{v['spec']:.4g}</td><td align='right'>{v['fitted']:.4g}</td>"
-            f"<td align='right'>± {v['uncertainty']:.2g}</td></tr>"
+            + ("<td>at its bound: not a measurement</td></tr>" if v.get("at_bound")
+               else f"<td align='right'>± {v['uncertainty']:.2g}</td></tr>")
             for name, v in recalibration.items()
         )
         return (
