@@ -417,24 +417,14 @@ def _drop_partial_terms(
                if step.chi2_before - step.chi2_after < GROSS_SHARE * (step.chi2_before - points)]
     if not partial:
         return steps, current, evidence, refits_without
-    spec = current.spec
+    reasons = {}
     for step in partial:
         share = (step.chi2_before - step.chi2_after) / (step.chi2_before - points)
-        band = _term_band(evidence, current.spec, refits_without[step.identifier])
-        rejected.append(CandidateDescription(
-            step.identifier, band, _term_parameters(current, _effect_index(current.spec, step.identifier)),
-            f"it removed only {100 * share:.0f} % of the mismatch left at its step, and the rest stays far beyond "
-            f"the noise"))
+        reasons[step.identifier] = (f"it removed only {100 * share:.0f} % of the mismatch left at its step, and the "
+                                    f"rest stays far beyond the noise")
         progress(f"  {step.identifier}: not a finding (removed {100 * share:.0f} % of a mismatch that stays "
                  f"{current.chi2 / points:.0f}× the noise)")
-        spec = without_effect(spec, _effect_index(spec, step.identifier))
-    current, evidence = _refit(spectra, spec, recalibrated, context)
-    kept = [step for step in steps if step not in partial]
-    refits = {}
-    for step in kept:
-        reduced = without_effect(current.spec, _effect_index(current.spec, step.identifier))
-        refits[step.identifier] = fit(evidence, reduced, spec_slots(reduced, context)).spec
-    return kept, current, evidence, refits
+    return _demote_terms(spectra, evidence, steps, current, reasons, refits_without, rejected, recalibrated, context)
 
 
 def _drop_unsupported_terms(
@@ -463,21 +453,42 @@ def _drop_unsupported_terms(
         failing = [step for step in steps if claims[step.identifier].reason is not None][-1:]
         if not failing:  # (the latest failing term goes first: the others may stand once it is out)
             break
-        spec = current.spec
-        for step in failing:
-            index = _effect_index(current.spec, step.identifier)
-            band = _term_band(evidence, current.spec, refits_without[step.identifier])
-            reason = claims[step.identifier].reason
-            rejected.append(CandidateDescription(step.identifier, band, _term_parameters(current, index), reason))
-            progress(f"  {step.identifier}: a candidate description, not a finding ({reason})")
-            spec = without_effect(spec, _effect_index(spec, step.identifier))
-        steps = [step for step in steps if step not in failing]
-        current, evidence = _refit(spectra, spec, recalibrated, context)
-        refits_without = {}
-        for step in steps:
-            reduced = without_effect(current.spec, _effect_index(current.spec, step.identifier))
-            refits_without[step.identifier] = fit(evidence, reduced, spec_slots(reduced, context)).spec
+        reasons = {step.identifier: claims[step.identifier].reason for step in failing}
+        for identifier, reason in reasons.items():
+            progress(f"  {identifier}: a candidate description, not a finding ({reason})")
+        steps, current, evidence, refits_without = _demote_terms(spectra, evidence, steps, current, reasons,
+                                                                 refits_without, rejected, recalibrated, context)
     return steps, current, evidence, refits_without, claims
+
+
+def _demote_terms(
+    spectra: HitSpectra,
+    evidence: Evidence,
+    steps: list[Step],
+    current: FitOutcome,
+    reasons: dict[str, str],
+    refits_without: dict[str, RigSpec],
+    rejected: list[CandidateDescription],
+    recalibrated: RigSpec,
+    context: FitContext,
+) -> tuple[list[Step], FitOutcome, Evidence, dict[str, RigSpec]]:
+    """Take the terms named in ``reasons`` out of the spec as candidate descriptions (band, values, reason), refit
+    the rest, and refit that spec once without each term kept (where a term is needed is where that refit fails)."""
+    spec = current.spec
+    for step in steps:
+        if step.identifier in reasons:
+            band = _term_band(evidence, current.spec, refits_without[step.identifier])
+            rejected.append(CandidateDescription(
+                step.identifier, band, _term_parameters(current, _effect_index(current.spec, step.identifier)),
+                reasons[step.identifier]))
+            spec = without_effect(spec, _effect_index(spec, step.identifier))
+    current, evidence = _refit(spectra, spec, recalibrated, context)
+    kept = [step for step in steps if step.identifier not in reasons]
+    refits = {}
+    for step in kept:
+        reduced = without_effect(current.spec, _effect_index(current.spec, step.identifier))
+        refits[step.identifier] = fit(evidence, reduced, spec_slots(reduced, context)).spec
+    return kept, current, evidence, refits
 
 
 def _survives_left_out_data(
