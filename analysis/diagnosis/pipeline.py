@@ -37,13 +37,17 @@ from gasfilm.analysis.diagnosis.selection import (
     Evidence,
     FitOutcome,
     HeldOut,
-    best_candidate_fit,
+    best_finished,
+    candidate_starts,
     bic,
     disagreement,
     fit,
     held_out_band_gain,
     held_out_gain,
     model_function,
+    screening_fit,
+    to_finish,
+    finishing_fit,
 )
 from gasfilm.analysis.physics.effects import FitContext
 from gasfilm.analysis.physics.response import simulate_response
@@ -248,20 +252,9 @@ def _select_one(
                    and not (identifier in AMPLITUDE_TERMS and restoring is not None
                             and not restoring.allows(identifier))]
 
-    def candidate(identifier: str) -> tuple[FitOutcome | None, tuple | None]:
-        """The candidate's fit and, when it was judged on evidence of its own (the exact nonlinear replay of a cubic
-        spring), that evidence's FRFs and variances and the replays made for it."""
-        replays = spectra.replay.nonlinear_cache if spectra.replay is not None else {}
-        known = set(replays)
-        outcome, candidate_evidence = _candidate_fit(spectra, evidence, current.spec, identifier, context,
-                                                     noise_scale)
-        if candidate_evidence is evidence:
-            return outcome, None
-        made = {key: value for key, value in replays.items() if key not in known}
-        return outcome, (candidate_evidence.spectra.h, candidate_evidence.spectra.variance, made)
-
-    # CANDIDATES lists the terms with fewest parameters (and starts) first: the quickest fits
-    for identifier, fitted in zip(identifiers, shared_map(candidate, identifiers, longest_first=True)):
+    fitted_candidates = _candidate_fits(spectra, evidence, current.spec, identifiers, context, noise_scale)
+    for identifier in identifiers:
+        fitted = fitted_candidates[identifier]
         if isinstance(fitted, GasfilmError):  # a nonlinear replay that does not converge is no candidate
             logger.info("candidate %s skipped: %s", identifier, fitted)
             continue
@@ -342,16 +335,76 @@ def _not_a_finding(outcome: FitOutcome, index: int, context: FitContext) -> str 
     return spec.effects[index].implausible(context)
 
 
-def _candidate_fit(
-    spectra: HitSpectra, evidence: Evidence, spec: RigSpec, identifier: str, context: FitContext,
-    noise_scale: float = 1.0,
-) -> tuple[FitOutcome | None, Evidence]:
-    """Fit the spec plus one candidate; a cubic film spring is refitted against its exact nonlinear replay until
-    k3 settles (the equivalent-linear fit only starts it), when its equivalent-linear fit alone would already pay its
-    BIC cost (every exact replay plays each hit through the nonlinear solver)."""
-    outcome = best_candidate_fit(evidence, spec, identifier, context)
-    if outcome is None or identifier != "cubic-stiffness":
-        return outcome, evidence
+def _candidate_fits(
+    spectra: HitSpectra, evidence: Evidence, spec: RigSpec, identifiers: list[str], context: FitContext,
+    noise_scale: float,
+) -> dict[str, tuple[FitOutcome | None, tuple | None] | Exception]:
+    """Each candidate's best fit (the steps listed at :func:`candidate_starts`) and, when it was judged on evidence of its own
+    (the exact nonlinear replay of a cubic spring), that evidence's FRFs and variances and the replays made for it;
+    or the exception its fit raised.
+
+    The fits are shared by two processes (:func:`shared_map`) in two rounds: every start of every candidate screened,
+    then the best starts of each finished (a cubic spring also refitted against its exact nonlinear replay until k3
+    settles, when its equivalent-linear fit alone would already pay its BIC cost: every exact replay plays each hit
+    through the nonlinear solver). Single fits balance the two processes better than whole candidates (a film term's
+    three starts took as long as all other candidates together); each result is what one process gives, bit for bit.
+    """
+    results: dict[str, tuple[FitOutcome | None, tuple | None] | Exception] = {}
+    starts: list[tuple[str, RigSpec]] = []
+    for identifier in identifiers:
+        try:
+            specs = candidate_starts(evidence, spec, identifier, context)
+        except GasfilmError as error:
+            results[identifier] = error
+            continue
+        if not specs:
+            results[identifier] = (None, None)
+        starts.extend((identifier, start) for start in specs)
+    # CANDIDATES lists the terms with fewest parameters (and starts) first: the quickest fits
+    screened = shared_map(lambda item: screening_fit(evidence, item[1], context), starts, longest_first=True)
+    by_candidate: dict[str, list[FitOutcome]] = {}
+    for (identifier, _), outcome in zip(starts, screened):
+        if isinstance(outcome, Exception):
+            results.setdefault(identifier, outcome)
+        elif identifier not in results:
+            by_candidate.setdefault(identifier, []).append(outcome)
+    finishing = [(identifier, [outcome]) for identifier, outcomes in by_candidate.items()
+                 if identifier != "cubic-stiffness" for outcome in to_finish(outcomes)]
+    if "cubic-stiffness" in by_candidate:  # last: the slowest when it replays exactly
+        finishing.append(("cubic-stiffness", by_candidate["cubic-stiffness"]))
+
+    def finish(item: tuple[str, list[FitOutcome]]) -> FitOutcome | tuple[FitOutcome, tuple | None]:
+        identifier, outcomes = item
+        if identifier != "cubic-stiffness":
+            return finishing_fit(evidence, outcomes[0])
+        replays = spectra.replay.nonlinear_cache if spectra.replay is not None else {}
+        known = set(replays)
+        outcome = best_finished([finishing_fit(evidence, outcome) for outcome in to_finish(outcomes)])
+        outcome, cubic_evidence = _nonlinear_refit(spectra, evidence, spec, outcome, noise_scale)
+        if cubic_evidence is evidence:
+            return outcome, None
+        made = {key: value for key, value in replays.items() if key not in known}
+        return outcome, (cubic_evidence.spectra.h, cubic_evidence.spectra.variance, made)
+
+    finished: dict[str, list] = {}
+    for (identifier, _), outcome in zip(finishing, shared_map(finish, finishing, longest_first=True)):
+        finished.setdefault(identifier, []).append(outcome)
+    for identifier, outcomes in finished.items():
+        failed = [outcome for outcome in outcomes if isinstance(outcome, Exception)]
+        if failed:
+            results[identifier] = failed[0]
+        elif identifier == "cubic-stiffness":
+            results[identifier] = outcomes[0]
+        else:
+            results[identifier] = (best_finished(outcomes), None)
+    return results
+
+
+def _nonlinear_refit(
+    spectra: HitSpectra, evidence: Evidence, spec: RigSpec, outcome: FitOutcome, noise_scale: float
+) -> tuple[FitOutcome, Evidence]:
+    """A cubic film spring's fit refitted against its exact nonlinear replay until k3 settles (the
+    equivalent-linear fit only starts it), when the equivalent-linear fit alone would already pay its BIC cost."""
     if (evidence.chi2(spec) - outcome.chi2) / noise_scale < np.log(evidence.point_count) + BIC_MARGIN:
         return outcome, evidence  # not even the equivalent linear term pays for itself: no nonlinear replay
     for _ in range(NONLINEAR_ITERATIONS):

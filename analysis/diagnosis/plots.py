@@ -4,12 +4,15 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Callable
+
 import matplotlib
 import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 from matplotlib.ticker import MaxNLocator
 
+from gasfilm.analysis.diagnosis.parallel import shared_map
 from gasfilm.analysis.diagnosis.pipeline import replayed_mean, residuals
 from gasfilm.analysis.diagnosis.restoring import RestoringForce
 from gasfilm.analysis.diagnosis.result import Diagnosis
@@ -26,9 +29,25 @@ OUTPUT_FILES = (SPEC_FILE, OVERLAY_FILE, RESIDUAL_FILE, RESTORING_FILE)
 
 
 def write_figures(diagnosis: Diagnosis, out_dir: Path) -> list[str]:
-    """``diagnosis-overlay.png`` (H1 recorded, spec as given and improved spec, replayed the same way) and
-    ``diagnosis-residual.png`` (noise-weighted residual per frequency before/after, and per hit)."""
+    """``diagnosis-overlay.png`` (H1 recorded, spec as given and improved spec, replayed the same way),
+    ``diagnosis-residual.png`` (noise-weighted residual per frequency before/after, and per hit) and, with a
+    restoring force, ``diagnosis-restoring-force.png``; drawn by two processes at once (:func:`shared_map`: each
+    figure is the same file either way)."""
     out_dir.mkdir(parents=True, exist_ok=True)
+    drawings: list[Callable[[], Path]] = [lambda: write_overlay_figure(diagnosis, out_dir / OVERLAY_FILE),
+                                          lambda: write_residual_figure(diagnosis, out_dir / RESIDUAL_FILE)]
+    if diagnosis.restoring_force is not None:
+        restoring = diagnosis.restoring_force
+        drawings.append(lambda: write_restoring_force_figure(restoring, out_dir / RESTORING_FILE))
+    written = shared_map(lambda draw: draw(), drawings)
+    for path in written:
+        if isinstance(path, Exception):
+            raise path
+    return [str(path) for path in written]
+
+
+def write_overlay_figure(diagnosis: Diagnosis, path: Path) -> Path:
+    """H1 recorded, the spec as given and the improved spec replayed the same way: magnitude and phase."""
     spectra = diagnosis.spectra
     freq_hz = spectra.freq_hz
     measured = replayed_mean(spectra, None)
@@ -52,9 +71,15 @@ def write_figures(diagnosis: Diagnosis, out_dir: Path) -> list[str]:
     axes[0].set_title(f"diagnosis: {diagnosis.verdict} — RMS {diagnosis.rms_before / G_M_S2:.3g} → "
                       f"{diagnosis.rms_after / G_M_S2:.3g} g/N")
     figure.subplots_adjust(left=0.1, right=0.97, bottom=0.08, top=0.94, hspace=0.28)  # (tight_layout draws twice)
-    overlay = out_dir / OVERLAY_FILE
-    figure.savefig(overlay, dpi=110)
+    figure.savefig(path, dpi=110)
+    return path
 
+
+def write_residual_figure(diagnosis: Diagnosis, path: Path) -> Path:
+    """χ² per point of the spec as given and of the improved spec, per frequency (unexplained bands shaded) and per
+    hit."""
+    spectra = diagnosis.spectra
+    freq_hz = spectra.freq_hz
     figure = Figure(figsize=(9, 7))
     FigureCanvasAgg(figure)
     axes = figure.subplots(2, 1)
@@ -79,12 +104,8 @@ def write_figures(diagnosis: Diagnosis, out_dir: Path) -> list[str]:
     axes[1].set_ylabel("χ² per point")
     axes[1].legend(fontsize=8)
     figure.subplots_adjust(left=0.1, right=0.97, bottom=0.08, top=0.94, hspace=0.28)  # (tight_layout draws twice)
-    residual = out_dir / RESIDUAL_FILE
-    figure.savefig(residual, dpi=110)
-    written = [str(overlay), str(residual)]
-    if diagnosis.restoring_force is not None:
-        written.append(str(write_restoring_force_figure(diagnosis.restoring_force, out_dir / RESTORING_FILE)))
-    return written
+    figure.savefig(path, dpi=110)
+    return path
 
 
 def write_restoring_force_figure(restoring: RestoringForce, path: Path) -> Path:

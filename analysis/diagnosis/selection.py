@@ -11,7 +11,6 @@ lowers it on hits that were not used to fit it (odd hits predict even hits and t
 from __future__ import annotations
 
 import dataclasses
-import logging
 from dataclasses import dataclass
 from typing import Callable
 
@@ -43,7 +42,6 @@ from gasfilm.analysis.physics.effects import (
 from gasfilm.analysis.physics.response import GridPieces, HitConditions, rig_accelerance
 from gasfilm.analysis.physics.spec import RigSpec
 
-logger = logging.getLogger(__name__)
 
 #: Held-out improvement (χ² units, both folds together, in units of the noise scale) a new term must reach.
 HELD_OUT_THRESHOLD = 25.0
@@ -281,21 +279,32 @@ def disagreement(first: FitOutcome, second: FitOutcome, effect_index: int, point
     return None if worst is None else worst[1]
 
 
-def best_candidate_fit(evidence: Evidence, spec: RigSpec, identifier: str, context: FitContext) -> FitOutcome | None:
-    """The best full-data fit of the spec plus one candidate term over its starting values (None: no start): every
-    start fitted to the screening tolerance, the best :data:`FINISHED_STARTS` finished to the full tolerance."""
-    outcomes = []
-    for effect in starting_effects(identifier, spec, evidence, context):
-        candidate = with_effect(spec, effect)
-        outcomes.append(fit(evidence, candidate, spec_slots(candidate, context), tolerance=SCREENING_TOLERANCE))
-    if not outcomes:
-        return None
-    # the two best screened starts are finished: the screening order of two close starts is not the final one's
-    finished = [fit(evidence, outcome.spec, outcome.slots)
-                for outcome in sorted(outcomes, key=lambda outcome: outcome.chi2)[:FINISHED_STARTS]]
-    best = min(finished, key=lambda outcome: outcome.chi2)
-    logger.debug("candidate %s: χ² %.1f after %d starts", identifier, best.chi2, len(outcomes))
-    return best
+def candidate_starts(evidence: Evidence, spec: RigSpec, identifier: str, context: FitContext) -> list[RigSpec]:
+    """The spec plus the candidate term at each of its starting values (:func:`starting_effects`). A candidate's
+    best fit: every start fitted to the screening tolerance (:func:`screening_fit`), the best :data:`FINISHED_STARTS`
+    (:func:`to_finish`) finished to the full tolerance (:func:`finishing_fit`), the best of those
+    (:func:`best_finished`)."""
+    return [with_effect(spec, effect) for effect in starting_effects(identifier, spec, evidence, context)]
+
+
+def screening_fit(evidence: Evidence, start: RigSpec, context: FitContext) -> FitOutcome:
+    """A candidate's start fitted to the screening tolerance."""
+    return fit(evidence, start, spec_slots(start, context), tolerance=SCREENING_TOLERANCE)
+
+
+def to_finish(screened: list[FitOutcome]) -> list[FitOutcome]:
+    """The best :data:`FINISHED_STARTS` screened starts: the screening order of two close starts is not the final
+    one's, so both are finished."""
+    return sorted(screened, key=lambda outcome: outcome.chi2)[:FINISHED_STARTS]
+
+
+def finishing_fit(evidence: Evidence, screened: FitOutcome) -> FitOutcome:
+    """A screened start refitted to the full tolerance."""
+    return fit(evidence, screened.spec, screened.slots)
+
+
+def best_finished(finished: list[FitOutcome]) -> FitOutcome:
+    return min(finished, key=lambda outcome: outcome.chi2)
 
 
 def starting_effects(identifier: str, spec: RigSpec, evidence: Evidence, context: FitContext) -> list[Effect]:
