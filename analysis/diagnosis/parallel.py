@@ -6,7 +6,8 @@ item from one queue (a pipe), so the diagnosis uses both cores of a 2-core machi
 serial loop gives, bit for bit: the copy starts from the same memory and every item is computed the same way; only the
 results travel back (pickled). Where there is no ``fork`` (Windows), with one CPU, inside
 :func:`worker_processes` ``(1)`` (a campaign's dask workers are already one per core), or when the copy fails, the
-items are computed here one after the other.
+items are computed here one after the other. A map inside an item of another (a nonlinear replay inside a candidate's
+fit) is computed by the process that took the item: both are busy already.
 """
 
 from __future__ import annotations
@@ -28,6 +29,7 @@ MAX_ITEMS = 255
 Item = TypeVar("Item")
 
 _workers: contextvars.ContextVar[int | None] = contextvars.ContextVar("gasfilm_diagnosis_workers", default=None)
+_inside_item: contextvars.ContextVar[bool] = contextvars.ContextVar("gasfilm_diagnosis_inside_item", default=False)
 
 
 @contextlib.contextmanager
@@ -42,7 +44,7 @@ def worker_processes(count: int) -> Iterator[None]:
 
 def worker_count() -> int:
     """Processes a diagnosis may use here: the CPUs this process may run on, at most :data:`MAX_WORKERS`."""
-    if not hasattr(os, "fork"):
+    if not hasattr(os, "fork") or _inside_item.get():
         return 1
     chosen = _workers.get()
     if chosen is not None:
@@ -114,7 +116,10 @@ def _taken(queue_read: int) -> Iterator[int]:
 
 
 def _called(function: Callable[[Item], Any], item: Item) -> Any:
+    token = _inside_item.set(True)
     try:
         return function(item)
     except Exception as error:  # returned, and raised or handled by the caller as in a serial loop
         return error
+    finally:
+        _inside_item.reset(token)

@@ -260,14 +260,9 @@ def _select_one(
             continue
         if isinstance(fitted, Exception):
             raise fitted
-        outcome, own = fitted
+        outcome, candidate_evidence = fitted
         if outcome is None:
             continue
-        candidate_evidence = evidence
-        if own is not None:  # perhaps computed by the other process: the same evidence, rebuilt here
-            h, variance, replays = own
-            spectra.replay.nonlinear_cache.update(replays)
-            candidate_evidence = Evidence(dataclasses.replace(spectra, h=h, variance=variance))
         extra = len(outcome.slots) - len(current.slots)
         score = (current.chi2 - outcome.chi2) / noise_scale - extra * np.log(points)
         share = (current.chi2 - outcome.chi2) / max(current.chi2 - points, 1e-9)
@@ -338,18 +333,16 @@ def _not_a_finding(outcome: FitOutcome, index: int, context: FitContext) -> str 
 def _candidate_fits(
     spectra: HitSpectra, evidence: Evidence, spec: RigSpec, identifiers: list[str], context: FitContext,
     noise_scale: float,
-) -> dict[str, tuple[FitOutcome | None, tuple | None] | Exception]:
-    """Each candidate's best fit (the steps listed at :func:`candidate_starts`) and, when it was judged on evidence of its own
-    (the exact nonlinear replay of a cubic spring), that evidence's FRFs and variances and the replays made for it;
-    or the exception its fit raised.
+) -> dict[str, tuple[FitOutcome | None, Evidence] | Exception]:
+    """Each candidate's best fit (the steps listed at :func:`candidate_starts`; None without a start) and the
+    evidence it is judged on (its own for a cubic spring: :func:`_nonlinear_refit`), or the exception its fit raised.
 
     The fits are shared by two processes (:func:`shared_map`) in two rounds: every start of every candidate screened,
-    then the best starts of each finished (a cubic spring also refitted against its exact nonlinear replay until k3
-    settles, when its equivalent-linear fit alone would already pay its BIC cost: every exact replay plays each hit
-    through the nonlinear solver). Single fits balance the two processes better than whole candidates (a film term's
-    three starts took as long as all other candidates together); each result is what one process gives, bit for bit.
+    then the best starts of each finished. Single fits balance the two processes better than whole candidates (a
+    film term's three starts took as long as all other candidates together); each result is what one process gives,
+    bit for bit. A cubic spring's exact nonlinear replays come last, here, each replay's hits shared.
     """
-    results: dict[str, tuple[FitOutcome | None, tuple | None] | Exception] = {}
+    results: dict[str, tuple[FitOutcome | None, Evidence] | Exception] = {}
     starts: list[tuple[str, RigSpec]] = []
     for identifier in identifiers:
         try:
@@ -358,7 +351,7 @@ def _candidate_fits(
             results[identifier] = error
             continue
         if not specs:
-            results[identifier] = (None, None)
+            results[identifier] = (None, evidence)
         starts.extend((identifier, start) for start in specs)
     # CANDIDATES lists the terms with fewest parameters (and starts) first: the quickest fits
     screened = shared_map(lambda item: screening_fit(evidence, item[1], context), starts, longest_first=True)
@@ -368,35 +361,23 @@ def _candidate_fits(
             results.setdefault(identifier, outcome)
         elif identifier not in results:
             by_candidate.setdefault(identifier, []).append(outcome)
-    finishing = [(identifier, [outcome]) for identifier, outcomes in by_candidate.items()
-                 if identifier != "cubic-stiffness" for outcome in to_finish(outcomes)]
-    if "cubic-stiffness" in by_candidate:  # last: the slowest when it replays exactly
-        finishing.append(("cubic-stiffness", by_candidate["cubic-stiffness"]))
-
-    def finish(item: tuple[str, list[FitOutcome]]) -> FitOutcome | tuple[FitOutcome, tuple | None]:
-        identifier, outcomes = item
-        if identifier != "cubic-stiffness":
-            return finishing_fit(evidence, outcomes[0])
-        replays = spectra.replay.nonlinear_cache if spectra.replay is not None else {}
-        known = set(replays)
-        outcome = best_finished([finishing_fit(evidence, outcome) for outcome in to_finish(outcomes)])
-        outcome, cubic_evidence = _nonlinear_refit(spectra, evidence, spec, outcome, noise_scale)
-        if cubic_evidence is evidence:
-            return outcome, None
-        made = {key: value for key, value in replays.items() if key not in known}
-        return outcome, (cubic_evidence.spectra.h, cubic_evidence.spectra.variance, made)
-
+    finishing = [(identifier, outcome) for identifier, outcomes in by_candidate.items()
+                 if identifier not in results for outcome in to_finish(outcomes)]
     finished: dict[str, list] = {}
-    for (identifier, _), outcome in zip(finishing, shared_map(finish, finishing, longest_first=True)):
+    for (identifier, _), outcome in zip(finishing, shared_map(lambda item: finishing_fit(evidence, item[1]),
+                                                              finishing, longest_first=True)):
         finished.setdefault(identifier, []).append(outcome)
     for identifier, outcomes in finished.items():
         failed = [outcome for outcome in outcomes if isinstance(outcome, Exception)]
         if failed:
             results[identifier] = failed[0]
-        elif identifier == "cubic-stiffness":
-            results[identifier] = outcomes[0]
-        else:
-            results[identifier] = (best_finished(outcomes), None)
+            continue
+        best = best_finished(outcomes)
+        try:
+            results[identifier] = (_nonlinear_refit(spectra, evidence, spec, best, noise_scale)
+                                   if identifier == "cubic-stiffness" else (best, evidence))
+        except GasfilmError as error:  # a nonlinear replay that does not converge
+            results[identifier] = error
     return results
 
 
@@ -900,14 +881,18 @@ def _nonlinear_replay(spectra: HitSpectra, spec: RigSpec) -> np.ndarray | None:
 
 def _simulate_nonlinear(spectra: HitSpectra, spec: RigSpec) -> np.ndarray:
     """Replay with the cubic film spring: every hit's exact nonlinear response to its own recorded force, through
-    the same windows. (Carrying one reference hit's distortion to the others by the first-order law ``x0² ∝ J²``
-    leaves χ²/point ~6–100 at the resonance when the shift is comparable to the bandwidth.)"""
+    the same windows (the hits shared by two processes, :func:`shared_map`). (Carrying one reference hit's distortion
+    to the others by the first-order law ``x0² ∝ J²`` leaves χ²/point ~6–100 at the resonance when the shift is
+    comparable to the bandwidth.)"""
     replay = spectra.replay
     forces_n = replay.forces_n
-    responses = np.stack([simulate_response(spec, forces_n[hit], replay.sample_rate_hz,
-                                            time_s=float(spectra.conditions.time_s[hit]))
-                          for hit in range(forces_n.shape[0])])
-    return replay.windowed_frf(responses)
+    responses = shared_map(lambda hit: simulate_response(spec, forces_n[hit], replay.sample_rate_hz,
+                                                         time_s=float(spectra.conditions.time_s[hit])),
+                           range(forces_n.shape[0]))
+    failed = [response for response in responses if isinstance(response, Exception)]
+    if failed:
+        raise failed[0]
+    return replay.windowed_frf(np.stack(responses))
 
 
 def replayed_per_hit(spectra: HitSpectra, spec: RigSpec) -> np.ndarray:
