@@ -109,9 +109,15 @@ def rig_dynamic_stiffness(
     else:
         total = spec.film.stiffness(s, spec.film_parameters) * film_scale
     total = total + spec.moving_mass_kg * (s**2 if pieces is None else pieces.s_squared)
-    for effect in spec.effects:
-        total = total + (effect.added_stiffness(s) if pieces is None else pieces.added_stiffness(effect))
-    if impulse_ns is not None:
+    if pieces is None:
+        for effect in spec.effects:
+            total = total + effect.added_stiffness(s)
+    else:  # (an effect that adds no stiffness adds 0.0: skipped)
+        for effect in spec.effects:
+            if _overrides(type(effect), "added_stiffness"):
+                total = total + pieces.added_stiffness(effect)
+    if impulse_ns is not None and (pieces is None or any(_overrides(type(effect), "level_damping_ns_per_m")
+                                                         for effect in spec.effects)):
         velocity_m_s = np.abs(np.asarray(impulse_ns, dtype=float)) / spec.moving_mass_kg
         damping = sum(effect.level_damping_ns_per_m(velocity_m_s) for effect in spec.effects)
         total = total + (np.asarray(damping)[..., np.newaxis] if np.ndim(damping) else damping) * s
@@ -177,16 +183,27 @@ class GridPieces:
         return self._remembered(("added", effect), lambda: effect.added_stiffness(self.s))
 
     def structure(self, spec: RigSpec) -> np.ndarray | float:
-        """:func:`structure_accelerance` of the spec (each mode remembered)."""
+        """:func:`structure_accelerance` of the spec (each mode remembered; effects that add none skipped)."""
         total: np.ndarray | float = 0.0
         for effect in spec.effects:
-            total = total + self._remembered(("accelerance", effect), lambda: effect.added_accelerance(self.s))
+            if _overrides(type(effect), "added_accelerance"):
+                total = total + self._remembered(("accelerance", effect), lambda: effect.added_accelerance(self.s))
         return total
 
-    def channel_ratio(self, spec: RigSpec) -> np.ndarray:
-        """``channel_transfer(acceleration) / channel_transfer(force)``."""
-        return self._remembered(("ratio", spec.effects), lambda: channel_transfer(spec, "acceleration", self.s)
+    def channel_ratio(self, spec: RigSpec) -> np.ndarray | None:
+        """``channel_transfer(acceleration) / channel_transfer(force)``, remembered under the effects that have a
+        channel transfer (the others multiply by 1.0); None when none has (the ratio is 1)."""
+        transfers = tuple(effect for effect in spec.effects if _overrides(type(effect), "channel_transfer"))
+        if not transfers:
+            return None
+        return self._remembered(("ratio", transfers), lambda: channel_transfer(spec, "acceleration", self.s)
                                 / channel_transfer(spec, "force", self.s))
+
+
+@functools.cache
+def _overrides(kind: type, method: str) -> bool:
+    """Whether an effect type has its own ``method`` (else it adds nothing: 0.0 stiffness, 1.0 transfer, ...)."""
+    return getattr(kind, method) is not getattr(Effect, method)
 
 
 def _scales_film(effect: Effect) -> bool:
@@ -257,8 +274,16 @@ def rig_accelerance(
     if pieces is None:
         return (s**2 / stiffness + structure_accelerance(spec, s) + spec.force_leak_m_s2_per_n) * (
             channel_transfer(spec, "acceleration", s) / channel_transfer(spec, "force", s))
-    return (pieces.s_squared / stiffness + pieces.structure(spec) + spec.force_leak_m_s2_per_n) * (
-        pieces.channel_ratio(spec))
+    # the same sum as above; terms that are 0.0 and a ratio of 1 skipped (x + 0.0 and x·1 are x, bit for bit)
+    accelerance = pieces.s_squared / stiffness
+    structure = pieces.structure(spec)
+    if not (isinstance(structure, float) and structure == 0.0):
+        accelerance = accelerance + structure
+    leak = spec.force_leak_m_s2_per_n
+    if leak != 0.0:
+        accelerance = accelerance + leak
+    ratio = pieces.channel_ratio(spec)
+    return accelerance if ratio is None else accelerance * ratio
 
 
 def _grid_laplace(n_samples: int, sample_rate_hz: float) -> np.ndarray:
