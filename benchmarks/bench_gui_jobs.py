@@ -8,9 +8,16 @@ A session of 6 hits is recorded through the real GUI (offscreen) on the simulate
 
 * **CLI**: what ``gasfilm fit`` and ``gasfilm diagnose`` call (``fit_model`` + ``compare_models``; ``diagnose`` +
   ``write_outputs``), on the main thread with nothing else running;
-* **GUI, quiet**: the Identify/Diagnose tab's job on its worker thread, the window idle;
+* **GUI, quiet**: the Identify/Diagnose tab's job on its worker thread, that tab shown, the window otherwise idle;
 * **GUI, live view**: the same job, with *Arm* pressed just after it started: the simulated device streams in real
   time through the acquisition worker into the Measure tab's live view (25 frames per second) while the job runs.
+
+A GUI run is timed from the click (the controller's ``run_fits`` / ``run_diagnosis``) until the result is shown and
+the job has ended: the results stored in the session, the job's tab redrawn when it is the one shown (with the live
+view, the Measure tab is shown; the Identify tab draws the fits when it is next shown), the acquisition still running
+(stopping it afterwards is not timed). Each starts once the job process the GUI keeps
+ready has warmed up (``job_process_ready``), as it has when a technician clicks seconds after the previous result;
+so does each CLI run (the warm-up of the next job process must not slow it down).
 
 Printed: the median wall time of each, the ratio GUI-with-live-view / CLI (goal ≤ 1.5) and the process's CPU use.
 Figures from a shared machine vary: the rounds alternate the three ways so that load affects them alike.
@@ -82,7 +89,7 @@ def main(argv: list[str] | None = None) -> int:
     from gasfilm.analysis.identification import compare_models, fit_model
     from gasfilm.analysis.physics.elements import PAPER_MODEL_ORDER, get_model
     from gasfilm.app.gui.main_window import MainWindow
-    from gasfilm.app.gui.workers import warm_up_job_processes
+    from gasfilm.app.gui.workers import job_process_ready, warm_up_job_processes
 
     warm_up_job_processes()
     models = list(PAPER_MODEL_ORDER) if args.models == "all" else [m.strip() for m in args.models.split(",")]
@@ -107,8 +114,11 @@ def main(argv: list[str] | None = None) -> int:
     def cli_diagnose() -> None:
         write_outputs(diagnose(load_recordings(controller.session_path), spec), scratch / "cli-diagnosis")
 
+    job_tabs = {"fit": window.identify_tab, "diagnose": window.diagnose_tab}
+
     def gui_job(name: str, start: Callable[[], None], live: bool) -> Callable[[], None]:
-        def run() -> None:
+        def run() -> tuple[float, float]:
+            started, cpu_started = time.perf_counter(), _cpu_s()
             start()
             if not controller.job_active(name):
                 raise RuntimeError(f"bench_gui_jobs: the GUI refused the {name}: {window.banner.history[-1:]}")
@@ -116,12 +126,21 @@ def main(argv: list[str] | None = None) -> int:
                 window.tabs.setCurrentWidget(window.measure_tab)
                 controller.arm()
             _wait(app, lambda: not controller.job_active(name), 900, f"the GUI's {name}")
-            if live:
+            wall, cpu_s = time.perf_counter() - started, _cpu_s() - cpu_started
+            if live:  # (stopping the acquisition afterwards is not part of the job)
                 controller.stop()
                 _wait(app, lambda: controller.state == "idle", 30, "the acquisition to stop")
             errors = [text for severity, text in window.banner.history if severity == "error"]
             if errors:
                 raise RuntimeError(f"bench_gui_jobs: {errors[-1]}")
+            return wall, cpu_s
+        return run
+
+    def cli_job(work: Callable[[], None]) -> Callable[[], tuple[float, float]]:
+        def run() -> tuple[float, float]:
+            started, cpu_started = time.perf_counter(), _cpu_s()
+            work()
+            return time.perf_counter() - started, _cpu_s() - cpu_started
         return run
 
     def gui_fit() -> None:
@@ -137,17 +156,20 @@ def main(argv: list[str] | None = None) -> int:
           f"band {low:g}–{high:g} Hz ({band.sum()} lines), {args.rounds} rounds")
     worst = 0.0
     for name, title, cli, gui_start in jobs:
-        ways = {"CLI": cli, "GUI, quiet": gui_job(name, gui_start, False), "GUI, live view": gui_job(name, gui_start, True)}
+        ways = {"CLI": cli_job(cli), "GUI, quiet": gui_job(name, gui_start, False), "GUI, live view": gui_job(name, gui_start, True)}
         times: dict[str, list[float]] = {way: [] for way in ways}
         cpu: dict[str, list[float]] = {way: [] for way in ways}
         ways["GUI, quiet"]()  # untimed: the first job waits for the job processes' fork server to be ready
         for _ in range(args.rounds):
             for way, run in ways.items():
-                started, cpu_started = time.perf_counter(), _cpu_s()
-                run()
-                wall = time.perf_counter() - started
+                if way != "CLI":
+                    window.tabs.setCurrentWidget(job_tabs[name])
+                    _wait(app, lambda: True, 1, "")
+                if not job_process_ready(60):  # (also before the CLI's run: its warm-up must not slow that)
+                    raise TimeoutError("bench_gui_jobs: no job process ready after 60 s")
+                wall, cpu_s = run()
                 times[way].append(wall)
-                cpu[way].append((_cpu_s() - cpu_started) / wall)
+                cpu[way].append(cpu_s / wall)
         medians = {way: statistics.median(values) for way, values in times.items()}
         ratio = medians["GUI, live view"] / medians["CLI"]
         worst = max(worst, ratio)

@@ -221,7 +221,10 @@ class FrfTab(QWidget):
             set_region_hz(self.region, low, high, self.log_frequency.isChecked())
             self.region.blockSignals(False)
         set_region_hz(self.coherence_region, low, high, self.log_frequency.isChecked())
-        self.redraw()
+        if self.isVisible():
+            self.redraw()
+        else:  # (a band chosen elsewhere: drawn when the tab is shown)
+            self._stale = True
 
     def show_band(self, band_hz: tuple[float, float]) -> None:
         """Follow a band chosen elsewhere (a session's stored fits)."""

@@ -6,7 +6,7 @@ import numpy as np
 from pathlib import Path
 
 from PySide6.QtCore import Qt
-from PySide6.QtGui import QColor, QGuiApplication
+from PySide6.QtGui import QColor, QGuiApplication, QShowEvent
 from PySide6.QtWidgets import (
     QAbstractItemView,
     QComboBox,
@@ -54,6 +54,7 @@ class IdentifyTab(QWidget):
     def __init__(self, controller: SessionController, parent: QWidget | None = None) -> None:
         super().__init__(parent)
         self.controller = controller
+        self._figures_stale = False
 
         self.model_list = QListWidget()
         for name in PAPER_MODEL_ORDER:
@@ -295,7 +296,15 @@ class IdentifyTab(QWidget):
             self.parameters.setRowCount(0)
             self.flags_label.clear()
         self._update_band_label()
-        self._draw_figures()
+        if self.isVisible():
+            self._draw_figures()
+        else:  # (fits that arrive while another tab is shown, e.g. the live view: drawn when this one is)
+            self._figures_stale = True
+
+    def showEvent(self, event: QShowEvent) -> None:
+        if self._figures_stale:
+            self._draw_figures()
+        super().showEvent(event)
 
     def _show_parameters(self) -> None:
         selected = self.table.selectionModel().selectedRows()
@@ -388,6 +397,7 @@ class IdentifyTab(QWidget):
         return written
 
     def _draw_figures(self) -> None:
+        self._figures_stale = False
         for plot in list(self.fig18.values()) + list(self.fig19.values()):
             plot.clear()
         frf = self.controller.frf

@@ -3,11 +3,13 @@ Qt: :class:`gasfilm.app.gui.workers.BackgroundJob` runs them in a child process,
 the live view and the acquisition from slowing them down (``benchmarks/bench_gui_jobs.py``).
 
 Each takes ``report(fraction, text)`` (progress; raises once Cancel was pressed) and ``cancelled()`` last.
-:func:`run_job_in_child` is what the child process runs. Nothing here imports Qt: a job's process starts light.
+:func:`serve_one_job` is what a job process runs: started before its job and warmed up, it waits for the work and
+runs it (:func:`run_job_in_child`). Nothing here imports Qt: a job's process starts light.
 """
 
 from __future__ import annotations
 
+import os
 import time
 from pathlib import Path
 from typing import Any, Callable, Sequence
@@ -24,6 +26,8 @@ from gasfilm.drivers.errors import GasfilmError
 Report = Callable[[float, str], None]
 #: Progress reaches the GUI at most this often, in s (never flooding its event loop).
 PROGRESS_INTERVAL_S = 0.1
+#: How often a job process waiting for its work checks that the GUI (its fork server) is still there, in s.
+PARENT_CHECK_S = 1.0
 
 
 class JobCancelled(GasfilmError):
@@ -69,6 +73,34 @@ def diagnose_session(recordings: Any, spec: RigSpec, out_dir: Path, report: Repo
     diagnosis = diagnose(recordings, spec, progress=lambda text: report(0.0, text))
     write_outputs(diagnosis, out_dir)
     return diagnosis
+
+
+def serve_one_job(works: Any, messages: Any, cancel: Any, warm: Any) -> None:
+    """A job process started before its job: warm up (:func:`warm_up`; then the event ``warm`` is set), wait for the
+    work on the pipe ``works`` and run it (:func:`run_job_in_child`). Ends without work when the pipe closes or its
+    parent (the fork server, which ends with the GUI) has gone."""
+    if not works.poll(0):  # (a job already waiting goes first)
+        warm_up()
+    warm.set()
+    parent = os.getppid()
+    while not works.poll(PARENT_CHECK_S):
+        if os.getppid() != parent:
+            return
+    try:
+        work = works.recv()
+    except EOFError:  # the GUI closed without a job for this process
+        return
+    run_job_in_child(work, messages, cancel)
+
+
+def warm_up() -> None:
+    """A small fit of two models: in a freshly forked process the first fit ran ~0.1 s slower than the next (pages
+    of code and data copied from the fork server, the BLAS libraries looked up), which the technician's first click
+    then waited for."""
+    freq_hz = np.linspace(20.0, 1000.0, 64)
+    s = 2j * np.pi * freq_hz
+    h = s**2 / (25.0 * s**2 + 2e3 * s + 4e7)  # a 25 kg mover on a spring-damper film
+    fit_models(("SD", "FOMGF"), "default", freq_hz, h, 25.0, 0.0, lambda fraction, text: None, lambda: False)
 
 
 def run_job_in_child(work: Callable[..., Any], messages: Any, cancel: Any) -> None:

@@ -8,8 +8,9 @@ fast device can never flood the GUI's event loop: the GUI receives one signal pe
 
 from __future__ import annotations
 
+import atexit
+import logging
 import multiprocessing
-import multiprocessing.forkserver
 import queue
 import threading
 import time
@@ -27,10 +28,12 @@ from gasfilm.analysis.physics.spec import RigSpec
 from gasfilm.analysis.session import Session
 from gasfilm.analysis.spectra import WindowSettings
 from gasfilm.analysis.validation import ValidationSettings, Verdict
-from gasfilm.app.gui.jobs import PROGRESS_INTERVAL_S, JobCancelled, run_job_in_child
+from gasfilm.app.gui.jobs import PROGRESS_INTERVAL_S, JobCancelled, serve_one_job
 from gasfilm.drivers import SIMULATED_DEVICE_NAME, open_device
 from gasfilm.drivers.errors import GasfilmError
 from gasfilm.drivers.interface import ChannelKind, DaqConfig, DaqDevice
+
+logger = logging.getLogger(__name__)
 
 POLL_INTERVAL_MS = 50
 SIM_HIT_INTERVAL_S = (1.5, 3.0)
@@ -362,11 +365,14 @@ CANCEL_GRACE_S = 10.0
 
 
 def warm_up_job_processes() -> None:
-    """Start the fork server now (it imports the analysis in its own process, seconds on a busy machine), so the
-    first fit or diagnosis starts at once. Returns immediately."""
-    if "forkserver" in multiprocessing.get_all_start_methods():
-        _job_context()
-        threading.Thread(target=multiprocessing.forkserver.ensure_running, name="gasfilm-job-warm-up", daemon=True).start()
+    """Start the fork server now (it imports the analysis in its own process, seconds on a busy machine) and a first
+    job process, so the first fit or diagnosis starts at once. Returns immediately."""
+    threading.Thread(target=_JOB_PROCESSES.prepare, name="gasfilm-job-warm-up", daemon=True).start()
+
+
+def job_process_ready(timeout_s: float) -> bool:
+    """Wait until a warmed-up job process waits for work (at most ``timeout_s``); whether one does."""
+    return _JOB_PROCESSES.ready(timeout_s)
 
 
 def _job_context() -> Any:
@@ -379,13 +385,94 @@ def _job_context() -> Any:
     return context
 
 
-def _end_child(child: Any, messages: Any) -> None:
-    """Wait for a job's process to end (terminate it after a grace second) and close its queue."""
-    child.join(1.0)
-    if child.is_alive():
-        child.terminate()
-        child.join(1.0)
-    messages.close()
+@dataclass
+class _JobProcess:
+    """A job's process (:func:`gasfilm.app.gui.jobs.serve_one_job`), its work pipe, message queue, cancel event and
+    the event it sets once warmed up."""
+
+    process: Any
+    works: Any
+    messages: Any
+    cancel: Any
+    warm: Any
+
+    @classmethod
+    def start(cls) -> "_JobProcess":
+        context = _job_context()
+        receiving, sending = context.Pipe(duplex=False)
+        messages, cancel, warm = context.Queue(), context.Event(), context.Event()
+        process = context.Process(target=serve_one_job, args=(receiving, messages, cancel, warm), daemon=True)
+        process.start()
+        receiving.close()
+        return cls(process, sending, messages, cancel, warm)
+
+
+class _JobProcesses:
+    """One job process kept ready: started and warmed up while the GUI is idle (after the previous job), so that a
+    click does not wait for a process to start (some 30 ms) nor for its first fit's slower pace (some 100 ms). A
+    second job at the same time starts a process of its own."""
+
+    def __init__(self) -> None:
+        self._lock = threading.Lock()
+        self._spare: _JobProcess | None = None
+        self._prepared = threading.Event()
+        self._closed = False
+
+    def prepare(self) -> None:
+        """Start the spare process if there is none (in the calling thread)."""
+        with self._lock:
+            if self._closed or (self._spare is not None and self._spare.process.is_alive()):
+                return
+            self._prepared.clear()
+            try:
+                self._spare = _JobProcess.start()
+            except Exception as error:  # the next job starts its own process, and says so if it cannot
+                logger.info("no job process started ahead: %s", error)
+                self._spare = None
+            self._prepared.set()
+
+    def close(self) -> None:
+        """No more spare processes (the application ends); the waiting one ends now."""
+        with self._lock:
+            self._closed = True
+            spare, self._spare = self._spare, None
+        if spare is not None:
+            spare.works.close()  # it ends at once (EOF), without work
+
+    def take(self) -> _JobProcess:
+        """The spare process (a new one when there is none)."""
+        with self._lock:
+            spare, self._spare = self._spare, None
+        if spare is None or not spare.process.is_alive():
+            spare = _JobProcess.start()
+        return spare
+
+    def ready(self, timeout_s: float) -> bool:
+        if not self._prepared.wait(timeout_s):
+            return False
+        deadline = time.monotonic() + timeout_s
+        while time.monotonic() < deadline:
+            with self._lock:
+                spare = self._spare
+            if spare is not None and spare.process.is_alive() and spare.warm.wait(0.05):
+                return True
+        return False
+
+
+_JOB_PROCESSES = _JobProcesses()
+atexit.register(_JOB_PROCESSES.close)
+
+
+def _end_child(child: _JobProcess) -> None:
+    """Wait for a job's process to end (terminate it after a grace second), close its queue, and start the next
+    job's process."""
+    child.process.join(1.0)
+    if child.process.is_alive():
+        child.process.terminate()
+        child.process.join(1.0)
+    child.messages.close()
+    child.works.close()
+    _JOB_PROCESSES.prepare()
 
 
 class BackgroundJob(QObject):
@@ -415,13 +502,11 @@ class BackgroundJob(QObject):
 
     def _run_in_process(self, report: Report) -> Any:
         """Start the child, relay its progress, return its result (or raise its failure or cancellation)."""
-        context = _job_context()
-        messages = context.Queue()
-        cancel = context.Event()
-        child = context.Process(target=run_job_in_child, args=(self._work, messages, cancel), daemon=True)
-        child.start()
+        child = _JOB_PROCESSES.take()
+        messages, cancel = child.messages, child.cancel
         cancel_sent_s: float | None = None
         try:
+            child.works.send(self._work)
             while True:
                 if self._cancel.is_set() and cancel_sent_s is None:
                     cancel.set()
@@ -431,9 +516,9 @@ class BackgroundJob(QObject):
                 try:
                     message = messages.get(timeout=0.05)
                 except queue.Empty:
-                    if not child.is_alive() and messages.empty():
+                    if not child.process.is_alive() and messages.empty():
                         raise GasfilmError(
-                            f"the job's process ended unexpectedly (exit code {child.exitcode})"
+                            f"the job's process ended unexpectedly (exit code {child.process.exitcode})"
                         ) from None
                     continue
                 kind = message[0]
@@ -449,7 +534,7 @@ class BackgroundJob(QObject):
         finally:
             # The result is delivered at once; the child's own exit (flushing its queue, freeing its memory: tenths
             # of a second on a busy machine) is awaited on a helper thread, not before the GUI gets the result.
-            threading.Thread(target=_end_child, args=(child, messages), name="gasfilm-job-exit", daemon=True).start()
+            threading.Thread(target=_end_child, args=(child,), name="gasfilm-job-exit", daemon=True).start()
 
     @Slot()
     def run(self) -> None:
