@@ -87,11 +87,6 @@ AMPLITUDE_TERMS = ("cubic-stiffness", "friction", "quadratic-damping")
 #: ADEQUATE_CHI2_PER_POINT; a band is never held to less than that margin (the simulated rig's true spec leaves a
 #: wide band at 1.2–1.25, which the F test alone calls beyond the noise).
 OWN_BAND_FALSE_ALARM = 1e-3
-#: A candidate whose screened fits (converged, to :data:`.selection.SCREENING_TOLERANCE`) fall short of the BIC margin by this
-#: many noise units is not finished to the full tolerance: finishing moves χ² by a small fraction of the screening
-#: tolerance (relative 1e-6 of some 10⁴), far less than this; only candidates beyond the margin enter, are listed as
-#: alternatives or as candidate descriptions.
-UNFINISHED_MARGIN = 25.0
 
 
 @dataclass
@@ -257,7 +252,7 @@ def _select_one(
                    and not (identifier in AMPLITUDE_TERMS and restoring is not None
                             and not restoring.allows(identifier))]
 
-    fitted_candidates = _candidate_fits(spectra, evidence, current, identifiers, context, noise_scale)
+    fitted_candidates = _candidate_fits(spectra, evidence, current.spec, identifiers, context, noise_scale)
     for identifier in identifiers:
         fitted = fitted_candidates[identifier]
         if isinstance(fitted, GasfilmError):  # a nonlinear replay that does not converge is no candidate
@@ -336,21 +331,17 @@ def _not_a_finding(outcome: FitOutcome, index: int, context: FitContext) -> str 
 
 
 def _candidate_fits(
-    spectra: HitSpectra, evidence: Evidence, current: FitOutcome, identifiers: list[str], context: FitContext,
+    spectra: HitSpectra, evidence: Evidence, spec: RigSpec, identifiers: list[str], context: FitContext,
     noise_scale: float,
 ) -> dict[str, tuple[FitOutcome | None, Evidence] | Exception]:
-    """Each candidate's best fit added to the current spec (the steps listed at :func:`candidate_starts`; None
-    without a start) and the evidence it is judged on (its own for a cubic spring: :func:`_nonlinear_refit`), or the
-    exception its fit raised.
+    """Each candidate's best fit (the steps listed at :func:`candidate_starts`; None without a start) and the
+    evidence it is judged on (its own for a cubic spring: :func:`_nonlinear_refit`), or the exception its fit raised.
 
     The fits are shared by two processes (:func:`shared_map`) in two rounds: every start of every candidate screened,
-    then the best starts of each finished, except for a candidate whose screened starts all converged and whose best
-    falls short of entering by :data:`UNFINISHED_MARGIN` (its screened fit stands: finishing could not make it enter
-    nor an alternative). Single fits balance the two processes better than whole candidates (a film term's three
-    starts took as long as all other candidates together); each result is what one process gives, bit for bit. A cubic
-    spring's exact nonlinear replays come last, here, each replay's hits shared.
+    then the best starts of each finished. Single fits balance the two processes better than whole candidates (a
+    film term's three starts took as long as all other candidates together); each result is what one process gives,
+    bit for bit. A cubic spring's exact nonlinear replays come last, here, each replay's hits shared.
     """
-    spec, points = current.spec, evidence.point_count
     results: dict[str, tuple[FitOutcome | None, Evidence] | Exception] = {}
     starts: list[tuple[str, RigSpec]] = []
     for identifier in identifiers:
@@ -370,12 +361,6 @@ def _candidate_fits(
             results.setdefault(identifier, outcome)
         elif identifier not in results:
             by_candidate.setdefault(identifier, []).append(outcome)
-    for identifier, outcomes in by_candidate.items():
-        best = best_finished(outcomes)
-        score = (current.chi2 - best.chi2) / noise_scale - (len(best.slots) - len(current.slots)) * np.log(points)
-        if identifier not in results and all(outcome.converged for outcome in outcomes) and (
-                score < BIC_MARGIN - UNFINISHED_MARGIN):
-            results[identifier] = (best, evidence)
     finishing = [(identifier, outcome) for identifier, outcomes in by_candidate.items()
                  if identifier not in results for outcome in to_finish(outcomes)]
     finished: dict[str, list] = {}

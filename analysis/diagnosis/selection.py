@@ -63,7 +63,6 @@ class FitOutcome:
     slots: list[Slot]
     covariance: np.ndarray  # in search space
     evaluations: int
-    converged: bool = True  # False: the fit stopped at its evaluation budget
 
     def uncertainty(self, slot_index: int) -> float:
         """One standard deviation of a slot in its natural unit."""
@@ -183,8 +182,7 @@ def fit(
     result = least_squares(residual, start, x_scale="jac", method="lm", max_nfev=40 * (len(slots) + 1),
                            xtol=tolerance, ftol=tolerance)
     fitted = write_vector(spec, slots, np.clip(result.x, bounds[0], bounds[1]))
-    return FitOutcome(fitted, evidence.chi2(fitted, hits), slots, _covariance(result.jac), int(result.nfev),
-                      result.status > 0)
+    return FitOutcome(fitted, evidence.chi2(fitted, hits), slots, _covariance(result.jac), int(result.nfev))
 
 
 def _covariance(jacobian: np.ndarray) -> np.ndarray:
