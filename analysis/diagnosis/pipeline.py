@@ -33,6 +33,7 @@ from gasfilm.analysis.diagnosis.restoring import RestoringForce
 from gasfilm.analysis.diagnosis.result import Alternative, CandidateDescription, Diagnosis, Finding, Unexplained
 from gasfilm.analysis.diagnosis.selection import (
     BIC_MARGIN,
+    FINISHED_STARTS,
     HELD_OUT_THRESHOLD,
     Evidence,
     FitOutcome,
@@ -337,13 +338,14 @@ def _candidate_fits(
     """Each candidate's best fit (the steps listed at :func:`candidate_starts`; None without a start) and the
     evidence it is judged on (its own for a cubic spring: :func:`_nonlinear_refit`), or the exception its fit raised.
 
-    The fits are shared by two processes (:func:`shared_map`) in two rounds: every start of every candidate screened,
-    then the best starts of each finished. Single fits balance the two processes better than whole candidates (a
-    film term's three starts took as long as all other candidates together); each result is what one process gives,
-    bit for bit. A cubic spring's exact nonlinear replays come last, here, each replay's hits shared.
+    The fits are shared by two processes (:func:`shared_map`) in two rounds: every start of every candidate screened
+    (and at once finished when the candidate has no more starts than are finished), then the best starts of the
+    others finished. Single fits balance the two processes better than whole candidates (a film term's three starts
+    took as long as all other candidates together); each result is what one process gives, bit for bit. A cubic
+    spring's exact nonlinear replays come last, here, each replay's hits shared.
     """
     results: dict[str, tuple[FitOutcome | None, Evidence] | Exception] = {}
-    starts: list[tuple[str, RigSpec]] = []
+    starts: list[tuple[str, RigSpec, bool]] = []
     for identifier in identifiers:
         try:
             specs = candidate_starts(evidence, spec, identifier, context)
@@ -352,22 +354,32 @@ def _candidate_fits(
             continue
         if not specs:
             results[identifier] = (None, evidence)
-        starts.extend((identifier, start) for start in specs)
+        starts.extend((identifier, start, len(specs) <= FINISHED_STARTS) for start in specs)
+
+    def screen(item: tuple[str, RigSpec, bool]) -> tuple[FitOutcome, FitOutcome | None]:
+        screened = screening_fit(evidence, item[1], context)
+        return screened, (finishing_fit(evidence, screened) if item[2] else None)
+
     # CANDIDATES lists the terms with fewest parameters (and starts) first: the quickest fits
-    screened = shared_map(lambda item: screening_fit(evidence, item[1], context), starts, longest_first=True)
-    by_candidate: dict[str, list[FitOutcome]] = {}
-    for (identifier, _), outcome in zip(starts, screened):
+    by_candidate: dict[str, list[tuple[FitOutcome, FitOutcome | None]]] = {}
+    for (identifier, _, _), outcome in zip(starts, shared_map(screen, starts, longest_first=True)):
         if isinstance(outcome, Exception):
             results.setdefault(identifier, outcome)
         elif identifier not in results:
             by_candidate.setdefault(identifier, []).append(outcome)
-    finishing = [(identifier, outcome) for identifier, outcomes in by_candidate.items()
-                 if identifier not in results for outcome in to_finish(outcomes)]
+    finishing = [(identifier, screened) for identifier, outcomes in by_candidate.items()
+                 if outcomes[0][1] is None for screened in to_finish([screened for screened, _ in outcomes])]
     finished: dict[str, list] = {}
     for (identifier, _), outcome in zip(finishing, shared_map(lambda item: finishing_fit(evidence, item[1]),
                                                               finishing, longest_first=True)):
         finished.setdefault(identifier, []).append(outcome)
-    for identifier, outcomes in finished.items():
+    for identifier, outcomes in by_candidate.items():
+        if outcomes[0][1] is not None:  # finished with their screening: in the order to_finish gives
+            order = to_finish([screened for screened, _ in outcomes])
+            finished[identifier] = [next(done for screened, done in outcomes if screened is chosen)
+                                    for chosen in order]
+    for identifier in (identifier for identifier in by_candidate if identifier in finished):
+        outcomes = finished[identifier]
         failed = [outcome for outcome in outcomes if isinstance(outcome, Exception)]
         if failed:
             results[identifier] = failed[0]
