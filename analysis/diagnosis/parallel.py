@@ -1,13 +1,13 @@
 """Independent parts of a diagnosis computed by two processes at once.
 
 The candidate fits of one forward-selection step do not depend on each other and take tens to hundreds of
-milliseconds each. :func:`shared_map` computes them in this process and in a forked copy of it, both taking the next
+milliseconds each; nor do the hits of a nonlinear replay, nor the figures. :func:`shared_map` computes them in this process and in a forked copy of it, both taking the next
 item from one queue (a pipe), so the diagnosis uses both cores of a 2-core machine. Each item's result is what the
 serial loop gives, bit for bit: the copy starts from the same memory and every item is computed the same way; only the
 results travel back (pickled). Where there is no ``fork`` (Windows), with one CPU, inside
 :func:`worker_processes` ``(1)`` (a campaign's dask workers are already one per core), or when the copy fails, the
-items are computed here one after the other. A map inside an item of another (a nonlinear replay inside a candidate's
-fit) is computed by the process that took the item: both are busy already.
+items are computed here one after the other. A map inside an item of another (a nonlinear replay inside a fit that
+is an item) is computed by the process that took the item: both are busy already.
 """
 
 from __future__ import annotations
