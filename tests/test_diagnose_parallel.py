@@ -10,6 +10,7 @@ import pytest
 
 from gasfilm.analysis.diagnosis import diagnose
 from gasfilm.analysis.diagnosis.parallel import shared_map, worker_count, worker_processes
+from gasfilm.analysis.diagnosis.plots import OUTPUT_FILES, write_outputs
 from gasfilm.analysis.physics.effects import CubicStiffness
 from gasfilm.drivers.errors import GasfilmError
 
@@ -59,12 +60,17 @@ def test_worker_processes_1_computes_alone():
 
 @needs_fork
 def test_a_diagnosis_shared_with_a_copy_equals_one_computed_alone(tmp_path):
-    """A hardening film: the copy's candidate fits include exact nonlinear replays, whose evidence comes back."""
+    """A hardening film: the cubic candidate's exact nonlinear replays play their hits in both processes; the figures
+    drawn by both are the same files."""
     path = record(NOMINAL.with_effects(CubicStiffness(k3_n_per_m3=6e15)), tmp_path / "cubic.h5", hits=8, seed=4)
     with worker_processes(1):
         alone = diagnose(path, NOMINAL)
+        write_outputs(alone, tmp_path / "alone")
     with worker_processes(2):
         shared = diagnose(path, NOMINAL)
+        write_outputs(shared, tmp_path / "shared")
+    for name in OUTPUT_FILES:
+        assert (tmp_path / "alone" / name).read_bytes() == (tmp_path / "shared" / name).read_bytes(), name
     assert shared.verdict == alone.verdict
     assert [f.to_dict() for f in shared.findings] == [f.to_dict() for f in alone.findings]
     assert shared.improved.to_toml() == alone.improved.to_toml()
@@ -76,3 +82,11 @@ def test_a_diagnosis_shared_with_a_copy_equals_one_computed_alone(tmp_path):
 def test_longest_first_changes_only_the_order_of_work_not_of_results():
     with worker_processes(2):
         assert shared_map(lambda value: value + 1, list(range(12)), longest_first=True) == list(range(1, 13))
+
+
+@needs_fork
+def test_a_map_inside_an_item_is_computed_by_the_process_that_took_the_item():
+    with worker_processes(2):
+        results = shared_map(lambda _: (os.getpid(), shared_map(lambda _: os.getpid(), range(4))), range(6))
+    for outer, inner in results:
+        assert inner == [outer] * 4

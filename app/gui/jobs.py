@@ -76,11 +76,13 @@ def diagnose_session(recordings: Any, spec: RigSpec, out_dir: Path, report: Repo
 
 
 def serve_one_job(works: Any, messages: Any, cancel: Any, warm: Any) -> None:
-    """A job process started before its job: warm up (:func:`warm_up`; then the event ``warm`` is set), wait for the
-    work on the pipe ``works`` and run it (:func:`run_job_in_child`). Ends without work when the pipe closes or its
-    parent (the fork server, which ends with the GUI) has gone."""
-    if not works.poll(0):  # (a job already waiting goes first)
-        warm_up()
+    """A job process started before its job: warm up (:func:`warm_up`, cut short when the work arrives; then the event
+    ``warm`` is set), wait for the work on the pipe ``works`` and run it (:func:`run_job_in_child`). Ends without work
+    when the pipe closes or its parent (the fork server, which ends with the GUI) has gone."""
+    try:
+        warm_up(lambda: works.poll(0))
+    except GasfilmError:  # the work arrived meanwhile: it goes first
+        pass
     warm.set()
     parent = os.getppid()
     while not works.poll(PARENT_CHECK_S):
@@ -93,14 +95,14 @@ def serve_one_job(works: Any, messages: Any, cancel: Any, warm: Any) -> None:
     run_job_in_child(work, messages, cancel)
 
 
-def warm_up() -> None:
+def warm_up(interrupted: Callable[[], bool]) -> None:
     """A small fit of two models: in a freshly forked process the first fit ran ~0.1 s slower than the next (pages
     of code and data copied from the fork server, the BLAS libraries looked up), which the technician's first click
-    then waited for."""
+    then waited for. Stops (raising the fitter's cancellation) as soon as ``interrupted()``."""
     freq_hz = np.linspace(20.0, 1000.0, 64)
     s = 2j * np.pi * freq_hz
     h = s**2 / (25.0 * s**2 + 2e3 * s + 4e7)  # a 25 kg mover on a spring-damper film
-    fit_models(("SD", "FOMGF"), "default", freq_hz, h, 25.0, 0.0, lambda fraction, text: None, lambda: False)
+    fit_models(("SD", "FOMGF"), "default", freq_hz, h, 25.0, 0.0, lambda fraction, text: None, interrupted)
 
 
 def run_job_in_child(work: Callable[..., Any], messages: Any, cancel: Any) -> None:
