@@ -126,3 +126,43 @@ def test_response_clipped_before_the_adc_filter_is_an_overload(recorded):
     assert list(notes["overload"].hits) == over and "whatever their force" in notes["overload"].message
     assert list(spectra.hit_numbers) == [i for i in range(levels.size) if i not in over]
     assert "overload" not in {note.kind for note in hit_spectra(filtered, recordings.sample_rate_hz).quality}
+
+
+def test_slow_motion_and_a_settling_offset_are_neither_truncation_nor_floor_vibration(recorded):
+    """Hits on a mover scanning slowly (0.7 Hz, through the AC coupling) and records starting with the IEPE bias still
+    settling (an offset decaying over 0.32 s): the responses have decayed all the same, and a decaying offset is not a
+    narrowband line."""
+    recordings, _ = recorded
+    time_s = np.arange(recordings.records.shape[-1]) / recordings.sample_rate_hz
+    phases = np.random.default_rng(3).uniform(0, 2 * np.pi, recordings.records.shape[0])
+    scanning = recordings.records.copy()
+    scanning[:, 1] += 0.1 * np.sin(2 * np.pi * 0.7 * time_s + phases[:, np.newaxis])
+    settling = recordings.records.copy()
+    settling[:, 1] += 0.05 * np.exp(-time_s / 0.32)
+    for records in (scanning, settling):
+        kinds = {note.kind for note in hit_spectra(records, recordings.sample_rate_hz).quality}
+        assert not kinds & {"truncation", "floor vibration"}, kinds
+
+
+def test_a_level_off_by_g_is_said_and_a_per_hit_gain_is_told_from_a_change_of_shape(recorded):
+    """An acceleration read in g as m/s² leaves the FRF 9.81× low: a quality note says so against the given spec. Hits
+    that differ by a gain alone (a per-hit sensitivity) are told from hits that differ in shape."""
+    from gasfilm.analysis.diagnosis.pipeline import _level_note, _per_hit_gain_spread, evidence_for
+
+    recordings, spec = recorded
+    in_g = recordings.records.copy()
+    in_g[:, 1] /= 9.80665
+    notes = _level_note(evidence_for(hit_spectra(in_g, recordings.sample_rate_hz), spec), spec)
+    assert notes and "ratio of g to m/s²" in notes[0].message
+    assert not _level_note(evidence_for(hit_spectra(recordings.records, recordings.sample_rate_hz), spec), spec)
+
+    gains = np.array([1.0, 0.96, 1.03, 0.93])
+    scaled = recordings.records.copy()
+    scaled[:, 1] *= gains[:, np.newaxis]
+    spread = _per_hit_gain_spread(hit_spectra(scaled, recordings.sample_rate_hz))
+    assert spread is not None and abs(spread - np.std(gains / gains.mean())) < 0.01
+    assert _per_hit_gain_spread(hit_spectra(recordings.records, recordings.sample_rate_hz)) is None
+    delayed = recordings.records.copy()  # a per-hit delay changes the shape (phase growing with frequency)
+    for hit, samples in zip(delayed, (0, 1, 2, 3)):
+        hit[1] = np.roll(hit[1], samples)
+    assert _per_hit_gain_spread(hit_spectra(delayed, recordings.sample_rate_hz)) is None

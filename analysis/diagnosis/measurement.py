@@ -335,6 +335,17 @@ def response_ceiling_hits(records: np.ndarray, extents: list[tuple[int, int, int
     return [], 0.0
 
 
+def _rms_about_trend(segments: np.ndarray) -> np.ndarray:
+    """RMS of each row about its own least-squares parabola (motion slower than about one cycle per segment is not
+    counted)."""
+    length = segments.shape[-1]
+    if length < 4:
+        return np.sqrt(np.mean(segments**2, axis=-1))
+    basis = np.vander(np.linspace(-1.0, 1.0, length), 3)
+    coefficients, *_ = np.linalg.lstsq(basis, segments.T, rcond=None)
+    return np.sqrt(np.mean((segments - (basis @ coefficients).T) ** 2, axis=-1))
+
+
 def _band_text(low_hz: float, high_hz: float) -> str:
     return f"{low_hz:.0f}–{high_hz:.0f} Hz"
 
@@ -482,7 +493,9 @@ def hit_spectra(
     else:
         quiet_samples = int(np.min(trigger)) - margin
         # quiet samples to measure the noise: the record tails when every response has decayed, else the pre-trigger
-        tail_rms = np.sqrt(np.mean(records[:, 1, tail_start:] ** 2, axis=1))
+        # the tails about their slow trend: a slow motion of the mover (a scan, a drift, a settling offset) over the
+        # long tail is not a response still ringing
+        tail_rms = _rms_about_trend(records[:, 1, tail_start:])
         pretrigger_rms = np.sqrt(np.mean(records[:, 1, : max(quiet_samples, 1)] ** 2, axis=1)) + 1e-30
         truncated = np.flatnonzero(tail_rms > 3 * pretrigger_rms) if not tails_only else np.zeros(0, int)
         if tails_only:
@@ -946,6 +959,10 @@ def _through_window(power_per_sample: np.ndarray, window: np.ndarray) -> np.ndar
     return np.maximum(convolved[: power_per_sample.size], 0.0)
 
 
+#: the lowest periodogram bin (of the quiet records) a narrowband line may sit in
+MIN_LINE_BIN = 3
+
+
 def _narrowband_lines_hz(quiet: np.ndarray, sample_rate_hz: float, mains_hz: list[float]) -> list[float]:
     """Frequencies of narrowband lines in quiet records (hits, samples) standing 30× above the noise level
     (mains lines already removed are not counted), against the local median level."""
@@ -961,7 +978,9 @@ def _narrowband_lines_hz(quiet: np.ndarray, sample_rate_hz: float, mains_hz: lis
         return []
     resolution_hz = 4 * sample_rate_hz / length
     peaks, _ = scipy.signal.find_peaks(periodogram / np.maximum(floor, 1e-300), height=30.0)
-    return [float(freq_hz[p]) for p in peaks if freq_hz[p] > 0
+    # a line must stand clear of DC: within the first bins a slow settling or drift (an offset decaying through the AC
+    # coupling) looks like a peak against the median filter's zero-padded edge
+    return [float(freq_hz[p]) for p in peaks if p >= MIN_LINE_BIN
             and all(abs(freq_hz[p] - m) > resolution_hz for m in mains_hz)]
 
 
