@@ -101,3 +101,28 @@ def test_two_hits_are_said_to_be_too_few_for_a_verdict(recorded):
     assert "only 2 usable hits" in notes["few hits"] and "provisional" in notes["few hits"]
     assert "few hits" not in {note.kind for note in hit_spectra(recordings.records[:3],
                                                                 recordings.sample_rate_hz).quality}
+
+
+def test_response_clipped_before_the_adc_filter_is_an_overload(recorded):
+    """A sensor overloaded before the ADC's filter leaves no flat run of samples, but a ceiling: the hits whose
+    response would have passed the level all peak at it, whatever their force. They are left out as overloads; the same
+    hits unclipped, and hits whose forces are all alike, are not."""
+    recordings, _ = recorded
+    from scipy import signal
+
+    levels = np.array([0.8, 0.9, 1.0, 1.1, 1.2, 1.3, 1.4, 1.5])
+    hits = np.array([recordings.records[index % 4] * level for index, level in enumerate(levels)])
+    peaks = np.max(hits[:, 1], axis=1)
+    ceiling = 1.05 * np.median(peaks)
+    filter_taps = signal.firwin(63, 0.9)  # a steep low-pass near 0.45 fs, as the ADC's
+    clipped = hits.copy()
+    clipped[:, 1] = signal.lfilter(filter_taps, 1.0, np.minimum(hits[:, 1], ceiling), axis=-1)
+    filtered = hits.copy()
+    filtered[:, 1] = signal.lfilter(filter_taps, 1.0, hits[:, 1], axis=-1)
+
+    spectra = hit_spectra(clipped, recordings.sample_rate_hz)
+    notes = {note.kind: note for note in spectra.quality}
+    over = [int(i) for i in np.flatnonzero(peaks > ceiling)]
+    assert list(notes["overload"].hits) == over and "whatever their force" in notes["overload"].message
+    assert list(spectra.hit_numbers) == [i for i in range(levels.size) if i not in over]
+    assert "overload" not in {note.kind for note in hit_spectra(filtered, recordings.sample_rate_hz).quality}

@@ -294,6 +294,47 @@ def _clipped(signal: np.ndarray, run: int = 3, step: float = 0.0) -> bool:
     return False
 
 
+#: A response "ceiling": hits whose peak response lies within this fraction of the session's largest peak ...
+CEILING_CLUSTER = 0.04
+#: ... while their peak forces span at least this ratio (a linear chain's peak response follows the peak force)
+CEILING_FORCE_SPAN = 1.1
+#: floor of the relative scatter of peak response over peak force between the hits below the ceiling
+CEILING_MIN_SPREAD = 0.01
+
+
+def response_ceiling_hits(records: np.ndarray, extents: list[tuple[int, int, int]]) -> tuple[list[int], float]:
+    """Hits whose response was clipped before the anti-aliasing filter, and the ceiling (m/s², signed).
+
+    A sensor or conditioner overloaded before the ADC's filter leaves no flat run of samples (the filter rounds the
+    cut peak), but it leaves a ceiling: several hits reach the same peak response whatever their force. In a linear
+    chain each hit's peak response over its peak force scatters only a little (``spread``, measured on the hits below
+    the ceiling); a hit is clipped when that ratio predicts a peak at or above the ceiling. Found only when at least
+    three hits sit at the ceiling with forces spanning ``CEILING_FORCE_SPAN`` and two of them would have reached
+    beyond it by more than three spreads.
+    """
+    force_peak = np.array([abs(record[0, peak]) for record, (_, peak, _) in zip(records, extents)])
+    for sign in (1.0, -1.0):
+        response_peak = np.max(sign * records[:, 1], axis=1)
+        top = float(response_peak.max())
+        if top <= 0:
+            continue
+        at_top = response_peak >= (1 - CEILING_CLUSTER) * top
+        below = ~at_top
+        if at_top.sum() < 3 or below.sum() < 3:
+            continue
+        if force_peak[at_top].max() < CEILING_FORCE_SPAN * force_peak[at_top].min():
+            continue
+        ratio = response_peak[below] / force_peak[below]
+        gain = float(np.median(ratio))
+        spread = max(1.4826 * float(np.median(np.abs(ratio / gain - 1))), CEILING_MIN_SPREAD)
+        predicted = gain * force_peak
+        if np.sum(predicted[at_top] > top * (1 + 3 * spread)) < 2:
+            continue
+        clipped = np.flatnonzero(at_top | (predicted >= top * (1 - 2 * spread)))
+        return [int(i) for i in clipped], sign * top
+    return [], 0.0
+
+
 def _band_text(low_hz: float, high_hz: float) -> str:
     return f"{low_hz:.0f}–{high_hz:.0f} Hz"
 
@@ -365,6 +406,17 @@ def hit_spectra(
     if clipped_hits:
         quality.append(QualityNote("overload", f"{len(clipped_hits)} clipped hit(s) were left out",
                                    hits=tuple(clipped_hits)))
+    unclipped = [index for index in range(hit_count) if index not in clipped_hits]
+    ceiling_hits, ceiling = response_ceiling_hits(records[unclipped], [extents[i] for i in unclipped])
+    if ceiling_hits:
+        ceiling_hits = [unclipped[i] for i in ceiling_hits]
+        clipped_hits = sorted(clipped_hits + ceiling_hits)
+        quality.append(QualityNote(
+            "overload",
+            f"{len(ceiling_hits)} hit(s) reach the same peak response ({ceiling:.3g} m/s²) whatever their force: the "
+            f"response was clipped before the ADC's filter (a sensor or conditioner overload); they were left out — "
+            f"a property of the recording, not physics",
+            hits=tuple(ceiling_hits)))
     keep = np.ones(hit_count, bool)
     keep[double_hits + clipped_hits] = False
     used = np.flatnonzero(keep)
