@@ -346,6 +346,39 @@ def _rms_about_trend(segments: np.ndarray) -> np.ndarray:
     return np.sqrt(np.mean((segments - (basis @ coefficients).T) ** 2, axis=-1))
 
 
+#: The default analysis band starts here (Hz) and ends where the hammer's force spectrum has fallen 20 dB, at most
+#: at this fraction of the sample rate (the top of the ADC filter's flat band).
+DEFAULT_LOW_HZ = 10.0
+ALIAS_FREE_FRACTION = 0.4
+#: A given band needs at least this many analysis lines.
+MIN_BAND_LINES = 8
+
+
+def _given_band(
+    band_hz: tuple[float, float], hammer_top_hz: float, sample_rate_hz: float, n_samples: int
+) -> tuple[float, float, QualityNote | None]:
+    """The band the user gave (``--band``), checked against the records: above DC, capped at the alias-free top, and
+    where the hammer excites; a band the records cannot support is refused in one line."""
+    given = f"--band {band_hz[0]:g}:{band_hz[1]:g}"
+    resolution_hz = sample_rate_hz / n_samples
+    top_hz = ALIAS_FREE_FRACTION * sample_rate_hz
+    low, high = max(band_hz[0], resolution_hz), min(band_hz[1], top_hz)
+    if low >= hammer_top_hz:
+        raise SettingError(f"{given}: the hammer excites only up to {hammer_top_hz:.0f} Hz in these records (its force "
+                           f"spectrum is 20 dB down there); an FRF above it is noise — choose a band below")
+    if (high - low) / resolution_hz < MIN_BAND_LINES:
+        raise SettingError(f"{given}: fewer than {MIN_BAND_LINES} frequency lines of these records "
+                           f"({resolution_hz:.3g} Hz apart) in the band; give a wider band")
+    notes = []
+    if high < band_hz[1]:
+        notes.append(f"its top is capped at {ALIAS_FREE_FRACTION:g}·fs = {top_hz:.0f} Hz (the ADC filter's flat band)")
+    if high > hammer_top_hz:
+        notes.append(f"above {hammer_top_hz:.0f} Hz the hammer's force is 20 dB down: the FRF there is noisy and weighs "
+                     f"little")
+    note = QualityNote("band", f"{given}: " + "; ".join(notes), band_hz=(low, high)) if notes else None
+    return low, high, note
+
+
 def _band_text(low_hz: float, high_hz: float) -> str:
     return f"{low_hz:.0f}–{high_hz:.0f} Hz"
 
@@ -641,12 +674,16 @@ def hit_spectra(
     if late:  # the band the hammer excites is the whole pulse's, not the recorded part's (wider: it is shorter)
         mean_force_power = np.mean(np.abs(np.fft.rfft(_with_fronts(records[:, 0] * force_w, fronts, n_samples),
                                                       axis=1)) ** 2, axis=0)
-    low, high = band_hz if band_hz else (10.0, 0.4 * sample_rate_hz)
+    low, high = DEFAULT_LOW_HZ, ALIAS_FREE_FRACTION * sample_rate_hz
+    reference = np.median(mean_force_power[(full_freq_hz >= low) & (full_freq_hz <= low + 50)])
+    beyond = np.flatnonzero((full_freq_hz > low) & (mean_force_power < 0.01 * reference))
+    hammer_top_hz = min(high, float(full_freq_hz[beyond[0]])) if beyond.size else high
     if band_hz is None:
-        reference = np.median(mean_force_power[(full_freq_hz >= low) & (full_freq_hz <= low + 50)])
-        beyond = np.flatnonzero((full_freq_hz > low) & (mean_force_power < 0.01 * reference))
-        if beyond.size:
-            high = min(high, full_freq_hz[beyond[0]])
+        high = hammer_top_hz
+    else:
+        low, high, note = _given_band(band_hz, hammer_top_hz, sample_rate_hz, n_samples)
+        if note:
+            quality.append(note)
     in_band = (full_freq_hz >= low) & (full_freq_hz <= high)
 
     coherence = np.abs(cross) ** 2 / (force_power.sum(axis=0) * (np.abs(response_spectra) ** 2).sum(axis=0) + floor)

@@ -274,6 +274,17 @@ def film_restoring_force(recordings: Recordings, spectra: HitSpectra, mass_kg: f
                            resonance_hz, (float(spectra.freq_hz[0]), float(spectra.freq_hz[-1])))
 
 
+def _check_records(recordings: Recordings) -> None:
+    """What no diagnosis can start from, said in one line naming the source: fewer than 2 hits, no force recorded."""
+    records = np.asarray(recordings.records)
+    if records.ndim == 3 and records.shape[1] == 2 and records.shape[0] < 2:
+        raise SettingError(f"{recordings.source}: only {records.shape[0]} hit; the diagnosis compares at least 2 hits "
+                           f"(3 or more to check the noise against their scatter)")
+    if records.ndim == 3 and records.shape[1] == 2 and not np.any(records[:, 0]):
+        raise SettingError(f"{recordings.source}: the force records are all zero: no hammer impact was recorded "
+                           f"(check the force channel, its wiring and its sensitivity)")
+
+
 @one_blas_thread
 def diagnose(
     source: str | Path | list[Path] | Recordings,
@@ -286,10 +297,11 @@ def diagnose(
     the FRF, :func:`starting_spec`). Writes nothing: ``Diagnosis.improved`` is the spec to write; ``Diagnosis.notes``
     starts with where the starting spec came from."""
     recordings = source if isinstance(source, Recordings) else load_recordings(source)
-    rig_spec, origin = starting_spec(recordings, rig_spec, mass_kg)
-    progress(origin)
+    _check_records(recordings)
     spectra = hit_spectra(recordings.records, recordings.sample_rate_hz, recordings.window,
                           hit_times_s=recordings.hit_times_s, overload=recordings.overload, band_hz=band_hz)
+    rig_spec, origin = starting_spec(recordings, rig_spec, mass_kg)
+    progress(origin)
     spectra.quality[:0] = recordings.quality
     restoring = film_restoring_force(recordings, spectra, rig_spec.moving_mass_kg)
     diagnosis = diagnose_spectra(spectra, rig_spec, progress, restoring)
