@@ -24,7 +24,14 @@ from gasfilm.analysis.diagnosis.result import Diagnosis
 from gasfilm.analysis.diagnosis.structure import read_structure
 from gasfilm.analysis.physics.effects import MIN_DAMPING_RATIO, ExtraMode, Polarity
 from gasfilm.analysis.physics.spec import RigSpec
-from gasfilm.analysis.spectra import WindowSettings, compute_frf, readable_lines, resonance_lines
+from gasfilm.analysis.spectra import (
+    RESONANCE_SEARCH_FROM_HZ,
+    WindowSettings,
+    compute_frf,
+    readable_lines,
+    resonance_lines,
+    usable_band_hz,
+)
 from gasfilm.analysis.threads import one_blas_thread
 from gasfilm.drivers.errors import SettingError
 
@@ -136,6 +143,11 @@ def read_start(recordings: Recordings, mass_kg: float | None = None) -> tuple[Ri
     frf = compute_frf(records, rate_hz, window)
     readable = readable_lines(frf)
     resonances = sorted(resonance_lines(frf))
+    left_out = _outlier_hits(records, rate_hz, window, frf) if not resonances else []
+    if left_out:  # a minority of disturbed hits (spliced, struck elsewhere) can spoil the coherence of all
+        frf = compute_frf(np.delete(records, left_out, axis=0), rate_hz, window)
+        readable = readable_lines(frf)
+        resonances = sorted(resonance_lines(frf))
     if not resonances:
         band = (f"{frf.freq_hz[readable][0]:.0f}–{frf.freq_hz[readable][-1]:.0f} Hz" if readable.any()
                 else "no line of it")
@@ -187,10 +199,33 @@ def read_start(recordings: Recordings, mass_kg: float | None = None) -> tuple[Ri
                  + ", ".join(f"{freq_hz[line]:.0f}" for line in sorted(resonances[1:]))
                  + " Hz may be the quantiser's distortion: they are left to the diagnosis, whose replay is quantised "
                    "the same way")
+    if left_out and resonances:
+        text += (f"; read from {len(records) - len(left_out)} of {len(records)} hits: hits "
+                 + ", ".join(str(i + 1) for i in left_out)
+                 + " differ from the others far beyond their scatter (disturbed records) and spoil the coherence")
     if modes:
         text += ("; a multi-mode structure: extra modes at " + ", ".join(f"{mode.freq_hz:.0f}" for mode in modes)
                  + " Hz are part of the start (read, not findings)")
     return spec, text
+
+
+#: A hit is an outlier for the start when its FRF's median relative distance from the hits' median FRF is this many
+#: times the hits' median distance; at most OUTLIER_SHARE of the hits are left out.
+OUTLIER_DISTANCE = 5.0
+OUTLIER_SHARE = 1 / 3
+
+
+def _outlier_hits(records: np.ndarray, rate_hz: float, window: WindowSettings, frf) -> list[int]:
+    """Hits whose own FRF departs from the others' far beyond their scatter, in the hammer's band (a minority)."""
+    if len(records) < 4:
+        return []
+    _, upper_hz = usable_band_hz(frf.freq_hz, frf.gff)
+    band = np.flatnonzero((frf.freq_hz >= RESONANCE_SEARCH_FROM_HZ) & (frf.freq_hz <= upper_hz))
+    per_hit = np.array([compute_frf(records[[index]], rate_hz, window).h1[band] for index in range(len(records))])
+    median = np.median(per_hit.real, axis=0) + 1j * np.median(per_hit.imag, axis=0)
+    distance = np.median(np.abs(per_hit - median) / np.maximum(np.abs(median), 1e-300), axis=1)
+    outliers = np.flatnonzero(distance > OUTLIER_DISTANCE * np.median(distance))
+    return [int(i) for i in outliers] if 0 < outliers.size <= OUTLIER_SHARE * len(records) else []
 
 
 #: Below its first resonance a mover on a film rises as ω² (log-log slope 2); a slope under this is a mass line.
