@@ -184,3 +184,20 @@ def test_a_start_is_read_past_a_spliced_hit_that_spoils_the_coherence(recorded):
     assert "read from 3 of 4 hits: hits 2 differ from the others" in text
     film_k = spec.film_parameters["k"]
     assert abs(read.film_parameters["k"] / film_k - 1) < 0.05
+
+
+def test_an_interference_spike_away_from_the_impact_leaves_its_hit_out(recorded):
+    """A solenoid's kick in the accelerometer cable, 0.2 s after one hit's impact (through a steep low-pass like the
+    ADC's): that hit is left out with a note; the untouched hits have none."""
+    from scipy import signal
+
+    recordings, _ = recorded
+    records = recordings.records.copy()
+    at = int(0.2 * recordings.sample_rate_hz)
+    kick = np.zeros(records.shape[-1])
+    kick[at] = 4.0
+    records[2, 1] += signal.lfilter(signal.firwin(63, 0.9), 1.0, kick)
+    spectra = hit_spectra(records, recordings.sample_rate_hz)
+    notes = {note.kind: note for note in spectra.quality}
+    assert notes["spikes"].hits == (2,) and list(spectra.hit_numbers) == [0, 1, 3]
+    assert "spikes" not in {note.kind for note in hit_spectra(recordings.records, recordings.sample_rate_hz).quality}

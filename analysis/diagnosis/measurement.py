@@ -379,6 +379,36 @@ def _given_band(
     return low, high, note
 
 
+#: Spikes: the response above this fraction of the sample rate (above any hammer band), outside the pulse, standing
+#: this many robust noise deviations above the hit's own level and above the hits' common (hit-locked) level.
+SPIKE_BAND_FRACTION = 0.3
+SPIKE_NOISE_FACTOR = 20.0
+SPIKE_LOCKED_FACTOR = 10.0
+SPIKE_BLOCK = 128
+
+
+def spiked_hits(records: np.ndarray, extents: list[tuple[int, int, int]], sample_rate_hz: float) -> list[int]:
+    """Hits whose response carries an impulsive spike not locked to the impact (electrical interference: a relay, a
+    solenoid, a loose connector): a burst above the hammer's band, away from the pulse, that the other hits do not
+    have at that time (a structure's own ringing after the pulse is in every hit)."""
+    if len(records) < 3:
+        return []
+    sos = scipy.signal.butter(4, SPIKE_BAND_FRACTION * sample_rate_hz, "highpass", fs=sample_rate_hz, output="sos")
+    high = np.abs(scipy.signal.sosfiltfilt(sos, records[:, 1], axis=-1))
+    # the noise level where each sample is (blocks of SPIKE_BLOCK samples: records may come windowed, the noise
+    # falling along them), robust to the spike itself
+    blocks = -(-high.shape[1] // SPIKE_BLOCK)
+    padded = np.pad(high, ((0, 0), (0, blocks * SPIKE_BLOCK - high.shape[1])), mode="edge")
+    block_level = np.median(padded.reshape(len(high), blocks, SPIKE_BLOCK), axis=2)
+    noise = 1.4826 * np.repeat(block_level, SPIKE_BLOCK, axis=1)[:, : high.shape[1]] + 1e-300
+    locked = np.median(high, axis=0, keepdims=True)
+    spiky = (high > SPIKE_NOISE_FACTOR * noise) & (high > SPIKE_LOCKED_FACTOR * locked)
+    guard = int(0.005 * sample_rate_hz)
+    for row, (start, _, end) in zip(spiky, extents):
+        row[max(start - guard, 0) : end + guard] = False
+    return [int(i) for i in np.flatnonzero(spiky.any(axis=1))]
+
+
 def _band_text(low_hz: float, high_hz: float) -> str:
     return f"{low_hz:.0f}–{high_hz:.0f} Hz"
 
@@ -461,8 +491,19 @@ def hit_spectra(
             f"response was clipped before the ADC's filter (a sensor or conditioner overload); they were left out — "
             f"a property of the recording, not physics",
             hits=tuple(ceiling_hits)))
+    clean = [index for index in range(hit_count) if index not in double_hits + clipped_hits]
+    spiked = [] if coarse_response else [clean[i] for i in spiked_hits(records[clean], [extents[i] for i in clean],
+                                                                        sample_rate_hz)]
+    if spiked and len(clean) - len(spiked) >= MIN_SCATTER_HITS:
+        quality.append(QualityNote(
+            "spikes", f"{len(spiked)} hit(s) carry impulsive spikes in the response away from the impact, not in the "
+            f"other hits at that time (electrical interference: a relay, a valve, a loose connector, or a record "
+            f"spliced after lost samples); they were left out — a property of the recording, not physics",
+            hits=tuple(spiked)))
+    else:
+        spiked = []
     keep = np.ones(hit_count, bool)
-    keep[double_hits + clipped_hits] = False
+    keep[double_hits + clipped_hits + spiked] = False
     used = np.flatnonzero(keep)
     if used.size < 2:
         raise SettingError(f"diagnosis records: only {used.size} usable hit(s) after quality checks; at least 2 needed")
