@@ -155,6 +155,11 @@ def test_a_level_off_by_g_is_said_and_a_per_hit_gain_is_told_from_a_change_of_sh
     notes = _level_note(evidence_for(hit_spectra(in_g, recordings.sample_rate_hz), spec), spec)
     assert notes and "ratio of g to m/s²" in notes[0].message
     assert not _level_note(evidence_for(hit_spectra(recordings.records, recordings.sample_rate_hz), spec), spec)
+    velocity = recordings.records.copy()  # a vibrometer's velocity (m/s) recorded as m/s²: the FRF goes as 1/f
+    velocity[:, 1] = np.cumsum(velocity[:, 1], axis=-1) / recordings.sample_rate_hz
+    velocity[:, 1] -= velocity[:, 1, :1]
+    notes = _level_note(evidence_for(hit_spectra(velocity, recordings.sample_rate_hz), spec), spec)
+    assert notes and "a velocity recorded as an acceleration" in notes[0].message
 
     gains = np.array([1.0, 0.96, 1.03, 0.93])
     scaled = recordings.records.copy()

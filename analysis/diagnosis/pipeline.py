@@ -747,23 +747,34 @@ def _unexplained(
 LEVEL_RATIO_NOTE = 2.0
 #: standard gravity (m/s² per g): a sensitivity entered per g as per m/s² (or the reverse) scales the FRF by it
 STANDARD_GRAVITY_M_S2 = 9.80665
+#: The measured-over-spec ratio's log-log slope that names a wrong quantity (velocity or displacement recorded as an
+#: acceleration), within RATIO_SLOPE_TOLERANCE.
+RATIO_SLOPES = ((-1.0, "a velocity recorded as an acceleration (a vibrometer's or a velocity sensor's output?)"),
+                (-2.0, "a displacement recorded as an acceleration"))
+RATIO_SLOPE_TOLERANCE = 0.2
 
 
 def _level_note(evidence: Evidence, spec: RigSpec) -> list[QualityNote]:
     """A note when the measured FRF's level is far from the given spec's over most of the band (the median ratio of
-    magnitudes): beyond what a film or a mass change does, it points at the sensors' sensitivities or units."""
+    magnitudes), or their ratio rises or falls with frequency as f or 1/f would: beyond what a film or a mass change
+    does, it points at the sensors' sensitivities, units or quantity."""
     measured, _ = evidence.spectra.mean()
-    ratio = float(np.median(np.abs(measured) / np.maximum(np.abs(evidence.mean_prediction(spec)), 1e-300)))
-    if 1 / LEVEL_RATIO_NOTE <= ratio <= LEVEL_RATIO_NOTE:
+    ratio_per_line = np.abs(measured) / np.maximum(np.abs(evidence.mean_prediction(spec)), 1e-300)
+    ratio = float(np.median(ratio_per_line))
+    slope = float(np.polyfit(np.log(evidence.freq_hz), np.log(np.maximum(ratio_per_line, 1e-300)), 1)[0])
+    quantity = next((words for power, words in RATIO_SLOPES if abs(slope - power) < RATIO_SLOPE_TOLERANCE), "")
+    if 1 / LEVEL_RATIO_NOTE <= ratio <= LEVEL_RATIO_NOTE and not quantity:
         return []
     factor = max(ratio, 1 / ratio)
     units = (f"; {factor:.2f}× is the ratio of g to m/s² (a sensitivity entered per g as per m/s², or the reverse)"
              if abs(factor / STANDARD_GRAVITY_M_S2 - 1) < 0.05 else "")
+    if quantity:
+        units += f"; the ratio goes as f^{slope:.2f} across the band: {quantity}"
     return [QualityNote(
         "level",
-        f"the measured FRF is {ratio:.3g}× the spec's over most of the band ({'above' if ratio > 1 else 'below'} it by "
-        f"{factor:.3g}×, median of the magnitude ratios): check the sensors' sensitivities and units, and the spec's "
-        f"mass, before reading physics into it{units}")]
+        f"the measured FRF is {ratio:.3g}× the spec's over most of the band (median of the magnitude ratios): check "
+        f"the sensors' sensitivities, units and quantities, and the spec's mass, before reading physics into it"
+        f"{units}")]
 
 
 def _hits_in(spectra: HitSpectra, per_point: np.ndarray) -> list[int]:
