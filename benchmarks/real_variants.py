@@ -28,13 +28,17 @@ GAIN = 1.03
 MAINS_HZ = 50.0
 
 
-def variants(records: np.ndarray) -> dict[str, np.ndarray]:
-    """The untouched records and the four variants (hits, force/response, samples)."""
+def variants(records: np.ndarray, record_s: float | None = None) -> dict[str, np.ndarray]:
+    """The untouched records and the four variants (hits, force/response, samples), cut to ``record_s`` after they
+    are made. The delay is ``e^{-jωτ}`` on the response spectrum of the record zero-padded to twice its length, so
+    that the ringing at the record's end is not wrapped round into its start (a circular fractional delay spreads
+    that jump over the whole record), and it is made before the cut."""
     n_samples = records.shape[-1]
-    freq_hz = np.fft.rfftfreq(n_samples, 1.0 / RATE_HZ)
+    padded = 2 * n_samples
+    freq_hz = np.fft.rfftfreq(padded, 1.0 / RATE_HZ)
     delayed = records.copy()
-    delayed[:, 1] = np.fft.irfft(np.fft.rfft(records[:, 1], axis=1) * np.exp(-2j * np.pi * freq_hz * DELAY_S),
-                                 n_samples, axis=1)
+    delayed[:, 1] = np.fft.irfft(np.fft.rfft(records[:, 1], padded, axis=1) * np.exp(-2j * np.pi * freq_hz * DELAY_S),
+                                 padded, axis=1)[:, :n_samples]
     leaking = records.copy()
     leaking[:, 1] += LEAK_M_S2_PER_N * records[:, 0]
     scaled = records.copy()
@@ -46,8 +50,10 @@ def variants(records: np.ndarray) -> dict[str, np.ndarray]:
         phase = rng.uniform(0, 2 * np.pi)
         hit[0] += 0.05 * np.sin(2 * np.pi * MAINS_HZ * time_s + phase)
         hit[1] += 0.5 * np.sin(2 * np.pi * MAINS_HZ * time_s + phase + 0.3)
-    return {"untouched": records, "delay 10 µs": delayed, "cross-talk 0.05 (m/s²)/N": leaking,
-            "gain +3 %": scaled, "mains 50 Hz": mains}
+    cut = n_samples if record_s is None else int(round(record_s * RATE_HZ))
+    return {name: data[:, :, :cut] for name, data in (
+        ("untouched", records), ("delay 10 µs", delayed), ("cross-talk 0.05 (m/s²)/N", leaking),
+        ("gain +3 %", scaled), ("mains 50 Hz", mains))}
 
 
 def row(name: str, diagnosis, seconds: float) -> str:
@@ -72,13 +78,12 @@ def main() -> None:
 def table(record_s: float) -> None:
     """Print the table of one record length."""
     records = np.stack([np.load(FIXTURE / f"measurements_{i}.npy") for i in range(1, 6)])[:, 1:]
-    records = records[:, :, : int(round(record_s * RATE_HZ))]
     print(f"\n{record_s:g} s records\n")
     print("| recording | verdict | findings | candidate descriptions (not findings) | not explained (Hz) | noise | "
           "quality | χ²/point before → after | time |")
     print("| --- | --- | --- | --- | --- | --- | --- | --- | --- |")
     written = None
-    for name, data in variants(records).items():
+    for name, data in variants(records, record_s).items():
         started = time.monotonic()
         diagnosis = diagnose(Recordings(data, RATE_HZ, np.arange(5.0), None, None, None, name), written)
         print(row(name + (" (start read off the FRF)" if written is None else ""), diagnosis,

@@ -24,9 +24,9 @@ from typing import Callable
 import numpy as np
 import scipy.stats
 
-from gasfilm.analysis.diagnosis.candidates import CANDIDATES, EQUIVALENT, separating_measurement
+from gasfilm.analysis.diagnosis.candidates import EQUIVALENT, candidates_for, separating_measurement
 from gasfilm.analysis.diagnosis.fitspace import fit_context, spec_slots, without_effect
-from gasfilm.analysis.diagnosis.measurement import HitSpectra, contiguous_bands, weighted_mean
+from gasfilm.analysis.diagnosis.measurement import HitSpectra, QualityNote, contiguous_bands, weighted_mean
 from gasfilm.analysis.diagnosis.modes import unmodelled_resonances_hz
 from gasfilm.analysis.diagnosis.parallel import shared_map
 from gasfilm.analysis.diagnosis.restoring import RestoringForce
@@ -47,7 +47,7 @@ from gasfilm.analysis.diagnosis.selection import (
 )
 from gasfilm.analysis.physics.effects import FitContext
 from gasfilm.analysis.physics.response import simulate_response
-from gasfilm.analysis.physics.spec import RigSpec
+from gasfilm.analysis.physics.spec import DescriptionError, RigSpec
 from gasfilm.analysis.threads import one_blas_thread
 from gasfilm.drivers.errors import GasfilmError
 
@@ -118,10 +118,20 @@ def diagnose_spectra(
     spec: RigSpec,
     progress: Callable[[str], None] = _silent,
     restoring: RestoringForce | None = None,
+    structure_read_off_frf: bool = False,
+    recording: str = "these recordings",
 ) -> Diagnosis:
     """Diagnose per-hit spectra against a rig spec; ``restoring`` (the film's restoring force from the same hits)
-    chooses among the amplitude-dependent terms and characterises what they leave unexplained."""
+    chooses among the amplitude-dependent terms and characterises what they leave unexplained.
+
+    ``structure_read_off_frf``: the spec's structure modes are a start read off these recordings' FRF, which the
+    recalibration finishes. A given spec's structure modes are its description of the structure and are held: freed,
+    their complex constants would take up a channel delay, a leak or a gain mode by mode (:func:`_recalibration_slots`).
+    A spec's recorded description error (``[description_error]``) is taken into the noise model
+    (:func:`_with_description_error`); the spec written records its own (``recording`` names the recordings there)."""
     started = time.monotonic()
+    measured = spectra
+    spectra = _with_description_error(spectra, spec)
     context = fit_context(spec, spectra.conditions, (float(spectra.freq_hz[0]), float(spectra.freq_hz[-1])))
     evidence = evidence_for(spectra, spec)
     points = evidence.point_count
@@ -130,7 +140,7 @@ def diagnose_spectra(
     progress(f"compared {evidence.hit_count} hits on {len(evidence.freq_hz)} frequencies "
              f"{evidence.freq_hz[0]:.0f}–{evidence.freq_hz[-1]:.0f} Hz: χ²/point {chi2_given / points:.2f}")
 
-    own_slots = spec_slots(spec, context, recalibration=True)
+    own_slots = spec_slots(spec, context, recalibration=structure_read_off_frf)
     recalibrated = _settle_quantised_replay(spectra, fit(evidence, spec, own_slots))
     recalibration_significant = chi2_given - recalibrated.chi2 > len(own_slots) * np.log(points) + BIC_MARGIN
     if recalibration_significant:
@@ -192,7 +202,8 @@ def diagnose_spectra(
         chi2_per_point_after=chi2_after / points,
         given=spec,
         recalibrated=recalibrated_spec,
-        improved=current.spec,
+        improved=current.spec.with_description_error(
+            _description_error(measured, current.spec, unexplained, spec.description_error, recording)),
         spectra=spectra,
         evidence=evidence,
         wall_time_s=time.monotonic() - started,
@@ -202,6 +213,57 @@ def diagnose_spectra(
     logger.info("diagnosis: %s, %d finding(s), %d unexplained band(s), χ²/point %.2f → %.2f", verdict, len(findings),
                 len(unexplained), diagnosis.chi2_per_point_before, diagnosis.chi2_per_point_after)
     return diagnosis
+
+
+def _with_description_error(spectra: HitSpectra, spec: RigSpec) -> HitSpectra:
+    """The spectra with the spec's recorded description error added to every hit's noise variance (the systematic
+    difference the spec is known to leave, as a model-discrepancy term: a difference the same in every hit adds its
+    power to each hit's expected |H_i − H_spec|²), and a quality note saying so; unchanged without one."""
+    error = spec.description_error
+    if error is None or spectra.replay is None:
+        return spectra
+    power = error.power(spectra.freq_hz)
+    if not np.any(power > 0):
+        return spectra
+    replay = dataclasses.replace(spectra.replay, measured_variance=spectra.replay.measured_variance + power,
+                                 nonlinear_cache={}, damped_force_padded=spectra.replay.damped_force_padded)
+    covered = spectra.freq_hz[power > 0]
+    note = QualityNote("description error", (
+        f"the spec records how far it is from the recording it was written from ('{error.recording}', χ²/point "
+        f"{error.chi2_per_point:.2f} there) in {covered[0]:.0f}–{covered[-1]:.0f} Hz: that systematic error is "
+        f"taken into the noise model, so a change smaller than it cannot be seen there"),
+        (float(covered[0]), float(covered[-1])))
+    return dataclasses.replace(spectra, variance=spectra.variance + power, replay=replay,
+                               quality=[*spectra.quality, note])
+
+
+def _description_error(
+    measured: HitSpectra, spec: RigSpec, unexplained: list[Unexplained], previous: DescriptionError | None,
+    recording: str,
+) -> DescriptionError | None:
+    """What the written spec records of its own description error on these recordings: in the bands it leaves
+    unexplained, the power of the systematic difference between the recorded and the replayed H1 beyond the noise of
+    H1 (5 lines smoothed, as the bands are found); elsewhere the error the given spec recorded, if any."""
+    if not unexplained or measured.replay is None:
+        return previous
+    freq_hz = measured.freq_hz
+    power = previous.power(freq_hz) if previous is not None else np.zeros(freq_hz.size)
+    difference = replayed_mean(measured, None) - replayed_mean(measured, spec)
+    mean_variance = 1.0 / np.sum(1.0 / measured.replay.measured_variance, axis=0)
+    excess = np.convolve(np.clip(np.abs(difference) ** 2 - mean_variance, 0.0, None), np.ones(5) / 5, mode="same")
+    for item in unexplained:
+        lines = _band_lines(freq_hz, item.band_hz)
+        power[lines] = excess[lines]
+    if not np.any(power > 0):
+        return previous
+    keep = power > 0
+    keep[1:] |= power[:-1] > 0  # a zero either side of a band ends it in the interpolation
+    keep[:-1] |= power[1:] > 0
+    evidence = evidence_for(measured, spec)
+    chi2_per_point = evidence.chi2(spec) / evidence.point_count
+    return DescriptionError(tuple(float(f) for f in freq_hz[keep]),
+                            tuple(float(f"{v:.4g}") for v in np.sqrt(power[keep])), round(chi2_per_point, 3),
+                            recording)
 
 
 def _settle_quantised_replay(spectra: HitSpectra, outcome: FitOutcome) -> FitOutcome:
@@ -242,7 +304,7 @@ def _select_one(
     present = {effect.type_name for effect in current.spec.effects}
     noise_scale = _noise_scale(current, points)
     trials = []
-    identifiers = [identifier for identifier in CANDIDATES
+    identifiers = [identifier for identifier in candidates_for(current.spec)
                    if identifier not in present
                    and not (identifier in ("drift", "step-change") and context.session_span_s <= 0)
                    and not (identifier in AMPLITUDE_TERMS and restoring is not None
