@@ -24,7 +24,7 @@ from typing import Callable
 import numpy as np
 import scipy.stats
 
-from gasfilm.analysis.diagnosis.candidates import EQUIVALENT, candidates_for, separating_measurement
+from gasfilm.analysis.diagnosis.candidates import EQUIVALENT, candidates_for, gain_is_not_a_mass, separating_measurement
 from gasfilm.analysis.diagnosis.fitspace import fit_context, spec_slots, without_effect
 from gasfilm.analysis.diagnosis.measurement import HitSpectra, QualityNote, contiguous_bands, weighted_mean
 from gasfilm.analysis.diagnosis.modes import unmodelled_resonances_hz
@@ -729,7 +729,7 @@ def _finding(
 
 def _alternatives(identifier: str, close: list[str], spec: RigSpec, index: int) -> list[Alternative]:
     alternatives = []
-    if identifier in EQUIVALENT:
+    if identifier in EQUIVALENT and not gain_is_not_a_mass(spec):
         other, measurement = EQUIVALENT[identifier]
         mass_kg = getattr(spec.effects[index], "mass_kg", 0.0)
         fraction = -mass_kg / (spec.moving_mass_kg) if mass_kg else 0.0

@@ -114,7 +114,8 @@ class DescriptionError:
     recording: str
 
     def power(self, freq_hz: np.ndarray) -> np.ndarray:
-        """The systematic error's power |ΔH|² ((m/s²)/N)² at ``freq_hz``, interpolated, 0 outside the listed bands."""
+        """The systematic error's power |ΔH|² ((m/s²)/N)² at ``freq_hz``, interpolated, 0 outside the listed
+        bands."""
         return np.interp(freq_hz, np.asarray(self.freq_hz), np.asarray(self.rms_m_s2_per_n) ** 2, left=0.0,
                          right=0.0)
 
@@ -427,7 +428,8 @@ def _description_error(table: Mapping[str, Any], source: str) -> DescriptionErro
     for key, unit, rule in (("freq_hz", "Hz", _within(1e-3, 1e6)), ("rms_m_s2_per_n", "(m/s²)/N", _within(0.0, 1e6))):
         values = table.get(key)
         if not isinstance(values, list) or len(values) > MAX_DESCRIPTION_LINES:
-            raise SettingError(f"{where} key '{key}': must be a list of at most {MAX_DESCRIPTION_LINES} numbers ({unit})")
+            raise SettingError(f"{where} key '{key}': must be a list of at most {MAX_DESCRIPTION_LINES} numbers "
+                               f"({unit})")
         lists[key] = tuple(_float_value(value, f"{where} key '{key}'", rule, unit) for value in values)
     if len(lists["freq_hz"]) != len(lists["rms_m_s2_per_n"]):
         raise SettingError(f"{where}: 'freq_hz' and 'rms_m_s2_per_n' must be equally long")
