@@ -175,6 +175,14 @@ def diagnose_spectra(
     findings = [_finding(evidence, step, current, refits_without[step.identifier], claims[step.identifier], context)
                 for step in steps]
     unexplained = _unexplained(spectra, evidence, current.spec, rejected, restoring)
+    if unexplained and not steps and not structure_read_off_frf:
+        redescribed = _redescribe_structure(spectra, evidence, current, context, progress)
+        if redescribed is not None:
+            current, evidence = redescribed
+            recalibration_significant = True
+            recalibrated_spec = current.spec
+            rms_recalibrated = replay_rms(spectra, recalibrated_spec)
+            unexplained = _unexplained(spectra, evidence, current.spec, rejected, restoring)
     chi2_after = current.chi2
     if unexplained:
         verdict = "partly explained" if findings else "not explained"
@@ -264,6 +272,28 @@ def _description_error(
     return DescriptionError(tuple(float(f) for f in freq_hz[keep]),
                             tuple(float(f"{v:.4g}") for v in np.sqrt(power[keep])), round(chi2_per_point, 3),
                             recording)
+
+
+def _redescribe_structure(
+    spectra: HitSpectra, evidence: Evidence, current: FitOutcome, context: FitContext,
+    progress: Callable[[str], None],
+) -> tuple[FitOutcome, Evidence] | None:
+    """When no term explains what a given spec leaves beyond the noise, the structure it describes may itself have
+    changed: its held parameters (structure modes) are fitted too, last — after every few-parameter explanation was
+    tried — and kept when the χ² gain pays their BIC cost. None when there is nothing held or it does not pay."""
+    if not any(type(effect).held_after_recalibration for effect in current.spec.effects):
+        return None
+    slots = spec_slots(current.spec, context, recalibration=True)
+    extra = len(slots) - len(current.slots)
+    refit = fit(evidence, current.spec, slots)
+    points = evidence.point_count
+    cost = extra * np.log(points) + BIC_MARGIN
+    progress(f"no term explains the rest: the structure's {extra} held parameter(s) fitted too, χ² {current.chi2:.0f} "
+             f"→ {refit.chi2:.0f} (needs a fall of {cost:.0f})")
+    if current.chi2 - refit.chi2 <= cost:
+        return None
+    evidence = evidence_for(spectra, refit.spec)
+    return fit(evidence, refit.spec, slots), evidence
 
 
 def _settle_quantised_replay(spectra: HitSpectra, outcome: FitOutcome) -> FitOutcome:
