@@ -250,15 +250,22 @@ def _description_error(
     recording: str,
 ) -> DescriptionError | None:
     """What the written spec records of its own description error on these recordings: in the bands it leaves
-    unexplained, the power of the systematic difference between the recorded and the replayed H1 beyond the noise of
-    H1 (5 lines smoothed, as the bands are found); elsewhere the error the given spec recorded, if any."""
+    unexplained, the power by which the recorded per-hit FRFs differ from the spec replayed hit by hit beyond their
+    noise, averaged over the hits (the mean difference and any scatter between hits the spec does not describe; 5
+    lines smoothed, as the bands are found); elsewhere the error the given spec recorded, if any. None for a spec
+    grossly beyond the noise (χ²/point above :data:`GROSS_CHI2_PER_POINT`): it describes nothing a change could be
+    measured against."""
     if not unexplained or measured.replay is None:
+        return previous
+    evidence = evidence_for(measured, spec)
+    chi2_per_point = evidence.chi2(spec) / evidence.point_count
+    if chi2_per_point > GROSS_CHI2_PER_POINT:
         return previous
     freq_hz = measured.freq_hz
     power = previous.power(freq_hz) if previous is not None else np.zeros(freq_hz.size)
-    difference = replayed_mean(measured, None) - replayed_mean(measured, spec)
-    mean_variance = 1.0 / np.sum(1.0 / measured.replay.measured_variance, axis=0)
-    excess = np.convolve(np.clip(np.abs(difference) ** 2 - mean_variance, 0.0, None), np.ones(5) / 5, mode="same")
+    replay = measured.replay
+    per_hit = np.abs(replay.measured_h - replayed_per_hit(measured, spec)) ** 2 - replay.measured_variance
+    excess = np.convolve(np.clip(per_hit.mean(axis=0), 0.0, None), np.ones(5) / 5, mode="same")
     for item in unexplained:
         lines = _band_lines(freq_hz, item.band_hz)
         power[lines] = excess[lines]
@@ -267,8 +274,6 @@ def _description_error(
     keep = power > 0
     keep[1:] |= power[:-1] > 0  # a zero either side of a band ends it in the interpolation
     keep[:-1] |= power[1:] > 0
-    evidence = evidence_for(measured, spec)
-    chi2_per_point = evidence.chi2(spec) / evidence.point_count
     return DescriptionError(tuple(float(f) for f in freq_hz[keep]),
                             tuple(float(f"{v:.4g}") for v in np.sqrt(power[keep])), round(chi2_per_point, 3),
                             recording)
