@@ -128,7 +128,8 @@ def diagnose_spectra(
     recalibration finishes. A given spec's structure modes are its description of the structure and are held: freed,
     their complex constants would take up a channel delay, a leak or a gain mode by mode (:func:`_recalibration_slots`).
     A spec's recorded description error (``[description_error]``) is taken into the noise model
-    (:func:`_with_description_error`); the spec written records its own (``recording`` names the recordings there)."""
+    (:func:`_with_description_error`), and no term is sought when the spec is within it: a term would describe the
+    spec's known error, not a change; the spec written records its own (``recording`` names the recordings there)."""
     started = time.monotonic()
     measured = spectra
     spectra = _with_description_error(spectra, spec)
@@ -157,7 +158,11 @@ def diagnose_spectra(
 
     steps: list[Step] = []
     rejected: list[CandidateDescription] = []
-    while len(steps) < MAX_TERMS:
+    within_known_error = spectra is not measured and not _unexplained(spectra, evidence, current.spec, [])
+    if within_known_error:
+        progress("within the noise and the spec's recorded description error: nothing changed that a term could "
+                 "describe, none is sought")
+    while len(steps) < MAX_TERMS and not within_known_error:
         accepted = _select_one(spectra, evidence, current, context, points, rejected, progress, restoring)
         if accepted is None:
             break
@@ -249,12 +254,12 @@ def _description_error(
     measured: HitSpectra, spec: RigSpec, unexplained: list[Unexplained], previous: DescriptionError | None,
     recording: str,
 ) -> DescriptionError | None:
-    """What the written spec records of its own description error on these recordings: in the bands it leaves
-    unexplained, the power by which the recorded per-hit FRFs differ from the spec replayed hit by hit beyond their
-    noise, averaged over the hits (the mean difference and any scatter between hits the spec does not describe; 5
-    lines smoothed, as the bands are found); elsewhere the error the given spec recorded, if any. None for a spec
-    grossly beyond the noise (χ²/point above :data:`GROSS_CHI2_PER_POINT`): it describes nothing a change could be
-    measured against."""
+    """What the written spec records of its own description error on these recordings when it leaves some of them
+    unexplained: at every analysis line, the power by which the recorded per-hit FRFs differ from the spec replayed
+    hit by hit beyond their noise, averaged over the hits (the mean difference and any scatter between hits the spec
+    does not describe; 5 lines smoothed, as the unexplained bands are found). With nothing unexplained, the error the
+    given spec recorded, if any. None for a spec grossly beyond the noise (χ²/point above
+    :data:`GROSS_CHI2_PER_POINT`): it describes nothing a change could be measured against."""
     if not unexplained or measured.replay is None:
         return previous
     evidence = evidence_for(measured, spec)
@@ -262,13 +267,9 @@ def _description_error(
     if chi2_per_point > GROSS_CHI2_PER_POINT:
         return previous
     freq_hz = measured.freq_hz
-    power = previous.power(freq_hz) if previous is not None else np.zeros(freq_hz.size)
     replay = measured.replay
     per_hit = np.abs(replay.measured_h - replayed_per_hit(measured, spec)) ** 2 - replay.measured_variance
-    excess = np.convolve(np.clip(per_hit.mean(axis=0), 0.0, None), np.ones(5) / 5, mode="same")
-    for item in unexplained:
-        lines = _band_lines(freq_hz, item.band_hz)
-        power[lines] = excess[lines]
+    power = np.convolve(np.clip(per_hit.mean(axis=0), 0.0, None), np.ones(5) / 5, mode="same")
     if not np.any(power > 0):
         return previous
     keep = power > 0
