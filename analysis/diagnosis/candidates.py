@@ -29,7 +29,6 @@ CANDIDATES: tuple[str, ...] = (
 )
 
 
-
 def candidates_for(spec: RigSpec) -> tuple[str, ...]:
     """The candidates for ``spec``: :data:`CANDIDATES`, and a sensitivity error when part of the spec's accelerance
     lies beside the mover (a measured structure's modes): a uniform gain then scales those parts too, which no mass

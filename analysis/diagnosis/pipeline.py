@@ -126,7 +126,8 @@ def diagnose_spectra(
 
     ``structure_read_off_frf``: the spec's structure modes are a start read off these recordings' FRF, which the
     recalibration finishes. A given spec's structure modes are its description of the structure and are held: freed,
-    their complex constants would take up a channel delay, a leak or a gain mode by mode (:func:`_recalibration_slots`).
+    their complex constants would take up a channel delay, a leak or a gain mode by mode; they are fitted last,
+    only when no term explains what the spec leaves (:func:`_redescribe_structure`).
     A spec's recorded description error (``[description_error]``) is taken into the noise model
     (:func:`_with_description_error`), and no term is sought when the spec is within it: a term would describe the
     spec's known error, not a change; the spec written records its own (``recording`` names the recordings there)."""
