@@ -83,6 +83,12 @@ AMPLITUDE_TERMS = ("cubic-stiffness", "friction", "quadratic-damping")
 #: ADEQUATE_CHI2_PER_POINT; a band is never held to less than that margin (the simulated rig's true spec leaves a
 #: wide band at 1.2–1.25, which the F test alone calls beyond the noise).
 OWN_BAND_FALSE_ALARM = 1e-3
+#: An added mass whose move of the mass line the written spec's measurement terms cancel to below this share is not
+#: seen at the mass line (:func:`_mass_line_unmoved`).
+MASS_LINE_SHARE = 0.5
+#: A term whose χ² gain is below this share of another term's is within that term's form error
+#: (:func:`_beside_a_larger_term`).
+MODEL_FORM_SHARE = 1e-3
 
 
 @dataclass
@@ -450,6 +456,10 @@ def _drop_unsupported_terms(
             if claims[step.identifier].reason is None:
                 claims[step.identifier].reason = _survives_left_out_data(spectra, evidence, current, step,
                                                                          refits_without[step.identifier], context)
+            if claims[step.identifier].reason is None:
+                claims[step.identifier].reason = _beside_a_larger_term(step, steps)
+            if claims[step.identifier].reason is None and step.identifier == "added-mass":
+                claims[step.identifier].reason = _mass_line_unmoved(spectra, current.spec)
         failing = [step for step in steps if claims[step.identifier].reason is not None][-1:]
         if not failing:  # (the latest failing term goes first: the others may stand once it is out)
             break
@@ -506,6 +516,49 @@ def _survives_left_out_data(
     hit_folds = held_out_gain(base_evidence, without, evidence, final.spec, context)
     step.held_out_band_gain = band_folds.gain / noise_scale
     return _unstable(band_folds, hit_folds, index, noise_scale, points)
+
+
+def _beside_a_larger_term(step: Step, steps: list[Step]) -> str | None:
+    """Why a term is within what a larger term's form may miss: a catalog term is a model of real physics, not the
+    physics itself, and what it leaves grows with the mismatch it removes; a term whose χ² gain is below
+    :data:`MODEL_FORM_SHARE` of another term's is not told apart from that term's form error."""
+    gain = step.chi2_before - step.chi2_after
+    larger = max(steps, key=lambda other: other.chi2_before - other.chi2_after)
+    larger_gain = larger.chi2_before - larger.chi2_after
+    if larger is step or gain >= MODEL_FORM_SHARE * larger_gain:
+        return None
+    return (f"its χ² gain ({gain:.0f}) is {100 * gain / larger_gain:.3f} % of the {larger.identifier}'s "
+            f"({larger_gain:.0f}), within what that term's form may miss of the real physics (below "
+            f"{100 * MODEL_FORM_SHARE:.1f} %): a correction to it, not told apart from its form error")
+
+
+def _mass_line_unmoved(spectra: HitSpectra, spec: RigSpec) -> str | None:
+    """Why an added mass is not seen where a mass shows: a mass added to the mover moves the mass line (the FRF
+    above the resonance, 1/m), but when a measurement term of the written spec (a force leaking into the response,
+    a sensitivity error) cancels most of that move there, the pair describes the response, not the mover. A
+    response that reads a share g of the film's force (an accelerometer's base-strain sensitivity: a + g·(F − m·a))
+    is exactly a cross-talk g with an added mass g·m²; these data cannot tell the two apart."""
+    index = _effect_index(spec, "added-mass")
+    chain = [i for i, effect in enumerate(spec.effects) if effect.kind == "measurement"]
+    if not chain:
+        return None
+    top = spectra.freq_hz >= spectra.freq_hz[0] + 0.75 * (spectra.freq_hz[-1] - spectra.freq_hz[0])
+    written = replayed_mean(spectra, spec)[top]
+    without_mass = replayed_mean(spectra, without_effect(spec, index))[top]
+    bare = spec
+    for i in sorted([index, *chain], reverse=True):
+        bare = without_effect(bare, i)
+    own = float(np.sqrt(np.mean(np.abs(written - without_mass) ** 2)))
+    net = float(np.sqrt(np.mean(np.abs(written - replayed_mean(spectra, bare)[top]) ** 2)))
+    if own <= 0 or net >= MASS_LINE_SHARE * own:
+        return None
+    names = " and ".join(sorted({spec.effects[i].type_name for i in chain}))
+    mass_kg = getattr(spec.effects[index], "mass_kg", 0.0)
+    return (f"the mass line does not move: above {spectra.freq_hz[top][0]:.0f} Hz the {names} beside it cancels "
+            f"{100 * (1 - net / own):.0f} % of what the added mass of {1e3 * mass_kg:.3g} g does to the FRF, and a "
+            f"mass on the mover would move it; together they describe the response, not the mover — e.g. a "
+            f"response that reads a share of the film's force (accelerometer base strain, a + g·(F − m·a)), which "
+            f"is exactly such a pair; these data cannot tell them apart")
 
 
 def _refit(spectra: HitSpectra, spec: RigSpec, recalibrated: RigSpec, context: FitContext) -> tuple[FitOutcome, Evidence]:
