@@ -45,7 +45,7 @@ from gasfilm.analysis.diagnosis.selection import (
     held_out_gain,
     model_function,
 )
-from gasfilm.analysis.physics.effects import FitContext
+from gasfilm.analysis.physics.effects import EFFECT_TYPES, FitContext
 from gasfilm.analysis.physics.response import simulate_response
 from gasfilm.analysis.physics.spec import RigSpec
 from gasfilm.analysis.threads import one_blas_thread
@@ -458,6 +458,8 @@ def _drop_unsupported_terms(
                                                                          refits_without[step.identifier], context)
             if claims[step.identifier].reason is None:
                 claims[step.identifier].reason = _beside_a_larger_term(step, steps)
+            if claims[step.identifier].reason is None:
+                claims[step.identifier].reason = _measurement_alternative(step)
             if claims[step.identifier].reason is None and step.identifier == "added-mass":
                 claims[step.identifier].reason = _mass_line_unmoved(spectra, current.spec)
         failing = [step for step in steps if claims[step.identifier].reason is not None][-1:]
@@ -530,6 +532,19 @@ def _beside_a_larger_term(step: Step, steps: list[Step]) -> str | None:
     return (f"its χ² gain ({gain:.0f}) is {100 * gain / larger_gain:.3f} % of the {larger.identifier}'s "
             f"({larger_gain:.0f}), within what that term's form may miss of the real physics (below "
             f"{100 * MODEL_FORM_SHARE:.1f} %): a correction to it, not told apart from its form error")
+
+
+def _measurement_alternative(step: Step) -> str | None:
+    """Why a rig term is not a finding when a measurement-chain term fits about as well: these data cannot tell
+    whether the rig or the measurement differs, and measurement properties are never claimed as physics."""
+    if EFFECT_TYPES[step.identifier].kind != "rig":
+        return None
+    chain = [other for other in step.alternatives if EFFECT_TYPES[other].kind == "measurement"]
+    if not chain:
+        return None
+    return (f"{' and '.join(chain)} in the measurement chain fits about as well (BIC within {ALTERNATIVE_MARGIN:.0f}): "
+            f"these data cannot tell whether the rig or the measurement differs — "
+            f"{separating_measurement(step.identifier, chain[0])} would")
 
 
 def _mass_line_unmoved(spectra: HitSpectra, spec: RigSpec) -> str | None:
