@@ -55,12 +55,12 @@ TIE_FRACTION = 0.2
 
 @dataclass
 class Shape:
-    """One shape of the restoring-force catalogue, fitted on top of the linear plane."""
+    """One shape of the restoring-force catalogue, fitted on top of the linear reference."""
 
     name: str
     term: str | None  # the catalog effect with this shape, or None
-    chi2_gain: float  # over the linear plane, in noise units per independent sample
-    share: float  # of the linear plane's misfit beyond the noise that this shape removes
+    chi2_gain: float  # over the linear reference, in noise units per independent sample
+    share: float  # of the linear reference's misfit beyond the noise that this shape removes
     coefficient: float
     unit: str
 
@@ -142,7 +142,7 @@ class RestoringForce:
         if best is None:
             top = self.shapes[0] if self.shapes else None
             detail = (f" (largest: {top.name}, χ² gain {top.chi2_gain:.0f}, {100 * top.share:.0f} % of the linear "
-                      f"plane's misfit)" if top else "")
+                      f"reference's misfit)" if top else "")
             return (f"the film's restoring force (F − m·a, {band}) is linear within the noise: no shape of the "
                     f"restoring-force catalogue stands out{detail}")
         close = self.close_to_best()
@@ -150,7 +150,7 @@ class RestoringForce:
         terms = sorted({shape.term for shape in close if shape.term})
         text = (f"the film's restoring force (F − m·a, {band}) has the shape of {names} (χ² gain "
                 f"{best.chi2_gain:.0f} over a linear film in noise units, significant above {SHAPE_SIGNIFICANCE:.0f}; "
-                f"{100 * best.share:.0f} % of the linear film's misfit)")
+                f"{100 * best.share:.0f} % of the linear reference's misfit)")
         if terms:
             return text + f"; the catalog term with that shape: {', '.join(terms)}"
         return text + "; no term of the catalog has that shape"
@@ -295,7 +295,8 @@ def restoring_force(
         fitted = _least_squares(np.column_stack((x, v, shape_basis)), r)  # the shape's own coefficient, as drawn
         variance = max(noise_n**2, rss / max(r.size - design.shape[1], 1))
         gain = (rss_reference - rss) / variance * independent / r.size
-        share = (rss_reference - rss) / max(rss_reference - r.size * noise_n**2, 1e-300)
+        excess = rss_reference - r.size * noise_n**2  # the reference's misfit beyond the noise (none: nothing to share)
+        share = (rss_reference - rss) / excess if excess > 0 else 0.0
         shapes.append(Shape(_named(name, fitted[2]), term if _term_sign_ok(term, fitted[2]) else None, gain,
                             float(np.clip(share, 0.0, 1.0)), float(fitted[2]), unit))
     shapes.sort(key=lambda shape: shape.chi2_gain, reverse=True)
