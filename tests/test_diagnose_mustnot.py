@@ -9,7 +9,7 @@ import numpy as np
 
 from gasfilm.analysis.diagnosis import diagnose
 from gasfilm.analysis.diagnosis.measurement import hit_spectra
-from gasfilm.analysis.diagnosis.pipeline import Step, _beside_a_larger_term, _measurement_alternative
+from gasfilm.analysis.diagnosis.pipeline import Claim, Step, _beside_a_larger_term, _measurement_alternative
 from gasfilm.analysis.physics.effects import CrossTalk, SensitivityError
 from gasfilm.analysis.physics.response import simulate_response
 
@@ -88,10 +88,14 @@ def _step(identifier: str, gain: float, alternatives: tuple[str, ...] = ()) -> S
 
 def test_a_term_within_a_larger_terms_form_error_is_no_finding():
     memory, lag = _step("film-memory", 7.2e5), _step("pneumatic-lag", 46.0)
-    assert "form error" in _beside_a_larger_term(lag, [memory, lag])
-    assert _beside_a_larger_term(memory, [memory, lag]) is None
+    quiet_without = Claim(0.994, 1.5, 0.06, None, own_band_without=0.998, own_band_chance=1.05)
+    assert "form error" in _beside_a_larger_term(lag, [memory, lag], quiet_without)
+    assert _beside_a_larger_term(memory, [memory, lag], quiet_without) is None
+    # small beside a large term, but its own band is beyond the noise without it: a second effect, kept
+    needed = Claim(1.0, 1.5, 0.5, None, own_band_without=1.44, own_band_chance=1.2)
+    assert _beside_a_larger_term(_step("film-memory", 287.0), [_step("added-mass", 4.7e5), lag], needed) is None
     mass = _step("added-mass", 480.0)  # 7 % of a channel delay's gain: a second effect, not a correction
-    assert _beside_a_larger_term(mass, [_step("channel-delay", 7.2e3), mass]) is None
+    assert _beside_a_larger_term(mass, [_step("channel-delay", 7.2e3), mass], quiet_without) is None
 
 
 def test_a_rig_term_that_a_measurement_term_fits_as_well_is_no_finding():

@@ -112,6 +112,8 @@ class Claim:
     own_band_limit: float
     gain_over_recalibrated: float
     reason: str | None
+    own_band_without: float = np.inf  # the own band's χ² per point of the written spec refitted without the term
+    own_band_chance: float = 0.0  # the χ² per point the noise reaches there by chance (1 in 1000)
 
 
 def _silent(message: str) -> None:
@@ -457,7 +459,7 @@ def _drop_unsupported_terms(
                 claims[step.identifier].reason = _survives_left_out_data(spectra, evidence, current, step,
                                                                          refits_without[step.identifier], context)
             if claims[step.identifier].reason is None:
-                claims[step.identifier].reason = _beside_a_larger_term(step, steps)
+                claims[step.identifier].reason = _beside_a_larger_term(step, steps, claims[step.identifier])
             if claims[step.identifier].reason is None:
                 claims[step.identifier].reason = _measurement_alternative(step)
             if claims[step.identifier].reason is None and step.identifier == "added-mass":
@@ -520,18 +522,21 @@ def _survives_left_out_data(
     return _unstable(band_folds, hit_folds, index, noise_scale, points)
 
 
-def _beside_a_larger_term(step: Step, steps: list[Step]) -> str | None:
-    """Why a term is within what a larger term's form may miss: a catalog term is a model of real physics, not the
-    physics itself, and what it leaves grows with the mismatch it removes; a term whose χ² gain is below
-    :data:`MODEL_FORM_SHARE` of another term's is not told apart from that term's form error."""
+def _beside_a_larger_term(step: Step, steps: list[Step], claim: Claim) -> str | None:
+    """Why a term removes no excess of its own: without it (the rest refitted) its own band is already within the
+    noise, and its χ² gain is below :data:`MODEL_FORM_SHARE` of another term's — a catalog term is a model of real
+    physics, not the physics itself, and what it leaves grows with the mismatch it removes: such a term is a
+    correction to the larger term's form, not told apart from its form error."""
     gain = step.chi2_before - step.chi2_after
     larger = max(steps, key=lambda other: other.chi2_before - other.chi2_after)
     larger_gain = larger.chi2_before - larger.chi2_after
-    if larger is step or gain >= MODEL_FORM_SHARE * larger_gain:
+    if (larger is step or gain >= MODEL_FORM_SHARE * larger_gain
+            or claim.own_band_without > claim.own_band_chance):
         return None
-    return (f"its χ² gain ({gain:.0f}) is {100 * gain / larger_gain:.3f} % of the {larger.identifier}'s "
-            f"({larger_gain:.0f}), within what that term's form may miss of the real physics (below "
-            f"{100 * MODEL_FORM_SHARE:.1f} %): a correction to it, not told apart from its form error")
+    return (f"without it its own band is already within the noise (χ²/point {claim.own_band_without:.2f}, what the "
+            f"noise reaches by chance: {claim.own_band_chance:.2f}), and its χ² gain ({gain:.0f}) is "
+            f"{100 * gain / larger_gain:.3f} % of the {larger.identifier}'s ({larger_gain:.0f}): a correction to the "
+            f"{larger.identifier}'s form, not told apart from its form error")
 
 
 def _measurement_alternative(step: Step) -> str | None:
@@ -627,23 +632,26 @@ def _claim(
     elif in_written <= 0:
         reason = (f"the written spec replayed is not closer to the recordings with it than refitted without it "
                   f"(RMS gain {in_written:+.2f} % of the recalibrated spec's)")
-    return Claim(after, limit, in_written, reason)
+    return Claim(after, limit, in_written, reason, before, own_band_chance(spectra, per_point, lines))
 
 
 def own_band_limit(spectra: HitSpectra, per_point: np.ndarray, lines: np.ndarray) -> float:
-    """The χ² per point above which a band (``lines`` of the analysis grid) is beyond the noise: beyond what the noise
-    gives by chance — the one-sided F test at :data:`OWN_BAND_FALSE_ALARM` with the band's real numbers and the noise
-    estimate's degrees of freedom, scaled by the level the spec reaches outside the band (clipped to 1 …
-    ADEQUATE_CHI2_PER_POINT) — and beyond the noise model's own systematic margin, ADEQUATE_CHI2_PER_POINT, the
-    margin the whole spec is held to (a band of many lines is not held to a stricter standard than the whole)."""
+    """The χ² per point above which a band is beyond the noise: :func:`own_band_chance`, never below
+    ADEQUATE_CHI2_PER_POINT (a band of many lines is not held to a stricter standard than the whole)."""
+    return max(own_band_chance(spectra, per_point, lines), ADEQUATE_CHI2_PER_POINT)
+
+
+def own_band_chance(spectra: HitSpectra, per_point: np.ndarray, lines: np.ndarray) -> float:
+    """The χ² per point a band (``lines`` of the analysis grid) reaches by chance: the one-sided F test at
+    :data:`OWN_BAND_FALSE_ALARM` with the band's real numbers and the noise estimate's degrees of freedom, scaled by
+    the level the spec reaches outside the band (clipped to 1 … ADEQUATE_CHI2_PER_POINT)."""
     band_dof = 2 * per_point.shape[0] * max(lines.size, 1)
     noise_dof = spectra.noise.degrees_of_freedom if spectra.noise is not None else 1e6
     outside = np.ones(per_point.shape[1], bool)
     outside[lines] = False
     rest = float(per_point[:, outside].mean()) if outside.any() else 1.0
     level = min(max(rest, 1.0), ADEQUATE_CHI2_PER_POINT)
-    chance = level * float(scipy.stats.f.isf(OWN_BAND_FALSE_ALARM, band_dof, max(noise_dof, 1.0)))
-    return max(chance, ADEQUATE_CHI2_PER_POINT)
+    return level * float(scipy.stats.f.isf(OWN_BAND_FALSE_ALARM, band_dof, max(noise_dof, 1.0)))
 
 
 def _effect_index(spec: RigSpec, identifier: str) -> int:
