@@ -23,6 +23,8 @@ force and response, so it cancels in the FRF; this is where pyFRF and OpenModal 
 
 from __future__ import annotations
 
+import os
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import asdict, dataclass, fields, replace
 from pathlib import Path
 from typing import Any, Mapping, Sequence
@@ -38,6 +40,11 @@ FRF_UNIT_SI = "(m/s^2)/N"
 _BLOCK_VALUES = 1 << 18
 #: Frequency lines per strip of a block whose spectra are combined at once (each pass over a strip stays in cache).
 _STRIP_LINES = 8192
+#: Blocks of at least this many complex values per channel are transformed and combined on two threads (numpy
+#: releases the GIL in its FFTs and array loops; smaller blocks would spend more on the hand-over than they save).
+_THREADED_VALUES = 1 << 17
+_THREADS = min(2, os.cpu_count() or 1)
+_thread_pool: ThreadPoolExecutor | None = None
 FRF_UNIT_G = "g/N"
 
 
@@ -334,7 +341,8 @@ class FrfAccumulator:
         self._sum_deviation = np.zeros(n_lines, complex)
         self._sum_deviation_sq = np.zeros(n_lines)
         self._h1_per_hit = np.empty((max(1, capacity_hits), n_lines), complex)
-        self._work: tuple[np.ndarray, ...] | None = None
+        self._spectra: tuple[np.ndarray, np.ndarray] | None = None
+        self._scratch: dict[int, tuple[np.ndarray, ...]] = {}
         # strips of about _STRIP_LINES, of equal width (no strip of a few lines that costs its calls for nothing)
         self._strip_lines = -(-n_lines // max(1, round(n_lines / _STRIP_LINES)))
         self.n_averages = 0
@@ -357,21 +365,29 @@ class FrfAccumulator:
             grown = np.empty((max(first + count, 2 * len(self._h1_per_hit)), self._h1_per_hit.shape[1]), complex)
             grown[:first] = self._h1_per_hit[:first]
             self._h1_per_hit = grown
-        force_fft, response_fft, *scratch = self._work_buffers(count)
-        np.fft.rfft(force, axis=-1, out=force_fft)
-        np.fft.rfft(response, axis=-1, out=response_fft)
+        force_fft, response_fft = self._spectra_buffers(count)
+        threads = _THREADS if count * force_fft.shape[1] >= _THREADED_VALUES else 1
+        transforms = ((force, force_fft), (response, response_fft))
+        _run_tasks(_rfft_into, transforms, threads)
         h1 = self._h1_per_hit[first : first + count]
-        with np.errstate(divide="ignore", invalid="ignore"):
-            if self._h1_reference is None:
+        if self._h1_reference is None:
+            with np.errstate(divide="ignore", invalid="ignore"):
                 self._h1_reference = response_fft[0] / force_fft[0]
-            # the sums line by line in strips of a few thousand lines, so that every pass over a strip stays in cache
-            for start in range(0, force_fft.shape[1], self._strip_lines):
-                lines = slice(start, start + self._strip_lines)
-                self._add_strip(lines, force_fft[:, lines], response_fft[:, lines], h1[:, lines], scratch)
+        # the sums line by line in strips of a few thousand lines, so that every pass over a strip stays in cache;
+        # each thread takes every other strip (the lines of two strips never overlap: the same sums, in any order)
+        strips = [slice(start, start + self._strip_lines) for start in range(0, force_fft.shape[1], self._strip_lines)]
+        jobs = [(strips[k::threads], self._scratch_buffers(k, count)) for k in range(threads)]
+        _run_tasks(lambda job: self._add_strips(job[0], force_fft, response_fft, h1, job[1]), jobs, threads)
         self.n_averages += count
 
+    def _add_strips(self, strips: list[slice], force_fft: np.ndarray, response_fft: np.ndarray, h1: np.ndarray,
+                    scratch: tuple[np.ndarray, ...]) -> None:
+        with np.errstate(divide="ignore", invalid="ignore"):  # numpy's error state is per thread
+            for lines in strips:
+                self._add_strip(lines, force_fft[:, lines], response_fft[:, lines], h1[:, lines], scratch)
+
     def _add_strip(self, lines: slice, force_fft: np.ndarray, response_fft: np.ndarray, h1: np.ndarray,
-                   scratch: list[np.ndarray]) -> None:
+                   scratch: tuple[np.ndarray, ...]) -> None:
         """Add a block of hits' spectra on the frequency ``lines`` to the sums, and their per-hit FRFs into ``h1``
         (``force_fft`` is overwritten)."""
         width = force_fft.shape[1]
@@ -391,16 +407,22 @@ class FrfAccumulator:
         self._sum_deviation[lines] += deviation.sum(axis=0)
         self._sum_deviation_sq[lines] += _summed_squared_magnitude(deviation)
 
-    def _work_buffers(self, count: int) -> tuple[np.ndarray, ...]:
-        """Spectra of a block of ``count`` hits and scratch strips, in buffers kept between blocks: fresh arrays of
+    def _spectra_buffers(self, count: int) -> tuple[np.ndarray, np.ndarray]:
+        """Force and response spectra of a block of ``count`` hits, in buffers kept between blocks: fresh arrays of
         this size would be mapped from the operating system, and zero-filled, on every block."""
-        if self._work is None or self._work[0].shape[0] < count:
+        if self._spectra is None or self._spectra[0].shape[0] < count:
             n_lines = len(self._sum_ff)
+            self._spectra = (np.empty((count, n_lines), complex), np.empty((count, n_lines), complex))
+        return self._spectra[0][:count], self._spectra[1][:count]
+
+    def _scratch_buffers(self, thread: int, count: int) -> tuple[np.ndarray, ...]:
+        """One thread's scratch strips for a block of ``count`` hits (powers, squared parts, deviations), kept."""
+        scratch = self._scratch.get(thread)
+        if scratch is None or scratch[0].shape[0] < count:
             strip = self._strip_lines
-            self._work = (np.empty((count, n_lines), complex), np.empty((count, n_lines), complex),
-                          np.empty((count, strip)), np.empty((count, strip)), np.empty((count, 2 * strip)),
-                          np.empty((count, strip), complex))
-        return tuple(buffer[:count] for buffer in self._work)
+            scratch = self._scratch[thread] = (np.empty((count, strip)), np.empty((count, strip)),
+                                               np.empty((count, 2 * strip)), np.empty((count, strip), complex))
+        return tuple(buffer[:count] for buffer in scratch)
 
     def add_hit(self, hit: Any) -> None:
         """Add a :class:`gasfilm.analysis.capture.HitRecord` (or stored hit) through its OWN force and response
@@ -454,6 +476,24 @@ class FrfAccumulator:
             h1_std_scatter=h1_std_scatter,
             window={**self.window.to_dict(), "decay_rate_1_s": float(decay_rate)},
         )
+
+
+def _rfft_into(transform: tuple[np.ndarray, np.ndarray]) -> None:
+    """The real FFT of the rows of ``transform[0]`` into ``transform[1]``."""
+    np.fft.rfft(transform[0], axis=-1, out=transform[1])
+
+
+def _run_tasks(task: Any, arguments: Sequence[Any], threads: int) -> None:
+    """``task`` on each of ``arguments``: in this thread, or on a pool of ``threads`` threads kept for the process."""
+    global _thread_pool
+    if threads <= 1:
+        for argument in arguments:
+            task(argument)
+        return
+    if _thread_pool is None:
+        _thread_pool = ThreadPoolExecutor(max_workers=_THREADS, thread_name_prefix="gasfilm-frf")
+    for _ in _thread_pool.map(task, arguments):  # re-raises a task's exception here
+        pass
 
 
 def _block_hits(n_samples: int) -> int:
