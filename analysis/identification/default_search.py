@@ -124,11 +124,16 @@ class Projection:
             if not np.all(np.isfinite(a)):
                 a = np.nan_to_num(a, nan=0.0, posinf=0.0, neginf=0.0)
             coefficients = self._solve(a)
-            # A branch whose best coefficient is negative is dropped and the others solved again.
+            # A branch whose best coefficient is negative is dropped and the others solved again (only the points
+            # that have one: the others' systems are unchanged)
             positive = coefficients > 0
-            if not np.all(positive):
-                a = a * positive[..., np.newaxis, :]
+            again = ~np.all(positive, axis=-1)
+            if a.ndim == 2 and again:
+                a = a * positive[np.newaxis, :]
                 coefficients = self._solve(a)
+            elif np.any(again):
+                a[again] *= positive[again][..., np.newaxis, :]
+                coefficients[again] = self._solve(a[again])
             valid = np.isfinite(coefficients) & (coefficients > 0)
             residual = (a @ np.where(valid, coefficients, 0.0)[..., np.newaxis])[..., 0] - self.target
             log_coefficients = np.log(np.where(valid, coefficients, 1.0))
