@@ -1,7 +1,10 @@
 """Replay benchmark: 100 hits × 2 channels × 65 536 samples → averaged FRF (rectangular windows), next to pyFRF.
 
-Goal (issue 3): gasfilm's ``compute_frf`` in at most 0.5 s and not slower than pyFRF on the same data in the same
-run. Both compute H1, H2 and coherence; gasfilm also keeps the per-hit FRFs and both uncertainties. Run:
+Goals: gasfilm's ``compute_frf`` in at most 0.5 s (issue 3) and at least 2× faster than pyFRF on the same data in the
+same run (issue 18), with the same H1, H2 and coherence to 1e-9. Both compute H1, H2 and coherence; gasfilm also keeps
+the per-hit FRFs and both uncertainties. gasfilm transforms each block of hits on a second thread while it combines
+the block before, so its wall time uses up to two cores; the CPU-time ratio printed beside it is the one-core
+comparison. Measured on the shared 2-core AMD EPYC VM: see the README's benchmark table. Run:
 ``.venv/bin/python benchmarks/bench_replay.py [--hits 100] [--samples 65536] [--repeats 5]``.
 """
 
@@ -86,8 +89,8 @@ def main() -> None:
           f"{best_cpu['gasfilm']:.3f} s vs {best_cpu['pyFRF']:.3f} s: {best_cpu['pyFRF'] / best_cpu['gasfilm']:.2f} x; "
           f"load average {os.getloadavg()[0]:.1f})")
     print(f"  max relative difference of H1, H2, coherence vs pyFRF: {difference:.2e}")
-    verdict = "met" if ours_s <= 0.5 and ours_s <= theirs_s else "NOT met"
-    print(f"  goal {verdict}")
+    verdict = "met" if ours_s <= 0.5 and ours_s * 2 <= theirs_s and difference <= 1e-9 else "NOT met"
+    print(f"  goal (<= 0.5 s, >= 2x pyFRF in wall time, equal to 1e-9) {verdict}")
 
 
 if __name__ == "__main__":
