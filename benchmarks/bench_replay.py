@@ -19,6 +19,7 @@ from pyFRF import FRF
 
 from gasfilm.analysis.physics.elements import PAPER_MASS_KG, PAPER_MODELS, PAPER_TABLE1, accelerance
 from gasfilm.analysis.spectra import compute_frf
+from machine import machine_line  # benchmarks/machine.py
 
 SAMPLE_RATE_HZ = 51_200.0 / 4
 
@@ -82,6 +83,7 @@ def main() -> None:
         for a, b in ((ours.h1, h1), (ours.h2, h2), (ours.coherence, coherence))
     )
     size = f"{args.hits} hits x 2 channels x {args.samples} samples"
+    print(machine_line())
     print(f"replay of {size} -> averaged FRF (rectangular windows), best of {args.repeats} interleaved runs")
     print(f"  gasfilm compute_frf : {ours_s:8.3f} s  (goal <= 0.5 s)")
     print(f"  pyFRF 1.5           : {theirs_s:8.3f} s")
