@@ -138,3 +138,33 @@ def test_diagnose_of_a_damaged_uff_file_says_one_line(tmp_path, capsys):
     empty.write_text("")
     err = one_line_error(capsys, "diagnose", empty, "--mass", "25", "--out", tmp_path / "d")
     assert f"{empty}: empty UFF file" in err and "conditions" not in err
+
+
+def test_diagnose_refuses_a_band_the_records_cannot_support_and_says_what_it_changed(session_path, tmp_path, capsys):
+    """A band above the hammer's, or narrower than a few lines, is refused in one line naming --band as typed; a band
+    from 0 Hz or reaching past the alias-free top is used from the first line to 0.4·fs, with a note saying so."""
+    err = one_line_error(capsys, "diagnose", session_path, "--band", "5000:6000", "--out", tmp_path / "a")
+    assert "--band 5000:6000: the hammer excites only up to" in err
+    err = one_line_error(capsys, "diagnose", session_path, "--band", "100:101", "--out", tmp_path / "b")
+    assert "--band 100:101: fewer than 8 frequency lines" in err
+    status, out, err = gasfilm(capsys, "diagnose", session_path, "--band", "0:1e9", "--json", "--out", tmp_path / "c")
+    assert status == 0, err
+    result = json.loads(out)
+    notes = {note["kind"]: note["message"] for note in result["quality"]}
+    assert "--band 0:1e+09: its top is capped at 0.4·fs" in notes["band"] and "20 dB down" in notes["band"]
+
+
+def test_diagnose_of_one_hit_or_of_no_force_says_so_naming_the_file(session_path, tmp_path, capsys):
+    with Session.open(session_path) as session:
+        force_n, response_m_s2 = session.accepted_records()[0]
+        time_s = np.arange(force_n.size) / session.sample_rate_hz
+    record = np.vstack((time_s, force_n, response_m_s2))
+    one_hit = tmp_path / "hit1.npy"
+    np.save(one_hit, record)
+    err = one_line_error(capsys, "diagnose", one_hit, "--mass", "25", "--out", tmp_path / "a")
+    assert f"{one_hit}: only 1 hit; the diagnosis compares at least 2 hits" in err
+    no_force = [tmp_path / f"hit{i}.npy" for i in range(3)]
+    for path in no_force:
+        np.save(path, record * np.array([[1.0], [0.0], [1.0]]))
+    err = one_line_error(capsys, "diagnose", *no_force, "--mass", "25", "--out", tmp_path / "b")
+    assert "the force records are all zero" in err

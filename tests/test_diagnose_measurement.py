@@ -101,3 +101,103 @@ def test_two_hits_are_said_to_be_too_few_for_a_verdict(recorded):
     assert "only 2 usable hits" in notes["few hits"] and "provisional" in notes["few hits"]
     assert "few hits" not in {note.kind for note in hit_spectra(recordings.records[:3],
                                                                 recordings.sample_rate_hz).quality}
+
+
+def test_response_clipped_before_the_adc_filter_is_an_overload(recorded):
+    """A sensor overloaded before the ADC's filter leaves no flat run of samples, but a ceiling: the hits whose
+    response would have passed the level all peak at it, whatever their force. They are left out as overloads; the same
+    hits unclipped, and hits whose forces are all alike, are not."""
+    recordings, _ = recorded
+    from scipy import signal
+
+    levels = np.array([0.8, 0.9, 1.0, 1.1, 1.2, 1.3, 1.4, 1.5])
+    hits = np.array([recordings.records[index % 4] * level for index, level in enumerate(levels)])
+    peaks = np.max(hits[:, 1], axis=1)
+    ceiling = 1.05 * np.median(peaks)
+    filter_taps = signal.firwin(63, 0.9)  # a steep low-pass near 0.45 fs, as the ADC's
+    clipped = hits.copy()
+    clipped[:, 1] = signal.lfilter(filter_taps, 1.0, np.minimum(hits[:, 1], ceiling), axis=-1)
+    filtered = hits.copy()
+    filtered[:, 1] = signal.lfilter(filter_taps, 1.0, hits[:, 1], axis=-1)
+
+    spectra = hit_spectra(clipped, recordings.sample_rate_hz)
+    notes = {note.kind: note for note in spectra.quality}
+    over = [int(i) for i in np.flatnonzero(peaks > ceiling)]
+    assert list(notes["overload"].hits) == over and "whatever their force" in notes["overload"].message
+    assert list(spectra.hit_numbers) == [i for i in range(levels.size) if i not in over]
+    assert "overload" not in {note.kind for note in hit_spectra(filtered, recordings.sample_rate_hz).quality}
+
+
+def test_slow_motion_and_a_settling_offset_are_neither_truncation_nor_floor_vibration(recorded):
+    """Hits on a mover scanning slowly (0.7 Hz, through the AC coupling) and records starting with the IEPE bias still
+    settling (an offset decaying over 0.32 s): the responses have decayed all the same, and a decaying offset is not a
+    narrowband line."""
+    recordings, _ = recorded
+    time_s = np.arange(recordings.records.shape[-1]) / recordings.sample_rate_hz
+    phases = np.random.default_rng(3).uniform(0, 2 * np.pi, recordings.records.shape[0])
+    scanning = recordings.records.copy()
+    scanning[:, 1] += 0.1 * np.sin(2 * np.pi * 0.7 * time_s + phases[:, np.newaxis])
+    settling = recordings.records.copy()
+    settling[:, 1] += 0.05 * np.exp(-time_s / 0.32)
+    for records in (scanning, settling):
+        kinds = {note.kind for note in hit_spectra(records, recordings.sample_rate_hz).quality}
+        assert not kinds & {"truncation", "floor vibration"}, kinds
+
+
+def test_a_level_off_by_g_is_said_and_a_per_hit_gain_is_told_from_a_change_of_shape(recorded):
+    """An acceleration read in g as m/s² leaves the FRF 9.81× low: a quality note says so against the given spec. Hits
+    that differ by a gain alone (a per-hit sensitivity) are told from hits that differ in shape."""
+    from gasfilm.analysis.diagnosis.pipeline import _level_note, _per_hit_gain_spread, evidence_for
+
+    recordings, spec = recorded
+    in_g = recordings.records.copy()
+    in_g[:, 1] /= 9.80665
+    notes = _level_note(evidence_for(hit_spectra(in_g, recordings.sample_rate_hz), spec), spec)
+    assert notes and "ratio of g to m/s²" in notes[0].message
+    assert not _level_note(evidence_for(hit_spectra(recordings.records, recordings.sample_rate_hz), spec), spec)
+
+    gains = np.array([1.0, 0.96, 1.03, 0.93])
+    scaled = recordings.records.copy()
+    scaled[:, 1] *= gains[:, np.newaxis]
+    spread = _per_hit_gain_spread(hit_spectra(scaled, recordings.sample_rate_hz))
+    assert spread is not None and abs(spread - np.std(gains / gains.mean())) < 0.01
+    assert _per_hit_gain_spread(hit_spectra(recordings.records, recordings.sample_rate_hz)) is None
+    delayed = recordings.records.copy()  # a per-hit delay changes the shape (phase growing with frequency)
+    for hit, samples in zip(delayed, (0, 1, 2, 3)):
+        hit[1] = np.roll(hit[1], samples)
+    assert _per_hit_gain_spread(hit_spectra(delayed, recordings.sample_rate_hz)) is None
+
+
+def test_a_start_is_read_past_a_spliced_hit_that_spoils_the_coherence(recorded):
+    """A buffer overrun drops 2.5 ms of one hit's response 4 ms after the pulse, spliced: that hit alone pulls the
+    coherence below 0.9 around the resonance. The start is read from the other hits, and the text names the one left out."""
+    from gasfilm.analysis.diagnosis.recordings import read_start
+
+    recordings, spec = recorded
+    records = recordings.records.copy()
+    rate_hz = recordings.sample_rate_hz
+    start = int(np.argmax(np.abs(records[1, 0]))) + int(0.004 * rate_hz)
+    dropped = int(0.0025 * rate_hz)
+    records[1, 1, start:-dropped] = records[1, 1, start + dropped:].copy()
+    spliced = dataclasses.replace(recordings, records=records)
+    read, text = read_start(spliced, MASS_KG)
+    assert "read from 3 of 4 hits: hits 2 differ from the others" in text
+    film_k = spec.film_parameters["k"]
+    assert abs(read.film_parameters["k"] / film_k - 1) < 0.05
+
+
+def test_an_interference_spike_away_from_the_impact_leaves_its_hit_out(recorded):
+    """A solenoid's kick in the accelerometer cable, 0.2 s after one hit's impact (through a steep low-pass like the
+    ADC's): that hit is left out with a note; the untouched hits have none."""
+    from scipy import signal
+
+    recordings, _ = recorded
+    records = recordings.records.copy()
+    at = int(0.2 * recordings.sample_rate_hz)
+    kick = np.zeros(records.shape[-1])
+    kick[at] = 4.0
+    records[2, 1] += signal.lfilter(signal.firwin(63, 0.9), 1.0, kick)
+    spectra = hit_spectra(records, recordings.sample_rate_hz)
+    notes = {note.kind: note for note in spectra.quality}
+    assert notes["spikes"].hits == (2,) and list(spectra.hit_numbers) == [0, 1, 3]
+    assert "spikes" not in {note.kind for note in hit_spectra(recordings.records, recordings.sample_rate_hz).quality}

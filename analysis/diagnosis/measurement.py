@@ -294,6 +294,121 @@ def _clipped(signal: np.ndarray, run: int = 3, step: float = 0.0) -> bool:
     return False
 
 
+#: A response "ceiling": hits whose peak response lies within this fraction of the session's largest peak ...
+CEILING_CLUSTER = 0.04
+#: ... while their peak forces span at least this ratio (a linear chain's peak response follows the peak force)
+CEILING_FORCE_SPAN = 1.1
+#: floor of the relative scatter of peak response over peak force between the hits below the ceiling
+CEILING_MIN_SPREAD = 0.01
+
+
+def response_ceiling_hits(records: np.ndarray, extents: list[tuple[int, int, int]]) -> tuple[list[int], float]:
+    """Hits whose response was clipped before the anti-aliasing filter, and the ceiling (m/s², signed).
+
+    A sensor or conditioner overloaded before the ADC's filter leaves no flat run of samples (the filter rounds the
+    cut peak), but it leaves a ceiling: several hits reach the same peak response whatever their force. In a linear
+    chain each hit's peak response over its peak force scatters only a little (``spread``, measured on the hits below
+    the ceiling); a hit is clipped when that ratio predicts a peak at or above the ceiling. Found only when at least
+    three hits sit at the ceiling with forces spanning ``CEILING_FORCE_SPAN`` and two of them would have reached
+    beyond it by more than three spreads.
+    """
+    force_peak = np.array([abs(record[0, peak]) for record, (_, peak, _) in zip(records, extents)])
+    for sign in (1.0, -1.0):
+        response_peak = np.max(sign * records[:, 1], axis=1)
+        top = float(response_peak.max())
+        if top <= 0:
+            continue
+        at_top = response_peak >= (1 - CEILING_CLUSTER) * top
+        below = ~at_top
+        if at_top.sum() < 3 or below.sum() < 3:
+            continue
+        if force_peak[at_top].max() < CEILING_FORCE_SPAN * force_peak[at_top].min():
+            continue
+        ratio = response_peak[below] / force_peak[below]
+        gain = float(np.median(ratio))
+        spread = max(1.4826 * float(np.median(np.abs(ratio / gain - 1))), CEILING_MIN_SPREAD)
+        predicted = gain * force_peak
+        if np.sum(predicted[at_top] > top * (1 + 3 * spread)) < 2:
+            continue
+        clipped = np.flatnonzero(at_top | (predicted >= top * (1 - 2 * spread)))
+        return [int(i) for i in clipped], sign * top
+    return [], 0.0
+
+
+def _rms_about_trend(segments: np.ndarray) -> np.ndarray:
+    """RMS of each row about its own least-squares parabola (motion slower than about one cycle per segment is not
+    counted)."""
+    length = segments.shape[-1]
+    if length < 4:
+        return np.sqrt(np.mean(segments**2, axis=-1))
+    basis = np.vander(np.linspace(-1.0, 1.0, length), 3)
+    coefficients, *_ = np.linalg.lstsq(basis, segments.T, rcond=None)
+    return np.sqrt(np.mean((segments - (basis @ coefficients).T) ** 2, axis=-1))
+
+
+#: The default analysis band starts here (Hz) and ends where the hammer's force spectrum has fallen 20 dB, at most
+#: at this fraction of the sample rate (the top of the ADC filter's flat band).
+DEFAULT_LOW_HZ = 10.0
+ALIAS_FREE_FRACTION = 0.4
+#: A given band needs at least this many analysis lines.
+MIN_BAND_LINES = 8
+
+
+def _given_band(
+    band_hz: tuple[float, float], hammer_top_hz: float, sample_rate_hz: float, n_samples: int
+) -> tuple[float, float, QualityNote | None]:
+    """The band the user gave (``--band``), checked against the records: above DC, capped at the alias-free top, and
+    where the hammer excites; a band the records cannot support is refused in one line."""
+    given = f"--band {band_hz[0]:g}:{band_hz[1]:g}"
+    resolution_hz = sample_rate_hz / n_samples
+    top_hz = ALIAS_FREE_FRACTION * sample_rate_hz
+    low, high = max(band_hz[0], resolution_hz), min(band_hz[1], top_hz)
+    if low >= hammer_top_hz:
+        raise SettingError(f"{given}: the hammer excites only up to {hammer_top_hz:.0f} Hz in these records (its force "
+                           f"spectrum is 20 dB down there); an FRF above it is noise — choose a band below")
+    if (high - low) / resolution_hz < MIN_BAND_LINES:
+        raise SettingError(f"{given}: fewer than {MIN_BAND_LINES} frequency lines of these records "
+                           f"({resolution_hz:.3g} Hz apart) in the band; give a wider band")
+    notes = []
+    if high < band_hz[1]:
+        notes.append(f"its top is capped at {ALIAS_FREE_FRACTION:g}·fs = {top_hz:.0f} Hz (the ADC filter's flat band)")
+    if high > hammer_top_hz:
+        notes.append(f"above {hammer_top_hz:.0f} Hz the hammer's force is 20 dB down: the FRF there is noisy and weighs "
+                     f"little")
+    note = QualityNote("band", f"{given}: " + "; ".join(notes), band_hz=(low, high)) if notes else None
+    return low, high, note
+
+
+#: Spikes: the response above this fraction of the sample rate (above any hammer band), outside the pulse, standing
+#: this many robust noise deviations above the hit's own level and above the hits' common (hit-locked) level.
+SPIKE_BAND_FRACTION = 0.3
+SPIKE_NOISE_FACTOR = 20.0
+SPIKE_LOCKED_FACTOR = 10.0
+SPIKE_BLOCK = 128
+
+
+def spiked_hits(records: np.ndarray, extents: list[tuple[int, int, int]], sample_rate_hz: float) -> list[int]:
+    """Hits whose response carries an impulsive spike not locked to the impact (electrical interference: a relay, a
+    solenoid, a loose connector): a burst above the hammer's band, away from the pulse, that the other hits do not
+    have at that time (a structure's own ringing after the pulse is in every hit)."""
+    if len(records) < 3:
+        return []
+    sos = scipy.signal.butter(4, SPIKE_BAND_FRACTION * sample_rate_hz, "highpass", fs=sample_rate_hz, output="sos")
+    high = np.abs(scipy.signal.sosfiltfilt(sos, records[:, 1], axis=-1))
+    # the noise level where each sample is (blocks of SPIKE_BLOCK samples: records may come windowed, the noise
+    # falling along them), robust to the spike itself
+    blocks = -(-high.shape[1] // SPIKE_BLOCK)
+    padded = np.pad(high, ((0, 0), (0, blocks * SPIKE_BLOCK - high.shape[1])), mode="edge")
+    block_level = np.median(padded.reshape(len(high), blocks, SPIKE_BLOCK), axis=2)
+    noise = 1.4826 * np.repeat(block_level, SPIKE_BLOCK, axis=1)[:, : high.shape[1]] + 1e-300
+    locked = np.median(high, axis=0, keepdims=True)
+    spiky = (high > SPIKE_NOISE_FACTOR * noise) & (high > SPIKE_LOCKED_FACTOR * locked)
+    guard = int(0.005 * sample_rate_hz)
+    for row, (start, _, end) in zip(spiky, extents):
+        row[max(start - guard, 0) : end + guard] = False
+    return [int(i) for i in np.flatnonzero(spiky.any(axis=1))]
+
+
 def _band_text(low_hz: float, high_hz: float) -> str:
     return f"{low_hz:.0f}–{high_hz:.0f} Hz"
 
@@ -365,8 +480,30 @@ def hit_spectra(
     if clipped_hits:
         quality.append(QualityNote("overload", f"{len(clipped_hits)} clipped hit(s) were left out",
                                    hits=tuple(clipped_hits)))
+    unclipped = [index for index in range(hit_count) if index not in clipped_hits]
+    ceiling_hits, ceiling = response_ceiling_hits(records[unclipped], [extents[i] for i in unclipped])
+    if ceiling_hits:
+        ceiling_hits = [unclipped[i] for i in ceiling_hits]
+        clipped_hits = sorted(clipped_hits + ceiling_hits)
+        quality.append(QualityNote(
+            "overload",
+            f"{len(ceiling_hits)} hit(s) reach the same peak response ({ceiling:.3g} m/s²) whatever their force: the "
+            f"response was clipped before the ADC's filter (a sensor or conditioner overload); they were left out — "
+            f"a property of the recording, not physics",
+            hits=tuple(ceiling_hits)))
+    clean = [index for index in range(hit_count) if index not in double_hits + clipped_hits]
+    spiked = [] if coarse_response else [clean[i] for i in spiked_hits(records[clean], [extents[i] for i in clean],
+                                                                        sample_rate_hz)]
+    if spiked and len(clean) - len(spiked) >= MIN_SCATTER_HITS:
+        quality.append(QualityNote(
+            "spikes", f"{len(spiked)} hit(s) carry impulsive spikes in the response away from the impact, not in the "
+            f"other hits at that time (electrical interference: a relay, a valve, a loose connector, or a record "
+            f"spliced after lost samples); they were left out — a property of the recording, not physics",
+            hits=tuple(spiked)))
+    else:
+        spiked = []
     keep = np.ones(hit_count, bool)
-    keep[double_hits + clipped_hits] = False
+    keep[double_hits + clipped_hits + spiked] = False
     used = np.flatnonzero(keep)
     if used.size < 2:
         raise SettingError(f"diagnosis records: only {used.size} usable hit(s) after quality checks; at least 2 needed")
@@ -430,7 +567,9 @@ def hit_spectra(
     else:
         quiet_samples = int(np.min(trigger)) - margin
         # quiet samples to measure the noise: the record tails when every response has decayed, else the pre-trigger
-        tail_rms = np.sqrt(np.mean(records[:, 1, tail_start:] ** 2, axis=1))
+        # the tails about their slow trend: a slow motion of the mover (a scan, a drift, a settling offset) over the
+        # long tail is not a response still ringing
+        tail_rms = _rms_about_trend(records[:, 1, tail_start:])
         pretrigger_rms = np.sqrt(np.mean(records[:, 1, : max(quiet_samples, 1)] ** 2, axis=1)) + 1e-30
         truncated = np.flatnonzero(tail_rms > 3 * pretrigger_rms) if not tails_only else np.zeros(0, int)
         if tails_only:
@@ -576,12 +715,16 @@ def hit_spectra(
     if late:  # the band the hammer excites is the whole pulse's, not the recorded part's (wider: it is shorter)
         mean_force_power = np.mean(np.abs(np.fft.rfft(_with_fronts(records[:, 0] * force_w, fronts, n_samples),
                                                       axis=1)) ** 2, axis=0)
-    low, high = band_hz if band_hz else (10.0, 0.4 * sample_rate_hz)
+    low, high = DEFAULT_LOW_HZ, ALIAS_FREE_FRACTION * sample_rate_hz
+    reference = np.median(mean_force_power[(full_freq_hz >= low) & (full_freq_hz <= low + 50)])
+    beyond = np.flatnonzero((full_freq_hz > low) & (mean_force_power < 0.01 * reference))
+    hammer_top_hz = min(high, float(full_freq_hz[beyond[0]])) if beyond.size else high
     if band_hz is None:
-        reference = np.median(mean_force_power[(full_freq_hz >= low) & (full_freq_hz <= low + 50)])
-        beyond = np.flatnonzero((full_freq_hz > low) & (mean_force_power < 0.01 * reference))
-        if beyond.size:
-            high = min(high, full_freq_hz[beyond[0]])
+        high = hammer_top_hz
+    else:
+        low, high, note = _given_band(band_hz, hammer_top_hz, sample_rate_hz, n_samples)
+        if note:
+            quality.append(note)
     in_band = (full_freq_hz >= low) & (full_freq_hz <= high)
 
     coherence = np.abs(cross) ** 2 / (force_power.sum(axis=0) * (np.abs(response_spectra) ** 2).sum(axis=0) + floor)
@@ -894,6 +1037,10 @@ def _through_window(power_per_sample: np.ndarray, window: np.ndarray) -> np.ndar
     return np.maximum(convolved[: power_per_sample.size], 0.0)
 
 
+#: the lowest periodogram bin (of the quiet records) a narrowband line may sit in
+MIN_LINE_BIN = 3
+
+
 def _narrowband_lines_hz(quiet: np.ndarray, sample_rate_hz: float, mains_hz: list[float]) -> list[float]:
     """Frequencies of narrowband lines in quiet records (hits, samples) standing 30× above the noise level
     (mains lines already removed are not counted), against the local median level."""
@@ -909,7 +1056,9 @@ def _narrowband_lines_hz(quiet: np.ndarray, sample_rate_hz: float, mains_hz: lis
         return []
     resolution_hz = 4 * sample_rate_hz / length
     peaks, _ = scipy.signal.find_peaks(periodogram / np.maximum(floor, 1e-300), height=30.0)
-    return [float(freq_hz[p]) for p in peaks if freq_hz[p] > 0
+    # a line must stand clear of DC: within the first bins a slow settling or drift (an offset decaying through the AC
+    # coupling) looks like a peak against the median filter's zero-padded edge
+    return [float(freq_hz[p]) for p in peaks if p >= MIN_LINE_BIN
             and all(abs(freq_hz[p] - m) > resolution_hz for m in mains_hz)]
 
 

@@ -26,7 +26,7 @@ import scipy.stats
 
 from gasfilm.analysis.diagnosis.candidates import CANDIDATES, EQUIVALENT, separating_measurement
 from gasfilm.analysis.diagnosis.fitspace import fit_context, spec_slots, without_effect
-from gasfilm.analysis.diagnosis.measurement import HitSpectra, contiguous_bands, weighted_mean
+from gasfilm.analysis.diagnosis.measurement import HitSpectra, QualityNote, contiguous_bands, weighted_mean
 from gasfilm.analysis.diagnosis.modes import unmodelled_resonances_hz
 from gasfilm.analysis.diagnosis.parallel import shared_map
 from gasfilm.analysis.diagnosis.restoring import RestoringForce
@@ -124,6 +124,7 @@ def diagnose_spectra(
     started = time.monotonic()
     context = fit_context(spec, spectra.conditions, (float(spectra.freq_hz[0]), float(spectra.freq_hz[-1])))
     evidence = evidence_for(spectra, spec)
+    level_notes = _level_note(evidence, spec)
     points = evidence.point_count
     chi2_given = evidence.chi2(spec)
     rms_given = replay_rms(spectra, spec)
@@ -181,7 +182,7 @@ def diagnose_spectra(
         verdict=verdict,
         findings=findings,
         unexplained=unexplained,
-        quality=list(spectra.quality),
+        quality=list(spectra.quality) + level_notes,
         recalibration=recalibration,
         rms_before=rms_given,
         rms_recalibrated=rms_recalibrated,
@@ -742,6 +743,29 @@ def _unexplained(
     return items
 
 
+#: The measured FRF's level against the given spec's, beyond which a note says so (a ratio of magnitudes)
+LEVEL_RATIO_NOTE = 2.0
+#: standard gravity (m/s² per g): a sensitivity entered per g as per m/s² (or the reverse) scales the FRF by it
+STANDARD_GRAVITY_M_S2 = 9.80665
+
+
+def _level_note(evidence: Evidence, spec: RigSpec) -> list[QualityNote]:
+    """A note when the measured FRF's level is far from the given spec's over most of the band (the median ratio of
+    magnitudes): beyond what a film or a mass change does, it points at the sensors' sensitivities or units."""
+    measured, _ = evidence.spectra.mean()
+    ratio = float(np.median(np.abs(measured) / np.maximum(np.abs(evidence.mean_prediction(spec)), 1e-300)))
+    if 1 / LEVEL_RATIO_NOTE <= ratio <= LEVEL_RATIO_NOTE:
+        return []
+    factor = max(ratio, 1 / ratio)
+    units = (f"; {factor:.2f}× is the ratio of g to m/s² (a sensitivity entered per g as per m/s², or the reverse)"
+             if abs(factor / STANDARD_GRAVITY_M_S2 - 1) < 0.05 else "")
+    return [QualityNote(
+        "level",
+        f"the measured FRF is {ratio:.3g}× the spec's over most of the band ({'above' if ratio > 1 else 'below'} it by "
+        f"{factor:.3g}×, median of the magnitude ratios): check the sensors' sensitivities and units, and the spec's "
+        f"mass, before reading physics into it{units}")]
+
+
 def _hits_in(spectra: HitSpectra, per_point: np.ndarray) -> list[int]:
     """Hit numbers whose χ² per point in the band stands out (all hits when none does)."""
     per_hit = per_point.mean(axis=1)
@@ -759,6 +783,7 @@ def _character(spectra: HitSpectra, evidence: Evidence, spec: RigSpec, low: int,
         :, low : high + 1]
     weight = evidence.spectra.weight[:, low : high + 1]
     per_hit_mean = (weight * residual).sum(axis=1) / weight.sum(axis=1)
+    gain_spread = _per_hit_gain_spread(evidence.spectra)
     order = np.argsort(spectra.conditions.time_s, kind="stable")
     change = _change_in_session(per_hit_mean[order], np.sqrt(1.0 / weight.sum(axis=1))[order])
     if change is not None:
@@ -767,6 +792,10 @@ def _character(spectra: HitSpectra, evidence: Evidence, spec: RigSpec, low: int,
             first, second = spectra.hit_numbers[order[split - 1]], spectra.hit_numbers[order[split]]
             return (f"a jump between hits {first + 1} and {second + 1}: the rig changed at one point during the session, "
                     f"which no term explained")
+        if gain_spread is not None:
+            return ("a steady trend from early to late hits that scales the whole FRF alike at every frequency: a "
+                    "sensor's sensitivity (or the force reaching the mover) changed during the session rather than the "
+                    "film, which no term explained")
         return "a steady trend from early to late hits: the rig changed during the session, which no term explained"
     harmonics = [n * resonance_hz for n in (2, 3, 4, 5, 6)]
     if any(band[0] <= h <= band[1] for h in harmonics) and band[0] > 1.3 * resonance_hz:
@@ -776,10 +805,37 @@ def _character(spectra: HitSpectra, evidence: Evidence, spec: RigSpec, low: int,
     if amplitude_trend:
         return ("changing with the hit level: the film's stiffness or damping depends on the amplitude (friction, "
                 "quadratic damping or a nonlinear spring)")
+    if gain_spread is not None:
+        return (f"the hits differ from one another by a scale factor alone, the same at every frequency "
+                f"({100 * gain_spread:.1f} % RMS): a gain that changes from hit to hit (the hit's direction, the force "
+                f"gauge or a sensor), not the film")
     centre = 0.5 * (band[0] + band[1])
     if band[1] - band[0] < 0.3 * centre:
         return f"a localised peak/dip near {centre:.0f} Hz that no term explained"
     return "a broadband excess over the measured noise: an effect no term describes, or the noise model"
+
+
+#: The hits differ by a gain alone when one complex scale factor per hit leaves at most this many times the noise
+#: of their scatter about their mean, where the scatter itself was at least GAIN_SCATTER_MIN times it.
+GAIN_ONLY_LEFT = 1.5
+GAIN_SCATTER_MIN = 2.0
+
+
+def _per_hit_gain_spread(spectra: HitSpectra) -> float | None:
+    """RMS relative spread of a per-hit scale factor when it alone explains why the hits differ, else None.
+
+    A sensor's sensitivity, the force gauge or the hit's direction scale a hit's whole FRF alike; a change of the
+    film, the mass or a mode changes its shape. Each hit's FRF is fitted as one complex factor times the hits' mean.
+    """
+    h, weight = spectra.h, 1.0 / spectra.variance  # weight per complex value
+    mean = (weight * h).sum(axis=0) / weight.sum(axis=0)
+    factor = (weight * h * np.conj(mean)).sum(axis=1) / (weight * np.abs(mean) ** 2).sum(axis=1)
+    expected = h.size * (1.0 - 1.0 / h.shape[0])
+    scatter = float((weight * np.abs(h - mean) ** 2).sum()) / expected
+    left = float((weight * np.abs(h - factor[:, np.newaxis] * mean) ** 2).sum()) / expected
+    if scatter < GAIN_SCATTER_MIN or left > GAIN_ONLY_LEFT:
+        return None
+    return float(np.std(np.abs(factor)))
 
 
 def _per_hit(predicted: np.ndarray, hit_count: int) -> np.ndarray:

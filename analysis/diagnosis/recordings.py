@@ -24,7 +24,14 @@ from gasfilm.analysis.diagnosis.result import Diagnosis
 from gasfilm.analysis.diagnosis.structure import read_structure
 from gasfilm.analysis.physics.effects import MIN_DAMPING_RATIO, ExtraMode, Polarity
 from gasfilm.analysis.physics.spec import RigSpec
-from gasfilm.analysis.spectra import WindowSettings, compute_frf, readable_lines, resonance_lines
+from gasfilm.analysis.spectra import (
+    RESONANCE_SEARCH_FROM_HZ,
+    WindowSettings,
+    compute_frf,
+    readable_lines,
+    resonance_lines,
+    usable_band_hz,
+)
 from gasfilm.analysis.threads import one_blas_thread
 from gasfilm.drivers.errors import SettingError
 
@@ -136,6 +143,11 @@ def read_start(recordings: Recordings, mass_kg: float | None = None) -> tuple[Ri
     frf = compute_frf(records, rate_hz, window)
     readable = readable_lines(frf)
     resonances = sorted(resonance_lines(frf))
+    left_out = _outlier_hits(records, rate_hz, window, frf) if not resonances else []
+    if left_out:  # a minority of disturbed hits (spliced, struck elsewhere) can spoil the coherence of all
+        frf = compute_frf(np.delete(records, left_out, axis=0), rate_hz, window)
+        readable = readable_lines(frf)
+        resonances = sorted(resonance_lines(frf))
     if not resonances:
         band = (f"{frf.freq_hz[readable][0]:.0f}–{frf.freq_hz[readable][-1]:.0f} Hz" if readable.any()
                 else "no line of it")
@@ -187,10 +199,33 @@ def read_start(recordings: Recordings, mass_kg: float | None = None) -> tuple[Ri
                  + ", ".join(f"{freq_hz[line]:.0f}" for line in sorted(resonances[1:]))
                  + " Hz may be the quantiser's distortion: they are left to the diagnosis, whose replay is quantised "
                    "the same way")
+    if left_out and resonances:
+        text += (f"; read from {len(records) - len(left_out)} of {len(records)} hits: hits "
+                 + ", ".join(str(i + 1) for i in left_out)
+                 + " differ from the others far beyond their scatter (disturbed records) and spoil the coherence")
     if modes:
         text += ("; a multi-mode structure: extra modes at " + ", ".join(f"{mode.freq_hz:.0f}" for mode in modes)
                  + " Hz are part of the start (read, not findings)")
     return spec, text
+
+
+#: A hit is an outlier for the start when its FRF's median relative distance from the hits' median FRF is this many
+#: times the hits' median distance; at most OUTLIER_SHARE of the hits are left out.
+OUTLIER_DISTANCE = 5.0
+OUTLIER_SHARE = 1 / 3
+
+
+def _outlier_hits(records: np.ndarray, rate_hz: float, window: WindowSettings, frf) -> list[int]:
+    """Hits whose own FRF departs from the others' far beyond their scatter, in the hammer's band (a minority)."""
+    if len(records) < 4:
+        return []
+    _, upper_hz = usable_band_hz(frf.freq_hz, frf.gff)
+    band = np.flatnonzero((frf.freq_hz >= RESONANCE_SEARCH_FROM_HZ) & (frf.freq_hz <= upper_hz))
+    per_hit = np.array([compute_frf(records[[index]], rate_hz, window).h1[band] for index in range(len(records))])
+    median = np.median(per_hit.real, axis=0) + 1j * np.median(per_hit.imag, axis=0)
+    distance = np.median(np.abs(per_hit - median) / np.maximum(np.abs(median), 1e-300), axis=1)
+    outliers = np.flatnonzero(distance > OUTLIER_DISTANCE * np.median(distance))
+    return [int(i) for i in outliers] if 0 < outliers.size <= OUTLIER_SHARE * len(records) else []
 
 
 #: Below its first resonance a mover on a film rises as ω² (log-log slope 2); a slope under this is a mass line.
@@ -274,6 +309,17 @@ def film_restoring_force(recordings: Recordings, spectra: HitSpectra, mass_kg: f
                            resonance_hz, (float(spectra.freq_hz[0]), float(spectra.freq_hz[-1])))
 
 
+def _check_records(recordings: Recordings) -> None:
+    """What no diagnosis can start from, said in one line naming the source: fewer than 2 hits, no force recorded."""
+    records = np.asarray(recordings.records)
+    if records.ndim == 3 and records.shape[1] == 2 and records.shape[0] < 2:
+        raise SettingError(f"{recordings.source}: only {records.shape[0]} hit; the diagnosis compares at least 2 hits "
+                           f"(3 or more to check the noise against their scatter)")
+    if records.ndim == 3 and records.shape[1] == 2 and not np.any(records[:, 0]):
+        raise SettingError(f"{recordings.source}: the force records are all zero: no hammer impact was recorded "
+                           f"(check the force channel, its wiring and its sensitivity)")
+
+
 @one_blas_thread
 def diagnose(
     source: str | Path | list[Path] | Recordings,
@@ -286,10 +332,11 @@ def diagnose(
     the FRF, :func:`starting_spec`). Writes nothing: ``Diagnosis.improved`` is the spec to write; ``Diagnosis.notes``
     starts with where the starting spec came from."""
     recordings = source if isinstance(source, Recordings) else load_recordings(source)
-    rig_spec, origin = starting_spec(recordings, rig_spec, mass_kg)
-    progress(origin)
+    _check_records(recordings)
     spectra = hit_spectra(recordings.records, recordings.sample_rate_hz, recordings.window,
                           hit_times_s=recordings.hit_times_s, overload=recordings.overload, band_hz=band_hz)
+    rig_spec, origin = starting_spec(recordings, rig_spec, mass_kg)
+    progress(origin)
     spectra.quality[:0] = recordings.quality
     restoring = film_restoring_force(recordings, spectra, rig_spec.moving_mass_kg)
     diagnosis = diagnose_spectra(spectra, rig_spec, progress, restoring)
