@@ -45,7 +45,7 @@ from gasfilm.analysis.diagnosis.selection import (
     held_out_gain,
     model_function,
 )
-from gasfilm.analysis.physics.effects import FitContext
+from gasfilm.analysis.physics.effects import EFFECT_TYPES, FitContext
 from gasfilm.analysis.physics.response import simulate_response
 from gasfilm.analysis.physics.spec import DescriptionError, RigSpec
 from gasfilm.analysis.threads import one_blas_thread
@@ -83,6 +83,12 @@ AMPLITUDE_TERMS = ("cubic-stiffness", "friction", "quadratic-damping")
 #: ADEQUATE_CHI2_PER_POINT; a band is never held to less than that margin (the simulated rig's true spec leaves a
 #: wide band at 1.2–1.25, which the F test alone calls beyond the noise).
 OWN_BAND_FALSE_ALARM = 1e-3
+#: An added mass whose move of the mass line the written spec's measurement terms cancel to below this share is not
+#: seen at the mass line (:func:`_mass_line_unmoved`).
+MASS_LINE_SHARE = 0.5
+#: A term whose χ² gain is below this share of another term's is within that term's form error
+#: (:func:`_beside_a_larger_term`).
+MODEL_FORM_SHARE = 1e-3
 
 
 @dataclass
@@ -106,6 +112,8 @@ class Claim:
     own_band_limit: float
     gain_over_recalibrated: float
     reason: str | None
+    own_band_without: float = np.inf  # the own band's χ² per point of the written spec refitted without the term
+    own_band_chance: float = 0.0  # the χ² per point the noise reaches there by chance (1 in 1000)
 
 
 def _silent(message: str) -> None:
@@ -550,6 +558,12 @@ def _drop_unsupported_terms(
             if claims[step.identifier].reason is None:
                 claims[step.identifier].reason = _survives_left_out_data(spectra, evidence, current, step,
                                                                          refits_without[step.identifier], context)
+            if claims[step.identifier].reason is None:
+                claims[step.identifier].reason = _beside_a_larger_term(step, steps, claims[step.identifier])
+            if claims[step.identifier].reason is None:
+                claims[step.identifier].reason = _measurement_alternative(step)
+            if claims[step.identifier].reason is None and step.identifier == "added-mass":
+                claims[step.identifier].reason = _mass_line_unmoved(spectra, current.spec)
         failing = [step for step in steps if claims[step.identifier].reason is not None][-1:]
         if not failing:  # (the latest failing term goes first: the others may stand once it is out)
             break
@@ -608,6 +622,65 @@ def _survives_left_out_data(
     return _unstable(band_folds, hit_folds, index, noise_scale, points)
 
 
+def _beside_a_larger_term(step: Step, steps: list[Step], claim: Claim) -> str | None:
+    """Why a term removes no excess of its own: without it (the rest refitted) its own band is already within the
+    noise, and its χ² gain is below :data:`MODEL_FORM_SHARE` of another term's — a catalog term is a model of real
+    physics, not the physics itself, and what it leaves grows with the mismatch it removes: such a term is a
+    correction to the larger term's form, not told apart from its form error."""
+    gain = step.chi2_before - step.chi2_after
+    larger = max(steps, key=lambda other: other.chi2_before - other.chi2_after)
+    larger_gain = larger.chi2_before - larger.chi2_after
+    if (larger is step or gain >= MODEL_FORM_SHARE * larger_gain
+            or claim.own_band_without > claim.own_band_chance):
+        return None
+    return (f"without it its own band is already within the noise (χ²/point {claim.own_band_without:.2f}, what the "
+            f"noise reaches by chance: {claim.own_band_chance:.2f}), and its χ² gain ({gain:.0f}) is "
+            f"{100 * gain / larger_gain:.3f} % of the {larger.identifier}'s ({larger_gain:.0f}): a correction to the "
+            f"{larger.identifier}'s form, not told apart from its form error")
+
+
+def _measurement_alternative(step: Step) -> str | None:
+    """Why a rig term is not a finding when a measurement-chain term fits about as well: these data cannot tell
+    whether the rig or the measurement differs, and measurement properties are never claimed as physics."""
+    if EFFECT_TYPES[step.identifier].kind != "rig":
+        return None
+    chain = [other for other in step.alternatives if EFFECT_TYPES[other].kind == "measurement"]
+    if not chain:
+        return None
+    return (f"{' and '.join(chain)} in the measurement chain fits about as well (BIC within {ALTERNATIVE_MARGIN:.0f}): "
+            f"these data cannot tell whether the rig or the measurement differs — "
+            f"{separating_measurement(step.identifier, chain[0])} would")
+
+
+def _mass_line_unmoved(spectra: HitSpectra, spec: RigSpec) -> str | None:
+    """Why an added mass is not seen where a mass shows: a mass added to the mover moves the mass line (the FRF
+    above the resonance, 1/m), but when a measurement term of the written spec (a force leaking into the response,
+    a sensitivity error) cancels most of that move there, the pair describes the response, not the mover. A
+    response that reads a share g of the film's force (an accelerometer's base-strain sensitivity: a + g·(F − m·a))
+    is exactly a cross-talk g with an added mass g·m²; these data cannot tell the two apart."""
+    index = _effect_index(spec, "added-mass")
+    chain = [i for i, effect in enumerate(spec.effects) if effect.kind == "measurement"]
+    if not chain:
+        return None
+    top = spectra.freq_hz >= spectra.freq_hz[0] + 0.75 * (spectra.freq_hz[-1] - spectra.freq_hz[0])
+    written = replayed_mean(spectra, spec)[top]
+    without_mass = replayed_mean(spectra, without_effect(spec, index))[top]
+    bare = spec
+    for i in sorted([index, *chain], reverse=True):
+        bare = without_effect(bare, i)
+    own = float(np.sqrt(np.mean(np.abs(written - without_mass) ** 2)))
+    net = float(np.sqrt(np.mean(np.abs(written - replayed_mean(spectra, bare)[top]) ** 2)))
+    if own <= 0 or net >= MASS_LINE_SHARE * own:
+        return None
+    names = " and ".join(sorted({spec.effects[i].type_name for i in chain}))
+    mass_kg = getattr(spec.effects[index], "mass_kg", 0.0)
+    return (f"the mass line does not move: above {spectra.freq_hz[top][0]:.0f} Hz the {names} beside it cancels "
+            f"{100 * (1 - net / own):.0f} % of what the added mass of {1e3 * mass_kg:.3g} g does to the FRF, and a "
+            f"mass on the mover would move it; together they describe the response, not the mover — e.g. a "
+            f"response that reads a share of the film's force (accelerometer base strain, a + g·(F − m·a)), which "
+            f"is exactly such a pair; these data cannot tell them apart")
+
+
 def _refit(spectra: HitSpectra, spec: RigSpec, recalibrated: RigSpec, context: FitContext) -> tuple[FitOutcome, Evidence]:
     """Refit a spec some terms were taken out of: from its values and from the recalibrated film's (the film may
     have been bent to suit the terms taken out), the better fit."""
@@ -659,23 +732,26 @@ def _claim(
     elif in_written <= 0:
         reason = (f"the written spec replayed is not closer to the recordings with it than refitted without it "
                   f"(RMS gain {in_written:+.2f} % of the recalibrated spec's)")
-    return Claim(after, limit, in_written, reason)
+    return Claim(after, limit, in_written, reason, before, own_band_chance(spectra, per_point, lines))
 
 
 def own_band_limit(spectra: HitSpectra, per_point: np.ndarray, lines: np.ndarray) -> float:
-    """The χ² per point above which a band (``lines`` of the analysis grid) is beyond the noise: beyond what the noise
-    gives by chance — the one-sided F test at :data:`OWN_BAND_FALSE_ALARM` with the band's real numbers and the noise
-    estimate's degrees of freedom, scaled by the level the spec reaches outside the band (clipped to 1 …
-    ADEQUATE_CHI2_PER_POINT) — and beyond the noise model's own systematic margin, ADEQUATE_CHI2_PER_POINT, the
-    margin the whole spec is held to (a band of many lines is not held to a stricter standard than the whole)."""
+    """The χ² per point above which a band is beyond the noise: :func:`own_band_chance`, never below
+    ADEQUATE_CHI2_PER_POINT (a band of many lines is not held to a stricter standard than the whole)."""
+    return max(own_band_chance(spectra, per_point, lines), ADEQUATE_CHI2_PER_POINT)
+
+
+def own_band_chance(spectra: HitSpectra, per_point: np.ndarray, lines: np.ndarray) -> float:
+    """The χ² per point a band (``lines`` of the analysis grid) reaches by chance: the one-sided F test at
+    :data:`OWN_BAND_FALSE_ALARM` with the band's real numbers and the noise estimate's degrees of freedom, scaled by
+    the level the spec reaches outside the band (clipped to 1 … ADEQUATE_CHI2_PER_POINT)."""
     band_dof = 2 * per_point.shape[0] * max(lines.size, 1)
     noise_dof = spectra.noise.degrees_of_freedom if spectra.noise is not None else 1e6
     outside = np.ones(per_point.shape[1], bool)
     outside[lines] = False
     rest = float(per_point[:, outside].mean()) if outside.any() else 1.0
     level = min(max(rest, 1.0), ADEQUATE_CHI2_PER_POINT)
-    chance = level * float(scipy.stats.f.isf(OWN_BAND_FALSE_ALARM, band_dof, max(noise_dof, 1.0)))
-    return max(chance, ADEQUATE_CHI2_PER_POINT)
+    return level * float(scipy.stats.f.isf(OWN_BAND_FALSE_ALARM, band_dof, max(noise_dof, 1.0)))
 
 
 def _effect_index(spec: RigSpec, identifier: str) -> int:
