@@ -23,9 +23,11 @@ force and response, so it cancels in the FRF; this is where pyFRF and OpenModal 
 
 from __future__ import annotations
 
+import os
+from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import asdict, dataclass, fields, replace
 from pathlib import Path
-from typing import Any, Mapping, Sequence
+from typing import Any, Iterable, Mapping, Sequence
 
 import numpy as np
 import scipy.signal
@@ -38,6 +40,11 @@ FRF_UNIT_SI = "(m/s^2)/N"
 _BLOCK_VALUES = 1 << 18
 #: Frequency lines per strip of a block whose spectra are combined at once (each pass over a strip stays in cache).
 _STRIP_LINES = 8192
+#: Blocks of at least this many complex values per channel are transformed on a second thread while the previous
+#: block is combined (numpy releases the GIL in its FFTs); smaller ones in one thread, where the hand-over would cost
+#: more than it saves.
+_OVERLAPPED_VALUES = 1 << 17
+_fft_thread: tuple[int, ThreadPoolExecutor] | None = None  # (the process it belongs to, the thread)
 FRF_UNIT_G = "g/N"
 
 
@@ -334,13 +341,36 @@ class FrfAccumulator:
         self._sum_deviation = np.zeros(n_lines, complex)
         self._sum_deviation_sq = np.zeros(n_lines)
         self._h1_per_hit = np.empty((max(1, capacity_hits), n_lines), complex)
-        self._work: tuple[np.ndarray, ...] | None = None
+        self._spectra: list[tuple[np.ndarray, np.ndarray] | None] = [None, None]
+        self._scratch: tuple[np.ndarray, ...] | None = None
         # strips of about _STRIP_LINES, of equal width (no strip of a few lines that costs its calls for nothing)
         self._strip_lines = -(-n_lines // max(1, round(n_lines / _STRIP_LINES)))
         self.n_averages = 0
 
     def add(self, force_n: np.ndarray, response: np.ndarray) -> None:
         """Add one hit (rows of ``n_samples``) or a block of hits (arrays of shape (hits, ``n_samples``))."""
+        self.add_blocks([(force_n, response)])
+
+    def add_blocks(self, blocks: Iterable[tuple[np.ndarray, np.ndarray]]) -> None:
+        """Add blocks of hits, each a pair of force and response arrays (hits, ``n_samples``), in order. Large blocks
+        are transformed on a second thread while the block before is combined (the sums are formed by this thread
+        alone, block after block: the same result as adding them one by one)."""
+        pending: Future | tuple | None = None
+        for number, (force_n, response) in enumerate(blocks):
+            force, response = self._windowed(force_n, response)
+            spectra = self._spectra_buffers(number % 2, force.shape[0])
+            if force.size >= 2 * _OVERLAPPED_VALUES:  # counted in samples: two per complex line
+                transformed: Future | tuple = _second_thread().submit(_transform, force, response, spectra)
+            else:
+                transformed = _transform(force, response, spectra)
+            if pending is not None:
+                self._combine(*(pending.result() if isinstance(pending, Future) else pending))
+            pending = transformed
+        if pending is not None:
+            self._combine(*(pending.result() if isinstance(pending, Future) else pending))
+
+    def _windowed(self, force_n: np.ndarray, response: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """A block's force and response rows, checked and windowed."""
         force = np.atleast_2d(np.asarray(force_n, dtype=np.float64))
         response = np.atleast_2d(np.asarray(response, dtype=np.float64))
         if force.shape != response.shape or force.shape[-1] != self.n_samples:
@@ -352,14 +382,16 @@ class FrfAccumulator:
         if self._decay is not None:
             force = force * self._decay
             response = response * self._decay
-        first, count = self.n_averages, force.shape[0]
+        return force, response
+
+    def _combine(self, force_fft: np.ndarray, response_fft: np.ndarray) -> None:
+        """Add a block's spectra to the sums and its per-hit FRFs to the kept ones (``force_fft`` is overwritten)."""
+        first, count = self.n_averages, force_fft.shape[0]
         if first + count > len(self._h1_per_hit):
             grown = np.empty((max(first + count, 2 * len(self._h1_per_hit)), self._h1_per_hit.shape[1]), complex)
             grown[:first] = self._h1_per_hit[:first]
             self._h1_per_hit = grown
-        force_fft, response_fft, *scratch = self._work_buffers(count)
-        np.fft.rfft(force, axis=-1, out=force_fft)
-        np.fft.rfft(response, axis=-1, out=response_fft)
+        scratch = self._scratch_buffers(count)
         h1 = self._h1_per_hit[first : first + count]
         with np.errstate(divide="ignore", invalid="ignore"):
             if self._h1_reference is None:
@@ -371,7 +403,7 @@ class FrfAccumulator:
         self.n_averages += count
 
     def _add_strip(self, lines: slice, force_fft: np.ndarray, response_fft: np.ndarray, h1: np.ndarray,
-                   scratch: list[np.ndarray]) -> None:
+                   scratch: tuple[np.ndarray, ...]) -> None:
         """Add a block of hits' spectra on the frequency ``lines`` to the sums, and their per-hit FRFs into ``h1``
         (``force_fft`` is overwritten)."""
         width = force_fft.shape[1]
@@ -391,16 +423,23 @@ class FrfAccumulator:
         self._sum_deviation[lines] += deviation.sum(axis=0)
         self._sum_deviation_sq[lines] += _summed_squared_magnitude(deviation)
 
-    def _work_buffers(self, count: int) -> tuple[np.ndarray, ...]:
-        """Spectra of a block of ``count`` hits and scratch strips, in buffers kept between blocks: fresh arrays of
-        this size would be mapped from the operating system, and zero-filled, on every block."""
-        if self._work is None or self._work[0].shape[0] < count:
+    def _spectra_buffers(self, which: int, count: int) -> tuple[np.ndarray, np.ndarray]:
+        """Force and response spectra of a block of ``count`` hits in one of two pairs of buffers kept between blocks
+        (one is filled while the other is read): fresh arrays of this size would be mapped from the operating
+        system, and zero-filled, on every block."""
+        kept = self._spectra[which]
+        if kept is None or kept[0].shape[0] < count:
             n_lines = len(self._sum_ff)
+            kept = self._spectra[which] = (np.empty((count, n_lines), complex), np.empty((count, n_lines), complex))
+        return kept[0][:count], kept[1][:count]
+
+    def _scratch_buffers(self, count: int) -> tuple[np.ndarray, ...]:
+        """Scratch strips for a block of ``count`` hits (powers, squared parts, deviations), kept between blocks."""
+        if self._scratch is None or self._scratch[0].shape[0] < count:
             strip = self._strip_lines
-            self._work = (np.empty((count, n_lines), complex), np.empty((count, n_lines), complex),
-                          np.empty((count, strip)), np.empty((count, strip)), np.empty((count, 2 * strip)),
-                          np.empty((count, strip), complex))
-        return tuple(buffer[:count] for buffer in self._work)
+            self._scratch = (np.empty((count, strip)), np.empty((count, strip)), np.empty((count, 2 * strip)),
+                             np.empty((count, strip), complex))
+        return tuple(buffer[:count] for buffer in self._scratch)
 
     def add_hit(self, hit: Any) -> None:
         """Add a :class:`gasfilm.analysis.capture.HitRecord` (or stored hit) through its OWN force and response
@@ -456,6 +495,23 @@ class FrfAccumulator:
         )
 
 
+def _second_thread() -> ThreadPoolExecutor:
+    """The thread that transforms blocks, started once per process (a forked child has none of its parent's
+    threads: it starts its own)."""
+    global _fft_thread
+    if _fft_thread is None or _fft_thread[0] != os.getpid():
+        _fft_thread = (os.getpid(), ThreadPoolExecutor(max_workers=1, thread_name_prefix="gasfilm-fft"))
+    return _fft_thread[1]
+
+
+def _transform(force: np.ndarray, response: np.ndarray, spectra: tuple[np.ndarray, np.ndarray]
+               ) -> tuple[np.ndarray, np.ndarray]:
+    """The real FFTs of a block's force and response rows into ``spectra``; returns ``spectra``."""
+    np.fft.rfft(force, axis=-1, out=spectra[0])
+    np.fft.rfft(response, axis=-1, out=spectra[1])
+    return spectra
+
+
 def _block_hits(n_samples: int) -> int:
     """Hits transformed at once: about :data:`_BLOCK_VALUES` complex values per channel, so that a block stays in
     cache, and an even number (numpy's FFT transforms rows two at a time, an odd one out alone at 1.4× the cost)."""
@@ -480,8 +536,8 @@ def compute_frf(
             raise SettingError(f"{name}: {row} is not a row of records with {n_rows} rows")
     accumulator = FrfAccumulator(sample_rate_hz, n_samples, window, capacity_hits=n_hits)
     block = _block_hits(n_samples)
-    for first in range(0, n_hits, block):
-        accumulator.add(data[first : first + block, force_row, :], data[first : first + block, response_row, :])
+    accumulator.add_blocks((data[first : first + block, force_row, :], data[first : first + block, response_row, :])
+                           for first in range(0, n_hits, block))
     return accumulator.result()
 
 
@@ -498,10 +554,9 @@ def session_frf(hits: Sequence[Any], window: WindowSettings = WindowSettings()) 
         raise SettingError(f"hits: records of different lengths ({', '.join(map(str, sorted(lengths)))} samples)")
     accumulator = FrfAccumulator(rates.pop(), lengths.pop(), window, capacity_hits=len(hits))
     block = _block_hits(accumulator.n_samples)
-    for first in range(0, len(hits), block):
-        chunk = hits[first : first + block]
-        accumulator.add(np.stack([hit.data[hit.force_channel] for hit in chunk]),
-                        np.stack([hit.data[hit.response_channel] for hit in chunk]))
+    chunks = (hits[first : first + block] for first in range(0, len(hits), block))
+    accumulator.add_blocks((np.stack([hit.data[hit.force_channel] for hit in chunk]),
+                            np.stack([hit.data[hit.response_channel] for hit in chunk])) for chunk in chunks)
     return accumulator.result()
 
 

@@ -33,6 +33,7 @@ from gasfilm.analysis.spectra import compute_frf
 from gasfilm.analysis.physics.plant import RigPlant
 from gasfilm.drivers.interface import STANDARD_GRAVITY_M_S2, default_hammer_and_accelerometer
 from gasfilm.drivers.simulated import SimulatedNI9234
+from machine import machine_line  # benchmarks/machine.py
 
 SAMPLE_RATE_HZ = 2560.0
 RECORD_S = 2.0
@@ -96,7 +97,7 @@ def main() -> None:
     names = args.models.split(",")
     freq_hz, h = rig_frf(args.seed)
     peak_g_per_n = np.max(np.abs(h)) / STANDARD_GRAVITY_M_S2
-    print(f"load average at start {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
+    print(machine_line())
     print(f"FRF: {len(freq_hz)} lines, {freq_hz[0]:g}–{freq_hz[-1]:g} Hz, peak {peak_g_per_n:.4f} g/N")
     header = f"{'model':<8}" + "".join(f"{m:>36}" for m in ("default: CPU s / evals / RMS g/N", "GA-PSO", "DE"))
     header += f"{'GA-PSO 1 %':>12}"

@@ -1,7 +1,10 @@
 """Replay benchmark: 100 hits × 2 channels × 65 536 samples → averaged FRF (rectangular windows), next to pyFRF.
 
-Goal (issue 3): gasfilm's ``compute_frf`` in at most 0.5 s and not slower than pyFRF on the same data in the same
-run. Both compute H1, H2 and coherence; gasfilm also keeps the per-hit FRFs and both uncertainties. Run:
+Goals: gasfilm's ``compute_frf`` in at most 0.5 s (issue 3) and at least 2× faster than pyFRF on the same data in the
+same run (issue 18), with the same H1, H2 and coherence to 1e-9. Both compute H1, H2 and coherence; gasfilm also keeps
+the per-hit FRFs and both uncertainties. gasfilm transforms each block of hits on a second thread while it combines
+the block before, so its wall time uses up to two cores; the CPU-time ratio printed beside it is the one-core
+comparison. Measured on the shared 2-core AMD EPYC VM: see the README's benchmark table. Run:
 ``.venv/bin/python benchmarks/bench_replay.py [--hits 100] [--samples 65536] [--repeats 5]``.
 """
 
@@ -16,6 +19,7 @@ from pyFRF import FRF
 
 from gasfilm.analysis.physics.elements import PAPER_MASS_KG, PAPER_MODELS, PAPER_TABLE1, accelerance
 from gasfilm.analysis.spectra import compute_frf
+from machine import machine_line  # benchmarks/machine.py
 
 SAMPLE_RATE_HZ = 51_200.0 / 4
 
@@ -79,6 +83,7 @@ def main() -> None:
         for a, b in ((ours.h1, h1), (ours.h2, h2), (ours.coherence, coherence))
     )
     size = f"{args.hits} hits x 2 channels x {args.samples} samples"
+    print(machine_line())
     print(f"replay of {size} -> averaged FRF (rectangular windows), best of {args.repeats} interleaved runs")
     print(f"  gasfilm compute_frf : {ours_s:8.3f} s  (goal <= 0.5 s)")
     print(f"  pyFRF 1.5           : {theirs_s:8.3f} s")
@@ -86,8 +91,8 @@ def main() -> None:
           f"{best_cpu['gasfilm']:.3f} s vs {best_cpu['pyFRF']:.3f} s: {best_cpu['pyFRF'] / best_cpu['gasfilm']:.2f} x; "
           f"load average {os.getloadavg()[0]:.1f})")
     print(f"  max relative difference of H1, H2, coherence vs pyFRF: {difference:.2e}")
-    verdict = "met" if ours_s <= 0.5 and ours_s <= theirs_s else "NOT met"
-    print(f"  goal {verdict}")
+    verdict = "met" if ours_s <= 0.5 and ours_s * 2 <= theirs_s and difference <= 1e-9 else "NOT met"
+    print(f"  goal (<= 0.5 s, >= 2x pyFRF in wall time, equal to 1e-9) {verdict}")
 
 
 if __name__ == "__main__":

@@ -25,6 +25,7 @@ from gasfilm.analysis.physics.spec import RigSpec
 from gasfilm.drivers.errors import ADCOverloadWarning
 from gasfilm.drivers.interface import ChannelConfig, ChannelKind, DaqConfig
 from gasfilm.drivers.simulated import SimulatedNI9234
+from machine import machine_line  # benchmarks/machine.py
 
 RIGS = Path(__file__).resolve().parents[1] / "fixtures" / "rigs"
 
@@ -67,8 +68,8 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seconds", type=float, default=60.0, help="simulated seconds per case (default 60)")
     args = parser.parse_args()
-    print(f"simulated NI 9234, 4 channels at 51.2 kS/s, chunks of 0.1 s (load average {os.getloadavg()[0]:.1f} "
-          f"on {os.cpu_count()} CPUs)")
+    print(machine_line())
+    print("simulated NI 9234, 4 channels at 51.2 kS/s, chunks of 0.1 s")
     stream("FOMGF rig, noise + quantisation", args.seconds)
     stream("FOMGF rig, noise-free", args.seconds, noise=False, quantize=False)
     stream("FOMGF rig, hits every 0.2–0.4 s", args.seconds, hit_interval_s=(0.2, 0.4))

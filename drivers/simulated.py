@@ -233,7 +233,7 @@ class SimulatedNI9234:
         self._noise_rms_v = nyquist_bandwidth * np.hypot(sensor_noise_v, module_noise_v) if self.noise else None
         self._hp_b, self._hp_a = scipy.signal.butter(1, AC_COUPLING_HZ, "highpass", fs=fs)
         self._hp_state = np.zeros((channel_count, 1))
-        self._filter_groups: tuple[bytes, np.ndarray, np.ndarray] | None = None
+        self._filter_groups: tuple[bytes, np.ndarray, np.ndarray, dict[str, np.ndarray]] | None = None
         sequence = np.random.SeedSequence(self.seed)
         schedule_seq, demand_seq, *noise_seqs = sequence.spawn(2 + channel_count)
         self._schedule_rng = np.random.default_rng(schedule_seq)
@@ -461,16 +461,19 @@ class SimulatedNI9234:
             if start_index + records.shape[1] > end:
                 remaining.append((start_index, records))
         self._contributions = remaining
-        fs = self.sample_rate_hz
-        time_s = np.arange(first, end) / fs
-        volts = physical[self._signal_of_channel]
-        for name, rows in self._rows_of_channel_kind.items():
+        # channels that carry the same signal through the same sensor kind, in the same filter state (several
+        # accelerometers on the one simulated mover), read the same volts until their own noise is added: each
+        # distinct one is computed once
+        distinct, position, distinct_rows_of_kind = self._channel_groups()
+        volts = physical[self._signal_of_channel[distinct]]
+        time_s = np.arange(first, end) / self.sample_rate_hz
+        for name, rows in distinct_rows_of_kind.items():
             interference = self.plant.interference(name, time_s)
             if interference is not None:
                 volts[rows] += interference
-        volts *= self._true_v_per_si[:, np.newaxis]
-        volts[self._open_sensor] = 0.0
-        volts = self._ac_coupled(volts)
+        volts *= self._true_v_per_si[distinct, np.newaxis]
+        volts[self._open_sensor[distinct]] = 0.0
+        volts = self._ac_coupled(volts, distinct, position)
         if self._noise_rms_v is not None:
             noise = physical[0]  # the stream's signals are in volts now: a scratch row
             for row, rng in enumerate(self._noise_rngs):
@@ -487,26 +490,29 @@ class SimulatedNI9234:
         self._position = end
         return overload
 
-    def _ac_coupled(self, volts: np.ndarray) -> np.ndarray:
-        """The AC-coupling high-pass on every channel (volts, channels × samples), its state carried across chunks.
-
-        Channels that carry the same signal through the same sensor kind (several accelerometers on the one simulated
-        mover) and are in the same filter state give the same output: each distinct one is filtered once. The groups
-        are formed again only when a sensor opens or closes (a member that left its group keeps its own state).
-        """
+    def _channel_groups(self) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarray]]:
+        """The channels that give the same volts before their noise: the first channel of each group (``distinct``),
+        each channel's group (``position``) and, per sensor kind, the groups of that kind. A group is one signal
+        through one sensor kind and sensitivity, open or not, in one AC-coupling filter state; the groups are formed
+        again only when a sensor opens or closes (a member that left its group keeps its own filter state)."""
         open_now = self._open_sensor.tobytes()
         if self._filter_groups is None or self._filter_groups[0] != open_now:
             leaders: dict[tuple, int] = {}
             source = np.array([
                 leaders.setdefault((self._signal_of_channel[row], self._channel_kinds[row], self._true_v_per_si[row],
                                     bool(self._open_sensor[row]), float(self._hp_state[row, 0])), row)
-                for row in range(len(volts))
+                for row in range(len(self._channel_kinds))
             ])
             distinct, position = np.unique(source, return_inverse=True)
-            self._filter_groups = (open_now, distinct, position)
-        _, distinct, position = self._filter_groups
-        filtered, state = scipy.signal.lfilter(self._hp_b, self._hp_a, volts[distinct], axis=1,
-                                               zi=self._hp_state[distinct])
+            kinds = np.array(self._channel_kinds)[distinct]
+            rows_of_kind = {name: np.flatnonzero(kinds == name) for name in self._rows_of_channel_kind}
+            self._filter_groups = (open_now, distinct, position, rows_of_kind)
+        return self._filter_groups[1:]
+
+    def _ac_coupled(self, volts: np.ndarray, distinct: np.ndarray, position: np.ndarray) -> np.ndarray:
+        """The AC-coupling high-pass on the volts of each channel group (groups × samples; :meth:`_channel_groups`),
+        its state carried across chunks; returns every channel's filtered volts (channels × samples)."""
+        filtered, state = scipy.signal.lfilter(self._hp_b, self._hp_a, volts, axis=1, zi=self._hp_state[distinct])
         self._hp_state = state[position]
         return filtered[position]
 

@@ -1,14 +1,19 @@
 """Claims the diagnosis must not make (issue 14): measurement notes that mislabel the data (a line near a mains
-harmonic that is not mains). Fast checks on records synthesised exactly from a rig spec."""
+harmonic that is not mains), an added mass that is a response reading the film's force, a term within a larger
+term's form error, a rig term a measurement term fits as well. Mostly fast checks on records synthesised exactly
+from a rig spec."""
 
 from __future__ import annotations
 
 import numpy as np
 
+from gasfilm.analysis.diagnosis import diagnose
 from gasfilm.analysis.diagnosis.measurement import hit_spectra
+from gasfilm.analysis.diagnosis.pipeline import Claim, Step, _beside_a_larger_term, _measurement_alternative
+from gasfilm.analysis.physics.effects import CrossTalk, SensitivityError
 from gasfilm.analysis.physics.response import simulate_response
 
-from test_diagnose import NOMINAL
+from test_diagnose import NOMINAL, record
 
 RATE_HZ = 12800.0
 
@@ -63,3 +68,38 @@ def test_lines_whose_phase_the_hit_resets_are_not_mains():
     notes = _notes(_records(line=reset))
     assert "interference" not in notes, notes
 
+
+
+def test_a_response_that_reads_the_film_force_is_no_added_mass(tmp_path):
+    # accelerometer base strain: the response reads a + g·(F − m·a), exactly a cross-talk g with a sensitivity error
+    # −g·m, which an added mass g·m² beside the cross-talk describes as well; the pair leaves the mass line where it
+    # is, which a mass on the mover would move: no added mass is claimed
+    leak = 6.5e-5
+    truth = NOMINAL.with_effects(CrossTalk(leak_m_s2_per_n=leak),
+                                 SensitivityError(channel="acceleration", fraction=-leak * NOMINAL.moving_mass_kg))
+    diagnosis = diagnose(record(truth, tmp_path / "strain.h5", hits=6, seed=5), NOMINAL)
+    assert "added-mass" not in [finding.effect for finding in diagnosis.findings], diagnosis.findings
+    assert any(c.effect == "added-mass" and "mass line does not move" in c.reason for c in diagnosis.candidates)
+
+
+def _step(identifier: str, gain: float, alternatives: tuple[str, ...] = ()) -> Step:
+    return Step(identifier, 1e7, 1e7 - gain, gain, gain, list(alternatives))
+
+
+def test_a_term_within_a_larger_terms_form_error_is_no_finding():
+    memory, lag = _step("film-memory", 7.2e5), _step("pneumatic-lag", 46.0)
+    quiet_without = Claim(0.994, 1.5, 0.06, None, own_band_without=0.998, own_band_chance=1.05)
+    assert "form error" in _beside_a_larger_term(lag, [memory, lag], quiet_without)
+    assert _beside_a_larger_term(memory, [memory, lag], quiet_without) is None
+    # small beside a large term, but its own band is beyond the noise without it: a second effect, kept
+    needed = Claim(1.0, 1.5, 0.5, None, own_band_without=1.44, own_band_chance=1.2)
+    assert _beside_a_larger_term(_step("film-memory", 287.0), [_step("added-mass", 4.7e5), lag], needed) is None
+    mass = _step("added-mass", 480.0)  # 7 % of a channel delay's gain: a second effect, not a correction
+    assert _beside_a_larger_term(mass, [_step("channel-delay", 7.2e3), mass], quiet_without) is None
+
+
+def test_a_rig_term_that_a_measurement_term_fits_as_well_is_no_finding():
+    assert "cannot tell whether the rig or the measurement" in _measurement_alternative(
+        _step("added-mass", 37.0, ("channel-delay",)))
+    assert _measurement_alternative(_step("added-mass", 47.0, ("pneumatic-lag",))) is None
+    assert _measurement_alternative(_step("channel-delay", 47.0, ("added-mass",))) is None

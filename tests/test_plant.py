@@ -87,6 +87,23 @@ def test_rig_plant_answers_with_the_specs_physics():
     assert plant.hammer.tip == "medium" and plant.is_linear
 
 
+@pytest.mark.parametrize("rate_hz", [51200.0, 51200.0 / 3, 2560.0])
+def test_mains_on_a_streams_chunks_equals_the_direct_sum_of_harmonics(rate_hz):
+    # a uniform grid (a stream's chunk) is computed by angle addition from a table: the same values as
+    # Σ h_n sin(2π n f t) to the rounding of the phase itself, hours into a stream; other times directly
+    mains = Mains("acceleration", 0.02, 50.0, (1.0, 0.3, 0.1))
+    for first in (0, 3, 5120 * 77, int(rate_hz * 7200)):
+        time_s = np.arange(first, first + 5120) / rate_hz
+        phase = 2 * np.pi * 50.0 * time_s
+        direct = 0.02 * (np.sin(phase) + 0.3 * np.sin(2 * phase) + 0.1 * np.sin(3 * phase))
+        rounding = 0.02 * 8 * np.spacing(phase.max())  # Σ n·h_n ≈ 2, a few roundings of the largest phase
+        np.testing.assert_allclose(mains.interference("acceleration", time_s), direct, rtol=0, atol=rounding)
+    uneven = np.array([0.0, 0.001, 0.0035, 0.004])
+    np.testing.assert_allclose(mains.interference("acceleration", uneven),
+                               0.02 * (np.sin(100 * np.pi * uneven) + 0.3 * np.sin(200 * np.pi * uneven)
+                                       + 0.1 * np.sin(300 * np.pi * uneven)), rtol=0, atol=1e-15)
+
+
 def test_the_tips_a_spec_accepts_are_the_simulated_hammers():
     base = "mass_kg = 25.05\n[film]\nmodel = 'SD'\n[film.parameters]\nk = 3.78e7\neta = 3.45e3\n"
     for tip in TIPS_PULSE_WIDTH_S:

@@ -224,3 +224,36 @@ def test_cubic_hardening_agrees_with_time_integration():
     peak = np.abs(reference).max()
     assert np.abs(nonlinear - reference).max() < 1e-4 * peak
     assert np.abs(linear - reference).max() > 0.1 * peak  # the hardening really matters in this test
+
+
+DESCRIBED = GOOD + ('\n[description_error]\nrecording = "a.uff"\nchi2_per_point = 3.2\n'
+                    'freq_hz = [100.0, 104.0, 108.0]\nrms_m_s2_per_n = [0.0, 0.02, 0.0]\n')
+
+
+def test_a_description_error_round_trips_and_is_zero_outside_its_lines():
+    spec = RigSpec.from_toml(DESCRIBED)
+    error = spec.description_error
+    assert error.recording == "a.uff" and error.chi2_per_point == 3.2
+    assert RigSpec.from_toml(spec.to_toml()) == spec
+    power = error.power(np.array([50.0, 102.0, 104.0, 200.0]))
+    assert power[0] == 0.0 and power[-1] == 0.0
+    assert power[2] == pytest.approx(4e-4) and power[1] == pytest.approx(2e-4)
+    assert spec.with_description_error(None).description_error is None
+
+
+@pytest.mark.parametrize(
+    "change, key",
+    [
+        (("freq_hz = [100.0, 104.0, 108.0]", "freq_hz = [100.0, 108.0, 104.0]"), "freq_hz"),
+        (("rms_m_s2_per_n = [0.0, 0.02, 0.0]", "rms_m_s2_per_n = [0.0, 0.02]"), "rms_m_s2_per_n"),
+        (("rms_m_s2_per_n = [0.0, 0.02, 0.0]", "rms_m_s2_per_n = [0.0, -0.02, 0.0]"), "rms_m_s2_per_n"),
+        (("chi2_per_point = 3.2", "chi2 = 3.2"), "chi2"),
+    ],
+)
+def test_a_bad_description_error_gives_one_line_naming_the_file_and_key(change, key, tmp_path):
+    path = tmp_path / "bad-error.toml"
+    path.write_text(DESCRIBED.replace(*change))
+    with pytest.raises(SettingError) as caught:
+        RigSpec.load(path)
+    message = str(caught.value)
+    assert "\n" not in message and str(path) in message and key in message

@@ -1,11 +1,14 @@
 """Spectra and FRF: pyFRF agreement (rectangular), windowed magnitude vs the analytic accelerance, damping after the
 window correction, averaging of spectra (not ratios), uncertainty, views and round trips."""
 
+import multiprocessing
+
 import numpy as np
 import pytest
 from pyFRF import FRF
 
 from gasfilm.analysis.physics.elements import PAPER_MODELS, PAPER_TABLE1, accelerance
+from gasfilm.analysis import spectra
 from gasfilm.analysis.spectra import (
     FrfResult,
     WindowSettings,
@@ -224,6 +227,36 @@ def test_scatter_in_one_pass_equals_the_standard_deviation_of_the_per_hit_frfs()
                                    atol=1e-12 * np.abs(result.h1[lines]).max())
     identical = compute_frf(np.repeat(records[:1], 3, axis=0), fs)
     assert np.all(identical.h1_std_scatter[1:] == 0.0)
+
+
+def test_blocks_transformed_on_a_second_thread_give_the_same_bits(monkeypatch):
+    # large blocks are transformed while the block before is combined: the same sums, in the same order, as one
+    # block after the other in one thread (here blocks of 2 hits, every block handed over, an odd last block)
+    records, fs = noisy_hits(n_hits=19, n_samples=4096)
+    window = WindowSettings(force_window_ms=20.0, exponential_end_fraction=0.1)
+    monkeypatch.setattr(spectra, "_BLOCK_VALUES", 1 << 12)
+    monkeypatch.setattr(spectra, "_OVERLAPPED_VALUES", 1)
+    overlapped = compute_frf(records, fs, window)
+    monkeypatch.setattr(spectra, "_OVERLAPPED_VALUES", 1 << 40)
+    serial = compute_frf(records, fs, window)
+    assert overlapped.n_averages == serial.n_averages == 19
+    for name in ("h1", "h2", "coherence", "gff", "gxx", "gfx", "h1_per_hit", "h1_std_scatter", "h1_std_coherence"):
+        assert np.array_equal(getattr(overlapped, name), getattr(serial, name), equal_nan=True), name
+
+
+def _overlapped_h1(records, fs):
+    return compute_frf(records, fs).h1
+
+
+def test_a_forked_process_transforms_on_its_own_thread(monkeypatch):
+    # the parent's transform thread does not exist in a forked child (a process pool, the GUI's job processes)
+    records, fs = noisy_hits(n_hits=4, n_samples=1024)
+    monkeypatch.setattr(spectra, "_BLOCK_VALUES", 1 << 10)
+    monkeypatch.setattr(spectra, "_OVERLAPPED_VALUES", 1)
+    parent = compute_frf(records, fs).h1
+    with multiprocessing.get_context("fork").Pool(1) as pool:
+        child = pool.apply_async(_overlapped_h1, (records, fs)).get(timeout=30)
+    assert np.array_equal(parent, child)
 
 
 def test_single_hit_has_unit_coherence_and_no_scatter_estimate():

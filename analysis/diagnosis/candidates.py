@@ -8,6 +8,9 @@ Effects that cannot be told apart from the data are listed in :data:`EQUIVALENT`
 
 from __future__ import annotations
 
+from gasfilm.analysis.physics.effects import Effect
+from gasfilm.analysis.physics.spec import RigSpec
+
 #: Forward-selection candidates in order of preference when they explain the data equally well.
 CANDIDATES: tuple[str, ...] = (
     "added-mass",
@@ -24,6 +27,22 @@ CANDIDATES: tuple[str, ...] = (
     "pneumatic-lag",
     "extra-mode",
 )
+
+
+def candidates_for(spec: RigSpec) -> tuple[str, ...]:
+    """The candidates for ``spec``: :data:`CANDIDATES`, and a sensitivity error when part of the spec's accelerance
+    lies beside the mover (a measured structure's modes): a uniform gain then scales those parts too, which no mass
+    change does, so it is a candidate of its own rather than the exact equivalent of an added mass
+    (:data:`EQUIVALENT`)."""
+    if gain_is_not_a_mass(spec):
+        return (*CANDIDATES, "sensitivity-error")
+    return CANDIDATES
+
+
+def gain_is_not_a_mass(spec: RigSpec) -> bool:
+    """Whether part of the spec's accelerance lies beside the mover (an ``added_accelerance``: structure modes)."""
+    return any(type(effect).added_accelerance is not Effect.added_accelerance for effect in spec.effects)
+
 
 #: Explanations the recordings cannot tell apart whatever their noise, and the measurement that would separate them:
 #: a uniform sensitivity error ``δ`` scales the FRF exactly as a mass ``M/(1+δ)`` on a film ``Z/(1+δ)`` does.

@@ -24,7 +24,7 @@ from typing import Callable
 import numpy as np
 import scipy.stats
 
-from gasfilm.analysis.diagnosis.candidates import CANDIDATES, EQUIVALENT, separating_measurement
+from gasfilm.analysis.diagnosis.candidates import EQUIVALENT, candidates_for, gain_is_not_a_mass, separating_measurement
 from gasfilm.analysis.diagnosis.fitspace import fit_context, spec_slots, without_effect
 from gasfilm.analysis.diagnosis.measurement import HitSpectra, QualityNote, contiguous_bands, weighted_mean
 from gasfilm.analysis.diagnosis.modes import unmodelled_resonances_hz
@@ -50,9 +50,9 @@ from gasfilm.analysis.diagnosis.selection import (
     to_finish,
     finishing_fit,
 )
-from gasfilm.analysis.physics.effects import FitContext
+from gasfilm.analysis.physics.effects import EFFECT_TYPES, FitContext
 from gasfilm.analysis.physics.response import simulate_response
-from gasfilm.analysis.physics.spec import RigSpec
+from gasfilm.analysis.physics.spec import DescriptionError, RigSpec
 from gasfilm.analysis.threads import one_blas_thread
 from gasfilm.drivers.errors import GasfilmError
 
@@ -88,6 +88,12 @@ AMPLITUDE_TERMS = ("cubic-stiffness", "friction", "quadratic-damping")
 #: ADEQUATE_CHI2_PER_POINT; a band is never held to less than that margin (the simulated rig's true spec leaves a
 #: wide band at 1.2–1.25, which the F test alone calls beyond the noise).
 OWN_BAND_FALSE_ALARM = 1e-3
+#: An added mass whose move of the mass line the written spec's measurement terms cancel to below this share is not
+#: seen at the mass line (:func:`_mass_line_unmoved`).
+MASS_LINE_SHARE = 0.5
+#: A term whose χ² gain is below this share of another term's is within that term's form error
+#: (:func:`_beside_a_larger_term`).
+MODEL_FORM_SHARE = 1e-3
 
 
 @dataclass
@@ -111,6 +117,8 @@ class Claim:
     own_band_limit: float
     gain_over_recalibrated: float
     reason: str | None
+    own_band_without: float = np.inf  # the own band's χ² per point of the written spec refitted without the term
+    own_band_chance: float = 0.0  # the χ² per point the noise reaches there by chance (1 in 1000)
 
 
 def _silent(message: str) -> None:
@@ -123,10 +131,22 @@ def diagnose_spectra(
     spec: RigSpec,
     progress: Callable[[str], None] = _silent,
     restoring: RestoringForce | None = None,
+    structure_read_off_frf: bool = False,
+    recording: str = "these recordings",
 ) -> Diagnosis:
     """Diagnose per-hit spectra against a rig spec; ``restoring`` (the film's restoring force from the same hits)
-    chooses among the amplitude-dependent terms and characterises what they leave unexplained."""
+    chooses among the amplitude-dependent terms and characterises what they leave unexplained.
+
+    ``structure_read_off_frf``: the spec's structure modes are a start read off these recordings' FRF, which the
+    recalibration finishes. A given spec's structure modes are its description of the structure and are held: freed,
+    their complex constants would take up a channel delay, a leak or a gain mode by mode; they are fitted last,
+    only when no term explains what the spec leaves (:func:`_redescribe_structure`).
+    A spec's recorded description error (``[description_error]``) is taken into the noise model
+    (:func:`_with_description_error`), and no term is sought when the spec is within it: a term would describe the
+    spec's known error, not a change; the spec written records its own (``recording`` names the recordings there)."""
     started = time.monotonic()
+    measured = spectra
+    spectra = _with_description_error(spectra, spec)
     context = fit_context(spec, spectra.conditions, (float(spectra.freq_hz[0]), float(spectra.freq_hz[-1])))
     evidence = evidence_for(spectra, spec)
     level_notes = _level_note(evidence, spec)
@@ -136,7 +156,7 @@ def diagnose_spectra(
     progress(f"compared {evidence.hit_count} hits on {len(evidence.freq_hz)} frequencies "
              f"{evidence.freq_hz[0]:.0f}–{evidence.freq_hz[-1]:.0f} Hz: χ²/point {chi2_given / points:.2f}")
 
-    own_slots = spec_slots(spec, context, recalibration=True)
+    own_slots = spec_slots(spec, context, recalibration=structure_read_off_frf)
     recalibrated = _settle_quantised_replay(spectra, fit(evidence, spec, own_slots))
     recalibration_significant = chi2_given - recalibrated.chi2 > len(own_slots) * np.log(points) + BIC_MARGIN
     if recalibration_significant:
@@ -153,7 +173,11 @@ def diagnose_spectra(
 
     steps: list[Step] = []
     rejected: list[CandidateDescription] = []
-    while len(steps) < MAX_TERMS:
+    within_known_error = spectra is not measured and not _unexplained(spectra, evidence, current.spec, [])
+    if within_known_error:
+        progress("within the noise and the spec's recorded description error: nothing changed that a term could "
+                 "describe, none is sought")
+    while len(steps) < MAX_TERMS and not within_known_error:
         accepted = _select_one(spectra, evidence, current, context, points, rejected, progress, restoring)
         if accepted is None:
             break
@@ -171,6 +195,14 @@ def diagnose_spectra(
     findings = [_finding(evidence, step, current, refits_without[step.identifier], claims[step.identifier], context)
                 for step in steps]
     unexplained = _unexplained(spectra, evidence, current.spec, rejected, restoring)
+    if unexplained and not steps and not structure_read_off_frf:
+        redescribed = _redescribe_structure(spectra, evidence, current, context, progress)
+        if redescribed is not None:
+            current, evidence = redescribed
+            recalibration_significant = True
+            recalibrated_spec = current.spec
+            rms_recalibrated = replay_rms(spectra, recalibrated_spec)
+            unexplained = _unexplained(spectra, evidence, current.spec, rejected, restoring)
     chi2_after = current.chi2
     if unexplained:
         verdict = "partly explained" if findings else "not explained"
@@ -198,7 +230,8 @@ def diagnose_spectra(
         chi2_per_point_after=chi2_after / points,
         given=spec,
         recalibrated=recalibrated_spec,
-        improved=current.spec,
+        improved=current.spec.with_description_error(
+            _description_error(measured, current.spec, unexplained, spec.description_error, recording)),
         spectra=spectra,
         evidence=evidence,
         wall_time_s=time.monotonic() - started,
@@ -208,6 +241,80 @@ def diagnose_spectra(
     logger.info("diagnosis: %s, %d finding(s), %d unexplained band(s), χ²/point %.2f → %.2f", verdict, len(findings),
                 len(unexplained), diagnosis.chi2_per_point_before, diagnosis.chi2_per_point_after)
     return diagnosis
+
+
+def _with_description_error(spectra: HitSpectra, spec: RigSpec) -> HitSpectra:
+    """The spectra with the spec's recorded description error added to every hit's noise variance (the systematic
+    difference the spec is known to leave, as a model-discrepancy term: a difference the same in every hit adds its
+    power to each hit's expected |H_i − H_spec|²), and a quality note saying so; unchanged without one."""
+    error = spec.description_error
+    if error is None or spectra.replay is None:
+        return spectra
+    power = error.power(spectra.freq_hz)
+    if not np.any(power > 0):
+        return spectra
+    replay = dataclasses.replace(spectra.replay, measured_variance=spectra.replay.measured_variance + power,
+                                 nonlinear_cache={}, damped_force_padded=spectra.replay.damped_force_padded)
+    covered = spectra.freq_hz[power > 0]
+    note = QualityNote("description error", (
+        f"the spec records how far it is from the recording it was written from ('{error.recording}', χ²/point "
+        f"{error.chi2_per_point:.2f} there) in {covered[0]:.0f}–{covered[-1]:.0f} Hz: that systematic error is "
+        f"taken into the noise model, so a change smaller than it cannot be seen there"),
+        (float(covered[0]), float(covered[-1])))
+    return dataclasses.replace(spectra, variance=spectra.variance + power, replay=replay,
+                               quality=[*spectra.quality, note])
+
+
+def _description_error(
+    measured: HitSpectra, spec: RigSpec, unexplained: list[Unexplained], previous: DescriptionError | None,
+    recording: str,
+) -> DescriptionError | None:
+    """What the written spec records of its own description error on these recordings when it leaves some of them
+    unexplained: at every analysis line, the power by which the recorded per-hit FRFs differ from the spec replayed
+    hit by hit beyond their noise, averaged over the hits (the mean difference and any scatter between hits the spec
+    does not describe; 5 lines smoothed, as the unexplained bands are found). With nothing unexplained, the error the
+    given spec recorded, if any. None for a spec grossly beyond the noise (χ²/point above
+    :data:`GROSS_CHI2_PER_POINT`): it describes nothing a change could be measured against."""
+    if not unexplained or measured.replay is None:
+        return previous
+    evidence = evidence_for(measured, spec)
+    chi2_per_point = evidence.chi2(spec) / evidence.point_count
+    if chi2_per_point > GROSS_CHI2_PER_POINT:
+        return previous
+    freq_hz = measured.freq_hz
+    replay = measured.replay
+    per_hit = np.abs(replay.measured_h - replayed_per_hit(measured, spec)) ** 2 - replay.measured_variance
+    power = np.convolve(np.clip(per_hit.mean(axis=0), 0.0, None), np.ones(5) / 5, mode="same")
+    if not np.any(power > 0):
+        return previous
+    keep = power > 0
+    keep[1:] |= power[:-1] > 0  # a zero either side of a band ends it in the interpolation
+    keep[:-1] |= power[1:] > 0
+    return DescriptionError(tuple(float(f) for f in freq_hz[keep]),
+                            tuple(float(f"{v:.4g}") for v in np.sqrt(power[keep])), round(chi2_per_point, 3),
+                            recording)
+
+
+def _redescribe_structure(
+    spectra: HitSpectra, evidence: Evidence, current: FitOutcome, context: FitContext,
+    progress: Callable[[str], None],
+) -> tuple[FitOutcome, Evidence] | None:
+    """When no term explains what a given spec leaves beyond the noise, the structure it describes may itself have
+    changed: its held parameters (structure modes) are fitted too, last — after every few-parameter explanation was
+    tried — and kept when the χ² gain pays their BIC cost. None when there is nothing held or it does not pay."""
+    if not any(type(effect).held_after_recalibration for effect in current.spec.effects):
+        return None
+    slots = spec_slots(current.spec, context, recalibration=True)
+    extra = len(slots) - len(current.slots)
+    refit = fit(evidence, current.spec, slots)
+    points = evidence.point_count
+    cost = extra * np.log(points) + BIC_MARGIN
+    progress(f"no term explains the rest: the structure's {extra} held parameter(s) fitted too, χ² {current.chi2:.0f} "
+             f"→ {refit.chi2:.0f} (needs a fall of {cost:.0f})")
+    if current.chi2 - refit.chi2 <= cost:
+        return None
+    evidence = evidence_for(spectra, refit.spec)
+    return fit(evidence, refit.spec, slots), evidence
 
 
 def _settle_quantised_replay(spectra: HitSpectra, outcome: FitOutcome) -> FitOutcome:
@@ -248,7 +355,7 @@ def _select_one(
     present = {effect.type_name for effect in current.spec.effects}
     noise_scale = _noise_scale(current, points)
     trials = []
-    identifiers = [identifier for identifier in CANDIDATES
+    identifiers = [identifier for identifier in candidates_for(current.spec)
                    if identifier not in present
                    and not (identifier in ("drift", "step-change") and context.session_span_s <= 0)
                    and not (identifier in AMPLITUDE_TERMS and restoring is not None
@@ -497,6 +604,12 @@ def _drop_unsupported_terms(
             if claims[step.identifier].reason is None:
                 claims[step.identifier].reason = _survives_left_out_data(spectra, evidence, current, step,
                                                                          refits_without[step.identifier], context)
+            if claims[step.identifier].reason is None:
+                claims[step.identifier].reason = _beside_a_larger_term(step, steps, claims[step.identifier])
+            if claims[step.identifier].reason is None:
+                claims[step.identifier].reason = _measurement_alternative(step)
+            if claims[step.identifier].reason is None and step.identifier == "added-mass":
+                claims[step.identifier].reason = _mass_line_unmoved(spectra, current.spec)
         failing = [step for step in steps if claims[step.identifier].reason is not None][-1:]
         if not failing:  # (the latest failing term goes first: the others may stand once it is out)
             break
@@ -555,6 +668,65 @@ def _survives_left_out_data(
     return _unstable(band_folds, hit_folds, index, noise_scale, points)
 
 
+def _beside_a_larger_term(step: Step, steps: list[Step], claim: Claim) -> str | None:
+    """Why a term removes no excess of its own: without it (the rest refitted) its own band is already within the
+    noise, and its χ² gain is below :data:`MODEL_FORM_SHARE` of another term's — a catalog term is a model of real
+    physics, not the physics itself, and what it leaves grows with the mismatch it removes: such a term is a
+    correction to the larger term's form, not told apart from its form error."""
+    gain = step.chi2_before - step.chi2_after
+    larger = max(steps, key=lambda other: other.chi2_before - other.chi2_after)
+    larger_gain = larger.chi2_before - larger.chi2_after
+    if (larger is step or gain >= MODEL_FORM_SHARE * larger_gain
+            or claim.own_band_without > claim.own_band_chance):
+        return None
+    return (f"without it its own band is already within the noise (χ²/point {claim.own_band_without:.2f}, what the "
+            f"noise reaches by chance: {claim.own_band_chance:.2f}), and its χ² gain ({gain:.0f}) is "
+            f"{100 * gain / larger_gain:.3f} % of the {larger.identifier}'s ({larger_gain:.0f}): a correction to the "
+            f"{larger.identifier}'s form, not told apart from its form error")
+
+
+def _measurement_alternative(step: Step) -> str | None:
+    """Why a rig term is not a finding when a measurement-chain term fits about as well: these data cannot tell
+    whether the rig or the measurement differs, and measurement properties are never claimed as physics."""
+    if EFFECT_TYPES[step.identifier].kind != "rig":
+        return None
+    chain = [other for other in step.alternatives if EFFECT_TYPES[other].kind == "measurement"]
+    if not chain:
+        return None
+    return (f"{' and '.join(chain)} in the measurement chain fits about as well (BIC within {ALTERNATIVE_MARGIN:.0f}): "
+            f"these data cannot tell whether the rig or the measurement differs — "
+            f"{separating_measurement(step.identifier, chain[0])} would")
+
+
+def _mass_line_unmoved(spectra: HitSpectra, spec: RigSpec) -> str | None:
+    """Why an added mass is not seen where a mass shows: a mass added to the mover moves the mass line (the FRF
+    above the resonance, 1/m), but when a measurement term of the written spec (a force leaking into the response,
+    a sensitivity error) cancels most of that move there, the pair describes the response, not the mover. A
+    response that reads a share g of the film's force (an accelerometer's base-strain sensitivity: a + g·(F − m·a))
+    is exactly a cross-talk g with an added mass g·m²; these data cannot tell the two apart."""
+    index = _effect_index(spec, "added-mass")
+    chain = [i for i, effect in enumerate(spec.effects) if effect.kind == "measurement"]
+    if not chain:
+        return None
+    top = spectra.freq_hz >= spectra.freq_hz[0] + 0.75 * (spectra.freq_hz[-1] - spectra.freq_hz[0])
+    written = replayed_mean(spectra, spec)[top]
+    without_mass = replayed_mean(spectra, without_effect(spec, index))[top]
+    bare = spec
+    for i in sorted([index, *chain], reverse=True):
+        bare = without_effect(bare, i)
+    own = float(np.sqrt(np.mean(np.abs(written - without_mass) ** 2)))
+    net = float(np.sqrt(np.mean(np.abs(written - replayed_mean(spectra, bare)[top]) ** 2)))
+    if own <= 0 or net >= MASS_LINE_SHARE * own:
+        return None
+    names = " and ".join(sorted({spec.effects[i].type_name for i in chain}))
+    mass_kg = getattr(spec.effects[index], "mass_kg", 0.0)
+    return (f"the mass line does not move: above {spectra.freq_hz[top][0]:.0f} Hz the {names} beside it cancels "
+            f"{100 * (1 - net / own):.0f} % of what the added mass of {1e3 * mass_kg:.3g} g does to the FRF, and a "
+            f"mass on the mover would move it; together they describe the response, not the mover — e.g. a "
+            f"response that reads a share of the film's force (accelerometer base strain, a + g·(F − m·a)), which "
+            f"is exactly such a pair; these data cannot tell them apart")
+
+
 def _refit(spectra: HitSpectra, spec: RigSpec, recalibrated: RigSpec, context: FitContext) -> tuple[FitOutcome, Evidence]:
     """Refit a spec some terms were taken out of: from its values and from the recalibrated film's (the film may
     have been bent to suit the terms taken out), the better fit."""
@@ -606,23 +778,26 @@ def _claim(
     elif in_written <= 0:
         reason = (f"the written spec replayed is not closer to the recordings with it than refitted without it "
                   f"(RMS gain {in_written:+.2f} % of the recalibrated spec's)")
-    return Claim(after, limit, in_written, reason)
+    return Claim(after, limit, in_written, reason, before, own_band_chance(spectra, per_point, lines))
 
 
 def own_band_limit(spectra: HitSpectra, per_point: np.ndarray, lines: np.ndarray) -> float:
-    """The χ² per point above which a band (``lines`` of the analysis grid) is beyond the noise: beyond what the noise
-    gives by chance — the one-sided F test at :data:`OWN_BAND_FALSE_ALARM` with the band's real numbers and the noise
-    estimate's degrees of freedom, scaled by the level the spec reaches outside the band (clipped to 1 …
-    ADEQUATE_CHI2_PER_POINT) — and beyond the noise model's own systematic margin, ADEQUATE_CHI2_PER_POINT, the
-    margin the whole spec is held to (a band of many lines is not held to a stricter standard than the whole)."""
+    """The χ² per point above which a band is beyond the noise: :func:`own_band_chance`, never below
+    ADEQUATE_CHI2_PER_POINT (a band of many lines is not held to a stricter standard than the whole)."""
+    return max(own_band_chance(spectra, per_point, lines), ADEQUATE_CHI2_PER_POINT)
+
+
+def own_band_chance(spectra: HitSpectra, per_point: np.ndarray, lines: np.ndarray) -> float:
+    """The χ² per point a band (``lines`` of the analysis grid) reaches by chance: the one-sided F test at
+    :data:`OWN_BAND_FALSE_ALARM` with the band's real numbers and the noise estimate's degrees of freedom, scaled by
+    the level the spec reaches outside the band (clipped to 1 … ADEQUATE_CHI2_PER_POINT)."""
     band_dof = 2 * per_point.shape[0] * max(lines.size, 1)
     noise_dof = spectra.noise.degrees_of_freedom if spectra.noise is not None else 1e6
     outside = np.ones(per_point.shape[1], bool)
     outside[lines] = False
     rest = float(per_point[:, outside].mean()) if outside.any() else 1.0
     level = min(max(rest, 1.0), ADEQUATE_CHI2_PER_POINT)
-    chance = level * float(scipy.stats.f.isf(OWN_BAND_FALSE_ALARM, band_dof, max(noise_dof, 1.0)))
-    return max(chance, ADEQUATE_CHI2_PER_POINT)
+    return level * float(scipy.stats.f.isf(OWN_BAND_FALSE_ALARM, band_dof, max(noise_dof, 1.0)))
 
 
 def _effect_index(spec: RigSpec, identifier: str) -> int:
@@ -714,7 +889,7 @@ def _finding(
 
 def _alternatives(identifier: str, close: list[str], spec: RigSpec, index: int) -> list[Alternative]:
     alternatives = []
-    if identifier in EQUIVALENT:
+    if identifier in EQUIVALENT and not gain_is_not_a_mass(spec):
         other, measurement = EQUIVALENT[identifier]
         mass_kg = getattr(spec.effects[index], "mass_kg", 0.0)
         fraction = -mass_kg / (spec.moving_mass_kg) if mass_kg else 0.0

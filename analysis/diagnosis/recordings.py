@@ -333,13 +333,15 @@ def diagnose(
     starts with where the starting spec came from."""
     recordings = source if isinstance(source, Recordings) else load_recordings(source)
     _check_records(recordings)
+    read_off_frf = rig_spec is None and not recordings.rig_spec_toml
     spectra = hit_spectra(recordings.records, recordings.sample_rate_hz, recordings.window,
                           hit_times_s=recordings.hit_times_s, overload=recordings.overload, band_hz=band_hz)
     rig_spec, origin = starting_spec(recordings, rig_spec, mass_kg)
     progress(origin)
     spectra.quality[:0] = recordings.quality
     restoring = film_restoring_force(recordings, spectra, rig_spec.moving_mass_kg)
-    diagnosis = diagnose_spectra(spectra, rig_spec, progress, restoring)
+    diagnosis = diagnose_spectra(spectra, rig_spec, progress, restoring, structure_read_off_frf=read_off_frf,
+                                 recording=Path(recordings.source).name)
     diagnosis.notes.insert(0, origin)
     logger.info("diagnosed %s against %s: %s", recordings.source, rig_spec.name, diagnosis.verdict)
     return diagnosis

@@ -18,6 +18,16 @@ of ``r`` (from the quiet pre-trigger) and per independent sample (the band-limit
 | bilinear stiffness | max(x, 0) (different stiffness on either side) | none |
 | asymmetric (quadratic) stiffness | x² | none |
 
+A linear film whose stiffness depends on frequency (a fractional or memory film) does not leave a plane: its free
+decay is not one exponential, the apparent stiffness changes along the decay as the amplitude falls, and x³ or a
+dead zone follow that change. So each shape is judged against the *linear reference*: the plane plus the best linear
+time-invariant description of ``r`` from ``x`` over all hits (the film's dynamic stiffness K(ω) = Σ R·X̄ / Σ |X|²,
+pulse included, applied to each hit's displacement; Bendat & Piersol, *Random Data*, ch. 6). Whatever a linear film
+does, at any frequency dependence, it does alike in every hit; an odd-symmetric shape (cubic, quadratic damping,
+friction, clearance) is evidence only beyond that. The even shapes (bilinear, x²) make even harmonics no linear film
+makes; but hits of similar levels are nearly scaled copies, whose even harmonics that reference would take in as a
+frequency dependence (a bilinear film is exactly homogeneous), so they are judged against the plane alone.
+
 Each basis function goes through the same band-pass as the measured force, so that the harmonics the nonlinearity
 creates outside the band are removed from both sides alike. Only samples after the hammer pulse (free decay, where
 ``r = −m·a`` whatever the force sensor's calibration) whose displacement stands well above the noise are used.
@@ -29,9 +39,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-#: χ² gain (noise units, independent samples) a shape needs over the linear plane to be evidence, and the share of
-#: the linear plane's misfit beyond the noise it must remove (a linear film with frequency-dependent stiffness leaves
-#: a misfit every basis function shaves a little off).
+#: χ² gain (noise units, independent samples) a shape needs over the linear reference to be evidence, and the share
+#: of the reference's misfit beyond the noise it must remove.
 SHAPE_SIGNIFICANCE = 25.0
 SHAPE_SHARE = 0.3
 #: The film's band, relative to the resonance (inside the analysis band).
@@ -46,12 +55,12 @@ TIE_FRACTION = 0.2
 
 @dataclass
 class Shape:
-    """One shape of the restoring-force catalogue, fitted on top of the linear plane."""
+    """One shape of the restoring-force catalogue, fitted on top of the linear reference."""
 
     name: str
     term: str | None  # the catalog effect with this shape, or None
-    chi2_gain: float  # over the linear plane, in noise units per independent sample
-    share: float  # of the linear plane's misfit beyond the noise that this shape removes
+    chi2_gain: float  # over the linear reference, in noise units per independent sample
+    share: float  # of the linear reference's misfit beyond the noise that this shape removes
     coefficient: float
     unit: str
 
@@ -133,7 +142,7 @@ class RestoringForce:
         if best is None:
             top = self.shapes[0] if self.shapes else None
             detail = (f" (largest: {top.name}, χ² gain {top.chi2_gain:.0f}, {100 * top.share:.0f} % of the linear "
-                      f"plane's misfit)" if top else "")
+                      f"reference's misfit)" if top else "")
             return (f"the film's restoring force (F − m·a, {band}) is linear within the noise: no shape of the "
                     f"restoring-force catalogue stands out{detail}")
         close = self.close_to_best()
@@ -141,7 +150,7 @@ class RestoringForce:
         terms = sorted({shape.term for shape in close if shape.term})
         text = (f"the film's restoring force (F − m·a, {band}) has the shape of {names} (χ² gain "
                 f"{best.chi2_gain:.0f} over a linear film in noise units, significant above {SHAPE_SIGNIFICANCE:.0f}; "
-                f"{100 * best.share:.0f} % of the linear film's misfit)")
+                f"{100 * best.share:.0f} % of the linear reference's misfit)")
         if terms:
             return text + f"; the catalog term with that shape: {', '.join(terms)}"
         return text + "; no term of the catalog has that shape"
@@ -259,23 +268,35 @@ def restoring_force(
 
     linear = np.column_stack((x, v))
     coefficients = _least_squares(linear, r)
-    rss_linear = float(np.sum((r - linear @ coefficients) ** 2))
-    catalogue = (
-        ("cubic stiffness", "cubic-stiffness", lambda d, u: d**3, "N/m³"),
-        ("quadratic damping", "quadratic-damping", lambda d, u: u * np.abs(u), "N·s²/m²"),
-        ("Coulomb friction", "friction", lambda d, u: np.tanh(u / (0.01 * v_peak)), "N"),
-        ("clearance / dead zone", None, lambda d, u: np.clip(d, -0.2 * x_peak, 0.2 * x_peak), "N/m"),
-        ("bilinear stiffness", None, lambda d, u: np.maximum(d, 0.0), "N/m"),
-        ("asymmetric (quadratic) stiffness", None, lambda d, u: d**2, "N/m²"),
+    # the best linear time-invariant description of r from x over all hits, applied to each hit's displacement
+    spectrum_r = np.fft.rfft(restoring, n_fft, axis=-1)
+    spectrum_x = np.fft.rfft(displacement, n_fft, axis=-1)
+    film = np.sum(spectrum_r * np.conj(spectrum_x), axis=0) / np.maximum(np.sum(np.abs(spectrum_x) ** 2, axis=0),
+                                                                         1e-300)
+    lti = np.fft.irfft(film * spectrum_x, n_fft, axis=-1)[:, :n_samples]
+    references = {True: linear, False: np.column_stack((x, v, np.concatenate([lti[hit, s]
+                                                                              for hit, s in enumerate(selected)])))}
+    rss_references = {key: float(np.sum((r - design @ _least_squares(design, r)) ** 2))
+                      for key, design in references.items()}
+    catalogue = (  # name, catalog term, basis, unit, even (judged against the plane)
+        ("cubic stiffness", "cubic-stiffness", lambda d, u: d**3, "N/m³", False),
+        ("quadratic damping", "quadratic-damping", lambda d, u: u * np.abs(u), "N·s²/m²", False),
+        ("Coulomb friction", "friction", lambda d, u: np.tanh(u / (0.01 * v_peak)), "N", False),
+        ("clearance / dead zone", None, lambda d, u: np.clip(d, -0.2 * x_peak, 0.2 * x_peak), "N/m", False),
+        ("bilinear stiffness", None, lambda d, u: np.maximum(d, 0.0), "N/m", True),
+        ("asymmetric (quadratic) stiffness", None, lambda d, u: d**2, "N/m²", True),
     )
     shapes = []
-    for name, term, function, unit in catalogue:
-        design = np.column_stack((x, v, basis(function)))
-        fitted = _least_squares(design, r)
-        rss = float(np.sum((r - design @ fitted) ** 2))
-        variance = max(noise_n**2, rss / max(r.size - 3, 1))
-        gain = (rss_linear - rss) / variance * independent / r.size
-        share = (rss_linear - rss) / max(rss_linear - r.size * noise_n**2, 1e-300)
+    for name, term, function, unit, even in catalogue:
+        shape_basis = basis(function)
+        reference, rss_reference = references[even], rss_references[even]
+        design = np.column_stack((reference, shape_basis))
+        rss = float(np.sum((r - design @ _least_squares(design, r)) ** 2))
+        fitted = _least_squares(np.column_stack((x, v, shape_basis)), r)  # the shape's own coefficient, as drawn
+        variance = max(noise_n**2, rss / max(r.size - design.shape[1], 1))
+        gain = (rss_reference - rss) / variance * independent / r.size
+        excess = rss_reference - r.size * noise_n**2  # the reference's misfit beyond the noise (none: nothing to share)
+        share = (rss_reference - rss) / excess if excess > 0 else 0.0
         shapes.append(Shape(_named(name, fitted[2]), term if _term_sign_ok(term, fitted[2]) else None, gain,
                             float(np.clip(share, 0.0, 1.0)), float(fitted[2]), unit))
     shapes.sort(key=lambda shape: shape.chi2_gain, reverse=True)

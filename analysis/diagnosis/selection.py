@@ -36,6 +36,7 @@ from gasfilm.analysis.physics.effects import (
     Friction,
     PneumaticLag,
     QuadraticDamping,
+    SensitivityError,
     StepChange,
     SqueezeFilm,
 )
@@ -359,6 +360,8 @@ def starting_effects(identifier: str, spec: RigSpec, evidence: Evidence, context
             if len(picks) == 3:
                 break
         return [ExtraMode(freq_hz=f, damping_ratio=0.02, mass_kg=0.002 * context.mass_kg) for f in picks]
+    if identifier == "sensitivity-error":
+        return [SensitivityError(channel="acceleration", fraction=sign * 0.01) for sign in (1.0, -1.0)]
     raise KeyError(identifier)
 
 

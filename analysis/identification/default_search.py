@@ -98,6 +98,7 @@ class Projection:
         self.upper = np.where(is_order, coords.upper[self.free], 2 * LOG_BOX)
         self.start_lower = np.where(is_order, _ORDER_START[0], -2 * _LOG_START)
         self.start_upper = np.where(is_order, _ORDER_START[1], 2 * _LOG_START)
+        self.s_rel, self.log_s_rel = problem.s_rel[index], problem.log_s_rel[index]
         z = problem.z_measured[index]
         self.weights = weights
         weight = weights[index]
@@ -109,26 +110,34 @@ class Projection:
         """Coordinates (..., size) from shapes (..., free), the branch scales solved by least squares, and the
         weighted relative stiffness residual (..., 2n) those coordinates leave."""
         self.problem.check_cancel()
-        self.problem.evaluations += int(np.prod(psi.shape[:-1]))
-        coords, problem = self.problem.coords, self.problem
+        self.problem.evaluations += math.prod(psi.shape[:-1])
+        coords = self.problem.coords
         theta = np.zeros(psi.shape[:-1] + (coords.size,))
         theta[..., self.free] = psi
         reference_values, _ = coords.reference_values(theta)
         values = {name: reference_values[..., i, np.newaxis] for i, name in enumerate(coords.names)}
-        s_rel, log_s_rel = problem.s_rel[self.index], problem.log_s_rel[self.index]
         with np.errstate(all="ignore"):
-            basis = [branch.stiffness(s_rel, values, log_s_rel) for branch in self.branches]
-            basis = np.stack([1.0 / b if self.compliance else b for b in basis], axis=-1)
-            basis = basis * self.row_weight[:, np.newaxis]
-            a = np.concatenate([basis.real, basis.imag], axis=-2)
+            stiffness = [branch.stiffness(self.s_rel, values, self.log_s_rel) for branch in self.branches]
+            # the weighted branch stiffnesses (compliances), real parts over imaginary parts, one column per branch
+            n_lines = len(self.index)
+            a = np.empty(np.broadcast_shapes(*(z.shape for z in stiffness))[:-1] + (2 * n_lines, len(stiffness)))
+            for column, z in enumerate(stiffness):
+                weighted = (1.0 / z if self.compliance else z) * self.row_weight
+                a[..., :n_lines, column] = weighted.real
+                a[..., n_lines:, column] = weighted.imag
             if not np.all(np.isfinite(a)):
                 a = np.nan_to_num(a, nan=0.0, posinf=0.0, neginf=0.0)
             coefficients = self._solve(a)
-            # A branch whose best coefficient is negative is dropped and the others solved again.
+            # A branch whose best coefficient is negative is dropped and the others solved again (only the points
+            # that have one: the others' systems are unchanged)
             positive = coefficients > 0
-            if not np.all(positive):
-                a = a * positive[..., np.newaxis, :]
+            again = ~np.all(positive, axis=-1)
+            if a.ndim == 2 and again:
+                a = a * positive[np.newaxis, :]
                 coefficients = self._solve(a)
+            elif np.any(again):
+                a[again] *= positive[again][..., np.newaxis, :]
+                coefficients[again] = self._solve(a[again])
             valid = np.isfinite(coefficients) & (coefficients > 0)
             residual = (a @ np.where(valid, coefficients, 0.0)[..., np.newaxis])[..., 0] - self.target
             log_coefficients = np.log(np.where(valid, coefficients, 1.0))

@@ -525,17 +525,64 @@ class Mains(Effect):
     def interference(self, channel: str, time_s: np.ndarray) -> np.ndarray | None:
         if channel != self.channel:
             return None
-        phase = 2 * np.pi * self.frequency_hz * np.asarray(time_s, dtype=float)
-        # sin(nφ) of the harmonics by sin((n+1)φ) = 2cos φ·sin(nφ) − sin((n−1)φ): two sines instead of one per harmonic
-        sine = np.sin(phase)
-        total = self.harmonics[0] * sine
-        if len(self.harmonics) > 1:
-            twice_cosine = 2.0 * np.cos(phase)
-            previous = np.zeros_like(sine)
-            for harmonic in self.harmonics[1:]:
-                previous, sine = sine, twice_cosine * sine - previous
-                total += harmonic * sine
-        return self.amplitude * total
+        return self.amplitude * _sine_series(2 * np.pi * self.frequency_hz, self.harmonics,
+                                             np.asarray(time_s, dtype=float))
+
+
+def _sine_series(angular_frequency_rad_s: float, weights: tuple[float, ...], time_s: np.ndarray) -> np.ndarray:
+    """``Σ_n w_n·sin(nωt)``, n = 1, 2, …
+
+    On a uniform time grid (a stream's chunk: every time within a millionth of a sample period of a grid met before at
+    the same rate) by the angle-addition theorem, ``sin(n(φ₀ + θ_k)) = sin nφ₀·cos nθ_k + cos nφ₀·sin nθ_k`` with
+    ``φ₀`` the first time's phase and ``θ_k`` the phase of the k-th offset: one product of 2N numbers with a table of
+    ``cos nθ_k, sin nθ_k`` kept per grid, instead of two transcendental functions per time (the same values to about
+    1e-12 of the weights, the rounding of ωt itself). On other times directly, the harmonics by
+    ``sin((n+1)φ) = 2cos φ·sin(nφ) − sin((n−1)φ)``.
+    """
+    n_times = time_s.size
+    if n_times > 2 and time_s.ndim == 1:
+        step_s = (time_s[-1] - time_s[0]) / (n_times - 1)
+        if step_s > 0:
+            offsets_s, table = _grid_table(angular_frequency_rad_s, len(weights), step_s, n_times)
+            start_s = float(time_s[0])
+            if np.max(np.abs(time_s - start_s - offsets_s)) <= 1e-6 * step_s:
+                start = angular_frequency_rad_s * start_s
+                coefficients = [weight * function(n * start) for n, weight in enumerate(weights, 1)
+                                for function in (math.sin, math.cos)]
+                return np.einsum("h,hk->k", np.array(coefficients), table)  # numpy's loop: no BLAS threads
+    phase = angular_frequency_rad_s * time_s
+    sine = np.sin(phase)
+    total = weights[0] * sine
+    if len(weights) > 1:
+        twice_cosine = 2.0 * np.cos(phase)
+        previous = np.zeros_like(sine)
+        for weight in weights[1:]:
+            previous, sine = sine, twice_cosine * sine - previous
+            total += weight * sine
+    return total
+
+
+#: tables of :func:`_sine_series` by (ω, harmonics, rate to 9 significant digits, times); a few streams at a time
+_GRID_TABLES: dict[tuple[float, int, float, int], tuple[np.ndarray, np.ndarray]] = {}
+
+
+def _grid_table(angular_frequency_rad_s: float, harmonics: int, step_s: float, n_times: int
+                ) -> tuple[np.ndarray, np.ndarray]:
+    """Time offsets ``k·step`` of a uniform grid and the rows ``cos nθ_k, sin nθ_k`` (θ_k = ω·k·step) of the
+    harmonics n = 1 … ``harmonics`` (read-only arrays), kept per rate: a stream's later chunks, whose step is known
+    less exactly (their times are larger), use the table of its first."""
+    key = (angular_frequency_rad_s, harmonics, float(f"{1.0 / step_s:.9g}"), n_times)
+    kept = _GRID_TABLES.get(key)
+    if kept is None:
+        if len(_GRID_TABLES) >= 8:
+            _GRID_TABLES.clear()
+        offsets_s = np.arange(n_times) * step_s
+        angles = np.arange(1, harmonics + 1)[:, np.newaxis] * (angular_frequency_rad_s * offsets_s)
+        table = np.stack([np.cos(angles), np.sin(angles)], axis=1).reshape(2 * harmonics, n_times)
+        for array in (offsets_s, table):
+            array.flags.writeable = False
+        kept = _GRID_TABLES[key] = (offsets_s, table)
+    return kept
 
 
 def _time_constant_range(context: FitContext) -> FitRange:

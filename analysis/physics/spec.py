@@ -96,6 +96,34 @@ DEFAULT_FORCE_SENSOR = SensorSpec(DEFAULT_FORCE_SENSITIVITY_MV_PER_N, DEFAULT_FO
 DEFAULT_ACCELERATION_SENSOR = SensorSpec(
     DEFAULT_ACCELERATION_SENSITIVITY_MV_PER_M_S2, DEFAULT_ACCELERATION_NOISE_M_S2_PER_SQRT_HZ
 )
+#: At most this many analysis lines in a spec's recorded description error.
+MAX_DESCRIPTION_LINES = 100_000
+
+
+@dataclass(frozen=True)
+class DescriptionError:
+    """How far the spec is known to be from the recording it was written from, beyond that recording's noise: the
+    RMS (m/s²)/N of the systematic difference between the recorded and the replayed H1 at each listed frequency (the
+    bands the writing diagnosis left unexplained; 0 elsewhere). A diagnosis against the spec takes it into its noise
+    model: the spec does not claim to describe the structure better than that (``[description_error]``)."""
+
+    freq_hz: tuple[float, ...]
+    rms_m_s2_per_n: tuple[float, ...]
+    #: The writing diagnosis's χ² per point on its recording (1 = the noise), and that recording's name.
+    chi2_per_point: float
+    recording: str
+
+    def power(self, freq_hz: np.ndarray) -> np.ndarray:
+        """The systematic error's power |ΔH|² ((m/s²)/N)² at ``freq_hz``, interpolated, 0 outside the listed
+        bands."""
+        return np.interp(freq_hz, np.asarray(self.freq_hz), np.asarray(self.rms_m_s2_per_n) ** 2, left=0.0,
+                         right=0.0)
+
+    def to_table(self) -> dict[str, Any]:
+        return {"recording": self.recording, "chi2_per_point": self.chi2_per_point, "freq_hz": list(self.freq_hz),
+                "rms_m_s2_per_n": list(self.rms_m_s2_per_n)}
+
+
 _DEFAULT_SENSORS = {"force": DEFAULT_FORCE_SENSOR, "acceleration": DEFAULT_ACCELERATION_SENSOR}
 
 _SENSOR_KEYS = {
@@ -121,6 +149,8 @@ class RigSpec:
     film_conditions: Mapping[str, float] = field(default_factory=dict)
     #: Power laws of film coefficients in the conditions: parameter → {condition: exponent} (``[film.laws.*]``).
     film_laws: Mapping[str, Mapping[str, float]] = field(default_factory=dict)
+    #: How far the spec is known to be from the recording it was written from (``[description_error]``).
+    description_error: DescriptionError | None = None
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "film_parameters", {k: float(v) for k, v in self.film_parameters.items()})
@@ -205,6 +235,8 @@ class RigSpec:
             table["hammer"] = dataclasses.asdict(self.hammer)
         if self.effects:
             table["effects"] = [effect.to_table() for effect in self.effects]
+        if self.description_error is not None:
+            table["description_error"] = self.description_error.to_table()
         return "# gasfilm rig spec (docs/rig-spec.md)\n" + tomli_w.dumps(table, multiline_strings=False)
 
     def with_values(self, film_parameters: Mapping[str, float] | None = None,
@@ -216,6 +248,12 @@ class RigSpec:
             object.__setattr__(updated, "film_parameters", dict(film_parameters))
         if effects is not None:
             object.__setattr__(updated, "effects", tuple(effects))
+        return updated
+
+    def with_description_error(self, error: DescriptionError | None) -> "RigSpec":
+        """A copy that records another description error (None: none)."""
+        updated = copy.copy(self)
+        object.__setattr__(updated, "description_error", error)
         return updated
 
     def at_conditions(self, conditions: Mapping[str, Any]) -> "RigSpec":
@@ -307,7 +345,7 @@ def _table(table: Mapping[str, Any], key: str, where: str) -> Mapping[str, Any]:
 
 
 def _spec_from_table(table: Mapping[str, Any], source: str) -> RigSpec:
-    _check_keys(table, ("name", "mass_kg", "film", "sensors", "hammer", "effects"), source)
+    _check_keys(table, ("name", "mass_kg", "film", "sensors", "hammer", "effects", "description_error"), source)
     if "mass_kg" not in table:
         raise SettingError(f"{source}: key 'mass_kg' is missing (the mover's mass in kg)")
     mass_kg = _float_value(table["mass_kg"], f"{source} key 'mass_kg'", _within(*MASS_RANGE_KG), "kg")
@@ -375,8 +413,33 @@ def _spec_from_table(table: Mapping[str, Any], source: str) -> RigSpec:
                            f"{MAX_EFFECTS}")
     effects = tuple(_effect_from_table(item, f"{source} effects[{index}]") for index, item in
                     enumerate(effect_tables))
+    description_error = (_description_error(_table(table, "description_error", source), source)
+                         if "description_error" in table else None)
     return RigSpec(name, mass_kg, model_text, parameters, sensor_specs["force"], sensor_specs["acceleration"],
-                   hammer, effects, source, film_conditions=film_conditions, film_laws=film_laws)
+                   hammer, effects, source, film_conditions=film_conditions, film_laws=film_laws,
+                   description_error=description_error)
+
+
+def _description_error(table: Mapping[str, Any], source: str) -> DescriptionError:
+    """``[description_error]``: equally long lists of ascending frequencies (Hz) and RMS values ((m/s²)/N, ≥ 0)."""
+    where = f"{source} [description_error]"
+    _check_keys(table, ("recording", "chi2_per_point", "freq_hz", "rms_m_s2_per_n"), where)
+    lists = {}
+    for key, unit, rule in (("freq_hz", "Hz", _within(1e-3, 1e6)), ("rms_m_s2_per_n", "(m/s²)/N", _within(0.0, 1e6))):
+        values = table.get(key)
+        if not isinstance(values, list) or len(values) > MAX_DESCRIPTION_LINES:
+            raise SettingError(f"{where} key '{key}': must be a list of at most {MAX_DESCRIPTION_LINES} numbers "
+                               f"({unit})")
+        lists[key] = tuple(_float_value(value, f"{where} key '{key}'", rule, unit) for value in values)
+    if len(lists["freq_hz"]) != len(lists["rms_m_s2_per_n"]):
+        raise SettingError(f"{where}: 'freq_hz' and 'rms_m_s2_per_n' must be equally long")
+    if any(b <= a for a, b in zip(lists["freq_hz"], lists["freq_hz"][1:])):
+        raise SettingError(f"{where} key 'freq_hz': the frequencies must ascend")
+    recording = table.get("recording", "")
+    if not isinstance(recording, str):
+        raise SettingError(f"{where} key 'recording': must be a string")
+    chi2 = _float_value(table.get("chi2_per_point", 1.0), f"{where} key 'chi2_per_point'", _within(0.0, 1e12), "1")
+    return DescriptionError(lists["freq_hz"], lists["rms_m_s2_per_n"], chi2, recording)
 
 
 def _effect_from_table(table: Any, where: str) -> Effect:
