@@ -43,7 +43,12 @@ def _load(name: str, path: Path):
     return module
 
 
-key_name = _load("independent_effect_names", HERE.parent / "independent" / "effect_names.py").key_name
+_key_name = _load("independent_effect_names", HERE.parent / "independent" / "effect_names.py").key_name
+
+
+def key_name(name: str) -> str:
+    """The key's name of a diagnosis effect (a measured structure's ``structure-mode`` is an extra mode)."""
+    return "extra-mode" if name == "structure-mode" else _key_name(name)
 
 OUTCOMES = ("exact", "acceptable", "honest not-explained", "wrong", "false claim", "must-not claimed", "error")
 RIGHT = OUTCOMES[:3]
@@ -169,6 +174,8 @@ def score_case(key_path: Path, data: Path) -> dict:
     if "Traceback" in stderr:
         row["traceback"] = stderr.strip().splitlines()[-1]
     if result is None:
+        if key.get("refusal_ok") and "traceback" not in row and error.startswith("exit "):
+            return row | {"outcome": "honest not-explained", "reason": f"refused: {error}"}
         return row | {"outcome": "error", "reason": error}
     out_dir.mkdir(parents=True, exist_ok=True)
     (out_dir / "diagnosis.json").write_text(json.dumps(result, indent=1, default=str))
@@ -240,9 +247,9 @@ def per_case_table(rows: list[dict]) -> str:
     return "\n".join(lines)
 
 
-def main(argv: list[str] | None = None) -> int:
+def main(argv: list[str] | None = None, default_data: Path = Path("out/redteam3")) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--data", type=Path, default=Path("out/redteam3"))
+    parser.add_argument("--data", type=Path, default=default_data)
     parser.add_argument("--only", nargs="+", metavar="CASE")
     parser.add_argument("--label", default="")
     parser.add_argument("--tables-from", type=Path, nargs="+", metavar="SCORES_JSON",
