@@ -20,6 +20,8 @@ NI9234_BASE_RATE_HZ = 51_200.0
 NI9234_RATE_DIVISORS = tuple(range(1, 32))
 NI9234_VALID_RATES_HZ = tuple(NI9234_BASE_RATE_HZ / n for n in NI9234_RATE_DIVISORS)
 NI9234_CHANNELS = ("ai0", "ai1", "ai2", "ai3")
+#: The NI 9234's anti-aliasing filter is flat, and the band alias-free, up to this fraction of the sample rate.
+NI9234_ALIAS_FREE_FRACTION = 0.45
 NI9234_INPUT_RANGE_V = 5.0
 NI9234_IEPE_CURRENT_A = 0.002
 NI9234_ADC_BITS = 24

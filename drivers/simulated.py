@@ -40,6 +40,7 @@ from gasfilm.drivers.errors import (
 )
 from gasfilm.drivers.interface import (
     NI9234_ADC_BITS,
+    NI9234_ALIAS_FREE_FRACTION,
     NI9234_INPUT_RANGE_V,
     ChannelKind,
     ChannelStatus,
@@ -51,7 +52,7 @@ from gasfilm.drivers.interface import (
 from gasfilm.drivers.plant import TIPS_PULSE_WIDTH_S, Plant
 
 #: The module's signal chain (NI 9234 data sheet figures).
-AA_PASSBAND_FRACTION = 0.45
+AA_PASSBAND_FRACTION = NI9234_ALIAS_FREE_FRACTION
 AA_STOPBAND_FRACTION = 0.55
 INPUT_DELAY_SAMPLES = 38.4
 INPUT_DELAY_EXTRA_S = 3e-6

@@ -28,11 +28,10 @@ import scipy.signal
 from gasfilm.analysis.control.rational import RationalModel
 from gasfilm.analysis.physics.response import simulate_response
 from gasfilm.analysis.physics.spec import RigSpec
+from gasfilm.drivers.interface import NI9234_ALIAS_FREE_FRACTION as ALIAS_FREE_FRACTION
 
 logger = logging.getLogger(__name__)
 
-#: the recordings' alias-free band as a fraction of the sample rate (the NI 9234's pass band)
-ALIAS_FREE_FRACTION = 0.45
 UPSAMPLING = 8
 #: the noise floor is measured from here to the end of each record (fraction of its length)
 TAIL_START_FRACTION = 0.8

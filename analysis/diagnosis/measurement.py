@@ -347,9 +347,9 @@ def _rms_about_trend(segments: np.ndarray) -> np.ndarray:
 
 
 #: The default analysis band starts here (Hz) and ends where the hammer's force spectrum has fallen 20 dB, at most
-#: at this fraction of the sample rate (the top of the ADC filter's flat band).
+#: at this fraction of the sample rate (a margin below the NI 9234's alias-free 0.45·fs).
 DEFAULT_LOW_HZ = 10.0
-ALIAS_FREE_FRACTION = 0.4
+DIAGNOSIS_TOP_FRACTION = 0.4
 #: A given band needs at least this many analysis lines.
 MIN_BAND_LINES = 8
 
@@ -361,7 +361,7 @@ def _given_band(
     where the hammer excites; a band the records cannot support is refused in one line."""
     given = f"--band {band_hz[0]:g}:{band_hz[1]:g}"
     resolution_hz = sample_rate_hz / n_samples
-    top_hz = ALIAS_FREE_FRACTION * sample_rate_hz
+    top_hz = DIAGNOSIS_TOP_FRACTION * sample_rate_hz
     low, high = max(band_hz[0], resolution_hz), min(band_hz[1], top_hz)
     if low >= hammer_top_hz:
         raise SettingError(f"{given}: the hammer excites only up to {hammer_top_hz:.0f} Hz in these records (its force "
@@ -371,7 +371,8 @@ def _given_band(
                            f"({resolution_hz:.3g} Hz apart) in the band; give a wider band")
     notes = []
     if high < band_hz[1]:
-        notes.append(f"its top is capped at {ALIAS_FREE_FRACTION:g}·fs = {top_hz:.0f} Hz (the ADC filter's flat band)")
+        notes.append(f"its top is capped at {DIAGNOSIS_TOP_FRACTION:g}·fs = {top_hz:.0f} Hz (a margin below the ADC "
+                     f"filter's alias-free band)")
     if high > hammer_top_hz:
         notes.append(f"above {hammer_top_hz:.0f} Hz the hammer's force is 20 dB down: the FRF there is noisy and weighs "
                      f"little")
@@ -715,7 +716,7 @@ def hit_spectra(
     if late:  # the band the hammer excites is the whole pulse's, not the recorded part's (wider: it is shorter)
         mean_force_power = np.mean(np.abs(np.fft.rfft(_with_fronts(records[:, 0] * force_w, fronts, n_samples),
                                                       axis=1)) ** 2, axis=0)
-    low, high = DEFAULT_LOW_HZ, ALIAS_FREE_FRACTION * sample_rate_hz
+    low, high = DEFAULT_LOW_HZ, DIAGNOSIS_TOP_FRACTION * sample_rate_hz
     reference = np.median(mean_force_power[(full_freq_hz >= low) & (full_freq_hz <= low + 50)])
     beyond = np.flatnonzero((full_freq_hz > low) & (mean_force_power < 0.01 * reference))
     hammer_top_hz = min(high, float(full_freq_hz[beyond[0]])) if beyond.size else high

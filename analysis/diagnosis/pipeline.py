@@ -54,6 +54,7 @@ from gasfilm.analysis.physics.effects import EFFECT_TYPES, FitContext
 from gasfilm.analysis.physics.response import simulate_response
 from gasfilm.analysis.physics.spec import DescriptionError, RigSpec
 from gasfilm.analysis.threads import one_blas_thread
+from gasfilm.drivers.units import STANDARD_GRAVITY_M_S2
 from gasfilm.drivers.errors import GasfilmError
 
 logger = logging.getLogger(__name__)
@@ -966,8 +967,6 @@ def _unexplained(
 
 #: The measured FRF's level against the given spec's, beyond which a note says so (a ratio of magnitudes)
 LEVEL_RATIO_NOTE = 2.0
-#: standard gravity (m/s² per g): a sensitivity entered per g as per m/s² (or the reverse) scales the FRF by it
-STANDARD_GRAVITY_M_S2 = 9.80665
 #: The measured-over-spec ratio's log-log slope that names a wrong quantity (velocity or displacement recorded as an
 #: acceleration), within RATIO_SLOPE_TOLERANCE.
 RATIO_SLOPES = ((-1.0, "a velocity recorded as an acceleration (a vibrometer's or a velocity sensor's output?)"),
@@ -1060,7 +1059,7 @@ def _per_hit_gain_spread(spectra: HitSpectra) -> float | None:
     film, the mass or a mode changes its shape. Each hit's FRF is fitted as one complex factor times the hits' mean.
     """
     h, weight = spectra.h, 1.0 / spectra.variance  # weight per complex value
-    mean = (weight * h).sum(axis=0) / weight.sum(axis=0)
+    mean, _ = spectra.mean()
     factor = (weight * h * np.conj(mean)).sum(axis=1) / (weight * np.abs(mean) ** 2).sum(axis=1)
     expected = h.size * (1.0 - 1.0 / h.shape[0])
     scatter = float((weight * np.abs(h - mean) ** 2).sum()) / expected

@@ -26,6 +26,7 @@ from gasfilm.analysis.physics.effects import MIN_DAMPING_RATIO, ExtraMode, Polar
 from gasfilm.analysis.physics.spec import RigSpec
 from gasfilm.analysis.spectra import (
     RESONANCE_SEARCH_FROM_HZ,
+    FrfResult,
     WindowSettings,
     compute_frf,
     readable_lines,
@@ -215,7 +216,7 @@ OUTLIER_DISTANCE = 5.0
 OUTLIER_SHARE = 1 / 3
 
 
-def _outlier_hits(records: np.ndarray, rate_hz: float, window: WindowSettings, frf) -> list[int]:
+def _outlier_hits(records: np.ndarray, rate_hz: float, window: WindowSettings, frf: FrfResult) -> list[int]:
     """Hits whose own FRF departs from the others' far beyond their scatter, in the hammer's band (a minority)."""
     if len(records) < 4:
         return []

@@ -25,6 +25,7 @@ from gasfilm.analysis.identification.result import FitResult
 from gasfilm.analysis.physics.elements import FilmModel, get_model
 from gasfilm.analysis.threads import one_blas_thread
 from gasfilm.drivers.errors import SettingError
+from gasfilm.drivers.interface import NI9234_ALIAS_FREE_FRACTION as ALIAS_FREE_FRACTION
 
 logger = logging.getLogger(__name__)
 
@@ -32,8 +33,6 @@ METHODS = ("default", "gapso")
 #: The band models are fitted in unless the user says otherwise (GUI and CLI alike), in Hz; it is capped at
 #: :data:`ALIAS_FREE_FRACTION` of the sample rate.
 DEFAULT_FIT_BAND_HZ = (20.0, 1000.0)
-#: The NI 9234's alias-free band ends at 0.45·fs.
-ALIAS_FREE_FRACTION = 0.45
 
 
 def default_fit_band_hz(sample_rate_hz: float) -> tuple[float, float]:
