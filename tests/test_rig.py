@@ -56,6 +56,16 @@ def test_fixtures_hold_the_paper_films():
 GOOD = (RIGS / "sd.toml").read_text()
 
 
+def _load_error(path: Path, text: str) -> str:
+    """The one-line error loading ``text`` written to ``path`` gives (it names the file)."""
+    path.write_text(text)
+    with pytest.raises(SettingError) as caught:
+        RigSpec.load(path)
+    message = str(caught.value)
+    assert "\n" not in message and str(path) in message
+    return message
+
+
 @pytest.mark.parametrize(
     "change, key",
     [
@@ -69,13 +79,7 @@ GOOD = (RIGS / "sd.toml").read_text()
     ],
 )
 def test_bad_spec_gives_one_line_error_naming_file_and_key(change, key, tmp_path):
-    path = tmp_path / "bad-rig.toml"
-    path.write_text(GOOD.replace(*change))
-    with pytest.raises(SettingError) as caught:
-        RigSpec.load(path)
-    message = str(caught.value)
-    assert "\n" not in message
-    assert str(path) in message and key in message
+    assert key in _load_error(tmp_path / "bad-rig.toml", GOOD.replace(*change))
 
 
 @pytest.mark.parametrize(
@@ -251,9 +255,4 @@ def test_a_description_error_round_trips_and_is_zero_outside_its_lines():
     ],
 )
 def test_a_bad_description_error_gives_one_line_naming_the_file_and_key(change, key, tmp_path):
-    path = tmp_path / "bad-error.toml"
-    path.write_text(DESCRIBED.replace(*change))
-    with pytest.raises(SettingError) as caught:
-        RigSpec.load(path)
-    message = str(caught.value)
-    assert "\n" not in message and str(path) in message and key in message
+    assert key in _load_error(tmp_path / "bad-error.toml", DESCRIBED.replace(*change))
