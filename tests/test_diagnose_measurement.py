@@ -206,3 +206,29 @@ def test_an_interference_spike_away_from_the_impact_leaves_its_hit_out(recorded)
     notes = {note.kind: note for note in spectra.quality}
     assert notes["spikes"].hits == (2,) and list(spectra.hit_numbers) == [0, 1, 3]
     assert "spikes" not in {note.kind for note in hit_spectra(recordings.records, recordings.sample_rate_hz).quality}
+
+
+def test_no_mains_line_is_sought_where_the_quiet_stretch_cannot_resolve_one():
+    """Red-team round 5's control-few-short: 0.06 s records at 25.6 kS/s, the force after each pulse only the AC
+    coupling's slow decay. 30 ms after the pulse cannot tell 60 Hz from 50 Hz, nor a line from that decay: no mains is
+    found there; with 0.25 s of the same decay beside a true 50 Hz line, the line is found."""
+    from gasfilm.analysis.diagnosis.measurement import _remove_mains_seen_on_force
+
+    rate_hz, rng = 25_600.0, np.random.default_rng(3)
+
+    def records(duration_s: float, mains_n: float) -> tuple[np.ndarray, list[tuple[int, int, int]]]:
+        time_s = np.arange(int(duration_s * rate_hz)) / rate_hz
+        pulse = (time_s > 0.5e-3) & (time_s < 1.5e-3)
+        rows = []
+        for hit in range(4):
+            force = 200 * np.sin(np.pi * (time_s - 0.5e-3) / 1e-3) * pulse  # 0.2 N·s
+            force -= 0.2 * np.pi * np.exp(-np.pi * time_s) * (time_s > 1.5e-3)  # the 0.5 Hz coupling's decay
+            force += mains_n * np.sin(2 * np.pi * 50 * time_s + hit) + 2e-3 * rng.standard_normal(time_s.size)
+            rows.append([force, np.zeros_like(force)])
+        return np.array(rows), [(12, 13, 39)] * 4
+
+    for duration_s in (0.06, 0.08):
+        data, extents = records(duration_s, 0.0)
+        assert _remove_mains_seen_on_force(data, extents, rate_hz)[1] is None, duration_s
+    data, extents = records(0.25, 0.05)
+    assert _remove_mains_seen_on_force(data, extents, rate_hz)[1] == 50.0

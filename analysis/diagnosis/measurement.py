@@ -44,6 +44,10 @@ MAINS_FREQUENCY_TOLERANCE = 0.01
 #: same phase (one-sided z score of their correlation) and at least this fraction of their power.
 MAINS_COHERENCE_Z = 3.0
 MAINS_COHERENCE_SHARE = 0.5
+#: Shortest quiet stretch (s) in which a mains line is sought: one over the spacing of the mains frequencies, the
+#: length that resolves 50 Hz from 60 Hz. A shorter stretch cannot tell a line from its neighbour, nor from the slow
+#: decay the AC coupling leaves after a pulse.
+MIN_MAINS_WINDOW_S = 1.0 / (max(MAINS_BASES_HZ) - min(MAINS_BASES_HZ))
 #: Hits needed to measure the noise from their scatter when no quiet pre-trigger is recorded.
 MIN_SCATTER_HITS = 3
 #: Lines (at least) over which the scatter of the hits' FRFs is smoothed into a noise spectrum.
@@ -1114,10 +1118,12 @@ def _remove_mains(
     Each hit and channel gets its own amplitudes and phases, fitted by least squares on the tail where nothing else
     happens; a harmonic counts when its power over all hits stands 25 times above what noise alone gives, and when
     the line's own frequency is the harmonic's (:data:`MAINS_FREQUENCY_TOLERANCE`). Lines at harmonics only, without
-    the mains frequency itself, need two harmonics. With ``before`` samples of pre-trigger, the lines carried back
-    there must be found with their phase (:func:`_coherent_before`): mains is there before the hit too, a line the
+    the mains frequency itself, need two harmonics; tails shorter than :data:`MIN_MAINS_WINDOW_S` are not searched.
+    With ``before`` samples of pre-trigger, the lines carried back there must be found with their phase (:func:`_coherent_before`): mains is there before the hit too, a line the
     hit excites (a self-excited limit cycle, a ringing mode) is not mains."""
     n_samples = records.shape[-1]
+    if (n_samples - tail_start) / sample_rate_hz < MIN_MAINS_WINDOW_S:
+        return records, None, []
     time_s = np.arange(n_samples) / sample_rate_hz
     tail_time_s = time_s[tail_start:]
     best: tuple[float, list[float], np.ndarray] | None = None
