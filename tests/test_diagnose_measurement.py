@@ -232,3 +232,20 @@ def test_no_mains_line_is_sought_where_the_quiet_stretch_cannot_resolve_one():
         assert _remove_mains_seen_on_force(data, extents, rate_hz)[1] is None, duration_s
     data, extents = records(0.25, 0.05)
     assert _remove_mains_seen_on_force(data, extents, rate_hz)[1] == 50.0
+
+
+def test_records_zero_padded_by_an_exporter_are_said_so(recorded):
+    """Red-team round 5's zero-padded-export: both channels exact zeros after 0.3 s of each 0.5 s record. Said in
+    words (it was "inf× lower" with a divide-by-zero warning), the noise measured before the hits."""
+    import warnings
+
+    def zero_padded(records, sample_rate_hz, spec):
+        padded = records.copy()
+        padded[:, :, int(0.3 * sample_rate_hz):] = 0.0
+        return padded
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)
+        diagnosis, notes = _diagnosed(recorded, zero_padded)
+    assert "exact zeros" in notes["noise"] and "inf" not in notes["noise"]
+    assert diagnosis.spectra.noise.source == "pre-trigger"

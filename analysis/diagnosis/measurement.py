@@ -624,14 +624,12 @@ def hit_spectra(
             tail_noise = np.median(np.std(records[:, 1, tail_start:], axis=1))
             before_noise = np.median(np.std(records[:, 1, :quiet_samples], axis=1))
             if tail_noise < 0.8 * before_noise:
-                quality.append(
-                    QualityNote(
-                        "noise",
-                        f"the noise at the end of the records is {before_noise / tail_noise:.1f}× lower than before the "
-                        f"hits: the records look windowed already (or the noise is not steady); the noise is measured "
-                        f"before the hits, which makes the comparison conservative",
-                    )
-                )
+                lower = (f"the noise at the end of the records is {before_noise / tail_noise:.1f}× lower than before the "
+                         f"hits: the records look windowed already (or the noise is not steady)" if tail_noise > 0 else
+                         "the response records end in exact zeros: zero-padded by the program that exported them (or "
+                         "windowed to zero)")
+                quality.append(QualityNote(
+                    "noise", f"{lower}; the noise is measured before the hits, which makes the comparison conservative"))
                 quiet_slice = slice(0, quiet_samples)
         noise_source = "record tails" if quiet_slice.start == tail_start else "pre-trigger"
     window = window or default_window(records, sample_rate_hz)
