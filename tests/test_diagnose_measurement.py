@@ -249,3 +249,15 @@ def test_records_zero_padded_by_an_exporter_are_said_so(recorded):
         diagnosis, notes = _diagnosed(recorded, zero_padded)
     assert "exact zeros" in notes["noise"] and "inf" not in notes["noise"]
     assert diagnosis.spectra.noise.source == "pre-trigger"
+
+
+def test_a_response_on_a_dc_offset_is_said_and_subtracted(recorded):
+    """Red-team round 5's gravity-dc: a DC-coupled accelerometer reads 1 g before every hit. Said and subtracted (it
+    was read as a film twice as stiff with six extra modes, "the film depends on the amplitude" and a level 2×)."""
+    def on_gravity(records, sample_rate_hz, spec):
+        return records + np.array([0.0, 9.81])[np.newaxis, :, np.newaxis]
+
+    diagnosis, notes = _diagnosed(recorded, on_gravity)
+    assert "response records sit on +9.81 m/s²" in notes["offset"]
+    assert "level" not in notes
+    assert abs(diagnosis.improved.film_parameters["k"] / 3.78e7 - 1) < 0.05  # the SD rig's own film, not 2×

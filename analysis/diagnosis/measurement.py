@@ -1195,3 +1195,35 @@ def _subtract_lines(records: np.ndarray, start: int, sample_rate_hz: float, line
     flat = records.reshape(-1, time_s.size).T
     coefficients, *_ = np.linalg.lstsq(design, flat[start:], rcond=None)
     return (flat - basis @ coefficients[:-1]).T.reshape(records.shape)
+
+
+#: A channel sits on a DC offset when its mean before the impacts stands this many times its own noise (RMS) from
+#: zero in every hit: an AC-coupled channel's pre-trigger mean is within its noise.
+DC_OFFSET_NOISE_RATIO = 10.0
+
+
+def without_dc_offsets(records: np.ndarray, sample_rate_hz: float) -> tuple[np.ndarray, QualityNote | None, bool]:
+    """Records (hits, 2, samples) with each channel's pre-trigger mean subtracted where that channel sits on a DC
+    offset in every hit (a DC-coupled channel: gravity on a MEMS or servo accelerometer, a zero offset), the note
+    saying so, and whether the response alone is DC-coupled (then the force's AC coupling is not matched on it);
+    unchanged, with None, where the pre-trigger is too short to tell or no channel has an offset."""
+    margin = int(QUIET_MARGIN_S * sample_rate_hz)
+    quiet = [_pulse_extent(record[0])[0] - margin for record in records]
+    if min(quiet) < MIN_QUIET_SAMPLES:
+        return records, None, False
+    means = np.array([[np.mean(record[channel, :n]) for channel in (0, 1)] for record, n in zip(records, quiet)])
+    noise = np.array([[np.std(record[channel, :n]) for channel in (0, 1)] for record, n in zip(records, quiet)])
+    offset = np.all(np.abs(means) > DC_OFFSET_NOISE_RATIO * noise, axis=0) & np.all(
+        np.sign(means) == np.sign(means[0]), axis=0)
+    if not np.any(offset):
+        return records, None, False
+    cleaned = records - (means * offset)[:, :, np.newaxis]
+    said = [f"the {name} records sit on {np.median(means[:, channel]):+.3g} {unit}"
+            for channel, (name, unit) in enumerate((("force", "N"), ("response", "m/s²"))) if offset[channel]]
+    response_only = bool(offset[1] and not offset[0])
+    unmatched = (f"; the force's {AC_COUPLING_HZ:g} Hz AC coupling is then not on the response, and the replay "
+                 f"takes it on the force channel" if response_only else "")
+    return cleaned, QualityNote(
+        "offset", f"{' and '.join(said)} before every hit (a DC-coupled channel: gravity on a MEMS or servo "
+        f"accelerometer, or a zero offset; the NI 9234's IEPE inputs are AC-coupled): each record's mean before its "
+        f"impact is subtracted{unmatched} — a property of the recording, not physics"), response_only

@@ -12,17 +12,19 @@ from typing import Callable
 import numpy as np
 
 from gasfilm.analysis.diagnosis.measurement import (
+    AC_COUPLING_HZ,
     HitSpectra,
     QualityNote,
     coarsely_quantised_response,
     default_window,
     hit_spectra,
+    without_dc_offsets,
 )
 from gasfilm.analysis.diagnosis.pipeline import diagnose_spectra
 from gasfilm.analysis.diagnosis.restoring import RestoringForce, restoring_force
 from gasfilm.analysis.diagnosis.result import Diagnosis
 from gasfilm.analysis.diagnosis.structure import read_structure
-from gasfilm.analysis.physics.effects import MIN_DAMPING_RATIO, ExtraMode, Polarity
+from gasfilm.analysis.physics.effects import MIN_DAMPING_RATIO, AcCoupling, ExtraMode, Polarity
 from gasfilm.analysis.physics.spec import RigSpec
 from gasfilm.analysis.spectra import (
     RESONANCE_SEARCH_FROM_HZ,
@@ -334,10 +336,15 @@ def diagnose(
     starts with where the starting spec came from."""
     recordings = source if isinstance(source, Recordings) else load_recordings(source)
     _check_records(recordings)
+    records, offset_note, response_dc_coupled = without_dc_offsets(recordings.records, recordings.sample_rate_hz)
+    if offset_note is not None:
+        recordings = dataclasses.replace(recordings, records=records, quality=[*recordings.quality, offset_note])
     read_off_frf = rig_spec is None and not recordings.rig_spec_toml
     spectra = hit_spectra(recordings.records, recordings.sample_rate_hz, recordings.window,
                           hit_times_s=recordings.hit_times_s, overload=recordings.overload, band_hz=band_hz)
     rig_spec, origin = starting_spec(recordings, rig_spec, mass_kg)
+    if response_dc_coupled:
+        rig_spec = rig_spec.with_effects(AcCoupling(channel="force", corner_hz=AC_COUPLING_HZ))
     progress(origin)
     spectra.quality[:0] = recordings.quality
     restoring = film_restoring_force(recordings, spectra, rig_spec.moving_mass_kg)
