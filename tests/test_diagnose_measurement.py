@@ -261,3 +261,18 @@ def test_a_response_on_a_dc_offset_is_said_and_subtracted(recorded):
     assert "response records sit on +9.81 m/s²" in notes["offset"]
     assert "level" not in notes
     assert abs(diagnosis.improved.film_parameters["k"] / 3.78e7 - 1) < 0.05  # the SD rig's own film, not 2×
+
+
+def test_a_sensitivity_that_jumps_mid_session_is_worded_as_a_gain(recorded):
+    """Red-team round 5's sensor-swap: the accelerometer swapped after hit 8 for one 4.4 % less sensitive. The jump
+    scales every frequency alike: it is worded as a sensor's gain, not "the rig changed"."""
+    from gasfilm.analysis.diagnosis.pipeline import _character, evidence_for
+
+    recordings, spec = recorded
+    records = np.concatenate((recordings.records, recordings.records))
+    records[4:, 1] *= 0.956
+    spectra = hit_spectra(records, recordings.sample_rate_hz, hit_times_s=np.arange(8.0))
+    evidence = evidence_for(spectra, spec)
+    words = _character(spectra, evidence, spec, 0, evidence.freq_hz.size - 1)
+    assert words.startswith("a jump between hits 4 and 5 that scales the whole FRF alike"), words
+    assert "sensor" in words and "rig changed" not in words

@@ -1021,6 +1021,10 @@ def _character(spectra: HitSpectra, evidence: Evidence, spec: RigSpec, low: int,
         kind, split = change
         if kind == "step":
             first, second = spectra.hit_numbers[order[split - 1]], spectra.hit_numbers[order[split]]
+            if gain_spread is not None:
+                return (f"a jump between hits {first + 1} and {second + 1} that scales the whole FRF alike at every "
+                        f"frequency: a sensor's sensitivity changed at one point (a sensor swapped or re-plugged, a "
+                        f"gain setting) rather than the film, which no term explained")
             return (f"a jump between hits {first + 1} and {second + 1}: the rig changed at one point during the session, "
                     f"which no term explained")
         if gain_spread is not None:
