@@ -276,3 +276,18 @@ def test_a_sensitivity_that_jumps_mid_session_is_worded_as_a_gain(recorded):
     words = _character(spectra, evidence, spec, 0, evidence.freq_hz.size - 1)
     assert words.startswith("a jump between hits 4 and 5 that scales the whole FRF alike"), words
     assert "sensor" in words and "rig changed" not in words
+
+
+def test_a_broad_excess_spanning_harmonics_is_not_called_distortion():
+    """Red-team round 5's sampling-jitter left a broad excess over 520–1300 Hz, which spans harmonics of the 196 Hz
+    resonance without sitting at them: not "distorted by a nonlinearity". A round 1–2 pneumatic hammer's lines at 3×
+    and 5× the resonance still are."""
+    from gasfilm.analysis.diagnosis.pipeline import _at_harmonics
+
+    freq_hz = np.arange(520.0, 1300.0, 5.0)
+    flat = np.full((16, freq_hz.size), 3.0)
+    assert not _at_harmonics(freq_hz, flat, 196.0, 5.0)
+    peaked = np.ones((16, freq_hz.size)) + 40.0 * (np.abs(freq_hz - 588.0) < 10)
+    assert _at_harmonics(freq_hz, peaked, 196.0, 5.0)
+    narrow = np.arange(560.0, 611.0, 10.0)
+    assert _at_harmonics(narrow, np.full((16, narrow.size), 3.0), 200.0, 10.0)

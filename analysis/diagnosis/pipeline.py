@@ -1032,8 +1032,8 @@ def _character(spectra: HitSpectra, evidence: Evidence, spec: RigSpec, low: int,
                     "sensor's sensitivity (or the force reaching the mover) changed during the session rather than the "
                     "film, which no term explained")
         return "a steady trend from early to late hits: the rig changed during the session, which no term explained"
-    harmonics = [n * resonance_hz for n in (2, 3, 4, 5, 6)]
-    if any(band[0] <= h <= band[1] for h in harmonics) and band[0] > 1.3 * resonance_hz:
+    if band[0] > 1.3 * resonance_hz and _at_harmonics(freq_hz[low : high + 1], weight * np.abs(residual) ** 2,
+                                                       resonance_hz, float(np.median(np.diff(freq_hz)))):
         return (f"at a harmonic of the resonance ({resonance_hz:.0f} Hz): the response is distorted by a "
                 f"nonlinearity")
     amplitude_trend = _level_trend(per_hit_mean, spectra.conditions.impulse_ns)
@@ -1048,6 +1048,24 @@ def _character(spectra: HitSpectra, evidence: Evidence, spec: RigSpec, low: int,
     if band[1] - band[0] < 0.3 * centre:
         return f"a localised peak/dip near {centre:.0f} Hz that no term explained"
     return "a broadband excess over the measured noise: an effect no term describes, or the noise model"
+
+
+#: Half-width of the line around a harmonic of the resonance, as a fraction of the resonance frequency (plus the
+#: harmonic number times half a line spacing: the resonance is read on the analysis grid).
+HARMONIC_HALF_WIDTH = 0.1
+
+
+def _at_harmonics(freq_hz: np.ndarray, chi2: np.ndarray, resonance_hz: float, spacing_hz: float) -> bool:
+    """Whether a band's misfit (``chi2``: hits × lines) sits at harmonics 2–6 of the resonance: the lines near them
+    hold most of the excess over the noise, and they make up half the band or hold at least twice their share of it
+    (a broad excess merely spanning harmonics is not distortion)."""
+    order = np.arange(2, 7)
+    distance = np.abs(freq_hz[:, np.newaxis] - order * resonance_hz)
+    near = np.any(distance <= HARMONIC_HALF_WIDTH * resonance_hz + order * spacing_hz / 2, axis=1)
+    excess = np.maximum(chi2.sum(axis=0) - chi2.shape[0], 0.0)
+    share = float(excess[near].sum() / max(excess.sum(), 1e-300))
+    fraction = float(near.mean())
+    return share > 0.5 and (fraction >= 0.5 or share > 2 * fraction)
 
 
 #: The hits differ by a gain alone when one complex scale factor per hit leaves at most this many times the noise
