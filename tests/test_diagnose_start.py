@@ -58,7 +58,8 @@ def test_start_read_off_the_frf_finds_the_resonance_and_the_mass_line(session):
 
 
 def test_a_start_that_cannot_be_read_is_one_line(session, tmp_path, capsys):
-    """.npy records whose response is noise: no resonance in the hammer's band, so no start and no recalibration."""
+    """.npy records whose response is noise: no resonance in the hammer's band, so no start and no recalibration;
+    the coherence across the band is said, with what it suggests."""
     recordings = load_recordings(session)
     rng = np.random.default_rng(3)
     records = recordings.records
@@ -76,6 +77,8 @@ def test_a_start_that_cannot_be_read_is_one_line(session, tmp_path, capsys):
     assert "Traceback" not in err
     error = err.strip().splitlines()[-1]  # after the progress lines, one line says why
     assert "no resonance can be read" in error and str(tmp_path) in error and "--rig" in error
+    # the response does not follow the force at all (red-team round 5's record-pairing): the low coherence is said
+    assert "coherence is" in error and "paired with its own response" in error
 
 
 def test_replay_of_one_hit_reports_the_resonance_not_a_hammer_null(session, tmp_path, capsys):

@@ -27,7 +27,9 @@ from gasfilm.analysis.diagnosis.structure import read_structure
 from gasfilm.analysis.physics.effects import MIN_DAMPING_RATIO, AcCoupling, ExtraMode, Polarity
 from gasfilm.analysis.physics.spec import RigSpec
 from gasfilm.analysis.spectra import (
+    READ_MIN_COHERENCE,
     RESONANCE_SEARCH_FROM_HZ,
+    USABLE_DROP_DB,
     FrfResult,
     WindowSettings,
     compute_frf,
@@ -123,6 +125,18 @@ MULTI_MODE_MIN = 2
 MAX_START_MODES = 6
 
 
+def _low_coherence_hint(frf: FrfResult) -> str:
+    """What a coherence below 0.9 across the whole hammer band suggests, or nothing when it is not that low."""
+    _, upper_hz = usable_band_hz(frf.freq_hz, frf.gff, USABLE_DROP_DB)
+    band = (frf.freq_hz >= RESONANCE_SEARCH_FROM_HZ) & (frf.freq_hz <= upper_hz)
+    coherence = np.nan_to_num(frf.coherence[band])
+    if not band.any() or np.median(coherence) >= READ_MIN_COHERENCE:
+        return ""
+    return (f": the coherence is {np.median(coherence):.2f} (median) across the hammer's band, so the response is not "
+            f"driven by the recorded force alone — check that each force record is paired with its own response "
+            f"(an export that shifted the records), the channels and the sensors")
+
+
 def read_start(recordings: Recordings, mass_kg: float | None = None) -> tuple[RigSpec, str]:
     """The starting spec read off the recordings' FRF when no rig spec is known, and what was read, in words.
 
@@ -155,7 +169,8 @@ def read_start(recordings: Recordings, mass_kg: float | None = None) -> tuple[Ri
         band = (f"{frf.freq_hz[readable][0]:.0f}–{frf.freq_hz[readable][-1]:.0f} Hz" if readable.any()
                 else "no line of it")
         raise SettingError(f"{recordings.source}: no resonance can be read off the FRF in the band the hammer "
-                           f"excites with coherence ≥ 0.9 ({band}); give the rig spec with --rig")
+                           f"excites with coherence ≥ 0.9 ({band}){_low_coherence_hint(frf)}; give the rig spec "
+                           f"with --rig")
     freq_hz, magnitude, sigma = frf.freq_hz, np.abs(frf.h1), frf.decay_rate_1_s
     if mass_kg is None and _mass_line_below(freq_hz, magnitude, readable, float(freq_hz[resonances[0]])):
         return _read_structure(recordings, frf, readable, resonances)
