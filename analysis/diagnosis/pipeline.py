@@ -1038,8 +1038,8 @@ def _character(spectra: HitSpectra, evidence: Evidence, spec: RigSpec, low: int,
                 f"nonlinearity")
     amplitude_trend = _level_trend(per_hit_mean, spectra.conditions.impulse_ns)
     if amplitude_trend:
-        return ("changing with the hit level: the film's stiffness or damping depends on the amplitude (friction, "
-                "quadratic damping or a nonlinear spring)")
+        return ("changing with the hit level: the rig's stiffness, damping or moving mass depends on the amplitude "
+                "(friction, quadratic damping, a nonlinear spring, or a loose part that lifts off)")
     if gain_spread is not None:
         return (f"the hits differ from one another by a scale factor alone, the same at every frequency "
                 f"({100 * gain_spread:.1f} % RMS): a gain that changes from hit to hit (the hit's direction, the force "
