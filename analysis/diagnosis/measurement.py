@@ -1225,5 +1225,5 @@ def without_dc_offsets(records: np.ndarray, sample_rate_hz: float) -> tuple[np.n
                  f"takes it on the force channel" if response_only else "")
     return cleaned, QualityNote(
         "offset", f"{' and '.join(said)} before every hit (a DC-coupled channel: gravity on a MEMS or servo "
-        f"accelerometer, or a zero offset; the NI 9234's IEPE inputs are AC-coupled): each record's mean before its "
-        f"impact is subtracted{unmatched} — a property of the recording, not physics"), response_only
+        f"accelerometer, a zero offset, or records detrended on export; the NI 9234's IEPE inputs are AC-coupled): "
+        f"each record's mean before its impact is subtracted{unmatched} — a property of the recording, not physics"), response_only
