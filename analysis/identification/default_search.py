@@ -118,26 +118,28 @@ class Projection:
         values = {name: reference_values[..., i, np.newaxis] for i, name in enumerate(coords.names)}
         with np.errstate(all="ignore"):
             stiffness = [branch.stiffness(self.s_rel, values, self.log_s_rel) for branch in self.branches]
-            # the weighted branch stiffnesses (compliances), real parts over imaginary parts, one column per branch
+            # the least-squares matrix, transposed: one row per branch, its weighted stiffness (compliance) with the
+            # real parts before the imaginary parts
             n_lines = len(self.index)
-            a = np.empty(np.broadcast_shapes(*(z.shape for z in stiffness))[:-1] + (2 * n_lines, len(stiffness)))
-            for column, z in enumerate(stiffness):
+            a_t = np.empty(np.broadcast_shapes(*(z.shape for z in stiffness))[:-1] + (len(stiffness), 2 * n_lines))
+            for row, z in enumerate(stiffness):
                 weighted = (1.0 / z if self.compliance else z) * self.row_weight
-                a[..., :n_lines, column] = weighted.real
-                a[..., n_lines:, column] = weighted.imag
-            if not np.all(np.isfinite(a)):
-                a = np.nan_to_num(a, nan=0.0, posinf=0.0, neginf=0.0)
-            coefficients = self._solve(a)
-            # A branch whose best coefficient is negative is dropped and the others solved again (only the points
-            # that have one: the others' systems are unchanged)
+                a_t[..., row, :n_lines] = weighted.real
+                a_t[..., row, n_lines:] = weighted.imag
+            if not np.all(np.isfinite(a_t)):
+                a_t = np.nan_to_num(a_t, nan=0.0, posinf=0.0, neginf=0.0)
+            a = _row_major(np.swapaxes(a_t, -1, -2))
+            normal, right = a_t @ a, a_t @ self.target
+            coefficients = _solve_normal(normal, right)
+            # A branch whose best coefficient is negative is dropped (its row and column of the normal equations
+            # zeroed) and the others solved again, only for the points that have one
             positive = coefficients > 0
             again = ~np.all(positive, axis=-1)
-            if a.ndim == 2 and again:
-                a = a * positive[np.newaxis, :]
-                coefficients = self._solve(a)
-            elif np.any(again):
-                a[again] *= positive[again][..., np.newaxis, :]
-                coefficients[again] = self._solve(a[again])
+            if np.any(again):
+                kept = positive[again]
+                coefficients[again] = _solve_normal(
+                    normal[again] * kept[..., :, np.newaxis] * kept[..., np.newaxis, :], right[again] * kept
+                )
             valid = np.isfinite(coefficients) & (coefficients > 0)
             residual = (a @ np.where(valid, coefficients, 0.0)[..., np.newaxis])[..., 0] - self.target
             log_coefficients = np.log(np.where(valid, coefficients, 1.0))
@@ -166,12 +168,6 @@ class Projection:
         jacobian = np.swapaxes((residuals[:, 1:] - residuals[:, :1]) / step[:, :, np.newaxis], -1, -2)
         return residuals[:, 0], jacobian
 
-    def _solve(self, a: np.ndarray) -> np.ndarray:
-        normal = np.swapaxes(a, -1, -2) @ a
-        ridge = 1e-12 * np.trace(normal, axis1=-2, axis2=-1)[..., np.newaxis, np.newaxis] + 1e-300
-        right = (np.swapaxes(a, -1, -2) @ self.target)[..., np.newaxis]
-        return np.linalg.solve(normal + ridge * np.eye(len(self.branches)), right)[..., 0]
-
     def shape_of(self, theta: np.ndarray) -> np.ndarray:
         """Shapes (..., free) of coordinates (..., size): the inverse of :meth:`project` for its own output."""
         psi = np.array(theta[..., self.free], dtype=float)
@@ -199,6 +195,19 @@ class Projection:
                     start[j] = psi[i] + shift
                 starts.append(np.clip(start, self.lower, self.upper))
         return starts
+
+def _row_major(matrices: np.ndarray) -> np.ndarray:
+    """``matrices`` (..., m, n) with rows contiguous: numpy's matmul hands stacked matrices to BLAS only in that
+    layout and multiplies a transposed view in its own loop, 3–9× slower for these tall, narrow matrices."""
+    return np.ascontiguousarray(matrices)
+
+
+def _solve_normal(normal: np.ndarray, right: np.ndarray) -> np.ndarray:
+    """Solutions (..., b) of the normal equations (..., b, b) with right-hand sides (..., b), with a ridge of 1e-12 of
+    the trace (a dropped branch's zero row then gives it a zero coefficient)."""
+    ridge = 1e-12 * np.trace(normal, axis1=-2, axis2=-1)[..., np.newaxis] + 1e-300
+    return np.linalg.solve(normal + ridge[..., np.newaxis] * np.eye(normal.shape[-1]), right[..., np.newaxis])[..., 0]
+
 
 def _levenberg_marquardt(
     evaluate: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]],
@@ -233,8 +242,8 @@ def _levenberg_marquardt(
     for iteration in range(max_iterations):
         if rows.size == 0 or np.min(cost_out) <= good_enough:
             break
-        jac_t = np.swapaxes(jac, -1, -2)
-        normal = jac_t @ jac
+        jac_t = _row_major(np.swapaxes(jac, -1, -2))
+        normal = jac_t @ _row_major(jac)
         gradient = (jac_t @ r[..., np.newaxis])[..., 0]
         held = ((x <= lower) & (gradient > 0)) | ((x >= upper) & (gradient < 0))
         scale = np.sqrt(np.einsum("kii->ki", normal))
