@@ -37,7 +37,7 @@ _ACCELERANCE_STARTS = 6
 #: least difference of two candidates in some coordinate (log coefficient or order) for both to be polished
 _DISTINCT = 0.01
 #: iterations of the brief polish every local result gets (on the lines of the log-stiffness stage)
-_BRIEF_POLISH = 15
+_BRIEF_POLISH = 10
 #: Latin-hypercube shapes scored per shape coordinate
 _SAMPLES_PER_SHAPE = 32
 #: least distance between two starts of local searches, in the unit cube of the shapes
@@ -51,6 +51,10 @@ _POLISH_TOLERANCE = 1e-10
 #: :data:`_BEHIND_AFTER` iterations (its RMS then is 0.05 % above the best, half the accuracy asked of the fitter)
 _POLISH_BEHIND = 1e-3
 _BEHIND_AFTER = 20
+#: relative excess of log cost over the best of a group of shape searches at which a search is given up after
+#: :data:`_SEARCH_BEHIND_AFTER` iterations (its point so far is still polished)
+_SEARCH_BEHIND = 9.0
+_SEARCH_BEHIND_AFTER = 10
 #: iterations of a local search over the shapes, per shape coordinate
 _SEARCH_ITERATIONS = 25
 #: mean squared log-stiffness residual at which the data are matched to round-off and the search stops
@@ -218,6 +222,7 @@ def _levenberg_marquardt(
     tolerance: float,
     good_enough: float = 0.0,
     behind: float = np.inf,
+    behind_after: int = _BEHIND_AFTER,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Box-constrained Levenberg–Marquardt (Nielsen's damping update) from many starts at once.
 
@@ -228,9 +233,10 @@ def _levenberg_marquardt(
     the step of the others and make the search crawl along the bound. Solves the small scaled normal equations
     instead of factorising the tall Jacobian. A start stops when a successful step lowers its cost by less than
     ``tolerance`` (relative) and the local model predicted no more (MINPACK's ftol test), after
-    ``max_iterations``, when no damping gives a lower cost, or, after :data:`_BEHIND_AFTER` iterations, when its cost
-    is more than a factor ``1 + behind`` above the lowest cost of all starts; all stop as soon as one start's cost is
-    at most ``good_enough``. Returns (x (starts, p), sums of squared residuals (starts,)).
+    ``max_iterations``, when no damping gives a lower cost, when it comes within :data:`_DISTINCT` of a start with a
+    lower cost (the same point: one search goes on), or, after ``behind_after`` iterations, when its cost is more
+    than a factor ``1 + behind`` above the lowest cost of all starts; all stop as soon as one start's cost is at most
+    ``good_enough``. Returns (x (starts, p), sums of squared residuals (starts,)).
     """
     x = np.clip(np.asarray(x0, dtype=float), lower, upper)
     r, jac = evaluate(x)
@@ -275,13 +281,23 @@ def _levenberg_marquardt(
         damping[~better] *= growth[~better]
         growth[~better] *= 2.0
         stopped = converged | (damping > 1e16)
-        if iteration >= _BEHIND_AFTER:
+        if iteration >= behind_after:
             stopped |= cost > (1.0 + behind) * np.min(cost_out)
+        if len(rows) > 1:
+            stopped |= _follows_another(x, cost)
         if np.any(stopped):
             going = ~stopped
             rows, x, r, cost, jac, damping, growth = (
                 rows[going], x[going], r[going], cost[going], jac[going], damping[going], growth[going])
     return x_out, cost_out
+
+
+def _follows_another(x: np.ndarray, cost: np.ndarray) -> np.ndarray:
+    """Which of the points (k, p) are within :data:`_DISTINCT` in every coordinate of another point with a lower cost
+    (or the same cost and a lower row): the same point reached from two starts, which is searched on once."""
+    close = np.all(np.abs(x[:, np.newaxis, :] - x[np.newaxis, :, :]) <= _DISTINCT, axis=-1)
+    rank = np.argsort(np.argsort(cost, kind="stable"), kind="stable")
+    return np.any(close & (rank[:, np.newaxis] > rank[np.newaxis, :]), axis=1)
 
 
 def _solve_each(system: np.ndarray, right: np.ndarray) -> np.ndarray:
@@ -317,6 +333,8 @@ def _projected_searches(
             max_iterations=_SEARCH_ITERATIONS * projection.size,
             tolerance=_SEARCH_TOLERANCE,
             good_enough=_EXACT_LOG_COST * len(index),
+            behind=_SEARCH_BEHIND,
+            behind_after=_SEARCH_BEHIND_AFTER,
         )
         thetas = projection.project(shapes)[0]
         costs = problem.log_cost(thetas, index, projection.weights)
