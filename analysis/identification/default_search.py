@@ -200,6 +200,7 @@ class Projection:
                 starts.append(np.clip(start, self.lower, self.upper))
         return starts
 
+
 def _row_major(matrices: np.ndarray) -> np.ndarray:
     """``matrices`` (..., m, n) with rows contiguous: numpy's matmul hands stacked matrices to BLAS only in that
     layout and multiplies a transposed view in its own loop, 3–9× slower for these tall, narrow matrices."""
