@@ -37,7 +37,7 @@ _ACCELERANCE_STARTS = 6
 #: least difference of two candidates in some coordinate (log coefficient or order) for both to be polished
 _DISTINCT = 0.01
 #: iterations of the brief polish every local result gets (on the lines of the log-stiffness stage)
-_BRIEF_POLISH = 15
+_BRIEF_POLISH = 10
 #: Latin-hypercube shapes scored per shape coordinate
 _SAMPLES_PER_SHAPE = 32
 #: least distance between two starts of local searches, in the unit cube of the shapes
@@ -51,6 +51,10 @@ _POLISH_TOLERANCE = 1e-10
 #: :data:`_BEHIND_AFTER` iterations (its RMS then is 0.05 % above the best, half the accuracy asked of the fitter)
 _POLISH_BEHIND = 1e-3
 _BEHIND_AFTER = 20
+#: relative excess of log cost over the best of a group of shape searches at which a search is given up after
+#: :data:`_SEARCH_BEHIND_AFTER` iterations (its point so far is still polished)
+_SEARCH_BEHIND = 9.0
+_SEARCH_BEHIND_AFTER = 10
 #: iterations of a local search over the shapes, per shape coordinate
 _SEARCH_ITERATIONS = 25
 #: mean squared log-stiffness residual at which the data are matched to round-off and the search stops
@@ -118,26 +122,28 @@ class Projection:
         values = {name: reference_values[..., i, np.newaxis] for i, name in enumerate(coords.names)}
         with np.errstate(all="ignore"):
             stiffness = [branch.stiffness(self.s_rel, values, self.log_s_rel) for branch in self.branches]
-            # the weighted branch stiffnesses (compliances), real parts over imaginary parts, one column per branch
+            # the least-squares matrix, transposed: one row per branch, its weighted stiffness (compliance) with the
+            # real parts before the imaginary parts
             n_lines = len(self.index)
-            a = np.empty(np.broadcast_shapes(*(z.shape for z in stiffness))[:-1] + (2 * n_lines, len(stiffness)))
-            for column, z in enumerate(stiffness):
+            a_t = np.empty(np.broadcast_shapes(*(z.shape for z in stiffness))[:-1] + (len(stiffness), 2 * n_lines))
+            for row, z in enumerate(stiffness):
                 weighted = (1.0 / z if self.compliance else z) * self.row_weight
-                a[..., :n_lines, column] = weighted.real
-                a[..., n_lines:, column] = weighted.imag
-            if not np.all(np.isfinite(a)):
-                a = np.nan_to_num(a, nan=0.0, posinf=0.0, neginf=0.0)
-            coefficients = self._solve(a)
-            # A branch whose best coefficient is negative is dropped and the others solved again (only the points
-            # that have one: the others' systems are unchanged)
+                a_t[..., row, :n_lines] = weighted.real
+                a_t[..., row, n_lines:] = weighted.imag
+            if not np.all(np.isfinite(a_t)):
+                a_t = np.nan_to_num(a_t, nan=0.0, posinf=0.0, neginf=0.0)
+            a = _row_major(np.swapaxes(a_t, -1, -2))
+            normal, right = a_t @ a, a_t @ self.target
+            coefficients = _solve_normal(normal, right)
+            # A branch whose best coefficient is negative is dropped (its row and column of the normal equations
+            # zeroed) and the others solved again, only for the points that have one
             positive = coefficients > 0
             again = ~np.all(positive, axis=-1)
-            if a.ndim == 2 and again:
-                a = a * positive[np.newaxis, :]
-                coefficients = self._solve(a)
-            elif np.any(again):
-                a[again] *= positive[again][..., np.newaxis, :]
-                coefficients[again] = self._solve(a[again])
+            if np.any(again):
+                kept = positive[again]
+                coefficients[again] = _solve_normal(
+                    normal[again] * kept[..., :, np.newaxis] * kept[..., np.newaxis, :], right[again] * kept
+                )
             valid = np.isfinite(coefficients) & (coefficients > 0)
             residual = (a @ np.where(valid, coefficients, 0.0)[..., np.newaxis])[..., 0] - self.target
             log_coefficients = np.log(np.where(valid, coefficients, 1.0))
@@ -165,12 +171,6 @@ class Projection:
         residuals = self.project(points)[1]
         jacobian = np.swapaxes((residuals[:, 1:] - residuals[:, :1]) / step[:, :, np.newaxis], -1, -2)
         return residuals[:, 0], jacobian
-
-    def _solve(self, a: np.ndarray) -> np.ndarray:
-        normal = np.swapaxes(a, -1, -2) @ a
-        ridge = 1e-12 * np.trace(normal, axis1=-2, axis2=-1)[..., np.newaxis, np.newaxis] + 1e-300
-        right = (np.swapaxes(a, -1, -2) @ self.target)[..., np.newaxis]
-        return np.linalg.solve(normal + ridge * np.eye(len(self.branches)), right)[..., 0]
 
     def shape_of(self, theta: np.ndarray) -> np.ndarray:
         """Shapes (..., free) of coordinates (..., size): the inverse of :meth:`project` for its own output."""
@@ -200,6 +200,20 @@ class Projection:
                 starts.append(np.clip(start, self.lower, self.upper))
         return starts
 
+
+def _row_major(matrices: np.ndarray) -> np.ndarray:
+    """``matrices`` (..., m, n) with rows contiguous: numpy's matmul hands stacked matrices to BLAS only in that
+    layout and multiplies a transposed view in its own loop, 3–9× slower for these tall, narrow matrices."""
+    return np.ascontiguousarray(matrices)
+
+
+def _solve_normal(normal: np.ndarray, right: np.ndarray) -> np.ndarray:
+    """Solutions (..., b) of the normal equations (..., b, b) with right-hand sides (..., b), with a ridge of 1e-12 of
+    the trace (a dropped branch's zero row then gives it a zero coefficient)."""
+    ridge = 1e-12 * np.trace(normal, axis1=-2, axis2=-1)[..., np.newaxis] + 1e-300
+    return np.linalg.solve(normal + ridge[..., np.newaxis] * np.eye(normal.shape[-1]), right[..., np.newaxis])[..., 0]
+
+
 def _levenberg_marquardt(
     evaluate: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]],
     x0: np.ndarray,
@@ -209,6 +223,7 @@ def _levenberg_marquardt(
     tolerance: float,
     good_enough: float = 0.0,
     behind: float = np.inf,
+    behind_after: int = _BEHIND_AFTER,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Box-constrained Levenberg–Marquardt (Nielsen's damping update) from many starts at once.
 
@@ -219,9 +234,10 @@ def _levenberg_marquardt(
     the step of the others and make the search crawl along the bound. Solves the small scaled normal equations
     instead of factorising the tall Jacobian. A start stops when a successful step lowers its cost by less than
     ``tolerance`` (relative) and the local model predicted no more (MINPACK's ftol test), after
-    ``max_iterations``, when no damping gives a lower cost, or, after :data:`_BEHIND_AFTER` iterations, when its cost
-    is more than a factor ``1 + behind`` above the lowest cost of all starts; all stop as soon as one start's cost is
-    at most ``good_enough``. Returns (x (starts, p), sums of squared residuals (starts,)).
+    ``max_iterations``, when no damping gives a lower cost, when it comes within :data:`_DISTINCT` of a start with a
+    lower cost (the same point: one search goes on), or, after ``behind_after`` iterations, when its cost is more
+    than a factor ``1 + behind`` above the lowest cost of all starts; all stop as soon as one start's cost is at most
+    ``good_enough``. Returns (x (starts, p), sums of squared residuals (starts,)).
     """
     x = np.clip(np.asarray(x0, dtype=float), lower, upper)
     r, jac = evaluate(x)
@@ -233,8 +249,8 @@ def _levenberg_marquardt(
     for iteration in range(max_iterations):
         if rows.size == 0 or np.min(cost_out) <= good_enough:
             break
-        jac_t = np.swapaxes(jac, -1, -2)
-        normal = jac_t @ jac
+        jac_t = _row_major(np.swapaxes(jac, -1, -2))
+        normal = jac_t @ _row_major(jac)
         gradient = (jac_t @ r[..., np.newaxis])[..., 0]
         held = ((x <= lower) & (gradient > 0)) | ((x >= upper) & (gradient < 0))
         scale = np.sqrt(np.einsum("kii->ki", normal))
@@ -266,13 +282,23 @@ def _levenberg_marquardt(
         damping[~better] *= growth[~better]
         growth[~better] *= 2.0
         stopped = converged | (damping > 1e16)
-        if iteration >= _BEHIND_AFTER:
+        if iteration >= behind_after:
             stopped |= cost > (1.0 + behind) * np.min(cost_out)
+        if len(rows) > 1:
+            stopped |= _follows_another(x, cost)
         if np.any(stopped):
             going = ~stopped
             rows, x, r, cost, jac, damping, growth = (
                 rows[going], x[going], r[going], cost[going], jac[going], damping[going], growth[going])
     return x_out, cost_out
+
+
+def _follows_another(x: np.ndarray, cost: np.ndarray) -> np.ndarray:
+    """Which of the points (k, p) are within :data:`_DISTINCT` in every coordinate of another point with a lower cost
+    (or the same cost and a lower row): the same point reached from two starts, which is searched on once."""
+    close = np.all(np.abs(x[:, np.newaxis, :] - x[np.newaxis, :, :]) <= _DISTINCT, axis=-1)
+    rank = np.argsort(np.argsort(cost, kind="stable"), kind="stable")
+    return np.any(close & (rank[:, np.newaxis] > rank[np.newaxis, :]), axis=1)
 
 
 def _solve_each(system: np.ndarray, right: np.ndarray) -> np.ndarray:
@@ -308,6 +334,8 @@ def _projected_searches(
             max_iterations=_SEARCH_ITERATIONS * projection.size,
             tolerance=_SEARCH_TOLERANCE,
             good_enough=_EXACT_LOG_COST * len(index),
+            behind=_SEARCH_BEHIND,
+            behind_after=_SEARCH_BEHIND_AFTER,
         )
         thetas = projection.project(shapes)[0]
         costs = problem.log_cost(thetas, index, projection.weights)

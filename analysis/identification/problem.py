@@ -258,18 +258,23 @@ class Problem:
         self.evaluations += (1 + self.coords.size) * int(np.prod(np.shape(theta)[:-1]))
         values, mass = self.coords.reference_values(theta)
         z, dz_dvalues = self.model.stiffness_and_gradient(self.s_rel[index], values, self.log_s_rel[index])
-        dz_dtheta = dz_dvalues * np.where(self.coords.is_order[: values.shape[-1]], 1.0, values)[..., np.newaxis, :]
-        s2 = self.s2[index]
+        s2, sqrt_w = self.s2[index], self.sqrt_w[index]
         with np.errstate(all="ignore"):
             h_model = s2 / (z + mass[..., np.newaxis] * s2)
         residual = h_model - self.h[index]
         if not np.all(np.isfinite(residual)):
             residual = np.nan_to_num(residual, nan=1e6, posinf=1e6, neginf=-1e6)
-        columns = (-(h_model**2) / s2)[..., np.newaxis] * dz_dtheta
+        # one complex factor per line and one real factor per parameter
+        weighted_h2 = h_model**2 * sqrt_w
+        columns = dz_dvalues * (-weighted_h2 / s2)[..., np.newaxis]
+        columns *= np.where(self.coords.is_order[: values.shape[-1]], 1.0, values)[..., np.newaxis, :]
         if self.coords.fit_mass:
-            columns = np.concatenate([columns, (-(h_model**2) * mass[..., np.newaxis])[..., np.newaxis]], axis=-1)
-        jac = columns * self.sqrt_w[index, np.newaxis]
-        return stack(residual * self.sqrt_w[index]), np.concatenate([jac.real, jac.imag], axis=-2)
+            columns = np.concatenate([columns, (-weighted_h2 * mass[..., np.newaxis])[..., np.newaxis]], axis=-1)
+        n_lines = columns.shape[-2]
+        jac = np.empty(columns.shape[:-2] + (2 * n_lines, columns.shape[-1]))
+        jac[..., :n_lines, :] = columns.real
+        jac[..., n_lines:, :] = columns.imag
+        return stack(residual * sqrt_w), jac
 
 
 def stack(r: np.ndarray) -> np.ndarray:

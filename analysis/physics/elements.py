@@ -77,7 +77,10 @@ class Node(abc.ABC):
     ) -> tuple[np.ndarray, Gradient]:
         """Complex stiffness in N/m at the Laplace variable ``s`` and, when ``gradient``, its derivative with respect
         to each parameter below this node (an empty mapping otherwise). ``log_s`` is ``ln s`` precomputed by a caller
-        that evaluates many parameter sets at the same ``s ≠ 0`` (a fitter); without it spring-pots use ``s**α``."""
+        that evaluates many parameter sets at the same ``s ≠ 0`` (a fitter); without it spring-pots use ``s**α``.
+        A spring's stiffness and derivative are its real value and 1, shaped like the value (broadcasting against
+        ``s``): combined with other elements they take the frequencies' shape, and :meth:`stiffness` and
+        :class:`FilmModel` give every result over the frequencies."""
 
     @abc.abstractmethod
     def text(self) -> str:
@@ -87,7 +90,7 @@ class Node(abc.ABC):
         self, s: np.ndarray, values: Mapping[str, np.ndarray], log_s: np.ndarray | None = None
     ) -> np.ndarray:
         """Complex stiffness in N/m at the Laplace variable ``s``."""
-        return self.evaluate(s, values, False, log_s)[0]
+        return _over_frequencies(self.evaluate(s, values, False, log_s)[0], s)
 
 
 @dataclass(frozen=True)
@@ -100,7 +103,7 @@ class Spring(Node):
     def evaluate(
         self, s: np.ndarray, values: Mapping[str, np.ndarray], gradient: bool, log_s: np.ndarray | None = None
     ) -> tuple[np.ndarray, Gradient]:
-        z = values[self.name] * np.ones_like(s)
+        z = values[self.name]
         return z, {self.name: np.ones_like(z)} if gradient else {}
 
     def text(self) -> str:
@@ -139,25 +142,26 @@ class SpringPot(Node):
         self, s: np.ndarray, values: Mapping[str, np.ndarray], gradient: bool, log_s: np.ndarray | None = None
     ) -> tuple[np.ndarray, Gradient]:
         # principal branch; exp(α ln s) is 2–4× faster than s**α when ln s is given, s**α also holds at s = 0
-        power = s ** values[self.order] if log_s is None else _power(values[self.order], log_s)
-        z = values[self.coefficient] * power
+        order, coefficient = values[self.order], values[self.coefficient]
         if not gradient:
-            return z, {}
+            return (coefficient * s**order if log_s is None else _power(order, log_s, coefficient)), {}
+        power = s**order if log_s is None else _power(order, log_s)
+        z = coefficient * power
         return z, {self.coefficient: power, self.order: z * (np.log(s) if log_s is None else log_s)}
 
     def text(self) -> str:
         return f"pot({self.coefficient}, {self.order})"
 
 
-def _power(order: np.ndarray, log_s: np.ndarray) -> np.ndarray:
-    """``exp(α·ln s)``: on the imaginary axis (an FRF without an exponential window) ``arg s`` is the same at every
-    frequency, so ``s^α = |s|^α·e^{jα·arg s}`` needs a real exponential per frequency and one phase per order, a
-    third of the cost of a complex exponential."""
+def _power(order: np.ndarray, log_s: np.ndarray, coefficient: np.ndarray | float = 1.0) -> np.ndarray:
+    """``c·exp(α·ln s)``: on the imaginary axis (an FRF without an exponential window) ``arg s`` is the same at every
+    frequency, so ``c·s^α = |s|^α·c·e^{jα·arg s}`` needs a real exponential per frequency and one complex factor
+    per parameter set, a third of the cost of a complex exponential and its product with ``c``."""
     phase = log_s.imag
     if phase.size and phase[0] == phase[-1] and np.all(phase == phase[0]):
         angle = order * phase[0]
-        return np.exp(order * log_s.real) * (np.cos(angle) + 1j * np.sin(angle))
-    return np.exp(order * log_s)
+        return np.exp(order * log_s.real) * (coefficient * (np.cos(angle) + 1j * np.sin(angle)))
+    return coefficient * np.exp(order * log_s)
 
 
 @dataclass(frozen=True)
@@ -176,7 +180,10 @@ class Parallel(_Composite):
         self, s: np.ndarray, values: Mapping[str, np.ndarray], gradient: bool, log_s: np.ndarray | None = None
     ) -> tuple[np.ndarray, Gradient]:
         parts = [child.evaluate(s, values, gradient, log_s) for child in self.children]
-        return sum(z for z, _ in parts), {name: g for _, grads in parts for name, g in grads.items()}
+        z = parts[0][0]
+        for part, _ in parts[1:]:
+            z = z + part
+        return z, {name: g for _, grads in parts for name, g in grads.items()}
 
     def text(self) -> str:
         return " || ".join(_grouped(child) for child in self.children)
@@ -188,12 +195,16 @@ class Series(_Composite):
         self, s: np.ndarray, values: Mapping[str, np.ndarray], gradient: bool, log_s: np.ndarray | None = None
     ) -> tuple[np.ndarray, Gradient]:
         parts = [child.evaluate(s, values, gradient, log_s) for child in self.children]
-        z = 1.0 / sum(1.0 / part for part, _ in parts)
+        compliances = [1.0 / part for part, _ in parts]
+        compliance = compliances[0]
+        for part_compliance in compliances[1:]:
+            compliance = compliance + part_compliance
+        z = 1.0 / compliance
         # compliances add: d(1/Z) = Σ d(1/Z_i), so dZ/dp = (Z/Z_i)² dZ_i/dp for a parameter of branch i
         gradients: Gradient = {}
-        for part, part_gradients in parts:
+        for (_, part_gradients), part_compliance in zip(parts, compliances):
             if part_gradients:
-                factor = (z / part) ** 2
+                factor = (z * part_compliance) ** 2
                 gradients.update({name: factor * g for name, g in part_gradients.items()})
         return z, gradients
 
@@ -246,7 +257,8 @@ class FilmModel:
     ) -> np.ndarray:
         """Complex stiffness Z(s) in N/m; ``params`` of shape (..., P) gives a result of shape (..., len(s)).
         ``log_s``: ``ln s``, precomputed by a caller evaluating many parameter sets at the same ``s ≠ 0``."""
-        return self.network.evaluate(*self._arguments(s, params), False, log_s)[0]
+        s, values = self._arguments(s, params)
+        return _over_frequencies(self.network.evaluate(s, values, False, log_s)[0], s)
 
     def stiffness_and_gradient(
         self, s: ArrayLike, params: ArrayLike | Mapping[str, float], log_s: np.ndarray | None = None
@@ -255,6 +267,7 @@ class FilmModel:
         :attr:`parameter_names` order, shape (..., len(s), P), in N/m per unit of each parameter."""
         s, values = self._arguments(s, params)
         z, grads = self.network.evaluate(s, values, True, log_s)
+        z = _over_frequencies(z, s)
         gradient = np.empty(z.shape + (len(self.parameters),), dtype=complex)
         for i, name in enumerate(self.parameter_names):
             gradient[..., i] = grads[name]
@@ -272,6 +285,14 @@ class FilmModel:
             )
         values = {n: vector[..., i, np.newaxis] for i, n in enumerate(self.parameter_names)}
         return np.asarray(s, dtype=complex), values
+
+
+def _over_frequencies(z: np.ndarray, s: np.ndarray) -> np.ndarray:
+    """A network's stiffness as a complex array over the frequencies (a network of springs alone has one real value
+    per parameter set)."""
+    if np.iscomplexobj(z):
+        return z
+    return np.broadcast_to(z, np.broadcast_shapes(np.shape(z), np.shape(s))).astype(complex)
 
 
 def laplace_variable(freq_hz: ArrayLike, decay_rate_1_s: float = 0.0) -> np.ndarray:
