@@ -112,11 +112,10 @@ class HitSpectra:
     quality: list[QualityNote] = field(default_factory=list)
     replay: "Replay | None" = None
     noise: "NoiseSource | None" = None
-    #: (2, hits, G) what a late-triggered record's missing front adds to that hit's replayed FRF per unit of its two
-    #: nuisance parameters, impulse and timing (:meth:`Replay.front_responses`; zero for records whose pulse start is
-    #: recorded), for the spec ``h`` was corrected with; None without late hits. Profiled out of every comparison
+    #: What late-triggered records' missing pulse fronts add to their replayed FRFs, for the spec ``h`` was corrected
+    #: with (:meth:`Replay.front_responses`); None without late hits. Profiled out of every comparison
     #: (:class:`~gasfilm.analysis.diagnosis.selection.Evidence`).
-    missing_front: np.ndarray | None = None
+    missing_fronts: "MissingFronts | None" = None
 
     @property
     def weight(self) -> np.ndarray:
@@ -142,7 +141,8 @@ class HitSpectra:
                 replayed = self.replay.replayed(model_accelerance)
             return replace(self, h=self.replay.measured_h - (replayed - self.replay.laplace(model_accelerance)),
                            variance=self.replay.measured_variance,
-                           missing_front=self.replay.front_responses(model_accelerance))
+                           missing_fronts=self.replay.front_responses(model_accelerance,
+                                                                      self.replay.measured_h - replayed))
         ratio = self.replay.ratio(model_accelerance, replayed)
         return replace(self, h=self.replay.measured_h / ratio,
                        variance=self.replay.measured_variance / np.abs(ratio) ** 2)
@@ -153,16 +153,50 @@ class HitSpectra:
 WRAP_DECAY = 20.0
 
 
-def fitted_missing_fronts(difference: np.ndarray, fronts: np.ndarray, weight: np.ndarray) -> np.ndarray:
-    """What each late hit's missing front contributes to ``difference`` (hits, G; recording − replay): the weighted
-    least-squares combination of its columns ``fronts`` (columns, hits, G) with real coefficients, ``weight`` per
-    complex value (zero for a hit whose columns are zero)."""
-    gram = np.einsum("ahg,bhg->hab", np.conj(fronts) * weight, fronts).real
-    projection = np.einsum("ahg,hg->ha", np.conj(fronts) * weight, difference).real
-    empty = np.all(gram == 0, axis=(1, 2))
-    gram[empty] = np.eye(fronts.shape[0])
-    coefficients = np.linalg.solve(gram, projection[..., np.newaxis])[..., 0]
-    return np.einsum("ha,ahg->hg", coefficients, fronts)
+#: The timing of a late record's missing front is known to about this many samples (the Gaussian prior scale of its
+#: timing coefficient, in units of the front's impulse: :class:`MissingFronts`).
+FRONT_TIMING_SAMPLES = 0.5
+
+
+@dataclass
+class MissingFronts:
+    """What each late-triggered record's missing pulse front adds to its hit's replayed FRF, per unit of its two
+    nuisance parameters: the front's impulse (N·s) and that impulse moved one sample earlier (N·s·samples, its timing).
+
+    A record that starts inside its pulse misses the front's impulse ΔI_i: the mover keeps the velocity it gave (in
+    the record), the first acceleration samples are lost (before it), so the recording holds
+    ``H·F_rec + ΔI_i·(H − 1/m)·e^{sτ_i}`` through the windows — linear in ΔI_i and, to first order, in ΔI_i·δτ_i about
+    the mirrored front's timing; the mirror only estimates both. Both are fitted by weighted least squares in every
+    comparison, the timing within a Gaussian prior ``timing_sigma`` of :data:`FRONT_TIMING_SAMPLES` times the front's
+    impulse (the mirrored one with what the recording adds to it at the spec replayed, which the mass line's offset
+    below the resonance measures): a timing free of the impulse it moves would turn the resonance's phase as a small
+    shift of the resonance does, hit by hit, and take up a small added mass or a change of the film."""
+
+    columns: np.ndarray  # (2, hits, G) complex; zero for records whose pulse start is recorded
+    timing_sigma: np.ndarray  # (hits,) prior scale of the timing coefficient (N·s·samples)
+
+    @property
+    def parameter_count(self) -> int:
+        """Nuisance parameters fitted: two per late record."""
+        return int(np.sum(np.any(self.columns != 0, axis=2)))
+
+    def subset(self, hits: np.ndarray | None = None, lines: np.ndarray | None = None) -> "MissingFronts":
+        """The fronts of some hits on some analysis lines."""
+        columns = self.columns if hits is None else self.columns[:, hits]
+        return MissingFronts(columns if lines is None else columns[:, :, lines],
+                             self.timing_sigma if hits is None else self.timing_sigma[hits])
+
+    def fitted(self, difference: np.ndarray, weight: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """What the fronts contribute to ``difference`` (hits, G; recording − replay) by weighted least squares
+        (``weight`` per complex value) with the timing prior, and the prior's residual (hits,) in noise units."""
+        columns = self.columns
+        gram = np.einsum("ahg,bhg->hab", np.conj(columns) * weight, columns).real
+        projection = np.einsum("ahg,hg->ha", np.conj(columns) * weight, difference).real
+        late = np.any(gram != 0, axis=(1, 2))
+        gram[:, 1, 1] += np.where(late, self.timing_sigma ** -2.0, 0.0)
+        gram[~late] = np.eye(columns.shape[0])
+        coefficients = np.linalg.solve(gram, projection[..., np.newaxis])[..., 0]
+        return np.einsum("ha,ahg->hg", coefficients, columns), coefficients[:, 1] / self.timing_sigma
 
 
 @dataclass
@@ -189,8 +223,10 @@ class Replay:
     additive: bool = False
     #: Records that start inside their force pulse (a late trigger): spectrum of each one's missing front scaled to
     #: one N·s of impulse, at negative times, zero-padded to ``n_fft`` (hits × n_fft//2+1, zero rows for records
-    #: whose pulse start is recorded); None without late records. See :meth:`front_responses`.
+    #: whose pulse start is recorded), and the mirrored front's impulse (N·s, hits); None without late records. See
+    #: :meth:`front_responses`.
     front_padded: np.ndarray | None = None
+    front_impulse_ns: np.ndarray | None = None
     damped_front_padded: np.ndarray | None = None
 
     def quantised(self, responses: np.ndarray) -> np.ndarray:
@@ -211,16 +247,13 @@ class Replay:
             self.damped_force_padded = self._damped(self.force_padded)
         return self._played(self.damped_force_padded, model_accelerance, self.quantised)
 
-    def front_responses(self, model_accelerance: Callable[[np.ndarray, float], np.ndarray]) -> np.ndarray | None:
-        """Per-hit FRFs (2, hits, G) of the model played with each late record's missing front alone, windowed like
-        the recording: per N·s of its impulse, and per N·s of it moved one sample earlier (zero for the other records;
-        None without late records).
-
-        A record that starts inside its pulse misses the front's impulse ΔI_i: the mover keeps the velocity it gave
-        (in the record), the first acceleration samples are lost (before it), so the recording holds
-        ``H·F_rec + ΔI_i·(H − 1/m)·e^{sτ_i}`` through the windows — linear in ΔI_i and, to first order, in ΔI_i·δτ_i
-        about the mirrored front's own timing, both of which the mirror only estimates. What they leave is a
-        combination of these two rows: two nuisance parameters per late record."""
+    def front_responses(
+        self, model_accelerance: Callable[[np.ndarray, float], np.ndarray], difference: np.ndarray
+    ) -> MissingFronts | None:
+        """The model played with each late record's missing front alone, windowed like the recording: per N·s of its
+        impulse and per N·s of it moved one sample earlier, the timing's prior from the front's impulse with what
+        ``difference`` (recording − replay, hits × G) adds to it (:class:`MissingFronts`; None without late
+        records)."""
         if self.front_padded is None:
             return None
         if self.damped_front_padded is None:
@@ -229,17 +262,23 @@ class Replay:
                                                  self._damped(self.front_padded * (earlier - 1.0))])
         played = self._played(self.damped_front_padded.reshape(-1, self.damped_front_padded.shape[-1]),
                               model_accelerance, lambda responses: responses, stacked=2)
-        return played.reshape(2, *self.measured_h.shape)
+        columns = played.reshape(2, *self.measured_h.shape)
+        weight = 1.0 / self.measured_variance
+        norm = np.sum(weight * np.abs(columns[0]) ** 2, axis=1)
+        added_ns = np.divide(np.sum(weight * (np.conj(columns[0]) * difference).real, axis=1), norm,
+                             out=np.zeros_like(norm), where=norm > 0)
+        impulse_ns = np.abs(self.front_impulse_ns + added_ns)
+        return MissingFronts(columns, FRONT_TIMING_SAMPLES * np.maximum(impulse_ns, 1e-9 * impulse_ns.max() + 1e-300))
 
     def with_missing_impulses(
         self, replayed: np.ndarray, model_accelerance: Callable[[np.ndarray, float], np.ndarray]
     ) -> np.ndarray:
-        """Replayed per-hit FRFs with each late record's missing front fitted to the recording (weighted least
-        squares, :func:`fitted_missing_fronts`); unchanged without late records."""
-        fronts = self.front_responses(model_accelerance)
+        """Replayed per-hit FRFs with each late record's missing front fitted to the recording
+        (:meth:`MissingFronts.fitted`); unchanged without late records."""
+        fronts = self.front_responses(model_accelerance, self.measured_h - replayed)
         if fronts is None:
             return replayed
-        return replayed + fitted_missing_fronts(self.measured_h - replayed, fronts, 1.0 / self.measured_variance)
+        return replayed + fronts.fitted(self.measured_h - replayed, 1.0 / self.measured_variance)[0]
 
     def _played(
         self, damped_force: np.ndarray, model_accelerance: Callable[[np.ndarray, float], np.ndarray],
@@ -275,6 +314,7 @@ class Replay:
                        force_windowed_grid=self.force_windowed_grid[rows], measured_h=self.measured_h[rows],
                        measured_variance=self.measured_variance[rows], nonlinear_cache={}, damped_force_padded=None,
                        front_padded=None if self.front_padded is None else self.front_padded[rows],
+                       front_impulse_ns=None if self.front_padded is None else self.front_impulse_ns[rows],
                        damped_front_padded=None)
 
     def windowed_frf(self, responses: np.ndarray) -> np.ndarray:
@@ -837,6 +877,7 @@ def hit_spectra(
         additive=bool(late),
         front_padded=(np.fft.rfft(_with_fronts(np.zeros_like(records[:, 0]), _unit_fronts(fronts, late, sample_rate_hz),
                                                n_fft), axis=1) if late else None),
+        front_impulse_ns=np.array([np.sum(front) / sample_rate_hz for front in fronts]) if late else None,
     )
     return HitSpectra(
         freq_hz=full_freq_hz[grid],

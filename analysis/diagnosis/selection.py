@@ -18,7 +18,7 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from gasfilm.analysis.diagnosis.fitspace import Slot, read_vector, spec_slots, with_effect, write_vector
-from gasfilm.analysis.diagnosis.measurement import HitSpectra, fitted_missing_fronts
+from gasfilm.analysis.diagnosis.measurement import HitSpectra
 from gasfilm.analysis.physics.effects import (
     AIR_PRESSURE_PA,
     AIR_VISCOSITY_PA_S,
@@ -75,18 +75,17 @@ class FitOutcome:
 class Evidence:
     """The measured per-hit FRFs and weights on the analysis grid, with the sums needed for fast χ².
 
-    Late-triggered records (``spectra.missing_front``) each have their missing front profiled out of every comparison
-    (variable projection: two real least-squares coefficients per such hit, the front's impulse and its timing, their
-    degrees of freedom taken from ``point_count``); χ² is then summed hit by hit."""
+    Late-triggered records (``spectra.missing_fronts``) each have their missing front profiled out of every comparison
+    (variable projection: two real least-squares coefficients per such hit, the front's impulse and its timing within
+    its prior, their degrees of freedom taken from ``point_count``); χ² is then summed hit by hit."""
 
     def __init__(self, spectra: HitSpectra) -> None:
         self.spectra = spectra
         self.freq_hz = spectra.freq_hz
         self.decay_rate_1_s = spectra.decay_rate_1_s
         self.hit_count = spectra.h.shape[0]
-        self.nuisance_count = (0 if spectra.missing_front is None
-                               else int(np.sum(np.any(spectra.missing_front != 0, axis=2))))
-        self.point_count = 2 * spectra.h.size - self.nuisance_count
+        fronts = spectra.missing_fronts
+        self.point_count = 2 * spectra.h.size - (0 if fronts is None else fronts.parameter_count)
         self._means: dict[tuple[int, ...] | None, tuple[np.ndarray, np.ndarray]] = {}
         self._rows: dict[tuple[int, ...] | None, tuple[np.ndarray, np.ndarray]] = {}
         self._pieces = GridPieces(self.freq_hz, self.decay_rate_1_s)
@@ -111,10 +110,10 @@ class Evidence:
 
     def restricted(self, lines: np.ndarray) -> "Evidence":
         """The same evidence on a subset of the analysis frequencies (indices into ``freq_hz``)."""
-        front = self.spectra.missing_front
+        fronts = self.spectra.missing_fronts
         spectra = dataclasses.replace(self.spectra, freq_hz=self.freq_hz[lines], h=self.spectra.h[:, lines],
                                       variance=self.spectra.variance[:, lines], replay=None,
-                                      missing_front=None if front is None else front[:, :, lines])
+                                      missing_fronts=None if fronts is None else fronts.subset(lines=lines))
         return Evidence(spectra)
 
     def predicted(self, spec: RigSpec, hits: np.ndarray | None = None) -> np.ndarray:
@@ -127,27 +126,33 @@ class Evidence:
         return rig_accelerance(spec, self.freq_hz, self.decay_rate_1_s, conditions=conditions, pieces=self._pieces)
 
     def _hit_by_hit(self, spec: RigSpec) -> bool:
-        """Whether χ² is summed hit by hit (a spec that differs between hits, or a missing impulse per late hit)."""
-        return spec.is_per_hit or self.spectra.missing_front is not None
+        """Whether χ² is summed hit by hit (a spec that differs between hits, or a missing front per late hit)."""
+        return spec.is_per_hit or self.spectra.missing_fronts is not None
 
     def residual_per_hit(self, spec: RigSpec, hits: np.ndarray | None = None) -> np.ndarray:
         """``H_i − M_i`` (hits, G) of a subset of hits, each late hit's missing front fitted out of it."""
+        return self._profiled(spec, hits)[0]
+
+    def _profiled(self, spec: RigSpec, hits: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`residual_per_hit` and the missing fronts' prior residuals (hits,; empty without late hits)."""
         rows = slice(None) if hits is None else hits
-        predicted = self.predicted(spec, hits)
-        difference = self.spectra.h[rows] - predicted
-        front = self.spectra.missing_front
-        if front is None:
-            return difference
-        return difference - fitted_missing_fronts(difference, front[:, rows], self.spectra.weight[rows])
+        difference = self.spectra.h[rows] - self.predicted(spec, hits)
+        fronts = self.spectra.missing_fronts
+        if fronts is None:
+            return difference, np.zeros(0)
+        fitted, prior = fronts.subset(hits).fitted(difference, self.spectra.weight[rows])
+        return difference - fitted, prior
 
     def residual(self, spec: RigSpec, hits: np.ndarray | None = None) -> np.ndarray:
-        """Weighted residual vector (real and imaginary parts) whose squared norm is χ² up to a constant."""
+        """Weighted residual vector (real and imaginary parts, and the missing fronts' prior) whose squared norm is χ²
+        up to a constant."""
         if self._hit_by_hit(spec):
             _, sqrt_weight = self._hit_rows(hits)
-            difference = self.residual_per_hit(spec, hits) * sqrt_weight
-        else:
-            mean, total = self._mean(hits)
-            difference = (mean - self.predicted(spec)) * np.sqrt(total)
+            difference, prior = self._profiled(spec, hits)
+            difference = difference * sqrt_weight
+            return np.concatenate((difference.real.ravel(), difference.imag.ravel(), prior))
+        mean, total = self._mean(hits)
+        difference = (mean - self.predicted(spec)) * np.sqrt(total)
         return np.concatenate((difference.real.ravel(), difference.imag.ravel()))
 
     def scatter_constant(self, hits: np.ndarray | None = None) -> float:
