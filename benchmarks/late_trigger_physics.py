@@ -19,24 +19,21 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent / "concealed"))
+sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from generate import NOMINAL, generate  # noqa: E402
+from measurement_controls import triggered_late  # noqa: E402
 
 from gasfilm.analysis.diagnosis import Recordings, diagnose, load_recordings  # noqa: E402
 
 CASES = ("clean-a", "mass-a", "mode-a", "memory-a", "subtle-mass")
-#: A late record starts at its first force sample at or above this fraction of the hit's peak force.
-LATE_FRACTION = 0.1
 
 
 def late_cut(recordings: Recordings) -> Recordings:
-    """The recordings with every record cut to start at its first force sample ≥ :data:`LATE_FRACTION` of its peak
-    (all cut to the shortest length), without windows or spec, as UFF time records would carry them."""
-    records = np.asarray(recordings.records)
-    firsts = [int(np.flatnonzero(np.abs(r[0]) >= LATE_FRACTION * np.abs(r[0]).max())[0]) for r in records]
-    length = records.shape[-1] - max(firsts)
-    cut = np.stack([record[:, first : first + length] for record, first in zip(records, firsts)])
-    return dataclasses.replace(recordings, records=cut, window=None, rig_spec_toml=None)
+    """The recordings triggered late (:func:`triggered_late`), without windows or spec, as UFF time records would
+    carry them."""
+    return dataclasses.replace(recordings, records=triggered_late(np.asarray(recordings.records)), window=None,
+                               rig_spec_toml=None)
 
 
 def main() -> None:
