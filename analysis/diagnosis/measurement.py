@@ -56,8 +56,6 @@ AC_COUPLING_UNCERTAINTY = 0.5
 FILTER_SETTLE_S = 0.5e-3
 #: Tails whose response levels (thirds) differ by less than this fraction of their mean hold steady noise.
 STEADY_TAIL_SPREAD = 0.15
-#: A pulse front reconstructed by mirroring (a late trigger) is uncertain by at least this fraction.
-FRONT_UNCERTAINTY = 0.02
 #: A channel with fewer quantisation steps than this to its peak is coarsely quantised: a plateau at its peak is
 #: not by itself a sign of clipping.
 COARSE_LEVELS = 2**12
@@ -638,7 +636,7 @@ def hit_spectra(
                 f"{MIN_QUIET_SAMPLES / sample_rate_hz * 1e3 + QUIET_MARGIN_S * 1e3:.1f} ms before the hit, or more hits")
         used, records, trigger = used[keep_quiet], records[keep_quiet], trigger[keep_quiet]
         extents = [extents[i] for i in keep_quiet]
-    late, fronts, front_uncertainty = _missing_pulse_fronts(records[:, 0], extents)
+    late, fronts = _missing_pulse_fronts(records[:, 0], extents)
     if late:
         mirrored = [fronts[i].size for i in late if fronts[i].size]
         started = (f"{1e3 * np.median(mirrored) / sample_rate_hz:.2g} ms (median of {len(mirrored)})" if mirrored
@@ -647,10 +645,9 @@ def hit_spectra(
             "late trigger",
             f"{len(late)} record(s) start inside their force pulse, {started} after it began (a late trigger, the "
             f"pre-trigger misses the pulse start): the replay plays each pulse with its missing front mirrored from its "
-            f"fall about the peak, uncertain by {100 * front_uncertainty:.0f} % (the recorded rise against the mirrored "
-            f"fall) in the noise model, and fits each such record's missing impulse in every comparison (one nuisance "
-            f"parameter per record, its degree of freedom taken from the χ² count) — a property of the recording, not "
-            f"physics",
+            f"fall about the peak, and fits each such front's impulse and timing in every comparison (two nuisance "
+            f"parameters per record, their degrees of freedom taken from the χ² count) — a property of the recording, "
+            f"not physics",
             hits=tuple(int(used[i]) for i in late)))
 
     mains_base: float | None = None
@@ -817,10 +814,6 @@ def hit_spectra(
     if prewindow_error_1_s > 0:
         variance_full = variance_full + _prewindow_variance(
             records, force_w, exponential[0], response_spectra, force_spectra, sample_rate_hz, prewindow_error_1_s)
-    if late:
-        # the replayed response to a mirrored front is uncertain by the front's asymmetry, hit by hit
-        front_spectra = np.abs(np.fft.rfft(_with_fronts(np.zeros_like(records[:, 0]), fronts, n_samples), axis=1))
-        variance_full = variance_full + (front_uncertainty * np.abs(h_full) * front_spectra) ** 2 / force_power
     variance_full = np.maximum(variance_full, (1e-7 * np.abs(h1_full)) ** 2 + 1e-30)
 
     # analysis band: where the hammer puts energy in (within 20 dB of its low-frequency level), below 0.4 fs
@@ -1086,14 +1079,13 @@ def _steady_tails(records: np.ndarray, tail_start: int) -> bool:
 
 def _missing_pulse_fronts(
     force_n: np.ndarray, extents: list[tuple[int, int, int]]
-) -> tuple[list[int], list[np.ndarray], float]:
+) -> tuple[list[int], list[np.ndarray]]:
     """The records that start inside their force pulse (a late trigger: above 2 % of the peak at the first sample, the
     peak recorded) and, for each record, the samples before its start mirrored from the pulse's fall about the peak
     (time order, the peak located between samples by a parabola, the fall interpolated by a cubic spline): empty for
     a record whose pulse start is recorded, and for a late one whose mirror reaches no sample before it (less than a
-    sample missing). Also the pulses' asymmetry: the RMS difference between the recorded part of the rise and the
-    mirrored fall, relative to the mirrored fall (at least :data:`FRONT_UNCERTAINTY`)."""
-    late, fronts, mismatch, scale = [], [], 0.0, 0.0
+    sample missing). What the mirror misses is fitted in every comparison (:class:`MissingFronts`)."""
+    late, fronts = [], []
     for index, (row, (start, peak, end)) in enumerate(zip(force_n, extents)):
         fronts.append(np.zeros(0))
         if start > 0 or peak >= row.size - 1 or abs(row[0]) <= 0.02 * abs(row[peak]):
@@ -1107,16 +1099,9 @@ def _missing_pulse_fronts(
         last = min(end + 1, row.size - 1)  # the foot below 2 % belongs to the pulse too
         fall = scipy.interpolate.CubicSpline(np.arange(peak, last + 1), row[peak : last + 1])
         missing = int(np.floor(last - 2 * centre))
-        if missing <= 0:
-            continue
-        times = np.arange(-missing, 0)
-        fronts[-1] = fall(np.clip(2 * centre - times, peak, last))
-        rise = np.arange(0, peak)
-        mirrored = fall(np.clip(2 * centre - rise, peak, last))
-        mismatch += float(np.sum((row[rise] - mirrored) ** 2))
-        scale += float(np.sum(mirrored**2))
-    asymmetry = np.sqrt(mismatch / scale) if scale > 0 else 1.0
-    return late, fronts, max(float(asymmetry), FRONT_UNCERTAINTY)
+        if missing > 0:
+            fronts[-1] = fall(np.clip(2 * centre - np.arange(-missing, 0), peak, last))
+    return late, fronts
 
 
 def _unit_fronts(fronts: list[np.ndarray], late: list[int], sample_rate_hz: float) -> list[np.ndarray]:
