@@ -76,7 +76,7 @@ def test_records_triggered_on_the_force_at_a_tenth_of_its_peak(recorded):
     """A recorder without pre-trigger: each record starts at its first force sample ≥ 10 % of the peak, so the front
     of every pulse (its impulse, the first acceleration samples) is lost. Each late record's missing front — its
     impulse and timing — is a nuisance parameter of the replay, fitted in every comparison and counted off the
-    degrees of freedom; nothing is claimed (on the replay with the mirrored front alone: ac-coupling and film-memory)."""
+    degrees of freedom; nothing is claimed (with the mirrored front alone: ac-coupling and film-memory)."""
     diagnosis, notes = _diagnosed(recorded, lambda records, rate_hz, spec: controls.triggered_late(records))
     assert "4 record(s) start inside their force pulse" in notes["late trigger"]
     assert diagnosis.evidence.point_count == 2 * diagnosis.evidence.spectra.h.size - 2 * 4

@@ -268,7 +268,7 @@ class Replay:
         impulse_ns = np.abs(self.front_impulse_ns + added_ns)
         return MissingFronts(columns, FRONT_TIMING_SAMPLES * np.maximum(impulse_ns, 1e-9 * impulse_ns.max() + 1e-300))
 
-    def with_missing_impulses(
+    def with_missing_fronts(
         self, replayed: np.ndarray, model_accelerance: Callable[[np.ndarray, float], np.ndarray]
     ) -> np.ndarray:
         """Replayed per-hit FRFs with each late record's missing front fitted to the recording
@@ -644,8 +644,8 @@ def hit_spectra(
         quality.append(QualityNote(
             "late trigger",
             f"{len(late)} record(s) start inside their force pulse, {started} after it began (a late trigger, the "
-            f"pre-trigger misses the pulse start): the replay plays each pulse with its missing front mirrored from its "
-            f"fall about the peak, and fits each such front's impulse and timing in every comparison (two nuisance "
+            f"pre-trigger misses the pulse start): the replay plays each pulse with its missing front mirrored from "
+            f"its fall about the peak, and fits each such front's impulse and timing in every comparison (two nuisance "
             f"parameters per record, their degrees of freedom taken from the χ² count) — a property of the recording, "
             f"not physics",
             hits=tuple(int(used[i]) for i in late)))

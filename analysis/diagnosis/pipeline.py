@@ -1153,7 +1153,7 @@ def replayed_per_hit(spectra: HitSpectra, spec: RigSpec) -> np.ndarray:
     per_hit = _nonlinear_replay(spectra, spec)
     if per_hit is None:
         per_hit = np.broadcast_to(replay.replayed(model), replay.measured_h.shape)
-    return replay.with_missing_impulses(per_hit, model)
+    return replay.with_missing_fronts(per_hit, model)
 
 
 def replayed_mean(spectra: HitSpectra, spec: RigSpec | None) -> np.ndarray:
