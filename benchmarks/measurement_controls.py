@@ -79,6 +79,19 @@ def late_trigger(records: np.ndarray, rate_hz: float, spec: RigSpec) -> np.ndarr
     return np.stack([record[:, first : first + length] for record, first in zip(records, firsts)])
 
 
+#: A recorder without pre-trigger that triggers on the force starts each record at its first force sample at or above
+#: this fraction of the hit's peak (:func:`triggered_late`).
+LATE_FRACTION = 0.1
+
+
+def triggered_late(records: np.ndarray, fraction: float = LATE_FRACTION) -> np.ndarray:
+    """Records (hits, 2, samples) cut to start at their first force sample ≥ ``fraction`` of their peak force, all
+    to the shortest length: a recorder without pre-trigger that triggers on the force (the pulse's front is lost)."""
+    firsts = [int(np.flatnonzero(np.abs(r[0]) >= fraction * np.abs(r[0]).max())[0]) for r in records]
+    length = records.shape[-1] - max(firsts)
+    return np.stack([record[:, first : first + length] for record, first in zip(records, firsts)])
+
+
 CONTROLS: dict[str, Callable[[np.ndarray, float, RigSpec], np.ndarray] | None] = {
     "untouched": None,
     "exported-windowed": exported_windowed,

@@ -72,6 +72,41 @@ def test_late_trigger_that_misses_the_pulse_start(recorded):
     assert diagnosis.spectra.noise.source == "record tails"  # the responses decayed: no need for the hit scatter
 
 
+def test_records_triggered_on_the_force_at_a_tenth_of_its_peak(recorded):
+    """A recorder without pre-trigger: each record starts at its first force sample ≥ 10 % of the peak, so the front
+    of every pulse (its impulse, the first acceleration samples) is lost. Each late record's missing front — its
+    impulse and timing — is a nuisance parameter of the replay, fitted in every comparison and counted off the
+    degrees of freedom; nothing is claimed (with the mirrored front alone: ac-coupling and film-memory)."""
+    diagnosis, notes = _diagnosed(recorded, lambda records, rate_hz, spec: controls.triggered_late(records))
+    assert "4 record(s) start inside their force pulse" in notes["late trigger"]
+    assert diagnosis.evidence.point_count == 2 * diagnosis.evidence.spectra.h.size - 2 * 4
+    recordings, _ = recorded
+    assert hit_spectra(recordings.records, recordings.sample_rate_hz).replay.front_padded is None
+
+
+@pytest.fixture(scope="module")
+def recorded_with_mode(tmp_path_factory) -> Recordings:
+    """4 hits of 0.5 s of the SD rig with a 20 g extra mode at 600 Hz (ζ 0.02), as UFF time records carry them."""
+    folder = tmp_path_factory.mktemp("late-mode")
+    rig = folder / "sd-mode.toml"
+    rig.write_text(controls.SD_RIG.read_text() + '\n[[effects]]\ntype = "extra-mode"\nfreq_hz = 600.0\n'
+                                                 'damping_ratio = 0.02\nmass_kg = 0.02\n')
+    path = folder / "sd-mode.h5"
+    assert gasfilm(["acquire", "--device", "sim", "--out", str(path), "--hits", "4", "--pacing", "fast",
+                    "--record-s", "0.5", "--seed", "5", "--rig", str(rig)]) == 0
+    return dataclasses.replace(load_recordings(path), rig_spec_toml=None, window=None)
+
+
+def test_a_late_trigger_does_not_hide_physics(recorded_with_mode):
+    """The same recorder on a rig with an extra mode: the mode is found, and nothing else (the missing fronts are
+    not physics, nor do they take the mode up)."""
+    late = dataclasses.replace(recorded_with_mode, records=controls.triggered_late(recorded_with_mode.records))
+    diagnosis = diagnose(late, mass_kg=MASS_KG)
+    assert [finding.effect for finding in diagnosis.findings] == ["extra-mode"]
+    assert abs(diagnosis.findings[0].parameters["freq_hz"]["value"] - 600.0) < 10.0
+    assert "late trigger" in {note.kind for note in diagnosis.quality}
+
+
 def test_records_exported_with_force_and_exponential_windows(recorded, tmp_path, capsys):
     """The user's path: UFF time records exported after a force window and a 1 % exponential window, ``gasfilm
     diagnose FILE --mass M``: both windows recognised, the exponential's rate measured."""

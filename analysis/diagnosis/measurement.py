@@ -60,8 +60,6 @@ AC_COUPLING_UNCERTAINTY = 0.5
 FILTER_SETTLE_S = 0.5e-3
 #: Tails whose response levels (thirds) differ by less than this fraction of their mean hold steady noise.
 STEADY_TAIL_SPREAD = 0.15
-#: A pulse front reconstructed by mirroring (a late trigger) is uncertain by at least this fraction.
-FRONT_UNCERTAINTY = 0.02
 #: A channel with fewer quantisation steps than this to its peak is coarsely quantised: a plateau at its peak is
 #: not by itself a sign of clipping.
 COARSE_LEVELS = 2**12
@@ -116,6 +114,10 @@ class HitSpectra:
     quality: list[QualityNote] = field(default_factory=list)
     replay: "Replay | None" = None
     noise: "NoiseSource | None" = None
+    #: What late-triggered records' missing pulse fronts add to their replayed FRFs, for the spec ``h`` was corrected
+    #: with (:meth:`Replay.front_responses`); None without late hits. Profiled out of every comparison
+    #: (:class:`~gasfilm.analysis.diagnosis.selection.Evidence`).
+    missing_fronts: "MissingFronts | None" = None
 
     @property
     def weight(self) -> np.ndarray:
@@ -140,7 +142,9 @@ class HitSpectra:
             if replayed is None:
                 replayed = self.replay.replayed(model_accelerance)
             return replace(self, h=self.replay.measured_h - (replayed - self.replay.laplace(model_accelerance)),
-                           variance=self.replay.measured_variance)
+                           variance=self.replay.measured_variance,
+                           missing_fronts=self.replay.front_responses(model_accelerance,
+                                                                      self.replay.measured_h - replayed))
         ratio = self.replay.ratio(model_accelerance, replayed)
         return replace(self, h=self.replay.measured_h / ratio,
                        variance=self.replay.measured_variance / np.abs(ratio) ** 2)
@@ -149,6 +153,52 @@ class HitSpectra:
 #: The replay's circular convolution is damped so that what wraps round after ``n_fft`` samples is attenuated by
 #: e^(−WRAP_DECAY) (see :meth:`Replay.replayed`); the undamping amplifies round-off by at most e^(WRAP_DECAY/2).
 WRAP_DECAY = 20.0
+
+
+#: The timing of a late record's missing front is known to about this many samples (the Gaussian prior scale of its
+#: timing coefficient, in units of the front's impulse: :class:`MissingFronts`).
+FRONT_TIMING_SAMPLES = 0.5
+
+
+@dataclass
+class MissingFronts:
+    """What each late-triggered record's missing pulse front adds to its hit's replayed FRF, per unit of its two
+    nuisance parameters: the front's impulse (N·s) and that impulse moved one sample earlier (N·s·samples, its timing).
+
+    A record that starts inside its pulse misses the front's impulse ΔI_i: the mover keeps the velocity it gave (in
+    the record), the first acceleration samples are lost (before it), so the recording holds
+    ``H·F_rec + ΔI_i·(H − 1/m)·e^{sτ_i}`` through the windows — linear in ΔI_i and, to first order, in ΔI_i·δτ_i about
+    the mirrored front's timing; the mirror only estimates both. Both are fitted by weighted least squares in every
+    comparison, the timing within a Gaussian prior ``timing_sigma`` of :data:`FRONT_TIMING_SAMPLES` times the front's
+    impulse (the mirrored one with what the recording adds to it at the spec replayed, which the mass line's offset
+    below the resonance measures): a timing free of the impulse it moves would turn the resonance's phase as a small
+    shift of the resonance does, hit by hit, and take up a small added mass or a change of the film."""
+
+    columns: np.ndarray  # (2, hits, G) complex; zero for records whose pulse start is recorded
+    timing_sigma: np.ndarray  # (hits,) prior scale of the timing coefficient (N·s·samples)
+
+    @property
+    def parameter_count(self) -> int:
+        """Nuisance parameters fitted: two per late record."""
+        return int(np.sum(np.any(self.columns != 0, axis=2)))
+
+    def subset(self, hits: np.ndarray | None = None, lines: np.ndarray | None = None) -> "MissingFronts":
+        """The fronts of some hits on some analysis lines."""
+        columns = self.columns if hits is None else self.columns[:, hits]
+        return MissingFronts(columns if lines is None else columns[:, :, lines],
+                             self.timing_sigma if hits is None else self.timing_sigma[hits])
+
+    def fitted(self, difference: np.ndarray, weight: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """What the fronts contribute to ``difference`` (hits, G; recording − replay) by weighted least squares
+        (``weight`` per complex value) with the timing prior, and the prior's residual (hits,) in noise units."""
+        columns = self.columns
+        gram = np.einsum("ahg,bhg->hab", np.conj(columns) * weight, columns).real
+        projection = np.einsum("ahg,hg->ha", np.conj(columns) * weight, difference).real
+        late = np.any(gram != 0, axis=(1, 2))
+        gram[:, 1, 1] += np.where(late, self.timing_sigma ** -2.0, 0.0)
+        gram[~late] = np.eye(columns.shape[0])
+        coefficients = np.linalg.solve(gram, projection[..., np.newaxis])[..., 0]
+        return np.einsum("ha,ahg->hg", coefficients, columns), coefficients[:, 1] / self.timing_sigma
 
 
 @dataclass
@@ -173,6 +223,13 @@ class Replay:
     #: Correct the measured FRFs by the replay's difference from the model, not its ratio: records that start inside
     #: the pulse miss part of their response (the mass line's, not the model's shape), which a ratio would scale.
     additive: bool = False
+    #: Records that start inside their force pulse (a late trigger): spectrum of each one's missing front scaled to
+    #: one N·s of impulse, at negative times, zero-padded to ``n_fft`` (hits × n_fft//2+1, zero rows for records
+    #: whose pulse start is recorded), and the mirrored front's impulse (N·s, hits); None without late records. See
+    #: :meth:`front_responses`.
+    front_padded: np.ndarray | None = None
+    front_impulse_ns: np.ndarray | None = None
+    damped_front_padded: np.ndarray | None = None
 
     def quantised(self, responses: np.ndarray) -> np.ndarray:
         """Replayed response records as the recording's quantiser stores them (unchanged for a fine one)."""
@@ -188,30 +245,79 @@ class Replay:
         would wrap round into the record (5 % of a ζ = 0.0024 mode at 609 Hz with 0.16 s records). It is computed
         damped — force × e^(−σ₀t), the model at s + σ₀, the response × e^(σ₀t) — which attenuates the wrapped part
         by e^(−σ₀·n_fft/fs) = e^(−:data:`WRAP_DECAY`) and is otherwise exact."""
+        if self.damped_force_padded is None:
+            self.damped_force_padded = self._damped(self.force_padded)
+        return self._played(self.damped_force_padded, model_accelerance, self.quantised)
+
+    def front_responses(
+        self, model_accelerance: Callable[[np.ndarray, float], np.ndarray], difference: np.ndarray
+    ) -> MissingFronts | None:
+        """The model played with each late record's missing front alone, windowed like the recording: per N·s of its
+        impulse and per N·s of it moved one sample earlier, the timing's prior from the front's impulse with what
+        ``difference`` (recording − replay, hits × G) adds to it (:class:`MissingFronts`; None without late
+        records)."""
+        if self.front_padded is None:
+            return None
+        if self.damped_front_padded is None:
+            earlier = np.exp(2j * np.pi * np.arange(self.front_padded.shape[-1]) / self.n_fft)  # one sample earlier
+            self.damped_front_padded = np.stack([self._damped(self.front_padded),
+                                                 self._damped(self.front_padded * (earlier - 1.0))])
+        played = self._played(self.damped_front_padded.reshape(-1, self.damped_front_padded.shape[-1]),
+                              model_accelerance, lambda responses: responses, stacked=2)
+        columns = played.reshape(2, *self.measured_h.shape)
+        weight = 1.0 / self.measured_variance
+        norm = np.sum(weight * np.abs(columns[0]) ** 2, axis=1)
+        added_ns = np.divide(np.sum(weight * (np.conj(columns[0]) * difference).real, axis=1), norm,
+                             out=np.zeros_like(norm), where=norm > 0)
+        impulse_ns = np.abs(self.front_impulse_ns + added_ns)
+        return MissingFronts(columns, FRONT_TIMING_SAMPLES * np.maximum(impulse_ns, 1e-9 * impulse_ns.max() + 1e-300))
+
+    def with_missing_fronts(
+        self, replayed: np.ndarray, model_accelerance: Callable[[np.ndarray, float], np.ndarray]
+    ) -> np.ndarray:
+        """Replayed per-hit FRFs with each late record's missing front fitted to the recording
+        (:meth:`MissingFronts.fitted`); unchanged without late records."""
+        fronts = self.front_responses(model_accelerance, self.measured_h - replayed)
+        if fronts is None:
+            return replayed
+        return replayed + fronts.fitted(self.measured_h - replayed, 1.0 / self.measured_variance)[0]
+
+    def _played(
+        self, damped_force: np.ndarray, model_accelerance: Callable[[np.ndarray, float], np.ndarray],
+        quantised: Callable[[np.ndarray], np.ndarray], stacked: int = 1,
+    ) -> np.ndarray:
+        """The damped circular convolution of :meth:`replayed` for force spectra × e^(−σ₀t) (:meth:`_damped`);
+        ``stacked`` sets of the hits' rows one after the other."""
         decay_1_s = WRAP_DECAY * self.sample_rate_hz / self.n_fft
         padded_freq_hz = np.fft.rfftfreq(self.n_fft, 1.0 / self.sample_rate_hz)
-        plain = np.broadcast_to(model_accelerance(padded_freq_hz, decay_1_s), self.force_padded.shape)
-        response = scipy.fft.irfft(self._damped_force(decay_1_s) * plain, self.n_fft, axis=1)[:, : self.n_samples]
-        response = self.quantised(response * np.exp(decay_1_s * np.arange(self.n_samples) / self.sample_rate_hz))
-        return scipy.fft.rfft(response * self.exponential, axis=1)[:, self.grid] / self.force_windowed_grid
+        plain = model_accelerance(padded_freq_hz, decay_1_s)
+        plain = np.broadcast_to(np.concatenate([plain] * stacked) if plain.ndim == 2 and stacked > 1 else plain,
+                                damped_force.shape)
+        response = scipy.fft.irfft(damped_force * plain, self.n_fft, axis=1)[:, : self.n_samples]
+        response = quantised(response * np.exp(decay_1_s * np.arange(self.n_samples) / self.sample_rate_hz))
+        exponential = np.concatenate([self.exponential] * stacked) if stacked > 1 else self.exponential
+        force_windowed_grid = (np.concatenate([self.force_windowed_grid] * stacked) if stacked > 1
+                               else self.force_windowed_grid)
+        return scipy.fft.rfft(response * exponential, axis=1)[:, self.grid] / force_windowed_grid
 
-    def _damped_force(self, decay_1_s: float) -> np.ndarray:
-        """Spectrum of each recorded force × e^(−σ₀t), zero-padded to ``n_fft`` (remembered). The buffer beyond the
-        record is negative time: a late trigger's reconstructed pulse front sits at its end (:func:`_with_fronts`)."""
-        if self.damped_force_padded is None:
-            time_samples = np.arange(self.n_fft, dtype=float)
-            time_samples[self.n_samples :] -= self.n_fft
-            damping = np.exp(-decay_1_s * time_samples / self.sample_rate_hz)
-            padded = scipy.fft.irfft(self.force_padded, self.n_fft, axis=1)
-            self.damped_force_padded = np.fft.rfft(padded * damping, axis=1)
-        return self.damped_force_padded
+    def _damped(self, padded: np.ndarray) -> np.ndarray:
+        """Spectrum of each zero-padded force × e^(−σ₀t) (σ₀ of :meth:`replayed`). The buffer beyond the record is
+        negative time: a late trigger's reconstructed pulse front sits at its end (:func:`_with_fronts`)."""
+        decay_1_s = WRAP_DECAY * self.sample_rate_hz / self.n_fft
+        time_samples = np.arange(self.n_fft, dtype=float)
+        time_samples[self.n_samples :] -= self.n_fft
+        damping = np.exp(-decay_1_s * time_samples / self.sample_rate_hz)
+        return np.fft.rfft(scipy.fft.irfft(padded, self.n_fft, axis=1) * damping, axis=1)
 
     def single(self, hit: int) -> "Replay":
         """The replay of one hit only."""
         rows = slice(hit, hit + 1)
         return replace(self, force_padded=self.force_padded[rows], exponential=self.exponential[rows],
                        force_windowed_grid=self.force_windowed_grid[rows], measured_h=self.measured_h[rows],
-                       measured_variance=self.measured_variance[rows], nonlinear_cache={}, damped_force_padded=None)
+                       measured_variance=self.measured_variance[rows], nonlinear_cache={}, damped_force_padded=None,
+                       front_padded=None if self.front_padded is None else self.front_padded[rows],
+                       front_impulse_ns=None if self.front_padded is None else self.front_impulse_ns[rows],
+                       damped_front_padded=None)
 
     def windowed_frf(self, responses: np.ndarray) -> np.ndarray:
         """Per-hit FRFs on the grid of replayed response records (hits, samples), windowed like the recording."""
@@ -534,15 +640,18 @@ def hit_spectra(
                 f"{MIN_QUIET_SAMPLES / sample_rate_hz * 1e3 + QUIET_MARGIN_S * 1e3:.1f} ms before the hit, or more hits")
         used, records, trigger = used[keep_quiet], records[keep_quiet], trigger[keep_quiet]
         extents = [extents[i] for i in keep_quiet]
-    fronts, front_uncertainty = _missing_pulse_fronts(records[:, 0], extents)
-    late = [index for index, front in enumerate(fronts) if front.size]
+    late, fronts = _missing_pulse_fronts(records[:, 0], extents)
     if late:
+        mirrored = [fronts[i].size for i in late if fronts[i].size]
+        started = (f"{1e3 * np.median(mirrored) / sample_rate_hz:.2g} ms (median of {len(mirrored)})" if mirrored
+                   else "less than a sample")
         quality.append(QualityNote(
             "late trigger",
-            f"{len(late)} record(s) start {1e3 * np.median([fronts[i].size for i in late]) / sample_rate_hz:.2g} ms "
-            f"(median) after their force pulse began (a late trigger, the pre-trigger misses the pulse start): the "
-            f"replay plays each pulse with its missing front mirrored from its fall about the peak, uncertain by "
-            f"{100 * front_uncertainty:.0f} % (the recorded rise against the mirrored fall) in the noise model — a property of the recording, not physics",
+            f"{len(late)} record(s) start inside their force pulse, {started} after it began (a late trigger, the "
+            f"pre-trigger misses the pulse start): the replay plays each pulse with its missing front mirrored from "
+            f"its fall about the peak, and fits each such front's impulse and timing in every comparison (two nuisance "
+            f"parameters per record, their degrees of freedom taken from the χ² count) — a property of the recording, "
+            f"not physics",
             hits=tuple(int(used[i]) for i in late)))
 
     mains_base: float | None = None
@@ -707,10 +816,6 @@ def hit_spectra(
     if prewindow_error_1_s > 0:
         variance_full = variance_full + _prewindow_variance(
             records, force_w, exponential[0], response_spectra, force_spectra, sample_rate_hz, prewindow_error_1_s)
-    if late:
-        # the replayed response to a mirrored front is uncertain by the front's asymmetry, hit by hit
-        front_spectra = np.abs(np.fft.rfft(_with_fronts(np.zeros_like(records[:, 0]), fronts, n_samples), axis=1))
-        variance_full = variance_full + (front_uncertainty * np.abs(h_full) * front_spectra) ** 2 / force_power
     variance_full = np.maximum(variance_full, (1e-7 * np.abs(h1_full)) ** 2 + 1e-30)
 
     # analysis band: where the hammer puts energy in (within 20 dB of its low-frequency level), below 0.4 fs
@@ -765,6 +870,9 @@ def hit_spectra(
         response_step=response_step,
         response_offset=response_offset,
         additive=bool(late),
+        front_padded=(np.fft.rfft(_with_fronts(np.zeros_like(records[:, 0]), _unit_fronts(fronts, late, sample_rate_hz),
+                                               n_fft), axis=1) if late else None),
+        front_impulse_ns=np.array([np.sum(front) / sample_rate_hz for front in fronts]) if late else None,
     )
     return HitSpectra(
         freq_hz=full_freq_hz[grid],
@@ -973,17 +1081,18 @@ def _steady_tails(records: np.ndarray, tail_start: int) -> bool:
 
 def _missing_pulse_fronts(
     force_n: np.ndarray, extents: list[tuple[int, int, int]]
-) -> tuple[list[np.ndarray], float]:
-    """For each record that starts inside its force pulse (a late trigger: above 2 % of the peak at its first sample,
-    the peak recorded), the samples before the record's start mirrored from the pulse's fall about the peak (time
-    order, the peak located between samples by a parabola, the fall interpolated by a cubic spline); empty for a
-    record whose pulse start is recorded. Also the pulses' asymmetry: the RMS difference between the recorded part of
-    the rise and the mirrored fall, relative to the mirrored fall (at least :data:`FRONT_UNCERTAINTY`)."""
-    fronts, mismatch, scale = [], 0.0, 0.0
-    for row, (start, peak, end) in zip(force_n, extents):
+) -> tuple[list[int], list[np.ndarray]]:
+    """The records that start inside their force pulse (a late trigger: above 2 % of the peak at the first sample, the
+    peak recorded) and, for each record, the samples before its start mirrored from the pulse's fall about the peak
+    (time order, the peak located between samples by a parabola, the fall interpolated by a cubic spline): empty for
+    a record whose pulse start is recorded, and for a late one whose mirror reaches no sample before it (less than a
+    sample missing). What the mirror misses is fitted in every comparison (:class:`MissingFronts`)."""
+    late, fronts = [], []
+    for index, (row, (start, peak, end)) in enumerate(zip(force_n, extents)):
+        fronts.append(np.zeros(0))
         if start > 0 or peak >= row.size - 1 or abs(row[0]) <= 0.02 * abs(row[peak]):
-            fronts.append(np.zeros(0))
             continue
+        late.append(index)
         centre = float(peak)  # a record that starts at its peak is mirrored about its first sample
         if peak > 0:
             before, at, after = row[peak - 1 : peak + 2]
@@ -992,17 +1101,20 @@ def _missing_pulse_fronts(
         last = min(end + 1, row.size - 1)  # the foot below 2 % belongs to the pulse too
         fall = scipy.interpolate.CubicSpline(np.arange(peak, last + 1), row[peak : last + 1])
         missing = int(np.floor(last - 2 * centre))
-        if missing <= 0:
-            fronts.append(np.zeros(0))
-            continue
-        times = np.arange(-missing, 0)
-        fronts.append(fall(np.clip(2 * centre - times, peak, last)))
-        rise = np.arange(0, peak)
-        mirrored = fall(np.clip(2 * centre - rise, peak, last))
-        mismatch += float(np.sum((row[rise] - mirrored) ** 2))
-        scale += float(np.sum(mirrored**2))
-    asymmetry = np.sqrt(mismatch / scale) if scale > 0 else 1.0
-    return fronts, max(float(asymmetry), FRONT_UNCERTAINTY)
+        if missing > 0:
+            fronts[-1] = fall(np.clip(2 * centre - np.arange(-missing, 0), peak, last))
+    return late, fronts
+
+
+def _unit_fronts(fronts: list[np.ndarray], late: list[int], sample_rate_hz: float) -> list[np.ndarray]:
+    """Each late record's missing front scaled to one N·s of impulse (where its impulse lies in time); a single
+    sample just before the record when the mirror reaches none; empty for the other records."""
+    unit = [np.zeros(0) for _ in fronts]
+    for index in late:
+        front = fronts[index]
+        total_ns = float(np.sum(front)) / sample_rate_hz
+        unit[index] = front / total_ns if front.size and total_ns > 0 else np.array([sample_rate_hz])
+    return unit
 
 
 def _with_fronts(force_n: np.ndarray, fronts: list[np.ndarray], length: int) -> np.ndarray:

@@ -1010,8 +1010,7 @@ def _character(spectra: HitSpectra, evidence: Evidence, spec: RigSpec, low: int,
     freq_hz = evidence.freq_hz
     resonance_hz = float(freq_hz[np.argmax(np.abs(evidence.mean_prediction(spec)))])
     band = (freq_hz[low], freq_hz[high])
-    residual = evidence.spectra.h[:, low : high + 1] - _per_hit(evidence.predicted(spec), evidence.hit_count)[
-        :, low : high + 1]
+    residual = evidence.residual_per_hit(spec)[:, low : high + 1]
     weight = evidence.spectra.weight[:, low : high + 1]
     per_hit_mean = (weight * residual).sum(axis=1) / weight.sum(axis=1)
     gain_spread = _per_hit_gain_spread(evidence.spectra)
@@ -1091,10 +1090,6 @@ def _per_hit_gain_spread(spectra: HitSpectra) -> float | None:
     return float(np.std(np.abs(factor)))
 
 
-def _per_hit(predicted: np.ndarray, hit_count: int) -> np.ndarray:
-    return np.broadcast_to(predicted, (hit_count, predicted.shape[-1])) if predicted.ndim == 1 else predicted
-
-
 def _change_in_session(values: np.ndarray, sigma: np.ndarray) -> tuple[str, int] | None:
     """A significant step or trend of a per-hit quantity in time order: ("step", split) or ("trend", 0), or None."""
     count = values.size
@@ -1172,14 +1167,15 @@ def _simulate_nonlinear(spectra: HitSpectra, spec: RigSpec) -> np.ndarray:
 
 def replayed_per_hit(spectra: HitSpectra, spec: RigSpec) -> np.ndarray:
     """Per-hit FRFs (hits, G) of ``spec`` played with each hit's recorded force through the same windows (the exact
-    nonlinear response when the spec has a cubic film spring)."""
+    nonlinear response when the spec has a cubic film spring), each late-triggered record's missing impulse fitted."""
     replay = spectra.replay
     if replay is None:
         raise GasfilmError("diagnosis: these spectra keep no recorded forces to replay a spec with")
+    model = model_function(spec, spectra.conditions)
     per_hit = _nonlinear_replay(spectra, spec)
     if per_hit is None:
-        per_hit = np.broadcast_to(replay.replayed(model_function(spec, spectra.conditions)), replay.measured_h.shape)
-    return per_hit
+        per_hit = np.broadcast_to(replay.replayed(model), replay.measured_h.shape)
+    return replay.with_missing_fronts(per_hit, model)
 
 
 def replayed_mean(spectra: HitSpectra, spec: RigSpec | None) -> np.ndarray:

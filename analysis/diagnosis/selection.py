@@ -73,14 +73,19 @@ class FitOutcome:
 
 
 class Evidence:
-    """The measured per-hit FRFs and weights on the analysis grid, with the sums needed for fast χ²."""
+    """The measured per-hit FRFs and weights on the analysis grid, with the sums needed for fast χ².
+
+    Late-triggered records (``spectra.missing_fronts``) each have their missing front profiled out of every comparison
+    (variable projection: two real least-squares coefficients per such hit, the front's impulse and its timing within
+    its prior, their degrees of freedom taken from ``point_count``); χ² is then summed hit by hit."""
 
     def __init__(self, spectra: HitSpectra) -> None:
         self.spectra = spectra
         self.freq_hz = spectra.freq_hz
         self.decay_rate_1_s = spectra.decay_rate_1_s
         self.hit_count = spectra.h.shape[0]
-        self.point_count = 2 * spectra.h.size
+        fronts = spectra.missing_fronts
+        self.point_count = 2 * spectra.h.size - (0 if fronts is None else fronts.parameter_count)
         self._means: dict[tuple[int, ...] | None, tuple[np.ndarray, np.ndarray]] = {}
         self._rows: dict[tuple[int, ...] | None, tuple[np.ndarray, np.ndarray]] = {}
         self._pieces = GridPieces(self.freq_hz, self.decay_rate_1_s)
@@ -105,8 +110,10 @@ class Evidence:
 
     def restricted(self, lines: np.ndarray) -> "Evidence":
         """The same evidence on a subset of the analysis frequencies (indices into ``freq_hz``)."""
+        fronts = self.spectra.missing_fronts
         spectra = dataclasses.replace(self.spectra, freq_hz=self.freq_hz[lines], h=self.spectra.h[:, lines],
-                                      variance=self.spectra.variance[:, lines], replay=None)
+                                      variance=self.spectra.variance[:, lines], replay=None,
+                                      missing_fronts=None if fronts is None else fronts.subset(lines=lines))
         return Evidence(spectra)
 
     def predicted(self, spec: RigSpec, hits: np.ndarray | None = None) -> np.ndarray:
@@ -118,14 +125,34 @@ class Evidence:
             conditions = conditions.subset(hits)
         return rig_accelerance(spec, self.freq_hz, self.decay_rate_1_s, conditions=conditions, pieces=self._pieces)
 
+    def _hit_by_hit(self, spec: RigSpec) -> bool:
+        """Whether χ² is summed hit by hit (a spec that differs between hits, or a missing front per late hit)."""
+        return spec.is_per_hit or self.spectra.missing_fronts is not None
+
+    def residual_per_hit(self, spec: RigSpec, hits: np.ndarray | None = None) -> np.ndarray:
+        """``H_i − M_i`` (hits, G) of a subset of hits, each late hit's missing front fitted out of it."""
+        return self._profiled(spec, hits)[0]
+
+    def _profiled(self, spec: RigSpec, hits: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`residual_per_hit` and the missing fronts' prior residuals (hits,; empty without late hits)."""
+        rows = slice(None) if hits is None else hits
+        difference = self.spectra.h[rows] - self.predicted(spec, hits)
+        fronts = self.spectra.missing_fronts
+        if fronts is None:
+            return difference, np.zeros(0)
+        fitted, prior = fronts.subset(hits).fitted(difference, self.spectra.weight[rows])
+        return difference - fitted, prior
+
     def residual(self, spec: RigSpec, hits: np.ndarray | None = None) -> np.ndarray:
-        """Weighted residual vector (real and imaginary parts) whose squared norm is χ² up to a constant."""
-        if spec.is_per_hit:
-            h, sqrt_weight = self._hit_rows(hits)
-            difference = (h - self.predicted(spec, hits)) * sqrt_weight
-        else:
-            mean, total = self._mean(hits)
-            difference = (mean - self.predicted(spec)) * np.sqrt(total)
+        """Weighted residual vector (real and imaginary parts, and the missing fronts' prior) whose squared norm is χ²
+        up to a constant."""
+        if self._hit_by_hit(spec):
+            _, sqrt_weight = self._hit_rows(hits)
+            difference, prior = self._profiled(spec, hits)
+            difference = difference * sqrt_weight
+            return np.concatenate((difference.real.ravel(), difference.imag.ravel(), prior))
+        mean, total = self._mean(hits)
+        difference = (mean - self.predicted(spec)) * np.sqrt(total)
         return np.concatenate((difference.real.ravel(), difference.imag.ravel()))
 
     def scatter_constant(self, hits: np.ndarray | None = None) -> float:
@@ -136,11 +163,11 @@ class Evidence:
 
     def chi2(self, spec: RigSpec, hits: np.ndarray | None = None) -> float:
         value = float(np.sum(self.residual(spec, hits) ** 2))
-        return value if spec.is_per_hit else value + self.scatter_constant(hits)
+        return value if self._hit_by_hit(spec) else value + self.scatter_constant(hits)
 
     def chi2_per_hit_and_frequency(self, spec: RigSpec) -> np.ndarray:
         """χ² contribution of every hit at every analysis frequency (hits, G)."""
-        return self.spectra.weight * np.abs(self.spectra.h - self.predicted(spec)) ** 2
+        return self.spectra.weight * np.abs(self.residual_per_hit(spec)) ** 2
 
     def chi2_per_frequency(self, spec: RigSpec) -> np.ndarray:
         """χ² contribution of every analysis frequency (summed over hits)."""
@@ -374,9 +401,8 @@ def _likely_step_times(spec: RigSpec, evidence: Evidence, count: int = 3) -> lis
     times = conditions.time_s[order]
     if times.size < 4:
         return []
-    predicted = evidence.predicted(spec)
     weight = evidence.spectra.weight[order]
-    residual = (evidence.spectra.h[order] - (predicted[order] if predicted.ndim == 2 else predicted)) * np.sqrt(weight)
+    residual = evidence.residual_per_hit(spec)[order] * np.sqrt(weight)
     costs = []
     for split in range(2, times.size - 1):
         if times[split] == times[split - 1]:
