@@ -122,11 +122,15 @@ class Evidence:
         """Weighted residual vector (real and imaginary parts) whose squared norm is χ² up to a constant."""
         if spec.is_per_hit:
             h, sqrt_weight = self._hit_rows(hits)
-            difference = (h - self.predicted(spec, hits)) * sqrt_weight
+            difference = h - self.predicted(spec, hits)
+            difference *= sqrt_weight
         else:
             mean, total = self._mean(hits)
-            difference = (mean - self.predicted(spec)) * np.sqrt(total)
-        return np.concatenate((difference.real.ravel(), difference.imag.ravel()))
+            difference = mean - self.predicted(spec)
+            difference *= np.sqrt(total)
+        parts = np.empty((2,) + difference.shape)
+        parts[0], parts[1] = difference.real, difference.imag
+        return parts.ravel()
 
     def scatter_constant(self, hits: np.ndarray | None = None) -> float:
         """``Σ_i w_i |H_i − H̄|²``: the part of χ² no hit-independent model can remove."""
@@ -222,7 +226,7 @@ class _LeastSquares:
         vector = np.array(vector, dtype=float)
         key = vector.tobytes()
         if self._last_rows is not None and self._last_rows[0] == key:
-            return self._last_rows[1].copy()
+            return self._last_rows[1]
         base = self.residual(vector)
         at = self.spec_at(vector)
         step = DIFFERENCE_STEP * ((vector >= 0).astype(float) * 2 - 1) * np.maximum(1.0, np.abs(vector))
@@ -231,7 +235,7 @@ class _LeastSquares:
             moved = vector[index] + step[index]
             changed = with_slot(at, slot, slot.from_search(min(max(moved, self.low[index]), self.high[index])))
             rows[index] = (self.evidence.residual(changed, self.hits) - base) / (moved - vector[index])
-        self._last_rows = (key, rows.copy())
+        self._last_rows = (key, rows)  # MINPACK copies what it is handed
         return rows
 
 
