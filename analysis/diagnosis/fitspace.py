@@ -135,6 +135,15 @@ def write_vector(spec: RigSpec, slots: list[Slot], vector: np.ndarray) -> RigSpe
     return spec.with_values(film_parameters=film, effects=effects)
 
 
+def with_slot(spec: RigSpec, slot: Slot, value: float) -> RigSpec:
+    """The spec with one slot set to a value (as :func:`write_vector` sets it)."""
+    if slot.effect is None:
+        return spec.with_values(film_parameters={**spec.film_parameters, slot.name: value})
+    effects = list(spec.effects)
+    effects[slot.effect] = dataclasses.replace(effects[slot.effect], **{slot.name: value})
+    return spec.with_values(effects=effects)
+
+
 def with_effect(spec: RigSpec, effect: Effect) -> RigSpec:
     return spec.with_values(effects=(*spec.effects, effect))
 

@@ -15,9 +15,9 @@ from dataclasses import dataclass
 from typing import Callable
 
 import numpy as np
-from scipy.optimize import least_squares
+from scipy.optimize import leastsq
 
-from gasfilm.analysis.diagnosis.fitspace import Slot, read_vector, spec_slots, with_effect, write_vector
+from gasfilm.analysis.diagnosis.fitspace import Slot, read_vector, spec_slots, with_effect, with_slot, write_vector
 from gasfilm.analysis.diagnosis.measurement import HitSpectra
 from gasfilm.analysis.physics.effects import (
     AIR_PRESSURE_PA,
@@ -149,11 +149,14 @@ class Evidence:
         if self._hit_by_hit(spec):
             _, sqrt_weight = self._hit_rows(hits)
             difference, prior = self._profiled(spec, hits)
-            difference = difference * sqrt_weight
+            difference *= sqrt_weight
             return np.concatenate((difference.real.ravel(), difference.imag.ravel(), prior))
         mean, total = self._mean(hits)
-        difference = (mean - self.predicted(spec)) * np.sqrt(total)
-        return np.concatenate((difference.real.ravel(), difference.imag.ravel()))
+        difference = mean - self.predicted(spec)
+        difference *= np.sqrt(total)
+        parts = np.empty((2,) + difference.shape)
+        parts[0], parts[1] = difference.real, difference.imag
+        return parts.ravel()
 
     def scatter_constant(self, hits: np.ndarray | None = None) -> float:
         """``Σ_i w_i |H_i − H̄|²``: the part of χ² no hit-independent model can remove."""
@@ -195,22 +198,71 @@ def fit(
     slots: list[Slot],
     hits: np.ndarray | None = None,
     tolerance: float = FIT_TOLERANCE,
+    covariance: bool = True,
 ) -> FitOutcome:
-    """Weighted least squares of the slots (scaled search space) from the spec's current values."""
+    """Weighted least squares of the slots (scaled search space) from the spec's current values. Without
+    ``covariance`` (a screening fit, of which only the spec and χ² are used) the outcome's covariance is empty."""
     if not slots:
         return FitOutcome(spec, evidence.chi2(spec, hits), [], np.zeros((0, 0)), 1)
-    start = read_vector(spec, slots)
-    bounds = np.array([slot.search_bounds() for slot in slots]).T
-
-    def residual(vector: np.ndarray) -> np.ndarray:
-        return evidence.residual(write_vector(spec, slots, np.clip(vector, bounds[0], bounds[1])), hits)
-
+    problem = _LeastSquares(evidence, spec, slots, hits)
     # MINPACK's Levenberg-Marquardt (bounds by clipping inside the residual): several times faster than a
-    # bounded trust-region solver on these tall problems
-    result = least_squares(residual, start, x_scale="jac", method="lm", max_nfev=40 * (len(slots) + 1),
-                           xtol=tolerance, ftol=tolerance)
-    fitted = write_vector(spec, slots, np.clip(result.x, bounds[0], bounds[1]))
-    return FitOutcome(fitted, evidence.chi2(fitted, hits), slots, _covariance(result.jac), int(result.nfev))
+    # bounded trust-region solver on these tall problems. Called as scipy.optimize.least_squares(method="lm",
+    # x_scale="jac") calls it, with its forward differences (:meth:`_LeastSquares.jacobian_rows`), bit for bit; the
+    # Jacobian is handed over by rows of parameters (no transposed copy of a tall matrix at every step).
+    x, _, info, _, _ = leastsq(problem.residual, read_vector(spec, slots), Dfun=problem.jacobian_rows, full_output=True,
+                               col_deriv=True, ftol=tolerance, xtol=tolerance, gtol=GRADIENT_TOLERANCE,
+                               maxfev=40 * (len(slots) + 1))
+    fitted = problem.spec_at(x)
+    matrix = _covariance(problem.jacobian_rows(x).T) if covariance else np.zeros((0, 0))
+    return FitOutcome(fitted, evidence.chi2(fitted, hits), slots, matrix, int(info["nfev"]))
+
+
+#: MINPACK's gradient tolerance (scipy.optimize.least_squares's default).
+GRADIENT_TOLERANCE = 1e-8
+#: Relative forward-difference step in search space (scipy's for two-point differences: √ε).
+DIFFERENCE_STEP = float(np.finfo(float).eps ** 0.5)
+
+
+class _LeastSquares:
+    """A fit's residual in search space (values clipped into the slots' bounds) and its forward-difference Jacobian.
+    A Jacobian column changes one slot of the spec at the point, not all of them (the same spec, built faster)."""
+
+    def __init__(self, evidence: Evidence, spec: RigSpec, slots: list[Slot], hits: np.ndarray | None) -> None:
+        self.evidence, self.spec, self.slots, self.hits = evidence, spec, slots, hits
+        self.low, self.high = np.array([slot.search_bounds() for slot in slots]).T
+        self._last: tuple[bytes, np.ndarray] | None = None
+        self._last_rows: tuple[bytes, np.ndarray] | None = None
+
+    def spec_at(self, vector: np.ndarray) -> RigSpec:
+        return write_vector(self.spec, self.slots, np.clip(vector, self.low, self.high))
+
+    def residual(self, vector: np.ndarray) -> np.ndarray:
+        """The weighted residual at a search vector (the last one remembered: the Jacobian starts from it)."""
+        key = vector.tobytes()
+        if self._last is not None and self._last[0] == key:
+            return self._last[1]
+        value = self.evidence.residual(self.spec_at(vector), self.hits)
+        self._last = (key, value)
+        return value
+
+    def jacobian_rows(self, vector: np.ndarray) -> np.ndarray:
+        """∂residual/∂vector by forward differences, one row per slot (scipy's two-point scheme: step
+        √ε·max(1, |x|) away from zero, divided by the step as represented). The last one is remembered: scipy's
+        leastsq asks for the first twice."""
+        vector = np.array(vector, dtype=float)
+        key = vector.tobytes()
+        if self._last_rows is not None and self._last_rows[0] == key:
+            return self._last_rows[1]
+        base = self.residual(vector)
+        at = self.spec_at(vector)
+        step = DIFFERENCE_STEP * ((vector >= 0).astype(float) * 2 - 1) * np.maximum(1.0, np.abs(vector))
+        rows = np.empty((len(self.slots), base.size))
+        for index, slot in enumerate(self.slots):
+            moved = vector[index] + step[index]
+            changed = with_slot(at, slot, slot.from_search(min(max(moved, self.low[index]), self.high[index])))
+            rows[index] = (self.evidence.residual(changed, self.hits) - base) / (moved - vector[index])
+        self._last_rows = (key, rows)  # MINPACK copies what it is handed
+        return rows
 
 
 def _covariance(jacobian: np.ndarray) -> np.ndarray:
@@ -317,7 +369,7 @@ def candidate_starts(evidence: Evidence, spec: RigSpec, identifier: str, context
 
 def screening_fit(evidence: Evidence, start: RigSpec, context: FitContext) -> FitOutcome:
     """A candidate's start fitted to the screening tolerance."""
-    return fit(evidence, start, spec_slots(start, context), tolerance=SCREENING_TOLERANCE)
+    return fit(evidence, start, spec_slots(start, context), tolerance=SCREENING_TOLERANCE, covariance=False)
 
 
 def to_finish(screened: list[FitOutcome]) -> list[FitOutcome]:

@@ -112,10 +112,10 @@ def rig_dynamic_stiffness(
     if pieces is None:
         for effect in spec.effects:
             total = total + effect.added_stiffness(s)
-    else:  # (an effect that adds no stiffness adds 0.0: skipped)
+    else:  # (an effect that adds no stiffness adds 0.0: skipped; added in place to the new sum)
         for effect in spec.effects:
             if _overrides(type(effect), "added_stiffness"):
-                total = total + pieces.added_stiffness(effect)
+                total += pieces.added_stiffness(effect)
     if impulse_ns is not None and (pieces is None or any(_overrides(type(effect), "level_damping_ns_per_m")
                                                          for effect in spec.effects)):
         velocity_m_s = np.abs(np.asarray(impulse_ns, dtype=float)) / spec.moving_mass_kg
@@ -275,15 +275,18 @@ def rig_accelerance(
         return (s**2 / stiffness + structure_accelerance(spec, s) + spec.force_leak_m_s2_per_n) * (
             channel_transfer(spec, "acceleration", s) / channel_transfer(spec, "force", s))
     # the same sum as above; terms that are 0.0 and a ratio of 1 skipped (x + 0.0 and x·1 are x, bit for bit)
+    # (in place on the new quotient)
     accelerance = pieces.s_squared / stiffness
     structure = pieces.structure(spec)
     if not (isinstance(structure, float) and structure == 0.0):
-        accelerance = accelerance + structure
+        accelerance += structure
     leak = spec.force_leak_m_s2_per_n
     if leak != 0.0:
-        accelerance = accelerance + leak
+        accelerance += leak
     ratio = pieces.channel_ratio(spec)
-    return accelerance if ratio is None else accelerance * ratio
+    if ratio is not None:
+        accelerance *= ratio
+    return accelerance
 
 
 def _grid_laplace(n_samples: int, sample_rate_hz: float) -> np.ndarray:
