@@ -92,6 +92,9 @@ OWN_BAND_FALSE_ALARM = 1e-3
 #: An added mass whose move of the mass line the written spec's measurement terms cancel to below this share is not
 #: seen at the mass line (:func:`_mass_line_unmoved`).
 MASS_LINE_SHARE = 0.5
+#: A term of the other kind (rig / measurement chain) fitted in a term's place on the written spec within this BIC
+#: margin (noise units) leaves the rig and the measurement untold apart (:func:`_other_kind_in_its_place`): below
+#: Kass and Raftery's "strong" evidence.
 SWAP_MARGIN = 6.0
 #: A finding's scale parameters (log-scaled) are measured to this one-σ relative uncertainty at least
 #: (:func:`_undetermined`).
