@@ -608,9 +608,11 @@ def _drop_unsupported_terms(
     progress: Callable[[str], None],
     restoring: RestoringForce | None,
 ) -> tuple[list[Step], FitOutcome, Evidence, dict[str, RigSpec], dict[str, Claim]]:
-    """Every term of the final spec must leave its own band within the noise, and the written spec replayed must be
-    closer to the recordings with it than refitted without it. A term that fails is a candidate description (with its values and the reason), removed from the spec, the
-    latest added first; the rest are refitted and checked again."""
+    """Every term of the final spec must leave its own band within the noise, make the written spec replayed closer to
+    the recordings than refitted without it, survive data left out of its fit, have determined scale parameters,
+    leave the spec's other parameters off their bounds, and not be replaceable by a term of the other kind (and the
+    checks of docs/diagnosis.md §3 step 4). A term that fails is a candidate description (with its values and the
+    reason), removed from the spec, the latest added first; the rest are refitted and checked again."""
     claims: dict[str, Claim] = {}
     while steps:
         claims = {step.identifier: _claim(spectra, evidence, current, refits_without[step.identifier], step.identifier,
