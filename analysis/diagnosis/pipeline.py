@@ -630,11 +630,11 @@ def _drop_unsupported_terms(
                 claims[step.identifier].reason = _beside_a_larger_term(step, steps, claims[step.identifier])
             if claims[step.identifier].reason is None:
                 claims[step.identifier].reason = _measurement_alternative(step)
-            if claims[step.identifier].reason is None:
-                claims[step.identifier].reason = _other_kind_in_its_place(spectra, evidence, current, step.identifier,
-                                                                          context, restoring)
             if claims[step.identifier].reason is None and step.identifier == "added-mass":
                 claims[step.identifier].reason = _mass_line_unmoved(spectra, current.spec)
+            if claims[step.identifier].reason is None and len(steps) > 1:
+                claims[step.identifier].reason = _other_kind_in_its_place(spectra, evidence, current, step.identifier,
+                                                                          context, restoring)
         failing = [step for step in steps if claims[step.identifier].reason is not None][-1:]
         if not failing:  # (the latest failing term goes first: the others may stand once it is out)
             break
@@ -781,10 +781,11 @@ def _other_kind_in_its_place(
     restoring: RestoringForce | None,
 ) -> str | None:
     """Why a term is not claimed when, on the written spec, a term of the other kind (the rig for a measurement-chain
-    term, the measurement chain for a rig term) fits about as well in its place (BIC within ALTERNATIVE_MARGIN in the
-    written spec's noise units, the rest refitted): these data cannot tell whether the rig or the measurement
-    differs. Judged on the written spec, not only when the term entered: what stands beside it there may change
-    which forms can take its place (a servo's integral action reads as an AC coupling of the response)."""
+    term, the measurement chain for a rig term) fits about as well in its place (BIC within :data:`SWAP_MARGIN` in
+    the written spec's noise units, the rest refitted): these data cannot tell whether the rig or the measurement
+    differs. Asked of a term with others beside it: its alternatives were judged when it entered, alone beside the
+    spec (:func:`_measurement_alternative`), and what stands beside it on the written spec may change which forms can
+    take its place (a servo's integral action beside a squeeze film reads as an AC coupling of the response)."""
     index = _effect_index(final.spec, identifier)
     kind = final.spec.effects[index].kind
     reduced = without_effect(final.spec, index)
