@@ -1,7 +1,7 @@
 """Claims the diagnosis must not make (issue 14): measurement notes that mislabel the data (a line near a mains
 harmonic that is not mains), an added mass that is a response reading the film's force, a term within a larger
 term's form error, a rig term a measurement term fits as well, a term that takes a spec parameter to its bound, a
-term whose scale is not determined, a term one of the other kind replaces on the written spec, a sensor's
+term one of the other kind replaces on the written spec, a sensor's
 frequency slope read as film physics. Mostly fast checks on records synthesised exactly from a rig spec."""
 
 from __future__ import annotations
@@ -18,7 +18,6 @@ from gasfilm.analysis.diagnosis.pipeline import (
     _displaces_a_parameter,
     _measurement_alternative,
     _other_kind_in_its_place,
-    _undetermined,
 )
 from gasfilm.analysis.diagnosis.recordings import Recordings
 from gasfilm.analysis.diagnosis.selection import FitOutcome
@@ -28,7 +27,6 @@ from gasfilm.analysis.physics.effects import (
     FilmMemory,
     PneumaticLag,
     SensitivityError,
-    SqueezeFilm,
 )
 from gasfilm.analysis.physics.response import HitConditions, simulate_response
 from gasfilm.analysis.physics.spec import RigSpec
@@ -125,7 +123,7 @@ def test_a_rig_term_that_a_measurement_term_fits_as_well_is_no_finding():
     assert _measurement_alternative(_step("channel-delay", 47.0, ("added-mass",))) is None
 
 
-# --- a parameter at its bound, an undetermined scale, a term of the other kind in its place ------------------------
+# --- a parameter at its bound, a term of the other kind in its place --------------------------------------------------
 
 CONDITIONS = HitConditions(time_s=np.arange(6.0), impulse_ns=np.full(6, 0.2))
 
@@ -147,13 +145,6 @@ def test_a_term_that_takes_a_spec_parameter_to_its_bound_is_no_finding():
     assert _displaces_a_parameter(final, "film-memory", final.spec.with_values(effects=[])) is None
     # a term beside a film whose parameters stay inside their ranges
     assert _displaces_a_parameter(_outcome(NOMINAL.with_effects(memory)), "film-memory", NOMINAL) is None
-
-
-def test_a_term_whose_scale_parameter_is_not_determined_is_no_finding():
-    spec = NOMINAL.with_effects(SqueezeFilm(gap_m=8e-5, length_m=0.063))
-    reason = _undetermined(_outcome(spec, log_sigma=0.9), "squeeze-film", 1000)
-    assert reason is not None and "not determined" in reason, reason
-    assert _undetermined(_outcome(spec, log_sigma=0.1), "squeeze-film", 1000) is None
 
 
 def test_a_term_that_one_of_the_other_kind_replaces_on_the_written_spec_is_no_finding(monkeypatch):

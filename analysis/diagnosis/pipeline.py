@@ -96,9 +96,6 @@ MASS_LINE_SHARE = 0.5
 #: margin (noise units) leaves the rig and the measurement untold apart (:func:`_other_kind_in_its_place`): below
 #: Kass and Raftery's "strong" evidence.
 SWAP_MARGIN = 6.0
-#: A finding's scale parameters (log-scaled) are measured to this one-σ relative uncertainty at least
-#: (:func:`_undetermined`).
-MEASURED_FRACTION = 0.5
 #: A term whose χ² gain is below this share of another term's is within that term's form error
 #: (:func:`_beside_a_larger_term`).
 MODEL_FORM_SHARE = 1e-3
@@ -609,8 +606,8 @@ def _drop_unsupported_terms(
     restoring: RestoringForce | None,
 ) -> tuple[list[Step], FitOutcome, Evidence, dict[str, RigSpec], dict[str, Claim]]:
     """Every term of the final spec must leave its own band within the noise, make the written spec replayed closer to
-    the recordings than refitted without it, survive data left out of its fit, have determined scale parameters,
-    leave the spec's other parameters off their bounds, and not be replaceable by a term of the other kind (and the
+    the recordings than refitted without it, survive data left out of its fit, leave the spec's other parameters off their
+    bounds, and not be replaceable by a term of the other kind (and the
     checks of docs/diagnosis.md §3 step 4). A term that fails is a candidate description (with its values and the
     reason), removed from the spec, the latest added first; the rest are refitted and checked again."""
     claims: dict[str, Claim] = {}
@@ -621,8 +618,6 @@ def _drop_unsupported_terms(
             if claims[step.identifier].reason is None:
                 claims[step.identifier].reason = _survives_left_out_data(spectra, evidence, current, step,
                                                                          refits_without[step.identifier], context)
-            if claims[step.identifier].reason is None:
-                claims[step.identifier].reason = _undetermined(current, step.identifier, evidence.point_count)
             if claims[step.identifier].reason is None:
                 claims[step.identifier].reason = _displaces_a_parameter(current, step.identifier,
                                                                         refits_without[step.identifier])
@@ -719,26 +714,6 @@ def _beside_a_larger_term(step: Step, steps: list[Step], claim: Claim) -> str | 
             f"noise reaches by chance: {claim.own_band_chance:.2f}), and its χ² gain ({gain:.0f}) is "
             f"{100 * gain / larger_gain:.3f} % of the {larger.identifier}'s ({larger_gain:.0f}): a correction to the "
             f"{larger.identifier}'s form, not told apart from its form error")
-
-
-def _undetermined(final: FitOutcome, identifier: str, points: int) -> str | None:
-    """Why a term is not a measurement when one of its scale parameters (log-scaled: a gap, a length, a stiffness, a
-    time constant — quantities whose zero is not a value) is not determined by the data: its one-σ relative
-    uncertainty on the written spec, scaled by the spec's noise scale, exceeds :data:`MEASURED_FRACTION`, so its
-    two-σ interval spans more than a factor e². Its agreement between halves of the data says nothing then: such
-    uncertainties agree with anything."""
-    index = _effect_index(final.spec, identifier)
-    scale = np.sqrt(_noise_scale(final, points))
-    for slot_index, slot in enumerate(final.slots):
-        if slot.effect != index or slot.range.scale != "log":
-            continue
-        relative = scale * float(np.sqrt(max(final.covariance[slot_index, slot_index], 0.0)))
-        if relative > MEASURED_FRACTION:
-            value = slot.value(final.spec)
-            return (f"its {slot.name} is not determined: {value:.4g} ± {relative * value:.2g} (one σ, "
-                    f"{100 * relative:.0f} % of the value; a measurement needs ≤ {100 * MEASURED_FRACTION:.0f} %): "
-                    f"the data do not tell this term's form apart from the rest of the spec")
-    return None
 
 
 def _displaces_a_parameter(final: FitOutcome, identifier: str, without: RigSpec) -> str | None:
