@@ -606,10 +606,10 @@ def _drop_unsupported_terms(
     restoring: RestoringForce | None,
 ) -> tuple[list[Step], FitOutcome, Evidence, dict[str, RigSpec], dict[str, Claim]]:
     """Every term of the final spec must leave its own band within the noise, make the written spec replayed closer to
-    the recordings than refitted without it, survive data left out of its fit, leave the spec's other parameters off their
-    bounds, and not be replaceable by a term of the other kind (and the
-    checks of docs/diagnosis.md §3 step 4). A term that fails is a candidate description (with its values and the
-    reason), removed from the spec, the latest added first; the rest are refitted and checked again."""
+    the recordings than refitted without it, survive data left out of its fit, leave the spec's other parameters off
+    their bounds and not be replaceable by a term of the other kind (the checks of docs/diagnosis.md §3 step 4). A
+    term that fails is a candidate description (with its values and the reason), removed from the spec, the latest
+    added first; the rest are refitted and checked again."""
     claims: dict[str, Claim] = {}
     while steps:
         claims = {step.identifier: _claim(spectra, evidence, current, refits_without[step.identifier], step.identifier,
@@ -765,8 +765,7 @@ def _other_kind_in_its_place(
     kind = final.spec.effects[index].kind
     reduced = without_effect(final.spec, index)
     others = [other for other in _candidate_identifiers(reduced, context, restoring)
-              if other != identifier and EFFECT_TYPES[other].kind in ("rig", "measurement")
-              and EFFECT_TYPES[other].kind != kind]
+              if EFFECT_TYPES[other].kind in ("rig", "measurement") and EFFECT_TYPES[other].kind != kind]
     points = evidence.point_count
     noise_scale = _noise_scale(final, points)
     fitted = _candidate_fits(spectra, evidence, reduced, others, context, noise_scale)
