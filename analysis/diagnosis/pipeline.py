@@ -618,7 +618,7 @@ def _drop_unsupported_terms(
             if claims[step.identifier].reason is None:
                 claims[step.identifier].reason = _survives_left_out_data(spectra, evidence, current, step,
                                                                          refits_without[step.identifier], context)
-            if claims[step.identifier].reason is None:
+            if claims[step.identifier].reason is None and len(steps) > 1:
                 claims[step.identifier].reason = _displaces_a_parameter(current, step.identifier,
                                                                         refits_without[step.identifier])
             if claims[step.identifier].reason is None:
@@ -720,7 +720,9 @@ def _displaces_a_parameter(final: FitOutcome, identifier: str, without: RigSpec)
     """Why a term is not a measurement when, with it, another parameter of the written spec sits at the edge of its
     range and, without it (the rest refitted), does not: the term has taken that parameter's place instead of adding
     to it (a film memory that replaced the film's dashpot leaves a film without damping), and a parameter at its bound
-    is not a measurement — the written spec would claim a value the data did not determine."""
+    is not a measurement — the written spec would claim a value the data did not determine. Asked of a term with
+    others beside it: a lone term that takes a film parameter's place re-describes the film (a fractional film has no
+    dashpot), one that needs others beside it to do so is part of a combination standing in for something else."""
     index = _effect_index(final.spec, identifier)
     for slot in final.slots:
         if slot.effect == index or not slot.at_bound(final.spec):
