@@ -1,17 +1,35 @@
 """Claims the diagnosis must not make (issue 14): measurement notes that mislabel the data (a line near a mains
 harmonic that is not mains), an added mass that is a response reading the film's force, a term within a larger
-term's form error, a rig term a measurement term fits as well. Mostly fast checks on records synthesised exactly
-from a rig spec."""
+term's form error, a rig term a measurement term fits as well, a term that takes a spec parameter to its bound, a
+term one of the other kind replaces on the written spec, a sensor's
+frequency slope read as film physics. Mostly fast checks on records synthesised exactly from a rig spec."""
 
 from __future__ import annotations
 
 import numpy as np
 
-from gasfilm.analysis.diagnosis import diagnose
+from gasfilm.analysis.diagnosis import diagnose, pipeline
+from gasfilm.analysis.diagnosis.fitspace import fit_context, spec_slots, with_effect, without_effect
 from gasfilm.analysis.diagnosis.measurement import hit_spectra
-from gasfilm.analysis.diagnosis.pipeline import Claim, Step, _beside_a_larger_term, _measurement_alternative
-from gasfilm.analysis.physics.effects import CrossTalk, SensitivityError
-from gasfilm.analysis.physics.response import simulate_response
+from gasfilm.analysis.diagnosis.pipeline import (
+    Claim,
+    Step,
+    _beside_a_larger_term,
+    _displaces_a_parameter,
+    _measurement_alternative,
+    _other_kind_in_its_place,
+)
+from gasfilm.analysis.diagnosis.recordings import Recordings
+from gasfilm.analysis.diagnosis.selection import FitOutcome
+from gasfilm.analysis.physics.effects import (
+    AcCoupling,
+    CrossTalk,
+    FilmMemory,
+    PneumaticLag,
+    SensitivityError,
+)
+from gasfilm.analysis.physics.response import HitConditions, simulate_response
+from gasfilm.analysis.physics.spec import RigSpec
 
 from test_diagnose import NOMINAL, record
 
@@ -103,3 +121,82 @@ def test_a_rig_term_that_a_measurement_term_fits_as_well_is_no_finding():
         _step("added-mass", 37.0, ("channel-delay",)))
     assert _measurement_alternative(_step("added-mass", 47.0, ("pneumatic-lag",))) is None
     assert _measurement_alternative(_step("channel-delay", 47.0, ("added-mass",))) is None
+
+
+# --- a parameter at its bound, a term of the other kind in its place --------------------------------------------------
+
+CONDITIONS = HitConditions(time_s=np.arange(6.0), impulse_ns=np.full(6, 0.2))
+
+
+def _outcome(spec: RigSpec, chi2: float = 1000.0, log_sigma: float = 1e-3) -> FitOutcome:
+    """A fit of ``spec`` with every slot's one-σ uncertainty ``log_sigma`` in search space, χ²/point 1 on 1000
+    points."""
+    slots = spec_slots(spec, fit_context(spec, CONDITIONS, (10.0, 1000.0)))
+    return FitOutcome(spec, chi2, slots, np.eye(len(slots)) * log_sigma**2, 1)
+
+
+def test_a_term_that_takes_a_spec_parameter_to_its_bound_is_no_finding():
+    # a film memory that takes the dashpot's place: with it η sits at its lower bound, without it at 3450 N·s/m
+    memory = FilmMemory(k_memory=3.4e7, eta_memory=1.7e4, alpha_memory=0.8)
+    final = _outcome(NOMINAL.with_values(film_parameters={"k": 3.7e7, "eta": 0.01}).with_effects(memory))
+    reason = _displaces_a_parameter(final, "film-memory", NOMINAL)
+    assert reason is not None and "eta runs into the edge of its range" in reason, reason
+    # at its bound without the term too: not this term's doing
+    assert _displaces_a_parameter(final, "film-memory", final.spec.with_values(effects=[])) is None
+    # a term beside a film whose parameters stay inside their ranges
+    assert _displaces_a_parameter(_outcome(NOMINAL.with_effects(memory)), "film-memory", NOMINAL) is None
+
+
+def test_a_term_that_one_of_the_other_kind_replaces_on_the_written_spec_is_no_finding(monkeypatch):
+    # the written spec's AC coupling against the rig terms fitted in its place: a pneumatic lag with one parameter more
+    # and χ² 2.9 lower (ΔBIC +4.0 with ln 1000 per parameter) cannot be told from it; one with χ² 30 higher can
+    final = _outcome(NOMINAL.with_effects(AcCoupling(channel="acceleration", corner_hz=0.6)))
+    context = fit_context(final.spec, CONDITIONS, (10.0, 1000.0))
+    swapped = with_effect(without_effect(final.spec, 0), PneumaticLag(k_lag=3e5, tau_lag=2e-2))
+
+    class Evidence:
+        point_count = 1000
+
+    def fits(raised: float):
+        def candidate_fits(spectra, evidence, spec, identifiers, context, noise_scale):
+            return {identifier: ((_outcome(swapped, final.chi2 + raised) if identifier == "pneumatic-lag" else None),
+                                 evidence) for identifier in identifiers}
+        return candidate_fits
+
+    monkeypatch.setattr(pipeline, "_candidate_fits", fits(-2.9))
+    reason = _other_kind_in_its_place(None, Evidence, final, "ac-coupling", context, None)
+    assert reason is not None and "pneumatic-lag in the rig" in reason, reason
+    monkeypatch.setattr(pipeline, "_candidate_fits", fits(30.0))
+    assert _other_kind_in_its_place(None, Evidence, final, "ac-coupling", context, None) is None
+
+
+def _tilted_sensor(hits: int = 12, seed: int = 1, rate_hz: float = 6400.0) -> Recordings:
+    """The nominal rig read by an accelerometer whose sensitivity falls 2.8 % per decade with a constant −1.08°
+    (a piezoceramic's dielectric relaxation: (f/100 Hz)^−0.012), synthesised exactly in the frequency domain from
+    sampled half-sine forces, with sensor noise."""
+    rng = np.random.default_rng(seed)
+    n_samples = int(0.5 * rate_hz)
+    time_s = np.arange(n_samples) / rate_hz
+    n_fft = 4 * n_samples
+    freq_hz = np.fft.rfftfreq(n_fft, 1.0 / rate_hz)
+    s = 2j * np.pi * np.maximum(freq_hz, 1e-9)
+    k, c = NOMINAL.film_parameters["k"], NOMINAL.film_parameters["eta"]
+    sensor = (np.maximum(freq_hz, 0.01) / 100.0) ** -0.012 * np.exp(-1j * np.deg2rad(1.08))
+    accelerance = s**2 / (NOMINAL.moving_mass_kg * s**2 + c * s + k) * np.where(freq_hz > 0, sensor, 1.0)
+    records = np.zeros((hits, 2, n_samples))
+    for hit in range(hits):
+        width_s = 1e-3 * (1 + 0.05 * rng.standard_normal())
+        pulse = (time_s >= 0.01) & (time_s < 0.01 + width_s)
+        force = np.where(pulse, rng.uniform(150, 250) * np.sin(np.pi * (time_s - 0.01) / width_s), 0.0)
+        records[hit, 0] = force + rng.normal(0.0, 0.01, n_samples)
+        response = np.fft.irfft(np.fft.rfft(force, n_fft) * accelerance, n_fft)[:n_samples]
+        records[hit, 1] = response + rng.normal(0.0, 0.003, n_samples)
+    return Recordings(records, rate_hz, np.arange(hits) * 3.0, None, None, None, "tilted sensor")
+
+
+def test_a_sensor_whose_sensitivity_falls_with_frequency_is_no_film_physics():
+    # without the claims on the written spec's parameters: a film memory that replaced the dashpot (η at its bound),
+    # an added mass and a channel delay, χ²/point 1.09
+    diagnosis = diagnose(_tilted_sensor(), NOMINAL)
+    assert not [finding.effect for finding in diagnosis.findings if finding.kind == "rig"], diagnosis.findings
+    assert "eta" not in diagnosis.recalibration or not diagnosis.recalibration["eta"]["at_bound"]

@@ -92,6 +92,10 @@ OWN_BAND_FALSE_ALARM = 1e-3
 #: An added mass whose move of the mass line the written spec's measurement terms cancel to below this share is not
 #: seen at the mass line (:func:`_mass_line_unmoved`).
 MASS_LINE_SHARE = 0.5
+#: A term of the other kind (rig / measurement chain) fitted in a term's place on the written spec within this BIC
+#: margin (noise units) leaves the rig and the measurement untold apart (:func:`_other_kind_in_its_place`): below
+#: Kass and Raftery's "strong" evidence.
+SWAP_MARGIN = 6.0
 #: A term whose χ² gain is below this share of another term's is within that term's form error
 #: (:func:`_beside_a_larger_term`).
 MODEL_FORM_SHARE = 1e-3
@@ -186,13 +190,14 @@ def diagnose_spectra(
         steps.append(step)
         current = fit(evidence, outcome.spec, outcome.slots)
 
-    steps, current, evidence, refits_without = _check_back(spectra, evidence, steps, current, context, progress)
+    steps, current, evidence, refits_without = _check_back(spectra, evidence, steps, current, recalibrated_spec,
+                                                           context, progress)
     steps, current, evidence, refits_without = _drop_partial_terms(spectra, evidence, steps, current, refits_without,
                                                                    rejected, recalibrated_spec, context, progress)
     rms_recalibrated = replay_rms(spectra, recalibrated_spec)
     steps, current, evidence, refits_without, claims = _drop_unsupported_terms(
         spectra, evidence, steps, current, refits_without, rejected, recalibrated_spec, rms_recalibrated, context,
-        progress)
+        progress, restoring)
     findings = [_finding(evidence, step, current, refits_without[step.identifier], claims[step.identifier], context)
                 for step in steps]
     unexplained = _unexplained(spectra, evidence, current.spec, rejected, restoring)
@@ -353,14 +358,9 @@ def _select_one(
 ) -> tuple[Step, FitOutcome, Evidence] | None:
     """The next term of the forward selection, or None when no candidate earns its place. An amplitude-dependent
     term whose shape the measured restoring force contradicts is not tried."""
-    present = {effect.type_name for effect in current.spec.effects}
     noise_scale = _noise_scale(current, points)
     trials = []
-    identifiers = [identifier for identifier in candidates_for(current.spec)
-                   if identifier not in present
-                   and not (identifier in ("drift", "step-change") and context.session_span_s <= 0)
-                   and not (identifier in AMPLITUDE_TERMS and restoring is not None
-                            and not restoring.allows(identifier))]
+    identifiers = _candidate_identifiers(current.spec, context, restoring)
 
     fitted_candidates = _candidate_fits(spectra, evidence, current.spec, identifiers, context, noise_scale)
     for identifier in identifiers:
@@ -401,6 +401,16 @@ def _select_one(
         step = Step(identifier, current.chi2, outcome.chi2, gain_held_out, 0.0, close)
         return step, outcome, evidence_for(spectra, outcome.spec)
     return None
+
+
+def _candidate_identifiers(spec: RigSpec, context: FitContext, restoring: RestoringForce | None) -> list[str]:
+    """The candidate terms that may be added to ``spec``: not already in it, a time term only when the hits' times are
+    known, an amplitude-dependent term only when the measured restoring force allows its shape."""
+    present = {effect.type_name for effect in spec.effects}
+    return [identifier for identifier in candidates_for(spec)
+            if identifier not in present
+            and not (identifier in ("drift", "step-change") and context.session_span_s <= 0)
+            and not (identifier in AMPLITUDE_TERMS and restoring is not None and not restoring.allows(identifier))]
 
 
 def _unstable(band_folds: HeldOut, hit_folds: HeldOut, index: int, noise_scale: float, points: int) -> str | None:
@@ -523,6 +533,7 @@ def _check_back(
     evidence: Evidence,
     steps: list[Step],
     current: FitOutcome,
+    recalibrated: RigSpec,
     context: FitContext,
     progress: Callable[[str], None],
 ) -> tuple[list[Step], FitOutcome, Evidence, dict[str, RigSpec]]:
@@ -536,9 +547,8 @@ def _check_back(
         noise_scale = _noise_scale(current, points)
         trials = []
         for step in steps:
-            index = _effect_index(current.spec, step.identifier)
-            reduced = without_effect(current.spec, index)
-            refit = fit(evidence, reduced, spec_slots(reduced, context))
+            refit = _refit_without(evidence, current.spec, _effect_index(current.spec, step.identifier), recalibrated,
+                                   context)
             extra = len(current.slots) - len(refit.slots)
             trials.append(((refit.chi2 - current.chi2) / noise_scale - extra * np.log(points), step, refit))
         cost, step, refit = min(trials, key=lambda trial: trial[0])
@@ -593,10 +603,13 @@ def _drop_unsupported_terms(
     rms_recalibrated: float,
     context: FitContext,
     progress: Callable[[str], None],
+    restoring: RestoringForce | None,
 ) -> tuple[list[Step], FitOutcome, Evidence, dict[str, RigSpec], dict[str, Claim]]:
-    """Every term of the final spec must leave its own band within the noise, and the written spec replayed must be
-    closer to the recordings with it than refitted without it. A term that fails is a candidate description (with its values and the reason), removed from the spec, the
-    latest added first; the rest are refitted and checked again."""
+    """Every term of the final spec must leave its own band within the noise, make the written spec replayed closer to
+    the recordings than refitted without it, survive data left out of its fit, leave the spec's other parameters off
+    their bounds and not be replaceable by a term of the other kind (the checks of docs/diagnosis.md §3 step 4). A
+    term that fails is a candidate description (with its values and the reason), removed from the spec, the latest
+    added first; the rest are refitted and checked again."""
     claims: dict[str, Claim] = {}
     while steps:
         claims = {step.identifier: _claim(spectra, evidence, current, refits_without[step.identifier], step.identifier,
@@ -605,12 +618,18 @@ def _drop_unsupported_terms(
             if claims[step.identifier].reason is None:
                 claims[step.identifier].reason = _survives_left_out_data(spectra, evidence, current, step,
                                                                          refits_without[step.identifier], context)
+            if claims[step.identifier].reason is None and len(steps) > 1:
+                claims[step.identifier].reason = _displaces_a_parameter(current, step.identifier,
+                                                                        refits_without[step.identifier])
             if claims[step.identifier].reason is None:
                 claims[step.identifier].reason = _beside_a_larger_term(step, steps, claims[step.identifier])
             if claims[step.identifier].reason is None:
                 claims[step.identifier].reason = _measurement_alternative(step)
             if claims[step.identifier].reason is None and step.identifier == "added-mass":
                 claims[step.identifier].reason = _mass_line_unmoved(spectra, current.spec)
+            if claims[step.identifier].reason is None and len(steps) > 1:
+                claims[step.identifier].reason = _other_kind_in_its_place(spectra, evidence, current, step.identifier,
+                                                                          context, restoring)
         failing = [step for step in steps if claims[step.identifier].reason is not None][-1:]
         if not failing:  # (the latest failing term goes first: the others may stand once it is out)
             break
@@ -645,11 +664,22 @@ def _demote_terms(
             spec = without_effect(spec, _effect_index(spec, step.identifier))
     current, evidence = _refit(spectra, spec, recalibrated, context)
     kept = [step for step in steps if step.identifier not in reasons]
-    refits = {}
-    for step in kept:
-        reduced = without_effect(current.spec, _effect_index(current.spec, step.identifier))
-        refits[step.identifier] = fit(evidence, reduced, spec_slots(reduced, context)).spec
+    refits = {step.identifier: _refit_without(evidence, current.spec, _effect_index(current.spec, step.identifier),
+                                              recalibrated, context).spec for step in kept}
     return kept, current, evidence, refits
+
+
+def _refit_without(
+    evidence: Evidence, spec: RigSpec, index: int, recalibrated: RigSpec, context: FitContext
+) -> FitOutcome:
+    """The spec refitted without effect ``index``: from its own values and from the recalibrated film's, the better
+    fit. The term may have bent the film to suit it (a film memory that took the dashpot's place leaves the film
+    without damping): refitted from there alone, the spec without the term is a straw man the term beats by far."""
+    reduced = without_effect(spec, index)
+    starts = [reduced]
+    if reduced.film_parameters != recalibrated.film_parameters:
+        starts.append(reduced.with_values(film_parameters=recalibrated.film_parameters))
+    return min((fit(evidence, start, spec_slots(start, context)) for start in starts), key=lambda outcome: outcome.chi2)
 
 
 def _survives_left_out_data(
@@ -686,6 +716,30 @@ def _beside_a_larger_term(step: Step, steps: list[Step], claim: Claim) -> str | 
             f"{larger.identifier}'s form, not told apart from its form error")
 
 
+def _displaces_a_parameter(final: FitOutcome, identifier: str, without: RigSpec) -> str | None:
+    """Why a term is not a measurement when, with it, another parameter of the written spec sits at the edge of its
+    range and, without it (the rest refitted), does not: the term has taken that parameter's place instead of adding
+    to it (a film memory that replaced the film's dashpot leaves a film without damping), and a parameter at its bound
+    is not a measurement — the written spec would claim a value the data did not determine. Asked of a term with
+    others beside it: a lone term that takes a film parameter's place re-describes the film (a fractional film has no
+    dashpot), one that needs others beside it to do so is part of a combination standing in for something else."""
+    index = _effect_index(final.spec, identifier)
+    for slot in final.slots:
+        if slot.effect == index or not slot.at_bound(final.spec):
+            continue
+        if slot.effect is None:
+            reduced = slot
+        else:
+            reduced = dataclasses.replace(slot, effect=slot.effect - (slot.effect > index))
+        if reduced.at_bound(without):
+            continue
+        label = slot.label(final.spec)
+        return (f"with it, {label} runs into the edge of its range ({slot.value(final.spec):.4g}), where it is "
+                f"{reduced.value(without):.4g} without it: the term takes the place of the spec's own {label} "
+                f"instead of adding to it, and a parameter at its bound is not a measurement")
+    return None
+
+
 def _measurement_alternative(step: Step) -> str | None:
     """Why a rig term is not a finding when a measurement-chain term fits about as well: these data cannot tell
     whether the rig or the measurement differs, and measurement properties are never claimed as physics."""
@@ -697,6 +751,45 @@ def _measurement_alternative(step: Step) -> str | None:
     return (f"{' and '.join(chain)} in the measurement chain fits about as well (BIC within {ALTERNATIVE_MARGIN:.0f}): "
             f"these data cannot tell whether the rig or the measurement differs — "
             f"{separating_measurement(step.identifier, chain[0])} would")
+
+
+def _other_kind_in_its_place(
+    spectra: HitSpectra, evidence: Evidence, final: FitOutcome, identifier: str, context: FitContext,
+    restoring: RestoringForce | None,
+) -> str | None:
+    """Why a term is not claimed when, on the written spec, a term of the other kind (the rig for a measurement-chain
+    term, the measurement chain for a rig term) fits about as well in its place (BIC within :data:`SWAP_MARGIN` in
+    the written spec's noise units, the rest refitted): these data cannot tell whether the rig or the measurement
+    differs. Asked of a term with others beside it: its alternatives were judged when it entered, alone beside the
+    spec (:func:`_measurement_alternative`), and what stands beside it on the written spec may change which forms can
+    take its place (a servo's integral action beside a squeeze film reads as an AC coupling of the response)."""
+    index = _effect_index(final.spec, identifier)
+    kind = final.spec.effects[index].kind
+    reduced = without_effect(final.spec, index)
+    others = [other for other in _candidate_identifiers(reduced, context, restoring)
+              if EFFECT_TYPES[other].kind in ("rig", "measurement") and EFFECT_TYPES[other].kind != kind]
+    points = evidence.point_count
+    noise_scale = _noise_scale(final, points)
+    fitted = _candidate_fits(spectra, evidence, reduced, others, context, noise_scale)
+    closest: tuple[float, str] | None = None
+    for other in others:
+        result = fitted[other]
+        if isinstance(result, Exception) or result[0] is None:
+            continue
+        outcome = result[0]
+        if _not_a_finding(outcome, len(outcome.spec.effects) - 1, context) is not None:
+            continue
+        extra = len(outcome.slots) - len(final.slots)
+        cost = (outcome.chi2 - final.chi2) / noise_scale + extra * np.log(points)
+        if cost < SWAP_MARGIN and (closest is None or cost < closest[0]):
+            closest = (cost, other)
+    if closest is None:
+        return None
+    cost, other = closest
+    where = "the rig" if kind == "measurement" else "the measurement chain"
+    return (f"{other} in {where} fits about as well in its place on the written spec (BIC {cost:+.1f}, within "
+            f"{SWAP_MARGIN:.0f}): these data cannot tell whether the rig or the measurement differs — "
+            f"{separating_measurement(identifier, other)} would")
 
 
 def _mass_line_unmoved(spectra: HitSpectra, spec: RigSpec) -> str | None:
