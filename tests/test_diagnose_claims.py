@@ -19,6 +19,7 @@ from gasfilm.analysis.physics.effects import ExtraMode
 from gasfilm.analysis.physics.response import HitConditions, resonance_omega_rad_s, simulate_response
 from gasfilm.analysis.physics.spec import RigSpec
 
+from synthesis import synthesised_hits
 from test_diagnose import NOMINAL, record
 
 MASS_KG = 25.05
@@ -158,27 +159,17 @@ def test_every_finding_survives_the_claims_on_the_written_spec(tmp_path, capsys)
 def _two_close_modes(hits: int = 10, seed: int = 1) -> Recordings:
     """A rig outside the catalog (two extra modes 3 % apart, the catalog holds one), synthesised exactly in the
     frequency domain from sampled half-sine forces, with sensor noise."""
-    rng = np.random.default_rng(seed)
-    n_samples = int(0.5 * RATE_HZ)
-    time_s = np.arange(n_samples) / RATE_HZ
-    n_fft = 4 * n_samples
-    s = 2j * np.pi * np.fft.rfftfreq(n_fft, 1.0 / RATE_HZ)
-    s[0] = 1e-9j
-    stiffness = MASS_KG * s**2 + C_NS_PER_M * s + K_N_PER_M
-    for freq_hz, mass_kg in ((450.0, 0.25), (464.0, 0.25)):
-        k_mode = mass_kg * (2 * np.pi * freq_hz) ** 2
-        c_mode = 2 * 0.01 * np.sqrt(k_mode * mass_kg)
-        stiffness = stiffness + mass_kg * s**2 * (k_mode + c_mode * s) / (mass_kg * s**2 + c_mode * s + k_mode)
-    accelerance = s**2 / stiffness
-    records = np.zeros((hits, 2, n_samples))
-    for hit in range(hits):
-        width_s = 1e-3 * (1 + 0.05 * rng.standard_normal())
-        pulse = (time_s >= 0.01) & (time_s < 0.01 + width_s)
-        force = np.where(pulse, rng.uniform(150, 250) * np.sin(np.pi * (time_s - 0.01) / width_s), 0.0)
-        records[hit, 0] = force + rng.normal(0.0, 0.01, n_samples)
-        response = np.fft.irfft(np.fft.rfft(force, n_fft) * accelerance, n_fft)[:n_samples]
-        records[hit, 1] = response + rng.normal(0.0, 0.003, n_samples)
-    return Recordings(records, RATE_HZ, np.arange(hits) * 3.0, None, None, None, "two close modes")
+    def accelerance(freq_hz: np.ndarray) -> np.ndarray:
+        s = 2j * np.pi * freq_hz
+        s[0] = 1e-9j
+        stiffness = MASS_KG * s**2 + C_NS_PER_M * s + K_N_PER_M
+        for mode_hz, mass_kg in ((450.0, 0.25), (464.0, 0.25)):
+            k_mode = mass_kg * (2 * np.pi * mode_hz) ** 2
+            c_mode = 2 * 0.01 * np.sqrt(k_mode * mass_kg)
+            stiffness = stiffness + mass_kg * s**2 * (k_mode + c_mode * s) / (mass_kg * s**2 + c_mode * s + k_mode)
+        return s**2 / stiffness
+
+    return synthesised_hits(accelerance, RATE_HZ, hits, seed, "two close modes")
 
 
 def test_a_term_that_leaves_its_own_band_beyond_the_noise_is_a_candidate_not_a_finding():

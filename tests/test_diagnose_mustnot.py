@@ -31,6 +31,7 @@ from gasfilm.analysis.physics.effects import (
 from gasfilm.analysis.physics.response import HitConditions, simulate_response
 from gasfilm.analysis.physics.spec import RigSpec
 
+from synthesis import synthesised_hits
 from test_diagnose import NOMINAL, record
 
 RATE_HZ = 12800.0
@@ -174,24 +175,14 @@ def _tilted_sensor(hits: int = 12, seed: int = 1, rate_hz: float = 6400.0) -> Re
     """The nominal rig read by an accelerometer whose sensitivity falls 2.8 % per decade with a constant −1.08°
     (a piezoceramic's dielectric relaxation: (f/100 Hz)^−0.012), synthesised exactly in the frequency domain from
     sampled half-sine forces, with sensor noise."""
-    rng = np.random.default_rng(seed)
-    n_samples = int(0.5 * rate_hz)
-    time_s = np.arange(n_samples) / rate_hz
-    n_fft = 4 * n_samples
-    freq_hz = np.fft.rfftfreq(n_fft, 1.0 / rate_hz)
-    s = 2j * np.pi * np.maximum(freq_hz, 1e-9)
     k, c = NOMINAL.film_parameters["k"], NOMINAL.film_parameters["eta"]
-    sensor = (np.maximum(freq_hz, 0.01) / 100.0) ** -0.012 * np.exp(-1j * np.deg2rad(1.08))
-    accelerance = s**2 / (NOMINAL.moving_mass_kg * s**2 + c * s + k) * np.where(freq_hz > 0, sensor, 1.0)
-    records = np.zeros((hits, 2, n_samples))
-    for hit in range(hits):
-        width_s = 1e-3 * (1 + 0.05 * rng.standard_normal())
-        pulse = (time_s >= 0.01) & (time_s < 0.01 + width_s)
-        force = np.where(pulse, rng.uniform(150, 250) * np.sin(np.pi * (time_s - 0.01) / width_s), 0.0)
-        records[hit, 0] = force + rng.normal(0.0, 0.01, n_samples)
-        response = np.fft.irfft(np.fft.rfft(force, n_fft) * accelerance, n_fft)[:n_samples]
-        records[hit, 1] = response + rng.normal(0.0, 0.003, n_samples)
-    return Recordings(records, rate_hz, np.arange(hits) * 3.0, None, None, None, "tilted sensor")
+
+    def accelerance(freq_hz: np.ndarray) -> np.ndarray:
+        s = 2j * np.pi * np.maximum(freq_hz, 1e-9)
+        sensor = (np.maximum(freq_hz, 0.01) / 100.0) ** -0.012 * np.exp(-1j * np.deg2rad(1.08))
+        return s**2 / (NOMINAL.moving_mass_kg * s**2 + c * s + k) * np.where(freq_hz > 0, sensor, 1.0)
+
+    return synthesised_hits(accelerance, rate_hz, hits, seed, "tilted sensor")
 
 
 def test_a_sensor_whose_sensitivity_falls_with_frequency_is_no_film_physics():
