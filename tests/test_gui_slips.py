@@ -210,3 +210,25 @@ def test_sigterm_closes_the_session_without_asking(qtbot, tmp_path):
 
     with Session.open(tmp_path / "signal.h5") as session:
         assert session.status == "complete" and session.hit_count == 1
+
+
+def test_a_legend_makes_room_when_every_corner_holds_an_extreme(qtbot):
+    """Point clouds reaching all four corners (the restoring force's sections, one cloud per hit): the legend is put
+    above the data, not over a curve's highest or lowest point (it once covered one under load)."""
+    from gasfilm.app.gui.widgets import make_plot
+
+    plot = make_plot("clouds", ("r", "N"), ("v", "mm/s"))
+    qtbot.addWidget(plot)
+    plot.resize(500, 350)
+    plot.show()
+    rng = np.random.default_rng(1)
+    for corner_x, corner_y in ((-1, -1), (-1, 1), (1, -1), (1, 1)):
+        plot.plot(corner_x + 0.05 * rng.standard_normal(40), corner_y + 0.05 * rng.standard_normal(40), pen=None,
+                  symbol="o", symbolSize=2)
+    plot.plot([-1.0, 1.0], [-1.0, 1.0], name="linear film c = 3.5e+03 N·s/m")
+    qtbot.wait(50)
+    item = plot.getPlotItem()
+    item.tidy_legend()
+    qtbot.wait(50)
+    assert item.legend.isVisible()
+    assert not _legend_covers_extremes(plot)

@@ -286,8 +286,8 @@ _LEGEND_CORNERS = ((-1, 1), (1, 1), (-1, -1), (1, -1))
 class TidyPlotItem(pg.PlotItem):
     """A plot whose legend shows only while one of its curves has data (an empty plot has no empty legend box) and
     sits in the corner of the view where it hides the fewest drawn points, never over a curve's highest or lowest
-    point while another corner is free of them. It is placed again whenever the data, the range or the size
-    changes (once per event-loop turn, however many curves changed)."""
+    point: when no corner is free of them, the view is raised to make room for it above the data. It is placed again
+    whenever the data, the range or the size changes (once per event-loop turn, however many curves changed)."""
 
     def __init__(self, *args: Any, **kwargs: Any) -> None:
         super().__init__(*args, **kwargs)
@@ -359,10 +359,26 @@ class TidyPlotItem(pg.PlotItem):
 
         costs = {corner: cost(corner) for corner in _LEGEND_CORNERS}
         best = min(_LEGEND_CORNERS, key=lambda corner: costs[corner])
-        if costs[self.legend_corner] > costs[best]:  # stay put unless another corner hides less
-            self.legend_corner = best
+        if costs[best][0] > 0 and self._make_room_on_top():
+            best = _LEGEND_CORNERS[0]  # the band made above the data is free
+        elif costs[self.legend_corner] <= costs[best]:  # stay put unless another corner hides less
+            best = self.legend_corner
+        self.legend_corner = best
         horizontal, vertical = self.legend_corner
         legend.setOffset((horizontal * LEGEND_MARGIN_PX, vertical * LEGEND_MARGIN_PX))
+
+    def _make_room_on_top(self) -> bool:
+        """When every corner would hide a curve's highest or lowest point (point clouds reaching all four corners),
+        raise the top of the view by the legend's height so that it sits above the data, as plotting tools make room
+        for a legend; False when the view is too small for that."""
+        need_px = self.legend.boundingRect().height() + 2 * LEGEND_MARGIN_PX
+        height_px = self.vb.height()
+        if height_px <= 2 * need_px:
+            return False
+        y0, y1 = self.vb.viewRange()[1]
+        self.vb.setRange(yRange=(y0, y1 + (y1 - y0) * need_px / (height_px - need_px)), padding=0,
+                         disableAutoRange=False)
+        return True
 
 
 def make_plot(
