@@ -286,13 +286,18 @@ READ_MIN_COHERENCE = 0.9
 RESONANCE_PROMINENCE = 1.5
 
 
-def readable_lines(frf: FrfResult, drop_db: float = USABLE_DROP_DB) -> np.ndarray:
-    """Mask of the lines where an FRF can be read: above 5 Hz, inside the usable band (the force spectrum within
-    ``drop_db`` of its low-frequency level) and with coherence ≥ 0.9 (a single hit's coherence is 1 everywhere, so
-    the usable band is what keeps it off the hammer's spectral nulls)."""
+def hammer_band_lines(frf: FrfResult, drop_db: float = USABLE_DROP_DB) -> np.ndarray:
+    """Mask of the lines above 5 Hz inside the usable band (the force spectrum within ``drop_db`` of its
+    low-frequency level): where the hammer excites."""
     _, upper_hz = usable_band_hz(frf.freq_hz, frf.gff, drop_db)
-    magnitude = np.abs(frf.h1)
-    return ((frf.freq_hz >= RESONANCE_SEARCH_FROM_HZ) & (frf.freq_hz <= upper_hz) & np.isfinite(magnitude)
+    return (frf.freq_hz >= RESONANCE_SEARCH_FROM_HZ) & (frf.freq_hz <= upper_hz)
+
+
+def readable_lines(frf: FrfResult, drop_db: float = USABLE_DROP_DB) -> np.ndarray:
+    """Mask of the lines where an FRF can be read: inside the hammer's band (:func:`hammer_band_lines`) and with
+    coherence ≥ 0.9 (a single hit's coherence is 1 everywhere, so the usable band is what keeps it off the hammer's
+    spectral nulls)."""
+    return (hammer_band_lines(frf, drop_db) & np.isfinite(np.abs(frf.h1))
             & (np.nan_to_num(frf.coherence) >= READ_MIN_COHERENCE))
 
 

@@ -733,8 +733,8 @@ def hit_spectra(
             tail_noise = np.median(np.std(records[:, 1, tail_start:], axis=1))
             before_noise = np.median(np.std(records[:, 1, :quiet_samples], axis=1))
             if tail_noise < 0.8 * before_noise:
-                lower = (f"the noise at the end of the records is {before_noise / tail_noise:.1f}× lower than before the "
-                         f"hits: the records look windowed already (or the noise is not steady)" if tail_noise > 0 else
+                lower = (f"the noise at the end of the records is {before_noise / tail_noise:.1f}× lower than before "
+                         f"the hits: the records look windowed already (or the noise is not steady)" if tail_noise > 0 else
                          "the response records end in exact zeros: zero-padded by the program that exported them (or "
                          "windowed to zero)")
                 quality.append(QualityNote(
@@ -1229,8 +1229,9 @@ def _remove_mains(
     happens; a harmonic counts when its power over all hits stands 25 times above what noise alone gives, and when
     the line's own frequency is the harmonic's (:data:`MAINS_FREQUENCY_TOLERANCE`). Lines at harmonics only, without
     the mains frequency itself, need two harmonics; tails shorter than :data:`MIN_MAINS_WINDOW_S` are not searched.
-    With ``before`` samples of pre-trigger, the lines carried back there must be found with their phase (:func:`_coherent_before`): mains is there before the hit too, a line the
-    hit excites (a self-excited limit cycle, a ringing mode) is not mains."""
+    With ``before`` samples of pre-trigger, the lines carried back there must be found with their phase
+    (:func:`_coherent_before`): mains is there before the hit too, a line the hit excites (a self-excited limit
+    cycle, a ringing mode) is not mains."""
     n_samples = records.shape[-1]
     if (n_samples - tail_start) / sample_rate_hz < MIN_MAINS_WINDOW_S:
         return records, None, []
@@ -1338,4 +1339,5 @@ def without_dc_offsets(records: np.ndarray, sample_rate_hz: float) -> tuple[np.n
     return cleaned, QualityNote(
         "offset", f"{' and '.join(said)} before every hit (a DC-coupled channel: gravity on a MEMS or servo "
         f"accelerometer, a zero offset, or records detrended on export; the NI 9234's IEPE inputs are AC-coupled): "
-        f"each record's mean before its impact is subtracted{unmatched} — a property of the recording, not physics"), response_only
+        f"each record's mean before its impact is subtracted{unmatched} — a property of the recording, not physics"
+    ), response_only

@@ -28,14 +28,12 @@ from gasfilm.analysis.physics.effects import MIN_DAMPING_RATIO, AcCoupling, Extr
 from gasfilm.analysis.physics.spec import RigSpec
 from gasfilm.analysis.spectra import (
     READ_MIN_COHERENCE,
-    RESONANCE_SEARCH_FROM_HZ,
-    USABLE_DROP_DB,
     FrfResult,
     WindowSettings,
     compute_frf,
+    hammer_band_lines,
     readable_lines,
     resonance_lines,
-    usable_band_hz,
 )
 from gasfilm.analysis.threads import one_blas_thread
 from gasfilm.drivers.errors import SettingError
@@ -127,8 +125,7 @@ MAX_START_MODES = 6
 
 def _low_coherence_hint(frf: FrfResult) -> str:
     """What a coherence below 0.9 across the whole hammer band suggests, or nothing when it is not that low."""
-    _, upper_hz = usable_band_hz(frf.freq_hz, frf.gff, USABLE_DROP_DB)
-    band = (frf.freq_hz >= RESONANCE_SEARCH_FROM_HZ) & (frf.freq_hz <= upper_hz)
+    band = hammer_band_lines(frf)
     coherence = np.nan_to_num(frf.coherence[band])
     if not band.any() or np.median(coherence) >= READ_MIN_COHERENCE:
         return ""
@@ -237,8 +234,7 @@ def _outlier_hits(records: np.ndarray, rate_hz: float, window: WindowSettings, f
     """Hits whose own FRF departs from the others' far beyond their scatter, in the hammer's band (a minority)."""
     if len(records) < 4:
         return []
-    _, upper_hz = usable_band_hz(frf.freq_hz, frf.gff)
-    band = np.flatnonzero((frf.freq_hz >= RESONANCE_SEARCH_FROM_HZ) & (frf.freq_hz <= upper_hz))
+    band = np.flatnonzero(hammer_band_lines(frf))
     per_hit = np.array([compute_frf(records[[index]], rate_hz, window).h1[band] for index in range(len(records))])
     median = np.median(per_hit.real, axis=0) + 1j * np.median(per_hit.imag, axis=0)
     distance = np.median(np.abs(per_hit - median) / np.maximum(np.abs(median), 1e-300), axis=1)
