@@ -516,14 +516,18 @@ def _nonlinear_refit(
     spectra: HitSpectra, evidence: Evidence, spec: RigSpec, outcome: FitOutcome, noise_scale: float
 ) -> tuple[FitOutcome, Evidence]:
     """A cubic film spring's fit refitted against its exact nonlinear replay until k3 settles (the
-    equivalent-linear fit only starts it), when the equivalent-linear fit alone would already pay its BIC cost."""
-    if (evidence.chi2(spec) - outcome.chi2) / noise_scale < np.log(evidence.point_count) + BIC_MARGIN:
+    equivalent-linear fit only starts it), when the equivalent-linear fit alone would already pay its BIC cost. The
+    refits stop early when one leaves χ² above the spec's without the term: the exact response contradicts the
+    spring (a few per cent more or less k3 cannot turn that round)."""
+    chi2_without = evidence.chi2(spec)
+    if (chi2_without - outcome.chi2) / noise_scale < np.log(evidence.point_count) + BIC_MARGIN:
         return outcome, evidence  # not even the equivalent linear term pays for itself: no nonlinear replay
     for _ in range(NONLINEAR_ITERATIONS):
         previous = outcome.spec.cubic_stiffness_n_per_m3
         evidence = evidence_for(spectra, outcome.spec)
         outcome = fit(evidence, outcome.spec, outcome.slots)
-        if abs(outcome.spec.cubic_stiffness_n_per_m3 - previous) <= 0.02 * abs(previous):
+        if (abs(outcome.spec.cubic_stiffness_n_per_m3 - previous) <= 0.02 * abs(previous)
+                or outcome.chi2 >= chi2_without):
             break
     return outcome, evidence
 
