@@ -149,8 +149,12 @@ class Evidence:
         if self._hit_by_hit(spec):
             _, sqrt_weight = self._hit_rows(hits)
             difference, prior = self._profiled(spec, hits)
-            difference *= sqrt_weight
-            return np.concatenate((difference.real.ravel(), difference.imag.ravel(), prior))
+            size = difference.size
+            vector = np.empty(2 * size + prior.size)  # real parts, imaginary parts, prior: each weighted in place
+            np.multiply(difference.real, sqrt_weight, out=vector[:size].reshape(difference.shape))
+            np.multiply(difference.imag, sqrt_weight, out=vector[size:2 * size].reshape(difference.shape))
+            vector[2 * size:] = prior
+            return vector
         mean, total = self._mean(hits)
         difference = mean - self.predicted(spec)
         difference *= np.sqrt(total)

@@ -766,6 +766,8 @@ class SqueezeFilm(Effect):
     def added_stiffness(self, s: np.ndarray) -> np.ndarray:
         half = 0.5 * np.sqrt(self.squeeze_time_s * np.asarray(s, dtype=complex))
         small = np.abs(half) < 1e-3
+        if not small.any():  # (the series below only where the squeeze number is tiny)
+            return self.static_stiffness_n_per_m * (1.0 - np.tanh(half) / half)
         safe = np.where(small, 1.0, half)
         ratio = np.where(small, half**2 / 3.0 - 2.0 * half**4 / 15.0, 1.0 - np.tanh(safe) / safe)
         return self.static_stiffness_n_per_m * ratio

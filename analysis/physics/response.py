@@ -44,23 +44,31 @@ class HitConditions:
         return HitConditions(self.time_s[hits], self.impulse_ns[hits])
 
 
-def film_stiffness(spec: RigSpec, s: np.ndarray, time_s: np.ndarray | float = 0.0) -> np.ndarray:
+def film_stiffness(
+    spec: RigSpec, s: np.ndarray, time_s: np.ndarray | float = 0.0,
+    scales: tuple[np.ndarray, np.ndarray] | None = None,
+) -> np.ndarray:
     """The film's complex stiffness Z(s) in N/m at session time(s): (G,) for one time, (hits, G) for an array.
 
     The whole film scales with :meth:`RigSpec.film_scale` (drift, step changes); its viscous coefficients (dashpot and
-    spring-pot coefficients) further with :meth:`RigSpec.viscous_scale`.
+    spring-pot coefficients) further with :meth:`RigSpec.viscous_scale`. ``scales``: those two at ``time_s``
+    (:func:`film_scales`), when the caller has them.
     """
     s = np.asarray(s, dtype=complex)
     model = spec.film
     vector = model.vector(spec.film_parameters)
-    viscous = np.asarray(spec.viscous_scale(time_s), dtype=float)
+    viscous, whole = film_scales(spec, time_s) if scales is None else scales
     if np.any(viscous != 1.0):
         columns = [i for i, parameter in enumerate(model.parameters) if parameter.unit.startswith("N·s")]
         vector = np.broadcast_to(vector, viscous.shape + vector.shape).copy()
         vector[..., columns] *= viscous[..., np.newaxis]
-    whole = np.asarray(spec.film_scale(time_s), dtype=float)
     stiffness = _network_stiffness(model, vector, s)
     return stiffness * whole[..., np.newaxis] if whole.ndim else stiffness * float(whole)
+
+
+def film_scales(spec: RigSpec, time_s: np.ndarray | float) -> tuple[np.ndarray, np.ndarray]:
+    """:meth:`RigSpec.viscous_scale` and :meth:`RigSpec.film_scale` at ``time_s``, as arrays."""
+    return (np.asarray(spec.viscous_scale(time_s), dtype=float), np.asarray(spec.film_scale(time_s), dtype=float))
 
 
 class _LastNetwork:
@@ -175,9 +183,10 @@ class GridPieces:
     def film(self, spec: RigSpec, time_s: np.ndarray | float) -> np.ndarray:
         """:func:`film_stiffness` of the spec at ``time_s``."""
         times = time_s.tobytes() if isinstance(time_s, np.ndarray) else float(time_s)
-        key = ("film", spec.film_model, tuple(spec.film_parameters.items()),
-               tuple(effect for effect in spec.effects if _scales_film(effect)), times)
-        return self._remembered(key, lambda: film_stiffness(spec, self.s, time_s))
+        scaling = tuple(effect for effect in spec.effects if _scales_film(effect))
+        key = ("film", spec.film_model, tuple(spec.film_parameters.items()), scaling, times)
+        return self._remembered(key, lambda: film_stiffness(
+            spec, self.s, time_s, self._remembered(("scales", scaling, times), lambda: film_scales(spec, time_s))))
 
     def added_stiffness(self, effect: Effect) -> np.ndarray | float:
         return self._remembered(("added", effect), lambda: effect.added_stiffness(self.s))
