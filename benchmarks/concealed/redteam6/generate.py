@@ -562,7 +562,9 @@ def write_uff(path: Path, records: np.ndarray, starts: np.ndarray, case: Case) -
     for hit, (record, start) in enumerate(zip(records, starts)):
         start = -case.pretrigger_s if case.abscissa == "trigger" else float(start)
         for values, dtype, unit in ((record[0], 13, "N"), (record[1], 12, "m/s^2")):
-            values = np.asarray(values, dtype=np.float32 if case.ord_data_type == 2 else float)
+            values = np.asarray(values, dtype=float)
+            if case.ord_data_type == 2:  # pyuff wants float64 here; it writes 4-byte floats for type 2
+                values = values.astype(np.float32).astype(float)
             sets.append(pyuff.prepare_58(
                 binary=1, id1=f"{case.name} hit {hit + 1}", id2="redteam6 generator", id3="", id4="", id5="",
                 func_type=1, rsp_node=1, rsp_dir=3, ref_node=1, ref_dir=3, ord_data_type=case.ord_data_type,
@@ -572,7 +574,37 @@ def write_uff(path: Path, records: np.ndarray, starts: np.ndarray, case: Case) -
                 z_axis_axis_units_lab="NONE", data=values, x=start + np.arange(len(values)) * dt))
     if path.exists():
         path.unlink()
-    pyuff.UFF(str(path)).write_sets(sets, mode="add")
+    pyuff.UFF(str(path)).write_sets(sets, mode="add", force_double=case.ord_data_type != 2)
+    if case.ord_data_type == 2:
+        to_single(path)
+
+
+def to_single(path: Path) -> None:
+    """pyuff writes 8-byte values even under ord_data_type 2: rewrite every binary 58 record with 4-byte floats and
+    the byte count of its '58b' line accordingly (UFF 58b: the header's 11 lines, then the values, then -1)."""
+    raw = path.read_bytes()
+    out, pos = bytearray(), 0
+    marker = b"    58b"
+    while True:
+        at = raw.find(marker, pos)
+        if at < 0:
+            out += raw[pos:]
+            break
+        line_end = raw.index(b"\n", at)
+        fields = raw[at:line_end].split()
+        head_end = line_end + 1
+        header = []
+        for _ in range(11):
+            nxt = raw.index(b"\n", head_end) + 1
+            header.append(raw[head_end:nxt])
+            head_end = nxt
+        n_bytes = 8 * int(header[6].split()[1])  # record 7: ord_data_type, number of values, ...; pyuff wrote doubles
+        values = np.frombuffer(raw[head_end:head_end + n_bytes], dtype="<f8")
+        fields[4] = str(values.size * 4).encode()
+        line = b"%7s%6s%6s%12s%12s%6s%6s%12s%12s" % tuple(fields[:9])
+        out += raw[pos:at] + line + b"\n" + raw[line_end + 1:head_end] + values.astype("<f4").tobytes()
+        pos = head_end + n_bytes
+    path.write_bytes(bytes(out))
 
 
 def main(argv: list[str] | None = None) -> int:
