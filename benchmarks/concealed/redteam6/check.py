@@ -56,7 +56,7 @@ def own_model(case, s, f_spec, drawn):
 
 
 def main() -> None:
-    print(f"{'case':28s} {'max |H1| dev vs plain':>22s} {'at Hz':>7s} {'RMS dev':>8s}  {'own-model dev (median/max)':>27s}"
+    print(f"{'case':28s} {'max |H1| dev vs plain':>22s} {'at Hz':>7s} {'RMS dev':>8s} {'complex max/RMS':>16s}  {'own-model dev (median/max)':>27s}"
           f"  {'acausal (analog)':>16s}  {'pre-pulse/peak (written)':>24s}")
     for case in gen.cases():
         records, _, drawn = gen.synthesise(case, noise=False)
@@ -68,6 +68,7 @@ def main() -> None:
         s = 2j * np.pi * freq
         plain = gen.sd_accelerance(s, k=case.film[0], c=case.film[1])
         dev = np.abs(np.abs(h[band]) / np.abs(plain[band]) - 1)
+        cdev = np.abs(h[band] / plain[band] - 1)
         model = own_model(case, s, f_spec, drawn)
         own = ""
         if model is not None:
@@ -75,7 +76,8 @@ def main() -> None:
             own = f"{np.median(rel):.1e} / {rel.max():.1e}"
         pre = int(round((case.pretrigger_s - 0.2e-3) * rate))
         written = np.abs(records[:, 1, :pre]).max() / np.abs(records[:, 1]).max()
-        print(f"{case.name:28s} {dev.max():22.2%} {freq[band][dev.argmax()]:7.0f} {np.sqrt(np.mean(dev**2)):8.2%}  "
+        print(f"{case.name:28s} {dev.max():22.2%} {freq[band][dev.argmax()]:7.0f} {np.sqrt(np.mean(dev**2)):8.2%} "
+              f"{f'{cdev.max():.1%}/{np.sqrt(np.mean(cdev**2)):.1%}':>16s}  "
               f"{own:>27s}  {drawn['acausal_fraction']:16.1e}  {written:24.1e}")
     # exporter steps whose size shows only with noise: the same draw with and without the step
     import dataclasses
