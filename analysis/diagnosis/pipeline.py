@@ -362,7 +362,11 @@ def _select_one(
     trials = []
     identifiers = _candidate_identifiers(current.spec, context, restoring)
 
-    fitted_candidates = _candidate_fits(spectra, evidence, current.spec, identifiers, context, noise_scale)
+    # a candidate matters when it scores above BIC_MARGIN (chosen, or listed as an alternative)
+    fitted_candidates = _candidate_fits(
+        spectra, evidence, current.spec, identifiers, context, noise_scale,
+        worth=lambda slot_count: current.chi2 - (BIC_MARGIN + (slot_count - len(current.slots)) * np.log(points))
+        * noise_scale)
     for identifier in identifiers:
         fitted = fitted_candidates[identifier]
         if isinstance(fitted, GasfilmError):  # a nonlinear replay that does not converge is no candidate
@@ -453,9 +457,13 @@ def _not_a_finding(outcome: FitOutcome, index: int, context: FitContext) -> str 
 def _candidate_fits(
     spectra: HitSpectra, evidence: Evidence, spec: RigSpec, identifiers: list[str], context: FitContext,
     noise_scale: float,
+    worth: Callable[[int], float] | None = None,
 ) -> dict[str, tuple[FitOutcome | None, Evidence] | Exception]:
     """Each candidate's best fit (the steps listed at :func:`candidate_starts`; None without a start) and the
     evidence it is judged on (its own for a cubic spring: :func:`_nonlinear_refit`), or the exception its fit raised.
+    ``worth`` gives, for a candidate spec's number of free slots, the χ² below which its fit matters to the caller:
+    fits that cannot get there stop early (:func:`fit`'s ``worth_below``); not a cubic spring's, which its exact
+    replay may still move far.
 
     The fits are shared by two processes (:func:`shared_map`) in two rounds: every start of every candidate screened
     (and at once finished when the candidate has no more starts than are finished), then the best starts of the
@@ -475,9 +483,15 @@ def _candidate_fits(
             results[identifier] = (None, evidence)
         starts.extend((identifier, start, len(specs) <= FINISHED_STARTS) for start in specs)
 
+    def worth_below(identifier: str, start: RigSpec) -> float | None:
+        if worth is None or identifier == "cubic-stiffness":
+            return None
+        return worth(len(spec_slots(start, context)))
+
     def screen(item: tuple[str, RigSpec, bool]) -> tuple[FitOutcome, FitOutcome | None]:
-        screened = screening_fit(evidence, item[1], context)
-        return screened, (finishing_fit(evidence, screened) if item[2] else None)
+        identifier, start, finish = item
+        screened = screening_fit(evidence, start, context, worth_below(identifier, start))
+        return screened, (finishing_fit(evidence, screened, worth_below(identifier, start)) if finish else None)
 
     # CANDIDATES lists the terms with fewest parameters (and starts) first: the quickest fits
     by_candidate: dict[str, list[tuple[FitOutcome, FitOutcome | None]]] = {}
@@ -489,8 +503,9 @@ def _candidate_fits(
     finishing = [(identifier, screened) for identifier, outcomes in by_candidate.items()
                  if outcomes[0][1] is None for screened in to_finish([screened for screened, _ in outcomes])]
     finished: dict[str, list] = {}
-    for (identifier, _), outcome in zip(finishing, shared_map(lambda item: finishing_fit(evidence, item[1]),
-                                                              finishing, longest_first=True)):
+    for (identifier, _), outcome in zip(finishing, shared_map(
+            lambda item: finishing_fit(evidence, item[1], worth_below(item[0], item[1].spec)), finishing,
+            longest_first=True)):
         finished.setdefault(identifier, []).append(outcome)
     for identifier, outcomes in by_candidate.items():
         if outcomes[0][1] is not None:  # finished with their screening: in the order to_finish gives
@@ -774,7 +789,11 @@ def _other_kind_in_its_place(
               if EFFECT_TYPES[other].kind in ("rig", "measurement") and EFFECT_TYPES[other].kind != kind]
     points = evidence.point_count
     noise_scale = _noise_scale(final, points)
-    fitted = _candidate_fits(spectra, evidence, reduced, others, context, noise_scale)
+    # another term matters when its swap costs less than SWAP_MARGIN
+    fitted = _candidate_fits(
+        spectra, evidence, reduced, others, context, noise_scale,
+        worth=lambda slot_count: final.chi2 + (SWAP_MARGIN - (slot_count - len(final.slots)) * np.log(points))
+        * noise_scale)
     closest: tuple[float, str] | None = None
     for other in others:
         result = fitted[other]

@@ -189,11 +189,11 @@ class Evidence:
         return (weight * predicted).sum(axis=0) / weight.sum(axis=0)
 
 
-#: Relative tolerance of a final fit, and of a screening fit (the starting values of a candidate: the best starts
-#: are finished to the full tolerance; a screening fit creeping along a valley by less than 0.01 % of χ² a step only
-#: ranks its start, so it stops there).
+#: Relative tolerance of a final fit, and of a screening fit (the starting values of a candidate: the best start is
+#: finished to the full tolerance). (1e-4 stops some starts in their first flat steps, 30 % of χ² above where they
+#: end: the wrong starts are then finished.)
 FIT_TOLERANCE = 1e-7
-SCREENING_TOLERANCE = 1e-4
+SCREENING_TOLERANCE = 1e-6
 FINISHED_STARTS = 2
 
 
@@ -204,22 +204,50 @@ def fit(
     hits: np.ndarray | None = None,
     tolerance: float = FIT_TOLERANCE,
     covariance: bool = True,
+    worth_below: float | None = None,
 ) -> FitOutcome:
     """Weighted least squares of the slots (scaled search space) from the spec's current values. Without
-    ``covariance`` (a screening fit, of which only the spec and χ² are used) the outcome's covariance is empty."""
+    ``covariance`` (a screening fit, of which only the spec and χ² are used) the outcome's covariance is empty.
+
+    ``worth_below``: the χ² below which the outcome matters to the caller (a candidate term's fit: below it the term
+    would count). A fit still descending, after :data:`PACE_STEPS` steps, too slowly to get there within its
+    evaluations even at :data:`PACE_MARGIN` times its recent pace (a term shrinking to nothing, a parameter crawling
+    to its bound) stops where it is: its outcome then only says that it does not matter."""
     if not slots:
         return FitOutcome(spec, evidence.chi2(spec, hits), [], np.zeros((0, 0)), 1)
+    budget = 40 * (len(slots) + 1)
     problem = _LeastSquares(evidence, spec, slots, hits)
+    if worth_below is not None:
+        problem.stop_unless_below(worth_below, budget)
     # MINPACK's Levenberg-Marquardt (bounds by clipping inside the residual): several times faster than a
     # bounded trust-region solver on these tall problems. Called as scipy.optimize.least_squares(method="lm",
     # x_scale="jac") calls it, with its forward differences (:meth:`_LeastSquares.jacobian_rows`), bit for bit; the
     # Jacobian is handed over by rows of parameters (no transposed copy of a tall matrix at every step).
-    x, _, info, _, _ = leastsq(problem.residual, read_vector(spec, slots), Dfun=problem.jacobian_rows, full_output=True,
-                               col_deriv=True, ftol=tolerance, xtol=tolerance, gtol=GRADIENT_TOLERANCE,
-                               maxfev=40 * (len(slots) + 1))
+    try:
+        x, _, info, _, _ = leastsq(problem.residual, read_vector(spec, slots), Dfun=problem.jacobian_rows,
+                                   full_output=True, col_deriv=True, ftol=tolerance, xtol=tolerance,
+                                   gtol=GRADIENT_TOLERANCE, maxfev=budget)
+        evaluations = int(info["nfev"])
+    except _NotWorthFinishing as stopped:
+        x, evaluations = stopped.vector, problem.calls
+    problem.stop_unless_below(None, 0)
     fitted = problem.spec_at(x)
     matrix = _covariance(problem.jacobian_rows(x).T) if covariance else np.zeros((0, 0))
-    return FitOutcome(fitted, evidence.chi2(fitted, hits), slots, matrix, int(info["nfev"]))
+    return FitOutcome(fitted, evidence.chi2(fitted, hits), slots, matrix, evaluations)
+
+
+#: A fit given ``worth_below`` is judged after this many steps, on its descent over the last this many steps, ...
+PACE_STEPS = 10
+#: ... allowed to speed up this many times over what is left of its evaluations.
+PACE_MARGIN = 3.0
+
+
+class _NotWorthFinishing(Exception):
+    """Raised inside a fit that cannot reach the χ² that would make it matter (see :func:`fit`)."""
+
+    def __init__(self, vector: np.ndarray) -> None:
+        super().__init__("not worth finishing")
+        self.vector = vector
 
 
 #: MINPACK's gradient tolerance (scipy.optimize.least_squares's default).
@@ -237,6 +265,18 @@ class _LeastSquares:
         self.low, self.high = np.array([slot.search_bounds() for slot in slots]).T
         self._last: tuple[bytes, np.ndarray] | None = None
         self._last_rows: tuple[bytes, np.ndarray] | None = None
+        self.calls = 0  # residuals MINPACK asked for (the Jacobian's own not counted)
+        self._worth_below: float | None = None
+        self._budget = 0
+        self._offset = 0.0
+        self._path: list[float] = []  # χ² at every point a Jacobian was asked for: MINPACK's accepted steps
+
+    def stop_unless_below(self, chi2: float | None, budget: int) -> None:
+        """Stop the fit (:class:`_NotWorthFinishing`) once it cannot get below ``chi2`` within ``budget`` residuals
+        (None: never)."""
+        self._worth_below, self._budget = chi2, budget
+        if chi2 is not None:  # the residual's squared norm is χ² less what no hit-independent model removes
+            self._offset = 0.0 if self.evidence._hit_by_hit(self.spec) else self.evidence.scatter_constant(self.hits)
 
     def spec_at(self, vector: np.ndarray) -> RigSpec:
         return write_vector(self.spec, self.slots, np.clip(vector, self.low, self.high))
@@ -246,6 +286,7 @@ class _LeastSquares:
         key = vector.tobytes()
         if self._last is not None and self._last[0] == key:
             return self._last[1]
+        self.calls += 1
         value = self.evidence.residual(self.spec_at(vector), self.hits)
         self._last = (key, value)
         return value
@@ -259,6 +300,8 @@ class _LeastSquares:
         if self._last_rows is not None and self._last_rows[0] == key:
             return self._last_rows[1]
         base = self.residual(vector)
+        if self._worth_below is not None:
+            self._judge_pace(vector, float(base @ base) + self._offset)
         at = self.spec_at(vector)
         step = DIFFERENCE_STEP * ((vector >= 0).astype(float) * 2 - 1) * np.maximum(1.0, np.abs(vector))
         rows = np.empty((len(self.slots), base.size))
@@ -268,6 +311,16 @@ class _LeastSquares:
             rows[index] = (self.evidence.residual(changed, self.hits) - base) / (moved - vector[index])
         self._last_rows = (key, rows)  # MINPACK copies what it is handed
         return rows
+
+
+    def _judge_pace(self, vector: np.ndarray, chi2: float) -> None:
+        """Raise :class:`_NotWorthFinishing` when the descent so far cannot reach :attr:`_worth_below` in time."""
+        self._path.append(chi2)
+        if len(self._path) <= PACE_STEPS or chi2 < self._worth_below:
+            return
+        pace = (self._path[-1 - PACE_STEPS] - chi2) / PACE_STEPS
+        if chi2 - PACE_MARGIN * pace * max(self._budget - self.calls, 0) > self._worth_below:
+            raise _NotWorthFinishing(vector)
 
 
 def _covariance(jacobian: np.ndarray) -> np.ndarray:
@@ -372,9 +425,12 @@ def candidate_starts(evidence: Evidence, spec: RigSpec, identifier: str, context
     return [with_effect(spec, effect) for effect in starting_effects(identifier, spec, evidence, context)]
 
 
-def screening_fit(evidence: Evidence, start: RigSpec, context: FitContext) -> FitOutcome:
-    """A candidate's start fitted to the screening tolerance."""
-    return fit(evidence, start, spec_slots(start, context), tolerance=SCREENING_TOLERANCE, covariance=False)
+def screening_fit(
+    evidence: Evidence, start: RigSpec, context: FitContext, worth_below: float | None = None
+) -> FitOutcome:
+    """A candidate's start fitted to the screening tolerance (``worth_below``: see :func:`fit`)."""
+    return fit(evidence, start, spec_slots(start, context), tolerance=SCREENING_TOLERANCE, covariance=False,
+               worth_below=worth_below)
 
 
 def to_finish(screened: list[FitOutcome]) -> list[FitOutcome]:
@@ -383,9 +439,9 @@ def to_finish(screened: list[FitOutcome]) -> list[FitOutcome]:
     return sorted(screened, key=lambda outcome: outcome.chi2)[:FINISHED_STARTS]
 
 
-def finishing_fit(evidence: Evidence, screened: FitOutcome) -> FitOutcome:
-    """A screened start refitted to the full tolerance."""
-    return fit(evidence, screened.spec, screened.slots)
+def finishing_fit(evidence: Evidence, screened: FitOutcome, worth_below: float | None = None) -> FitOutcome:
+    """A screened start refitted to the full tolerance (``worth_below``: see :func:`fit`)."""
+    return fit(evidence, screened.spec, screened.slots, worth_below=worth_below)
 
 
 def best_finished(finished: list[FitOutcome]) -> FitOutcome:
