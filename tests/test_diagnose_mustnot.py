@@ -20,7 +20,7 @@ from gasfilm.analysis.diagnosis.pipeline import (
     _other_kind_in_its_place,
 )
 from gasfilm.analysis.diagnosis.recordings import Recordings
-from gasfilm.analysis.diagnosis.selection import FitOutcome
+from gasfilm.analysis.diagnosis.selection import FitOutcome, fit
 from gasfilm.analysis.physics.effects import (
     AcCoupling,
     CrossTalk,
@@ -148,6 +148,18 @@ def test_a_term_that_takes_a_spec_parameter_to_its_bound_is_no_finding():
     assert _displaces_a_parameter(_outcome(NOMINAL.with_effects(memory)), "film-memory", NOMINAL) is None
 
 
+def test_a_term_that_takes_the_films_place_beside_others_is_no_finding():
+    # red team round 6 (capacitive cross-talk, a transport delay): beside a delay and a mass, a film memory carried
+    # the film's stiffness (k 3.78e7 → 1.59e7 N/m with it) to stand in for a derivative leak
+    memory = FilmMemory(k_memory=2.5e7, eta_memory=4.5e5, alpha_memory=1.09)
+    final = _outcome(NOMINAL.with_values(film_parameters={"k": 1.59e7, "eta": 3010.0}).with_effects(memory))
+    reason = _displaces_a_parameter(final, "film-memory", NOMINAL)
+    assert reason is not None and "takes the film's place" in reason and "2.4×" in reason, reason
+    # a term that moves the film by less than a factor of two adds to it
+    beside = _outcome(NOMINAL.with_values(film_parameters={"k": 3.1e7, "eta": 3450.0}).with_effects(memory))
+    assert _displaces_a_parameter(beside, "film-memory", NOMINAL) is None
+
+
 def test_a_term_that_one_of_the_other_kind_replaces_on_the_written_spec_is_no_finding(monkeypatch):
     # the written spec's AC coupling against the rig terms fitted in its place: a pneumatic lag with one parameter more
     # and χ² 2.9 lower (ΔBIC +4.0 with ln 1000 per parameter) cannot be told from it; one with χ² 30 higher can
@@ -159,7 +171,7 @@ def test_a_term_that_one_of_the_other_kind_replaces_on_the_written_spec_is_no_fi
         point_count = 1000
 
     def fits(raised: float):
-        def candidate_fits(spectra, evidence, spec, identifiers, context, noise_scale):
+        def candidate_fits(spectra, evidence, spec, identifiers, context, noise_scale, worth=None):
             return {identifier: ((_outcome(swapped, final.chi2 + raised) if identifier == "pneumatic-lag" else None),
                                  evidence) for identifier in identifiers}
         return candidate_fits
@@ -191,3 +203,21 @@ def test_a_sensor_whose_sensitivity_falls_with_frequency_is_no_film_physics():
     diagnosis = diagnose(_tilted_sensor(), NOMINAL)
     assert not [finding.effect for finding in diagnosis.findings if finding.kind == "rig"], diagnosis.findings
     assert "eta" not in diagnosis.recalibration or not diagnosis.recalibration["eta"]["at_bound"]
+
+
+def test_a_candidate_fit_that_cannot_matter_stops_early_and_one_that_can_runs_to_the_end():
+    # a pneumatic lag on a plain film creeps towards nothing: once, at thrice its pace, it cannot reach the χ² at
+    # which it would count, it stops (for a fraction of the evaluations); asked for a level it is already below, the
+    # fit is the full one, bit for bit
+    spectra = hit_spectra(_records(), RATE_HZ)
+    evidence = pipeline.evidence_for(spectra, NOMINAL)
+    context = fit_context(NOMINAL, spectra.conditions, (float(spectra.freq_hz[0]), float(spectra.freq_hz[-1])))
+    start = with_effect(NOMINAL, PneumaticLag(k_lag=3.8e5, tau_lag=2.44e-4))
+    slots = spec_slots(start, context)
+    full = fit(evidence, start, slots)
+    worth_below = evidence.chi2(NOMINAL) - 30.0
+    cut = fit(evidence, start, slots, worth_below=worth_below)
+    assert cut.evaluations < full.evaluations / 2, (cut.evaluations, full.evaluations)
+    assert worth_below < full.chi2 <= cut.chi2 < full.chi2 + 1.0
+    within_reach = fit(evidence, start, slots, worth_below=full.chi2 + 1e6)
+    assert within_reach.chi2 == full.chi2 and within_reach.evaluations == full.evaluations

@@ -99,6 +99,9 @@ SWAP_MARGIN = 6.0
 #: A term whose χ² gain is below this share of another term's is within that term's form error
 #: (:func:`_beside_a_larger_term`).
 MODEL_FORM_SHARE = 1e-3
+#: A term beside others that moves a film parameter by more than this factor (against the spec refitted without it)
+#: takes the film's place instead of adding to it.
+FILM_DISPLACEMENT = 2.0
 
 
 @dataclass
@@ -756,6 +759,13 @@ def _displaces_a_parameter(final: FitOutcome, identifier: str, without: RigSpec)
         return (f"with it, {label} runs into the edge of its range ({slot.value(final.spec):.4g}), where it is "
                 f"{reduced.value(without):.4g} without it: the term takes the place of the spec's own {label} "
                 f"instead of adding to it, and a parameter at its bound is not a measurement")
+    for name, value in final.spec.film_parameters.items():
+        alone = without.film_parameters.get(name, value)
+        if value > 0 and alone > 0 and max(value / alone, alone / value) > FILM_DISPLACEMENT:
+            return (f"with it, the film's {name} is {value:.4g}, {max(value / alone, alone / value):.1f}× from "
+                    f"the {alone:.4g} it has without it: beside the other terms it takes the film's place instead of "
+                    f"adding to it — together they re-describe the film, a combination standing in for something "
+                    f"else")
     return None
 
 
@@ -890,8 +900,10 @@ def _claim(
     reason = None
     if after > limit:
         share = (before - after) / (before - 1.0) if before > 1.0 else 0.0
+        removed = (f"{100 * share:.0f} % of the excess there removed" if share >= 0
+                   else "worse there than without it")
         reason = (f"a partial description: with it, its own band {band_text} stays at χ²/point {after:.2f} (1 = noise; "
-                  f"beyond the noise above {limit:.2f}), {100 * share:.0f} % of the excess there removed")
+                  f"beyond the noise above {limit:.2f}), {removed}")
     elif in_written <= 0:
         reason = (f"the written spec replayed is not closer to the recordings with it than refitted without it "
                   f"(RMS gain {in_written:+.2f} % of the recalibrated spec's)")
