@@ -326,3 +326,35 @@ def test_a_broad_excess_spanning_harmonics_is_not_called_distortion():
     assert _at_harmonics(freq_hz, peaked, 196.0, 5.0)
     narrow = np.arange(560.0, 611.0, 10.0)
     assert _at_harmonics(narrow, np.full((16, narrow.size), 3.0), 200.0, 10.0)
+
+
+def test_an_excess_at_a_harmonic_is_called_distortion_only_when_it_grows_with_the_hit_level(recorded, monkeypatch):
+    """Red-team round 6's linear twin carriage and differentiated displacement left small excesses at 5× the
+    resonance, which were called "distorted by a nonlinearity": now only an excess that also follows the hits' levels
+    is; one that does not is said to sit there without growing as distortion would."""
+    from gasfilm.analysis.diagnosis import pipeline
+
+    recordings, spec = recorded
+    spectra = hit_spectra(recordings.records, recordings.sample_rate_hz, hit_times_s=np.arange(4.0))
+    evidence = pipeline.evidence_for(spectra, spec)
+    top = evidence.freq_hz.size - 1
+    low = int(np.searchsorted(evidence.freq_hz, 2.0 * 200.0))
+    monkeypatch.setattr(pipeline, "_at_harmonics", lambda *arguments: True)
+    for trend, expected in ((True, "growing with the hit level: the response is distorted by a nonlinearity"),
+                            (False, "does not follow the hits' levels as a nonlinearity's distortion would")):
+        monkeypatch.setattr(pipeline, "_level_trend", lambda values, impulse_ns, trend=trend: trend)
+        words = pipeline._character(spectra, pipeline.evidence_for(spectra, spec), spec, low, top)
+        assert expected in words, words
+
+
+def test_records_with_no_usable_hit_say_which_checks_removed_them(recorded):
+    """Red-team round 6's swapped cables: every record's 'force' rings on after the impact, so every hit was left out
+    as a double hit; the refusal says so, and asks whether the channels are swapped."""
+    from gasfilm.drivers.errors import SettingError
+
+    recordings, _ = recorded
+    with pytest.raises(SettingError) as refused:
+        hit_spectra(recordings.records[:, ::-1], recordings.sample_rate_hz)
+    message = str(refused.value)
+    assert "only 0 usable hit(s) of 4" in message and "4 with a second impact" in message, message
+    assert "channels swapped" in message

@@ -617,7 +617,13 @@ def hit_spectra(
     keep[double_hits + clipped_hits + spiked] = False
     used = np.flatnonzero(keep)
     if used.size < 2:
-        raise SettingError(f"diagnosis records: only {used.size} usable hit(s) after quality checks; at least 2 needed")
+        removed = [f"{len(hits)} {why}" for hits, why in ((double_hits, "with a second impact"),
+                                                          (clipped_hits, "clipped or overloaded"),
+                                                          (spiked, "with spikes away from the impact")) if hits]
+        hint = ("; every force record swings on after its impact: are the force and response channels swapped, or "
+                "the records windowed?" if len(double_hits) == hit_count else "")
+        raise SettingError(f"diagnosis records: only {used.size} usable hit(s) of {hit_count} after quality checks "
+                           f"({', '.join(removed)}); at least 2 needed{hint}")
     if used.size < MIN_SCATTER_HITS:
         quality.append(QualityNote(
             "few hits", f"only {used.size} usable hits: too few to check the noise model against the scatter between "

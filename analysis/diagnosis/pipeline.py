@@ -1086,7 +1086,8 @@ def _unexplained(
             item.character += f"; the {term.effect} term fitted here is not a finding: {term.reason}"
     if restoring is not None:
         for item in items:
-            amplitude_character = "hit level" in item.character or "nonlinearity" in item.character
+            amplitude_character = (item.character.startswith("changing with the hit level")
+                                   or "distorted by a nonlinearity" in item.character)
             overlaps = item.band_hz[0] <= restoring.band_hz[1] and restoring.band_hz[0] <= item.band_hz[1]
             if amplitude_character or (overlaps and restoring.best is not None):
                 item.character += f"; {restoring.description()}"
@@ -1159,11 +1160,18 @@ def _character(spectra: HitSpectra, evidence: Evidence, spec: RigSpec, low: int,
                     "sensor's sensitivity (or the force reaching the mover) changed during the session rather than the "
                     "film, which no term explained")
         return "a steady trend from early to late hits: the rig changed during the session, which no term explained"
+    amplitude_trend = _level_trend(per_hit_mean, spectra.conditions.impulse_ns)
     if band[0] > 1.3 * resonance_hz and _at_harmonics(freq_hz[low : high + 1], weight * np.abs(residual) ** 2,
                                                        resonance_hz, float(np.median(np.diff(freq_hz)))):
-        return (f"at a harmonic of the resonance ({resonance_hz:.0f} Hz): the response is distorted by a "
-                f"nonlinearity")
-    amplitude_trend = _level_trend(per_hit_mean, spectra.conditions.impulse_ns)
+        harmonic = f"at a harmonic of the resonance ({resonance_hz:.0f} Hz)"
+        if amplitude_trend:
+            return f"{harmonic}, growing with the hit level: the response is distorted by a nonlinearity"
+        impulse_ns = spectra.conditions.impulse_ns
+        if np.ptp(impulse_ns) <= 0.1 * np.median(impulse_ns):
+            return (f"{harmonic}, where a nonlinearity would distort the response; the hits, all at one level, cannot "
+                    f"show whether it grows with the level as distortion does")
+        return (f"{harmonic}, but its size does not follow the hits' levels as a nonlinearity's distortion would: "
+                f"a localised excess no term explained")
     if amplitude_trend:
         return ("changing with the hit level: the rig's stiffness, damping or moving mass depends on the amplitude "
                 "(friction, quadratic damping, a nonlinear spring, or a loose part that lifts off)")
