@@ -132,8 +132,7 @@ class Projection:
                 a_t[..., row, n_lines:] = weighted.imag
             if not np.all(np.isfinite(a_t)):
                 a_t = np.nan_to_num(a_t, nan=0.0, posinf=0.0, neginf=0.0)
-            a = _row_major(np.swapaxes(a_t, -1, -2))
-            normal, right = a_t @ a, a_t @ self.target
+            normal, right = a_t @ _row_major(np.swapaxes(a_t, -1, -2)), a_t @ self.target
             coefficients = _solve_normal(normal, right)
             # A branch whose best coefficient is negative is dropped (its row and column of the normal equations
             # zeroed) and the others solved again, only for the points that have one
@@ -145,7 +144,7 @@ class Projection:
                     normal[again] * kept[..., :, np.newaxis] * kept[..., np.newaxis, :], right[again] * kept
                 )
             valid = np.isfinite(coefficients) & (coefficients > 0)
-            residual = (a @ np.where(valid, coefficients, 0.0)[..., np.newaxis])[..., 0] - self.target
+            residual = (np.where(valid, coefficients, 0.0)[..., np.newaxis, :] @ a_t)[..., 0, :] - self.target
             log_coefficients = np.log(np.where(valid, coefficients, 1.0))
             # Series: the branch scale is 1/coefficient and a dropped branch becomes infinitely stiff;
             # parallel: the scale is the coefficient and a dropped branch becomes infinitely soft.
@@ -380,11 +379,12 @@ def _projected_searches(
 def _distinct(thetas: np.ndarray, count: int) -> list[int]:
     """Indices of the first ``count`` rows of ``thetas`` that differ from every earlier chosen row by more than
     :data:`_DISTINCT` in some coordinate: the same point reached from several starts is polished once."""
+    differs = np.max(np.abs(thetas[:, np.newaxis, :] - thetas[np.newaxis, :, :]), axis=-1) > _DISTINCT
     chosen: list[int] = []
-    for row, theta in enumerate(thetas):
+    for row in range(len(thetas)):
         if len(chosen) == count:
             break
-        if all(np.max(np.abs(theta - thetas[other])) > _DISTINCT for other in chosen):
+        if np.all(differs[row, chosen]):
             chosen.append(row)
     return chosen
 
