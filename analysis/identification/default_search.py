@@ -72,7 +72,8 @@ class Projection:
     branches, and a branch is homogeneous of degree one in its coefficients: scaling them all by ``c_b`` scales its
     stiffness by ``c_b``. With the branch *shapes* ψ fixed (each coefficient relative to the branch's first one, and
     the orders) the scales solve a small linear least-squares problem weighted like the relative stiffness
-    residual, so the search runs over ψ only.
+    residual, so the search runs over ψ only. ``weights`` (lines,) or several weightings (weightings, lines) of the
+    problem's lines; with several, each point names its weighting (searches of both weightings run in one batch).
     """
 
     def __init__(self, problem: Problem, index: np.ndarray, weights: np.ndarray):
@@ -105,14 +106,19 @@ class Projection:
         self.s_rel, self.log_s_rel = problem.s_rel[index], problem.log_s_rel[index]
         z = problem.z_measured[index]
         self.weights = weights
-        weight = weights[index]
+        weight = weights[..., index]
         self.row_weight = weight * np.abs(z) if self.compliance else weight / np.abs(z)
         target = (1.0 / z if self.compliance else z) * self.row_weight
-        self.target = np.concatenate([target.real, target.imag])
+        self.target = np.concatenate([target.real, target.imag], axis=-1)
 
-    def project(self, psi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def project(self, psi: np.ndarray, weighting: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
         """Coordinates (..., size) from shapes (..., free), the branch scales solved by least squares, and the
-        weighted relative stiffness residual (..., 2n) those coordinates leave."""
+        weighted relative stiffness residual (..., 2n) those coordinates leave; ``weighting`` (k,): the weighting
+        of each leading row of ``psi`` (k, ..., free) when the projection has several."""
+        row_weight, target = self.row_weight, self.target
+        if weighting is not None:
+            leading = (slice(None),) + (np.newaxis,) * (psi.ndim - 2)
+            row_weight, target = row_weight[weighting][leading], target[weighting][leading]
         self.problem.check_cancel()
         self.problem.evaluations += math.prod(psi.shape[:-1])
         coords = self.problem.coords
@@ -127,13 +133,13 @@ class Projection:
             n_lines = len(self.index)
             a_t = np.empty(np.broadcast_shapes(*(z.shape for z in stiffness))[:-1] + (len(stiffness), 2 * n_lines))
             for row, z in enumerate(stiffness):
-                weighted = (1.0 / z if self.compliance else z) * self.row_weight
+                weighted = (1.0 / z if self.compliance else z) * row_weight
                 a_t[..., row, :n_lines] = weighted.real
                 a_t[..., row, n_lines:] = weighted.imag
             if not np.all(np.isfinite(a_t)):
                 a_t = np.nan_to_num(a_t, nan=0.0, posinf=0.0, neginf=0.0)
-            a = _row_major(np.swapaxes(a_t, -1, -2))
-            normal, right = a_t @ a, a_t @ self.target
+            normal = a_t @ _row_major(np.swapaxes(a_t, -1, -2))
+            right = a_t @ target if target.ndim == 1 else (a_t @ target[..., np.newaxis])[..., 0]
             coefficients = _solve_normal(normal, right)
             # A branch whose best coefficient is negative is dropped (its row and column of the normal equations
             # zeroed) and the others solved again, only for the points that have one
@@ -145,7 +151,7 @@ class Projection:
                     normal[again] * kept[..., :, np.newaxis] * kept[..., np.newaxis, :], right[again] * kept
                 )
             valid = np.isfinite(coefficients) & (coefficients > 0)
-            residual = (a @ np.where(valid, coefficients, 0.0)[..., np.newaxis])[..., 0] - self.target
+            residual = (np.where(valid, coefficients, 0.0)[..., np.newaxis, :] @ a_t)[..., 0, :] - target
             log_coefficients = np.log(np.where(valid, coefficients, 1.0))
             # Series: the branch scale is 1/coefficient and a dropped branch becomes infinitely stiff;
             # parallel: the scale is the coefficient and a dropped branch becomes infinitely soft.
@@ -159,16 +165,19 @@ class Projection:
                 theta[..., member] += log_scales[..., b]
         return np.clip(theta, coords.lower, coords.upper), residual
 
-    def residual_and_jacobian(self, psi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def residual_and_jacobian(
+        self, psi: np.ndarray, weighting: np.ndarray | None = None
+    ) -> tuple[np.ndarray, np.ndarray]:
         """The weighted relative stiffness residual (k, 2n) at shapes (k, free) and its Jacobian (k, 2n, free) by
-        forward differences: the shapes and all their shifts projected in one call. (The exact variable-projection
+        forward differences, each row in its ``weighting`` (see :meth:`project`): the shapes and all their shifts
+        projected in one call. (The exact variable-projection
         Jacobian from the branches' analytic gradients was tried: no faster, since a gradient evaluation costs
         about as much as the shifted projections.)"""
         step = 1e-7 * np.maximum(1.0, np.abs(psi))
         step = np.where(psi + step > self.upper, -step, step)
         shifted = psi[:, np.newaxis, :] + step[:, :, np.newaxis] * np.eye(self.size)
         points = np.concatenate([psi[:, np.newaxis, :], shifted], axis=1)
-        residuals = self.project(points)[1]
+        residuals = self.project(points, weighting)[1]
         jacobian = np.swapaxes((residuals[:, 1:] - residuals[:, :1]) / step[:, :, np.newaxis], -1, -2)
         return residuals[:, 0], jacobian
 
@@ -224,6 +233,7 @@ def _levenberg_marquardt(
     good_enough: float = 0.0,
     behind: float = np.inf,
     behind_after: int = _BEHIND_AFTER,
+    groups: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Box-constrained Levenberg–Marquardt (Nielsen's damping update) from many starts at once.
 
@@ -237,13 +247,20 @@ def _levenberg_marquardt(
     ``max_iterations``, when no damping gives a lower cost, when it comes within :data:`_DISTINCT` of a start with a
     lower cost (the same point: one search goes on), or, after ``behind_after`` iterations, when its cost is more
     than a factor ``1 + behind`` above the lowest cost of all starts; all stop as soon as one start's cost is at most
-    ``good_enough``. Returns (x (starts, p), sums of squared residuals (starts,)).
+    ``good_enough``. With ``groups`` (one label per start) starts are only compared with the starts of their own
+    group (searches of differently weighted problems run in one batch), and ``evaluate`` is called with the
+    running points and their labels. Returns (x (starts, p), sums of squared residuals (starts,)).
     """
     x = np.clip(np.asarray(x0, dtype=float), lower, upper)
-    r, jac = evaluate(x)
+    rows = np.arange(len(x))  # the working arrays hold the starts still running: rows of the output
+    labels = np.zeros(len(x), dtype=int) if groups is None else np.asarray(groups)
+
+    def evaluate_running(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        return evaluate(points) if groups is None else evaluate(points, labels[rows])
+
+    r, jac = evaluate_running(x)
     cost = np.einsum("km,km->k", r, r)
     x_out, cost_out = x.copy(), cost.copy()
-    rows = np.arange(len(x))  # the working arrays hold the starts still running: rows of the output
     damping, growth = np.full(len(x), 1e-3), np.full(len(x), 2.0)
     identity = np.eye(x.shape[1])
     for iteration in range(max_iterations):
@@ -262,7 +279,7 @@ def _levenberg_marquardt(
         right = np.where(held, 0.0, gradient / scale)
         trial = np.clip(x - _solve_each(system, right) / scale, lower, upper)
         step = trial - x
-        r_trial, jac_trial = evaluate(trial)
+        r_trial, jac_trial = evaluate_running(trial)
         cost_trial = np.einsum("km,km->k", r_trial, r_trial)
         # cost − |r + J·step|², from the normal equations
         predicted = -2.0 * np.einsum("ki,ki->k", gradient, step) - np.einsum("ki,kij,kj->k", step, normal, step)
@@ -283,9 +300,11 @@ def _levenberg_marquardt(
         growth[~better] *= 2.0
         stopped = converged | (damping > 1e16)
         if iteration >= behind_after:
-            stopped |= cost > (1.0 + behind) * np.min(cost_out)
+            best_of_group = np.full(labels.max() + 1, np.inf)
+            np.minimum.at(best_of_group, labels, cost_out)
+            stopped |= cost > (1.0 + behind) * best_of_group[labels[rows]]
         if len(rows) > 1:
-            stopped |= _follows_another(x, cost)
+            stopped |= _follows_another(x, cost, labels[rows])
         if np.any(stopped):
             going = ~stopped
             rows, x, r, cost, jac, damping, growth = (
@@ -293,10 +312,12 @@ def _levenberg_marquardt(
     return x_out, cost_out
 
 
-def _follows_another(x: np.ndarray, cost: np.ndarray) -> np.ndarray:
-    """Which of the points (k, p) are within :data:`_DISTINCT` in every coordinate of another point with a lower cost
-    (or the same cost and a lower row): the same point reached from two starts, which is searched on once."""
+def _follows_another(x: np.ndarray, cost: np.ndarray, labels: np.ndarray) -> np.ndarray:
+    """Which of the points (k, p) are within :data:`_DISTINCT` in every coordinate of another point of the same
+    group label with a lower cost (or the same cost and a lower row): the same point reached from two starts, which
+    is searched on once."""
     close = np.all(np.abs(x[:, np.newaxis, :] - x[np.newaxis, :, :]) <= _DISTINCT, axis=-1)
+    close &= labels[:, np.newaxis] == labels[np.newaxis, :]
     rank = np.argsort(np.argsort(cost, kind="stable"), kind="stable")
     return np.any(close & (rank[:, np.newaxis] > rank[np.newaxis, :]), axis=1)
 
@@ -317,34 +338,61 @@ def _solve_each(system: np.ndarray, right: np.ndarray) -> np.ndarray:
 
 
 def _projected_searches(
-    projection: Projection, searches: int, rng: np.random.Generator
-) -> list[tuple[float, np.ndarray, np.ndarray]]:
-    """Local searches over the branch shapes from the best-scored distinct Latin-hypercube shapes, then from
-    split branches, each group in one batched search; (log cost, coordinates, shape) of each, without the splits
-    when a first search fits exactly."""
-    problem, index = projection.problem, projection.index
-    found: list[tuple[float, np.ndarray, np.ndarray]] = []
+    projection: Projection, searches: list[int], rng: np.random.Generator
+) -> list[list[tuple[float, np.ndarray, np.ndarray]]]:
+    """For each weighting of ``projection``: local searches over the branch shapes from its ``searches`` best-scored
+    distinct Latin-hypercube shapes, then from split branches; the searches of all weightings in one batch per
+    step. Per weighting, (log cost, coordinates, shape) of each result, after the projected samples that best fit
+    the accelerance (log cost ∞); without the splits when a search fits exactly."""
+    problem, weightings = projection.problem, len(searches)
+    found: list[list[tuple[float, np.ndarray, np.ndarray]]] = [[] for _ in range(weightings)]
 
-    def local_searches(starts: np.ndarray) -> float:
+    def local_searches(starts: list[np.ndarray]) -> float:
+        labels = np.repeat(np.arange(weightings), [len(group) for group in starts])
         shapes, _ = _levenberg_marquardt(
             projection.residual_and_jacobian,
-            starts,
+            np.concatenate(starts),
             projection.lower,
             projection.upper,
             max_iterations=_SEARCH_ITERATIONS * projection.size,
             tolerance=_SEARCH_TOLERANCE,
-            good_enough=_EXACT_LOG_COST * len(index),
+            good_enough=_EXACT_LOG_COST * len(projection.index),
             behind=_SEARCH_BEHIND,
             behind_after=_SEARCH_BEHIND_AFTER,
+            groups=labels,
         )
-        thetas = projection.project(shapes)[0]
-        costs = problem.log_cost(thetas, index, projection.weights)
-        found.extend((float(cost), theta, shape) for cost, theta, shape in zip(costs, thetas, shapes))
-        return float(np.min(costs))
+        thetas = projection.project(shapes, labels)[0]
+        best = np.inf
+        for label in range(weightings):
+            mine = labels == label
+            costs = problem.log_cost(thetas[mine], projection.index, projection.weights[label])
+            found[label].extend((float(c), theta, shape) for c, theta, shape in zip(costs, thetas[mine], shapes[mine]))
+            best = min(best, float(np.min(costs)))
+        return best
 
     if projection.size == 0:
-        local_searches(np.zeros((1, 0)))
+        local_searches([np.zeros((1, 0))] * weightings)
         return found
+    starts = [_chosen_shapes(projection, label, searches[label], rng, found[label]) for label in range(weightings)]
+    if local_searches(starts) <= _EXACT_LOG_COST:
+        return found
+    splits = [np.array(projection.split_starts(min(group, key=lambda item: item[0])[2])) for group in found]
+    if len(splits[0]):
+        local_searches(splits)
+    return found
+
+
+def _chosen_shapes(
+    projection: Projection,
+    weighting: int,
+    searches: int,
+    rng: np.random.Generator,
+    found: list[tuple[float, np.ndarray, np.ndarray]],
+) -> np.ndarray:
+    """The ``searches`` Latin-hypercube shapes best scored in ``weighting`` at least :data:`_START_SPACING` apart;
+    the projected samples that best fit the accelerance itself are appended to ``found`` (they join the polish:
+    where the model cannot fit the data, the RMS optimum can lie in another basin than the log-stiffness one)."""
+    problem = projection.problem
     unit = qmc.LatinHypercube(d=projection.size, seed=rng).random(_SAMPLES_PER_SHAPE * projection.size)
     # Each sample also with one order at 0: a spring-pot of order 0 is a spring, and a network whose best fit
     # degenerates that way lies on the edge of the box, where a search started inside rarely ends.
@@ -356,12 +404,10 @@ def _projected_searches(
         edges.append(edge)
     unit = np.vstack(edges)
     shapes = projection.start_lower + unit * span
-    thetas, residuals = projection.project(shapes)
+    thetas, residuals = projection.project(shapes, np.full(len(shapes), weighting))
     scores = np.mean(residuals**2, axis=-1)
     scores = np.where(np.isfinite(scores), scores, np.inf)
-    # The projected samples that best fit the accelerance itself join the polish: where the model cannot fit
-    # the data, the RMS optimum can lie in another basin than the log-stiffness optimum.
-    for start in np.argsort(problem.acc_cost(thetas, index))[:_ACCELERANCE_STARTS]:
+    for start in np.argsort(problem.acc_cost(thetas, projection.index))[:_ACCELERANCE_STARTS]:
         found.append((np.inf, thetas[start], shapes[start]))
     chosen: list[int] = []
     for start in np.argsort(scores):
@@ -369,47 +415,39 @@ def _projected_searches(
             break
         if all(np.linalg.norm(unit[start] - unit[other]) > _START_SPACING for other in chosen):
             chosen.append(int(start))
-    if chosen and local_searches(shapes[chosen]) <= _EXACT_LOG_COST:
-        return found
-    splits = projection.split_starts(min(found, key=lambda item: item[0])[2])
-    if splits:
-        local_searches(np.array(splits))
-    return found
+    return shapes[chosen]
 
 
 def _distinct(thetas: np.ndarray, count: int) -> list[int]:
     """Indices of the first ``count`` rows of ``thetas`` that differ from every earlier chosen row by more than
     :data:`_DISTINCT` in some coordinate: the same point reached from several starts is polished once."""
+    differs = np.max(np.abs(thetas[:, np.newaxis, :] - thetas[np.newaxis, :, :]), axis=-1) > _DISTINCT
     chosen: list[int] = []
-    for row, theta in enumerate(thetas):
+    for row in range(len(thetas)):
         if len(chosen) == count:
             break
-        if all(np.max(np.abs(theta - thetas[other])) > _DISTINCT for other in chosen):
+        if np.all(differs[row, chosen]):
             chosen.append(row)
     return chosen
 
 
 def default_search(problem: Problem, seed: int, progress: Callable[[float], None] | None) -> np.ndarray:
-    """Latin-hypercube shapes → projected local searches (two weightings) → branch splits → polish on the
-    accelerance."""
+    """Latin-hypercube shapes → projected local searches (two weightings, in one batch) → branch splits → polish
+    on the accelerance."""
     coords = problem.coords
     rng = np.random.default_rng(seed)
     index = _subsample(len(problem.freq_hz), 200)
-    candidates: list[tuple[float, np.ndarray]] = []
-    stages = ((1.0, _LOCAL_SEARCHES), (2.0, _LOCAL_SEARCHES // 2))
-    for stage, (power, searches) in enumerate(stages):
-        projection = Projection(problem, index, problem.log_weights(power))
-        found = _projected_searches(projection, searches, rng)
-        candidates += [(cost, theta) for cost, theta, _ in found]
-        if progress is not None:
-            progress(0.6 * (stage + 1) / len(stages))
-        best_log_cost = min(cost for cost, _, _ in found)
+    powers, searches = (1.0, 2.0), [_LOCAL_SEARCHES, _LOCAL_SEARCHES // 2]
+    projection = Projection(problem, index, np.array([problem.log_weights(power) for power in powers]))
+    found = _projected_searches(projection, searches, rng)
+    candidates = [(cost, theta) for group in found for cost, theta, _ in group]
+    if progress is not None:
+        progress(0.6)
+    for power, group in zip(powers, found):
         logger.debug(
-            "%s: log-stiffness stage (weight power %g): %d candidates, best log cost %.3g, %d evaluations so far",
-            problem.model.name, power, len(found), best_log_cost, problem.evaluations,
+            "%s: log-stiffness search (weight power %g): %d candidates, best log cost %.3g",
+            problem.model.name, power, len(group), min(cost for cost, _, _ in group),
         )
-        if best_log_cost <= _EXACT_LOG_COST:
-            break
     # Every local result is polished briefly on the accelerance (the log-stiffness optimum is not the RMS
     # optimum when the model cannot fit the data), the best ones to convergence; each group in one batch.
     exact = _EXACT_LOG_COST * float(np.sum(np.abs(problem.h[index]) ** 2 * problem.sqrt_w[index] ** 2))

@@ -78,8 +78,10 @@ def fit_model(
         params, mass = problem.coords.to_params(theta)
         mass = float(mass)
     else:
-        objective = UnitObjective(problem)
-        best_unit, _ = gapso_search(objective, objective.dimension, seed, gapso_settings, progress, objective.repair)
+        objective = UnitObjective(problem, gapso_settings.order_margin)
+        best_unit, _ = gapso_search(
+            objective, objective.dimension, seed, gapso_settings, progress, objective.repair, objective.orders
+        )
         theta = objective.to_coordinates(best_unit)
         params, mass = problem.coords.to_params(theta)
         mass = float(mass)
