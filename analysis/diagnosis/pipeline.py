@@ -46,7 +46,9 @@ from gasfilm.analysis.diagnosis.selection import (
     held_out_band_gain,
     held_out_gain,
     model_function,
+    PACE_MARGIN,
     screening_fit,
+    shared_fits,
     to_finish,
     finishing_fit,
 )
@@ -465,8 +467,8 @@ def _candidate_fits(
     """Each candidate's best fit (the steps listed at :func:`candidate_starts`; None without a start) and the
     evidence it is judged on (its own for a cubic spring: :func:`_nonlinear_refit`), or the exception its fit raised.
     ``worth`` gives, for a candidate spec's number of free slots, the χ² below which its fit matters to the caller:
-    fits that cannot get there stop early (:func:`fit`'s ``worth_below``); not a cubic spring's, which its exact
-    replay may still move far.
+    fits that cannot get there stop early (:func:`fit`'s ``worth_below``); a cubic spring's equivalent-linear fit
+    runs to its end (its exact replay may still move it far), its exact refits stop the same way.
 
     The fits are shared by two processes (:func:`shared_map`) in two rounds: every start of every candidate screened
     (and at once finished when the candidate has no more starts than are finished), then the best starts of the
@@ -523,7 +525,8 @@ def _candidate_fits(
             continue
         best = best_finished(outcomes)
         try:
-            results[identifier] = (_nonlinear_refit(spectra, evidence, spec, best, noise_scale)
+            results[identifier] = (_nonlinear_refit(spectra, evidence, spec, best, noise_scale,
+                                                    None if worth is None else worth(len(best.slots)))
                                    if identifier == "cubic-stiffness" else (best, evidence))
         except GasfilmError as error:  # a nonlinear replay that does not converge
             results[identifier] = error
@@ -531,21 +534,27 @@ def _candidate_fits(
 
 
 def _nonlinear_refit(
-    spectra: HitSpectra, evidence: Evidence, spec: RigSpec, outcome: FitOutcome, noise_scale: float
+    spectra: HitSpectra, evidence: Evidence, spec: RigSpec, outcome: FitOutcome, noise_scale: float,
+    worth_below: float | None = None,
 ) -> tuple[FitOutcome, Evidence]:
     """A cubic film spring's fit refitted against its exact nonlinear replay until k3 settles (the
     equivalent-linear fit only starts it), when the equivalent-linear fit alone would already pay its BIC cost. The
     refits stop early when one leaves χ² above the spec's without the term: the exact response contradicts the
-    spring (a few per cent more or less k3 cannot turn that round)."""
+    spring (a few per cent more or less k3 cannot turn that round); and, given ``worth_below`` (the χ² at which the
+    term would count, as for :func:`fit`), when one leaves it above that level by more than the remaining refits could
+    remove at :data:`PACE_MARGIN` times the last one's fall."""
     chi2_without = evidence.chi2(spec)
     if (chi2_without - outcome.chi2) / noise_scale < np.log(evidence.point_count) + BIC_MARGIN:
         return outcome, evidence  # not even the equivalent linear term pays for itself: no nonlinear replay
-    for _ in range(NONLINEAR_ITERATIONS):
-        previous = outcome.spec.cubic_stiffness_n_per_m3
+    for iteration in range(NONLINEAR_ITERATIONS):
+        previous, previous_chi2 = outcome.spec.cubic_stiffness_n_per_m3, outcome.chi2
         evidence = evidence_for(spectra, outcome.spec)
         outcome = fit(evidence, outcome.spec, outcome.slots)
+        left = NONLINEAR_ITERATIONS - 1 - iteration
+        hopeless = (worth_below is not None and outcome.chi2
+                    - PACE_MARGIN * max(previous_chi2 - outcome.chi2, 0.0) * left > worth_below)
         if (abs(outcome.spec.cubic_stiffness_n_per_m3 - previous) <= 0.02 * abs(previous)
-                or outcome.chi2 >= chi2_without):
+                or outcome.chi2 >= chi2_without or hopeless):
             break
     return outcome, evidence
 
@@ -701,7 +710,8 @@ def _refit_without(
     starts = [reduced]
     if reduced.film_parameters != recalibrated.film_parameters:
         starts.append(reduced.with_values(film_parameters=recalibrated.film_parameters))
-    return min((fit(evidence, start, spec_slots(start, context)) for start in starts), key=lambda outcome: outcome.chi2)
+    return min(shared_fits([(evidence, start, spec_slots(start, context)) for start in starts]),
+               key=lambda outcome: outcome.chi2)
 
 
 def _survives_left_out_data(
@@ -857,13 +867,10 @@ def _mass_line_unmoved(spectra: HitSpectra, spec: RigSpec) -> str | None:
 def _refit(spectra: HitSpectra, spec: RigSpec, recalibrated: RigSpec, context: FitContext) -> tuple[FitOutcome, Evidence]:
     """Refit a spec some terms were taken out of: from its values and from the recalibrated film's (the film may
     have been bent to suit the terms taken out), the better fit."""
-    best: tuple[FitOutcome, Evidence] | None = None
-    for start in (spec, spec.with_values(film_parameters=recalibrated.film_parameters)):
-        evidence = evidence_for(spectra, start)
-        outcome = fit(evidence, start, spec_slots(start, context))
-        if best is None or outcome.chi2 < best[0].chi2:
-            best = (outcome, evidence)
-    outcome, _ = best
+    starts = (spec, spec.with_values(film_parameters=recalibrated.film_parameters))
+    evidences = [evidence_for(spectra, start) for start in starts]
+    fitted = shared_fits([(evidence, start, spec_slots(start, context)) for evidence, start in zip(evidences, starts)])
+    outcome = fitted[1] if fitted[1].chi2 < fitted[0].chi2 else fitted[0]
     evidence = evidence_for(spectra, outcome.spec)  # the replay of the spec that won
     return fit(evidence, outcome.spec, outcome.slots), evidence
 

@@ -19,6 +19,7 @@ from scipy.optimize import leastsq
 
 from gasfilm.analysis.diagnosis.fitspace import Slot, read_vector, spec_slots, with_effect, with_slot, write_vector
 from gasfilm.analysis.diagnosis.measurement import HitSpectra
+from gasfilm.analysis.diagnosis.parallel import shared_map
 from gasfilm.analysis.physics.effects import (
     AIR_PRESSURE_PA,
     AIR_VISCOSITY_PA_S,
@@ -352,14 +353,23 @@ def held_out_gain(
     predicted, and the reverse); each spec is judged on the evidence replayed with it."""
     hits = np.arange(base_evidence.hit_count)
     folds = (hits[0::2], hits[1::2])
+    pairs = ((base_evidence, base), (augmented_evidence, augmented))
+    fitted = shared_fits([(evidence, spec, spec_slots(spec, context), train)
+                         for train in folds for evidence, spec in pairs])
     gain = 0.0
-    fits = []
-    for train, test in (folds, folds[::-1]):
-        base_fit = fit(base_evidence, base, spec_slots(base, context), train)
-        augmented_fit = fit(augmented_evidence, augmented, spec_slots(augmented, context), train)
+    for (base_fit, augmented_fit), test in zip((fitted[0:2], fitted[2:4]), folds[::-1]):
         gain += base_evidence.chi2(base_fit.spec, test) - augmented_evidence.chi2(augmented_fit.spec, test)
-        fits.append(augmented_fit)
-    return HeldOut(gain, (fits[0], fits[1]))
+    return HeldOut(gain, (fitted[1], fitted[3]))
+
+
+def shared_fits(problems: list[tuple]) -> list[FitOutcome]:
+    """:func:`fit` of each argument tuple ((evidence, spec, slots) or (evidence, spec, slots, hits)), shared by two
+    processes (:func:`shared_map`), in order; the first exception raised is raised here."""
+    fitted = shared_map(lambda problem: fit(*problem), problems)
+    failed = [outcome for outcome in fitted if isinstance(outcome, Exception)]
+    if failed:
+        raise failed[0]
+    return fitted
 
 
 #: Width, in analysis lines, of the interleaved sub-bands of :func:`held_out_band_gain`.
@@ -374,16 +384,14 @@ def held_out_band_gain(
     the rest, and the reverse."""
     lines = np.arange(len(base_evidence.freq_hz))
     folds = (lines[(lines // SUB_BAND_LINES) % 2 == 0], lines[(lines // SUB_BAND_LINES) % 2 == 1])
+    pairs = ((base_evidence, base), (augmented_evidence, augmented))
+    fitted = shared_fits([(evidence.restricted(train), spec, spec_slots(spec, context), None)
+                         for train in folds for evidence, spec in pairs])
     gain = 0.0
-    fits = []
-    for train, test in (folds, folds[::-1]):
-        base_train, augmented_train = base_evidence.restricted(train), augmented_evidence.restricted(train)
-        base_fit = fit(base_train, base, spec_slots(base, context))
-        augmented_fit = fit(augmented_train, augmented, spec_slots(augmented, context))
+    for (base_fit, augmented_fit), test in zip((fitted[0:2], fitted[2:4]), folds[::-1]):
         gain += (base_evidence.restricted(test).chi2(base_fit.spec)
                  - augmented_evidence.restricted(test).chi2(augmented_fit.spec))
-        fits.append(augmented_fit)
-    return HeldOut(gain, (fits[0], fits[1]))
+    return HeldOut(gain, (fitted[1], fitted[3]))
 
 
 #: Two fits of a term on disjoint data disagree when one of its parameters differs by more than this many standard

@@ -62,7 +62,7 @@ def film_stiffness(
         columns = [i for i, parameter in enumerate(model.parameters) if parameter.unit.startswith("N·s")]
         vector = np.broadcast_to(vector, viscous.shape + vector.shape).copy()
         vector[..., columns] *= viscous[..., np.newaxis]
-    stiffness = _network_stiffness(model, vector, s)
+    stiffness = _network_stiffness(model, vector, s) if vector.ndim == 1 else model.stiffness(s, vector)
     return stiffness * whole[..., np.newaxis] if whole.ndim else stiffness * float(whole)
 
 
@@ -185,6 +185,9 @@ class GridPieces:
         times = time_s.tobytes() if isinstance(time_s, np.ndarray) else float(time_s)
         scaling = tuple(effect for effect in spec.effects if _scales_film(effect))
         key = ("film", spec.film_model, tuple(spec.film_parameters.items()), scaling, times)
+        if not scaling:  # the network alone (film_stiffness's × 1.0 and its last-network check spared)
+            model = spec.film
+            return self._remembered(key, lambda: model.stiffness(self.s, model.vector(spec.film_parameters)))
         return self._remembered(key, lambda: film_stiffness(
             spec, self.s, time_s, self._remembered(("scales", scaling, times), lambda: film_scales(spec, time_s))))
 
@@ -279,7 +282,8 @@ def rig_accelerance(
         if k3:
             stiffness = stiffness + (CUBIC_EQUIVALENT * k3 * hit_displacement_m(spec, conditions.impulse_ns) ** 2)[
                 :, np.newaxis]
-        stiffness = np.broadcast_to(stiffness, (len(conditions.time_s), s.size))
+        if stiffness.shape != (len(conditions.time_s), s.size):
+            stiffness = np.broadcast_to(stiffness, (len(conditions.time_s), s.size))
     if pieces is None:
         return (s**2 / stiffness + structure_accelerance(spec, s) + spec.force_leak_m_s2_per_n) * (
             channel_transfer(spec, "acceleration", s) / channel_transfer(spec, "force", s))
