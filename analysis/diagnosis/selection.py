@@ -313,7 +313,6 @@ class _LeastSquares:
         self._last_rows = (key, rows)  # MINPACK copies what it is handed
         return rows
 
-
     def _judge_pace(self, vector: np.ndarray, chi2: float) -> None:
         """Raise :class:`_NotWorthFinishing` when the descent so far cannot reach :attr:`_worth_below` in time."""
         self._path.append(chi2)
