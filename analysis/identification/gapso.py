@@ -127,8 +127,9 @@ def gapso_search(
     one of the coordinates ``edges`` at 0 (the orders: a network whose best fit degenerates into a spring there
     lies on the cube's face, which random individuals almost never reach). GA: tournament selection, extended
     intermediate crossover, Gaussian mutation, elitism, until the best value is unchanged for ``stall_iterations``
-    generations. The best distinct individuals become the "global optimal" candidates; a swarm per candidate then follows eq. 32 ``v = w v + c1 r1 (p - x) + c2 r2 (g - x)`` until the best
-    value is unchanged for ``stall_iterations`` iterations.
+    generations. The best distinct individuals become the "global optimal" candidates; a swarm per candidate then
+    follows eq. 32 ``v = w v + c1 r1 (p - x) + c2 r2 (g - x)`` until the best value is unchanged for
+    ``stall_iterations`` iterations.
     """
     rng = np.random.default_rng(seed)
     repair = repair or (lambda u: u)
