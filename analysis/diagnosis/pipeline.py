@@ -488,15 +488,14 @@ def _candidate_fits(
             results[identifier] = (None, evidence)
         starts.extend((identifier, start, len(specs) <= FINISHED_STARTS) for start in specs)
 
-    def worth_below(identifier: str, start: RigSpec) -> float | None:
-        if worth is None or identifier == "cubic-stiffness":
-            return None
-        return worth(len(spec_slots(start, context)))
+    def worth_below(identifier: str, slot_count: int) -> float | None:
+        return None if worth is None or identifier == "cubic-stiffness" else worth(slot_count)
 
     def screen(item: tuple[str, RigSpec, bool]) -> tuple[FitOutcome, FitOutcome | None]:
         identifier, start, finish = item
-        screened = screening_fit(evidence, start, context, worth_below(identifier, start))
-        return screened, (finishing_fit(evidence, screened, worth_below(identifier, start)) if finish else None)
+        screened = screening_fit(evidence, start, context, worth_below(identifier, len(spec_slots(start, context))))
+        finished = finishing_fit(evidence, screened, worth_below(identifier, len(screened.slots))) if finish else None
+        return screened, finished
 
     # CANDIDATES lists the terms with fewest parameters (and starts) first: the quickest fits
     by_candidate: dict[str, list[tuple[FitOutcome, FitOutcome | None]]] = {}
@@ -509,7 +508,7 @@ def _candidate_fits(
                  if outcomes[0][1] is None for screened in to_finish([screened for screened, _ in outcomes])]
     finished: dict[str, list] = {}
     for (identifier, _), outcome in zip(finishing, shared_map(
-            lambda item: finishing_fit(evidence, item[1], worth_below(item[0], item[1].spec)), finishing,
+            lambda item: finishing_fit(evidence, item[1], worth_below(item[0], len(item[1].slots))), finishing,
             longest_first=True)):
         finished.setdefault(identifier, []).append(outcome)
     for identifier, outcomes in by_candidate.items():
@@ -771,8 +770,9 @@ def _displaces_a_parameter(final: FitOutcome, identifier: str, without: RigSpec)
                 f"instead of adding to it, and a parameter at its bound is not a measurement")
     for name, value in final.spec.film_parameters.items():
         alone = without.film_parameters.get(name, value)
-        if value > 0 and alone > 0 and max(value / alone, alone / value) > FILM_DISPLACEMENT:
-            return (f"with it, the film's {name} is {value:.4g}, {max(value / alone, alone / value):.1f}× from "
+        factor = max(value / alone, alone / value) if value > 0 and alone > 0 else 1.0
+        if factor > FILM_DISPLACEMENT:
+            return (f"with it, the film's {name} is {value:.4g}, {factor:.1f}× from "
                     f"the {alone:.4g} it has without it: beside the other terms it takes the film's place instead of "
                     f"adding to it — together they re-describe the film, a combination standing in for something "
                     f"else")
@@ -870,7 +870,7 @@ def _refit(spectra: HitSpectra, spec: RigSpec, recalibrated: RigSpec, context: F
     starts = (spec, spec.with_values(film_parameters=recalibrated.film_parameters))
     evidences = [evidence_for(spectra, start) for start in starts]
     fitted = shared_fits([(evidence, start, spec_slots(start, context)) for evidence, start in zip(evidences, starts)])
-    outcome = fitted[1] if fitted[1].chi2 < fitted[0].chi2 else fitted[0]
+    outcome = min(fitted, key=lambda fitted_start: fitted_start.chi2)
     evidence = evidence_for(spectra, outcome.spec)  # the replay of the spec that won
     return fit(evidence, outcome.spec, outcome.slots), evidence
 
@@ -1173,8 +1173,7 @@ def _character(spectra: HitSpectra, evidence: Evidence, spec: RigSpec, low: int,
         harmonic = f"at a harmonic of the resonance ({resonance_hz:.0f} Hz)"
         if amplitude_trend:
             return f"{harmonic}, growing with the hit level: the response is distorted by a nonlinearity"
-        impulse_ns = spectra.conditions.impulse_ns
-        if np.ptp(impulse_ns) <= 0.1 * np.median(impulse_ns):
+        if _at_one_level(spectra.conditions.impulse_ns):
             return (f"{harmonic}, where a nonlinearity would distort the response; the hits, all at one level, cannot "
                     f"show whether it grows with the level as distortion does")
         return (f"{harmonic}, but its size does not follow the hits' levels as a nonlinearity's distortion would: "
@@ -1259,9 +1258,14 @@ def _change_in_session(values: np.ndarray, sigma: np.ndarray) -> tuple[str, int]
     return ("step", best_split) if best_step < 0.7 * trend_cost else ("trend", 0)
 
 
+def _at_one_level(impulse_ns: np.ndarray) -> bool:
+    """Whether the hits' impulses (N·s) spread by no more than 10 % of their median: too alike to show a trend."""
+    return bool(np.ptp(impulse_ns) <= 0.1 * np.median(impulse_ns))
+
+
 def _level_trend(values: np.ndarray, impulse_ns: np.ndarray) -> bool:
     """Whether the per-hit residual follows the hit level strongly (rank correlation of its size with the impulse)."""
-    if values.size < 6 or np.ptp(impulse_ns) <= 0.1 * np.median(impulse_ns):
+    if values.size < 6 or _at_one_level(impulse_ns):
         return False
     size = np.abs(values)
     ranks_size = np.argsort(np.argsort(size))
