@@ -41,7 +41,13 @@ from gasfilm.analysis.physics.effects import (
     StepChange,
     SqueezeFilm,
 )
-from gasfilm.analysis.physics.response import GridPieces, HitConditions, rig_accelerance
+from gasfilm.analysis.physics.response import (
+    AcceleranceParts,
+    GridPieces,
+    HitConditions,
+    accelerance_parts,
+    rig_accelerance,
+)
 from gasfilm.analysis.physics.spec import RigSpec
 
 
@@ -126,6 +132,29 @@ class Evidence:
             conditions = conditions.subset(hits)
         return rig_accelerance(spec, self.freq_hz, self.decay_rate_1_s, conditions=conditions, pieces=self._pieces)
 
+    def predicted_parts(self, spec: RigSpec, hits: np.ndarray | None = None) -> AcceleranceParts | None:
+        """:meth:`predicted` with its parts (for first-order changes, :meth:`AcceleranceParts.change`); None with
+        late-triggered records (their profiled residual is not linear in the prediction)."""
+        if self.spectra.missing_fronts is not None:
+            return None
+        if not spec.is_per_hit:
+            return accelerance_parts(spec, self._pieces)
+        conditions = self.spectra.conditions
+        return accelerance_parts(spec, self._pieces, conditions=conditions if hits is None else conditions.subset(hits))
+
+    def residual_change(self, change: np.ndarray, spec: RigSpec, hits: np.ndarray | None = None) -> np.ndarray:
+        """The change of :meth:`residual` for a change of the prediction (late-triggered records excepted)."""
+        if spec.is_per_hit:
+            _, sqrt_weight = self._hit_rows(hits)
+        else:
+            sqrt_weight = np.sqrt(self._mean(hits)[1])
+        size = change.size
+        vector = np.empty(2 * size)
+        np.multiply(change.real, sqrt_weight, out=vector[:size].reshape(change.shape))
+        np.multiply(change.imag, sqrt_weight, out=vector[size:].reshape(change.shape))
+        vector *= -1.0
+        return vector
+
     def _hit_by_hit(self, spec: RigSpec) -> bool:
         """Whether χ² is summed hit by hit (a spec that differs between hits, or a missing front per late hit)."""
         return spec.is_per_hit or self.spectra.missing_fronts is not None
@@ -134,22 +163,26 @@ class Evidence:
         """``H_i − M_i`` (hits, G) of a subset of hits, each late hit's missing front fitted out of it."""
         return self._profiled(spec, hits)[0]
 
-    def _profiled(self, spec: RigSpec, hits: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
+    def _profiled(
+        self, spec: RigSpec, hits: np.ndarray | None, predicted: np.ndarray | None = None
+    ) -> tuple[np.ndarray, np.ndarray]:
         """:meth:`residual_per_hit` and the missing fronts' prior residuals (hits,; empty without late hits)."""
         rows = slice(None) if hits is None else hits
-        difference = self.spectra.h[rows] - self.predicted(spec, hits)
+        difference = self.spectra.h[rows] - (self.predicted(spec, hits) if predicted is None else predicted)
         fronts = self.spectra.missing_fronts
         if fronts is None:
             return difference, np.zeros(0)
         fitted, prior = fronts.subset(hits).fitted(difference, self.spectra.weight[rows])
         return difference - fitted, prior
 
-    def residual(self, spec: RigSpec, hits: np.ndarray | None = None) -> np.ndarray:
+    def residual(
+        self, spec: RigSpec, hits: np.ndarray | None = None, predicted: np.ndarray | None = None
+    ) -> np.ndarray:
         """Weighted residual vector (real and imaginary parts, and the missing fronts' prior) whose squared norm is χ²
-        up to a constant."""
+        up to a constant (``predicted``: :meth:`predicted` of the spec, when the caller has it)."""
         if self._hit_by_hit(spec):
             _, sqrt_weight = self._hit_rows(hits)
-            difference, prior = self._profiled(spec, hits)
+            difference, prior = self._profiled(spec, hits, predicted)
             size = difference.size
             vector = np.empty(2 * size + prior.size)  # real parts, imaginary parts, prior: each weighted in place
             np.multiply(difference.real, sqrt_weight, out=vector[:size].reshape(difference.shape))
@@ -157,7 +190,7 @@ class Evidence:
             vector[2 * size:] = prior
             return vector
         mean, total = self._mean(hits)
-        difference = mean - self.predicted(spec)
+        difference = mean - (self.predicted(spec) if predicted is None else predicted)
         difference *= np.sqrt(total)
         parts = np.empty((2,) + difference.shape)
         parts[0], parts[1] = difference.real, difference.imag
@@ -266,6 +299,7 @@ class _LeastSquares:
         self.low, self.high = np.array([slot.search_bounds() for slot in slots]).T
         self._last: tuple[bytes, np.ndarray] | None = None
         self._last_rows: tuple[bytes, np.ndarray] | None = None
+        self._last_parts: tuple[bytes, RigSpec, AcceleranceParts | None] | None = None
         self.calls = 0  # residuals MINPACK asked for (the Jacobian's own not counted)
         self._worth_below: float | None = None
         self._budget = 0
@@ -288,8 +322,11 @@ class _LeastSquares:
         if self._last is not None and self._last[0] == key:
             return self._last[1]
         self.calls += 1
-        value = self.evidence.residual(self.spec_at(vector), self.hits)
+        spec = self.spec_at(vector)
+        parts = self.evidence.predicted_parts(spec, self.hits)
+        value = self.evidence.residual(spec, self.hits, None if parts is None else parts.accelerance)
         self._last = (key, value)
+        self._last_parts = (key, spec, parts)
         return value
 
     def jacobian_rows(self, vector: np.ndarray) -> np.ndarray:
@@ -303,13 +340,17 @@ class _LeastSquares:
         base = self.residual(vector)
         if self._worth_below is not None:
             self._judge_pace(vector, float(base @ base) + self._offset)
-        at = self.spec_at(vector)
+        _, at, parts = self._last_parts  # the residual just evaluated there
         step = DIFFERENCE_STEP * ((vector >= 0).astype(float) * 2 - 1) * np.maximum(1.0, np.abs(vector))
         rows = np.empty((len(self.slots), base.size))
         for index, slot in enumerate(self.slots):
             moved = vector[index] + step[index]
             changed = with_slot(at, slot, slot.from_search(min(max(moved, self.low[index]), self.high[index])))
-            rows[index] = (self.evidence.residual(changed, self.hits) - base) / (moved - vector[index])
+            change = None if parts is None else parts.change(at, changed, slot.effect)
+            if change is None:
+                rows[index] = (self.evidence.residual(changed, self.hits) - base) / (moved - vector[index])
+            else:
+                rows[index] = self.evidence.residual_change(change, at, self.hits) / (moved - vector[index])
         self._last_rows = (key, rows)  # MINPACK copies what it is handed
         return rows
 

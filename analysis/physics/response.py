@@ -47,23 +47,31 @@ class HitConditions:
 def film_stiffness(
     spec: RigSpec, s: np.ndarray, time_s: np.ndarray | float = 0.0,
     scales: tuple[np.ndarray, np.ndarray] | None = None,
+    network: Callable[[np.ndarray], np.ndarray] | None = None,
 ) -> np.ndarray:
     """The film's complex stiffness Z(s) in N/m at session time(s): (G,) for one time, (hits, G) for an array.
 
     The whole film scales with :meth:`RigSpec.film_scale` (drift, step changes); its viscous coefficients (dashpot and
     spring-pot coefficients) further with :meth:`RigSpec.viscous_scale`. ``scales``: those two at ``time_s``
-    (:func:`film_scales`), when the caller has them.
+    (:func:`film_scales`), when the caller has them; ``network``: :func:`viscous_network` of the spec for a viscous
+    scale, when the caller remembers it.
     """
     s = np.asarray(s, dtype=complex)
+    viscous, whole = film_scales(spec, time_s) if scales is None else scales
+    stiffness = viscous_network(spec, s, viscous) if network is None else network(viscous)
+    return stiffness * whole[..., np.newaxis] if whole.ndim else stiffness * float(whole)
+
+
+def viscous_network(spec: RigSpec, s: np.ndarray, viscous: np.ndarray) -> np.ndarray:
+    """The film network's stiffness (N/m) with its viscous coefficients scaled by ``viscous`` (one factor, or one
+    per hit): :func:`film_stiffness` before the whole film's scale."""
     model = spec.film
     vector = model.vector(spec.film_parameters)
-    viscous, whole = film_scales(spec, time_s) if scales is None else scales
     if np.any(viscous != 1.0):
         columns = [i for i, parameter in enumerate(model.parameters) if parameter.unit.startswith("N·s")]
         vector = np.broadcast_to(vector, viscous.shape + vector.shape).copy()
         vector[..., columns] *= viscous[..., np.newaxis]
-    stiffness = _network_stiffness(model, vector, s) if vector.ndim == 1 else model.stiffness(s, vector)
-    return stiffness * whole[..., np.newaxis] if whole.ndim else stiffness * float(whole)
+    return _network_stiffness(model, vector, s) if vector.ndim == 1 else model.stiffness(s, vector)
 
 
 def film_scales(spec: RigSpec, time_s: np.ndarray | float) -> tuple[np.ndarray, np.ndarray]:
@@ -184,12 +192,19 @@ class GridPieces:
         """:func:`film_stiffness` of the spec at ``time_s``."""
         times = time_s.tobytes() if isinstance(time_s, np.ndarray) else float(time_s)
         scaling = tuple(effect for effect in spec.effects if _scales_film(effect))
-        key = ("film", spec.film_model, tuple(spec.film_parameters.items()), scaling, times)
+        parameters = tuple(spec.film_parameters.items())
+        key = ("film", spec.film_model, parameters, scaling, times)
         if not scaling:  # the network alone (film_stiffness's × 1.0 and its last-network check spared)
             model = spec.film
             return self._remembered(key, lambda: model.stiffness(self.s, model.vector(spec.film_parameters)))
+
+        def network(viscous: np.ndarray) -> np.ndarray:  # (the same for a change of the whole film's scale alone)
+            return self._remembered(("network", spec.film_model, parameters, viscous.tobytes()),
+                                    lambda: viscous_network(spec, self.s, viscous))
+
         return self._remembered(key, lambda: film_stiffness(
-            spec, self.s, time_s, self._remembered(("scales", scaling, times), lambda: film_scales(spec, time_s))))
+            spec, self.s, time_s, self._remembered(("scales", scaling, times), lambda: film_scales(spec, time_s)),
+            network))
 
     def added_stiffness(self, effect: Effect) -> np.ndarray | float:
         return self._remembered(("added", effect), lambda: effect.added_stiffness(self.s))
@@ -271,24 +286,96 @@ def rig_accelerance(
     (``Δk = CUBIC_EQUIVALENT·k3·x0²``); the exact nonlinear response is :func:`simulate_response`'s. ``pieces``, made
     for this ``freq_hz`` (the same array) and decay rate, remembers parts between calls (a fit's many evaluations).
     """
-    if pieces is not None and not pieces.matches(freq_hz, decay_rate_1_s):
-        pieces = None
-    s = laplace_variable(freq_hz, decay_rate_1_s) if pieces is None else pieces.s
+    if pieces is not None and pieces.matches(freq_hz, decay_rate_1_s):
+        return accelerance_parts(spec, pieces, time_s, conditions).accelerance
+    s = laplace_variable(freq_hz, decay_rate_1_s)
+    stiffness = _loaded_stiffness(spec, s, time_s, conditions, None)
+    return (s**2 / stiffness + structure_accelerance(spec, s) + spec.force_leak_m_s2_per_n) * (
+        channel_transfer(spec, "acceleration", s) / channel_transfer(spec, "force", s))
+
+
+def _loaded_stiffness(
+    spec: RigSpec, s: np.ndarray, time_s: float, conditions: HitConditions | None, pieces: GridPieces | None
+) -> np.ndarray:
+    """The dynamic stiffness :func:`rig_accelerance` divides by: (G,), or (hits, G) with ``conditions`` (each hit's
+    film time, amplitude-dependent damping and equivalent cubic spring)."""
     if conditions is None:
-        stiffness = rig_dynamic_stiffness(spec, s, time_s, pieces=pieces)
-    else:
-        stiffness = rig_dynamic_stiffness(spec, s, conditions.time_s, impulse_ns=conditions.impulse_ns, pieces=pieces)
-        k3 = spec.cubic_stiffness_n_per_m3
-        if k3:
-            stiffness = stiffness + (CUBIC_EQUIVALENT * k3 * hit_displacement_m(spec, conditions.impulse_ns) ** 2)[
-                :, np.newaxis]
-        if stiffness.shape != (len(conditions.time_s), s.size):
-            stiffness = np.broadcast_to(stiffness, (len(conditions.time_s), s.size))
-    if pieces is None:
-        return (s**2 / stiffness + structure_accelerance(spec, s) + spec.force_leak_m_s2_per_n) * (
-            channel_transfer(spec, "acceleration", s) / channel_transfer(spec, "force", s))
-    # the same sum as above; terms that are 0.0 and a ratio of 1 skipped (x + 0.0 and x·1 are x, bit for bit)
-    # (in place on the new quotient)
+        return rig_dynamic_stiffness(spec, s, time_s, pieces=pieces)
+    stiffness = rig_dynamic_stiffness(spec, s, conditions.time_s, impulse_ns=conditions.impulse_ns, pieces=pieces)
+    k3 = spec.cubic_stiffness_n_per_m3
+    if k3:
+        stiffness = stiffness + (CUBIC_EQUIVALENT * k3 * hit_displacement_m(spec, conditions.impulse_ns) ** 2)[
+            :, np.newaxis]
+    if stiffness.shape != (len(conditions.time_s), s.size):
+        stiffness = np.broadcast_to(stiffness, (len(conditions.time_s), s.size))
+    return stiffness
+
+
+@dataclass
+class AcceleranceParts:
+    """:func:`rig_accelerance` on a grid (:class:`GridPieces`) and its parts, ``A = (s²/D + S + L)·R``: the dynamic
+    stiffness D, the structure modes' accelerance S, the force leak L and the channel ratio R (None: 1)."""
+
+    accelerance: np.ndarray
+    stiffness: np.ndarray
+    structure: np.ndarray | float
+    leak: float
+    ratio: np.ndarray | None
+    time_s: float
+    conditions: HitConditions | None
+    pieces: GridPieces
+    _receptance_slope: np.ndarray | None = None
+    _film: np.ndarray | None = None
+
+    def change(self, spec: RigSpec, changed: RigSpec, effect_index: int | None) -> np.ndarray | None:
+        """The first-order change of the accelerance from ``spec`` (whose parts these are) to ``changed``, a spec that
+        differs from it in one film parameter (``effect_index`` None) or in fields of effect ``effect_index``:
+        ``ΔA = R·(−s²ΔD/D² + ΔS + ΔL) + (A/R)·ΔR``, only the parts the effect's kind touches evaluated again (a
+        fit's forward-difference Jacobian, its columns several times cheaper than whole accelerances). None for an
+        effect that changes something else."""
+        parts = {"film"} if effect_index is None else _touched_parts(type(spec.effects[effect_index]))
+        if parts is None:
+            return None
+        pieces = self.pieces
+        change: np.ndarray | float = 0.0
+        if parts & {"film", "added", "stiffness"}:
+            if "stiffness" in parts or ("film" in parts and spec.cubic_stiffness_n_per_m3):
+                # (a cubic spring's equivalent stiffness moves with the film's resonance)
+                stiffness_change = _loaded_stiffness(changed, pieces.s, self.time_s, self.conditions, pieces) \
+                    - self.stiffness
+            else:
+                stiffness_change = 0.0
+                if "film" in parts:
+                    times = self.time_s if self.conditions is None else self.conditions.time_s
+                    if self._film is None:
+                        self._film = pieces.film(spec, times)
+                    stiffness_change = pieces.film(changed, times) - self._film
+                if "added" in parts:
+                    stiffness_change = stiffness_change + (pieces.added_stiffness(changed.effects[effect_index])
+                                                           - pieces.added_stiffness(spec.effects[effect_index]))
+            if self._receptance_slope is None:  # −s²/D²
+                self._receptance_slope = -pieces.s_squared / (self.stiffness * self.stiffness)
+            change = self._receptance_slope * stiffness_change
+        if "structure" in parts:
+            change = change + (pieces.structure(changed) - self.structure)
+        if "leak" in parts:
+            change = change + (changed.force_leak_m_s2_per_n - self.leak)
+        if self.ratio is not None:
+            change = change * self.ratio
+        if "ratio" in parts:
+            ratio = 1.0 if self.ratio is None else self.ratio
+            changed_ratio = pieces.channel_ratio(changed)
+            change = change + self.accelerance / ratio * ((1.0 if changed_ratio is None else changed_ratio) - ratio)
+        return change if np.shape(change) == self.accelerance.shape else np.broadcast_to(change, self.accelerance.shape)
+
+
+def accelerance_parts(
+    spec: RigSpec, pieces: GridPieces, time_s: float = 0.0, conditions: HitConditions | None = None
+) -> AcceleranceParts:
+    """:func:`rig_accelerance` on the grid of ``pieces``, with its parts (:class:`AcceleranceParts`)."""
+    stiffness = _loaded_stiffness(spec, pieces.s, time_s, conditions, pieces)
+    # the same sum as rig_accelerance's; terms that are 0.0 and a ratio of 1 skipped (x + 0.0 and x·1 are x, bit for
+    # bit) (in place on the new quotient)
     accelerance = pieces.s_squared / stiffness
     structure = pieces.structure(spec)
     if not (isinstance(structure, float) and structure == 0.0):
@@ -299,7 +386,32 @@ def rig_accelerance(
     ratio = pieces.channel_ratio(spec)
     if ratio is not None:
         accelerance *= ratio
-    return accelerance
+    return AcceleranceParts(accelerance, stiffness, structure, leak, ratio, time_s, conditions, pieces)
+
+
+#: Which part of :class:`AcceleranceParts` each of an effect's physics methods changes: the film's scale, an added
+#: stiffness the same for every hit, the rest of the dynamic stiffness, the structure, the leak, the channel ratio.
+_PART_OF_METHOD = {
+    "film_scale": "film", "viscous_scale": "film", "added_stiffness": "added",
+    "added_mass_kg": "stiffness", "cubic_stiffness_n_per_m3": "stiffness", "level_damping_ns_per_m": "stiffness",
+    "added_accelerance": "structure", "force_leak_m_s2_per_n": "leak", "channel_transfer": "ratio",
+}
+#: Methods that do not enter the accelerance.
+_OUTSIDE_ACCELERANCE = ("validate", "interference", "fit_ranges", "implausible", "evidence", "to_table")
+
+
+@functools.cache
+def _touched_parts(kind: type) -> frozenset[str] | None:
+    """The parts of the accelerance an effect type's fields change; None when it overrides a method of unknown
+    effect (its columns are then whole differences)."""
+    parts = set()
+    for name, member in vars(Effect).items():
+        if callable(member) and not name.startswith("_") and _overrides(kind, name):
+            if name in _PART_OF_METHOD:
+                parts.add(_PART_OF_METHOD[name])
+            elif name not in _OUTSIDE_ACCELERANCE:
+                return None
+    return frozenset(parts)
 
 
 def _grid_laplace(n_samples: int, sample_rate_hz: float) -> np.ndarray:

@@ -243,7 +243,8 @@ class RigSpec:
                     effects: Sequence[Effect] | None = None) -> "RigSpec":
         """A copy with other film parameter values and/or effects, not re-validated: for fits that stay inside the
         effects' physical ranges. What a fit returns is such a spec, and what it writes is that same spec."""
-        updated = copy.copy(self)
+        updated = object.__new__(type(self))  # copy.copy's shallow copy, without its generic protocol (a fit's
+        updated.__dict__.update(self.__dict__)  # Jacobian asks for thousands)
         if film_parameters is not None:
             object.__setattr__(updated, "film_parameters", dict(film_parameters))
         if effects is not None:
