@@ -197,15 +197,16 @@ def restoring_force(
     omega = 2 * np.pi * freq_hz
     omega[0] = 1.0
 
-    def filtered(signal: np.ndarray, factor: np.ndarray | float = 1.0) -> np.ndarray:
-        return np.fft.irfft(np.fft.rfft(signal, n_fft, axis=-1) * gain * factor, n_fft, axis=-1)[..., :n_samples]
+    def filtered(spectrum: np.ndarray, factor: np.ndarray | float = 1.0) -> np.ndarray:
+        return np.fft.irfft(spectrum * gain * factor, n_fft, axis=-1)[..., :n_samples]
 
     force = records[:, 0] - np.median(records[:, 0, : max(n_samples // 100, 4)], axis=1, keepdims=True)
     acceleration = records[:, 1]
-    force_b = filtered(force)
-    acceleration_b = filtered(acceleration)
-    velocity = filtered(acceleration, 1.0 / (1j * omega))
-    displacement = filtered(acceleration, -1.0 / omega**2)
+    acceleration_spectrum = np.fft.rfft(acceleration, n_fft, axis=-1)  # (transformed once for its three uses)
+    force_b = filtered(np.fft.rfft(force, n_fft, axis=-1))
+    acceleration_b = filtered(acceleration_spectrum)
+    velocity = filtered(acceleration_spectrum, 1.0 / (1j * omega))
+    displacement = filtered(acceleration_spectrum, -1.0 / omega**2)
     restoring = force_b - mass_kg * acceleration_b
 
     peaks = np.argmax(np.abs(force), axis=1)
@@ -263,7 +264,7 @@ def restoring_force(
 
     def basis(function) -> np.ndarray:
         """A basis function of the full displacement and velocity records, band-passed like r, at the samples."""
-        values = filtered(function(displacement, velocity))
+        values = filtered(np.fft.rfft(function(displacement, velocity), n_fft, axis=-1))
         return np.concatenate([values[hit, s] for hit, s in enumerate(selected)])
 
     linear = np.column_stack((x, v))
