@@ -95,6 +95,7 @@ class Evidence:
         self.point_count = 2 * spectra.h.size - (0 if fronts is None else fronts.parameter_count)
         self._means: dict[tuple[int, ...] | None, tuple[np.ndarray, np.ndarray]] = {}
         self._rows: dict[tuple[int, ...] | None, tuple[np.ndarray, np.ndarray]] = {}
+        self._negative_rows: dict[tuple[int, ...] | None, np.ndarray] = {}
         self._pieces = GridPieces(self.freq_hz, self.decay_rate_1_s)
 
     def _subset(self, hits: np.ndarray | None) -> np.ndarray:
@@ -142,18 +143,27 @@ class Evidence:
         conditions = self.spectra.conditions
         return accelerance_parts(spec, self._pieces, conditions=conditions if hits is None else conditions.subset(hits))
 
-    def residual_change(self, change: np.ndarray, spec: RigSpec, hits: np.ndarray | None = None) -> np.ndarray:
-        """The change of :meth:`residual` for a change of the prediction (late-triggered records excepted)."""
+    def residual_change(
+        self, change: np.ndarray, spec: RigSpec, hits: np.ndarray | None = None, out: np.ndarray | None = None
+    ) -> np.ndarray:
+        """The change of :meth:`residual` for a change of the prediction (late-triggered records excepted), written
+        into ``out`` when given."""
         if spec.is_per_hit:
-            _, sqrt_weight = self._hit_rows(hits)
+            negative_sqrt_weight = self._negative_sqrt_weights(hits)
         else:
-            sqrt_weight = np.sqrt(self._mean(hits)[1])
+            negative_sqrt_weight = -np.sqrt(self._mean(hits)[1])
         size = change.size
-        vector = np.empty(2 * size)
-        np.multiply(change.real, sqrt_weight, out=vector[:size].reshape(change.shape))
-        np.multiply(change.imag, sqrt_weight, out=vector[size:].reshape(change.shape))
-        vector *= -1.0
+        vector = np.empty(2 * size) if out is None else out
+        np.multiply(change.real, negative_sqrt_weight, out=vector[:size].reshape(change.shape))
+        np.multiply(change.imag, negative_sqrt_weight, out=vector[size:].reshape(change.shape))
         return vector
+
+    def _negative_sqrt_weights(self, hits: np.ndarray | None) -> np.ndarray:
+        """−√weight of a subset of hits (remembered): the residual falls as the prediction rises."""
+        key = None if hits is None else tuple(int(i) for i in hits)
+        if key not in self._negative_rows:
+            self._negative_rows[key] = -self._hit_rows(hits)[1]
+        return self._negative_rows[key]
 
     def _hit_by_hit(self, spec: RigSpec) -> bool:
         """Whether χ² is summed hit by hit (a spec that differs between hits, or a missing front per late hit)."""
@@ -350,7 +360,8 @@ class _LeastSquares:
             if change is None:
                 rows[index] = (self.evidence.residual(changed, self.hits) - base) / (moved - vector[index])
             else:
-                rows[index] = self.evidence.residual_change(change, at, self.hits) / (moved - vector[index])
+                row = self.evidence.residual_change(change, at, self.hits, out=rows[index])
+                row /= moved - vector[index]
         self._last_rows = (key, rows)  # MINPACK copies what it is handed
         return rows
 
