@@ -3,6 +3,7 @@ loop — the spec it writes is the spec it fitted, replayed."""
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import json
 from pathlib import Path
@@ -35,7 +36,14 @@ from gasfilm.analysis.physics.effects import (
     Polarity,
 )
 from gasfilm.analysis.physics.plant import RigPlant
-from gasfilm.analysis.physics.response import NONLINEAR_TOLERANCE, HitConditions, rig_accelerance, simulate_response
+from gasfilm.analysis.physics.response import (
+    NONLINEAR_TOLERANCE,
+    GridPieces,
+    HitConditions,
+    accelerance_parts,
+    rig_accelerance,
+    simulate_response,
+)
 from gasfilm.analysis.physics.spec import RigSpec
 from gasfilm.app.cli import main as gasfilm
 from test_diagnose import NOMINAL, record
@@ -181,3 +189,40 @@ def test_closed_loop(names, tmp_path, capsys):
     assert second["findings"] == [], second["findings"]
     assert second["verdict"] in ("consistent", "parameters-only"), second["unexplained"]
     assert Path(second["improved_spec"]).exists()
+
+
+@pytest.mark.parametrize("name", sorted(EXAMPLES))
+def test_first_order_changes_of_the_accelerance_match_whole_differences(name):
+    """A fit's Jacobian columns (``AcceleranceParts.change``: only the part of the accelerance an effect touches
+    evaluated again) agree with the whole accelerance evaluated at the changed spec, for every field of every effect
+    and every film parameter, one curve and per hit (beside a cubic spring, whose equivalent stiffness moves with the
+    film)."""
+    pieces = GridPieces(FREQ_HZ, 30.0)
+    for base in (NOMINAL.with_effects(EXAMPLES[name]),
+                 NOMINAL.with_effects(CubicStiffness(k3_n_per_m3=3e16), EXAMPLES[name])):
+        index = len(base.effects) - 1
+        effect = base.effects[index]
+        fields = [(None, key) for key in base.film_parameters] + [
+            (index, field.name) for field in dataclasses.fields(effect) if isinstance(getattr(effect, field.name), float)]
+        for conditions in (None, CONDITIONS):
+            if conditions is None and base.is_per_hit:
+                continue
+            parts = accelerance_parts(base, pieces, conditions=conditions)
+            assert np.array_equal(parts.accelerance, rig_accelerance(base, FREQ_HZ, 30.0, conditions=conditions))
+            for effect_index, field in fields:
+                if effect_index is None:
+                    value = base.film_parameters[field]
+                    changed = base.with_values(film_parameters={**base.film_parameters, field: value * (1 + 1e-6)})
+                else:
+                    value = getattr(effect, field)
+                    if value == 0.0:
+                        continue
+                    effects = list(base.effects)
+                    effects[index] = dataclasses.replace(effect, **{field: value * (1 + 1e-6)})
+                    changed = base.with_values(effects=effects)
+                whole = rig_accelerance(changed, FREQ_HZ, 30.0, conditions=conditions) - parts.accelerance
+                change = parts.change(base, changed, effect_index)
+                if change is None:  # an effect that changes something else: its columns are whole differences
+                    continue
+                scale = max(float(np.max(np.abs(whole))), 1e-300)
+                assert np.max(np.abs(change - whole)) <= 1e-4 * scale, (name, field, conditions is not None)
