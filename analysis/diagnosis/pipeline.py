@@ -1179,8 +1179,9 @@ def _character(spectra: HitSpectra, evidence: Evidence, spec: RigSpec, low: int,
         return (f"{harmonic}, but its size does not follow the hits' levels as a nonlinearity's distortion would: "
                 f"a localised excess no term explained")
     if amplitude_trend:
-        return ("changing with the hit level: the rig's stiffness, damping or moving mass depends on the amplitude "
-                "(friction, quadratic damping, a nonlinear spring, or a loose part that lifts off)")
+        return ("changing with the hit level: something is not linear — the rig (its stiffness, damping or moving "
+                "mass depending on the amplitude: friction, quadratic damping, a nonlinear spring, a loose part that "
+                "lifts off) or the measurement chain (a force gauge or converter whose gain depends on the level)")
     if gain_spread is not None:
         return (f"the hits differ from one another by a scale factor alone, the same at every frequency "
                 f"({100 * gain_spread:.1f} % RMS): a gain that changes from hit to hit (the hit's direction, the force "
