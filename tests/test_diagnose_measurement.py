@@ -122,10 +122,22 @@ def test_records_exported_with_force_and_exponential_windows(recorded, tmp_path,
     result = json.loads(capsys.readouterr().out)
     assert result["verdict"] in ("consistent", "parameters-only") and not result["findings"]
     notes = {note["kind"]: note["message"] for note in result["quality"]}
-    assert "AC coupling" in notes["force window"]
+    assert "AC coupling" in notes["force window"] and "inside the pulse" not in notes["force window"]
     true_1_s = np.log(100) * recordings.sample_rate_hz / (records.shape[-1] - 1)  # 1 % at the end
     found_1_s, error_1_s = map(float, re.search(r"σ = ([\d.]+) ± ([\d.e-]+) 1/s", notes["exponential window"]).groups())
     assert abs(found_1_s - true_1_s) < max(4 * error_1_s, 0.02 * true_1_s)
+
+
+def test_a_force_window_that_closes_inside_the_pulse_is_said_to_cut_the_impulse(recorded):
+    """Red team round 7's force-window-cut: an exporter's force window set for a shorter tip closes while the pulse
+    is still near its peak. The force-window note says so (part of every impulse missing, the FRF too large by that
+    share), as it does not for a window closing after the pulse (the test above)."""
+    recordings, _ = recorded
+    records = np.array(recordings.records)
+    for record in records:
+        record[0, int(np.argmax(np.abs(record[0]))) + 1:] = 0.0
+    notes = {note.kind: note.message for note in hit_spectra(records, recordings.sample_rate_hz).quality}
+    assert "the window closes inside the pulse (the force falls from 100 % of its peak" in notes["force window"]
 
 
 def test_two_hits_are_said_to_be_too_few_for_a_verdict(recorded):

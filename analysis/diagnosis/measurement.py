@@ -728,14 +728,19 @@ def hit_spectra(
                     f"out of both channels before the comparison, and its uncertainty (which shifts every decay rate "
                     f"alike) is part of the noise model — a processing property, not physics"))
             if force_zero_from is not None:
+                cut_share = _window_cut_share(records[:, 0], extents)
                 records, force_tail = _continue_windowed_force(records, extents, sample_rate_hz)
+                cut = ("" if cut_share is None else
+                       f"; but the window closes inside the pulse (the force falls from {100 * cut_share:.0f} % of its "
+                       f"peak to zero within {WINDOW_CUT_SAMPLES} samples): part of every impulse is missing, so the "
+                       f"FRF is too large by that share and a recalibrated film is not the rig's")
                 quality.append(QualityNote(
                     "force window",
                     f"the force records are zero from {1e3 * force_zero_from / sample_rate_hz:.1f} ms on (records "
                     f"exported with a force window already): the replay continues each force after its window as the "
                     f"AC coupling's decay ({AC_COUPLING_HZ:g} Hz, from the level just after the pulse, median "
                     f"{np.median(force_tail.level_n):.3g} N) and that decay's uncertainty is part of the noise model; "
-                    f"the force noise is measured before the hits — a processing property, not physics"))
+                    f"the force noise is measured before the hits — a processing property, not physics" + cut))
             tail_noise = np.median(np.std(records[:, 1, tail_start:], axis=1))
             before_noise = np.median(np.std(records[:, 1, :quiet_samples], axis=1))
             if tail_noise < 0.8 * before_noise:
@@ -1145,6 +1150,25 @@ def _force_windowed_from(force_n: np.ndarray, extents: list[tuple[int, int, int]
             return None
         first.append(last)
     return max(first)
+
+
+#: A force window "closes inside the pulse" when a record falls from at least WINDOW_CUT_LEVEL of its peak to exact
+#: zero within WINDOW_CUT_SAMPLES samples, in at least half the hits (a window that closes after the pulse meets a
+#: force near zero; the anti-aliasing filter alone never drops a pulse that fast).
+WINDOW_CUT_LEVEL = 0.5
+WINDOW_CUT_SAMPLES = 3
+
+
+def _window_cut_share(force_n: np.ndarray, extents: list[tuple[int, int, int]]) -> float | None:
+    """The median level (a fraction of the peak) from which windowed force records drop to zero, when the window
+    closes inside the pulse (see WINDOW_CUT_LEVEL); None otherwise."""
+    levels = []
+    for row, (_, peak, _) in zip(force_n, extents):
+        nonzero = np.flatnonzero(np.abs(row) > 1e-12 * np.abs(row).max())
+        last = int(nonzero[-1]) if nonzero.size else 0
+        levels.append(float(np.max(np.abs(row[max(last - WINDOW_CUT_SAMPLES + 1, 0): last + 1]))) / abs(row[peak]))
+    cut = [level for level in levels if level >= WINDOW_CUT_LEVEL]
+    return float(np.median(cut)) if 2 * len(cut) >= len(levels) else None
 
 
 def _through_window(power_per_sample: np.ndarray, window: np.ndarray) -> np.ndarray:
