@@ -57,6 +57,11 @@ HELD_OUT_THRESHOLD = 25.0
 BIC_MARGIN = 10.0
 
 
+def _hits_key(hits: np.ndarray | None) -> tuple[int, ...] | None:
+    """A subset of hits as a dictionary key (None: every hit)."""
+    return None if hits is None else tuple(int(i) for i in hits)
+
+
 def model_function(spec: RigSpec, conditions: HitConditions) -> Callable[[np.ndarray, float], np.ndarray]:
     """``(freq_hz, σ) → accelerance`` of the spec: per hit when the spec differs between hits, else one curve."""
     if spec.is_per_hit:
@@ -103,14 +108,14 @@ class Evidence:
 
     def _mean(self, hits: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
         """Weighted mean FRF and total weight of a subset of hits (remembered: a fit asks for it at every step)."""
-        key = None if hits is None else tuple(int(i) for i in hits)
+        key = _hits_key(hits)
         if key not in self._means:
             self._means[key] = self.spectra.mean(hits)
         return self._means[key]
 
     def _hit_rows(self, hits: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
         """The per-hit FRFs of a subset of hits and the square roots of their weights (remembered likewise)."""
-        key = None if hits is None else tuple(int(i) for i in hits)
+        key = _hits_key(hits)
         if key not in self._rows:
             rows = self._subset(hits)
             self._rows[key] = (self.spectra.h[rows], np.sqrt(self.spectra.weight[rows]))
@@ -160,7 +165,7 @@ class Evidence:
 
     def _negative_sqrt_weights(self, hits: np.ndarray | None) -> np.ndarray:
         """−√weight of a subset of hits (remembered): the residual falls as the prediction rises."""
-        key = None if hits is None else tuple(int(i) for i in hits)
+        key = _hits_key(hits)
         if key not in self._negative_rows:
             self._negative_rows[key] = -self._hit_rows(hits)[1]
         return self._negative_rows[key]
