@@ -1144,12 +1144,17 @@ def _force_windowed_from(force_n: np.ndarray, extents: list[tuple[int, int, int]
     with a force window already), or None when the force is recorded to the end of any record."""
     first = []
     for row, (_, _, end) in zip(force_n, extents):
-        nonzero = np.flatnonzero(np.abs(row) > 1e-12 * np.abs(row).max())
-        last = int(nonzero[-1]) + 1 if nonzero.size else 0
+        last = _last_nonzero(row) + 1
         if last <= end or last > row.size - MIN_QUIET_SAMPLES:
             return None
         first.append(last)
     return max(first)
+
+
+def _last_nonzero(row: np.ndarray) -> int:
+    """Index of a record's last sample that is not exactly zero (to 1e-12 of its largest), −1 for an all-zero one."""
+    nonzero = np.flatnonzero(np.abs(row) > 1e-12 * np.abs(row).max())
+    return int(nonzero[-1]) if nonzero.size else -1
 
 
 #: A force window "closes inside the pulse" when a record falls from at least WINDOW_CUT_LEVEL of its peak to exact
@@ -1164,8 +1169,7 @@ def _window_cut_share(force_n: np.ndarray, extents: list[tuple[int, int, int]]) 
     closes inside the pulse (see WINDOW_CUT_LEVEL); None otherwise."""
     levels = []
     for row, (_, peak, _) in zip(force_n, extents):
-        nonzero = np.flatnonzero(np.abs(row) > 1e-12 * np.abs(row).max())
-        last = int(nonzero[-1]) if nonzero.size else 0
+        last = max(_last_nonzero(row), 0)
         levels.append(float(np.max(np.abs(row[max(last - WINDOW_CUT_SAMPLES + 1, 0): last + 1]))) / abs(row[peak]))
     cut = [level for level in levels if level >= WINDOW_CUT_LEVEL]
     return float(np.median(cut)) if 2 * len(cut) >= len(levels) else None

@@ -62,6 +62,14 @@ def _hits_key(hits: np.ndarray | None) -> tuple[int, ...] | None:
     return None if hits is None else tuple(int(i) for i in hits)
 
 
+def _weighted_parts(values: np.ndarray, factor: np.ndarray, out: np.ndarray) -> None:
+    """The real parts, then the imaginary parts of ``values`` (hits, G), each times ``factor``, written into the
+    first ``2·values.size`` entries of ``out``."""
+    size = values.size
+    np.multiply(values.real, factor, out=out[:size].reshape(values.shape))
+    np.multiply(values.imag, factor, out=out[size:2 * size].reshape(values.shape))
+
+
 def model_function(spec: RigSpec, conditions: HitConditions) -> Callable[[np.ndarray, float], np.ndarray]:
     """``(freq_hz, σ) → accelerance`` of the spec: per hit when the spec differs between hits, else one curve."""
     if spec.is_per_hit:
@@ -157,10 +165,8 @@ class Evidence:
             negative_sqrt_weight = self._negative_sqrt_weights(hits)
         else:
             negative_sqrt_weight = -np.sqrt(self._mean(hits)[1])
-        size = change.size
-        vector = np.empty(2 * size) if out is None else out
-        np.multiply(change.real, negative_sqrt_weight, out=vector[:size].reshape(change.shape))
-        np.multiply(change.imag, negative_sqrt_weight, out=vector[size:].reshape(change.shape))
+        vector = np.empty(2 * change.size) if out is None else out
+        _weighted_parts(change, negative_sqrt_weight, vector)
         return vector
 
     def _negative_sqrt_weights(self, hits: np.ndarray | None) -> np.ndarray:
@@ -200,8 +206,7 @@ class Evidence:
             difference, prior = self._profiled(spec, hits, predicted)
             size = difference.size
             vector = np.empty(2 * size + prior.size)  # real parts, imaginary parts, prior: each weighted in place
-            np.multiply(difference.real, sqrt_weight, out=vector[:size].reshape(difference.shape))
-            np.multiply(difference.imag, sqrt_weight, out=vector[size:2 * size].reshape(difference.shape))
+            _weighted_parts(difference, sqrt_weight, vector)
             vector[2 * size:] = prior
             return vector
         mean, total = self._mean(hits)
@@ -314,7 +319,7 @@ class _LeastSquares:
         self.low, self.high = np.array([slot.search_bounds() for slot in slots]).T
         self._last: tuple[bytes, np.ndarray] | None = None
         self._last_rows: tuple[bytes, np.ndarray] | None = None
-        self._last_parts: tuple[bytes, RigSpec, AcceleranceParts | None] | None = None
+        self._last_parts: tuple[RigSpec, AcceleranceParts | None] | None = None  # of the residual in _last
         self.calls = 0  # residuals MINPACK asked for (the Jacobian's own not counted)
         self._worth_below: float | None = None
         self._budget = 0
@@ -341,7 +346,7 @@ class _LeastSquares:
         parts = self.evidence.predicted_parts(spec, self.hits)
         value = self.evidence.residual(spec, self.hits, None if parts is None else parts.accelerance)
         self._last = (key, value)
-        self._last_parts = (key, spec, parts)
+        self._last_parts = (spec, parts)
         return value
 
     def jacobian_rows(self, vector: np.ndarray) -> np.ndarray:
@@ -355,7 +360,7 @@ class _LeastSquares:
         base = self.residual(vector)
         if self._worth_below is not None:
             self._judge_pace(vector, float(base @ base) + self._offset)
-        _, at, parts = self._last_parts  # the residual just evaluated there
+        at, parts = self._last_parts  # the residual just evaluated there
         step = DIFFERENCE_STEP * ((vector >= 0).astype(float) * 2 - 1) * np.maximum(1.0, np.abs(vector))
         rows = np.empty((len(self.slots), base.size))
         for index, slot in enumerate(self.slots):
