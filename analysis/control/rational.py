@@ -29,6 +29,7 @@ import numpy as np
 
 from gasfilm.analysis.control.fitting import PoleResidue, oustaloup_response, vector_fit
 from gasfilm.analysis.physics.elements import (
+    LogLaplace,
     Node,
     Parallel,
     Series,
@@ -414,7 +415,7 @@ class _OustaloupPot(Node):
     def parameters(self) -> list:
         return self.pot.parameters()
 
-    def evaluate(self, s: np.ndarray, values: Any, gradient: bool, log_s: np.ndarray | None = None
+    def evaluate(self, s: np.ndarray, values: Any, gradient: bool, log_s: LogLaplace | None = None
                  ) -> tuple[np.ndarray, dict]:
         alpha = np.ravel(values[self.pot.order])[0]
         return values[self.pot.coefficient] * oustaloup_response(float(alpha), self.band_rad_s, self.n, s), {}

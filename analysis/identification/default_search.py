@@ -103,7 +103,7 @@ class Projection:
         self.upper = np.where(is_order, coords.upper[self.free], 2 * LOG_BOX)
         self.start_lower = np.where(is_order, _ORDER_START[0], -2 * _LOG_START)
         self.start_upper = np.where(is_order, _ORDER_START[1], 2 * _LOG_START)
-        self.s_rel, self.log_s_rel = problem.s_rel[index], problem.log_s_rel[index]
+        self.lines = problem.lines(index)
         z = problem.z_measured[index]
         self.weights = weights
         weight = weights[..., index]
@@ -127,7 +127,7 @@ class Projection:
         reference_values, _ = coords.reference_values(theta)
         values = {name: reference_values[..., i, np.newaxis] for i, name in enumerate(coords.names)}
         with np.errstate(all="ignore"):
-            stiffness = [branch.stiffness(self.s_rel, values, self.log_s_rel) for branch in self.branches]
+            stiffness = [branch.stiffness(self.lines.s_rel, values, self.lines.log_s_rel) for branch in self.branches]
             # the least-squares matrix, transposed: one row per branch, its weighted stiffness (compliance) with the
             # real parts before the imaginary parts
             n_lines = len(self.index)
@@ -365,7 +365,7 @@ def _projected_searches(
         best = np.inf
         for label in range(weightings):
             mine = labels == label
-            costs = problem.log_cost(thetas[mine], projection.index, projection.weights[label])
+            costs = problem.log_cost(thetas[mine], projection.lines, projection.weights[label])
             found[label].extend((float(c), theta, shape) for c, theta, shape in zip(costs, thetas[mine], shapes[mine]))
             best = min(best, float(np.min(costs)))
         return best
@@ -407,7 +407,7 @@ def _chosen_shapes(
     thetas, residuals = projection.project(shapes, np.full(len(shapes), weighting))
     scores = np.mean(residuals**2, axis=-1)
     scores = np.where(np.isfinite(scores), scores, np.inf)
-    for start in np.argsort(problem.acc_cost(thetas, projection.index))[:_ACCELERANCE_STARTS]:
+    for start in np.argsort(problem.acc_cost(thetas, projection.lines))[:_ACCELERANCE_STARTS]:
         found.append((np.inf, thetas[start], shapes[start]))
     chosen: list[int] = []
     for start in np.argsort(scores):
@@ -453,7 +453,7 @@ def default_search(problem: Problem, seed: int, progress: Callable[[float], None
     exact = _EXACT_LOG_COST * float(np.sum(np.abs(problem.h[index]) ** 2 * problem.sqrt_w[index] ** 2))
     starts = np.array([theta for _, theta in candidates])
     thetas, costs = _levenberg_marquardt(
-        lambda theta: problem.acc_residual_and_jacobian(theta, index),
+        lambda theta: problem.acc_residual_and_jacobian(theta, projection.lines),
         starts[_distinct(starts, len(starts))],
         coords.lower,
         coords.upper,

@@ -105,7 +105,7 @@ class UnitObjective:
 
     def __call__(self, u: np.ndarray) -> np.ndarray:
         self.problem.check_cancel()
-        return np.sqrt(self.problem.acc_cost(self.to_coordinates(u), slice(None)))
+        return np.sqrt(self.problem.acc_cost(self.to_coordinates(u)))
 
 
 def _unchanged(previous: float, current: float, tolerance: float) -> bool:

@@ -8,6 +8,7 @@ search coordinates onto those values and the physical parameters, and chains the
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from typing import Callable
 
 import numpy as np
@@ -16,12 +17,14 @@ from numpy.typing import ArrayLike
 from gasfilm.analysis.physics.elements import (
     Dashpot,
     FilmModel,
+    LogLaplace,
     Node,
     Parallel,
     Series,
     Spring,
     SpringPot,
     laplace_variable,
+    log_laplace,
 )
 from gasfilm.drivers.errors import GasfilmError, SettingError
 
@@ -145,6 +148,19 @@ class Coordinates:
         return jac
 
 
+@dataclass(frozen=True)
+class Lines:
+    """A fit's data on some of its lines, gathered once: the searches evaluate the model thousands of times on the
+    same lines (``index``, an index array or a slice of the problem's lines)."""
+
+    index: np.ndarray | slice
+    s_rel: np.ndarray
+    log_s_rel: LogLaplace
+    s2: np.ndarray
+    sqrt_w: np.ndarray
+    h: np.ndarray
+
+
 class Problem:
     """Data, weights, coordinates and evaluation counting of one fit."""
 
@@ -177,7 +193,7 @@ class Problem:
             stiffness_ref = float(np.median(np.abs(self.z_measured)))
         self.coords = Coordinates(model, omega_ref, stiffness_ref, mass_kg, fit_mass)
         self.s_rel = self.s / omega_ref  # where the network is evaluated with the coordinates' reference values
-        self.log_s_rel = np.log(self.s_rel)
+        self.all_lines = self.lines(slice(None))
         sensitivity = np.abs(self.h) ** 2 * np.abs(self.z_measured) / np.abs(self.s) ** 2
         self.sensitivity = sensitivity / np.max(sensitivity)
 
@@ -193,75 +209,81 @@ class Problem:
         if self.cancel is not None and self.cancel():
             raise FitCancelledError(f"fit of {self.model.name} cancelled")
 
-    def stiffness(self, values: np.ndarray, index: np.ndarray | slice = slice(None)) -> np.ndarray:
-        """Film stiffness Z in N/m on the lines ``index`` for reference-value sets (..., P) at once."""
-        return self.model.stiffness(self.s_rel[index], values, self.log_s_rel[index])
+    def lines(self, index: np.ndarray | slice) -> Lines:
+        """The data on the lines ``index``, for the evaluations below."""
+        return Lines(index, self.s_rel[index], log_laplace(self.s_rel[index]), self.s2[index], self.sqrt_w[index],
+                     self.h[index])
 
-    def log_cost(self, thetas: np.ndarray, index: np.ndarray, weights: np.ndarray) -> np.ndarray:
-        """Mean squared weighted log-stiffness residual for many coordinate sets at once."""
+    def stiffness(self, values: np.ndarray, lines: Lines | None = None) -> np.ndarray:
+        """Film stiffness Z in N/m on ``lines`` (all by default) for reference-value sets (..., P) at once."""
+        lines = self.all_lines if lines is None else lines
+        return self.model.stiffness(lines.s_rel, values, lines.log_s_rel)
+
+    def log_cost(self, thetas: np.ndarray, lines: Lines, weights: np.ndarray) -> np.ndarray:
+        """Mean squared weighted log-stiffness residual for many coordinate sets at once (``weights`` on all lines)."""
         self.evaluations += len(thetas)
         values, _ = self.coords.reference_values(thetas)
         with np.errstate(all="ignore"):
-            r = np.log(self.stiffness(values, index) / self.z_measured[index]) * weights[index]
+            r = np.log(self.stiffness(values, lines) / self.z_measured[lines.index]) * weights[lines.index]
         cost = np.mean(np.abs(r) ** 2, axis=-1)
         return np.where(np.isfinite(cost), cost, np.inf)
 
-    def acc_cost(self, thetas: np.ndarray, index: np.ndarray) -> np.ndarray:
+    def acc_cost(self, thetas: np.ndarray, lines: Lines | None = None) -> np.ndarray:
         """Mean squared weighted accelerance residual for many coordinate sets at once."""
         values, mass = self.coords.reference_values(thetas)
         with np.errstate(all="ignore"):
-            return self.accelerance_cost(self.stiffness(values, index), mass, index)
+            return self.accelerance_cost(self.stiffness(values, lines), mass, lines)
 
-    def accelerance_cost(
-        self, stiffness: np.ndarray, mass_kg: np.ndarray, index: np.ndarray | slice = slice(None)
-    ) -> np.ndarray:
+    def accelerance_cost(self, stiffness: np.ndarray, mass_kg: np.ndarray, lines: Lines | None = None) -> np.ndarray:
         """Mean squared weighted accelerance residual ((m/s²)/N)² of film stiffnesses (..., lines) in N/m with
-        masses (...) in kg, on the lines ``index``; one evaluation per stiffness set."""
-        self.evaluations += int(np.prod(stiffness.shape[:-1]))
-        s2 = self.s2[index]
+        masses (...) in kg, on ``lines`` (all by default); one evaluation per stiffness set."""
+        lines = self.all_lines if lines is None else lines
+        self.evaluations += math.prod(stiffness.shape[:-1])
         with np.errstate(all="ignore"):
-            h_model = s2 / (stiffness + mass_kg[..., np.newaxis] * s2)
-            cost = np.mean(np.abs((h_model - self.h[index]) * self.sqrt_w[index]) ** 2, axis=-1)
+            h_model = lines.s2 / (stiffness + mass_kg[..., np.newaxis] * lines.s2)
+            cost = np.mean(np.abs((h_model - lines.h) * lines.sqrt_w) ** 2, axis=-1)
         return np.where(np.isfinite(cost), cost, np.inf)
 
-    def acc_residual(self, theta: np.ndarray, index: np.ndarray | slice = slice(None)) -> np.ndarray:
-        """Weighted accelerance residual at coordinates (..., size) on the lines ``index``, real and imaginary parts
-        stacked (..., 2·lines); one evaluation per point."""
+    def acc_residual(self, theta: np.ndarray, lines: Lines | None = None) -> np.ndarray:
+        """Weighted accelerance residual at coordinates (..., size) on ``lines`` (all by default), real and
+        imaginary parts stacked (..., 2·lines); one evaluation per point."""
+        lines = self.all_lines if lines is None else lines
         self.check_cancel()
-        self.evaluations += int(np.prod(np.shape(theta)[:-1]))
-        return stack(self.acc_complex_residual(theta, index) * self.sqrt_w[index])
+        self.evaluations += math.prod(np.shape(theta)[:-1])
+        return stack(self.acc_complex_residual(theta, lines) * lines.sqrt_w)
 
-    def acc_complex_residual(self, theta: np.ndarray, index: np.ndarray | slice = slice(None)) -> np.ndarray:
-        """``H(θ) - H_d`` in (m/s²)/N at coordinates (..., size) on the lines ``index``, unweighted, shape
+    def acc_complex_residual(self, theta: np.ndarray, lines: Lines | None = None) -> np.ndarray:
+        """``H(θ) - H_d`` in (m/s²)/N at coordinates (..., size) on ``lines`` (all by default), unweighted, shape
         (..., lines); non-finite values become large finite ones."""
+        lines = self.all_lines if lines is None else lines
         values, mass = self.coords.reference_values(theta)
-        s2 = self.s2[index]
         with np.errstate(all="ignore"):
-            residual = s2 / (self.stiffness(values, index) + mass[..., np.newaxis] * s2) - self.h[index]
+            residual = lines.s2 / (self.stiffness(values, lines) + mass[..., np.newaxis] * lines.s2) - lines.h
         if np.all(np.isfinite(residual)):  # the usual case, without nan_to_num's cost
             return residual
         return np.nan_to_num(residual, nan=1e6, posinf=1e6, neginf=-1e6)
 
-    def acc_jacobian(self, theta: np.ndarray, index: np.ndarray | slice = slice(None)) -> np.ndarray:
-        """Jacobian of :meth:`acc_residual` on the lines ``index`` with respect to the coordinates (..., size), shape
-        (..., 2·lines, size)."""
-        return self.acc_residual_and_jacobian(theta, index)[1]
+    def acc_jacobian(self, theta: np.ndarray, lines: Lines | None = None) -> np.ndarray:
+        """Jacobian of :meth:`acc_residual` on ``lines`` (all by default) with respect to the coordinates
+        (..., size), shape (..., 2·lines, size)."""
+        return self.acc_residual_and_jacobian(theta, lines)[1]
 
     def acc_residual_and_jacobian(
-        self, theta: np.ndarray, index: np.ndarray | slice = slice(None)
+        self, theta: np.ndarray, lines: Lines | None = None
     ) -> tuple[np.ndarray, np.ndarray]:
         """:meth:`acc_residual` and its Jacobian at coordinates (..., size), shapes (..., 2·lines) and
         (..., 2·lines, size), from one model evaluation: the model's analytic dZ/d(reference values) times ``g`` for
         a coefficient ``g = K0·e^θ`` (1 for an order), and ``H = s²/(Z + m s²)`` gives ``dH = -H²/s² · dZ`` and
         ``dH/dθ_m = -H² m``."""
+        lines = self.all_lines if lines is None else lines
         self.check_cancel()
-        self.evaluations += (1 + self.coords.size) * int(np.prod(np.shape(theta)[:-1]))
+        self.evaluations += (1 + self.coords.size) * math.prod(np.shape(theta)[:-1])
         values, mass = self.coords.reference_values(theta)
-        z, dz_dvalues = self.model.stiffness_and_gradient(self.s_rel[index], values, self.log_s_rel[index])
-        s2, sqrt_w = self.s2[index], self.sqrt_w[index]
+        z, dz_dvalues = self.model.stiffness_and_gradient(lines.s_rel, values, lines.log_s_rel)
+        s2, sqrt_w = lines.s2, lines.sqrt_w
         with np.errstate(all="ignore"):
             h_model = s2 / (z + mass[..., np.newaxis] * s2)
-        residual = h_model - self.h[index]
+        residual = h_model - lines.h
         if not np.all(np.isfinite(residual)):
             residual = np.nan_to_num(residual, nan=1e6, posinf=1e6, neginf=-1e6)
         # one complex factor per line and one real factor per parameter

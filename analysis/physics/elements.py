@@ -23,7 +23,7 @@ from __future__ import annotations
 import abc
 import re
 from dataclasses import dataclass
-from typing import Mapping, Sequence
+from typing import Mapping, NamedTuple, Sequence
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -73,11 +73,12 @@ class Node(abc.ABC):
 
     @abc.abstractmethod
     def evaluate(
-        self, s: np.ndarray, values: Mapping[str, np.ndarray], gradient: bool, log_s: np.ndarray | None = None
+        self, s: np.ndarray, values: Mapping[str, np.ndarray], gradient: bool, log_s: LogLaplace | None = None
     ) -> tuple[np.ndarray, Gradient]:
         """Complex stiffness in N/m at the Laplace variable ``s`` and, when ``gradient``, its derivative with respect
         to each parameter below this node (an empty mapping otherwise). ``log_s`` is ``ln s`` precomputed by a caller
-        that evaluates many parameter sets at the same ``s ≠ 0`` (a fitter); without it spring-pots use ``s**α``.
+        that evaluates many parameter sets at the same ``s ≠ 0`` (a fitter, :func:`log_laplace`); without it
+        spring-pots use ``s**α``.
         A spring's stiffness and derivative are its real value and 1, shaped like the value (broadcasting against
         ``s``): combined with other elements they take the frequencies' shape, and :meth:`stiffness` and
         :class:`FilmModel` give every result over the frequencies."""
@@ -87,7 +88,7 @@ class Node(abc.ABC):
         """The node in the short text form."""
 
     def stiffness(
-        self, s: np.ndarray, values: Mapping[str, np.ndarray], log_s: np.ndarray | None = None
+        self, s: np.ndarray, values: Mapping[str, np.ndarray], log_s: LogLaplace | None = None
     ) -> np.ndarray:
         """Complex stiffness in N/m at the Laplace variable ``s``."""
         return _over_frequencies(self.evaluate(s, values, False, log_s)[0], s)
@@ -101,7 +102,7 @@ class Spring(Node):
         return [Parameter(self.name, "N/m", *SPRING_BOUNDS_N_PER_M, "log")]
 
     def evaluate(
-        self, s: np.ndarray, values: Mapping[str, np.ndarray], gradient: bool, log_s: np.ndarray | None = None
+        self, s: np.ndarray, values: Mapping[str, np.ndarray], gradient: bool, log_s: LogLaplace | None = None
     ) -> tuple[np.ndarray, Gradient]:
         z = values[self.name]
         return z, {self.name: np.ones_like(z)} if gradient else {}
@@ -118,7 +119,7 @@ class Dashpot(Node):
         return [Parameter(self.name, "N·s/m", *DASHPOT_BOUNDS_NS_PER_M, "log")]
 
     def evaluate(
-        self, s: np.ndarray, values: Mapping[str, np.ndarray], gradient: bool, log_s: np.ndarray | None = None
+        self, s: np.ndarray, values: Mapping[str, np.ndarray], gradient: bool, log_s: LogLaplace | None = None
     ) -> tuple[np.ndarray, Gradient]:
         z = values[self.name] * s
         return z, {self.name: np.broadcast_to(s, z.shape)} if gradient else {}
@@ -139,7 +140,7 @@ class SpringPot(Node):
         ]
 
     def evaluate(
-        self, s: np.ndarray, values: Mapping[str, np.ndarray], gradient: bool, log_s: np.ndarray | None = None
+        self, s: np.ndarray, values: Mapping[str, np.ndarray], gradient: bool, log_s: LogLaplace | None = None
     ) -> tuple[np.ndarray, Gradient]:
         # principal branch; exp(α ln s) is 2–4× faster than s**α when ln s is given, s**α also holds at s = 0
         order, coefficient = values[self.order], values[self.coefficient]
@@ -147,21 +148,38 @@ class SpringPot(Node):
             return (coefficient * s**order if log_s is None else _power(order, log_s, coefficient)), {}
         power = s**order if log_s is None else _power(order, log_s)
         z = coefficient * power
-        return z, {self.coefficient: power, self.order: z * (np.log(s) if log_s is None else log_s)}
+        return z, {self.coefficient: power, self.order: z * (np.log(s) if log_s is None else log_s.value)}
 
     def text(self) -> str:
         return f"pot({self.coefficient}, {self.order})"
 
 
-def _power(order: np.ndarray, log_s: np.ndarray, coefficient: np.ndarray | float = 1.0) -> np.ndarray:
+class LogLaplace(NamedTuple):
+    """``ln s`` at the lines where a fitter evaluates a network many times: the complex value, its real part
+    ``ln|s|``, and ``arg s`` when it is the same on every line (``s = jω``: an FRF without an exponential window),
+    else None."""
+
+    value: np.ndarray
+    magnitude: np.ndarray
+    phase: float | None
+
+
+def log_laplace(s: ArrayLike) -> LogLaplace:
+    """:class:`LogLaplace` of the Laplace variables ``s`` (all ≠ 0)."""
+    value = np.log(np.asarray(s, dtype=complex))
+    phase = value.imag
+    uniform = phase.size > 0 and bool(np.all(phase == phase.flat[0]))
+    return LogLaplace(value, np.ascontiguousarray(value.real), float(phase.flat[0]) if uniform else None)
+
+
+def _power(order: np.ndarray, log_s: LogLaplace, coefficient: np.ndarray | float = 1.0) -> np.ndarray:
     """``c·exp(α·ln s)``: on the imaginary axis (an FRF without an exponential window) ``arg s`` is the same at every
     frequency, so ``c·s^α = |s|^α·c·e^{jα·arg s}`` needs a real exponential per frequency and one complex factor
     per parameter set, a third of the cost of a complex exponential and its product with ``c``."""
-    phase = log_s.imag
-    if phase.size and phase[0] == phase[-1] and np.all(phase == phase[0]):
-        angle = order * phase[0]
-        return np.exp(order * log_s.real) * (coefficient * (np.cos(angle) + 1j * np.sin(angle)))
-    return coefficient * np.exp(order * log_s)
+    if log_s.phase is not None:
+        angle = order * log_s.phase
+        return np.exp(order * log_s.magnitude) * (coefficient * (np.cos(angle) + 1j * np.sin(angle)))
+    return coefficient * np.exp(order * log_s.value)
 
 
 @dataclass(frozen=True)
@@ -177,7 +195,7 @@ class _Composite(Node, abc.ABC):
 @dataclass(frozen=True)
 class Parallel(_Composite):
     def evaluate(
-        self, s: np.ndarray, values: Mapping[str, np.ndarray], gradient: bool, log_s: np.ndarray | None = None
+        self, s: np.ndarray, values: Mapping[str, np.ndarray], gradient: bool, log_s: LogLaplace | None = None
     ) -> tuple[np.ndarray, Gradient]:
         parts = [child.evaluate(s, values, gradient, log_s) for child in self.children]
         z = parts[0][0]
@@ -192,7 +210,7 @@ class Parallel(_Composite):
 @dataclass(frozen=True)
 class Series(_Composite):
     def evaluate(
-        self, s: np.ndarray, values: Mapping[str, np.ndarray], gradient: bool, log_s: np.ndarray | None = None
+        self, s: np.ndarray, values: Mapping[str, np.ndarray], gradient: bool, log_s: LogLaplace | None = None
     ) -> tuple[np.ndarray, Gradient]:
         parts = [child.evaluate(s, values, gradient, log_s) for child in self.children]
         compliances = [1.0 / part for part, _ in parts]
@@ -253,15 +271,16 @@ class FilmModel:
         return {n: float(v) for n, v in zip(self.parameter_names, vector)}
 
     def stiffness(
-        self, s: ArrayLike, params: ArrayLike | Mapping[str, float], log_s: np.ndarray | None = None
+        self, s: ArrayLike, params: ArrayLike | Mapping[str, float], log_s: LogLaplace | None = None
     ) -> np.ndarray:
         """Complex stiffness Z(s) in N/m; ``params`` of shape (..., P) gives a result of shape (..., len(s)).
-        ``log_s``: ``ln s``, precomputed by a caller evaluating many parameter sets at the same ``s ≠ 0``."""
+        ``log_s``: ``ln s`` (:func:`log_laplace`), precomputed by a caller evaluating many parameter sets at the
+        same ``s ≠ 0``."""
         s, values = self._arguments(s, params)
         return _over_frequencies(self.network.evaluate(s, values, False, log_s)[0], s)
 
     def stiffness_and_gradient(
-        self, s: ArrayLike, params: ArrayLike | Mapping[str, float], log_s: np.ndarray | None = None
+        self, s: ArrayLike, params: ArrayLike | Mapping[str, float], log_s: LogLaplace | None = None
     ) -> tuple[np.ndarray, np.ndarray]:
         """Z(s) in N/m, shape (..., len(s)), and its analytic derivative dZ/dθ with respect to the parameters in
         :attr:`parameter_names` order, shape (..., len(s), P), in N/m per unit of each parameter."""
