@@ -40,6 +40,9 @@ _DISTINCT = 0.01
 _BRIEF_POLISH = 10
 #: Latin-hypercube shapes scored per shape coordinate
 _SAMPLES_PER_SHAPE = 32
+#: lines (of the searches' lines) on which the Latin-hypercube shapes are scored: a score only ranks a start, and the
+#: film's stiffness is smooth across the band
+_SCORING_LINES = 100
 #: least distance between two starts of local searches, in the unit cube of the shapes
 _START_SPACING = 0.1
 #: relative cost decrease at which a local search over the shapes, or the brief polish, stops: their results are
@@ -341,7 +344,8 @@ def _projected_searches(
     projection: Projection, searches: list[int], rng: np.random.Generator
 ) -> list[list[tuple[float, np.ndarray, np.ndarray]]]:
     """For each weighting of ``projection``: local searches over the branch shapes from its ``searches`` best-scored
-    distinct Latin-hypercube shapes, then from split branches; the searches of all weightings in one batch per
+    distinct Latin-hypercube shapes (scored on :data:`_SCORING_LINES` of its lines), then from split branches; the
+    searches of all weightings in one batch per
     step. Per weighting, (log cost, coordinates, shape) of each result, after the projected samples that best fit
     the accelerance (log cost ∞); without the splits when a search fits exactly."""
     problem, weightings = projection.problem, len(searches)
@@ -373,7 +377,8 @@ def _projected_searches(
     if projection.size == 0:
         local_searches([np.zeros((1, 0))] * weightings)
         return found
-    starts = [_chosen_shapes(projection, label, searches[label], rng, found[label]) for label in range(weightings)]
+    scoring = Projection(problem, projection.index[_subsample(len(projection.index), _SCORING_LINES)], projection.weights)
+    starts = [_chosen_shapes(scoring, label, searches[label], rng, found[label]) for label in range(weightings)]
     if local_searches(starts) <= _EXACT_LOG_COST:
         return found
     splits = [np.array(projection.split_starts(min(group, key=lambda item: item[0])[2])) for group in found]
