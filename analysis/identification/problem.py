@@ -274,31 +274,28 @@ class Problem:
         """:meth:`acc_residual` and its Jacobian at coordinates (..., size), shapes (..., 2·lines) and
         (..., 2·lines, size), from one model evaluation: the model's analytic dZ/d(reference values) times ``g`` for
         a coefficient ``g = K0·e^θ`` (1 for an order), and ``H = s²/(Z + m s²)`` gives ``dH = -H²/s² · dZ`` and
-        ``dH/dθ_m = -H² m``."""
+        ``dH/dθ_m = -H² m``. The Jacobian is a view of one contiguous array of its columns."""
         lines = self.all_lines if lines is None else lines
         self.check_cancel()
         self.evaluations += (1 + self.coords.size) * math.prod(np.shape(theta)[:-1])
         values, mass = self.coords.reference_values(theta)
-        z, dz_dvalues = self.model.stiffness_and_gradient(lines.s_rel, values, lines.log_s_rel)
+        z, columns = self.model.stiffness_and_gradient(lines.s_rel, values, lines.log_s_rel, parameters_first=True)
         s2, sqrt_w = lines.s2, lines.sqrt_w
         with np.errstate(all="ignore"):
             h_model = s2 / (z + mass[..., np.newaxis] * s2)
         residual = h_model - lines.h
         if not np.all(np.isfinite(residual)):
             residual = np.nan_to_num(residual, nan=1e6, posinf=1e6, neginf=-1e6)
-        # one complex factor per line and one real factor per parameter
+        # one complex factor per line and one real factor per parameter, applied in place
         weighted_h2 = h_model**2 * sqrt_w
-        columns = dz_dvalues * (-weighted_h2 / s2)[..., np.newaxis]
-        columns *= np.where(self.coords.is_order[: values.shape[-1]], 1.0, values)[..., np.newaxis, :]
+        columns *= (-weighted_h2 / s2)[..., np.newaxis, :]
+        columns *= np.where(self.coords.is_order[: values.shape[-1]], 1.0, values)[..., np.newaxis]
         if self.coords.fit_mass:
-            columns = np.concatenate([columns, (-weighted_h2 * mass[..., np.newaxis])[..., np.newaxis]], axis=-1)
-        n_lines = columns.shape[-2]
-        jac = np.empty(columns.shape[:-2] + (2 * n_lines, columns.shape[-1]))
-        jac[..., :n_lines, :] = columns.real
-        jac[..., n_lines:, :] = columns.imag
-        return stack(residual * sqrt_w), jac
+            columns = np.concatenate([columns, (-weighted_h2 * mass[..., np.newaxis])[..., np.newaxis, :]], axis=-2)
+        return stack(residual * sqrt_w), np.swapaxes(stack(columns), -1, -2)
 
 
 def stack(r: np.ndarray) -> np.ndarray:
-    """Real and imaginary parts of complex residuals (..., n) as real vectors (..., 2n)."""
-    return np.concatenate([r.real, r.imag], axis=-1)
+    """Real and imaginary parts of complex residuals (..., n) as real vectors (..., 2n), each line's two parts side by
+    side (a view of a contiguous array)."""
+    return np.ascontiguousarray(r, dtype=complex).view(np.float64)

@@ -280,14 +280,25 @@ class FilmModel:
         return _over_frequencies(self.network.evaluate(s, values, False, log_s)[0], s)
 
     def stiffness_and_gradient(
-        self, s: ArrayLike, params: ArrayLike | Mapping[str, float], log_s: LogLaplace | None = None
+        self,
+        s: ArrayLike,
+        params: ArrayLike | Mapping[str, float],
+        log_s: LogLaplace | None = None,
+        parameters_first: bool = False,
     ) -> tuple[np.ndarray, np.ndarray]:
         """Z(s) in N/m, shape (..., len(s)), and its analytic derivative dZ/dθ with respect to the parameters in
-        :attr:`parameter_names` order, shape (..., len(s), P), in N/m per unit of each parameter."""
+        :attr:`parameter_names` order, shape (..., len(s), P), in N/m per unit of each parameter; with
+        ``parameters_first`` shape (..., P, len(s)), each parameter's derivative contiguous (a fitter's Jacobian)."""
         s, values = self._arguments(s, params)
         z, grads = self.network.evaluate(s, values, True, log_s)
         z = _over_frequencies(z, s)
-        gradient = np.empty(z.shape + (len(self.parameters),), dtype=complex)
+        count = len(self.parameters)
+        if parameters_first:
+            gradient = np.empty(z.shape[:-1] + (count,) + z.shape[-1:], dtype=complex)
+            for i, name in enumerate(self.parameter_names):
+                gradient[..., i, :] = grads[name]
+            return z, gradient
+        gradient = np.empty(z.shape + (count,), dtype=complex)
         for i, name in enumerate(self.parameter_names):
             gradient[..., i] = grads[name]
         return z, gradient
