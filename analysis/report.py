@@ -397,7 +397,7 @@ def _diagnosis_html(diagnosis: dict[str, Any] | None) -> str:
              for name, v in recalibration.items()
              if isinstance(v, dict)],
         ))
-    notes = [quality_note_text(note) for note in diagnosis.get("quality") or []]
+    notes = [quality_note_text(note, diagnosis.get("hits_numbered_from", 0)) for note in diagnosis.get("quality") or []]
     if notes:
         parts.append("<h3>Measurement quality</h3><ul>"
                      + "".join(f"<li class='note'>{html.escape(note)}</li>" for note in notes) + "</ul>")
@@ -424,8 +424,9 @@ def _parameter_text(name: str, entry: Any) -> str:
     return f"{name} = {entry['value']:.4g}{spread} {entry.get('unit', '')}".rstrip()
 
 
-def quality_note_text(note: Any) -> str:
-    """A stored measurement-quality note (kind, message, band, hits) as one readable sentence."""
+def quality_note_text(note: Any, first_hit: int = 1) -> str:
+    """A stored measurement-quality note (kind, message, band, hits) as one readable sentence; ``first_hit``: the
+    number the stored hits start from (diagnoses stored before they were numbered from 1 counted from 0)."""
     if not isinstance(note, dict):
         return str(note)
     text = f"{str(note.get('kind') or 'note').capitalize()}: {note.get('message') or note.get('text') or ''}".rstrip()
@@ -434,7 +435,7 @@ def quality_note_text(note: Any) -> str:
         text += f" ({band[0]:.0f}–{band[1]:.0f} Hz)"
     hits = note.get("hits")
     if isinstance(hits, (list, tuple)) and hits:
-        shown = ", ".join(str(int(hit) + 1) for hit in hits[:12]) + (" …" if len(hits) > 12 else "")
+        shown = ", ".join(str(int(hit) + 1 - first_hit) for hit in hits[:12]) + (" …" if len(hits) > 12 else "")
         text += f"; hit{'s' if len(hits) > 1 else ''} {shown}"
     return text
 

@@ -138,6 +138,8 @@ def _load_uff(path: Path, force_dof: Any, response_dof: Any) -> Source:
 
     records = read_uff_time_records(path, tuple(force_dof) if force_dof else None,
                                     tuple(response_dof) if response_dof else None)
+    if records.length_note:
+        logger.warning("%s: %s", path, records.length_note)
     hits = [_hit_from_rows(i, record[0], record[1], records.sample_rate_hz, float(records.start_times_s[i]))
             for i, record in enumerate(records.records)]
     settings = {"source": {"uff_file": str(path), "force_dof": records.force_dof,

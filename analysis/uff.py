@@ -17,6 +17,7 @@ that a fit of the file removes the window's damping as a fit of the session does
 
 from __future__ import annotations
 
+import logging
 import math
 import warnings
 from dataclasses import dataclass, field
@@ -31,6 +32,8 @@ from gasfilm.analysis.session.layout import MAX_SAMPLE_RATE_HZ
 from gasfilm.drivers.errors import GasfilmError
 from gasfilm.drivers.interface import NI9234_VALID_RATES_HZ, ChannelKind
 from gasfilm.drivers.units import STANDARD_GRAVITY_M_S2
+
+logger = logging.getLogger(__name__)
 
 FUNCTION_TIME_RESPONSE = 1
 FUNCTION_FRF = 4
@@ -79,6 +82,8 @@ class UffTimeRecords:
     response_dof: Dof
     start_times_s: np.ndarray  # (hits,)
     descriptions: tuple[str, ...] = field(default=())
+    #: what was done to records of different lengths (all cut to the shortest), or None when all had one length
+    length_note: str | None = None
 
     @property
     def hit_count(self) -> int:
@@ -250,18 +255,25 @@ def _time_records(
         values = dataset.get("data")
         if not isinstance(values, np.ndarray) or values.ndim != 1 or values.dtype.kind not in "fciu":
             raise UffError(f"dataset {number} holds no column of numbers")
-    lengths = {len(d["data"]) for _, d in forces + responses}
-    if len(lengths) != 1:
-        raise UffError(
-            f"{path}: time records have inconsistent lengths ({', '.join(str(n) for n in sorted(lengths))} samples)"
-        )
-    samples = lengths.pop()
+    for (_, force), (_, response) in zip(forces, responses):
+        if len(force["data"]) != len(response["data"]):  # a hit's own force and response must pair sample by sample
+            pair = sorted((len(force["data"]), len(response["data"])))
+            raise UffError(f"{path}: time records have inconsistent lengths ({pair[0]}, {pair[1]} samples)")
+    lengths = [len(force["data"]) for _, force in forces]
+    samples = min(lengths)
+    length_note = None
+    if len(set(lengths)) > 1:
+        cut = [hit + 1 for hit, length in enumerate(lengths) if length > samples]
+        length_note = (f"the time records have different lengths ({', '.join(str(n) for n in sorted(set(lengths)))} "
+                       f"samples): every record is cut to the shortest, {samples} samples from its start (hits "
+                       f"{_hit_list(cut)} lose their later samples), so that all hits share one frequency grid")
+        logger.info("%s: %s", path, length_note)
     if samples < 2:
         raise UffError(f"{path}: time records hold {samples} sample; at least 2 are needed")
     records = np.empty((len(forces), 2, samples))
     for hit, pair in enumerate(zip(forces, responses)):
         for row, (role, (number, dataset)) in enumerate(zip(("force", "response"), pair)):
-            values = np.asarray(dataset["data"])
+            values = np.asarray(dataset["data"])[:samples]
             if np.iscomplexobj(values):
                 raise UffError(f"{path}: dataset {number} ({role} time record of hit {hit + 1}) holds complex values")
             if not np.all(np.isfinite(values)):
@@ -279,7 +291,19 @@ def _time_records(
     else:
         start_times_s = minima
     descriptions = tuple(_label(d, "id1") for _, d in forces)
-    return UffTimeRecords(path, records, sample_rate_hz, chosen_force, chosen_response, start_times_s, descriptions)
+    return UffTimeRecords(path, records, sample_rate_hz, chosen_force, chosen_response, start_times_s, descriptions,
+                          length_note)
+
+
+def _hit_list(hits: list[int]) -> str:
+    """Hit numbers as runs: 1–8, 11, 13–16."""
+    runs: list[list[int]] = []
+    for hit in hits:
+        if runs and hit == runs[-1][-1] + 1:
+            runs[-1].append(hit)
+        else:
+            runs.append([hit])
+    return ", ".join(f"{run[0]}–{run[-1]}" if len(run) > 2 else ", ".join(map(str, run)) for run in runs)
 
 
 def _abscissa_step(dataset: Mapping[str, Any]) -> float:

@@ -17,8 +17,9 @@ import numpy as np
 import pytest
 
 from gasfilm.analysis.diagnosis import diagnose
-from gasfilm.analysis.diagnosis.measurement import hit_spectra
+from gasfilm.analysis.diagnosis.measurement import QualityNote, hit_spectra
 from gasfilm.analysis.diagnosis.recordings import Recordings, load_recordings
+from gasfilm.analysis.diagnosis.result import Unexplained
 from gasfilm.analysis.physics.spec import RigSpec
 from gasfilm.analysis.spectra import WindowSettings, compute_frf
 from gasfilm.analysis.uff import export_frf_uff
@@ -370,3 +371,42 @@ def test_records_with_no_usable_hit_say_which_checks_removed_them(recorded):
     message = str(refused.value)
     assert "only 0 usable hit(s) of 4" in message and "4 with a second impact" in message, message
     assert "channels swapped" in message
+
+
+def _two_significant_digits(records: np.ndarray) -> np.ndarray:
+    """Every sample kept to two significant digits, as a CSV written with '%.1e' holds it."""
+    magnitude = np.abs(records)
+    unit = 10.0 ** (np.floor(np.log10(np.where(magnitude > 0, magnitude, 1.0))) - 1)
+    return np.round(records / unit) * unit
+
+
+def test_records_stored_with_two_significant_digits_are_rounded_not_clipped(recorded):
+    """Red team round 8: a text export with two significant digits leaves flat tops at every peak (10 N steps on a
+    200 N pulse), which are not clipping; the rounding is said, the response's part is in the noise model and the
+    force's, which falls on the few samples of each pulse, is said to scale each hit by about its size."""
+    recordings, _ = recorded
+    rounded = dataclasses.replace(recordings, records=_two_significant_digits(recordings.records))
+    diagnosis = diagnose(rounded, mass_kg=MASS_KG)
+    notes = {note.kind: note.message for note in diagnosis.quality}
+    assert "overload" not in notes and len(diagnosis.spectra.hit_numbers) == 4
+    assert "few significant decimal digits" in notes["quantisation"], notes
+    assert re.search(r"changes each hit's gain by about [\d.]+ % \(RMS\)", notes["quantisation"])
+    assert not diagnosis.findings
+    # a plain record's float values, and a uniform quantiser's integers, are not decimal rounding
+    assert "significant decimal" not in _notes_of(recordings.records)
+    assert "significant decimal" not in _notes_of(np.round(recordings.records * 1000.0))
+
+
+def _notes_of(records: np.ndarray) -> str:
+    return " ".join(note.message for note in hit_spectra(records, 12800.0).quality)
+
+
+def test_the_json_numbers_hits_from_1(recorded):
+    """Hits are numbered from 1 everywhere a user reads them, the JSON included (red team round 8 found the JSON's
+    ``unexplained[].hits``, ``quality[].hits`` and ``hit_numbers_used`` counted from 0 beside a text counting from 1)."""
+    recordings, _ = recorded
+    diagnosis = diagnose(recordings, mass_kg=MASS_KG)
+    values = json.loads(json.dumps(diagnosis.to_dict(), default=str))
+    assert values["hit_numbers_used"] == [1, 2, 3, 4] and values["hits_numbered_from"] == 1
+    assert QualityNote("overload", "two hits", hits=(0, 2)).to_dict()["hits"] == [1, 3]
+    assert Unexplained((100.0, 200.0), [0, 3], 1.0, "a peak").to_dict()["hits"] == [1, 4]

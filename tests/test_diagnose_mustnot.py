@@ -24,6 +24,7 @@ from gasfilm.analysis.diagnosis.selection import FitOutcome, fit
 from gasfilm.analysis.physics.effects import (
     AcCoupling,
     CrossTalk,
+    ExtraMode,
     FilmMemory,
     PneumaticLag,
     SensitivityError,
@@ -38,15 +39,15 @@ RATE_HZ = 12800.0
 
 
 def _records(hits: int = 8, seconds: float = 0.5, pretrigger_s: float = 0.01, seed: int = 0,
-             line=None) -> np.ndarray:
-    """Records (hits, 2, samples) of the nominal spring-damper rig hit by 1 ms half-sine pulses of 150–250 N after
-    ``pretrigger_s``, sensor noise added, and ``line(hit, time_s)`` (m/s²) added to the response."""
+             line=None, spec: RigSpec = NOMINAL) -> np.ndarray:
+    """Records (hits, 2, samples) of ``spec`` (the nominal spring-damper rig) hit by 1 ms half-sine pulses of 150–250 N
+    after ``pretrigger_s``, sensor noise added, and ``line(hit, time_s)`` (m/s²) added to the response."""
     rng = np.random.default_rng(seed)
     time_s = np.arange(int(seconds * RATE_HZ)) / RATE_HZ
     pulse = np.where((time_s >= pretrigger_s) & (time_s < pretrigger_s + 1e-3),
                      np.sin(np.pi * (time_s - pretrigger_s) / 1e-3), 0.0)
     force = rng.uniform(150.0, 250.0, (hits, 1)) * pulse
-    response = np.stack([simulate_response(NOMINAL, hit, RATE_HZ) for hit in force])
+    response = np.stack([simulate_response(spec, hit, RATE_HZ) for hit in force])
     if line is not None:
         response = response + np.stack([line(hit, time_s) for hit in range(hits)])
     return np.stack((force + rng.normal(0.0, 0.02, force.shape), response + rng.normal(0.0, 0.005, force.shape)),
@@ -221,3 +222,42 @@ def test_a_candidate_fit_that_cannot_matter_stops_early_and_one_that_can_runs_to
     assert worth_below < full.chi2 <= cut.chi2 < full.chi2 + 1.0
     within_reach = fit(evidence, start, slots, worth_below=full.chi2 + 1e6)
     assert within_reach.chi2 == full.chi2 and within_reach.evaluations == full.evaluations
+
+
+def test_a_term_whose_own_parameter_sits_at_its_bound_on_the_written_spec_is_no_finding():
+    """Red team round 8 (an impactor's reaction into a base on isolators): a film memory of order 1.9 — the edge of
+    its range, a mass-like spring-pot standing in for the base's mode — was claimed, because a term's own values were
+    judged only when it entered. On the written spec they are judged again: a parameter at its bound is not a
+    measurement, even where the term fits."""
+    memory = FilmMemory(k_memory=7.6e6, eta_memory=350.0, alpha_memory=1.9)
+    spec = NOMINAL.with_effects(memory)
+    spectra = hit_spectra(_records(spec=spec), RATE_HZ)
+    evidence = pipeline.evidence_for(spectra, spec)
+    context = fit_context(spec, spectra.conditions, (float(spectra.freq_hz[0]), float(spectra.freq_hz[-1])))
+    current = fit(evidence, spec, spec_slots(spec, context))
+    assert current.spec.effects[0].alpha_memory == 1.9
+    without = pipeline._refit_without(evidence, current.spec, 0, NOMINAL, context).spec
+    step = Step("film-memory", 2 * current.chi2, current.chi2, 1e3)
+    rejected = []
+    steps, final, _, _, _ = pipeline._drop_unsupported_terms(
+        spectra, evidence, [step], current, {"film-memory": without}, rejected, NOMINAL,
+        pipeline.replay_rms(spectra, NOMINAL), context, lambda text: None, None)
+    assert not steps and not final.spec.effects
+    assert [candidate.effect for candidate in rejected] == ["film-memory"]
+    assert "alpha_memory ran into the edge of the physical range" in rejected[0].reason
+
+
+def test_a_term_with_unusual_values_that_leaves_nothing_unexplained_is_named():
+    """Red team round 8: a 10.5 kg counterweight on a cable (a mode at 70 Hz) and a tuned absorber on the film's
+    resonance (ζ 0.115) were fitted exactly and refused by the extra mode's rules of thumb (a part riding on the mover
+    is light, a peak of its own is narrow). Those rules guard against stand-ins; when the spec with the term leaves
+    nothing unexplained, the term is named — with its unusual values said."""
+    counterweight = ExtraMode(freq_hz=70.0, damping_ratio=0.02, mass_kg=10.5)
+    recordings = Recordings(_records(spec=NOMINAL.with_effects(counterweight)), RATE_HZ, np.arange(8.0), None, None,
+                            None, "counterweight")
+    diagnosis = diagnose(recordings, mass_kg=25.05)
+    assert diagnosis.verdict == "missing physics" and not diagnosis.unexplained
+    (finding,) = diagnosis.findings
+    assert finding.effect == "extra-mode"
+    assert abs(finding.parameters["mass_kg"]["value"] - 10.5) < 0.2
+    assert "unusual for this term" in finding.evidence and "% of the mover's" in finding.evidence

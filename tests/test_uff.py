@@ -178,3 +178,19 @@ def test_an_imported_real_recording_replays_with_all_five_hits_accepted(tmp_path
     text = capsys.readouterr().out
     assert "accepted but flagged (response not decayed): 5" in text and "overload" not in text
     assert "--exp-end" in text and "leakage" in text
+
+
+def test_hits_of_different_lengths_are_cut_to_the_shortest_and_said_so(tmp_path):
+    """Red team round 8: a recorder that changed its record length mid-session (1 s, then 0.5 s records) is normal
+    input, not an error: every record is cut to the shortest from its start, and a note says which hits lost samples.
+    A hit whose own force and response records differ in length stays refused (a damaged pairing)."""
+    hits = synthetic_hits(4)
+    datasets = []
+    for hit, record in enumerate(hits):
+        force, response = record.data if hit < 2 else record.data[:, :2000]
+        datasets += [time_record(force, 1, 3, 13, "N", hit=hit), time_record(response, 5, 3, 12, "m/s^2", hit=hit)]
+    read = read_uff_time_records(write_uff(tmp_path / "mixed.uff", datasets))
+    assert read.records.shape == (4, 2, 2000)
+    np.testing.assert_allclose(read.records[0], hits[0].data[:, :2000], rtol=1e-10)  # ASCII UFF: 12 digits
+    assert "different lengths (2000, 2560 samples)" in read.length_note and "hits 1, 2 lose" in read.length_note
+    assert read_uff_time_records(write_uff(tmp_path / "even.uff", datasets[4:])).length_note is None

@@ -76,7 +76,8 @@ class QualityNote:
     hits: tuple[int, ...] = ()
 
     def to_dict(self) -> dict:
-        return {"kind": self.kind, "message": self.message, "band_hz": self.band_hz, "hits": list(self.hits)}
+        return {"kind": self.kind, "message": self.message, "band_hz": self.band_hz,
+                "hits": [int(hit) + 1 for hit in self.hits]}  # numbered from 1, as everywhere the user sees
 
 
 @dataclass
@@ -520,6 +521,31 @@ def spiked_hits(records: np.ndarray, extents: list[tuple[int, int, int]], sample
     return [int(i) for i in np.flatnonzero(spiky.any(axis=1))]
 
 
+def _rounding_variance(step: np.ndarray, window: np.ndarray, force_power: np.ndarray) -> np.ndarray:
+    """The per-hit FRF variance (hits, lines) that a response's decimal rounding adds: each sample's error is uniform
+    within its own step (variance step²/12, independent between samples: white), weighted by the window."""
+    return (np.sum((window * step) ** 2, axis=1) / 12.0)[:, np.newaxis] / force_power
+
+
+def _rounding_note(rounding: list[np.ndarray | None], force_w: np.ndarray, force_n: np.ndarray) -> QualityNote:
+    """What decimal rounding does: on the response, noise the noise model takes in; on the force, whose error falls
+    on the few samples of the pulse, each hit's own gain error (its RMS estimated), which no noise model that is
+    independent between frequencies holds."""
+    channels = [f"the {name} (steps up to {step.max():.3g} {unit})"
+                for name, unit, step in zip(("force", "response"), ("N", "m/s²"), rounding) if step is not None]
+    message = (f"{' and '.join(channels)} stored with few significant decimal digits (a text export): the rounding "
+               f"error grows with each sample's value, up to 5 % of it, near the peaks where the quiet parts show none; "
+               f"a plateau at a peak counts as clipping only when it cuts the pulse")
+    if rounding[1] is not None:
+        message += "; the response's rounding is part of the noise model (step²/12 at each sample's own step)"
+    if rounding[0] is not None:
+        gain = np.sqrt(np.sum((force_w * rounding[0]) ** 2, axis=1) / 12.0) / np.abs(np.sum(force_w * force_n, axis=1))
+        message += (f"; the force's falls on the few samples of each pulse, so it changes each hit's gain by about "
+                    f"{100 * float(np.sqrt(np.mean(gain**2))):.2g} % (RMS), alike at every frequency: expect the hits "
+                    f"to differ by a scale factor that far")
+    return QualityNote("quantisation", message + " — a property of the recording, not physics")
+
+
 def _band_text(low_hz: float, high_hz: float) -> str:
     return f"{low_hz:.0f}–{high_hz:.0f} Hz"
 
@@ -573,6 +599,7 @@ def hit_spectra(
     pulse_samples = int(np.median([end - start + 1 for start, _, end in extents]))
 
     steps = [_quantisation_step(records[:, channel]) for channel in (0, 1)]
+    rounding = [decimal_rounding_step(records[:, channel]) for channel in (0, 1)]
     coarse_response = coarsely_quantised_response(records, steps[1])
     response_step = steps[1] if coarse_response else 0.0
     response_offset = (steps[1] * float(np.angle(np.mean(np.exp(2j * np.pi * records[:, 1] / steps[1])))) / (2 * np.pi)
@@ -582,15 +609,17 @@ def hit_spectra(
         after = record[0, end + 1 + pulse_samples :]
         if after.size and np.max(np.abs(after)) > 0.1 * abs(record[0, peak]):
             double_hits.append(index)
-        if (_clipped(record[0], step=steps[0]) or _clipped(record[1], step=steps[1])
+        peak_steps = [steps[c] if rounding[c] is None else float(rounding[c][index].max()) for c in (0, 1)]
+        if (_clipped(record[0], step=peak_steps[0]) or _clipped(record[1], step=peak_steps[1])
                 or (overload is not None and np.any(overload[index]))):
             clipped_hits.append(index)
     if double_hits:
         quality.append(QualityNote("double hit", f"{len(double_hits)} hit(s) with a second impact were left out",
                                    hits=tuple(double_hits)))
     if clipped_hits:
-        quality.append(QualityNote("overload", f"{len(clipped_hits)} clipped hit(s) were left out",
-                                   hits=tuple(clipped_hits)))
+        quality.append(QualityNote("overload", f"{len(clipped_hits)} clipped hit(s) were left out (hits "
+                                   f"{', '.join(str(i + 1) for i in clipped_hits)}): a record sits at its extreme for "
+                                   f"several samples", hits=tuple(clipped_hits)))
     unclipped = [index for index in range(hit_count) if index not in clipped_hits]
     ceiling_hits, ceiling = response_ceiling_hits(records[unclipped], [extents[i] for i in unclipped])
     if ceiling_hits:
@@ -629,6 +658,7 @@ def hit_spectra(
             "few hits", f"only {used.size} usable hits: too few to check the noise model against the scatter between "
             f"hits, so any verdict is provisional; record at least {MIN_SCATTER_HITS}", hits=tuple(int(i) for i in used)))
     records = records[used]
+    rounding = [None if step is None else step[used] for step in rounding]
     extents = [extents[i] for i in used]
     trigger = np.array([start for start, _, _ in extents])
     margin = int(QUIET_MARGIN_S * sample_rate_hz)
@@ -645,6 +675,7 @@ def hit_spectra(
                 f"too few to measure the noise from their scatter (at least {MIN_SCATTER_HITS}); record at least "
                 f"{MIN_QUIET_SAMPLES / sample_rate_hz * 1e3 + QUIET_MARGIN_S * 1e3:.1f} ms before the hit, or more hits")
         used, records, trigger = used[keep_quiet], records[keep_quiet], trigger[keep_quiet]
+        rounding = [None if step is None else step[keep_quiet] for step in rounding]
         extents = [extents[i] for i in keep_quiet]
     late, fronts = _missing_pulse_fronts(records[:, 0], extents)
     if late:
@@ -822,6 +853,10 @@ def hit_spectra(
              + np.abs(h1_full[np.newaxis, :]) ** 2 * _through_window(noise_force, window_row)[np.newaxis, :])
             / force_power
         )
+    if rounding[1] is not None:
+        variance_full = variance_full + _rounding_variance(rounding[1], exponential, force_power)
+    if rounding[0] is not None or rounding[1] is not None:
+        quality.append(_rounding_note(rounding, force_w, records[:, 0]))
     if force_tail is not None:
         variance_full = variance_full + force_tail.variance(h_full, force_spectra, exponential[0], sample_rate_hz)
     if prewindow_error_1_s > 0:
@@ -1227,6 +1262,31 @@ def _quantisation_step(records: np.ndarray) -> float:
     steps = np.diff(np.unique(records))
     steps = steps[steps > 0]
     return float(steps.min()) if steps.size else 0.0
+
+
+#: At most this many significant decimal digits are looked for in a channel's samples (a text export with %.1e …)
+MAX_ROUNDED_DIGITS = 4
+
+
+def decimal_rounding_step(records: np.ndarray) -> np.ndarray | None:
+    """The rounding step at every sample (same shape) of a channel stored with few significant decimal digits — a
+    text export such as ``%.1e``: every nonzero sample is a multiple of 10^(e − d + 1), e its decimal exponent, for
+    d ≤ :data:`MAX_ROUNDED_DIGITS` — where that step at the channel's peak is ten times its finest step between
+    values (a uniform quantiser's integers pass the digit test, but their step is the same everywhere); else None.
+    The rounding error then grows with each value, up to 5 % of it, where the quiet parts show none."""
+    magnitude = np.abs(records)
+    nonzero = magnitude[magnitude > 0]
+    if nonzero.size < 100:
+        return None
+    exponent = np.floor(np.log10(nonzero))
+    for digits in range(1, MAX_ROUNDED_DIGITS + 1):
+        quotient = nonzero / 10.0 ** (exponent - digits + 1)
+        if np.mean(np.abs(quotient - np.round(quotient)) <= 1e-6 * quotient) < 0.999:
+            continue
+        with np.errstate(divide="ignore"):
+            step = np.where(magnitude > 0, 10.0 ** (np.floor(np.log10(magnitude)) - digits + 1), 0.0)
+        return step if step.max() >= 10 * _quantisation_step(records) else None
+    return None
 
 
 def _noise_spectrum(

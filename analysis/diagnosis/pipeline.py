@@ -395,6 +395,10 @@ def _select_one(
             return None
         index = len(outcome.spec.effects) - 1
         reason = _not_a_finding(outcome, index, context)
+        if reason is not None and _not_a_finding(outcome, index, context, within_noise=True) is None:
+            if not _unexplained(spectra, evidence_for(spectra, outcome.spec), outcome.spec, []):
+                progress(f"  {identifier}: its values are unusual ({reason}), but with it nothing is left unexplained")
+                reason = None
         if reason is not None:
             band = _term_band(candidate_evidence, outcome.spec, current.spec)
             rejected.append(CandidateDescription(identifier, band, _term_parameters(outcome, index), reason))
@@ -450,13 +454,18 @@ def _term_parameters(outcome: FitOutcome, index: int) -> dict[str, dict[str, flo
     return parameters
 
 
-def _not_a_finding(outcome: FitOutcome, index: int, context: FitContext) -> str | None:
-    """Why the term at ``index`` is not a measurement of anything: a parameter at its bound, or absurd values."""
+def _not_a_finding(
+    outcome: FitOutcome, index: int, context: FitContext, within_noise: bool = False
+) -> str | None:
+    """Why the term at ``index`` is not a measurement of anything: a parameter at its bound, or absurd values — a
+    term's rule of what is plausible (a part riding on the mover is light, a peak of its own is narrow) is a prior
+    against stand-ins, which yields to the data when the spec with the term leaves nothing unexplained
+    (``within_noise``): a 10 kg counterweight or a tuned absorber on the film's resonance is then what it is."""
     spec = outcome.spec
     at_bound = [slot.name for slot in outcome.slots if slot.effect == index and slot.at_bound(spec)]
     if at_bound:
         return f"{', '.join(at_bound)} ran into the edge of the physical range"
-    return spec.effects[index].implausible(context)
+    return None if within_noise else spec.effects[index].implausible(context)
 
 
 def _candidate_fits(
@@ -644,7 +653,11 @@ def _drop_unsupported_terms(
     while steps:
         claims = {step.identifier: _claim(spectra, evidence, current, refits_without[step.identifier], step.identifier,
                                            recalibrated, rms_recalibrated) for step in steps}
+        within_noise = not _unexplained(spectra, evidence, current.spec, [])
         for step in steps:
+            if claims[step.identifier].reason is None:  # its own values on the written spec, as when it entered
+                claims[step.identifier].reason = _not_a_finding(current, _effect_index(current.spec, step.identifier),
+                                                                context, within_noise)
             if claims[step.identifier].reason is None:
                 claims[step.identifier].reason = _survives_left_out_data(spectra, evidence, current, step,
                                                                          refits_without[step.identifier], context)
@@ -1004,6 +1017,10 @@ def _finding(
     sentence = (f"{sentence[0].upper()}{sentence[1:]}; χ² falls by {gain:.0f} on all hits, by "
                 f"{step.held_out_gain:.0f} (noise units) on hits left out of the fit and by "
                 f"{step.held_out_band_gain:.0f} on frequency bands left out of it.")
+    unusual = effect.implausible(context)
+    if unusual is not None:
+        sentence += (f" Its values are unusual for this term ({unusual}); it is named because with it nothing is left "
+                     f"unexplained.")
     return Finding(
         effect=identifier,
         kind=effect.kind,

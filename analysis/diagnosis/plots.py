@@ -108,7 +108,7 @@ def write_residual_figure(diagnosis: Diagnosis, path: Path) -> Path:
     axes[0].set_xlabel("frequency (Hz)")
     axes[0].set_ylabel("χ² per point (1 = noise)")
     axes[0].legend(fontsize=8)
-    hit_numbers = spectra.hit_numbers
+    hit_numbers = spectra.hit_numbers + 1  # numbered from 1, as everywhere the user sees
     axes[1].plot(hit_numbers, given_residuals[1], "o", color="C3", label="spec as given")
     axes[1].plot(hit_numbers, improved_residuals[1], "s", color="C0", label="improved spec")
     axes[1].axhline(1.0, color="k", lw=0.6, ls="--")

@@ -81,7 +81,7 @@ def load_recordings(path: str | Path | list[Path]) -> Recordings:
 
         uff = read_uff_time_records(path)
         times = np.asarray(uff.start_times_s, float)
-        notes = []
+        notes = [] if uff.length_note is None else [QualityNote("record length", uff.length_note)]
         if times.size > 1 and np.ptp(times) == 0:
             notes.append(QualityNote("session time", "the UFF records carry no start times: changes during the "
                                      "session (drift, a step) cannot be assessed from these records"))

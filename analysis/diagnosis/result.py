@@ -112,7 +112,8 @@ class Unexplained:
     unmodelled_resonances_hz: list[float] = field(default_factory=list)  # resonances here the spec does not have
 
     def to_dict(self) -> dict:
-        return {"band_hz": [round(self.band_hz[0], 1), round(self.band_hz[1], 1)], "hits": self.hits,
+        return {"band_hz": [round(self.band_hz[0], 1), round(self.band_hz[1], 1)],
+                "hits": [hit + 1 for hit in self.hits],
                 "chi2_share": round(self.chi2_share, 3), "character": self.character,
                 "candidates": [candidate.to_dict() for candidate in self.candidates],
                 "unmodelled_resonances_hz": [round(f, 1) for f in self.unmodelled_resonances_hz]}
@@ -177,7 +178,8 @@ class Diagnosis:
             "chi2_per_point_after": self.chi2_per_point_after,
             "band_hz": [float(self.evidence.freq_hz[0]), float(self.evidence.freq_hz[-1])],
             "hits_used": int(self.evidence.hit_count),
-            "hit_numbers_used": [int(n) for n in self.spectra.hit_numbers],
+            "hit_numbers_used": [int(n) + 1 for n in self.spectra.hit_numbers],
+            "hits_numbered_from": 1,
             "decay_rate_1_s": self.evidence.decay_rate_1_s,
             "improved_spec": self.improved_spec_path,
             "notes": self.notes,

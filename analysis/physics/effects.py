@@ -248,8 +248,9 @@ class ExtraMode(Effect):
 
     def implausible(self, context: FitContext) -> str | None:
         if self.mass_kg > 0.2 * context.mass_kg:
-            return (f"its mass {self.mass_kg:.3g} kg is comparable to the mover's {context.mass_kg:.3g} kg: that is "
-                    f"not a part riding on the mover")
+            return (f"its mass {self.mass_kg:.3g} kg is {100 * self.mass_kg / context.mass_kg:.0f} % of the mover's "
+                    f"{context.mass_kg:.3g} kg: a body that heavy (a counterweight, a second carriage) is a second mode "
+                    f"of the rig, not a small part riding on the mover, and a term that heavy can reshape the whole FRF")
         if self.damping_ratio > MAX_LOCAL_DAMPING_RATIO:
             return (f"its damping ratio {self.damping_ratio:.2g} is too large for a peak/dip of its own: it only "
                     f"reshapes the band around {self.freq_hz:.0f} Hz, which other causes do as well")
@@ -259,9 +260,9 @@ class ExtraMode(Effect):
         return _band_excitable(self.freq_hz, context)
 
     def evidence(self, sigma: Mapping[str, float], where: str, context: FitContext) -> str:
+        mass = f"{self.mass_kg:.3g} kg" if self.mass_kg >= 1.0 else f"{self.mass_kg * 1e3:.3g} g"
         return (f"a localised peak/dip pattern near {self.freq_hz:.1f} ± {sigma['freq_hz']:.1f} Hz that the film "
-                f"model cannot produce: an additional resonance of {self.mass_kg * 1e3:.3g} g "
-                f"(damping ratio {self.damping_ratio:.3g})")
+                f"model cannot produce: an additional resonance of {mass} (damping ratio {self.damping_ratio:.3g})")
 
 
 @register_effect("structure-mode")
