@@ -261,3 +261,20 @@ def test_a_term_with_unusual_values_that_leaves_nothing_unexplained_is_named():
     assert finding.effect == "extra-mode"
     assert abs(finding.parameters["mass_kg"]["value"] - 10.5) < 0.2
     assert "unusual for this term" in finding.evidence and "% of the mover's" in finding.evidence
+
+
+def test_a_lag_on_a_spring_damper_film_carries_its_exact_absorber_alternative():
+    """Red team round 8's viscous absorber (0.75 kg on 1000 N·s/m of oil shear, no spring) was named a pneumatic lag
+    with exactly the values the identity gives; the finding now says so, with the absorber's mass and coupling."""
+    lag = PneumaticLag(k_lag=1.0e6 / 0.75, tau_lag=0.75e-3)
+    spec = NOMINAL.with_values(film_parameters={"k": 3.8e7 - lag.k_lag, "eta": 4500.0}).with_effects(lag)
+    alternative = pipeline._lag_as_absorber(spec, 0)
+    assert alternative.effect == "extra-mode"
+    assert "a mass of 0.75 kg coupled to the mover by a dashpot of 1e+03 N·s/m" in alternative.note
+    assert "stiffness 3.8e+07 N/m and damping 3500 N·s/m" in alternative.note
+    s = 2j * np.pi * np.linspace(10.0, 1000.0, 50)  # the identity itself: film + lag = film' + absorber
+    absorber = 0.75 * 1000.0 * s**2 / (0.75 * s + 1000.0)
+    np.testing.assert_allclose(spec.film_parameters["k"] + 4500.0 * s + lag.added_stiffness(s),
+                               3.8e7 + 3500.0 * s + absorber, rtol=1e-12)
+    # where the implied film damping would be negative there is no such absorber
+    assert pipeline._lag_as_absorber(spec.with_values(film_parameters={"k": 3.7e7, "eta": 900.0}), 0) is None

@@ -1049,11 +1049,35 @@ def _alternatives(identifier: str, close: list[str], spec: RigSpec, index: int) 
         alternatives.append(Alternative(
             other, f"exactly equivalent: a uniform accelerometer sensitivity error of {100 * fraction:+.2f} % with a "
                    f"recalibrated film scales the FRF the same way; these data cannot tell them apart — {measurement}"))
+    absorber = _lag_as_absorber(spec, index) if identifier == "pneumatic-lag" else None
+    if absorber is not None:
+        alternatives.append(absorber)
     for other in close:
         alternatives.append(Alternative(
             other, f"fits almost as well (BIC within {ALTERNATIVE_MARGIN:.0f}); these data cannot tell it from "
                    f"{identifier} — {separating_measurement(identifier, other)} would"))
     return alternatives
+
+
+def _lag_as_absorber(spec: RigSpec, index: int) -> Alternative | None:
+    """On a spring-damper film a lag ``k_lag/(1 + sτ)`` is exactly a mass ``m = k_lag·τ²`` coupled to the mover by a
+    dashpot ``c = k_lag·τ`` alone (a viscous, Houdaille, absorber: ``m c s²/(m s + c) = c s − k_lag + k_lag/(1 + sτ)``)
+    with the film's stiffness ``k + k_lag`` and damping ``η − c`` — when that damping stays positive (red team round
+    8's viscous absorber was named a lag with exactly these values)."""
+    if set(spec.film_parameters) != {"k", "eta"}:
+        return None
+    lag = spec.effects[index]
+    coupling = lag.k_lag * lag.tau_lag
+    if coupling >= spec.film_parameters["eta"]:
+        return None
+    mass = coupling * lag.tau_lag
+    return Alternative(
+        "extra-mode",
+        f"exactly equivalent on a spring-damper film: a mass of {mass:.3g} kg coupled to the mover by a dashpot of "
+        f"{coupling:.3g} N·s/m alone (a viscous absorber: a part on oil or air shear, an extra mode without a spring), "
+        f"with the film's stiffness {spec.film_parameters['k'] + lag.k_lag:.4g} N/m and damping "
+        f"{spec.film_parameters['eta'] - coupling:.4g} N·s/m; these data cannot tell them apart — a change of supply "
+        f"pressure would (a lag in the film's air moves with it, a separate mass does not)")
 
 
 # --- adequacy ---------------------------------------------------------------------------------------------------------
