@@ -410,3 +410,35 @@ def test_the_json_numbers_hits_from_1(recorded):
     assert values["hit_numbers_used"] == [1, 2, 3, 4] and values["hits_numbered_from"] == 1
     assert QualityNote("overload", "two hits", hits=(0, 2)).to_dict()["hits"] == [1, 3]
     assert Unexplained((100.0, 200.0), [0, 3], 1.0, "a peak").to_dict()["hits"] == [1, 4]
+
+
+def test_integer_counts_that_wrapped_around_on_export_leave_their_hits_out(recorded):
+    """Red team round 8: an exporter's int16 counts that overflowed wrap from one extreme to the other: the hits are
+    left out as overloaded, not read as modes of the structure."""
+    recordings, _ = recorded
+    records = recordings.records.copy()
+    peaks = np.max(np.abs(records[:, 1]), axis=1)
+    step = 1.02 * np.sort(peaks)[-2] / 32767  # only the largest hit overflows 16 bits
+    counts = np.round(records[:, 1] / step).astype(np.int64)
+    records[:, 1] = (((counts + 32768) % 65536) - 32768) * step
+    diagnosis = diagnose(dataclasses.replace(recordings, records=records), mass_kg=MASS_KG)
+    wrapped = int(np.argmax(peaks))
+    (note,) = [note for note in diagnosis.quality if "wrap around" in note.message]
+    assert note.kind == "overload" and note.hits == (wrapped,) and f"hits {wrapped + 1})" in note.message
+    assert wrapped not in diagnosis.spectra.hit_numbers and not diagnosis.findings and not diagnosis.unexplained
+
+
+def test_a_force_pulse_without_a_response_leaves_its_hit_out(recorded):
+    """Red team round 8: a trigger on the hammer tapping the bench records a force pulse and only noise in the
+    response; such a record is left out with a note, not read as the rig changing during the session."""
+    recordings, _ = recorded
+    records = recordings.records.copy()
+    records[2, 1] = np.random.default_rng(3).normal(0.0, 0.01, records.shape[-1])
+    records[2, 0] *= 0.2
+    diagnosis = diagnose(dataclasses.replace(recordings, records=records), mass_kg=MASS_KG)
+    notes = {note.kind: note for note in diagnosis.quality}
+    assert notes["no response"].hits == (2,) and "hits 3:" in notes["no response"].message
+    assert list(diagnosis.spectra.hit_numbers) == [0, 1, 3]
+    assert not diagnosis.findings and not diagnosis.unexplained
+    # every plain hit responds
+    assert "no response" not in {note.kind for note in hit_spectra(recordings.records, recordings.sample_rate_hz).quality}

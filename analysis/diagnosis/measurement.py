@@ -405,6 +405,38 @@ def _clipped(signal: np.ndarray, run: int = 3, step: float = 0.0) -> bool:
     return False
 
 
+def _wrapped(signal: np.ndarray) -> bool:
+    """True when the signal jumps between consecutive samples from near one extreme to near the other (beyond 80 % of
+    its largest magnitude on both sides, opposite signs): integer counts that overflowed their type wrap so; a
+    band-limited signal cannot swing its whole range in one sample unless it is at full amplitude near 0.5 fs."""
+    largest = float(np.max(np.abs(signal)))
+    if largest == 0:
+        return False
+    first, second = signal[:-1], signal[1:]
+    return bool(np.any((first * second < 0) & (np.abs(first) > 0.8 * largest) & (np.abs(second) > 0.8 * largest)))
+
+
+#: A record whose response per unit impulse is below this share of the hits' median holds no response to its pulse.
+SILENT_RESPONSE_SHARE = 0.05
+#: The response is measured over this long (s) from the pulse.
+SILENT_RESPONSE_S = 0.1
+
+
+def _hits_without_response(records: np.ndarray, extents: list[tuple[int, int, int]], sample_rate_hz: float
+                           ) -> list[int]:
+    """Hits whose response (RMS over :data:`SILENT_RESPONSE_S` from the pulse) per unit impulse is below
+    :data:`SILENT_RESPONSE_SHARE` of the median hit's: a force pulse the structure did not feel."""
+    length = max(int(SILENT_RESPONSE_S * sample_rate_hz), 1)
+    ratios = []
+    for record, extent in zip(records, extents):
+        start = extent[0]
+        response = record[1, start : start + length]
+        impulse = abs(hit_impulse_ns(record[0], extent, sample_rate_hz))
+        ratios.append(float(np.sqrt(np.mean(response**2))) / impulse if impulse > 0 else np.inf)
+    ratios = np.array(ratios)
+    return [int(i) for i in np.flatnonzero(ratios < SILENT_RESPONSE_SHARE * np.median(ratios))]
+
+
 #: A response "ceiling": hits whose peak response lies within this fraction of the session's largest peak ...
 CEILING_CLUSTER = 0.04
 #: ... while their peak forces span at least this ratio (a linear chain's peak response follows the peak force)
@@ -604,11 +636,14 @@ def hit_spectra(
     response_step = steps[1] if coarse_response else 0.0
     response_offset = (steps[1] * float(np.angle(np.mean(np.exp(2j * np.pi * records[:, 1] / steps[1])))) / (2 * np.pi)
                        if coarse_response else 0.0)
-    double_hits, clipped_hits = [], []
+    double_hits, clipped_hits, wrapped_hits = [], [], []
     for index, (record, (start, peak, end)) in enumerate(zip(records, extents)):
         after = record[0, end + 1 + pulse_samples :]
         if after.size and np.max(np.abs(after)) > 0.1 * abs(record[0, peak]):
             double_hits.append(index)
+        if _wrapped(record[0]) or _wrapped(record[1]):
+            wrapped_hits.append(index)
+            continue
         peak_steps = [steps[c] if rounding[c] is None else float(rounding[c][index].max()) for c in (0, 1)]
         if (_clipped(record[0], step=peak_steps[0]) or _clipped(record[1], step=peak_steps[1])
                 or (overload is not None and np.any(overload[index]))):
@@ -616,10 +651,28 @@ def hit_spectra(
     if double_hits:
         quality.append(QualityNote("double hit", f"{len(double_hits)} hit(s) with a second impact were left out",
                                    hits=tuple(double_hits)))
+    if wrapped_hits:
+        quality.append(QualityNote(
+            "overload", f"{len(wrapped_hits)} hit(s) wrap around (hits {', '.join(str(i + 1) for i in wrapped_hits)}): "
+            f"a sample jumps from near one extreme of the record to near the other, as integer counts do that "
+            f"overflowed their type on export; they were left out — a property of the recording, not physics",
+            hits=tuple(wrapped_hits)))
+    silent = [index for index in _hits_without_response(records, extents, sample_rate_hz)
+              if index not in double_hits + clipped_hits + wrapped_hits]
+    if silent and hit_count - len(silent) >= 2:
+        quality.append(QualityNote(
+            "no response", f"{len(silent)} record(s) hold a force pulse but almost no response (hits "
+            f"{', '.join(str(i + 1) for i in silent)}: under {100 * SILENT_RESPONSE_SHARE:.0f} % of the response per "
+            f"unit impulse the other hits have): the hammer struck something else (the bench, a cable) or the "
+            f"response channel was off; they were left out — a property of the recording, not physics",
+            hits=tuple(silent)))
+    else:
+        silent = []
     if clipped_hits:
         quality.append(QualityNote("overload", f"{len(clipped_hits)} clipped hit(s) were left out (hits "
                                    f"{', '.join(str(i + 1) for i in clipped_hits)}): a record sits at its extreme for "
                                    f"several samples", hits=tuple(clipped_hits)))
+    clipped_hits = sorted(clipped_hits + wrapped_hits)
     unclipped = [index for index in range(hit_count) if index not in clipped_hits]
     ceiling_hits, ceiling = response_ceiling_hits(records[unclipped], [extents[i] for i in unclipped])
     if ceiling_hits:
@@ -631,7 +684,7 @@ def hit_spectra(
             f"response was clipped before the ADC's filter (a sensor or conditioner overload); they were left out — "
             f"a property of the recording, not physics",
             hits=tuple(ceiling_hits)))
-    clean = [index for index in range(hit_count) if index not in double_hits + clipped_hits]
+    clean = [index for index in range(hit_count) if index not in double_hits + clipped_hits + silent]
     spiked = [] if coarse_response else [clean[i] for i in spiked_hits(records[clean], [extents[i] for i in clean],
                                                                         sample_rate_hz)]
     if spiked and len(clean) - len(spiked) >= MIN_SCATTER_HITS:
@@ -643,11 +696,12 @@ def hit_spectra(
     else:
         spiked = []
     keep = np.ones(hit_count, bool)
-    keep[double_hits + clipped_hits + spiked] = False
+    keep[double_hits + clipped_hits + silent + spiked] = False
     used = np.flatnonzero(keep)
     if used.size < 2:
         removed = [f"{len(hits)} {why}" for hits, why in ((double_hits, "with a second impact"),
                                                           (clipped_hits, "clipped or overloaded"),
+                                                          (silent, "without a response"),
                                                           (spiked, "with spikes away from the impact")) if hits]
         hint = ("; every force record swings on after its impact: are the force and response channels swapped, or "
                 "the records windowed?" if len(double_hits) == hit_count else "")
