@@ -172,6 +172,8 @@ def diagnose_spectra(
     if recalibration_significant:
         evidence = evidence_for(spectra, recalibrated.spec)
         current = fit(evidence, recalibrated.spec, own_slots)
+        if level_notes and not _level_note(evidence, current.spec):
+            level_notes = []  # the spec's own parameters account for the level: nothing about the sensors to check
     else:
         current = FitOutcome(spec, chi2_given, own_slots, recalibrated.covariance, 0)
     structure_recalibration = _recalibration_table(spec, current, held_only=True)

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import dataclasses
 import logging
+import time
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable
@@ -345,6 +346,7 @@ def diagnose(
     """Diagnose a session or UFF file against a rig spec (default: the session's recorded spec, else one read off
     the FRF, :func:`starting_spec`). Writes nothing: ``Diagnosis.improved`` is the spec to write; ``Diagnosis.notes``
     starts with where the starting spec came from."""
+    started = time.monotonic()
     recordings = source if isinstance(source, Recordings) else load_recordings(source)
     _check_records(recordings)
     records, offset_note, response_dc_coupled = without_dc_offsets(recordings.records, recordings.sample_rate_hz)
@@ -362,5 +364,6 @@ def diagnose(
     diagnosis = diagnose_spectra(spectra, rig_spec, progress, restoring, structure_read_off_frf=read_off_frf,
                                  recording=Path(recordings.source).name)
     diagnosis.notes.insert(0, origin)
+    diagnosis.wall_time_s = time.monotonic() - started  # loading, spectra, start and restoring force included
     logger.info("diagnosed %s against %s: %s", recordings.source, rig_spec.name, diagnosis.verdict)
     return diagnosis

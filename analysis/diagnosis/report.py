@@ -72,5 +72,5 @@ def report_text(diagnosis: Diagnosis) -> str:
     if diagnosis.improved_spec_path:
         lines.append(f"  improved spec: {diagnosis.improved_spec_path}")
     lines.extend(f"  figure: {figure}" for figure in diagnosis.figures)
-    lines.append(f"  time: {diagnosis.wall_time_s:.1f} s")
+    lines.append(f"  time: {diagnosis.wall_time_s:.1f} s from loading the recordings")
     return "\n".join(lines)

@@ -11,6 +11,7 @@ import argparse
 import contextlib
 import json
 import sys
+import time
 from pathlib import Path
 
 from gasfilm.app.commands.common import check_output_folder
@@ -69,6 +70,7 @@ def run(args: argparse.Namespace) -> int:
         _check_source(path)
     made = not args.out.exists()
     check_output_folder(args.out, "--out", OUTPUT_FILES, args.overwrite)
+    started = time.monotonic()
     try:
         spec = RigSpec.load(args.rig) if args.rig else None
 
@@ -84,6 +86,7 @@ def run(args: argparse.Namespace) -> int:
         source = args.source[0] if len(args.source) == 1 else list(args.source)
         diagnosis = diagnose(source, spec, args.mass, band, progress)
         write_outputs(diagnosis, args.out)
+        diagnosis.wall_time_s = time.monotonic() - started  # what the user waited: loading to figures written
     except BaseException:
         if made:  # a failed run leaves no empty folder behind
             with contextlib.suppress(OSError):
