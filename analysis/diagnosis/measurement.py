@@ -567,7 +567,7 @@ def _rounding_note(rounding: list[np.ndarray | None], force_w: np.ndarray, force
                 for name, unit, step in zip(("force", "response"), ("N", "m/s²"), rounding) if step is not None]
     message = (f"{' and '.join(channels)} stored with few significant decimal digits (a text export): the rounding "
                f"error grows with each sample's value, up to 5 % of it, near the peaks where the quiet parts show none; "
-               f"a plateau at a peak counts as clipping only when it cuts the pulse")
+               f"the flat tops it leaves at the peaks are the rounding's, not an overload's")
     if rounding[1] is not None:
         message += "; the response's rounding is part of the noise model (step²/12 at each sample's own step)"
     if rounding[0] is not None:
