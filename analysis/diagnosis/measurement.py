@@ -553,6 +553,12 @@ def spiked_hits(records: np.ndarray, extents: list[tuple[int, int, int]], sample
     return [int(i) for i in np.flatnonzero(spiky.any(axis=1))]
 
 
+def _decimal_share(values: np.ndarray, digits: int) -> float:
+    """The share of the (positive) values that are multiples of the ``digits``-th significant decimal digit."""
+    quotient = values / 10.0 ** (np.floor(np.log10(values)) - digits + 1)
+    return float(np.mean(np.abs(quotient - np.round(quotient)) <= 1e-6 * quotient))
+
+
 def _rounding_variance(step: np.ndarray, window: np.ndarray, force_power: np.ndarray) -> np.ndarray:
     """The per-hit FRF variance (hits, lines) that a response's decimal rounding adds: each sample's error is uniform
     within its own step (variance step²/12, independent between samples: white), weighted by the window."""
@@ -1332,10 +1338,9 @@ def decimal_rounding_step(records: np.ndarray) -> np.ndarray | None:
     nonzero = magnitude[magnitude > 0]
     if nonzero.size < 100:
         return None
-    exponent = np.floor(np.log10(nonzero))
+    probe = nonzero[:: max(1, nonzero.size // 1000)]  # a thousand samples tell floating-point data at once
     for digits in range(1, MAX_ROUNDED_DIGITS + 1):
-        quotient = nonzero / 10.0 ** (exponent - digits + 1)
-        if np.mean(np.abs(quotient - np.round(quotient)) <= 1e-6 * quotient) < 0.999:
+        if not all(_decimal_share(values, digits) >= 0.999 for values in (probe, nonzero)):
             continue
         with np.errstate(divide="ignore"):
             step = np.where(magnitude > 0, 10.0 ** (np.floor(np.log10(magnitude)) - digits + 1), 0.0)
