@@ -51,7 +51,9 @@ def test_start_read_off_the_frf_finds_the_resonance_and_the_mass_line(session):
     spec, text = read_start(recordings)
     resonance_hz = np.sqrt(spec.film_parameters["k"] / spec.mass_kg) / (2 * np.pi)
     assert abs(resonance_hz - 199.0) < 3.0  # the simulated FOMGF rig resonates at 199 Hz, never a noise peak
-    assert abs(spec.mass_kg - 25.05) < 0.1 * 25.05  # the mass line
+    # the mass line, the film's share fitted: within 0.5 % (the median of 1/|H1| above 3× the resonance read 24.3 kg,
+    # and the new-user trial's diagnosis of its own UFF export then said "not explained")
+    assert abs(spec.mass_kg - 25.05) < 0.005 * 25.05, spec.mass_kg
     assert not spec.effects and "resonance at 199" in text
     spec, origin = starting_spec(recordings, None, 25.05)
     assert spec.mass_kg == 25.05 and "--mass" in origin and "read off the FRF" in origin

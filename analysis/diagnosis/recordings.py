@@ -183,7 +183,7 @@ def read_start(recordings: Recordings, mass_kg: float | None = None) -> tuple[Ri
             raise SettingError(f"{recordings.source}: the mass cannot be read off the FRF (no clean line above "
                                f"{MASS_LINE_FROM:g}× the resonance at {main_hz:.0f} Hz inside the hammer's band); "
                                f"give --mass or --rig")
-        mass_kg = float(1.0 / np.median(magnitude[clear]))
+        mass_kg = _mass_from_line(frf.h1[clear], freq_hz[clear], sigma)
         how = f"mass line above {MASS_LINE_FROM * main_hz:.0f} Hz"
     modes = []
     further = resonances[1:] if len(resonances) - 1 >= MULTI_MODE_MIN else []
@@ -243,6 +243,19 @@ def _outlier_hits(records: np.ndarray, rate_hz: float, window: WindowSettings, f
     return [int(i) for i in outliers] if 0 < outliers.size <= OUTLIER_SHARE * len(records) else []
 
 
+def _mass_from_line(h1: np.ndarray, freq_hz: np.ndarray, decay_rate_1_s: float) -> float:
+    """The moving mass (kg) from clean lines above the film's resonance: ``1/H = m + Z(s)/s²`` with the film's
+    stiffness ``Z ≈ k + c·s`` over those lines, solved for m, k and c by complex least squares — the film's share,
+    which falls only as 1/f² and is still a few per cent at three times the resonance (the median of 1/|H1| there read
+    a 25.05 kg mover on the paper's fractional film as 24.3 kg), is fitted instead of ignored. The median of 1/|H1|
+    when that fit gives no positive mass."""
+    s = decay_rate_1_s + 2j * np.pi * freq_hz
+    design = np.column_stack((np.ones_like(s), 1.0 / s**2, 1.0 / s))
+    solution, *_ = np.linalg.lstsq(np.concatenate((design.real, design.imag)),
+                                   np.concatenate(((1.0 / h1).real, (1.0 / h1).imag)), rcond=None)
+    return float(solution[0]) if solution[0] > 0 else float(1.0 / np.median(np.abs(h1)))
+
+
 #: Below its first resonance a mover on a film rises as ω² (log-log slope 2); a slope under this is a mass line.
 MASS_LINE_SLOPE = 1.0
 #: The mover's suspension in a structure read off the FRF resonates this far below the lowest readable line.
@@ -275,10 +288,10 @@ def _read_structure(recordings: Recordings, frf, readable: np.ndarray, resonance
                            effects=effects)
     spec = dataclasses.replace(spec, name=f"structure read off the FRF of {Path(recordings.source).name}")
     suspension_hz = np.sqrt(spec.film_parameters["k"] / mass_kg) / (2 * np.pi)
-    text = (f"below its first resonance ({freq_hz[resonances[0]]:.0f} Hz) the FRF is a mass line, not a mover on a "
-            f"film: a structure read as modal analysis does (LSCF poles, LSFD constants, "
+    text = (f"below its first clear resonance ({freq_hz[resonances[0]]:.0f} Hz) the FRF is flat as a mass line, not "
+            f"rising as a mover on a film: a structure read as modal analysis does (LSCF poles, LSFD constants, "
             f"{freq_hz[lines[0]]:.0f}–{freq_hz[lines[-1]]:.0f} Hz), {len(structure.modes)} modes at "
-            + ", ".join(f"{mode.freq_hz:.0f}" for mode in structure.modes)
+            + ", ".join(f"{frequency:.0f}" for frequency in sorted(mode.freq_hz for mode in structure.modes))
             + f" Hz beside a mass line of {mass_kg:.4g} kg"
             + (" read with the opposite sign (response polarity −1)" if structure.polarity < 0 else "")
             + f", on a suspension resonating below the band ({suspension_hz:.2g} Hz); read, not findings")
@@ -364,6 +377,11 @@ def diagnose(
     diagnosis = diagnose_spectra(spectra, rig_spec, progress, restoring, structure_read_off_frf=read_off_frf,
                                  recording=Path(recordings.source).name)
     diagnosis.notes.insert(0, origin)
+    if read_off_frf and mass_kg is None and "(mass line" in origin and diagnosis.verdict not in (
+            "consistent", "parameters-only"):
+        diagnosis.notes.append(f"the moving mass was read off the FRF's mass line ({rig_spec.moving_mass_kg:.4g} kg): "
+                               f"a mass read a few per cent off reads as an added mass or a change of the film — give "
+                               f"--mass (or --rig) if you know it")
     diagnosis.wall_time_s = time.monotonic() - started  # loading, spectra, start and restoring force included
     logger.info("diagnosed %s against %s: %s", recordings.source, rig_spec.name, diagnosis.verdict)
     return diagnosis
