@@ -6,6 +6,8 @@ frequency slope read as film physics. Mostly fast checks on records synthesised 
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 
 from gasfilm.analysis.diagnosis import diagnose, pipeline
@@ -278,3 +280,22 @@ def test_a_lag_on_a_spring_damper_film_carries_its_exact_absorber_alternative():
                                3.8e7 + 3500.0 * s + absorber, rtol=1e-12)
     # where the implied film damping would be negative there is no such absorber
     assert pipeline._lag_as_absorber(spec.with_values(film_parameters={"k": 3.7e7, "eta": 900.0}), 0) is None
+
+
+def test_hits_whose_film_changes_between_them_are_said_so_with_the_pattern_in_session_time():
+    """Red team round 8's compressor cycling (the supply pressure, so the film's stiffness, following a sawtooth over
+    the session) was "a broadband excess … or the noise model": each hit's film parameters fitted on their own leave the
+    hits within the noise, and the character says how much they move and whether they follow the session time."""
+    hits = 12
+    times_s = np.arange(hits) * 10.0
+    for pattern, expected in ((np.sin(2 * np.pi * times_s / 60.0), "following the session time"),
+                              (np.random.default_rng(4).permutation(np.sin(2 * np.pi * times_s / 60.0)),
+                               "from hit to hit")):
+        scales = 1.0 + 0.01 * pattern
+        records = np.concatenate([_records(hits=1, seed=hit, spec=NOMINAL.with_values(
+            film_parameters={"k": 3.78e7 * scale, "eta": 3.45e3})) for hit, scale in enumerate(scales)])
+        diagnosis = diagnose(Recordings(records, RATE_HZ, times_s, None, None, None, "cycling"), NOMINAL)
+        characters = " ".join(item.character for item in diagnosis.unexplained)
+        assert "as if their film alone changed" in characters and expected in characters, characters
+        amount = float(re.search(r"k ±([\d.]+) %", characters).group(1))
+        assert abs(amount - 100 * np.std(scales - 1.0)) < 0.25 * 100 * np.std(scales - 1.0), amount

@@ -185,7 +185,7 @@ def diagnose_spectra(
 
     steps: list[Step] = []
     rejected: list[CandidateDescription] = []
-    within_known_error = spectra is not measured and not _unexplained(spectra, evidence, current.spec, [])
+    within_known_error = spectra is not measured and _nothing_unexplained(evidence, current.spec)
     if within_known_error:
         progress("within the noise and the spec's recorded description error: nothing changed that a term could "
                  "describe, none is sought")
@@ -398,7 +398,7 @@ def _select_one(
         index = len(outcome.spec.effects) - 1
         reason = _not_a_finding(outcome, index, context)
         if reason is not None and _not_a_finding(outcome, index, context, within_noise=True) is None:
-            if not _unexplained(spectra, evidence_for(spectra, outcome.spec), outcome.spec, []):
+            if _nothing_unexplained(evidence_for(spectra, outcome.spec), outcome.spec):
                 progress(f"  {identifier}: its values are unusual ({reason}), but with it nothing is left unexplained")
                 reason = None
         if reason is not None:
@@ -655,7 +655,7 @@ def _drop_unsupported_terms(
     while steps:
         claims = {step.identifier: _claim(spectra, evidence, current, refits_without[step.identifier], step.identifier,
                                            recalibrated, rms_recalibrated) for step in steps}
-        within_noise = not _unexplained(spectra, evidence, current.spec, [])
+        within_noise = _nothing_unexplained(evidence, current.spec)
         for step in steps:
             if claims[step.identifier].reason is None:  # its own values on the written spec, as when it entered
                 claims[step.identifier].reason = _not_a_finding(current, _effect_index(current.spec, step.identifier),
@@ -1093,19 +1093,13 @@ def _unexplained(
     restoring: RestoringForce | None = None,
 ) -> list[Unexplained]:
     """Bands and hits where the final spec is beyond the measured noise, with their character."""
-    per_point = evidence.chi2_per_hit_and_frequency(spec) / 2.0  # χ² per real number: 1 is noise
-    overall = float(per_point.mean())
+    per_point, bands, overall = _beyond_the_noise(evidence, spec)
     per_frequency = per_point.mean(axis=0)
-    smooth = np.convolve(per_frequency, np.ones(5) / 5, mode="same")
-    threshold = LOCAL_CHI2_PER_POINT if overall <= ADEQUATE_CHI2_PER_POINT else max(2.0, 0.05 * overall)
     excess = np.clip(per_frequency - 1.0, 0.0, None)
     total_excess = float(excess.sum()) or 1.0
     freq_hz = evidence.freq_hz
     items: list[Unexplained] = []
-    for low, high in contiguous_bands(smooth > threshold, 2):
-        share = float(excess[low : high + 1].sum()) / total_excess
-        if overall <= ADEQUATE_CHI2_PER_POINT and share < 0.05:
-            continue
+    for low, high, share in bands:
         band = (float(freq_hz[low]), float(freq_hz[high]))
         items.append(Unexplained(band, _hits_in(spectra, per_point[:, low : high + 1]), share,
                                  _character(spectra, evidence, spec, low, high)))
@@ -1142,6 +1136,30 @@ def _unexplained(
             if amplitude_character or (overlaps and restoring.best is not None):
                 item.character += f"; {restoring.description()}"
     return items
+
+
+def _beyond_the_noise(evidence: Evidence, spec: RigSpec) -> tuple[np.ndarray, list[tuple[int, int, float]], float]:
+    """χ² per real number of every hit and line (1 is noise), the bands (first, last line, share of the excess) where
+    the spec is beyond the noise, and its χ² per point over everything."""
+    per_point = evidence.chi2_per_hit_and_frequency(spec) / 2.0
+    overall = float(per_point.mean())
+    per_frequency = per_point.mean(axis=0)
+    smooth = np.convolve(per_frequency, np.ones(5) / 5, mode="same")
+    threshold = LOCAL_CHI2_PER_POINT if overall <= ADEQUATE_CHI2_PER_POINT else max(2.0, 0.05 * overall)
+    excess = np.clip(per_frequency - 1.0, 0.0, None)
+    total_excess = float(excess.sum()) or 1.0
+    bands = []
+    for low, high in contiguous_bands(smooth > threshold, 2):
+        share = float(excess[low : high + 1].sum()) / total_excess
+        if overall > ADEQUATE_CHI2_PER_POINT or share >= 0.05:
+            bands.append((low, high, share))
+    return per_point, bands, overall
+
+
+def _nothing_unexplained(evidence: Evidence, spec: RigSpec) -> bool:
+    """Whether the spec leaves no band beyond the noise (what :func:`_unexplained` would list, without its words)."""
+    _, bands, overall = _beyond_the_noise(evidence, spec)
+    return not bands and overall <= ADEQUATE_CHI2_PER_POINT
 
 
 #: The measured FRF's level against the given spec's, beyond which a note says so (a ratio of magnitudes)
@@ -1229,6 +1247,9 @@ def _character(spectra: HitSpectra, evidence: Evidence, spec: RigSpec, low: int,
         return (f"the hits differ from one another by a scale factor alone, the same at every frequency "
                 f"({100 * gain_spread:.1f} % RMS): a gain that changes from hit to hit (the hit's direction, the force "
                 f"gauge or a sensor), not the film")
+    film_change = _per_hit_film_change(evidence, spec, order)
+    if film_change is not None:
+        return film_change
     centre = 0.5 * (band[0] + band[1])
     if band[1] - band[0] < 0.3 * centre:
         return f"a localised peak/dip near {centre:.0f} Hz that no term explained"
@@ -1274,6 +1295,66 @@ def _per_hit_gain_spread(spectra: HitSpectra) -> float | None:
     if scatter < GAIN_SCATTER_MIN or left > GAIN_ONLY_LEFT:
         return None
     return float(np.std(np.abs(factor)))
+
+
+#: A smooth pattern in session time: the lag-one autocorrelation of a per-hit quantity in time order above this.
+SESSION_PATTERN_CORRELATION = 0.5
+#: Log-scaled film parameters are moved by this (relative) for their first-order effect on the prediction.
+FILM_STEP = 1e-4
+#: Gauss–Newton steps of each hit's own film parameters.
+FILM_ITERATIONS = 3
+
+
+def _film_moved(spec: RigSpec, names: list[str], log_changes) -> RigSpec:
+    """The spec with the film parameters ``names`` multiplied by ``exp(log_changes)``."""
+    film = dict(spec.film_parameters)
+    for name, change in zip(names, log_changes):
+        film[name] = film[name] * float(np.exp(change))
+    return spec.with_values(film_parameters=film)
+
+
+def _per_hit_film_change(evidence: Evidence, spec: RigSpec, order: np.ndarray) -> str | None:
+    """Words for hits that differ from one another by their film alone — each hit's film parameters moved by their own
+    small amounts leaves the hits within the noise (:data:`GAIN_ONLY_LEFT`) where their scatter about the spec was
+    beyond it (:data:`GAIN_SCATTER_MIN`) — and whether those changes follow the session time in a pattern (a
+    supply-pressure or temperature cycle: red team round 8's compressor cycling, a sawtooth of ±1.5 % in k, was "a
+    broadband excess") or not (hit to hit); None when they do not."""
+    names = [p.name for p in spec.film.parameters if p.scale == "log"]
+    if not names or evidence.hit_count < 3 or spec.is_per_hit:
+        return None
+    sqrt_weight = np.sqrt(evidence.spectra.weight)  # per real number: each part of the residual has unit variance
+    residual = evidence.residual_per_hit(spec)
+    before = float(np.sum(np.abs(residual * sqrt_weight) ** 2)) / (2 * residual.size)
+    if before < GAIN_SCATTER_MIN:
+        return None
+    changes = np.zeros((evidence.hit_count, len(names)))  # each hit's film parameters, log relative to the spec's
+    left = 0.0
+    for hit in range(evidence.hit_count):  # Gauss–Newton per hit: a resonance moved by a fraction of its width
+        for _ in range(FILM_ITERATIONS):
+            moved = _film_moved(spec, names, changes[hit])
+            predicted = evidence.predicted(moved)
+            columns = np.stack([(evidence.predicted(_film_moved(moved, [name], [FILM_STEP])) - predicted) / FILM_STEP
+                                for name in names], axis=-1) * sqrt_weight[hit, :, np.newaxis]
+            difference = (evidence.spectra.h[hit] - predicted) * sqrt_weight[hit]
+            step, *_ = np.linalg.lstsq(np.concatenate((columns.real, columns.imag)),
+                                       np.concatenate((difference.real, difference.imag)), rcond=None)
+            changes[hit] += step
+        difference = (evidence.spectra.h[hit] - evidence.predicted(_film_moved(spec, names, changes[hit])))
+        left += float(np.sum(np.abs(difference * sqrt_weight[hit]) ** 2))
+    after = left / max(2 * residual.size - changes.size, 1)
+    if after > GAIN_ONLY_LEFT:
+        return None
+    spread = np.std(changes, axis=0)
+    main = int(np.argmax(spread))
+    in_time = changes[order, main] - changes[order, main].mean()
+    correlation = float(np.sum(in_time[1:] * in_time[:-1]) / max(np.sum(in_time**2), 1e-300))
+    amounts = ", ".join(f"{name} ±{100 * value:.2g} %" for name, value in zip(names, spread))
+    pattern = ("following the session time in a pattern neither a steady trend nor one jump describes (a cycle of "
+               "the supply pressure or the temperature?)" if correlation > SESSION_PATTERN_CORRELATION
+               else "from hit to hit, with no order in session time")
+    return (f"the hits differ from one another as if their film alone changed ({amounts} RMS between hits), "
+            f"{pattern}: the film, or something that acts on the mover as it does (a hand, a cable, a cover), changed "
+            f"between hits, which no term explained")
 
 
 def _change_in_session(values: np.ndarray, sigma: np.ndarray) -> tuple[str, int] | None:
