@@ -170,13 +170,15 @@ def source_conditions(paths: list[Path]) -> dict[str, Any]:
 
 @dataclasses.dataclass
 class LoadedFrf:
-    """The FRF to export or fit: what it is, the rig spec TOML it was recorded with (None for files) and, when asked
-    for, the hits it averages (for the time records of an export)."""
+    """The FRF to export or fit: what it is, the rig spec TOML it was recorded with (None for files), when asked
+    for the hits it averages (for the time records of an export), and the session's name for it ("" when it is not
+    one a session stores)."""
 
     frf: Any
     what: str
     rig_spec_toml: str | None
     hits: list = dataclasses.field(default_factory=list)
+    name: str = ""
 
 
 def load_frf(paths: list[Path], name: str | None = None) -> tuple[Any, str, str | None]:
@@ -214,7 +216,7 @@ def load_frf_and_hits(paths: list[Path], name: str | None = None, with_hits: boo
                     every = session.hits()
                     hits = ([every[i] for i in indices if 0 <= i < len(every)] if indices is not None
                             else [hit for hit in every if hit.verdict.accepted])
-                return LoadedFrf(frf, f"FRF '{chosen}'", session.rig_spec_toml, hits)
+                return LoadedFrf(frf, f"FRF '{chosen}'", session.rig_spec_toml, hits, chosen)
             hits = [hit for hit in session.hits() if hit.verdict.accepted]
             if not hits:
                 raise SessionError(f"{session.path}: no stored FRF and no accepted hits to average")

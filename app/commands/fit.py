@@ -47,7 +47,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     add_units_flag(parser)
     parser.add_argument("--out", type=Path, help="folder for the figures (default: next to the input)")
     parser.add_argument("--overwrite", action="store_true",
-                        help="replace figures that exist already, and a session's stored fit of another band")
+                        help="replace figures that exist already, and a session's stored fit made with other "
+                             "settings (band, mass, --fit-mass, method, FRF)")
     parser.set_defaults(func=run)
 
 
@@ -79,23 +80,18 @@ def parse_band(text: str | None, sample_rate_hz: float) -> tuple[float, float]:
     return low, high
 
 
-def check_stored_fits(session: Any, names: list[str], band_hz: tuple[float, float], overwrite: bool) -> None:
-    """Refuse (before any fitting) to replace a session's stored fit of a model by one over another band, unless
-    ``--overwrite``: a report must never show a fit beside figures of a band it was not fitted over."""
-    stored = session.result_names("fits")
-    for name in names:
-        if name not in stored or overwrite:
-            continue
-        try:
-            old_low, old_high = (float(edge) for edge in session.read_fit(name)["band_hz"])
-        except (KeyError, TypeError, ValueError):
-            continue  # a damaged stored fit: the new one replaces it
-        if abs(old_low - band_hz[0]) > 1e-6 * max(1.0, band_hz[1]) or \
-                abs(old_high - band_hz[1]) > 1e-6 * max(1.0, band_hz[1]):
-            raise SettingError(
-                f"--band: {session.path} holds a {name} fit over {old_low:g}–{old_high:g} Hz; this one would be over "
-                f"{band_hz[0]:g}–{band_hz[1]:g} Hz. Add --overwrite to replace it, or fit the stored band "
-                f"(--band {old_low:g}:{old_high:g})")
+def check_stored_fits(session: Any, settings: dict[str, Any], overwrite: bool) -> None:
+    """Refuse (before any fitting) to replace a session's stored fit of a model by one made with other settings (band,
+    mass, fitted mass, fitter, FRF), unless ``--overwrite``: a report must never show a fit beside figures or other
+    fits of settings it was not made with. ``settings``: model name → its new fit's
+    :class:`~gasfilm.analysis.fit_settings.FitSettings`."""
+    from gasfilm.analysis.fit_settings import conflicting_fits, refusal
+
+    if overwrite:
+        return
+    conflicts = conflicting_fits(session, settings)
+    if conflicts:
+        raise SettingError(refusal(session.path, conflicts))
 
 
 def parse_models(text: str) -> list:
@@ -176,6 +172,7 @@ def run(args: argparse.Namespace) -> int:
     import numpy as np
 
     from gasfilm.analysis.figures import figure18, figure19
+    from gasfilm.analysis.fit_settings import FitSettings
     from gasfilm.analysis.identification import METHODS, compare_models, fit_model, format_table2
     from gasfilm.analysis.session import Session
     from gasfilm.analysis.sources import is_time_record_file
@@ -212,11 +209,12 @@ def run(args: argparse.Namespace) -> int:
             f"{frf.freq_hz[0]:g}–{frf.freq_hz[-1]:g} Hz every {frf.freq_hz[1] - frf.freq_hz[0]:g} Hz)"
         )
     freq_hz, h = frf.freq_hz[keep], frf.h1[keep]
+    mass_kg = _mass_kg(args, rig_spec_toml)
+    settings = FitSettings((float(freq_hz[0]), float(freq_hz[-1])), mass_kg, args.fit_mass, args.method,
+                           frf.decay_rate_1_s, loaded.name)
     if not is_time_record_file(args.source[0]):
         with Session.open(args.source[0], "r") as session:
-            check_stored_fits(session, [model.name for model in models], (float(freq_hz[0]), float(freq_hz[-1])),
-                              args.overwrite)
-    mass_kg = _mass_kg(args, rig_spec_toml)
+            check_stored_fits(session, {model.name: settings for model in models}, args.overwrite)
     warning = mass_line_warning(freq_hz, h, mass_kg)
     if warning:
         logger.warning(warning)
@@ -232,7 +230,7 @@ def run(args: argparse.Namespace) -> int:
     if not is_time_record_file(args.source[0]):
         with Session.open(args.source[0], "a") as session:
             for fit in fits:
-                session.write_fit(fit.model_name, fit.to_dict())
+                session.write_fit(fit.model_name, {**fit.to_dict(), **settings.stored_keys()})
     unexplained_hz = other_resonances_hz(frf, (float(freq_hz[0]), float(freq_hz[-1])))
     not_explained = None
     if unexplained_hz:
