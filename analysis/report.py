@@ -20,6 +20,7 @@ import numpy as np
 
 from gasfilm.analysis.conditions import decode_conditions, format_conditions, format_value
 from gasfilm.analysis.session import Session
+from gasfilm.analysis.session.api import LATEST_DIAGNOSIS
 from gasfilm.analysis.spectra import (
     CAUTION_DROP_DB,
     USABLE_DROP_DB,
@@ -58,7 +59,9 @@ class ReportData:
     frf_source: str
     fits: list[Any]  # FitResult
     comparison: list[tuple[tuple[float, float], list[Any]]]  # (fit band in Hz, ComparisonRow of its fits)
-    diagnosis: dict[str, Any] | None
+    diagnosis: dict[str, Any] | None  # the newest stored one
+    diagnosis_name: str | None = None  # its name in the session (diagnoses/run-NNN)
+    diagnosis_runs: int = 0  # how many diagnoses the session keeps
 
 
 def fits_by_band(fits: Sequence[Any]) -> list[tuple[tuple[float, float], list[Any]]]:
@@ -125,11 +128,9 @@ def read_report_data(path: str | Path) -> ReportData:
             for band_hz, group in fits_by_band(fits):
                 band = (frf.freq_hz >= band_hz[0]) & (frf.freq_hz <= band_hz[1])
                 comparison.append((band_hz, compare_models(group, frf.freq_hz[band], frf.h1[band])))
-        diagnosis = None
-        for name in ("diagnosis", "latest"):  # the GUI's name, then the command line's
-            if name in session.result_names("diagnoses"):
-                diagnosis = session.read_diagnosis(name)
-                break
+        newest = session.newest_diagnosis_name()
+        diagnosis = None if newest is None else session.read_diagnosis(newest)
+        diagnosis_runs = len([name for name in session.result_names("diagnoses") if name != LATEST_DIAGNOSIS])
         return ReportData(
             path=path,
             device_name=session.device_name or _device_from_settings(session.settings),
@@ -146,6 +147,8 @@ def read_report_data(path: str | Path) -> ReportData:
             fits=fits,
             comparison=comparison,
             diagnosis=diagnosis,
+            diagnosis_name=newest,
+            diagnosis_runs=diagnosis_runs,
         )
 
 
@@ -363,10 +366,27 @@ def _control_html(models: list[tuple[Any, Any]]) -> str:
     )
 
 
-def _diagnosis_html(diagnosis: dict[str, Any] | None) -> str:
+def diagnosis_options_text(options: Any) -> str:
+    """How a stored diagnosis was run, in words: its rig spec, mass and band (the flags of ``gasfilm diagnose``)."""
+    if not isinstance(options, dict):
+        return "options not recorded (stored by an older gasfilm)"
+    by = "the GUI's Diagnose tab" if options.get("command") == "GUI" else "gasfilm diagnose"
+    rig = options.get("rig")
+    mass = options.get("mass_kg")
+    band = options.get("band_hz")
+    band_text = (f"--band {band[0]:g}:{band[1]:g} Hz" if isinstance(band, (list, tuple)) and len(band) == 2
+                 and all(_is_number(edge) for edge in band) else "the default band (where the hammer excites)")
+    return (f"{by}, " + (f"--rig {rig}" if rig else "the session's own rig spec (else one read off the FRF)")
+            + ", " + (f"--mass {mass:g} kg" if _is_number(mass) else "the spec's mass") + f", {band_text}")
+
+
+def _diagnosis_html(diagnosis: dict[str, Any] | None, name: str | None = None, runs: int = 0) -> str:
     if diagnosis is None:
         return "<p>No diagnosis stored in the session (run <code>gasfilm diagnose</code> or the GUI's Diagnose tab).</p>"
-    parts = [f"<p>Verdict: <b>{html.escape(str(diagnosis.get('verdict', '?')))}</b>"]
+    kept = f" ({runs} stored; earlier runs are kept in the session)" if runs > 1 else ""
+    parts = [f"<p>The newest diagnosis, <code>diagnoses/{html.escape(str(name))}</code>{kept}: run by "
+             f"{html.escape(diagnosis_options_text(diagnosis.get('options')))}.</p>" if name else "",
+             f"<p>Verdict: <b>{html.escape(str(diagnosis.get('verdict', '?')))}</b>"]
     if "rms_before_g_per_n" in diagnosis and "rms_after_g_per_n" in diagnosis:
         parts.append(
             f" — RMS {diagnosis['rms_before_g_per_n']:.4g} g/N with the given spec, "
@@ -497,7 +517,7 @@ def report_html(data: ReportData, drop_db: float = USABLE_DROP_DB) -> str:
     sections.append("<h2>Control design: rational models</h2>")
     sections.append(_control_html(control_models(data)))
     sections.append("<h2>Diagnosis</h2>")
-    sections.append(_diagnosis_html(data.diagnosis))
+    sections.append(_diagnosis_html(data.diagnosis, data.diagnosis_name, data.diagnosis_runs))
     title = html.escape(f"gasfilm report — {data.path.name}")
     return (
         f"<!DOCTYPE html><html><head><meta charset='utf-8'><title>{title}</title><style>{_STYLE}</style></head>"
@@ -529,7 +549,8 @@ def _report_pdf(data: ReportData, drop_db: float) -> bytes:
         lines += [f"  {fit.model_name:<8} " + (model if isinstance(model, str) else model.summary())
                   for fit, model in models]
     if data.diagnosis is not None:
-        lines += ["", f"Diagnosis verdict: {data.diagnosis.get('verdict', '?')}"]
+        lines += ["", f"Diagnosis verdict: {data.diagnosis.get('verdict', '?')} (diagnoses/{data.diagnosis_name}, "
+                      f"{diagnosis_options_text(data.diagnosis.get('options'))})"]
     buffer = io.BytesIO()
     with PdfPages(buffer) as pdf:
         text_page = _new_figure(11)

@@ -60,3 +60,48 @@ def test_a_stored_fit_is_not_replaced_by_one_made_with_other_settings(session_pa
     status, out, err = gasfilm(capsys, "fit", session_path, "--models", "SD", "--mass", "30", "--out",
                                tmp_path / "c", "--json")  # the same settings again: replaced without --overwrite
     assert status == 0, err
+
+
+def test_each_diagnosis_is_kept_and_latest_is_the_newest_with_its_options(session_path, tmp_path, capsys):
+    """Before: every `diagnose` replaced the session's only stored diagnosis (diagnoses/latest)."""
+    from gasfilm.analysis.report import read_report_data, report_html
+
+    status, out, err = gasfilm(capsys, "diagnose", session_path, "--out", tmp_path / "a", "--json")
+    assert status == 0, err
+    first = json.loads(out)
+    assert first["options"] == {"command": "gasfilm diagnose", "rig": None, "mass_kg": None, "band_hz": None}
+    status, out, err = gasfilm(capsys, "diagnose", session_path, "--mass", "25", "--band", "30:900",
+                               "--out", tmp_path / "b", "--json")
+    assert status == 0, err
+    assert "as diagnoses/run-002" in err
+    with Session.open(session_path) as session:
+        names = session.result_names("diagnoses")
+        assert {"run-001", "run-002", "latest"} <= set(names)
+        assert session.newest_diagnosis_name() == "run-002"
+        assert session.read_diagnosis("run-001")["verdict"] == first["verdict"]  # nothing erased
+        assert session.read_diagnosis("run-001")["options"]["mass_kg"] is None
+        latest = session.read_diagnosis("latest")
+    assert latest["options"] == {"command": "gasfilm diagnose", "rig": None, "mass_kg": 25.0, "band_hz": [30.0, 900.0]}
+    page = report_html(read_report_data(session_path))
+    assert "diagnoses/run-002" in page and "--mass 25 kg" in page and "--band 30:900 Hz" in page
+    assert "earlier runs are kept" in page
+
+
+def test_a_diagnosis_stored_as_latest_by_an_older_gasfilm_becomes_a_run(tmp_path):
+    from gasfilm.app.cli import main
+
+    path = tmp_path / "old.h5"
+
+    assert main(["acquire", *FAST_SIM, "--out", str(path), "--hits", "1", "--seed", "2"]) == 0
+    with Session.open(path, "a") as session:
+        session.write_diagnosis("diagnosis", {"verdict": "missing physics"})  # the old GUI's name, older
+        session.write_diagnosis("latest", {"verdict": "consistent"})  # the old command line's
+    with Session.open(path) as session:
+        assert session.read_diagnosis(session.newest_diagnosis_name())["verdict"] in ("consistent", "missing physics")
+    with Session.open(path, "a") as session:
+        assert session.add_diagnosis({"verdict": "not explained"}) == "run-002"
+    with Session.open(path) as session:
+        assert session.read_diagnosis("run-001")["verdict"] == "consistent"
+        assert session.read_diagnosis("diagnosis")["verdict"] == "missing physics"
+        assert session.read_diagnosis("latest")["verdict"] == "not explained"
+        assert session.newest_diagnosis_name() == "run-002"

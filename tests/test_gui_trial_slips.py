@@ -47,3 +47,22 @@ def test_identify_asks_before_replacing_a_stored_fit_made_with_other_settings(qt
         replaced = session.read_fit("SD")
     assert replaced["band_hz"][0] >= 50.0 and replaced["frf_name"] == "frf"
     assert replaced["mass_given_kg"] == stored["mass_kg"]  # the session's mover mass, as `gasfilm fit` takes it
+
+
+def test_a_gui_diagnosis_is_kept_beside_the_earlier_ones_and_stored_once(qtbot, window, tmp_path, capsys):
+    path = tmp_path / "run.h5"
+    assert gasfilm(capsys, "acquire", *FAST_SIM, "--out", path, "--hits", 3, "--seed", 2)[0] == 0
+    assert gasfilm(capsys, "diagnose", path, "--mass", "25", "--out", tmp_path / "d")[0] == 0
+    controller = window.controller
+    controller.open_session(path)
+    controller.run_diagnosis()
+    qtbot.waitUntil(lambda: not controller.job_active("diagnose"), timeout=120_000)
+    assert controller.diagnosis is not None, window.banner.history
+    controller.save_session()
+    controller.save_session()  # saving again stores nothing new
+    controller.close_session()
+    with Session.open(path) as session:
+        runs = sorted(name for name in session.result_names("diagnoses") if name != "latest")
+        assert runs == ["run-001", "run-002"]
+        assert session.read_diagnosis("run-001")["options"]["mass_kg"] == 25.0  # the command line's, kept
+        assert session.read_diagnosis("latest")["options"]["command"] == "GUI"

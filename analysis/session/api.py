@@ -82,6 +82,10 @@ _READ_ERRORS = (OSError, KeyError, ValueError, TypeError, RuntimeError, IndexErr
 _WRITE_ERRORS = (OSError, RuntimeError, KeyError, ValueError, TypeError, IndexError, AttributeError, OverflowError)
 #: The groups every session holds.
 _GROUPS = ("rig", "daq", "settings", "hits", "frf", "fits", "diagnoses")
+#: The diagnosis most recently stored is found under this name: a link to its run (``Session.add_diagnosis``).
+LATEST_DIAGNOSIS = "latest"
+#: Each stored diagnosis run is kept as ``run-001``, ``run-002``, … (numbered from 1, never reused).
+DIAGNOSIS_RUN = re.compile(r"run-(\d+)")
 #: FrfResult fields with one value per frequency line.
 _FRF_LINE_FIELDS = ("h1", "h2", "coherence", "gff", "gxx", "gfx", "h1_std_coherence", "h1_std_scatter")
 
@@ -1214,3 +1218,46 @@ class Session:
 
     def read_diagnosis(self, name: str) -> dict[str, Any]:
         return self._read_result("diagnoses", name)
+
+    def add_diagnosis(self, values: Mapping[str, Any]) -> str:
+        """Store a diagnosis as a new run (``run-001``, ``run-002``, …) and point ``latest`` at it; no earlier
+        diagnosis is erased (one stored as ``latest`` itself, before runs were kept, becomes a run first). Returns the
+        run's name."""
+        self._require_writable()
+        with self._writing("a diagnosis"):
+            self._structural()
+            parent = self._group("diagnoses")
+            link = parent.get(LATEST_DIAGNOSIS, getlink=True)
+            if isinstance(link, h5py.SoftLink):
+                del parent[LATEST_DIAGNOSIS]
+            elif link is not None:  # a diagnosis stored under "latest" by an older gasfilm: kept as a run
+                parent.move(LATEST_DIAGNOSIS, self._next_run_name(parent))
+            name = self._next_run_name(parent)
+            group = parent.create_group(name)
+            write_mapping(group, values)
+            group.attrs["written_utc"] = utc_now()
+            parent[LATEST_DIAGNOSIS] = h5py.SoftLink(f"{parent.name}/{name}")
+            self._file.flush()
+            del parent, group
+        return name
+
+    @staticmethod
+    def _next_run_name(parent: h5py.Group) -> str:
+        numbers = [int(match.group(1)) for match in map(DIAGNOSIS_RUN.fullmatch, parent) if match]
+        return f"run-{max(numbers, default=0) + 1:03d}"
+
+    @_reading("the stored diagnoses")
+    def newest_diagnosis_name(self) -> str | None:
+        """The name of the newest stored diagnosis: the run ``latest`` points at, unless a diagnosis stored under
+        another name by an older gasfilm (the GUI's "diagnosis") was written later; None when there is none."""
+        parent = self._group("diagnoses")
+        link = parent.get(LATEST_DIAGNOSIS, getlink=True)
+        newest = None
+        for name in parent:
+            if name == LATEST_DIAGNOSIS and isinstance(link, h5py.SoftLink):
+                continue  # the run it points at is listed under its own name
+            match = DIAGNOSIS_RUN.fullmatch(name)
+            key = (str(parent[name].attrs.get("written_utc", "")), int(match.group(1)) if match else 0)
+            if newest is None or key > newest[0]:
+                newest = (key, name)
+        return None if newest is None else newest[1]

@@ -92,15 +92,18 @@ def run(args: argparse.Namespace) -> int:
             with contextlib.suppress(OSError):
                 args.out.rmdir()
         raise
+    options = {"command": "gasfilm diagnose", "rig": str(args.rig) if args.rig else None, "mass_kg": args.mass,
+               "band_hz": list(band) if band else None}
     if len(args.source) == 1 and args.source[0].suffix.lower() not in (".uff", ".unv", ".npy"):
         try:
             with Session.open(args.source[0], "a") as session:
-                session.write_diagnosis("latest", diagnosis.to_dict())
-            progress(f"diagnosis stored in {args.source[0]} (diagnoses/latest)")
+                run_name = session.add_diagnosis({**diagnosis.to_dict(), "options": options})
+            progress(f"diagnosis stored in {args.source[0]} as diagnoses/{run_name} (the newest: diagnoses/latest; "
+                     f"earlier runs are kept)")
         except GasfilmError as error:
             progress(f"diagnosis not stored in the session: {error}")
     if args.json:
-        print(json.dumps({**diagnosis.to_dict(), "conditions": conditions}, indent=2))
+        print(json.dumps({**diagnosis.to_dict(), "options": options, "conditions": conditions}, indent=2))
     else:
         print(f"conditions: {format_conditions(conditions)}")
         print(report_text(diagnosis))

@@ -104,6 +104,8 @@ class SessionController(QObject):
         self.comparison: list[Any] = []
         self.fit_band_hz: tuple[float, float] = DEFAULT_FIT_BAND_HZ
         self.diagnosis: Any = None
+        self._diagnosis_options: dict[str, Any] | None = None  # of the diagnosis not stored yet (None once stored)
+        self._pending_diagnosis_options: dict[str, Any] | None = None  # of the diagnosis running
         self.loop: AcquisitionLoop | None = None
         self.state = "idle"
         self._worker: AcquisitionWorker | None = None
@@ -595,6 +597,8 @@ class SessionController(QObject):
             return
 
         work = functools.partial(jobs.diagnose_session, recordings, spec, out_dir)
+        self._pending_diagnosis_options = {"command": "GUI", "mass_kg": None, "band_hz": None,
+                                           "rig": str(reference_spec_path) if reference_spec_path else None}
         self._start_job("diagnose", work, self._on_diagnosis_done)
 
     def rig_spec_of_session(self) -> RigSpec:
@@ -604,6 +608,7 @@ class SessionController(QObject):
 
     def _on_diagnosis_done(self, diagnosis: Any) -> None:
         self.diagnosis = diagnosis
+        self._diagnosis_options = self._pending_diagnosis_options
         self.diagnosis_changed.emit(diagnosis)
         self._store_results()
         count = len(diagnosis.findings)
@@ -681,6 +686,7 @@ class SessionController(QObject):
         self._fit_settings = {}
         self.comparison = []
         self.diagnosis = None
+        self._diagnosis_options = None
         self.hits_reset.emit()
         self.frf_changed.emit(None)
         self.fits_changed.emit()
@@ -734,10 +740,9 @@ class SessionController(QObject):
         else:
             self.update_running_frf()
         self._load_fits(session)
-        for name in ("diagnosis", "latest"):  # the GUI's name, then the command line's
-            if name in session.result_names("diagnoses"):
-                self.stored_diagnosis_loaded.emit(session.read_diagnosis(name))
-                break
+        newest = session.newest_diagnosis_name()
+        if newest is not None:
+            self.stored_diagnosis_loaded.emit(session.read_diagnosis(newest))
         if session.recovered:
             self.message.emit(f"{path.name}: recovered after an interrupted recording", "warning")
         self.session_changed.emit(str(path))
@@ -766,8 +771,9 @@ class SessionController(QObject):
             session.write_frf(self.frf, hit_indices=np.array(accepted, dtype=np.int64))
         for name, fit in self.fits.items():
             session.write_fit(name, {**fit.to_dict(), **self._fit_settings.get(name, {})})
-        if self.diagnosis is not None:
-            session.write_diagnosis("diagnosis", self.diagnosis.to_dict())
+        if self.diagnosis is not None and self._diagnosis_options is not None:  # stored once, as a new run
+            session.add_diagnosis({**self.diagnosis.to_dict(), "options": self._diagnosis_options})
+            self._diagnosis_options = None
 
     def save_session(self) -> Path | None:
         if self.session is None:
