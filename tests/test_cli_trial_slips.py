@@ -105,3 +105,25 @@ def test_a_diagnosis_stored_as_latest_by_an_older_gasfilm_becomes_a_run(tmp_path
         assert session.read_diagnosis("diagnosis")["verdict"] == "missing physics"
         assert session.read_diagnosis("latest")["verdict"] == "not explained"
         assert session.newest_diagnosis_name() == "run-002"
+
+
+def test_gui_without_a_display_says_so_in_one_line_before_qt_starts(monkeypatch, capsys):
+    """Before: Qt aborted ("Could not load the Qt platform plugin xcb", exit status 134)."""
+    import sys
+
+    import gasfilm.app.gui.main_window as main_window
+
+    for name in ("DISPLAY", "WAYLAND_DISPLAY", "QT_QPA_PLATFORM"):
+        monkeypatch.delenv(name, raising=False)
+    monkeypatch.setattr(sys, "platform", "linux")
+    monkeypatch.setattr(main_window, "run_gui", lambda **_: pytest.fail("Qt started without a display"))
+    err = one_line_error(capsys, "gui")
+    assert err.startswith("gasfilm gui: error: no display") and "./run gui" in err and "QT_QPA_PLATFORM=offscreen" in err
+    monkeypatch.setenv("QT_QPA_PLATFORM", "xcb")
+    assert "no display" in one_line_error(capsys, "gui")
+    from gasfilm.app.commands.gui import missing_display
+
+    assert missing_display({"DISPLAY": ":0"}, "linux") is None
+    assert missing_display({"WAYLAND_DISPLAY": "wayland-0"}, "linux") is None
+    assert missing_display({"QT_QPA_PLATFORM": "offscreen"}, "linux") is None
+    assert missing_display({}, "darwin") is None
