@@ -19,6 +19,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from gasfilm.analysis.conditions import decode_conditions, format_conditions, format_value
+from gasfilm.analysis.fit_warnings import fit_warnings
 from gasfilm.analysis.session import Session
 from gasfilm.analysis.session.api import LATEST_DIAGNOSIS
 from gasfilm.analysis.spectra import (
@@ -71,6 +72,12 @@ def fits_by_band(fits: Sequence[Any]) -> list[tuple[tuple[float, float], list[An
         key = (round(float(fit.band_hz[0]), 6), round(float(fit.band_hz[1]), 6))
         groups.setdefault(key, []).append(fit)
     return list(groups.items())
+
+
+def band_lines(freq_hz: np.ndarray, band_hz: tuple[float, float]) -> np.ndarray:
+    """The lines of a fit band as :func:`fits_by_band` keys it (its edges rounded): the lines the fit was made on."""
+    slack = 1e-6 * max(1.0, abs(band_hz[1]))
+    return (freq_hz >= band_hz[0] - slack) & (freq_hz <= band_hz[1] + slack)
 
 
 def _device_from_settings(settings: Any) -> str:
@@ -126,7 +133,7 @@ def read_report_data(path: str | Path) -> ReportData:
         comparison: list[tuple[tuple[float, float], list[Any]]] = []
         if fits and frf is not None:
             for band_hz, group in fits_by_band(fits):
-                band = (frf.freq_hz >= band_hz[0]) & (frf.freq_hz <= band_hz[1])
+                band = band_lines(frf.freq_hz, band_hz)
                 comparison.append((band_hz, compare_models(group, frf.freq_hz[band], frf.h1[band])))
         newest = session.newest_diagnosis_name()
         diagnosis = None if newest is None else session.read_diagnosis(newest)
@@ -281,6 +288,16 @@ def _sigma_text(fit: Any, name: str) -> str:
     return f"{std:.2g}"
 
 
+def band_warnings(data: ReportData, band_hz: tuple[float, float]) -> list[str]:
+    """The warnings ``gasfilm fit`` gives for the fits over ``band_hz`` (a structure that is not a mass on a film,
+    resonances no film model explains), judged on the report's FRF."""
+    if data.frf is None:
+        return []
+    masses = [fit.mass_kg for fit in data.fits
+              if (round(fit.band_hz[0], 6), round(fit.band_hz[1], 6)) == band_hz]
+    return fit_warnings(data.frf, band_lines(data.frf.freq_hz, band_hz), masses)
+
+
 def _fits_html(data: ReportData) -> str:
     if not data.fits:
         return "<p>No fits stored in the session (run <code>gasfilm fit</code> or the GUI's Identify tab).</p>"
@@ -292,6 +309,8 @@ def _fits_html(data: ReportData) -> str:
         mass_text = ", ".join(f"{mass:g} kg{' (fitted)' if fitted else ''}" for mass, fitted in masses)
         parts.append(f"<p>Band {low:g}–{high:g} Hz ({len(rows)} model{'s' if len(rows) != 1 else ''}), mover mass "
                      f"{mass_text}. E and E_m: improvement over SD (eq. 35) fitted over the same band.</p>")
+        parts.extend(f"<p class='warning'>Warning: {html.escape(warning)}</p>"
+                     for warning in band_warnings(data, (low, high)))
         parts.append(_table(
             ("#", "Model", "k (1)", "RMS (g/N)", "E (%)", "Peak error (g/N)", "E_m (%)", "AIC (1)", "BIC (1)"),
             [
@@ -465,6 +484,7 @@ body { font-family: sans-serif; max-width: 1050px; margin: 2em auto; color: #222
 table { border-collapse: collapse; margin: 0.5em 0 1em; font-size: 0.9em; }
 th, td { border: 1px solid #ccc; padding: 2px 8px; text-align: left; }
 th { background: #f0f0f0; } img { max-width: 100%; } .rejected { color: #b3261e; } .note { color: #a66300; }
+.warning { color: #b3261e; font-weight: bold; }
 pre { background: #f7f7f7; padding: 6px; font-size: 0.85em; overflow-x: auto; }
 """
 
@@ -543,6 +563,7 @@ def _report_pdf(data: ReportData, drop_db: float) -> bytes:
         for (low, high), rows in data.comparison:
             lines += ["", f"Identified models (Table 2, g/N), band {low:g}–{high:g} Hz:",
                       *format_table2(rows).splitlines()]
+            lines += [f"  WARNING: {warning}" for warning in band_warnings(data, (low, high))]
     models = control_models(data)
     if models:
         lines += ["", "Rational models for control design (0.5 %, gasfilm model):"]

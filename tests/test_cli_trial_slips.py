@@ -127,3 +127,27 @@ def test_gui_without_a_display_says_so_in_one_line_before_qt_starts(monkeypatch,
     assert missing_display({"WAYLAND_DISPLAY": "wayland-0"}, "linux") is None
     assert missing_display({"QT_QPA_PLATFORM": "offscreen"}, "linux") is None
     assert missing_display({}, "darwin") is None
+
+
+def test_the_report_shows_the_fits_warnings_beside_them(tmp_path, capsys):
+    """Before: the report dropped "not a mass on a gas film … the fitted parameters mean little" and "NOT explained by
+    any film model" that `gasfilm fit` printed for the real pyFRF structure."""
+    from pathlib import Path
+
+    records = sorted((Path(__file__).resolve().parents[1] / "fixtures" / "real-data" / "pyfrf-5-hits")
+                     .glob("measurements_*.npy"))
+    path = tmp_path / "real.h5"
+    assert gasfilm(capsys, "replay", *records, "--force-window-ms", 2, "--exp-end", 0.01, "--out", path)[0] == 0
+    status, out, err = gasfilm(capsys, "fit", path, "--models", "SD", "--out", tmp_path, "--json")
+    assert status == 0, err
+    warnings = [line.split("WARNING: ", 1)[1] for line in err.splitlines() if "WARNING: " in line]
+    assert any("the fitted parameters mean little" in w for w in warnings)
+    assert any(w.startswith("NOT explained by any film model") for w in warnings)
+    for name in ("report.html", "report.pdf"):
+        assert gasfilm(capsys, "report", path, "--out", tmp_path / name)[0] == 0
+    page = (tmp_path / "report.html").read_text(encoding="utf-8")
+    fits_section = page[page.index("Identified models"):page.index("Control design")]
+    import html
+
+    for warning in warnings:
+        assert html.escape(warning) in fits_section, warning

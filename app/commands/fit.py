@@ -24,10 +24,6 @@ from gasfilm.drivers.errors import SettingError
 logger = logging.getLogger(__name__)
 
 MIN_BAND_LINES = 10
-#: The top fraction of the band (in lines) where |H1| is compared with the mass line 1/m.
-MASS_LINE_TOP_FRACTION = 0.2
-#: |H1|·m outside [1/factor, factor] over the top of the band: not a mass on a film.
-MASS_LINE_FACTOR = 2.0
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -117,28 +113,6 @@ def _mass_kg(args: argparse.Namespace, rig_spec_toml: str | None) -> float:
     return RigSpec.from_toml(rig_spec_toml, f"{args.source[0]} rig spec").mass_kg if rig_spec_toml else PAPER_MASS_KG
 
 
-def mass_line_warning(freq_hz: Any, h1: Any, mass_kg: float) -> str | None:
-    """One line when |H1| over the top of the band is far from the mass line 1/m (None when it is close)."""
-    import numpy as np
-
-    top = np.abs(h1[-max(1, int(MASS_LINE_TOP_FRACTION * len(h1))):])
-    level = float(np.median(top))
-    ratio = level * mass_kg
-    if 1 / MASS_LINE_FACTOR <= ratio <= MASS_LINE_FACTOR:
-        return None
-    return (f"|H1| at the top of the band ({freq_hz[-len(top)]:.0f}–{freq_hz[-1]:.0f} Hz) is {level:.3g} (m/s²)/N, "
-            f"{ratio:.2g} × the mass line 1/m = {1 / mass_kg:.3g} for m = {mass_kg:g} kg: this is not a mass on a "
-            f"gas film (or the mass is wrong); the fitted parameters mean little")
-
-
-def other_resonances_hz(frf: Any, band_hz: tuple[float, float]) -> list[float]:
-    """Resonances of |H1| inside ``band_hz`` beyond the strongest one (which the film models describe), in Hz."""
-    from gasfilm.analysis.spectra import resonance_lines
-
-    inside = [int(line) for line in resonance_lines(frf) if band_hz[0] <= frf.freq_hz[line] <= band_hz[1]]
-    return sorted(float(frf.freq_hz[line]) for line in inside[1:])
-
-
 def format_parameters(fits: list) -> str:
     """Each fit's identified parameters with units and 1-σ uncertainties."""
     lines = []
@@ -173,6 +147,7 @@ def run(args: argparse.Namespace) -> int:
 
     from gasfilm.analysis.figures import figure18, figure19
     from gasfilm.analysis.fit_settings import FitSettings
+    from gasfilm.analysis.fit_warnings import mass_line_warning, not_explained_warning, other_resonances_hz
     from gasfilm.analysis.identification import METHODS, compare_models, fit_model, format_table2
     from gasfilm.analysis.session import Session
     from gasfilm.analysis.sources import is_time_record_file
@@ -232,11 +207,8 @@ def run(args: argparse.Namespace) -> int:
             for fit in fits:
                 session.write_fit(fit.model_name, {**fit.to_dict(), **settings.stored_keys()})
     unexplained_hz = other_resonances_hz(frf, (float(freq_hz[0]), float(freq_hz[-1])))
-    not_explained = None
-    if unexplained_hz:
-        not_explained = (f"NOT explained by any film model (one resonance on a mass): resonances at "
-                         f"{', '.join(f'{f:.0f}' for f in unexplained_hz)} Hz in the band — a structure with more "
-                         f"modes; the fits describe the strongest resonance only")
+    not_explained = not_explained_warning(unexplained_hz)
+    if not_explained:
         logger.warning(not_explained)
     rows = compare_models(fits, freq_hz, h)
     figures = [figure18(figure_paths[0], freq_hz, h, fits), figure19(figure_paths[1], freq_hz, h, fits)]
