@@ -19,6 +19,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from gasfilm.analysis.conditions import decode_conditions, format_conditions, format_value
+from gasfilm.analysis.diagnosis.report import VERDICT_LINES
 from gasfilm.analysis.fit_warnings import fit_warnings
 from gasfilm.analysis.session import Session
 from gasfilm.analysis.session.api import LATEST_DIAGNOSIS
@@ -403,16 +404,23 @@ def _diagnosis_html(diagnosis: dict[str, Any] | None, name: str | None = None, r
     if diagnosis is None:
         return "<p>No diagnosis stored in the session (run <code>gasfilm diagnose</code> or the GUI's Diagnose tab).</p>"
     kept = f" ({runs} stored; earlier runs are kept in the session)" if runs > 1 else ""
+    verdict = str(diagnosis.get("verdict", "?"))
     parts = [f"<p>The newest diagnosis, <code>diagnoses/{html.escape(str(name))}</code>{kept}: run by "
              f"{html.escape(diagnosis_options_text(diagnosis.get('options')))}.</p>" if name else "",
-             f"<p>Verdict: <b>{html.escape(str(diagnosis.get('verdict', '?')))}</b>"]
+             f"<p>Verdict: <b>{html.escape(verdict)}</b>"]
+    if verdict in VERDICT_LINES:
+        parts.append(f" — {html.escape(VERDICT_LINES[verdict])}.")
     if "rms_before_g_per_n" in diagnosis and "rms_after_g_per_n" in diagnosis:
         parts.append(
-            f" — RMS {diagnosis['rms_before_g_per_n']:.4g} g/N with the given spec, "
-            f"{diagnosis['rms_after_g_per_n']:.4g} g/N with the findings "
+            f" RMS {diagnosis['rms_before_g_per_n']:.4g} g/N with the given spec, "
+            f"{diagnosis['rms_after_g_per_n']:.4g} g/N with the improved spec "
             + (f"(E {diagnosis['e_percent']:.1f} %)" if _is_number(diagnosis.get("e_percent")) else "")
         )
     parts.append("</p>")
+    noise = diagnosis.get("noise")
+    if isinstance(noise, dict) and noise.get("source"):
+        parts.append(f"<p>Noise: {html.escape(str(noise['source']))}"
+                     + (f" — {html.escape(str(noise['detail']))}" if noise.get("detail") else "") + "</p>")
     findings = diagnosis.get("findings") or []
     if findings:
         rows = []
@@ -423,8 +431,23 @@ def _diagnosis_html(diagnosis: dict[str, Any] | None, name: str | None = None, r
                                for name, entry in (finding.get("parameters") or {}).items())
             rows.append((finding.get("effect", "?"), where, values, finding.get("evidence", "")))
         parts.append(_table(("Effect", "Where", "Parameters", "Evidence"), rows))
-    else:
+    elif verdict in NOTHING_MISSING:
         parts.append("<p>No missing physics found.</p>")
+    unexplained = [item for item in diagnosis.get("unexplained") or [] if isinstance(item, dict)]
+    if unexplained:
+        first_hit = diagnosis.get("hits_numbered_from", 0)
+        parts.append("<h3>NOT explained</h3>")
+        parts.append(_table(
+            ("Band (Hz)", "Hits (from 1)", "Share of the excess χ² (%)", "Character",
+             "Resonances the spec lacks (Hz)", "Partial descriptions (not findings)"),
+            [(_band_text(item.get("band_hz")), _hits_text(item.get("hits"), first_hit),
+              _number_text(100 * item["chi2_share"] if _is_number(item.get("chi2_share")) else None, ".1f"),
+              item.get("character", ""),
+              ", ".join(f"{f:.0f}" for f in item.get("unmodelled_resonances_hz") or [] if _is_number(f)) or "—",
+              ", ".join(str(c.get("effect", "?")) for c in item.get("candidates") or [] if isinstance(c, dict))
+              or "—")
+             for item in unexplained],
+        ))
     recalibration = diagnosis.get("recalibration") or {}
     if recalibration:
         parts.append("<h3>Recalibrated spec parameters (SI)</h3>")
@@ -441,6 +464,24 @@ def _diagnosis_html(diagnosis: dict[str, Any] | None, name: str | None = None, r
         parts.append("<h3>Measurement quality</h3><ul>"
                      + "".join(f"<li class='note'>{html.escape(note)}</li>" for note in notes) + "</ul>")
     return "".join(parts)
+
+
+#: The verdicts under which nothing is missing from the spec.
+NOTHING_MISSING = ("consistent", "parameters-only")
+
+
+def _band_text(band: Any) -> str:
+    if isinstance(band, (list, tuple)) and len(band) == 2 and all(_is_number(edge) for edge in band):
+        return f"{band[0]:.0f}–{band[1]:.0f}"
+    return "?"
+
+
+def _hits_text(hits: Any, first_hit: int = 1) -> str:
+    """Stored hit numbers as the user sees them, from 1 (``first_hit``: what the stored numbers start from)."""
+    if not isinstance(hits, (list, tuple)) or not hits:
+        return "—"
+    shown = [str(int(hit) + 1 - first_hit) for hit in hits if _is_number(hit)]
+    return ", ".join(shown[:12]) + (" …" if len(shown) > 12 else "")
 
 
 #: Shown for an uncertainty the diagnosis could not estimate.
@@ -570,8 +611,19 @@ def _report_pdf(data: ReportData, drop_db: float) -> bytes:
         lines += [f"  {fit.model_name:<8} " + (model if isinstance(model, str) else model.summary())
                   for fit, model in models]
     if data.diagnosis is not None:
-        lines += ["", f"Diagnosis verdict: {data.diagnosis.get('verdict', '?')} (diagnoses/{data.diagnosis_name}, "
-                      f"{diagnosis_options_text(data.diagnosis.get('options'))})"]
+        diagnosis = data.diagnosis
+        verdict = str(diagnosis.get("verdict", "?"))
+        lines += ["", f"Diagnosis verdict: {verdict}"
+                  + (f" — {VERDICT_LINES[verdict]}" if verdict in VERDICT_LINES else ""),
+                  f"  diagnoses/{data.diagnosis_name}, run by {diagnosis_options_text(diagnosis.get('options'))}"]
+        noise = diagnosis.get("noise")
+        if isinstance(noise, dict) and noise.get("source"):
+            lines.append(f"  noise: {noise['source']}")
+        lines += [f"  {finding.get('effect', '?')}: {finding.get('where', '')}"
+                  for finding in diagnosis.get("findings") or [] if isinstance(finding, dict)]
+        lines += [f"  NOT explained: {_band_text(item.get('band_hz'))} Hz, hits "
+                  f"{_hits_text(item.get('hits'), diagnosis.get('hits_numbered_from', 0))}: {item.get('character', '')}"
+                  for item in diagnosis.get("unexplained") or [] if isinstance(item, dict)]
     buffer = io.BytesIO()
     with PdfPages(buffer) as pdf:
         text_page = _new_figure(11)

@@ -151,3 +151,35 @@ def test_the_report_shows_the_fits_warnings_beside_them(tmp_path, capsys):
 
     for warning in warnings:
         assert html.escape(warning) in fits_section, warning
+
+
+@pytest.mark.parametrize("verdict", ["not explained", "partly explained", "consistent"])
+def test_the_reports_diagnosis_shows_what_is_not_explained_the_noise_and_the_options(verdict, tmp_path, capsys):
+    """Before: "Verdict: not explained — … No missing physics found." without the bands, the noise or the options."""
+    import html
+
+    from gasfilm.analysis.report import read_report_data, report_html
+
+    path = tmp_path / "run.h5"
+    assert gasfilm(capsys, "acquire", *FAST_SIM, "--out", path, "--hits", 1, "--seed", 2)[0] == 0
+    stored = {
+        "verdict": verdict, "findings": [], "hits_numbered_from": 1, "rms_before_g_per_n": 0.1,
+        "rms_after_g_per_n": 0.05, "e_percent": 50.0,
+        "noise": {"source": "hit scatter", "degrees_of_freedom": 8, "detail": "from the scatter of the hits"},
+        "unexplained": [] if verdict == "consistent" else [
+            {"band_hz": [810.0, 851.0], "hits": [1, 3], "chi2_share": 0.84, "character": "a localised peak near 824 Hz",
+             "candidates": [{"effect": "extra mode"}], "unmodelled_resonances_hz": [824.0]}],
+        "options": {"command": "gasfilm diagnose", "rig": None, "mass_kg": 0.001, "band_hz": None},
+    }
+    with Session.open(path, "a") as session:
+        session.add_diagnosis(stored)
+    page = html.unescape(report_html(read_report_data(path)))
+    section = page[page.index("<h2>Diagnosis"):]
+    assert f"Verdict: <b>{verdict}</b>" in section and "Noise: hit scatter" in section and "--mass 0.001 kg" in section
+    if verdict == "consistent":
+        assert "No missing physics found" in section and "NOT explained" not in section
+    else:
+        assert "No missing physics found" not in section
+        assert "<td>810–851</td><td>1, 3</td><td>84.0</td><td>a localised peak near 824 Hz</td><td>824</td>" \
+               "<td>extra mode</td>" in section
+    assert gasfilm(capsys, "report", path, "--out", tmp_path / "report.pdf")[0] == 0
