@@ -183,3 +183,19 @@ def test_the_reports_diagnosis_shows_what_is_not_explained_the_noise_and_the_opt
         assert "<td>810–851</td><td>1, 3</td><td>84.0</td><td>a localised peak near 824 Hz</td><td>824</td>" \
                "<td>extra mode</td>" in section
     assert gasfilm(capsys, "report", path, "--out", tmp_path / "report.pdf")[0] == 0
+
+
+def test_model_max_error_is_a_percentage_with_or_without_its_sign(tmp_path, capsys):
+    """Before: the help said the default was 0.5%, but `--max-error 0.5` meant 50 % and `--max-error 5` was refused."""
+    from pathlib import Path
+
+    spec = Path(__file__).resolve().parents[1] / "fixtures" / "rigs" / "fomgf.toml"
+    for given, fraction in (("0.5", 0.005), ("5", 0.05), ("0.5%", 0.005), ("2 %", 0.02)):
+        status, out, err = gasfilm(capsys, "model", spec, "--max-error", given, "--out", tmp_path / "m.json",
+                                   "--overwrite", "--json")
+        assert status == 0, err
+        assert json.loads(out)["model"]["target_error"] == pytest.approx(fraction)
+    status, out, err = gasfilm(capsys, "model", spec, "--max-error", "5", "--out", tmp_path / "m.json", "--overwrite")
+    assert status == 0 and "target: within 5 %" in out, err
+    for bad in ("100", "0", "-1", "150%"):
+        assert "--max-error" in one_line_error(capsys, "model", spec, "--max-error", bad, "--out", tmp_path / "x.json")
