@@ -199,3 +199,24 @@ def test_model_max_error_is_a_percentage_with_or_without_its_sign(tmp_path, caps
     assert status == 0 and "target: within 5 %" in out, err
     for bad in ("100", "0", "-1", "150%"):
         assert "--max-error" in one_line_error(capsys, "model", spec, "--max-error", bad, "--out", tmp_path / "x.json")
+
+
+def test_diagnose_overwrite_removes_its_own_outputs_this_run_does_not_write(session_path, tmp_path, capsys,
+                                                                            monkeypatch):
+    """Before: an earlier run's diagnosis-restoring-force.png stayed beside the new spec."""
+    from gasfilm.analysis.diagnosis import recordings
+
+    out = tmp_path / "d"
+    status, _, err = gasfilm(capsys, "diagnose", session_path, "--out", out)
+    assert status == 0, err
+    assert (out / "diagnosis-restoring-force.png").exists()
+    (out / "notes.txt").write_text("mine")
+    (out / "diagnosis-restoring-force-old.png").write_bytes(b"mine too")
+    monkeypatch.setattr(recordings, "film_restoring_force", lambda *_: None)  # records with no free decay to read
+    status, out_text, err = gasfilm(capsys, "diagnose", session_path, "--out", out, "--overwrite", "--json")
+    assert status == 0, err
+    assert json.loads(out_text)["restoring_force"] is None
+    assert not (out / "diagnosis-restoring-force.png").exists() and "removed" in err
+    assert sorted(path.name for path in out.iterdir()) == [
+        "diagnosis-overlay.png", "diagnosis-residual.png", "diagnosis-restoring-force-old.png", "improved-rig.toml",
+        "notes.txt"]

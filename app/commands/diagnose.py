@@ -32,7 +32,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--json", action="store_true", help="print one JSON object instead of the report")
     parser.add_argument("--out", type=Path, default=Path("out/diagnosis"),
                         help="folder for the improved spec and the figures (default out/diagnosis)")
-    parser.add_argument("--overwrite", action="store_true", help="replace an improved spec or figures in --out")
+    parser.add_argument("--overwrite", action="store_true",
+                        help="replace an improved spec or figures in --out (and remove an earlier run's figure this "
+                             "run does not draw)")
     parser.set_defaults(func=run)
 
 
@@ -58,7 +60,7 @@ def _check_source(path: Path) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from gasfilm.analysis.diagnosis import diagnose
-    from gasfilm.analysis.diagnosis.plots import OUTPUT_FILES, write_outputs
+    from gasfilm.analysis.diagnosis.plots import OUTPUT_FILES, remove_stale_outputs, write_outputs
     from gasfilm.analysis.diagnosis.report import report_text
     from gasfilm.analysis.physics.spec import MASS_RANGE_KG, RigSpec
     from gasfilm.analysis.session import Session
@@ -86,6 +88,9 @@ def run(args: argparse.Namespace) -> int:
         source = args.source[0] if len(args.source) == 1 else list(args.source)
         diagnosis = diagnose(source, spec, args.mass, band, progress)
         write_outputs(diagnosis, args.out)
+        if args.overwrite:
+            for stale in remove_stale_outputs(diagnosis, args.out):
+                progress(f"removed {stale}: an earlier run's, which this run does not write")
         diagnosis.wall_time_s = time.monotonic() - started  # what the user waited: loading to figures written
     except BaseException:
         if made:  # a failed run leaves no empty folder behind
