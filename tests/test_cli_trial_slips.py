@@ -21,15 +21,24 @@ def session_path(tmp_path_factory):
     return path
 
 
+def new_session(tmp_path, capsys, hits: int = 3):
+    """A session of its own for a test that stores results in it (the module's session is shared)."""
+    path = tmp_path / "own.h5"
+    status, out, err = gasfilm(capsys, "acquire", *FAST_SIM, "--out", path, "--hits", hits, "--seed", 2)
+    assert status == 0, err
+    return path
+
+
 def one_line_error(capsys, *argv) -> str:
     status, out, err = gasfilm(capsys, *argv)
     assert status == 2 and err.count("\n") == 1 and "Traceback" not in err, (status, out, err)
     return err
 
 
-def test_a_stored_fit_is_not_replaced_by_one_made_with_other_settings(session_path, tmp_path, capsys):
+def test_a_stored_fit_is_not_replaced_by_one_made_with_other_settings(tmp_path, capsys):
     """Before: `fit --mass 1e9` replaced the good stored SD fit with one stuck at its bounds, and the report then
     compared every model with it."""
+    session_path = new_session(tmp_path, capsys)
     status, out, err = gasfilm(capsys, "fit", session_path, "--models", "SD", "--out", tmp_path)
     assert status == 0, err
     status, out, err = gasfilm(capsys, "replay", session_path, "--exp-end", "0.01", "--json")  # FRF 'replay'
@@ -62,8 +71,9 @@ def test_a_stored_fit_is_not_replaced_by_one_made_with_other_settings(session_pa
     assert status == 0, err
 
 
-def test_each_diagnosis_is_kept_and_latest_is_the_newest_with_its_options(session_path, tmp_path, capsys):
+def test_each_diagnosis_is_kept_and_latest_is_the_newest_with_its_options(tmp_path, capsys):
     """Before: every `diagnose` replaced the session's only stored diagnosis (diagnoses/latest)."""
+    session_path = new_session(tmp_path, capsys)
     from gasfilm.analysis.report import read_report_data, report_html
 
     status, out, err = gasfilm(capsys, "diagnose", session_path, "--out", tmp_path / "a", "--json")
@@ -118,7 +128,8 @@ def test_gui_without_a_display_says_so_in_one_line_before_qt_starts(monkeypatch,
     monkeypatch.setattr(sys, "platform", "linux")
     monkeypatch.setattr(main_window, "run_gui", lambda **_: pytest.fail("Qt started without a display"))
     err = one_line_error(capsys, "gui")
-    assert err.startswith("gasfilm gui: error: no display") and "./run gui" in err and "QT_QPA_PLATFORM=offscreen" in err
+    assert err.startswith("gasfilm gui: error: no display") and "./run gui" in err
+    assert "QT_QPA_PLATFORM=offscreen" in err
     monkeypatch.setenv("QT_QPA_PLATFORM", "xcb")
     assert "no display" in one_line_error(capsys, "gui")
     from gasfilm.app.commands.gui import missing_display
@@ -155,7 +166,7 @@ def test_the_report_shows_the_fits_warnings_beside_them(tmp_path, capsys):
 
 @pytest.mark.parametrize("verdict", ["not explained", "partly explained", "consistent"])
 def test_the_reports_diagnosis_shows_what_is_not_explained_the_noise_and_the_options(verdict, tmp_path, capsys):
-    """Before: "Verdict: not explained — … No missing physics found." without the bands, the noise or the options."""
+    """Before: "Verdict: not explained — … No missing physics found." without its bands, the noise or the options."""
     import html
 
     from gasfilm.analysis.report import read_report_data, report_html
@@ -220,3 +231,15 @@ def test_diagnose_overwrite_removes_its_own_outputs_this_run_does_not_write(sess
     assert sorted(path.name for path in out.iterdir()) == [
         "diagnosis-overlay.png", "diagnosis-residual.png", "diagnosis-restoring-force-old.png", "improved-rig.toml",
         "notes.txt"]
+
+
+def test_model_numbers_the_recorded_hits_from_1(tmp_path, capsys):
+    """Before: `gasfilm model s1.h5 --model FOMGF` printed `hit   0: …`."""
+    session_path = new_session(tmp_path, capsys)
+    assert gasfilm(capsys, "fit", session_path, "--models", "SD", "--out", tmp_path)[0] == 0
+    status, out, err = gasfilm(capsys, "model", session_path, "--model", "SD", "--out", tmp_path / "m.json")
+    assert status == 0, err
+    numbers = [int(line.split()[1].rstrip(":")) for line in out.splitlines() if line.strip().startswith("hit ")]
+    assert numbers == [1, 2, 3], out
+    status, out, err = gasfilm(capsys, "model", session_path, "--model", "SD", "--out", tmp_path / "j.json", "--json")
+    assert status == 0 and json.loads(out)["time_domain"]["hits"] == [1, 2, 3], err

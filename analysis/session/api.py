@@ -947,16 +947,17 @@ class Session:
         if data.ndim != 2 or data.shape[0] != channels:
             raise SessionError(f"{self.path}: hit record of shape {data.shape} does not have {channels} channels")
         if not np.all(np.isfinite(data)):
-            raise SessionError(f"{self.path}: hit {self.hit_count} has NaN or infinite samples; not stored")
+            raise SessionError(f"{self.path}: hit {self.hit_count + 1} has NaN or infinite samples; not stored")
         if not float(hit.sample_rate_hz) > 0:
-            raise SessionError(f"{self.path}: hit {self.hit_count} has sample rate {hit.sample_rate_hz}; not stored")
+            raise SessionError(
+                f"{self.path}: hit {self.hit_count + 1} has sample rate {hit.sample_rate_hz}; not stored")
         index = self.hit_count
         samples = self.record_samples
         if index == 0 and self._data.shape[0] == 0:
             samples = data.shape[1]
         elif data.shape[1] != samples:
             raise SessionError(
-                f"{self.path}: hit {index} has {data.shape[1]} samples per channel; this session stores {samples}"
+                f"{self.path}: hit {index + 1} has {data.shape[1]} samples per channel; this session stores {samples}"
             )
         row = np.zeros((), dtype=self._table.dtype)
         row["accepted"] = bool(verdict.accepted)
@@ -1029,7 +1030,7 @@ class Session:
             if not np.all(valid):
                 hit = int(np.argmin(valid))
                 raise SessionError(
-                    f"{self.path}: damaged session: hit {hit} has {label} {rows[field][hit]}, out of range "
+                    f"{self.path}: damaged session: hit {hit + 1} has {label} {rows[field][hit]}, out of range "
                     f"({channels} channels, {samples} samples per record)"
                 )
         return rows
@@ -1059,13 +1060,13 @@ class Session:
             hit = int(indices[np.argmax(bad)])
             channel = int(np.argmax(~np.all(np.isfinite(records[np.argmax(bad)]), axis=1)))
             label = self.daq_config.channels[channel].label
-            raise SessionError(f"{self.path}: hit {hit} has NaN samples in channel {channel} ({label})")
+            raise SessionError(f"{self.path}: hit {hit + 1} has NaN samples in channel {channel} ({label})")
         for channel, config in enumerate(self.daq_config.channels):
             peaks = np.max(np.abs(records[:, channel]), axis=1) if records.shape[2] else np.zeros(len(records))
             beyond = peaks > MAX_ABS_SI[config.kind]
             if np.any(beyond):
                 raise SessionError(
-                    f"{self.path}: damaged session: hit {int(indices[np.argmax(beyond)])} has samples beyond "
+                    f"{self.path}: damaged session: hit {int(indices[np.argmax(beyond)]) + 1} has samples beyond "
                     f"{MAX_ABS_SI[config.kind]:g} {config.kind.unit} in channel {channel} ({config.label})"
                 )
 
@@ -1111,9 +1112,9 @@ class Session:
         """Replace a hit's verdict (e.g. the user overrides a rejection); flushed at once."""
         self._require_writable()
         if not 0 <= index < self.hit_count:
-            raise SessionError(f"{self.path}: hit {index} does not exist (the session holds {self.hit_count})")
+            raise SessionError(f"{self.path}: hit {index + 1} does not exist (the session holds {self.hit_count})")
         reasons = encode_reasons(tuple(verdict.reasons), self.path)
-        with self._writing(f"the verdict of hit {index}"):
+        with self._writing(f"the verdict of hit {index + 1}"):
             table = self._table
             row = table[index]
             row["accepted"] = bool(verdict.accepted)
