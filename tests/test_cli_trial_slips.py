@@ -243,3 +243,31 @@ def test_model_numbers_the_recorded_hits_from_1(tmp_path, capsys):
     assert numbers == [1, 2, 3], out
     status, out, err = gasfilm(capsys, "model", session_path, "--model", "SD", "--out", tmp_path / "j.json", "--json")
     assert status == 0 and json.loads(out)["time_domain"]["hits"] == [1, 2, 3], err
+
+
+@pytest.mark.parametrize("command, outputs", [
+    ("diagnose", ["--out", "{out}"]),
+    ("fit", ["--out", "{out}"]),
+    ("export", ["--csv", "{out}/x.csv"]),
+    ("replay", ["--out", "{out}/x.h5"]),
+    ("report", ["--out", "{out}/x.html"]),
+    ("model", ["--out", "{out}/x.json"]),
+])
+def test_the_input_is_checked_before_the_outputs(command, outputs, tmp_path, capsys):
+    """Before: `gasfilm diagnose s1.csv` said `--out out/diagnosis/improved-rig.toml: exists already`."""
+    out = tmp_path / "out"
+    out.mkdir()
+    for name in ("improved-rig.toml", "x-figure18.png", "x.csv", "x.h5", "x.html", "x.json", "folder-figure18.png",
+                 "missing-figure18.png"):
+        (out / name).write_text("an earlier output")
+    flags = [flag.format(out=out) for flag in outputs]
+    text = tmp_path / "x.csv"
+    text.write_text("frequency,H1\n")
+    err = one_line_error(capsys, command, text, *flags)
+    assert f"{text}: wrong file type" in err and "exists" not in err, err
+    err = one_line_error(capsys, command, tmp_path / "missing.h5", *flags)
+    assert f"{tmp_path / 'missing.h5'}: no such session file" in err, err
+    folder = tmp_path / "folder"
+    folder.mkdir()
+    err = one_line_error(capsys, command, folder, *flags)
+    assert f"{folder}: is a folder" in err, err

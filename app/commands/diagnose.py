@@ -14,7 +14,7 @@ import sys
 import time
 from pathlib import Path
 
-from gasfilm.app.commands.common import check_output_folder
+from gasfilm.app.commands.common import check_inputs, check_output_folder
 from gasfilm.drivers.errors import GasfilmError, SettingError
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -50,14 +50,6 @@ def _band(text: str | None) -> tuple[float, float] | None:
     return low, high
 
 
-def _check_source(path: Path) -> None:
-    """The input exists and is a file; one line naming it otherwise (before any folder is made)."""
-    if not path.exists():
-        raise SettingError(f"{path}: no such file")
-    if path.is_dir():
-        raise SettingError(f"{path}: is a folder, not a session, UFF or .npy file")
-
-
 def run(args: argparse.Namespace) -> int:
     from gasfilm.analysis.diagnosis import diagnose
     from gasfilm.analysis.diagnosis.plots import OUTPUT_FILES, remove_stale_outputs, write_outputs
@@ -68,14 +60,12 @@ def run(args: argparse.Namespace) -> int:
     if args.mass is not None and not MASS_RANGE_KG[0] <= args.mass <= MASS_RANGE_KG[1]:
         raise SettingError(f"--mass {args.mass:g}: must be {MASS_RANGE_KG[0]:g} to {MASS_RANGE_KG[1]:g} kg")
     band = _band(args.band)
-    for path in args.source:
-        _check_source(path)
+    check_inputs(args.source)  # the inputs before the outputs (and before any folder is made)
+    spec = RigSpec.load(args.rig) if args.rig else None
     made = not args.out.exists()
     check_output_folder(args.out, "--out", OUTPUT_FILES, args.overwrite)
     started = time.monotonic()
     try:
-        spec = RigSpec.load(args.rig) if args.rig else None
-
         def progress(message: str) -> None:
             print(f"  {message}", file=sys.stderr)
 

@@ -16,8 +16,8 @@ import sys
 from pathlib import Path
 from typing import Any, Callable
 
-from gasfilm.app.commands.common import (UNITS, accelerance_text, add_units_flag, check_output_folder,
-                                         is_terminal,
+from gasfilm.app.commands.common import (UNITS, accelerance_text, add_units_flag, check_inputs,
+                                         check_output_folder, is_terminal,
                                          load_frf_and_hits, source_conditions)
 from gasfilm.drivers.errors import SettingError
 
@@ -158,6 +158,7 @@ def run(args: argparse.Namespace) -> int:
     models = parse_models(args.models)
     if args.mass is not None and not args.mass > 0:
         raise SettingError(f"--mass {args.mass}: must be a positive mass in kg")
+    check_inputs(args.source)  # the inputs before the outputs
     out = args.out if args.out is not None else args.source[0].parent
     stem = args.source[0].stem
     figure_paths = check_output_folder(out, "--out" if args.out is not None else "",

@@ -15,7 +15,7 @@ import json
 import math
 from pathlib import Path
 
-from gasfilm.app.commands.common import check_output_file
+from gasfilm.app.commands.common import check_inputs, check_output_file
 from gasfilm.drivers.errors import SettingError
 
 
@@ -69,6 +69,8 @@ def run(args: argparse.Namespace) -> int:
     from gasfilm.analysis.control.timedomain import (
         figure_error, figure_hits, frf_relative_error, spec_of_fit, time_domain_check)
 
+    check_inputs([args.source], (".json", ".toml"),
+                 "a session (HDF5), a fit's JSON (gasfilm fit --json) or a rig spec (.toml)")  # before the outputs
     if args.out.suffix.lower() not in SUFFIXES:
         raise SettingError(f"--out {args.out}: name a .json, .mat or .npz file")
     if args.order is not None and args.order < 1:
