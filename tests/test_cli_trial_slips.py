@@ -271,3 +271,26 @@ def test_the_input_is_checked_before_the_outputs(command, outputs, tmp_path, cap
     folder.mkdir()
     err = one_line_error(capsys, command, folder, *flags)
     assert f"{folder}: is a folder" in err, err
+
+
+def test_a_file_where_a_folder_is_needed_is_called_a_file(session_path, tmp_path, capsys):
+    """Before: `export s1.h5 --csv notes.txt/x.csv` said "the folder notes.txt does not exist"."""
+    from gasfilm.analysis.spectra import write_frf_csv
+
+    notes = tmp_path / "notes.txt"
+    notes.write_text("mine")
+    for argv in (("export", session_path, "--csv", notes / "x.csv"),
+                 ("export", session_path, "--uff", notes / "deeper" / "x.uff"),
+                 ("report", session_path, "--out", notes / "r.html"),
+                 ("replay", session_path, "--out", notes / "x.h5"),
+                 ("fit", session_path, "--out", notes / "figures"),
+                 ("diagnose", session_path, "--out", notes / "d"),
+                 ("acquire", *FAST_SIM, "--out", notes / "a.h5", "--hits", 1)):
+        err = one_line_error(capsys, *argv)
+        assert f"{notes} is a file, not a folder" in err and "does not exist" not in err, err
+    assert notes.read_text() == "mine"
+    err = one_line_error(capsys, "export", session_path, "--csv", tmp_path / "nowhere" / "x.csv")
+    assert f"the folder {tmp_path / 'nowhere'} does not exist" in err
+    with pytest.raises(Exception, match="is a file, not a folder"):
+        with Session.open(session_path) as session:
+            write_frf_csv(session.read_frf(), notes / "x.csv")

@@ -64,6 +64,7 @@ from gasfilm.analysis.session.layout import (
     write_mapping,
 )
 
+from gasfilm.analysis.paths import missing_folder
 from gasfilm.drivers.errors import GasfilmError
 from gasfilm.drivers.interface import DaqConfig
 
@@ -389,7 +390,7 @@ class Session:
         if path.is_dir():
             raise SessionError(f"{path}: is a folder, not a session file")
         if not path.parent.is_dir():
-            raise SessionError(f"{path}: the folder {path.parent} does not exist")
+            raise SessionError(f"{path}: {missing_folder(path.parent)}")
         remove_leftovers(path)
         remove_leftovers(journal_path(path))
         _remove_empty_journal(path, overwrite)

@@ -12,6 +12,7 @@ import tempfile
 from pathlib import Path
 from typing import Any, Mapping, Sequence, TypeVar
 
+from gasfilm.analysis.paths import file_in_the_way, missing_folder
 from gasfilm.drivers.errors import SettingError
 from gasfilm.drivers.units import STANDARD_GRAVITY_M_S2
 
@@ -119,12 +120,14 @@ def check_output_file(path: Path, flag: str, overwrite: bool, make_parent: bool 
             raise SettingError(f"{where}: exists and is not writable")
     parent = path.parent
     if make_parent:
+        if file_in_the_way(parent) is not None:
+            raise SettingError(f"{where}: {missing_folder(parent)}")
         try:
             parent.mkdir(parents=True, exist_ok=True)
         except OSError as error:
             raise SettingError(f"{where}: cannot make the folder {parent} ({error.strerror or error})") from None
     if not parent.is_dir():
-        raise SettingError(f"{where}: the folder {parent} does not exist")
+        raise SettingError(f"{where}: {missing_folder(parent)}")
     try:  # the only reliable test of "a new file can be made here" (root, read-only mounts, /proc)
         handle, probe = tempfile.mkstemp(dir=parent, prefix=f".{path.name}.", suffix=".probe")
         os.close(handle)
