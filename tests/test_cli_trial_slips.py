@@ -294,3 +294,14 @@ def test_a_file_where_a_folder_is_needed_is_called_a_file(session_path, tmp_path
     with pytest.raises(Exception, match="is a file, not a folder"):
         with Session.open(session_path) as session:
             write_frf_csv(session.read_frf(), notes / "x.csv")
+
+
+def test_version_is_printed(capsys):
+    from importlib.metadata import version
+
+    from gasfilm.app.cli import main
+
+    with pytest.raises(SystemExit) as ended:
+        main(["--version"])
+    assert ended.value.code == 0
+    assert capsys.readouterr().out == f"gasfilm {version('gasfilm')}\n"
