@@ -305,3 +305,28 @@ def test_version_is_printed(capsys):
         main(["--version"])
     assert ended.value.code == 0
     assert capsys.readouterr().out == f"gasfilm {version('gasfilm')}\n"
+
+
+def test_a_diagnosis_refused_by_the_measurement_checks_names_the_file(tmp_path, capsys):
+    """Before: `diagnosis records: only 0 hit(s) have a quiet pre-trigger …` named no file."""
+    import numpy as np
+
+    session_path = new_session(tmp_path, capsys, hits=2)
+    with Session.open(session_path) as session:
+        hits = session.hits()
+        rate_hz = session.sample_rate_hz
+    paths = []
+    for number, hit in enumerate(hits, start=1):  # each record cut to start at its trigger: no quiet pre-trigger
+        force_n, response = hit.data[hit.force_channel], hit.data[hit.response_channel]
+        start = max(hit.trigger_index - 2, 0)
+        time_s = np.arange(force_n.size - start) / rate_hz
+        paths.append(tmp_path / f"cut{number}.npy")
+        np.save(paths[-1], np.vstack((time_s, force_n[start:], response[start:])))
+    from gasfilm.analysis.diagnosis.recordings import load_recordings
+
+    source = load_recordings(paths).source
+    err = one_line_error(capsys, "diagnose", *paths, "--mass", "25", "--out", tmp_path / "d")
+    assert err.startswith(f"gasfilm diagnose: error: {source}: only 0 hit(s) have a quiet pre-trigger"), err
+    assert "diagnosis records" not in err
+    err = one_line_error(capsys, "diagnose", session_path, "--band", "100:101", "--out", tmp_path / "e")
+    assert "error: --band 100:101: fewer than 8 frequency lines" in err  # a flag's refusal names the flag
