@@ -330,3 +330,18 @@ def test_a_diagnosis_refused_by_the_measurement_checks_names_the_file(tmp_path, 
     assert "diagnosis records" not in err
     err = one_line_error(capsys, "diagnose", session_path, "--band", "100:101", "--out", tmp_path / "e")
     assert "error: --band 100:101: fewer than 8 frequency lines" in err  # a flag's refusal names the flag
+
+
+def test_campaign_refuses_a_by_key_no_session_records_before_computing(tmp_path, capsys):
+    """Before: `campaign --by` with a key no session has only warned after every session was computed, exit 0."""
+    folder = tmp_path / "sessions"
+    folder.mkdir()
+    for number, pressure in enumerate(("0.4", "0.5"), start=1):
+        status, _, err = gasfilm(capsys, "acquire", *FAST_SIM, "--out", folder / f"s{number}.h5", "--hits", 1,
+                                 "--condition", f"supply_pressure_mpa={pressure}", "--condition", "bearing=B-17")
+        assert status == 0, err
+    out = tmp_path / "campaign"
+    err = one_line_error(capsys, "campaign", folder, "--by", "gap_um", "--out", out, "--models", "SD",
+                         "--no-diagnosis", "--workers", 1)
+    assert "--by gap_um: no session records this condition" in err and "record: bearing, supply_pressure_mpa" in err
+    assert not (out / "campaign.parquet").exists() and not (out / "cache").exists()
