@@ -19,7 +19,11 @@ from typing import Any, Sequence
 import numpy as np
 
 from gasfilm.analysis.conditions import decode_conditions, format_conditions, format_value
+from gasfilm.analysis.diagnosis.report import VERDICT_LINES
+from gasfilm.analysis.fit_warnings import fit_warnings
+from gasfilm.analysis.paths import missing_folder
 from gasfilm.analysis.session import Session
+from gasfilm.analysis.session.api import LATEST_DIAGNOSIS
 from gasfilm.analysis.spectra import (
     CAUTION_DROP_DB,
     USABLE_DROP_DB,
@@ -58,7 +62,9 @@ class ReportData:
     frf_source: str
     fits: list[Any]  # FitResult
     comparison: list[tuple[tuple[float, float], list[Any]]]  # (fit band in Hz, ComparisonRow of its fits)
-    diagnosis: dict[str, Any] | None
+    diagnosis: dict[str, Any] | None  # the newest stored one
+    diagnosis_name: str | None = None  # its name in the session (diagnoses/run-NNN)
+    diagnosis_runs: int = 0  # how many diagnoses the session keeps
 
 
 def fits_by_band(fits: Sequence[Any]) -> list[tuple[tuple[float, float], list[Any]]]:
@@ -68,6 +74,12 @@ def fits_by_band(fits: Sequence[Any]) -> list[tuple[tuple[float, float], list[An
         key = (round(float(fit.band_hz[0]), 6), round(float(fit.band_hz[1]), 6))
         groups.setdefault(key, []).append(fit)
     return list(groups.items())
+
+
+def band_lines(freq_hz: np.ndarray, band_hz: tuple[float, float]) -> np.ndarray:
+    """The lines of a fit band as :func:`fits_by_band` keys it (its edges rounded): the lines the fit was made on."""
+    slack = 1e-6 * max(1.0, abs(band_hz[1]))
+    return (freq_hz >= band_hz[0] - slack) & (freq_hz <= band_hz[1] + slack)
 
 
 def _device_from_settings(settings: Any) -> str:
@@ -123,13 +135,11 @@ def read_report_data(path: str | Path) -> ReportData:
         comparison: list[tuple[tuple[float, float], list[Any]]] = []
         if fits and frf is not None:
             for band_hz, group in fits_by_band(fits):
-                band = (frf.freq_hz >= band_hz[0]) & (frf.freq_hz <= band_hz[1])
+                band = band_lines(frf.freq_hz, band_hz)
                 comparison.append((band_hz, compare_models(group, frf.freq_hz[band], frf.h1[band])))
-        diagnosis = None
-        for name in ("diagnosis", "latest"):  # the GUI's name, then the command line's
-            if name in session.result_names("diagnoses"):
-                diagnosis = session.read_diagnosis(name)
-                break
+        newest = session.newest_diagnosis_name()
+        diagnosis = None if newest is None else session.read_diagnosis(newest)
+        diagnosis_runs = len([name for name in session.result_names("diagnoses") if name != LATEST_DIAGNOSIS])
         return ReportData(
             path=path,
             device_name=session.device_name or _device_from_settings(session.settings),
@@ -146,6 +156,8 @@ def read_report_data(path: str | Path) -> ReportData:
             fits=fits,
             comparison=comparison,
             diagnosis=diagnosis,
+            diagnosis_name=newest,
+            diagnosis_runs=diagnosis_runs,
         )
 
 
@@ -278,6 +290,16 @@ def _sigma_text(fit: Any, name: str) -> str:
     return f"{std:.2g}"
 
 
+def band_warnings(data: ReportData, band_hz: tuple[float, float]) -> list[str]:
+    """The warnings ``gasfilm fit`` gives for the fits over ``band_hz`` (a structure that is not a mass on a film,
+    resonances no film model explains), judged on the report's FRF."""
+    if data.frf is None:
+        return []
+    masses = [fit.mass_kg for fit in data.fits
+              if (round(fit.band_hz[0], 6), round(fit.band_hz[1], 6)) == band_hz]
+    return fit_warnings(data.frf, band_lines(data.frf.freq_hz, band_hz), masses)
+
+
 def _fits_html(data: ReportData) -> str:
     if not data.fits:
         return "<p>No fits stored in the session (run <code>gasfilm fit</code> or the GUI's Identify tab).</p>"
@@ -289,6 +311,8 @@ def _fits_html(data: ReportData) -> str:
         mass_text = ", ".join(f"{mass:g} kg{' (fitted)' if fitted else ''}" for mass, fitted in masses)
         parts.append(f"<p>Band {low:g}–{high:g} Hz ({len(rows)} model{'s' if len(rows) != 1 else ''}), mover mass "
                      f"{mass_text}. E and E_m: improvement over SD (eq. 35) fitted over the same band.</p>")
+        parts.extend(f"<p class='warning'>Warning: {html.escape(warning)}</p>"
+                     for warning in band_warnings(data, (low, high)))
         parts.append(_table(
             ("#", "Model", "k (1)", "RMS (g/N)", "E (%)", "Peak error (g/N)", "E_m (%)", "AIC (1)", "BIC (1)"),
             [
@@ -363,17 +387,41 @@ def _control_html(models: list[tuple[Any, Any]]) -> str:
     )
 
 
-def _diagnosis_html(diagnosis: dict[str, Any] | None) -> str:
+def diagnosis_options_text(options: Any) -> str:
+    """How a stored diagnosis was run, in words: its rig spec, mass and band (the flags of ``gasfilm diagnose``)."""
+    if not isinstance(options, dict):
+        return "options not recorded (stored by an older gasfilm)"
+    by = "the GUI's Diagnose tab" if options.get("command") == "GUI" else "gasfilm diagnose"
+    rig = options.get("rig")
+    mass = options.get("mass_kg")
+    band = options.get("band_hz")
+    band_text = (f"--band {band[0]:g}:{band[1]:g} Hz" if isinstance(band, (list, tuple)) and len(band) == 2
+                 and all(_is_number(edge) for edge in band) else "the default band (where the hammer excites)")
+    return (f"{by}, " + (f"--rig {rig}" if rig else "the session's own rig spec (else one read off the FRF)")
+            + ", " + (f"--mass {mass:g} kg" if _is_number(mass) else "the spec's mass") + f", {band_text}")
+
+
+def _diagnosis_html(diagnosis: dict[str, Any] | None, name: str | None = None, runs: int = 0) -> str:
     if diagnosis is None:
         return "<p>No diagnosis stored in the session (run <code>gasfilm diagnose</code> or the GUI's Diagnose tab).</p>"
-    parts = [f"<p>Verdict: <b>{html.escape(str(diagnosis.get('verdict', '?')))}</b>"]
+    kept = f" ({runs} stored; earlier runs are kept in the session)" if runs > 1 else ""
+    verdict = str(diagnosis.get("verdict", "?"))
+    parts = [f"<p>The newest diagnosis, <code>diagnoses/{html.escape(str(name))}</code>{kept}: run by "
+             f"{html.escape(diagnosis_options_text(diagnosis.get('options')))}.</p>" if name else "",
+             f"<p>Verdict: <b>{html.escape(verdict)}</b>"]
+    if verdict in VERDICT_LINES:
+        parts.append(f" — {html.escape(VERDICT_LINES[verdict])}.")
     if "rms_before_g_per_n" in diagnosis and "rms_after_g_per_n" in diagnosis:
         parts.append(
-            f" — RMS {diagnosis['rms_before_g_per_n']:.4g} g/N with the given spec, "
-            f"{diagnosis['rms_after_g_per_n']:.4g} g/N with the findings "
+            f" RMS {diagnosis['rms_before_g_per_n']:.4g} g/N with the given spec, "
+            f"{diagnosis['rms_after_g_per_n']:.4g} g/N with the improved spec "
             + (f"(E {diagnosis['e_percent']:.1f} %)" if _is_number(diagnosis.get("e_percent")) else "")
         )
     parts.append("</p>")
+    noise = diagnosis.get("noise")
+    if isinstance(noise, dict) and noise.get("source"):
+        parts.append(f"<p>Noise: {html.escape(str(noise['source']))}"
+                     + (f" — {html.escape(str(noise['detail']))}" if noise.get("detail") else "") + "</p>")
     findings = diagnosis.get("findings") or []
     if findings:
         rows = []
@@ -384,8 +432,23 @@ def _diagnosis_html(diagnosis: dict[str, Any] | None) -> str:
                                for name, entry in (finding.get("parameters") or {}).items())
             rows.append((finding.get("effect", "?"), where, values, finding.get("evidence", "")))
         parts.append(_table(("Effect", "Where", "Parameters", "Evidence"), rows))
-    else:
+    elif verdict in NOTHING_MISSING:
         parts.append("<p>No missing physics found.</p>")
+    unexplained = [item for item in diagnosis.get("unexplained") or [] if isinstance(item, dict)]
+    if unexplained:
+        first_hit = diagnosis.get("hits_numbered_from", 0)
+        parts.append("<h3>NOT explained</h3>")
+        parts.append(_table(
+            ("Band (Hz)", "Hits (from 1)", "Share of the excess χ² (%)", "Character",
+             "Resonances the spec lacks (Hz)", "Partial descriptions (not findings)"),
+            [(_band_text(item.get("band_hz")), _hits_text(item.get("hits"), first_hit),
+              _number_text(100 * item["chi2_share"] if _is_number(item.get("chi2_share")) else None, ".1f"),
+              item.get("character", ""),
+              ", ".join(f"{f:.0f}" for f in item.get("unmodelled_resonances_hz") or [] if _is_number(f)) or "—",
+              ", ".join(str(c.get("effect", "?")) for c in item.get("candidates") or [] if isinstance(c, dict))
+              or "—")
+             for item in unexplained],
+        ))
     recalibration = diagnosis.get("recalibration") or {}
     if recalibration:
         parts.append("<h3>Recalibrated spec parameters (SI)</h3>")
@@ -402,6 +465,24 @@ def _diagnosis_html(diagnosis: dict[str, Any] | None) -> str:
         parts.append("<h3>Measurement quality</h3><ul>"
                      + "".join(f"<li class='note'>{html.escape(note)}</li>" for note in notes) + "</ul>")
     return "".join(parts)
+
+
+#: The verdicts under which nothing is missing from the spec.
+NOTHING_MISSING = ("consistent", "parameters-only")
+
+
+def _band_text(band: Any) -> str:
+    if isinstance(band, (list, tuple)) and len(band) == 2 and all(_is_number(edge) for edge in band):
+        return f"{band[0]:.0f}–{band[1]:.0f}"
+    return "?"
+
+
+def _hits_text(hits: Any, first_hit: int = 1) -> str:
+    """Stored hit numbers as the user sees them, from 1 (``first_hit``: what the stored numbers start from)."""
+    if not isinstance(hits, (list, tuple)) or not hits:
+        return "—"
+    shown = [str(int(hit) + 1 - first_hit) for hit in hits if _is_number(hit)]
+    return ", ".join(shown[:12]) + (" …" if len(shown) > 12 else "")
 
 
 #: Shown for an uncertainty the diagnosis could not estimate.
@@ -445,6 +526,7 @@ body { font-family: sans-serif; max-width: 1050px; margin: 2em auto; color: #222
 table { border-collapse: collapse; margin: 0.5em 0 1em; font-size: 0.9em; }
 th, td { border: 1px solid #ccc; padding: 2px 8px; text-align: left; }
 th { background: #f0f0f0; } img { max-width: 100%; } .rejected { color: #b3261e; } .note { color: #a66300; }
+.warning { color: #b3261e; font-weight: bold; }
 pre { background: #f7f7f7; padding: 6px; font-size: 0.85em; overflow-x: auto; }
 """
 
@@ -497,7 +579,7 @@ def report_html(data: ReportData, drop_db: float = USABLE_DROP_DB) -> str:
     sections.append("<h2>Control design: rational models</h2>")
     sections.append(_control_html(control_models(data)))
     sections.append("<h2>Diagnosis</h2>")
-    sections.append(_diagnosis_html(data.diagnosis))
+    sections.append(_diagnosis_html(data.diagnosis, data.diagnosis_name, data.diagnosis_runs))
     title = html.escape(f"gasfilm report — {data.path.name}")
     return (
         f"<!DOCTYPE html><html><head><meta charset='utf-8'><title>{title}</title><style>{_STYLE}</style></head>"
@@ -523,13 +605,26 @@ def _report_pdf(data: ReportData, drop_db: float) -> bytes:
         for (low, high), rows in data.comparison:
             lines += ["", f"Identified models (Table 2, g/N), band {low:g}–{high:g} Hz:",
                       *format_table2(rows).splitlines()]
+            lines += [f"  WARNING: {warning}" for warning in band_warnings(data, (low, high))]
     models = control_models(data)
     if models:
         lines += ["", "Rational models for control design (0.5 %, gasfilm model):"]
         lines += [f"  {fit.model_name:<8} " + (model if isinstance(model, str) else model.summary())
                   for fit, model in models]
     if data.diagnosis is not None:
-        lines += ["", f"Diagnosis verdict: {data.diagnosis.get('verdict', '?')}"]
+        diagnosis = data.diagnosis
+        verdict = str(diagnosis.get("verdict", "?"))
+        lines += ["", f"Diagnosis verdict: {verdict}"
+                  + (f" — {VERDICT_LINES[verdict]}" if verdict in VERDICT_LINES else ""),
+                  f"  diagnoses/{data.diagnosis_name}, run by {diagnosis_options_text(diagnosis.get('options'))}"]
+        noise = diagnosis.get("noise")
+        if isinstance(noise, dict) and noise.get("source"):
+            lines.append(f"  noise: {noise['source']}")
+        lines += [f"  {finding.get('effect', '?')}: {finding.get('where', '')}"
+                  for finding in diagnosis.get("findings") or [] if isinstance(finding, dict)]
+        lines += [f"  NOT explained: {_band_text(item.get('band_hz'))} Hz, hits "
+                  f"{_hits_text(item.get('hits'), diagnosis.get('hits_numbered_from', 0))}: {item.get('character', '')}"
+                  for item in diagnosis.get("unexplained") or [] if isinstance(item, dict)]
     buffer = io.BytesIO()
     with PdfPages(buffer) as pdf:
         text_page = _new_figure(11)
@@ -552,7 +647,7 @@ def check_report_path(out: str | Path, overwrite: bool, flag: str = "--out") -> 
     if out.suffix.lower() not in REPORT_FORMATS:
         raise SettingError(f"{flag} {out}: the report is written as .html or .pdf")
     if not out.parent.is_dir():
-        raise SettingError(f"{flag} {out}: the folder {out.parent} does not exist")
+        raise SettingError(f"{flag} {out}: {missing_folder(out.parent)}")
     if (out.exists() or out.is_symlink()) and not overwrite:
         raise SettingError(f"{flag} {out}: the file exists; add --overwrite to replace it")
     if out.is_dir():

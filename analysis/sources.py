@@ -167,18 +167,22 @@ def _load_session(path: Path) -> Source:
         )
 
 
+def check_several(paths: Sequence[Path]) -> None:
+    """Several input files are read only as .npy records (one per hit); one line naming the second otherwise."""
+    if len(paths) > 1 and {Path(path).suffix.lower() for path in paths} != {NPY_SUFFIX}:
+        raise SettingError(f"{paths[1]}: several input files are read only as .npy records; give one session "
+                           f"or UFF file")
+
+
 def load_source(paths: Path | Sequence[Path], force_dof: Any = None, response_dof: Any = None) -> Source:
     """Read a session, a UFF file or one or more .npy records (``force_dof``/``response_dof``: UFF node and
     direction pairs, else the file's only ones)."""
     paths = [Path(paths)] if isinstance(paths, (str, Path)) else [Path(path) for path in paths]
     if not paths:
         raise SettingError("no input file given")
-    suffixes = {path.suffix.lower() for path in paths}
-    if suffixes == {NPY_SUFFIX}:
+    if {path.suffix.lower() for path in paths} == {NPY_SUFFIX}:
         return _load_npy(paths)
-    if len(paths) > 1:
-        raise SettingError(f"{paths[1]}: several input files are read only as .npy records; give one session "
-                           f"or UFF file")
+    check_several(paths)
     if force_dof or response_dof:
         if paths[0].suffix.lower() not in UFF_SUFFIXES:
             raise SettingError(f"--force-dof/--response-dof: {paths[0]} is not a UFF file")

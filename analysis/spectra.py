@@ -588,7 +588,9 @@ def write_frf_csv(frf: FrfResult, path: str | Path, conditions: Mapping[str, Any
     comment lines."""
     path = Path(path)
     if not path.parent.is_dir():
-        raise SettingError(f"{path}: the folder {path.parent} does not exist")
+        from gasfilm.analysis.paths import missing_folder
+
+        raise SettingError(f"{path}: {missing_folder(path.parent)}")
     columns = np.column_stack(
         (
             frf.freq_hz,

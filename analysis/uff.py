@@ -27,6 +27,7 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 import pyuff
 
+from gasfilm.analysis.paths import missing_folder
 from gasfilm.analysis.session.layout import MAX_ABS_SI as LAYOUT_MAX_ABS_SI
 from gasfilm.analysis.session.layout import MAX_SAMPLE_RATE_HZ
 from gasfilm.drivers.errors import GasfilmError
@@ -406,7 +407,7 @@ def export_frf_uff(
     operating conditions as text) goes into ID line 4 of each dataset (80 characters)."""
     path = Path(path)
     if not path.parent.is_dir():
-        raise UffError(f"{path}: the folder {path.parent} does not exist")
+        raise UffError(f"{path}: {missing_folder(path.parent)}")
     try:
         freq_hz = np.asarray(frf.freq_hz, dtype=float)
         h1 = np.asarray(frf.h1, dtype=complex)

@@ -29,11 +29,35 @@ BROKEN_PIPE_STATUS = 141
 logger = logging.getLogger(__name__)
 
 
+def installed_version() -> str:
+    """gasfilm's version as installed (pyproject.toml's), or "unknown" when it is run from an uninstalled tree."""
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("gasfilm")
+    except PackageNotFoundError:
+        return "unknown"
+
+
+class _VersionAction(argparse.Action):
+    """``--version``: print gasfilm's version and exit (looked up only when asked)."""
+
+    def __init__(self, option_strings: Sequence[str], dest: str = argparse.SUPPRESS,
+                 default: str = argparse.SUPPRESS, help: str | None = None) -> None:  # noqa: A002 — argparse's name
+        super().__init__(option_strings, dest, nargs=0, default=default, help=help)
+
+    def __call__(self, parser: argparse.ArgumentParser, namespace: argparse.Namespace, values: object,
+                 option_string: str | None = None) -> None:
+        print(f"gasfilm {installed_version()}")
+        parser.exit()
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="gasfilm",
         description="Impact-hammer testing of air-bearing gas films: acquire, FRF, identify, diagnose.",
     )
+    parser.add_argument("--version", action=_VersionAction, help="print gasfilm's version and exit")
     subparsers = parser.add_subparsers(dest="command", metavar="COMMAND")
     for name in COMMAND_MODULES:
         try:

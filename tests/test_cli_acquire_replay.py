@@ -171,7 +171,7 @@ def test_bad_inputs_give_one_line_errors_without_traceback(tmp_path, capsys):
         "truncated export": (("export", truncated, "--csv", tmp_path / "x.csv"), "truncated HDF5 file"),
         "wrong type": (("replay", wrong), "wrong file type: not an HDF5 file"),
         "empty uff": (("replay", empty_uff, "--out", tmp_path / "e.h5"), "empty UFF file"),
-        "nan samples": (("replay", nan_session), "hit 1 has NaN samples in channel 0 (hammer)"),
+        "nan samples": (("replay", nan_session), "hit 2 has NaN samples in channel 0 (hammer)"),
         "foreign": (("export", foreign, "--uff", tmp_path / "x.uff"), "not a gasfilm session"),
         "missing": (("replay", tmp_path / "nothing.h5"), "no such session file"),
         "exists": (("acquire", *FAST_SIM, "--out", good, "--hits", 1), "exists already"),

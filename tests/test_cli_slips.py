@@ -45,7 +45,7 @@ def test_report_into_a_folder_says_it_is_a_folder(session_path, tmp_path, capsys
 def test_diagnose_of_a_missing_input_says_so_and_leaves_no_folder(tmp_path, capsys):
     out = tmp_path / "diagnosis"
     err = one_line_error(capsys, "diagnose", tmp_path / "nosuch.h5", "--out", out)
-    assert "nosuch.h5: no such file" in err
+    assert "nosuch.h5: no such session file" in err
     assert not out.exists()  # before: an empty out/diagnosis/ was left behind
 
 

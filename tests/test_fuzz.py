@@ -580,8 +580,8 @@ def _scale_hit_record(file: h5py.File) -> None:
         (_set_channel_units, r"the DAQ configuration cannot be read \(channel 0 is a force sensor with sensitivity "
                              r"units 'mV/g'\)", "replay"),
         (_set_channel_units, r"channel 0 is a force sensor with sensitivity units 'mV/g'", "export"),
-        (_set_hit_sample_rate, r"hit 1 has sample rate 1e\+308, out of range", "replay"),
-        (_scale_hit_record, r"hit 1 has samples beyond 1e\+08 m/s\^2 in channel 1 \(accelerometer\)", "replay"),
+        (_set_hit_sample_rate, r"hit 2 has sample rate 1e\+308, out of range", "replay"),
+        (_scale_hit_record, r"hit 2 has samples beyond 1e\+08 m/s\^2 in channel 1 \(accelerometer\)", "replay"),
     ],
     ids=["replay-channel-kind-and-units-disagree", "export-channel-kind-and-units-disagree", "replay-hit-rate-1e308",
          "replay-record-1e200"],

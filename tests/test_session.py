@@ -170,11 +170,11 @@ def test_append_checks_record_shape_and_nan(tmp_path):
     with new_session(tmp_path / "s.h5") as session:
         session.append_hit(hits[0], Verdict(True))
         short = HitRecord(1, hits[1].data[:, :100], RATE_HZ, 26, 2.0)
-        with pytest.raises(SessionError, match="hit 1 has 100 samples per channel; this session stores 2560"):
+        with pytest.raises(SessionError, match="hit 2 has 100 samples per channel; this session stores 2560"):
             session.append_hit(short, Verdict(True))
         bad = HitRecord(1, hits[1].data.copy(), RATE_HZ, 26, 2.0)
         bad.data[1, 7] = np.nan
-        with pytest.raises(SessionError, match="hit 1 has NaN"):
+        with pytest.raises(SessionError, match="hit 2 has NaN"):
             session.append_hit(bad, Verdict(True))
         assert session.hit_count == 1
 
@@ -233,7 +233,7 @@ def test_nan_samples_on_disk_name_the_hit(tmp_path):
     with Session.open(path) as session:
         with pytest.raises(SessionError) as nan:
             session.accepted_records()
-        assert "hit 2 has NaN samples in channel 1 (accelerometer)" in one_line_error(nan)
+        assert "hit 3 has NaN samples in channel 1 (accelerometer)" in one_line_error(nan)
 
 
 def test_writer_killed_without_closing_leaves_a_readable_appendable_session(tmp_path):

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Callable, Sequence
 
-from gasfilm.analysis.campaign.runner import CACHE_FOLDER, CampaignRun, find_sessions, run_sessions
+from gasfilm.analysis.campaign.runner import CACHE_FOLDER, CampaignRun, check_grouping, find_sessions, run_sessions
 from gasfilm.analysis.campaign.session_task import RUN_COLUMNS, CampaignOptions, analyse_session
 from gasfilm.analysis.campaign.table import CSV_NAME, PARQUET_NAME, REPORT_NAME, read_table, write_table
 
@@ -42,16 +42,19 @@ def run_campaign(
     progress: Callable[[int, int, dict[str, Any]], None] | None = None,
 ) -> CampaignResult:
     """Analyse the sessions in ``inputs`` (files or folders) on dask and write ``campaign.parquet``,
-    ``campaign.csv`` and ``campaign.html`` into ``out`` (cache in ``out/cache``)."""
+    ``campaign.csv`` and ``campaign.html`` into ``out`` (cache in ``out/cache``). A ``by`` key no session records is
+    refused before anything is computed."""
     from gasfilm.analysis.campaign.report import write_campaign_report
 
     paths = find_sessions(inputs)
+    check_grouping(paths, by)  # before anything is computed
     out.mkdir(parents=True, exist_ok=True)
     run = run_sessions(paths, options, out / CACHE_FOLDER, workers, scheduler, progress)
     analysed = [row for row in run.rows if not row.get("error")]
     for key in by:
         if analysed and not any(f"condition.{key}" in row for row in analysed):
-            message = f"--by {key}: no session records this condition; its sessions are grouped as 'not recorded'"
+            message = (f"--by {key}: no session analysed records this condition (those that do failed); the sessions "
+                       f"are grouped as 'not recorded'")
             run.notes.append(message)
             logger.warning(message)
     parquet_path, csv_path = write_table(run.rows, out)

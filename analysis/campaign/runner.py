@@ -68,6 +68,39 @@ def find_sessions(inputs: Sequence[Path]) -> list[Path]:
     return list(unique.values())
 
 
+def recorded_conditions(paths: Sequence[Path]) -> set[str] | None:
+    """The condition keys the sessions record (their settings only, no hits read); None when no session can be read
+    (their tasks then say why)."""
+    from gasfilm.analysis.conditions import decode_conditions
+    from gasfilm.analysis.session import Session
+    from gasfilm.drivers.errors import GasfilmError
+
+    keys: set[str] = set()
+    readable = False
+    for path in paths:
+        try:
+            with Session.open(path, "r") as session:
+                keys.update(decode_conditions(session.settings, str(path)))
+        except GasfilmError:
+            continue  # a damaged session: its own row says what is wrong
+        readable = True
+    return keys if readable else None
+
+
+def check_grouping(paths: Sequence[Path], by: Sequence[str]) -> None:
+    """Refuse, before anything is computed, a ``--by`` key that no session records; one line listing the keys the
+    sessions do record."""
+    keys = recorded_conditions(paths)
+    if keys is None:
+        return
+    missing = [key for key in by if key not in keys]
+    if missing:
+        recorded = ", ".join(sorted(keys)) if keys else "none (record them with acquire --condition KEY=VALUE)"
+        which = "this condition" if len(missing) == 1 else "these conditions"
+        raise SettingError(f"--by {','.join(missing)}: no session records {which}; the {len(paths)} session(s) "
+                           f"record: {recorded}")
+
+
 def content_digest(path: Path, options: CampaignOptions) -> str | None:
     """SHA-256 of the file's bytes and the options (None when the file cannot be read: its task says why)."""
     digest = hashlib.sha256(options.fingerprint().encode())

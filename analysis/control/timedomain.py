@@ -43,7 +43,7 @@ class TimeDomainCheck:
 
     sample_rate_hz: float
     band_hz: tuple[float, float]  # the comparison band (Hz)
-    hit_indices: tuple[int, ...]
+    hit_indices: tuple[int, ...]  # the hits' indices in the session, from 0 (shown to the user from 1)
     error_fractional: np.ndarray  # (hits,) RMS(recorded − fractional)/RMS(recorded)
     error_rational: np.ndarray  # (hits,) RMS(recorded − rational)/RMS(recorded)
     rational_vs_fractional: np.ndarray  # (hits,) RMS(rational − fractional)/RMS(fractional)
@@ -69,7 +69,7 @@ class TimeDomainCheck:
         def noise(value: float) -> str:
             return "not measurable (the response has not decayed by the record's end)" if np.isnan(value) else f"{100 * value:.3g} %"
 
-        lines = [f"hit {index:3d}: RMS error fractional {100 * f:.3g} % (beyond the noise {noise(xf)}), rational "
+        lines = [f"hit {index + 1:3d}: RMS error fractional {100 * f:.3g} % (beyond the noise {noise(xf)}), rational "
                  f"{100 * r:.3g} % (beyond the noise {noise(xr)}), noise floor {noise(n)}; rational vs "
                  f"fractional {100 * a:.3g} %"
                  for index, f, xf, r, xr, n, a in zip(self.hit_indices, self.error_fractional, self.excess_fractional,
@@ -90,8 +90,9 @@ class TimeDomainCheck:
         return lines
 
     def to_dict(self) -> dict:
-        """Per-hit figures as plain data (fractions)."""
-        return {"hits": list(self.hit_indices), "error_fractional": self.error_fractional.tolist(),
+        """Per-hit figures as plain data (fractions); hits numbered from 1, as everywhere the user sees them."""
+        return {"hits": [index + 1 for index in self.hit_indices], "hits_numbered_from": 1,
+                "error_fractional": self.error_fractional.tolist(),
                 "error_rational": self.error_rational.tolist(), "noise_floor": self.noise_floor.tolist(),
                 "excess_fractional": self.excess_fractional.tolist(), "excess_rational": self.excess_rational.tolist(),
                 "rational_vs_fractional": self.rational_vs_fractional.tolist(),
@@ -220,7 +221,7 @@ def figure_hits(path: str | Path, check: TimeDomainCheck, max_hits: int = 4, win
                   label="rational model")
         axis.set_ylabel("acceleration (m/s²)")
         floor = "" if np.isnan(check.noise_floor[row]) else f" (noise floor {100 * check.noise_floor[row]:.3g} %)"
-        axis.set_title(f"hit {check.hit_indices[row]}, {check.band_hz[0]:g}–{check.band_hz[1]:g} Hz: RMS error "
+        axis.set_title(f"hit {check.hit_indices[row] + 1}, {check.band_hz[0]:g}–{check.band_hz[1]:g} Hz: RMS error "
                        f"fractional {100 * check.error_fractional[row]:.3g} %, rational "
                        f"{100 * check.error_rational[row]:.3g} %{floor}, rational vs fractional "
                        f"{100 * check.rational_vs_fractional[row]:.3g} %", fontsize=9)

@@ -167,3 +167,16 @@ def write_outputs(diagnosis: Diagnosis, out_dir: Path) -> None:
     spec_path.write_text(header + diagnosis.improved.to_toml(), encoding="utf-8")
     diagnosis.improved_spec_path = str(spec_path)
     diagnosis.figures = write_figures(diagnosis, out_dir)
+
+
+def remove_stale_outputs(diagnosis: Diagnosis, out_dir: Path) -> list[Path]:
+    """Remove the files of :data:`OUTPUT_FILES` in ``out_dir`` that this diagnosis did not write (an earlier run's
+    restoring-force figure beside a new spec would be read as this run's); no other file is touched. Returns them."""
+    written = {Path(path).name for path in [*diagnosis.figures, diagnosis.improved_spec_path] if path}
+    removed = []
+    for name in OUTPUT_FILES:
+        path = out_dir / name
+        if name not in written and (path.is_file() or path.is_symlink()):
+            path.unlink()
+            removed.append(path)
+    return removed

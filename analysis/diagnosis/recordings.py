@@ -348,6 +348,18 @@ def _check_records(recordings: Recordings) -> None:
                            f"(check the force channel, its wiring and its sensitivity)")
 
 
+#: How the measurement checks begin a refusal about the records (replaced by the name of their source).
+RECORDS_PREFIX = "diagnosis records: "
+
+
+def named_refusal(source: str, message: str) -> str:
+    """A refusal of the measurement checks (:func:`hit_spectra`) naming the file it is about: "diagnosis records: …"
+    becomes "<source>: …"; one about a flag (``--band …``) names the flag already and is left as it is."""
+    if message.startswith("--") or message.startswith(f"{source}:"):
+        return message
+    return f"{source}: {message.removeprefix(RECORDS_PREFIX)}"
+
+
 @one_blas_thread
 def diagnose(
     source: str | Path | list[Path] | Recordings,
@@ -366,8 +378,11 @@ def diagnose(
     if offset_note is not None:
         recordings = dataclasses.replace(recordings, records=records, quality=[*recordings.quality, offset_note])
     read_off_frf = rig_spec is None and not recordings.rig_spec_toml
-    spectra = hit_spectra(recordings.records, recordings.sample_rate_hz, recordings.window,
-                          hit_times_s=recordings.hit_times_s, overload=recordings.overload, band_hz=band_hz)
+    try:
+        spectra = hit_spectra(recordings.records, recordings.sample_rate_hz, recordings.window,
+                              hit_times_s=recordings.hit_times_s, overload=recordings.overload, band_hz=band_hz)
+    except SettingError as error:
+        raise SettingError(named_refusal(recordings.source, str(error))) from None
     rig_spec, origin = starting_spec(recordings, rig_spec, mass_kg)
     if response_dc_coupled:
         rig_spec = rig_spec.with_effects(AcCoupling(channel="force", corner_hz=AC_COUPLING_HZ))

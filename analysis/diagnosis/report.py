@@ -5,7 +5,8 @@ from __future__ import annotations
 from gasfilm.analysis.diagnosis.result import Diagnosis
 from gasfilm.drivers.interface import STANDARD_GRAVITY_M_S2 as G_M_S2
 
-_VERDICT_LINES = {
+#: Each verdict in words (the terminal report's line, the session report's).
+VERDICT_LINES = {
     "consistent": "no missing physics: the spec explains the recordings within the noise",
     "parameters-only": "no missing physics: the recalibrated parameters explain the recordings within the noise",
     "missing physics": "the spec with the terms above explains the recordings within the noise",
@@ -42,7 +43,7 @@ def report_text(diagnosis: Diagnosis) -> str:
                      f"(beyond the noise above {finding.own_band_limit:.2f})")
         for alternative in finding.alternatives:
             lines.append(f"      or:   {alternative.effect} — {alternative.note}")
-    lines.append(f"  {_VERDICT_LINES[diagnosis.verdict]}")
+    lines.append(f"  {VERDICT_LINES[diagnosis.verdict]}")
     for item in diagnosis.unexplained:
         hits = "all hits" if len(item.hits) == diagnosis.evidence.hit_count else \
             f"hits {', '.join(str(hit + 1) for hit in item.hits)}"  # numbered from 1, as everywhere the user sees

@@ -64,6 +64,7 @@ from gasfilm.analysis.session.layout import (
     write_mapping,
 )
 
+from gasfilm.analysis.paths import missing_folder
 from gasfilm.drivers.errors import GasfilmError
 from gasfilm.drivers.interface import DaqConfig
 
@@ -82,6 +83,10 @@ _READ_ERRORS = (OSError, KeyError, ValueError, TypeError, RuntimeError, IndexErr
 _WRITE_ERRORS = (OSError, RuntimeError, KeyError, ValueError, TypeError, IndexError, AttributeError, OverflowError)
 #: The groups every session holds.
 _GROUPS = ("rig", "daq", "settings", "hits", "frf", "fits", "diagnoses")
+#: The diagnosis most recently stored is found under this name: a link to its run (``Session.add_diagnosis``).
+LATEST_DIAGNOSIS = "latest"
+#: Each stored diagnosis run is kept as ``run-001``, ``run-002``, … (numbered from 1, never reused).
+DIAGNOSIS_RUN = re.compile(r"run-(\d+)")
 #: FrfResult fields with one value per frequency line.
 _FRF_LINE_FIELDS = ("h1", "h2", "coherence", "gff", "gxx", "gfx", "h1_std_coherence", "h1_std_scatter")
 
@@ -385,7 +390,7 @@ class Session:
         if path.is_dir():
             raise SessionError(f"{path}: is a folder, not a session file")
         if not path.parent.is_dir():
-            raise SessionError(f"{path}: the folder {path.parent} does not exist")
+            raise SessionError(f"{path}: {missing_folder(path.parent)}")
         remove_leftovers(path)
         remove_leftovers(journal_path(path))
         _remove_empty_journal(path, overwrite)
@@ -943,16 +948,17 @@ class Session:
         if data.ndim != 2 or data.shape[0] != channels:
             raise SessionError(f"{self.path}: hit record of shape {data.shape} does not have {channels} channels")
         if not np.all(np.isfinite(data)):
-            raise SessionError(f"{self.path}: hit {self.hit_count} has NaN or infinite samples; not stored")
+            raise SessionError(f"{self.path}: hit {self.hit_count + 1} has NaN or infinite samples; not stored")
         if not float(hit.sample_rate_hz) > 0:
-            raise SessionError(f"{self.path}: hit {self.hit_count} has sample rate {hit.sample_rate_hz}; not stored")
+            raise SessionError(
+                f"{self.path}: hit {self.hit_count + 1} has sample rate {hit.sample_rate_hz}; not stored")
         index = self.hit_count
         samples = self.record_samples
         if index == 0 and self._data.shape[0] == 0:
             samples = data.shape[1]
         elif data.shape[1] != samples:
             raise SessionError(
-                f"{self.path}: hit {index} has {data.shape[1]} samples per channel; this session stores {samples}"
+                f"{self.path}: hit {index + 1} has {data.shape[1]} samples per channel; this session stores {samples}"
             )
         row = np.zeros((), dtype=self._table.dtype)
         row["accepted"] = bool(verdict.accepted)
@@ -1025,7 +1031,7 @@ class Session:
             if not np.all(valid):
                 hit = int(np.argmin(valid))
                 raise SessionError(
-                    f"{self.path}: damaged session: hit {hit} has {label} {rows[field][hit]}, out of range "
+                    f"{self.path}: damaged session: hit {hit + 1} has {label} {rows[field][hit]}, out of range "
                     f"({channels} channels, {samples} samples per record)"
                 )
         return rows
@@ -1055,13 +1061,13 @@ class Session:
             hit = int(indices[np.argmax(bad)])
             channel = int(np.argmax(~np.all(np.isfinite(records[np.argmax(bad)]), axis=1)))
             label = self.daq_config.channels[channel].label
-            raise SessionError(f"{self.path}: hit {hit} has NaN samples in channel {channel} ({label})")
+            raise SessionError(f"{self.path}: hit {hit + 1} has NaN samples in channel {channel} ({label})")
         for channel, config in enumerate(self.daq_config.channels):
             peaks = np.max(np.abs(records[:, channel]), axis=1) if records.shape[2] else np.zeros(len(records))
             beyond = peaks > MAX_ABS_SI[config.kind]
             if np.any(beyond):
                 raise SessionError(
-                    f"{self.path}: damaged session: hit {int(indices[np.argmax(beyond)])} has samples beyond "
+                    f"{self.path}: damaged session: hit {int(indices[np.argmax(beyond)]) + 1} has samples beyond "
                     f"{MAX_ABS_SI[config.kind]:g} {config.kind.unit} in channel {channel} ({config.label})"
                 )
 
@@ -1107,9 +1113,9 @@ class Session:
         """Replace a hit's verdict (e.g. the user overrides a rejection); flushed at once."""
         self._require_writable()
         if not 0 <= index < self.hit_count:
-            raise SessionError(f"{self.path}: hit {index} does not exist (the session holds {self.hit_count})")
+            raise SessionError(f"{self.path}: hit {index + 1} does not exist (the session holds {self.hit_count})")
         reasons = encode_reasons(tuple(verdict.reasons), self.path)
-        with self._writing(f"the verdict of hit {index}"):
+        with self._writing(f"the verdict of hit {index + 1}"):
             table = self._table
             row = table[index]
             row["accepted"] = bool(verdict.accepted)
@@ -1214,3 +1220,46 @@ class Session:
 
     def read_diagnosis(self, name: str) -> dict[str, Any]:
         return self._read_result("diagnoses", name)
+
+    def add_diagnosis(self, values: Mapping[str, Any]) -> str:
+        """Store a diagnosis as a new run (``run-001``, ``run-002``, …) and point ``latest`` at it; no earlier
+        diagnosis is erased (one stored as ``latest`` itself, before runs were kept, becomes a run first). Returns the
+        run's name."""
+        self._require_writable()
+        with self._writing("a diagnosis"):
+            self._structural()
+            parent = self._group("diagnoses")
+            link = parent.get(LATEST_DIAGNOSIS, getlink=True)
+            if isinstance(link, h5py.SoftLink):
+                del parent[LATEST_DIAGNOSIS]
+            elif link is not None:  # a diagnosis stored under "latest" by an older gasfilm: kept as a run
+                parent.move(LATEST_DIAGNOSIS, self._next_run_name(parent))
+            name = self._next_run_name(parent)
+            group = parent.create_group(name)
+            write_mapping(group, values)
+            group.attrs["written_utc"] = utc_now()
+            parent[LATEST_DIAGNOSIS] = h5py.SoftLink(f"{parent.name}/{name}")
+            self._file.flush()
+            del parent, group
+        return name
+
+    @staticmethod
+    def _next_run_name(parent: h5py.Group) -> str:
+        numbers = [int(match.group(1)) for match in map(DIAGNOSIS_RUN.fullmatch, parent) if match]
+        return f"run-{max(numbers, default=0) + 1:03d}"
+
+    @_reading("the stored diagnoses")
+    def newest_diagnosis_name(self) -> str | None:
+        """The name of the newest stored diagnosis: the run ``latest`` points at, unless a diagnosis stored under
+        another name by an older gasfilm (the GUI's "diagnosis") was written later; None when there is none."""
+        parent = self._group("diagnoses")
+        link = parent.get(LATEST_DIAGNOSIS, getlink=True)
+        newest = None
+        for name in parent:
+            if name == LATEST_DIAGNOSIS and isinstance(link, h5py.SoftLink):
+                continue  # the run it points at is listed under its own name
+            match = DIAGNOSIS_RUN.fullmatch(name)
+            key = (str(parent[name].attrs.get("written_utc", "")), int(match.group(1)) if match else 0)
+            if newest is None or key > newest[0]:
+                newest = (key, name)
+        return None if newest is None else newest[1]

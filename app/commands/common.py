@@ -10,8 +10,9 @@ import re
 import sys
 import tempfile
 from pathlib import Path
-from typing import Any, Mapping, TypeVar
+from typing import Any, Mapping, Sequence, TypeVar
 
+from gasfilm.analysis.paths import file_in_the_way, missing_folder
 from gasfilm.drivers.errors import SettingError
 from gasfilm.drivers.units import STANDARD_GRAVITY_M_S2
 
@@ -44,6 +45,57 @@ def hit_line(event: Any) -> str:
     return head if event.verdict.accepted else f"{head}: {', '.join(event.verdict.reasons)}"
 
 
+#: The first bytes of an HDF5 file (at its start, or after a user block of 512, 1024, 2048, … bytes).
+HDF5_SIGNATURE = b"\x89HDF\r\n\x1a\n"
+#: What the commands that read recordings take, in words.
+RECORDINGS = "a session (HDF5), UFF 58 records (.uff/.unv) or .npy hit records"
+#: Extensions of the recordings that are not sessions.
+RECORD_FILE_SUFFIXES = (".uff", ".unv", ".npy")
+
+
+def _is_hdf5(path: Path) -> bool:
+    """Whether ``path`` starts like an HDF5 file (a damaged one included: its reader then says what is wrong)."""
+    with open(path, "rb") as stream:
+        offset = 0
+        while True:
+            stream.seek(offset)
+            head = stream.read(len(HDF5_SIGNATURE))
+            if head == HDF5_SIGNATURE:
+                return True
+            if len(head) < len(HDF5_SIGNATURE):
+                return False
+            offset = 512 if offset == 0 else 2 * offset
+
+
+def check_inputs(paths: Sequence[Path], suffixes: tuple[str, ...] = RECORD_FILE_SUFFIXES,
+                 what: str = RECORDINGS) -> None:
+    """Each input exists, is a file and is of a type the command reads (a session, whatever its name, or a file with
+    one of ``suffixes``; several files only as .npy records): checked BEFORE the outputs, so that a mistyped input is
+    what the user hears about. A session whose file is missing or damaged but whose journal is left is passed on:
+    opening it rebuilds it."""
+    from gasfilm.analysis.session.journal import journal_path
+    from gasfilm.analysis.sources import check_several
+
+    check_several(paths)
+    for path in paths:
+        if journal_path(path).is_dir():
+            continue
+        suffix = path.suffix.lower()
+        if not path.exists():
+            kind = "UFF " if suffix in (".uff", ".unv") else "" if suffix in suffixes else "session "
+            raise SettingError(f"{path}: no such {kind}file")
+        if path.is_dir():
+            raise SettingError(f"{path}: is a folder, not {what}")
+        if suffix in suffixes:
+            continue
+        try:
+            hdf5 = _is_hdf5(path)
+        except OSError as error:
+            raise SettingError(f"{path}: cannot be read ({error.strerror or error})") from None
+        if not hdf5:
+            raise SettingError(f"{path}: wrong file type: not an HDF5 file (this command reads {what})")
+
+
 def check_output_file(path: Path, flag: str, overwrite: bool, make_parent: bool = False) -> Path:
     """May this command write ``path``? Checked BEFORE any work; raises one :class:`SettingError` naming ``flag``.
 
@@ -68,12 +120,14 @@ def check_output_file(path: Path, flag: str, overwrite: bool, make_parent: bool 
             raise SettingError(f"{where}: exists and is not writable")
     parent = path.parent
     if make_parent:
+        if file_in_the_way(parent) is not None:
+            raise SettingError(f"{where}: {missing_folder(parent)}")
         try:
             parent.mkdir(parents=True, exist_ok=True)
         except OSError as error:
             raise SettingError(f"{where}: cannot make the folder {parent} ({error.strerror or error})") from None
     if not parent.is_dir():
-        raise SettingError(f"{where}: the folder {parent} does not exist")
+        raise SettingError(f"{where}: {missing_folder(parent)}")
     try:  # the only reliable test of "a new file can be made here" (root, read-only mounts, /proc)
         handle, probe = tempfile.mkstemp(dir=parent, prefix=f".{path.name}.", suffix=".probe")
         os.close(handle)
@@ -170,13 +224,15 @@ def source_conditions(paths: list[Path]) -> dict[str, Any]:
 
 @dataclasses.dataclass
 class LoadedFrf:
-    """The FRF to export or fit: what it is, the rig spec TOML it was recorded with (None for files) and, when asked
-    for, the hits it averages (for the time records of an export)."""
+    """The FRF to export or fit: what it is, the rig spec TOML it was recorded with (None for files), when asked
+    for the hits it averages (for the time records of an export), and the session's name for it ("" when it is not
+    one a session stores)."""
 
     frf: Any
     what: str
     rig_spec_toml: str | None
     hits: list = dataclasses.field(default_factory=list)
+    name: str = ""
 
 
 def load_frf(paths: list[Path], name: str | None = None) -> tuple[Any, str, str | None]:
@@ -214,7 +270,7 @@ def load_frf_and_hits(paths: list[Path], name: str | None = None, with_hits: boo
                     every = session.hits()
                     hits = ([every[i] for i in indices if 0 <= i < len(every)] if indices is not None
                             else [hit for hit in every if hit.verdict.accepted])
-                return LoadedFrf(frf, f"FRF '{chosen}'", session.rig_spec_toml, hits)
+                return LoadedFrf(frf, f"FRF '{chosen}'", session.rig_spec_toml, hits, chosen)
             hits = [hit for hit in session.hits() if hit.verdict.accepted]
             if not hits:
                 raise SessionError(f"{session.path}: no stored FRF and no accepted hits to average")

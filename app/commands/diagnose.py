@@ -14,7 +14,7 @@ import sys
 import time
 from pathlib import Path
 
-from gasfilm.app.commands.common import check_output_folder
+from gasfilm.app.commands.common import check_inputs, check_output_folder
 from gasfilm.drivers.errors import GasfilmError, SettingError
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -32,7 +32,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--json", action="store_true", help="print one JSON object instead of the report")
     parser.add_argument("--out", type=Path, default=Path("out/diagnosis"),
                         help="folder for the improved spec and the figures (default out/diagnosis)")
-    parser.add_argument("--overwrite", action="store_true", help="replace an improved spec or figures in --out")
+    parser.add_argument("--overwrite", action="store_true",
+                        help="replace an improved spec or figures in --out (and remove an earlier run's figure this "
+                             "run does not draw)")
     parser.set_defaults(func=run)
 
 
@@ -48,17 +50,9 @@ def _band(text: str | None) -> tuple[float, float] | None:
     return low, high
 
 
-def _check_source(path: Path) -> None:
-    """The input exists and is a file; one line naming it otherwise (before any folder is made)."""
-    if not path.exists():
-        raise SettingError(f"{path}: no such file")
-    if path.is_dir():
-        raise SettingError(f"{path}: is a folder, not a session, UFF or .npy file")
-
-
 def run(args: argparse.Namespace) -> int:
     from gasfilm.analysis.diagnosis import diagnose
-    from gasfilm.analysis.diagnosis.plots import OUTPUT_FILES, write_outputs
+    from gasfilm.analysis.diagnosis.plots import OUTPUT_FILES, remove_stale_outputs, write_outputs
     from gasfilm.analysis.diagnosis.report import report_text
     from gasfilm.analysis.physics.spec import MASS_RANGE_KG, RigSpec
     from gasfilm.analysis.session import Session
@@ -66,14 +60,12 @@ def run(args: argparse.Namespace) -> int:
     if args.mass is not None and not MASS_RANGE_KG[0] <= args.mass <= MASS_RANGE_KG[1]:
         raise SettingError(f"--mass {args.mass:g}: must be {MASS_RANGE_KG[0]:g} to {MASS_RANGE_KG[1]:g} kg")
     band = _band(args.band)
-    for path in args.source:
-        _check_source(path)
+    check_inputs(args.source)  # the inputs before the outputs (and before any folder is made)
+    spec = RigSpec.load(args.rig) if args.rig else None
     made = not args.out.exists()
     check_output_folder(args.out, "--out", OUTPUT_FILES, args.overwrite)
     started = time.monotonic()
     try:
-        spec = RigSpec.load(args.rig) if args.rig else None
-
         def progress(message: str) -> None:
             print(f"  {message}", file=sys.stderr)
 
@@ -86,21 +78,27 @@ def run(args: argparse.Namespace) -> int:
         source = args.source[0] if len(args.source) == 1 else list(args.source)
         diagnosis = diagnose(source, spec, args.mass, band, progress)
         write_outputs(diagnosis, args.out)
+        if args.overwrite:
+            for stale in remove_stale_outputs(diagnosis, args.out):
+                progress(f"removed {stale}: an earlier run's, which this run does not write")
         diagnosis.wall_time_s = time.monotonic() - started  # what the user waited: loading to figures written
     except BaseException:
         if made:  # a failed run leaves no empty folder behind
             with contextlib.suppress(OSError):
                 args.out.rmdir()
         raise
+    options = {"command": "gasfilm diagnose", "rig": str(args.rig) if args.rig else None, "mass_kg": args.mass,
+               "band_hz": list(band) if band else None}
     if len(args.source) == 1 and args.source[0].suffix.lower() not in (".uff", ".unv", ".npy"):
         try:
             with Session.open(args.source[0], "a") as session:
-                session.write_diagnosis("latest", diagnosis.to_dict())
-            progress(f"diagnosis stored in {args.source[0]} (diagnoses/latest)")
+                run_name = session.add_diagnosis({**diagnosis.to_dict(), "options": options})
+            progress(f"diagnosis stored in {args.source[0]} as diagnoses/{run_name} (the newest: diagnoses/latest; "
+                     f"earlier runs are kept)")
         except GasfilmError as error:
             progress(f"diagnosis not stored in the session: {error}")
     if args.json:
-        print(json.dumps({**diagnosis.to_dict(), "conditions": conditions}, indent=2))
+        print(json.dumps({**diagnosis.to_dict(), "options": options, "conditions": conditions}, indent=2))
     else:
         print(f"conditions: {format_conditions(conditions)}")
         print(report_text(diagnosis))

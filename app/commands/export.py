@@ -12,8 +12,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from gasfilm.app.commands.common import (check_output_file, check_output_suffix, load_frf_and_hits,
-                                         source_conditions)
+from gasfilm.app.commands.common import (check_inputs, check_output_file, check_output_suffix,
+                                         load_frf_and_hits, source_conditions)
 from gasfilm.drivers.errors import SettingError
 
 
@@ -42,6 +42,7 @@ def run(args: argparse.Namespace) -> int:
     from gasfilm.analysis.spectra import write_frf_csv
     from gasfilm.analysis.uff import export_frf_uff
 
+    check_inputs(args.source)  # the inputs before the outputs
     flag, target = ("--uff", args.uff) if args.uff is not None else ("--csv", args.csv)
     check_output_suffix(target, flag, (".uff", ".unv") if args.uff is not None else (".csv",))
     if args.csv is not None and args.time_records:

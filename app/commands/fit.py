@@ -16,18 +16,14 @@ import sys
 from pathlib import Path
 from typing import Any, Callable
 
-from gasfilm.app.commands.common import (UNITS, accelerance_text, add_units_flag, check_output_folder,
-                                         is_terminal,
+from gasfilm.app.commands.common import (UNITS, accelerance_text, add_units_flag, check_inputs,
+                                         check_output_folder, is_terminal,
                                          load_frf_and_hits, source_conditions)
 from gasfilm.drivers.errors import SettingError
 
 logger = logging.getLogger(__name__)
 
 MIN_BAND_LINES = 10
-#: The top fraction of the band (in lines) where |H1| is compared with the mass line 1/m.
-MASS_LINE_TOP_FRACTION = 0.2
-#: |H1|·m outside [1/factor, factor] over the top of the band: not a mass on a film.
-MASS_LINE_FACTOR = 2.0
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -47,7 +43,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     add_units_flag(parser)
     parser.add_argument("--out", type=Path, help="folder for the figures (default: next to the input)")
     parser.add_argument("--overwrite", action="store_true",
-                        help="replace figures that exist already, and a session's stored fit of another band")
+                        help="replace figures that exist already, and a session's stored fit made with other "
+                             "settings (band, mass, --fit-mass, method, FRF)")
     parser.set_defaults(func=run)
 
 
@@ -79,23 +76,18 @@ def parse_band(text: str | None, sample_rate_hz: float) -> tuple[float, float]:
     return low, high
 
 
-def check_stored_fits(session: Any, names: list[str], band_hz: tuple[float, float], overwrite: bool) -> None:
-    """Refuse (before any fitting) to replace a session's stored fit of a model by one over another band, unless
-    ``--overwrite``: a report must never show a fit beside figures of a band it was not fitted over."""
-    stored = session.result_names("fits")
-    for name in names:
-        if name not in stored or overwrite:
-            continue
-        try:
-            old_low, old_high = (float(edge) for edge in session.read_fit(name)["band_hz"])
-        except (KeyError, TypeError, ValueError):
-            continue  # a damaged stored fit: the new one replaces it
-        if abs(old_low - band_hz[0]) > 1e-6 * max(1.0, band_hz[1]) or \
-                abs(old_high - band_hz[1]) > 1e-6 * max(1.0, band_hz[1]):
-            raise SettingError(
-                f"--band: {session.path} holds a {name} fit over {old_low:g}–{old_high:g} Hz; this one would be over "
-                f"{band_hz[0]:g}–{band_hz[1]:g} Hz. Add --overwrite to replace it, or fit the stored band "
-                f"(--band {old_low:g}:{old_high:g})")
+def check_stored_fits(session: Any, settings: dict[str, Any], overwrite: bool) -> None:
+    """Refuse (before any fitting) to replace a session's stored fit of a model by one made with other settings (band,
+    mass, fitted mass, fitter, FRF), unless ``--overwrite``: a report must never show a fit beside figures or other
+    fits of settings it was not made with. ``settings``: model name → its new fit's
+    :class:`~gasfilm.analysis.fit_settings.FitSettings`."""
+    from gasfilm.analysis.fit_settings import conflicting_fits, refusal
+
+    if overwrite:
+        return
+    conflicts = conflicting_fits(session, settings)
+    if conflicts:
+        raise SettingError(refusal(session.path, conflicts))
 
 
 def parse_models(text: str) -> list:
@@ -119,28 +111,6 @@ def _mass_kg(args: argparse.Namespace, rig_spec_toml: str | None) -> float:
     if args.mass is not None:
         return args.mass
     return RigSpec.from_toml(rig_spec_toml, f"{args.source[0]} rig spec").mass_kg if rig_spec_toml else PAPER_MASS_KG
-
-
-def mass_line_warning(freq_hz: Any, h1: Any, mass_kg: float) -> str | None:
-    """One line when |H1| over the top of the band is far from the mass line 1/m (None when it is close)."""
-    import numpy as np
-
-    top = np.abs(h1[-max(1, int(MASS_LINE_TOP_FRACTION * len(h1))):])
-    level = float(np.median(top))
-    ratio = level * mass_kg
-    if 1 / MASS_LINE_FACTOR <= ratio <= MASS_LINE_FACTOR:
-        return None
-    return (f"|H1| at the top of the band ({freq_hz[-len(top)]:.0f}–{freq_hz[-1]:.0f} Hz) is {level:.3g} (m/s²)/N, "
-            f"{ratio:.2g} × the mass line 1/m = {1 / mass_kg:.3g} for m = {mass_kg:g} kg: this is not a mass on a "
-            f"gas film (or the mass is wrong); the fitted parameters mean little")
-
-
-def other_resonances_hz(frf: Any, band_hz: tuple[float, float]) -> list[float]:
-    """Resonances of |H1| inside ``band_hz`` beyond the strongest one (which the film models describe), in Hz."""
-    from gasfilm.analysis.spectra import resonance_lines
-
-    inside = [int(line) for line in resonance_lines(frf) if band_hz[0] <= frf.freq_hz[line] <= band_hz[1]]
-    return sorted(float(frf.freq_hz[line]) for line in inside[1:])
 
 
 def format_parameters(fits: list) -> str:
@@ -176,6 +146,8 @@ def run(args: argparse.Namespace) -> int:
     import numpy as np
 
     from gasfilm.analysis.figures import figure18, figure19
+    from gasfilm.analysis.fit_settings import FitSettings
+    from gasfilm.analysis.fit_warnings import mass_line_warning, not_explained_warning, other_resonances_hz
     from gasfilm.analysis.identification import METHODS, compare_models, fit_model, format_table2
     from gasfilm.analysis.session import Session
     from gasfilm.analysis.sources import is_time_record_file
@@ -186,6 +158,7 @@ def run(args: argparse.Namespace) -> int:
     models = parse_models(args.models)
     if args.mass is not None and not args.mass > 0:
         raise SettingError(f"--mass {args.mass}: must be a positive mass in kg")
+    check_inputs(args.source)  # the inputs before the outputs
     out = args.out if args.out is not None else args.source[0].parent
     stem = args.source[0].stem
     figure_paths = check_output_folder(out, "--out" if args.out is not None else "",
@@ -212,11 +185,12 @@ def run(args: argparse.Namespace) -> int:
             f"{frf.freq_hz[0]:g}–{frf.freq_hz[-1]:g} Hz every {frf.freq_hz[1] - frf.freq_hz[0]:g} Hz)"
         )
     freq_hz, h = frf.freq_hz[keep], frf.h1[keep]
+    mass_kg = _mass_kg(args, rig_spec_toml)
+    settings = FitSettings((float(freq_hz[0]), float(freq_hz[-1])), mass_kg, args.fit_mass, args.method,
+                           frf.decay_rate_1_s, loaded.name)
     if not is_time_record_file(args.source[0]):
         with Session.open(args.source[0], "r") as session:
-            check_stored_fits(session, [model.name for model in models], (float(freq_hz[0]), float(freq_hz[-1])),
-                              args.overwrite)
-    mass_kg = _mass_kg(args, rig_spec_toml)
+            check_stored_fits(session, {model.name: settings for model in models}, args.overwrite)
     warning = mass_line_warning(freq_hz, h, mass_kg)
     if warning:
         logger.warning(warning)
@@ -232,13 +206,10 @@ def run(args: argparse.Namespace) -> int:
     if not is_time_record_file(args.source[0]):
         with Session.open(args.source[0], "a") as session:
             for fit in fits:
-                session.write_fit(fit.model_name, fit.to_dict())
+                session.write_fit(fit.model_name, {**fit.to_dict(), **settings.stored_keys()})
     unexplained_hz = other_resonances_hz(frf, (float(freq_hz[0]), float(freq_hz[-1])))
-    not_explained = None
-    if unexplained_hz:
-        not_explained = (f"NOT explained by any film model (one resonance on a mass): resonances at "
-                         f"{', '.join(f'{f:.0f}' for f in unexplained_hz)} Hz in the band — a structure with more "
-                         f"modes; the fits describe the strongest resonance only")
+    not_explained = not_explained_warning(unexplained_hz)
+    if not_explained:
         logger.warning(not_explained)
     rows = compare_models(fits, freq_hz, h)
     figures = [figure18(figure_paths[0], freq_hz, h, fits), figure19(figure_paths[1], freq_hz, h, fits)]

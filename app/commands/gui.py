@@ -3,7 +3,12 @@
 from __future__ import annotations
 
 import argparse
+import os
+import sys
 from pathlib import Path
+from typing import Mapping
+
+from gasfilm.drivers.errors import SettingError
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -13,7 +18,23 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.set_defaults(func=run)
 
 
+def missing_display(environ: Mapping[str, str], platform: str) -> str | None:
+    """Why Qt could not open a window here, before it tries (Qt aborts the process when its X11 platform finds no
+    display); None when it can, or when Qt was told another platform (``QT_QPA_PLATFORM=offscreen``)."""
+    qt_platform = environ.get("QT_QPA_PLATFORM", "")
+    if qt_platform and not qt_platform.startswith("xcb") or not platform.startswith("linux"):
+        return None
+    if environ.get("DISPLAY") or (not qt_platform and environ.get("WAYLAND_DISPLAY")):
+        return None
+    return ("no display: neither DISPLAY nor WAYLAND_DISPLAY is set, so no window can open here. Run `./run gui` on "
+            "a machine with a display (or over ssh -X); to render without one, e.g. for screenshots, set "
+            "QT_QPA_PLATFORM=offscreen (python -m gasfilm.app.gui.screenshots)")
+
+
 def run(args: argparse.Namespace) -> int:
+    problem = missing_display(os.environ, sys.platform)
+    if problem:
+        raise SettingError(problem)
     from gasfilm.app.gui.main_window import run_gui
 
     return run_gui(device=args.device, session=args.session)

@@ -15,7 +15,7 @@ import json
 import math
 from pathlib import Path
 
-from gasfilm.app.commands.common import check_output_file
+from gasfilm.app.commands.common import check_inputs, check_output_file
 from gasfilm.drivers.errors import SettingError
 
 
@@ -28,8 +28,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--model", help="which fit (SD, FOMGF, ...); not for a rig spec")
     size = parser.add_mutually_exclusive_group()
     size.add_argument("--order", type=int, help="number of states of the plant")
-    size.add_argument("--max-error", default="0.5%",
-                      help="the lowest order whose complex relative error is within this (default 0.5%%)")
+    size.add_argument("--max-error", default="0.5",
+                      help="the lowest order whose complex relative error is within this many percent "
+                           "(default 0.5, i.e. 0.5%%; a trailing %% is accepted)")
     parser.add_argument("--band", help="LO:HI in Hz (default: a decade beyond the fitted band on each side)")
     parser.add_argument("--out", type=Path, required=True, help="the model file: .json, .mat or .npz")
     parser.add_argument("--json", action="store_true", help="print one JSON object instead of the summary")
@@ -37,15 +38,15 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.set_defaults(func=run)
 
 
-def parse_fraction(text: str) -> float:
-    """``0.5%`` or ``0.005`` as a fraction."""
+def parse_percent(text: str) -> float:
+    """``--max-error`` as a fraction: a percentage, with or without its ``%`` (``0.5`` and ``0.5%`` are 0.5 %)."""
+    number = text.strip().removesuffix("%").strip()
     try:
-        value = float(text[:-1]) / 100 if text.strip().endswith("%") else float(text)
+        value = float(number) / 100
     except ValueError:
-        raise SettingError(f"--max-error '{text}': write a percentage such as 0.5% or a fraction such as 0.005") \
-            from None
+        raise SettingError(f"--max-error '{text}': write a percentage such as 0.5 (or 0.5%)") from None
     if not (math.isfinite(value) and 0 < value < 1):
-        raise SettingError(f"--max-error '{text}': must be between 0 and 100 %")
+        raise SettingError(f"--max-error '{text}': must be above 0 and below 100 (a percentage)")
     return value
 
 
@@ -68,11 +69,13 @@ def run(args: argparse.Namespace) -> int:
     from gasfilm.analysis.control.timedomain import (
         figure_error, figure_hits, frf_relative_error, spec_of_fit, time_domain_check)
 
+    check_inputs([args.source], (".json", ".toml"),
+                 "a session (HDF5), a fit's JSON (gasfilm fit --json) or a rig spec (.toml)")  # before the outputs
     if args.out.suffix.lower() not in SUFFIXES:
         raise SettingError(f"--out {args.out}: name a .json, .mat or .npz file")
     if args.order is not None and args.order < 1:
         raise SettingError(f"--order {args.order}: must be a positive number of states")
-    max_error = parse_fraction(args.max_error)
+    max_error = parse_percent(args.max_error)
     band = parse_band(args.band)
     loaded = load_source(args.source, args.model)
     stem = args.out.with_suffix("")
@@ -106,7 +109,8 @@ def run(args: argparse.Namespace) -> int:
                           "time_domain": None if check is None else check.to_dict()}))
         return 0
     print(f"{loaded.plant.description}: m = {loaded.plant.mass_kg:g} kg")
-    print(f"rational model ({model.method}): {model.summary()}")
+    target = f"--order {args.order}" if args.order is not None else f"target: within {100 * max_error:g} %"
+    print(f"rational model ({model.method}, {target}): {model.summary()}")
     print(f"  plant {100 * model.max_error_plant_band:.3g} %, film {100 * model.max_error_film_band:.3g} % "
           f"(max |G_rational/G_fractional − 1| in the band)")
     if not model.storage.passed:

@@ -18,8 +18,8 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from gasfilm.app.commands.common import (add_units_flag, check_output_file, check_session_path, positive_flag,
-                                         settings_from_flags, window_value)
+from gasfilm.app.commands.common import (add_units_flag, check_inputs, check_output_file, check_session_path,
+                                         positive_flag, settings_from_flags, window_value)
 from gasfilm.drivers.errors import SettingError
 
 #: Band edges (Hz) for the coherence summary; bands above the Nyquist frequency are left out.
@@ -233,6 +233,7 @@ def run(args: argparse.Namespace) -> int:
     from gasfilm.analysis.sources import load_source
     from gasfilm.analysis.spectra import session_frf
 
+    check_inputs(args.source)  # the inputs before the outputs
     if args.out is not None:
         if any(args.out.resolve() == path.resolve() for path in args.source):
             raise SettingError(f"--out: {args.out} is the input; leave --out out to store the result in the input")

@@ -18,7 +18,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from gasfilm.analysis.report import check_report_path, write_report
+    from gasfilm.app.commands.common import check_inputs
 
+    check_inputs([args.session], (), "a session (HDF5)")  # the input first, then the output, then the work
     check_report_path(args.out, args.overwrite)  # before reading the session: a bad --out answers at once
     written = write_report(args.session, args.out, overwrite=args.overwrite)
     print(f"wrote {written}")

@@ -22,6 +22,7 @@ from gasfilm.analysis.acquisition import AcquisitionLoop
 from gasfilm.analysis.capture import TriggerSettings
 from gasfilm.analysis.conditions import decode_conditions, parse_condition_table
 from gasfilm.analysis.diagnosis import load_recordings
+from gasfilm.analysis.fit_settings import FitSettings, conflicting_fits
 from gasfilm.analysis.identification import DEFAULT_FIT_BAND_HZ, compare_models
 from gasfilm.analysis.physics.elements import get_model
 from gasfilm.analysis.physics.laws import played_at
@@ -99,9 +100,12 @@ class SessionController(QObject):
         self.frf: FrfResult | None = None
         self._frf_sums: tuple[FrfAccumulator | None, list[int]] = (None, [])  # running sums and the hits in them
         self.fits: dict[str, Any] = {}
+        self._fit_settings: dict[str, dict[str, Any]] = {}  # each fit's stored settings beyond its FitResult
         self.comparison: list[Any] = []
         self.fit_band_hz: tuple[float, float] = DEFAULT_FIT_BAND_HZ
         self.diagnosis: Any = None
+        self._diagnosis_options: dict[str, Any] | None = None  # of the diagnosis not stored yet (None once stored)
+        self._pending_diagnosis_options: dict[str, Any] | None = None  # of the diagnosis running
         self.loop: AcquisitionLoop | None = None
         self.state = "idle"
         self._worker: AcquisitionWorker | None = None
@@ -493,8 +497,36 @@ class SessionController(QObject):
 
     # --- identification ----------------------------------------------------------------------------------------------
 
+    def _new_fit_settings(self, band_hz: tuple[float, float], method: str) -> FitSettings | None:
+        """The settings a fit of the current FRF over ``band_hz`` would be made with (None: no FRF lines there)."""
+        if self.frf is None:
+            return None
+        low, high = sorted(band_hz)
+        lines = self.frf.freq_hz[(self.frf.freq_hz >= low) & (self.frf.freq_hz <= high)]
+        if not lines.size:
+            return None
+        return FitSettings((float(lines[0]), float(lines[-1])), self.rig_spec_of_session().mass_kg, False, method,
+                           self.frf.decay_rate_1_s, "frf")
+
+    def stored_fit_conflicts(self, model_names: Sequence[str], method: str, band_hz: tuple[float, float]) -> list[str]:
+        """The session's stored fits that fitting ``model_names`` now would replace although they were made with other
+        settings (band, mass, fitter, FRF), one line each — the GUI asks before replacing them, as ``gasfilm fit``
+        refuses without ``--overwrite``."""
+        if self.session is None or not self.session.is_open:
+            return []
+        try:
+            settings = self._new_fit_settings(band_hz, method)
+            if settings is None:
+                return []
+            conflicts = conflicting_fits(self.session, {name: settings for name in model_names})
+        except GasfilmError:  # a damaged spec or session: run_fits says what is wrong
+            return []
+        return [f"{name}: stored {', '.join(d.stored for d in found)}; now {', '.join(d.new for d in found)}"
+                for name, found in conflicts]
+
     def run_fits(self, model_names: Sequence[str], method: str, band_hz: tuple[float, float]) -> None:
-        """Fit each model to the current FRF in the band, in the background; results arrive via ``fits_changed``."""
+        """Fit each model to the current FRF in the band, in the background; results arrive via ``fits_changed``.
+        The mass is the session's mover mass (its rig spec; else the Setup tab's), as ``gasfilm fit`` takes it."""
         if self.acquiring:
             self.message.emit("stop the acquisition before fitting: the FRF still changes with every hit", "warning")
             return
@@ -510,8 +542,8 @@ class SessionController(QObject):
             self.message.emit(f"fit band {low:g}–{high:g} Hz holds fewer than 8 FRF lines; widen it", "error")
             return
         freq_hz, h = frf.freq_hz[band], frf.h1[band]
-        mass_kg = self.rig_spec().mass_kg
         try:
+            mass_kg = self.rig_spec_of_session().mass_kg
             for name in model_names:
                 get_model(name)  # an unknown name is refused here, in one line, before a process starts
         except GasfilmError as error:
@@ -523,6 +555,7 @@ class SessionController(QObject):
 
     def _on_fits_done(self, result: tuple[dict[str, Any], list[Any]]) -> None:
         self.fits, self.comparison = result
+        self._fit_settings = {name: FitSettings.of_fit(fit, "frf").stored_keys() for name, fit in self.fits.items()}
         self.fits_changed.emit()
         self._store_results()
         low, high = self.fit_band_hz
@@ -564,6 +597,8 @@ class SessionController(QObject):
             return
 
         work = functools.partial(jobs.diagnose_session, recordings, spec, out_dir)
+        self._pending_diagnosis_options = {"command": "GUI", "mass_kg": None, "band_hz": None,
+                                           "rig": str(reference_spec_path) if reference_spec_path else None}
         self._start_job("diagnose", work, self._on_diagnosis_done)
 
     def rig_spec_of_session(self) -> RigSpec:
@@ -573,6 +608,7 @@ class SessionController(QObject):
 
     def _on_diagnosis_done(self, diagnosis: Any) -> None:
         self.diagnosis = diagnosis
+        self._diagnosis_options = self._pending_diagnosis_options
         self.diagnosis_changed.emit(diagnosis)
         self._store_results()
         count = len(diagnosis.findings)
@@ -647,8 +683,10 @@ class SessionController(QObject):
         self._frf_sums = (None, [])
         self.frf = None
         self.fits = {}
+        self._fit_settings = {}
         self.comparison = []
         self.diagnosis = None
+        self._diagnosis_options = None
         self.hits_reset.emit()
         self.frf_changed.emit(None)
         self.fits_changed.emit()
@@ -702,10 +740,9 @@ class SessionController(QObject):
         else:
             self.update_running_frf()
         self._load_fits(session)
-        for name in ("diagnosis", "latest"):  # the GUI's name, then the command line's
-            if name in session.result_names("diagnoses"):
-                self.stored_diagnosis_loaded.emit(session.read_diagnosis(name))
-                break
+        newest = session.newest_diagnosis_name()
+        if newest is not None:
+            self.stored_diagnosis_loaded.emit(session.read_diagnosis(newest))
         if session.recovered:
             self.message.emit(f"{path.name}: recovered after an interrupted recording", "warning")
         self.session_changed.emit(str(path))
@@ -713,8 +750,10 @@ class SessionController(QObject):
     def _load_fits(self, session: Session) -> None:
         from gasfilm.analysis.identification import FitResult
 
-        names = session.result_names("fits")
-        self.fits = {name: FitResult.from_dict(session.read_fit(name)) for name in names}
+        stored = {name: session.read_fit(name) for name in session.result_names("fits")}
+        self.fits = {name: FitResult.from_dict(values) for name, values in stored.items()}
+        self._fit_settings = {name: {key: values[key] for key in FitSettings.STORED_KEYS if key in values}
+                              for name, values in stored.items()}
         if self.fits and self.frf is not None:
             first = next(iter(self.fits.values()))
             self.fit_band_hz = first.band_hz
@@ -731,9 +770,10 @@ class SessionController(QObject):
             accepted = [entry.index for entry in self.hits if entry.accepted]
             session.write_frf(self.frf, hit_indices=np.array(accepted, dtype=np.int64))
         for name, fit in self.fits.items():
-            session.write_fit(name, fit.to_dict())
-        if self.diagnosis is not None:
-            session.write_diagnosis("diagnosis", self.diagnosis.to_dict())
+            session.write_fit(name, {**fit.to_dict(), **self._fit_settings.get(name, {})})
+        if self.diagnosis is not None and self._diagnosis_options is not None:  # stored once, as a new run
+            session.add_diagnosis({**self.diagnosis.to_dict(), "options": self._diagnosis_options})
+            self._diagnosis_options = None
 
     def save_session(self) -> Path | None:
         if self.session is None:

@@ -18,6 +18,7 @@ from PySide6.QtWidgets import (
     QLineEdit,
     QListWidget,
     QListWidgetItem,
+    QMessageBox,
     QProgressBar,
     QPushButton,
     QSplitter,
@@ -235,8 +236,23 @@ class IdentifyTab(QWidget):
             self.status.setText("Tick at least one model.")
             return
         self._update_band_label()
+        method, band_hz = self.method_combo.currentData(), self.controller.fit_band_hz
+        conflicts = self.controller.stored_fit_conflicts(models, method, band_hz)
+        if conflicts and not self.confirm_replace(conflicts):
+            self.status.setText("The stored fits are kept: set the band and fitter they were made with, or untick "
+                                "those models.")
+            return
         self.progress.setValue(0)
-        self.controller.run_fits(models, self.method_combo.currentData(), self.controller.fit_band_hz)
+        self.controller.run_fits(models, method, band_hz)
+
+    def confirm_replace(self, conflicts: list[str]) -> bool:
+        """Ask before replacing stored fits made with other settings (``gasfilm fit`` refuses without --overwrite)."""
+        answer = QMessageBox.question(
+            self, "Replace stored fits?",
+            "The session holds fits made with other settings:\n\n" + "\n".join(conflicts)
+            + "\n\nReplace them with the new fits?",
+            QMessageBox.StandardButton.Yes | QMessageBox.StandardButton.No, QMessageBox.StandardButton.No)
+        return answer == QMessageBox.StandardButton.Yes
 
     def _on_progress(self, job: str, fraction: float, text: str) -> None:
         if job == "fit":

@@ -17,7 +17,7 @@ from typing import Any, Callable, Sequence
 import numpy as np
 
 from gasfilm.analysis.diagnosis import diagnose
-from gasfilm.analysis.diagnosis.plots import write_outputs
+from gasfilm.analysis.diagnosis.plots import remove_stale_outputs, write_outputs
 from gasfilm.analysis.identification import compare_models, fit_model
 from gasfilm.analysis.physics.elements import get_model
 from gasfilm.analysis.physics.spec import RigSpec
@@ -68,10 +68,12 @@ def fit_models(
 
 
 def diagnose_session(recordings: Any, spec: RigSpec, out_dir: Path, report: Report, _cancelled: Callable[[], bool]) -> Any:
-    """Diagnose ``recordings`` against ``spec`` and write the figures and the improved spec into ``out_dir``; the
-    diagnosis has no cancel hook: Cancel acts at its next progress report."""
+    """Diagnose ``recordings`` against ``spec`` and write the figures and the improved spec into ``out_dir`` (removing
+    an earlier run's figure this one does not draw); the diagnosis has no cancel hook: Cancel acts at its next
+    progress report."""
     diagnosis = diagnose(recordings, spec, progress=lambda text: report(0.0, text))
     write_outputs(diagnosis, out_dir)
+    remove_stale_outputs(diagnosis, out_dir)  # the folder is the GUI's own: an earlier run's figure goes
     return diagnosis
 
 

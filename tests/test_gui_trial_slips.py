@@ -1,0 +1,68 @@
+"""The GUI's side of the second new-user trial's slips: stored fits made with other settings are replaced only when
+the technician says so, as `gasfilm fit` refuses without --overwrite."""
+
+import pytest
+
+from gasfilm.analysis.session import Session
+from gui_driving import open_window
+from test_cli_acquire_replay import FAST_SIM, gasfilm
+
+
+@pytest.fixture
+def window(qtbot, tmp_path):
+    main = open_window(qtbot, tmp_path)
+    yield main
+    main.controller.shutdown()
+
+
+def test_identify_asks_before_replacing_a_stored_fit_made_with_other_settings(qtbot, window, tmp_path, capsys):
+    path = tmp_path / "run.h5"
+    assert gasfilm(capsys, "acquire", *FAST_SIM, "--out", path, "--hits", 3, "--seed", 2)[0] == 0
+    assert gasfilm(capsys, "fit", path, "--models", "SD", "--out", tmp_path)[0] == 0
+    with Session.open(path) as session:
+        stored = session.read_fit("SD")
+    controller, tab = window.controller, window.identify_tab
+    controller.open_session(path)
+    asked = []
+    tab.set_selected_models(["SD"])
+
+    # the stored band: nothing to ask, the fit runs
+    tab.confirm_replace = lambda conflicts: asked.append(conflicts) or False
+    tab.run_fits()
+    qtbot.waitUntil(lambda: not controller.job_active("fit"), timeout=60_000)
+    assert not asked
+
+    controller.fit_band_hz = (50.0, 800.0)
+    tab.run_fits()  # answered No: no fit, the stored one kept
+    assert len(asked) == 1 and "SD: stored over 20–1000 Hz" in asked[0][0] and "; now over 5" in asked[0][0], asked
+    assert not controller.job_active("fit") and "kept" in tab.status.text()
+    with Session.open(path) as session:
+        assert list(session.read_fit("SD")["band_hz"]) == list(stored["band_hz"])
+
+    tab.confirm_replace = lambda conflicts: asked.append(conflicts) or True
+    tab.run_fits()  # answered Yes: replaced, with the settings it was made with
+    qtbot.waitUntil(lambda: not controller.job_active("fit"), timeout=60_000)
+    controller.save_session()
+    with Session.open(path, "r") as session:
+        replaced = session.read_fit("SD")
+    assert replaced["band_hz"][0] >= 50.0 and replaced["frf_name"] == "frf"
+    assert replaced["mass_given_kg"] == stored["mass_kg"]  # the session's mover mass, as `gasfilm fit` takes it
+
+
+def test_a_gui_diagnosis_is_kept_beside_the_earlier_ones_and_stored_once(qtbot, window, tmp_path, capsys):
+    path = tmp_path / "run.h5"
+    assert gasfilm(capsys, "acquire", *FAST_SIM, "--out", path, "--hits", 3, "--seed", 2)[0] == 0
+    assert gasfilm(capsys, "diagnose", path, "--mass", "25", "--out", tmp_path / "d")[0] == 0
+    controller = window.controller
+    controller.open_session(path)
+    controller.run_diagnosis()
+    qtbot.waitUntil(lambda: not controller.job_active("diagnose"), timeout=120_000)
+    assert controller.diagnosis is not None, window.banner.history
+    controller.save_session()
+    controller.save_session()  # saving again stores nothing new
+    controller.close_session()
+    with Session.open(path) as session:
+        runs = sorted(name for name in session.result_names("diagnoses") if name != "latest")
+        assert runs == ["run-001", "run-002"]
+        assert session.read_diagnosis("run-001")["options"]["mass_kg"] == 25.0  # the command line's, kept
+        assert session.read_diagnosis("latest")["options"]["command"] == "GUI"
