@@ -959,6 +959,14 @@ def hit_spectra(
     selected = np.flatnonzero(mask)
     step = max(1, correlation_step, int(np.ceil(selected.size / max_points)))
     grid = selected[::step]
+    if grid.size < MIN_BAND_LINES:  # fewer compared lines than a spec has parameters to fit: refuse, in one line
+        spacing_hz = step * sample_rate_hz / n_samples
+        where = f"--band {band_hz[0]:g}:{band_hz[1]:g}" if band_hz is not None else "the hammer's band"
+        raise SettingError(f"{where}: only {grid.size} analysis line(s) in {low:.0f}–{high:.0f} Hz (lines "
+                           f"{spacing_hz:.3g} Hz apart, every {step}th of the records' so that the exponential "
+                           f"window's neighbours are independent); the diagnosis needs at least {MIN_BAND_LINES}: give "
+                           f"a band at least {MIN_BAND_LINES * spacing_hz:.0f} Hz wide" + (", or longer records"
+                                                                                           if band_hz is None else ""))
     impulses = np.array([hit_impulse_ns(record[0], extent, sample_rate_hz) for record, extent in zip(records, extents)])
     times = np.arange(hit_count, dtype=float)[used] if hit_times_s is None else np.asarray(hit_times_s, float)[used]
     n_fft = int(scipy.fft.next_fast_len(2 * n_samples, real=True))
