@@ -299,3 +299,13 @@ def test_hits_whose_film_changes_between_them_are_said_so_with_the_pattern_in_se
         assert "as if their film alone changed" in characters and expected in characters, characters
         amount = float(re.search(r"k ±([\d.]+) %", characters).group(1))
         assert abs(amount - 100 * np.std(scales - 1.0)) < 0.25 * 100 * np.std(scales - 1.0), amount
+
+
+def test_a_spec_far_from_every_hit_is_no_film_that_changed_between_hits():
+    """Red team round 4's velocity recorded as an acceleration: each hit's film fitted on its own ran its stiffness to
+    overflow (an internal error); a spec that far from the hits gives no such words, and no error."""
+    spectra = hit_spectra(_records(), RATE_HZ)
+    far = NOMINAL.with_values(film_parameters={"k": 3.78e3, "eta": 3.45e7})
+    evidence = pipeline.evidence_for(spectra, far)
+    with np.errstate(all="raise"):
+        assert pipeline._per_hit_film_change(evidence, far, np.arange(evidence.hit_count)) is None

@@ -1301,8 +1301,9 @@ def _per_hit_gain_spread(spectra: HitSpectra) -> float | None:
 SESSION_PATTERN_CORRELATION = 0.5
 #: Log-scaled film parameters are moved by this (relative) for their first-order effect on the prediction.
 FILM_STEP = 1e-4
-#: Gauss–Newton steps of each hit's own film parameters.
+#: Gauss–Newton steps of each hit's own film parameters, each at most this (natural log) far.
 FILM_ITERATIONS = 3
+FILM_MAX_STEP = 0.5
 
 
 def _film_moved(spec: RigSpec, names: list[str], log_changes) -> RigSpec:
@@ -1336,9 +1337,12 @@ def _per_hit_film_change(evidence: Evidence, spec: RigSpec, order: np.ndarray) -
             columns = np.stack([(evidence.predicted(_film_moved(moved, [name], [FILM_STEP])) - predicted) / FILM_STEP
                                 for name in names], axis=-1) * sqrt_weight[hit, :, np.newaxis]
             difference = (evidence.spectra.h[hit] - predicted) * sqrt_weight[hit]
-            step, *_ = np.linalg.lstsq(np.concatenate((columns.real, columns.imag)),
-                                       np.concatenate((difference.real, difference.imag)), rcond=None)
-            changes[hit] += step
+            design = np.concatenate((columns.real, columns.imag))
+            target = np.concatenate((difference.real, difference.imag))
+            if not (np.all(np.isfinite(design)) and np.all(np.isfinite(target))):
+                return None  # a spec this far from a hit is no film that changed a little
+            step, *_ = np.linalg.lstsq(design, target, rcond=None)
+            changes[hit] += np.clip(step, -FILM_MAX_STEP, FILM_MAX_STEP)
         difference = (evidence.spectra.h[hit] - evidence.predicted(_film_moved(spec, names, changes[hit])))
         left += float(np.sum(np.abs(difference * sqrt_weight[hit]) ** 2))
     after = left / max(2 * residual.size - changes.size, 1)
