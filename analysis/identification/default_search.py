@@ -314,40 +314,55 @@ def _levenberg_marquardt(
     damping, growth = np.full(len(x), 1e-3), np.full(len(x), 2.0)
     identity = np.eye(x.shape[1])
     for iteration in range(max_iterations):
-        if rows.size == 0 or np.min(cost_out) <= good_enough:
+        if rows.size == 0 or cost_out.min() <= good_enough:
             break
         jac_t = _row_major(np.swapaxes(jac, -1, -2))
         normal = jac_t @ _row_major(jac)
         gradient = (jac_t @ r[..., np.newaxis])[..., 0]
-        held = ((x <= lower) & (gradient > 0)) | ((x >= upper) & (gradient < 0))
-        scale = np.sqrt(np.einsum("kii->ki", normal))
-        scale[~(scale > 0) | held] = 1.0
+        scale = np.sqrt(normal.diagonal(axis1=1, axis2=2))
+        unit = ~(scale > 0)
+        at_bound = (x <= lower) | (x >= upper)
+        if at_bound.any():
+            held = at_bound & (((x <= lower) & (gradient > 0)) | ((x >= upper) & (gradient < 0)))
+            unit |= held
+        else:
+            held = None
+        if unit.any():
+            scale[unit] = 1.0
         scaled = normal / (scale[:, :, np.newaxis] * scale[:, np.newaxis, :])
-        free = ~held
-        scaled = scaled * (free[:, :, np.newaxis] & free[:, np.newaxis, :]) + identity * held[:, np.newaxis, :]
+        if held is not None and held.any():
+            free = ~held
+            scaled = scaled * (free[:, :, np.newaxis] & free[:, np.newaxis, :]) + identity * held[:, np.newaxis, :]
+            right = np.where(held, 0.0, gradient / scale)
+        else:
+            right = gradient / scale
         system = scaled + damping[:, np.newaxis, np.newaxis] * identity
-        right = np.where(held, 0.0, gradient / scale)
         trial = np.clip(x - _solve_each(system, right) / scale, lower, upper)
         step = trial - x
         r_trial, jac_trial = evaluate_running(trial)
         cost_trial = np.einsum("km,km->k", r_trial, r_trial)
         # cost − |r + J·step|², from the normal equations
         predicted = -2.0 * np.einsum("ki,ki->k", gradient, step) - np.einsum("ki,kij,kj->k", step, normal, step)
-        better = np.isfinite(cost_trial) & (cost_trial < cost)
-        gain = np.divide(cost - cost_trial, predicted, out=np.zeros_like(cost), where=predicted > 0)
-        converged = better & (
-            ((cost - cost_trial <= tolerance * cost) & (predicted <= tolerance * cost)) | (cost_trial == 0.0)
-        )
-        if np.all(better):
+        decrease = cost - cost_trial
+        better = np.isfinite(cost_trial) & (decrease > 0)
+        converged = better & (((decrease <= tolerance * cost) & (predicted <= tolerance * cost)) | (cost_trial == 0.0))
+        if better.all():
             x, r, cost, jac = trial, r_trial, cost_trial, jac_trial
-        else:
+            x_out[rows], cost_out[rows] = x, cost
+            gain = np.divide(decrease, predicted, out=np.zeros_like(cost), where=predicted > 0)
+            damping *= np.maximum(1.0 / 3.0, 1.0 - (2.0 * gain - 1.0) ** 3)
+            growth[:] = 2.0
+        elif better.any():
             x[better], r[better], cost[better], jac[better] = (
                 trial[better], r_trial[better], cost_trial[better], jac_trial[better])
-        x_out[rows[better]], cost_out[rows[better]] = x[better], cost[better]
-        damping[better] *= np.maximum(1.0 / 3.0, 1.0 - (2.0 * gain[better] - 1.0) ** 3)
-        growth[better] = 2.0
-        damping[~better] *= growth[~better]
-        growth[~better] *= 2.0
+            x_out[rows[better]], cost_out[rows[better]] = x[better], cost[better]
+            gain = np.divide(decrease, predicted, out=np.zeros_like(cost), where=predicted > 0)
+            damping = np.where(better, damping * np.maximum(1.0 / 3.0, 1.0 - (2.0 * gain - 1.0) ** 3),
+                               damping * growth)
+            growth = np.where(better, 2.0, growth * 2.0)
+        else:
+            damping *= growth
+            growth *= 2.0
         stopped = converged | (damping > 1e16)
         if iteration >= behind_after:
             best_of_group = np.full(labels.max() + 1, np.inf)
@@ -355,7 +370,7 @@ def _levenberg_marquardt(
             stopped |= cost > (1.0 + behind) * best_of_group[labels[rows]]
         if len(rows) > 1:
             stopped |= _follows_another(x, cost, labels[rows])
-        if np.any(stopped):
+        if stopped.any():
             going = ~stopped
             rows, x, r, cost, jac, damping, growth = (
                 rows[going], x[going], r[going], cost[going], jac[going], damping[going], growth[going])
@@ -366,10 +381,11 @@ def _follows_another(x: np.ndarray, cost: np.ndarray, labels: np.ndarray) -> np.
     """Which of the points (k, p) are within :data:`_DISTINCT` in every coordinate of another point of the same
     group label with a lower cost (or the same cost and a lower row): the same point reached from two starts, which
     is searched on once."""
-    close = np.all(np.abs(x[:, np.newaxis, :] - x[np.newaxis, :, :]) <= _DISTINCT, axis=-1)
+    close = (np.abs(x[:, np.newaxis, :] - x[np.newaxis, :, :]) <= _DISTINCT).all(axis=-1)
     close &= labels[:, np.newaxis] == labels[np.newaxis, :]
-    rank = np.argsort(np.argsort(cost, kind="stable"), kind="stable")
-    return np.any(close & (rank[:, np.newaxis] > rank[np.newaxis, :]), axis=1)
+    rank = np.empty(len(cost), dtype=int)
+    rank[np.argsort(cost, kind="stable")] = np.arange(len(cost))
+    return (close & (rank[:, np.newaxis] > rank[np.newaxis, :])).any(axis=1)
 
 
 def _solve_each(system: np.ndarray, right: np.ndarray) -> np.ndarray:
