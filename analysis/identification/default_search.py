@@ -317,7 +317,7 @@ def _levenberg_marquardt(
         if rows.size == 0 or cost_out.min() <= good_enough:
             break
         jac_t = _row_major(np.swapaxes(jac, -1, -2))
-        normal = jac_t @ _row_major(jac)
+        normal = _gram(jac_t) if jac_t.shape[1] <= 4 else jac_t @ _row_major(jac)
         gradient = (jac_t @ r[..., np.newaxis])[..., 0]
         scale = np.sqrt(normal.diagonal(axis1=1, axis2=2))
         unit = ~(scale > 0)
