@@ -101,7 +101,16 @@ class Projection:
         ]
         self.signatures = [re.sub(r"\b[A-Za-z_]\w*\b(?!\()", "x", branch.text()) for branch in self.branches]
         self.size = len(self.free)
-        self._identity = np.eye(self.size)
+        # per branch: its shape coordinates, their unit shifts, and which of the points (the shapes, then each shape
+        # coordinate shifted) the branch's evaluations give: the shapes' own (0) but where one of its coordinates is
+        # shifted (see :meth:`residual_and_jacobian`)
+        self._own = [np.array(own, dtype=int) for own in self.branch_free]
+        self._unit_shifts = [np.eye(self.size)[own] for own in self._own]
+        self._which = []
+        for own in self._own:
+            which = np.zeros(1 + self.size, dtype=int)
+            which[1 + own] = 1 + np.arange(len(own))
+            self._which.append(which)
         is_order = coords.is_order[self.free]
         self.lower = np.where(is_order, coords.lower[self.free], -2 * LOG_BOX)
         self.upper = np.where(is_order, coords.upper[self.free], 2 * LOG_BOX)
@@ -164,10 +173,10 @@ class Projection:
         z = branch.stiffness(self.lines.s_rel, values, self.lines.log_s_rel)
         return (1.0 / z if self.compliance else z) * row_weight
 
-    def _solve(self, a_t: np.ndarray, target: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def _solve(self, a_t: np.ndarray, target: np.ndarray, finite: bool | None = None) -> tuple[np.ndarray, np.ndarray]:
         """Log branch scales (..., branches) and the residual (..., 2n) of the least-squares matrices ``a_t``
-        (..., branches, 2n), transposed."""
-        if not np.all(np.isfinite(a_t)):
+        (..., branches, 2n), transposed; ``finite``: whether all of ``a_t`` is finite, when the caller knows."""
+        if not (np.all(np.isfinite(a_t)) if finite is None else finite):
             a_t = np.nan_to_num(a_t, nan=0.0, posinf=0.0, neginf=0.0)
         normal = _gram(a_t)
         right = a_t @ target if target.ndim == 1 else (a_t @ target[..., np.newaxis])[..., 0]
@@ -208,18 +217,17 @@ class Projection:
         self.problem.evaluations += count * (1 + size)
         n_lines = len(self.index)
         a_t = np.empty((count, 1 + size, len(self.branches), 2 * n_lines))
+        finite = True
         with np.errstate(all="ignore"):
             for b, branch in enumerate(self.branches):
-                own = self.branch_free[b]
-                shifted = psi[:, np.newaxis, :] + step[:, own, np.newaxis] * self._identity[own]
+                shifted = psi[:, np.newaxis, :] + step[:, self._own[b], np.newaxis] * self._unit_shifts[b]
                 points = np.concatenate([psi[:, np.newaxis, :], shifted], axis=1)
                 row = self._weighted_row(branch, self._values(self._theta(points)), row_weight)
-                # each point's row: the shapes' own (0) but where one of the branch's coordinates is shifted
-                which = np.zeros(1 + size, dtype=int)
-                which[1 + np.asarray(own, dtype=int)] = 1 + np.arange(len(own))
+                finite = finite and bool(np.isfinite(row).all())
+                which = self._which[b]
                 a_t[:, :, b, :n_lines] = row.real[:, which]
                 a_t[:, :, b, n_lines:] = row.imag[:, which]
-            residuals = self._solve(a_t, target)[1]
+            residuals = self._solve(a_t, target, finite)[1]
         jacobian = np.swapaxes((residuals[:, 1:] - residuals[:, :1]) / step[:, :, np.newaxis], -1, -2)
         return residuals[:, 0], jacobian
 
@@ -256,7 +264,7 @@ def _gram(rows: np.ndarray) -> np.ndarray:
     """``rows @ rowsᵀ`` for stacked matrices (..., m, n) with rows contiguous: numpy hands ``a @ aᵀ`` to BLAS's syrk
     (another rounding than gemm's) and ``a @ bᵀ`` to gemm without copying ``bᵀ``, so the second operand is a
     transposed view of a copy (plain memory copy, 5–10× cheaper than a transposed one). For up to 4 rows this gives
-    gemm's result on a transposed copy bit for bit (OpenBLAS, x86-64)."""
+    gemm's result on a transposed copy bit for bit (OpenBLAS, x86-64); with more, the last bits differ."""
     return rows @ np.swapaxes(rows.copy(), -1, -2)
 
 
@@ -317,7 +325,7 @@ def _levenberg_marquardt(
         if rows.size == 0 or cost_out.min() <= good_enough:
             break
         jac_t = _row_major(np.swapaxes(jac, -1, -2))
-        normal = _gram(jac_t) if jac_t.shape[1] <= 4 else jac_t @ _row_major(jac)
+        normal = _gram(jac_t)
         gradient = (jac_t @ r[..., np.newaxis])[..., 0]
         scale = np.sqrt(normal.diagonal(axis1=1, axis2=2))
         unit = ~(scale > 0)
