@@ -54,6 +54,11 @@ _POLISH_TOLERANCE = 1e-10
 #: :data:`_BEHIND_AFTER` iterations (its RMS then is 0.05 % above the best, half the accuracy asked of the fitter)
 _POLISH_BEHIND = 1e-3
 _BEHIND_AFTER = 20
+#: relative cost decrease over :data:`_STALL_AFTER` iterations at which a start of the final polish is stopped: it
+#: crawls along a flat valley (an order running to its bound, a branch fitting noise), where another 2000
+#: iterations lower its RMS by less than 1e-6 (relative) on bench_fit's FRFs, while each costs as much as any other
+_POLISH_STALL = 1e-7
+_STALL_AFTER = 10
 #: relative excess of log cost over the best of a group of shape searches at which a search is given up after
 #: :data:`_SEARCH_BEHIND_AFTER` iterations (its point so far is still polished)
 _SEARCH_BEHIND = 9.0
@@ -292,6 +297,7 @@ def _levenberg_marquardt(
     behind: float = np.inf,
     behind_after: int = _BEHIND_AFTER,
     groups: np.ndarray | None = None,
+    stall: float = 0.0,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Box-constrained Levenberg–Marquardt (Nielsen's damping update) from many starts at once.
 
@@ -304,8 +310,9 @@ def _levenberg_marquardt(
     ``tolerance`` (relative) and the local model predicted no more (MINPACK's ftol test), after
     ``max_iterations``, when no damping gives a lower cost, when it comes within :data:`_DISTINCT` of a start with a
     lower cost (the same point: one search goes on), or, after ``behind_after`` iterations, when its cost is more
-    than a factor ``1 + behind`` above the lowest cost of all starts; all stop as soon as one start's cost is at most
-    ``good_enough``. With ``groups`` (one label per start) starts are only compared with the starts of their own
+    than a factor ``1 + behind`` above the lowest cost of all starts, or, with ``stall`` > 0, when its cost fell by
+    at most ``stall`` (relative) in its last :data:`_STALL_AFTER` iterations; all stop as soon as one start's cost
+    is at most ``good_enough``. With ``groups`` (one label per start) starts are only compared with the starts of their own
     group (searches of differently weighted problems run in one batch), and ``evaluate`` is called with the
     running points and their labels. Returns (x (starts, p), sums of squared residuals (starts,)).
     """
@@ -321,6 +328,10 @@ def _levenberg_marquardt(
     x_out, cost_out = x.copy(), cost.copy()
     damping, growth = np.full(len(x), 1e-3), np.full(len(x), 2.0)
     identity = np.eye(x.shape[1])
+    # each start's cost after every iteration, for the stall test
+    history = np.empty((len(x), max_iterations + 1)) if stall > 0 else None
+    if history is not None:
+        history[:, 0] = cost
     for iteration in range(max_iterations):
         if rows.size == 0 or cost_out.min() <= good_enough:
             break
@@ -372,6 +383,10 @@ def _levenberg_marquardt(
             damping *= growth
             growth *= 2.0
         stopped = converged | (damping > 1e16)
+        if history is not None:
+            history[rows, iteration + 1] = cost
+            if iteration + 1 >= _STALL_AFTER:
+                stopped |= history[rows, iteration + 1 - _STALL_AFTER] - cost <= stall * cost
         if iteration >= behind_after:
             best_of_group = np.full(labels.max() + 1, np.inf)
             np.minimum.at(best_of_group, labels, cost_out)
@@ -543,6 +558,7 @@ def default_search(problem: Problem, seed: int, progress: Callable[[float], None
     thetas, costs = _levenberg_marquardt(
         problem.acc_residual_and_jacobian, thetas[best[_distinct(thetas[best], _POLISHED)]], coords.lower, coords.upper, 200, _POLISH_TOLERANCE,
         behind=_POLISH_BEHIND,
+        stall=_POLISH_STALL,
     )
     best_theta, best_cost = thetas[np.argmin(costs)], float(np.min(costs))
     logger.debug(
