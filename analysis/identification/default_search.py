@@ -339,17 +339,19 @@ def _levenberg_marquardt(
         normal = _gram(jac_t)
         gradient = (jac_t @ r[..., np.newaxis])[..., 0]
         scale = np.sqrt(normal.diagonal(axis1=1, axis2=2))
-        unit = ~(scale > 0)
-        at_bound = (x <= lower) | (x >= upper)
-        if at_bound.any():
-            held = at_bound & (((x <= lower) & (gradient > 0)) | ((x >= upper) & (gradient < 0)))
-            unit |= held
-        else:
-            held = None
-        if unit.any():
-            scale[unit] = 1.0
+        at_lower, at_upper = x <= lower, x >= upper
+        held = None
+        if at_lower.any() or at_upper.any():
+            held = (at_lower & (gradient > 0)) | (at_upper & (gradient < 0))
+            unit = ~(scale > 0) | held
+            if unit.any():
+                scale[unit] = 1.0
+            if not held.any():
+                held = None
+        elif not scale.min() > 0:  # a zero (or NaN) column
+            scale[~(scale > 0)] = 1.0
         scaled = normal / (scale[:, :, np.newaxis] * scale[:, np.newaxis, :])
-        if held is not None and held.any():
+        if held is not None:
             free = ~held
             scaled = scaled * (free[:, :, np.newaxis] & free[:, np.newaxis, :]) + identity * held[:, np.newaxis, :]
             right = np.where(held, 0.0, gradient / scale)
@@ -363,18 +365,19 @@ def _levenberg_marquardt(
         # cost − |r + J·step|², from the normal equations
         predicted = -2.0 * np.einsum("ki,ki->k", gradient, step) - np.einsum("ki,kij,kj->k", step, normal, step)
         decrease = cost - cost_trial
-        better = np.isfinite(cost_trial) & (decrease > 0)
-        converged = better & (((decrease <= tolerance * cost) & (predicted <= tolerance * cost)) | (cost_trial == 0.0))
+        better = decrease > 0  # False for a non-finite trial cost
+        # MINPACK's ftol test: the decrease and the predicted one both at most the tolerance
+        converged = better & ((np.maximum(decrease, predicted) <= tolerance * cost) | (cost_trial == 0.0))
         if better.all():
             x, r, cost, jac = trial, r_trial, cost_trial, jac_trial
-            x_out[rows], cost_out[rows] = x, cost
+            cost_out[rows] = cost
             gain = np.divide(decrease, predicted, out=np.zeros_like(cost), where=predicted > 0)
             damping *= np.maximum(1.0 / 3.0, 1.0 - (2.0 * gain - 1.0) ** 3)
             growth[:] = 2.0
         elif better.any():
             x[better], r[better], cost[better], jac[better] = (
                 trial[better], r_trial[better], cost_trial[better], jac_trial[better])
-            x_out[rows[better]], cost_out[rows[better]] = x[better], cost[better]
+            cost_out[rows[better]] = cost[better]
             gain = np.divide(decrease, predicted, out=np.zeros_like(cost), where=predicted > 0)
             damping = np.where(better, damping * np.maximum(1.0 / 3.0, 1.0 - (2.0 * gain - 1.0) ** 3),
                                damping * growth)
@@ -394,9 +397,11 @@ def _levenberg_marquardt(
         if len(rows) > 1:
             stopped |= _follows_another(x, cost, labels[rows])
         if stopped.any():
+            x_out[rows[stopped]] = x[stopped]
             going = ~stopped
             rows, x, r, cost, jac, damping, growth = (
                 rows[going], x[going], r[going], cost[going], jac[going], damping[going], growth[going])
+    x_out[rows] = x
     return x_out, cost_out
 
 

@@ -172,14 +172,19 @@ def log_laplace(s: ArrayLike) -> LogLaplace:
     return LogLaplace(value, np.ascontiguousarray(value.real), float(phase.flat[0]) if uniform else None)
 
 
-def _power(order: np.ndarray, log_s: LogLaplace, coefficient: np.ndarray | float = 1.0) -> np.ndarray:
-    """``c·exp(α·ln s)``: on the imaginary axis (an FRF without an exponential window) ``arg s`` is the same at every
-    frequency, so ``c·s^α = |s|^α·c·e^{jα·arg s}`` needs a real exponential per frequency and one complex factor
-    per parameter set, a third of the cost of a complex exponential and its product with ``c``."""
+def _power(order: np.ndarray, log_s: LogLaplace, coefficient: np.ndarray | None = None) -> np.ndarray:
+    """``c·exp(α·ln s)`` (``c`` = 1 when None): on the imaginary axis (an FRF without an exponential window)
+    ``arg s`` is the same at every frequency, so ``c·s^α = |s|^α·c·e^{jα·arg s}`` needs a real exponential per
+    frequency and one complex factor per parameter set, a third of the cost of a complex exponential and its
+    product with ``c``."""
     if log_s.phase is not None:
         angle = order * log_s.phase
-        return np.exp(order * log_s.magnitude) * (coefficient * (np.cos(angle) + 1j * np.sin(angle)))
-    return coefficient * np.exp(order * log_s.value)
+        phasor = np.empty(np.shape(angle), dtype=complex)
+        np.cos(angle, out=phasor.real)
+        np.sin(angle, out=phasor.imag)
+        return np.exp(order * log_s.magnitude) * (phasor if coefficient is None else coefficient * phasor)
+    power = np.exp(order * log_s.value)
+    return power if coefficient is None else coefficient * power
 
 
 @dataclass(frozen=True)
@@ -220,10 +225,13 @@ class Series(_Composite):
         z = 1.0 / compliance
         # compliances add: d(1/Z) = Σ d(1/Z_i), so dZ/dp = (Z/Z_i)² dZ_i/dp for a parameter of branch i
         gradients: Gradient = {}
-        for (_, part_gradients), part_compliance in zip(parts, compliances):
+        for child, (_, part_gradients), part_compliance in zip(self.children, parts, compliances):
             if part_gradients:
                 factor = (z * part_compliance) ** 2
-                gradients.update({name: factor * g for name, g in part_gradients.items()})
+                if isinstance(child, Spring):  # dZ_i/dk = 1
+                    gradients[child.name] = factor
+                else:
+                    gradients.update({name: factor * g for name, g in part_gradients.items()})
         return z, gradients
 
     def text(self) -> str:
