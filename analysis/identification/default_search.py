@@ -11,6 +11,7 @@ analytic Jacobian.
 
 from __future__ import annotations
 
+import functools
 import itertools
 import logging
 import math
@@ -109,13 +110,21 @@ class Projection:
         # per branch: its shape coordinates, their unit shifts, and which of the points (the shapes, then each shape
         # coordinate shifted) the branch's evaluations give: the shapes' own (0) but where one of its coordinates is
         # shifted (see :meth:`residual_and_jacobian`)
-        self._own = [np.array(own, dtype=int) for own in self.branch_free]
-        self._unit_shifts = [np.eye(self.size)[own] for own in self._own]
         self._which = []
-        for own in self._own:
+        for own in self.branch_free:
             which = np.zeros(1 + self.size, dtype=int)
-            which[1 + own] = 1 + np.arange(len(own))
+            which[1 + np.array(own, dtype=int)] = 1 + np.arange(len(own))
             self._which.append(which)
+        # per branch: its parameters (names, coordinates) and, for each of its shape coordinates, which parameter
+        self._branch_names = [[p.name for p in branch.parameters()] for branch in self.branches]
+        self._branch_coordinates = [np.array([position[name] for name in names], dtype=int)
+                                    for names in self._branch_names]
+        self._shift_points = [1 + np.arange(len(own)) for own in self.branch_free]
+        self._shifted_coordinates = [self.free[own] for own in self.branch_free]
+        self._shifted_parameter = [
+            np.array([list(coordinates).index(self.free[i]) for i in own], dtype=int)
+            for own, coordinates in zip(self.branch_free, self._branch_coordinates)
+        ]
         is_order = coords.is_order[self.free]
         self.lower = np.where(is_order, coords.lower[self.free], -2 * LOG_BOX)
         self.upper = np.where(is_order, coords.upper[self.free], 2 * LOG_BOX)
@@ -170,7 +179,7 @@ class Projection:
     def _values(self, theta: np.ndarray) -> dict[str, np.ndarray]:
         """The network's name → reference value (..., 1) mapping at coordinates (..., size)."""
         coords = self.problem.coords
-        reference_values, _ = coords.reference_values(theta)
+        reference_values, _ = coords.reference_values(theta, masses=False)
         return {name: reference_values[..., i, np.newaxis] for i, name in enumerate(coords.names)}
 
     def _weighted_row(self, branch, values: dict[str, np.ndarray], row_weight: np.ndarray) -> np.ndarray:
@@ -178,9 +187,12 @@ class Projection:
         z = branch.stiffness(self.lines.s_rel, values, self.lines.log_s_rel)
         return (1.0 / z if self.compliance else z) * row_weight
 
-    def _solve(self, a_t: np.ndarray, target: np.ndarray, finite: bool | None = None) -> tuple[np.ndarray, np.ndarray]:
-        """Log branch scales (..., branches) and the residual (..., 2n) of the least-squares matrices ``a_t``
-        (..., branches, 2n), transposed; ``finite``: whether all of ``a_t`` is finite, when the caller knows."""
+    def _solve(
+        self, a_t: np.ndarray, target: np.ndarray, finite: bool | None = None, scales: bool = True
+    ) -> tuple[np.ndarray | None, np.ndarray]:
+        """Log branch scales (..., branches) (None without ``scales``) and the residual (..., 2n) of the least-squares
+        matrices ``a_t`` (..., branches, 2n), transposed; ``finite``: whether all of ``a_t`` is finite, when the
+        caller knows."""
         if not (np.all(np.isfinite(a_t)) if finite is None else finite):
             a_t = np.nan_to_num(a_t, nan=0.0, posinf=0.0, neginf=0.0)
         normal = _gram(a_t)
@@ -189,14 +201,16 @@ class Projection:
         # A branch whose best coefficient is negative is dropped (its row and column of the normal equations
         # zeroed) and the others solved again, only for the points that have one
         positive = coefficients > 0
-        again = ~np.all(positive, axis=-1)
-        if np.any(again):
+        again = ~positive.all(axis=-1)
+        if again.any():
             kept = positive[again]
             coefficients[again] = _solve_normal(
                 normal[again] * kept[..., :, np.newaxis] * kept[..., np.newaxis, :], right[again] * kept
             )
         valid = np.isfinite(coefficients) & (coefficients > 0)
         residual = (np.where(valid, coefficients, 0.0)[..., np.newaxis, :] @ a_t)[..., 0, :] - target
+        if not scales:
+            return None, residual
         log_coefficients = np.log(np.where(valid, coefficients, 1.0))
         # Series: the branch scale is 1/coefficient and a dropped branch becomes infinitely stiff;
         # parallel: the scale is the coefficient and a dropped branch becomes infinitely soft.
@@ -223,17 +237,26 @@ class Projection:
         n_lines = len(self.index)
         a_t = np.empty((count, 1 + size, len(self.branches), 2 * n_lines))
         finite = True
+        coords = self.problem.coords
+        # the reference values at the shapes, and each coordinate's at its shift (a value depends on its coordinate)
+        at_shapes, at_shifts = coords.reference_values(self._theta(np.stack([psi, psi + step])), masses=False)[0]
         with np.errstate(all="ignore"):
             for b, branch in enumerate(self.branches):
-                shifted = psi[:, np.newaxis, :] + step[:, self._own[b], np.newaxis] * self._unit_shifts[b]
-                points = np.concatenate([psi[:, np.newaxis, :], shifted], axis=1)
-                row = self._weighted_row(branch, self._values(self._theta(points)), row_weight)
+                # the branch's parameters at the shapes (point 0) and at the shift of each of its shape coordinates
+                shifted = self._shifted_parameter[b]
+                columns = self._branch_coordinates[b]
+                values = np.empty((count, 1 + len(shifted), len(columns)))
+                values[...] = at_shapes[:, np.newaxis, columns]
+                values[:, self._shift_points[b], shifted] = at_shifts[:, self._shifted_coordinates[b]]
+                row = self._weighted_row(
+                    branch, {name: values[..., i, np.newaxis] for i, name in enumerate(self._branch_names[b])},
+                    row_weight)
                 finite = finite and bool(np.isfinite(row).all())
                 which = self._which[b]
                 a_t[:, :, b, :n_lines] = row.real[:, which]
                 a_t[:, :, b, n_lines:] = row.imag[:, which]
-            residuals = self._solve(a_t, target, finite)[1]
-        jacobian = np.swapaxes((residuals[:, 1:] - residuals[:, :1]) / step[:, :, np.newaxis], -1, -2)
+            residuals = self._solve(a_t, target, finite, scales=False)[1]
+        jacobian = ((residuals[:, 1:] - residuals[:, :1]) / step[:, :, np.newaxis]).swapaxes(-1, -2)
         return residuals[:, 0], jacobian
 
     def shape_of(self, theta: np.ndarray) -> np.ndarray:
@@ -270,7 +293,7 @@ def _gram(rows: np.ndarray) -> np.ndarray:
     (another rounding than gemm's) and ``a @ bᵀ`` to gemm without copying ``bᵀ``, so the second operand is a
     transposed view of a copy (plain memory copy, 5–10× cheaper than a transposed one). For up to 4 rows this gives
     gemm's result on a transposed copy bit for bit (OpenBLAS, x86-64); with more, the last bits differ."""
-    return rows @ np.swapaxes(rows.copy(), -1, -2)
+    return rows @ rows.copy().swapaxes(-1, -2)
 
 
 def _row_major(matrices: np.ndarray) -> np.ndarray:
@@ -282,8 +305,15 @@ def _row_major(matrices: np.ndarray) -> np.ndarray:
 def _solve_normal(normal: np.ndarray, right: np.ndarray) -> np.ndarray:
     """Solutions (..., b) of the normal equations (..., b, b) with right-hand sides (..., b), with a ridge of 1e-12 of
     the trace (a dropped branch's zero row then gives it a zero coefficient)."""
-    ridge = 1e-12 * np.trace(normal, axis1=-2, axis2=-1)[..., np.newaxis] + 1e-300
-    return np.linalg.solve(normal + ridge[..., np.newaxis] * np.eye(normal.shape[-1]), right[..., np.newaxis])[..., 0]
+    ridge = 1e-12 * normal.trace(axis1=-2, axis2=-1)[..., np.newaxis] + 1e-300
+    return np.linalg.solve(normal + ridge[..., np.newaxis] * _identity(normal.shape[-1]), right[..., np.newaxis])[..., 0]
+
+
+@functools.cache
+def _identity(size: int) -> np.ndarray:
+    identity = np.eye(size)
+    identity.flags.writeable = False
+    return identity
 
 
 def _levenberg_marquardt(
@@ -327,7 +357,7 @@ def _levenberg_marquardt(
     cost = np.einsum("km,km->k", r, r)
     x_out, cost_out = x.copy(), cost.copy()
     damping, growth = np.full(len(x), 1e-3), np.full(len(x), 2.0)
-    identity = np.eye(x.shape[1])
+    identity = _identity(x.shape[1])
     # each start's cost after every iteration, for the stall test
     history = np.empty((len(x), max_iterations + 1)) if stall > 0 else None
     if history is not None:
@@ -335,7 +365,7 @@ def _levenberg_marquardt(
     for iteration in range(max_iterations):
         if rows.size == 0 or cost_out.min() <= good_enough:
             break
-        jac_t = _row_major(np.swapaxes(jac, -1, -2))
+        jac_t = _row_major(jac.swapaxes(-1, -2))
         normal = _gram(jac_t)
         gradient = (jac_t @ r[..., np.newaxis])[..., 0]
         scale = np.sqrt(normal.diagonal(axis1=1, axis2=2))
@@ -371,14 +401,14 @@ def _levenberg_marquardt(
         if better.all():
             x, r, cost, jac = trial, r_trial, cost_trial, jac_trial
             cost_out[rows] = cost
-            gain = np.divide(decrease, predicted, out=np.zeros_like(cost), where=predicted > 0)
+            gain = np.divide(decrease, predicted, out=np.zeros(len(cost)), where=predicted > 0)
             damping *= np.maximum(1.0 / 3.0, 1.0 - (2.0 * gain - 1.0) ** 3)
             growth[:] = 2.0
         elif better.any():
             x[better], r[better], cost[better], jac[better] = (
                 trial[better], r_trial[better], cost_trial[better], jac_trial[better])
             cost_out[rows[better]] = cost[better]
-            gain = np.divide(decrease, predicted, out=np.zeros_like(cost), where=predicted > 0)
+            gain = np.divide(decrease, predicted, out=np.zeros(len(cost)), where=predicted > 0)
             damping = np.where(better, damping * np.maximum(1.0 / 3.0, 1.0 - (2.0 * gain - 1.0) ** 3),
                                damping * growth)
             growth = np.where(better, 2.0, growth * 2.0)
@@ -412,7 +442,7 @@ def _follows_another(x: np.ndarray, cost: np.ndarray, labels: np.ndarray) -> np.
     close = (np.abs(x[:, np.newaxis, :] - x[np.newaxis, :, :]) <= _DISTINCT).all(axis=-1)
     close &= labels[:, np.newaxis] == labels[np.newaxis, :]
     rank = np.empty(len(cost), dtype=int)
-    rank[np.argsort(cost, kind="stable")] = np.arange(len(cost))
+    rank[cost.argsort(kind="stable")] = np.arange(len(cost))
     return (close & (rank[:, np.newaxis] > rank[np.newaxis, :])).any(axis=1)
 
 

@@ -122,7 +122,7 @@ class Dashpot(Node):
         self, s: np.ndarray, values: Mapping[str, np.ndarray], gradient: bool, log_s: LogLaplace | None = None
     ) -> tuple[np.ndarray, Gradient]:
         z = values[self.name] * s
-        return z, {self.name: np.broadcast_to(s, z.shape)} if gradient else {}
+        return z, {self.name: s} if gradient else {}  # dZ/dη = s, broadcast by the caller
 
     def text(self) -> str:
         return f"dashpot({self.name})"
@@ -315,7 +315,8 @@ class FilmModel:
         self, s: ArrayLike, params: ArrayLike | Mapping[str, float]
     ) -> tuple[np.ndarray, dict[str, np.ndarray]]:
         """``s`` as a complex array and the name → value (..., 1) mapping the network evaluates."""
-        vector = self.vector(params) if isinstance(params, Mapping) else np.asarray(params, dtype=float)
+        vector = (params if isinstance(params, np.ndarray) and params.dtype == float
+                  else self.vector(params) if isinstance(params, Mapping) else np.asarray(params, dtype=float))
         if vector.shape[-1] != len(self.parameters):
             raise SettingError(
                 f"model {self.name}: expected {len(self.parameters)} parameters "
@@ -328,7 +329,7 @@ class FilmModel:
 def _over_frequencies(z: np.ndarray, s: np.ndarray) -> np.ndarray:
     """A network's stiffness as a complex array over the frequencies (a network of springs alone has one real value
     per parameter set)."""
-    if np.iscomplexobj(z):
+    if getattr(z, "dtype", None) == complex or np.iscomplexobj(z):
         return z
     return np.broadcast_to(z, np.broadcast_shapes(np.shape(z), np.shape(s))).astype(complex)
 
