@@ -388,7 +388,7 @@ def _levenberg_marquardt(
         else:
             right = gradient / scale
         system = scaled + damping[:, np.newaxis, np.newaxis] * identity
-        trial = np.clip(x - _solve_each(system, right) / scale, lower, upper)
+        trial = (x - _solve_each(system, right) / scale).clip(lower, upper)
         step = trial - x
         r_trial, jac_trial = evaluate_running(trial)
         cost_trial = np.einsum("km,km->k", r_trial, r_trial)
@@ -425,7 +425,7 @@ def _levenberg_marquardt(
             np.minimum.at(best_of_group, labels, cost_out)
             stopped |= cost > (1.0 + behind) * best_of_group[labels[rows]]
         if len(rows) > 1:
-            stopped |= _follows_another(x, cost, labels[rows])
+            stopped |= _follows_another(x, cost, None if groups is None else labels[rows])
         if stopped.any():
             x_out[rows[stopped]] = x[stopped]
             going = ~stopped
@@ -435,15 +435,17 @@ def _levenberg_marquardt(
     return x_out, cost_out
 
 
-def _follows_another(x: np.ndarray, cost: np.ndarray, labels: np.ndarray) -> np.ndarray:
+def _follows_another(x: np.ndarray, cost: np.ndarray, labels: np.ndarray | None) -> np.ndarray:
     """Which of the points (k, p) are within :data:`_DISTINCT` in every coordinate of another point of the same
-    group label with a lower cost (or the same cost and a lower row): the same point reached from two starts, which
-    is searched on once."""
-    close = (np.abs(x[:, np.newaxis, :] - x[np.newaxis, :, :]) <= _DISTINCT).all(axis=-1)
-    close &= labels[:, np.newaxis] == labels[np.newaxis, :]
+    group label (all one group when None) with a lower cost (or the same cost and a lower row): the same point
+    reached from two starts, which is searched on once."""
+    close = (np.abs(x[:, np.newaxis, :] - x) <= _DISTINCT).all(axis=-1)
+    if labels is not None:
+        close &= labels[:, np.newaxis] == labels
     rank = np.empty(len(cost), dtype=int)
     rank[cost.argsort(kind="stable")] = np.arange(len(cost))
-    return (close & (rank[:, np.newaxis] > rank[np.newaxis, :])).any(axis=1)
+    close &= rank[:, np.newaxis] > rank
+    return close.any(axis=1)
 
 
 def _solve_each(system: np.ndarray, right: np.ndarray) -> np.ndarray:

@@ -331,7 +331,7 @@ def _over_frequencies(z: np.ndarray, s: np.ndarray) -> np.ndarray:
     per parameter set)."""
     if getattr(z, "dtype", None) == complex or np.iscomplexobj(z):
         return z
-    return np.broadcast_to(z, np.broadcast_shapes(np.shape(z), np.shape(s))).astype(complex)
+    return z + np.zeros(np.shape(s), dtype=complex)  # broadcast, as complex
 
 
 def laplace_variable(freq_hz: ArrayLike, decay_rate_1_s: float = 0.0) -> np.ndarray:
