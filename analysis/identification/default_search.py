@@ -106,15 +106,15 @@ class Projection:
         ]
         self.signatures = [re.sub(r"\b[A-Za-z_]\w*\b(?!\()", "x", branch.text()) for branch in self.branches]
         self.size = len(self.free)
-        # per branch: its shape coordinates, their unit shifts, and which of the points (the shapes, then each shape
-        # coordinate shifted) the branch's evaluations give: the shapes' own (0) but where one of its coordinates is
-        # shifted (see :meth:`residual_and_jacobian`)
+        # per branch, for :meth:`residual_and_jacobian`: which of its evaluations each point (the shapes, then each
+        # shape coordinate shifted) takes: the shapes' own (0) but where one of its own coordinates is shifted
         self._which = []
         for own in self.branch_free:
             which = np.zeros(1 + self.size, dtype=int)
             which[1 + np.array(own, dtype=int)] = 1 + np.arange(len(own))
             self._which.append(which)
-        # per branch: its parameters (names, coordinates) and, for each of its shape coordinates, which parameter
+        # per branch: its parameters (names, coordinates) and, for each of its shape coordinates, the point shifting
+        # it, which of its parameters it is and its coordinate
         self._branch_names = [[p.name for p in branch.parameters()] for branch in self.branches]
         self._branch_coordinates = [np.array([position[name] for name in names], dtype=int)
                                     for names in self._branch_names]
@@ -305,11 +305,13 @@ def _solve_normal(normal: np.ndarray, right: np.ndarray) -> np.ndarray:
     """Solutions (..., b) of the normal equations (..., b, b) with right-hand sides (..., b), with a ridge of 1e-12 of
     the trace (a dropped branch's zero row then gives it a zero coefficient)."""
     ridge = 1e-12 * normal.trace(axis1=-2, axis2=-1)[..., np.newaxis] + 1e-300
-    return np.linalg.solve(normal + ridge[..., np.newaxis] * _identity(normal.shape[-1]), right[..., np.newaxis])[..., 0]
+    system = normal + ridge[..., np.newaxis] * _identity(normal.shape[-1])
+    return np.linalg.solve(system, right[..., np.newaxis])[..., 0]
 
 
 @functools.cache
 def _identity(size: int) -> np.ndarray:
+    """The identity matrix of ``size`` (read-only, made once)."""
     identity = np.eye(size)
     identity.flags.writeable = False
     return identity
@@ -341,9 +343,9 @@ def _levenberg_marquardt(
     lower cost (the same point: one search goes on), or, after ``behind_after`` iterations, when its cost is more
     than a factor ``1 + behind`` above the lowest cost of all starts, or, with ``stall`` > 0, when its cost fell by
     at most ``stall`` (relative) in its last :data:`_STALL_AFTER` iterations; all stop as soon as one start's cost
-    is at most ``good_enough``. With ``groups`` (one label per start) starts are only compared with the starts of their own
-    group (searches of differently weighted problems run in one batch), and ``evaluate`` is called with the
-    running points and their labels. Returns (x (starts, p), sums of squared residuals (starts,)).
+    is at most ``good_enough``. With ``groups`` (one label per start) starts are only compared with the starts of
+    their own group (searches of differently weighted problems run in one batch), and ``evaluate`` is called with
+    the running points and their labels. Returns (x (starts, p), sums of squared residuals (starts,)).
     """
     x = np.clip(np.asarray(x0, dtype=float), lower, upper)
     rows = np.arange(len(x))  # the working arrays hold the starts still running: rows of the output
