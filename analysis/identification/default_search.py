@@ -69,8 +69,12 @@ _SEARCH_ITERATIONS = 25
 _EXACT_LOG_COST = 1e-20
 
 
+@functools.cache
 def _subsample(n: int, count: int) -> np.ndarray:
-    return np.arange(n) if n <= count else np.unique(np.linspace(0, n - 1, count).round().astype(int))
+    """``count`` lines spread evenly over ``n`` (all when fewer), made once per size (read-only)."""
+    index = np.arange(n) if n <= count else np.unique(np.linspace(0, n - 1, count).round().astype(int))
+    index.flags.writeable = False
+    return index
 
 
 class Projection:
@@ -562,12 +566,12 @@ def _latin_hypercube(rng: np.random.Generator, n: int, d: int) -> np.ndarray:
 def _distinct(thetas: np.ndarray, count: int) -> list[int]:
     """Indices of the first ``count`` rows of ``thetas`` that differ from every earlier chosen row by more than
     :data:`_DISTINCT` in some coordinate: the same point reached from several starts is polished once."""
-    differs = np.max(np.abs(thetas[:, np.newaxis, :] - thetas[np.newaxis, :, :]), axis=-1) > _DISTINCT
+    differs = (np.max(np.abs(thetas[:, np.newaxis, :] - thetas[np.newaxis, :, :]), axis=-1) > _DISTINCT).tolist()
     chosen: list[int] = []
     for row in range(len(thetas)):
         if len(chosen) == count:
             break
-        if np.all(differs[row, chosen]):
+        if all(differs[row][other] for other in chosen):
             chosen.append(row)
     return chosen
 
