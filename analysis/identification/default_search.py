@@ -11,6 +11,7 @@ analytic Jacobian.
 
 from __future__ import annotations
 
+import functools
 import itertools
 import logging
 import math
@@ -18,7 +19,6 @@ import re
 from typing import Callable
 
 import numpy as np
-from scipy.stats import qmc
 
 from gasfilm.analysis.identification.problem import LOG_BOX, Problem
 from gasfilm.analysis.physics.elements import Parallel, Series
@@ -54,6 +54,11 @@ _POLISH_TOLERANCE = 1e-10
 #: :data:`_BEHIND_AFTER` iterations (its RMS then is 0.05 % above the best, half the accuracy asked of the fitter)
 _POLISH_BEHIND = 1e-3
 _BEHIND_AFTER = 20
+#: relative cost decrease over :data:`_STALL_AFTER` iterations at which a start of the final polish is stopped: it
+#: crawls along a flat valley (an order running to its bound, a branch fitting noise), where another 2000
+#: iterations lower its RMS by less than 1e-6 (relative) on bench_fit's FRFs, while each costs as much as any other
+_POLISH_STALL = 1e-7
+_STALL_AFTER = 10
 #: relative excess of log cost over the best of a group of shape searches at which a search is given up after
 #: :data:`_SEARCH_BEHIND_AFTER` iterations (its point so far is still polished)
 _SEARCH_BEHIND = 9.0
@@ -64,8 +69,12 @@ _SEARCH_ITERATIONS = 25
 _EXACT_LOG_COST = 1e-20
 
 
+@functools.cache
 def _subsample(n: int, count: int) -> np.ndarray:
-    return np.arange(n) if n <= count else np.unique(np.linspace(0, n - 1, count).round().astype(int))
+    """``count`` lines spread evenly over ``n`` (all when fewer), made once per size (read-only)."""
+    index = np.arange(n) if n <= count else np.unique(np.linspace(0, n - 1, count).round().astype(int))
+    index.flags.writeable = False
+    return index
 
 
 class Projection:
@@ -101,6 +110,24 @@ class Projection:
         ]
         self.signatures = [re.sub(r"\b[A-Za-z_]\w*\b(?!\()", "x", branch.text()) for branch in self.branches]
         self.size = len(self.free)
+        # per branch, for :meth:`residual_and_jacobian`: which of its evaluations each point (the shapes, then each
+        # shape coordinate shifted) takes: the shapes' own (0) but where one of its own coordinates is shifted
+        self._which = []
+        for own in self.branch_free:
+            which = np.zeros(1 + self.size, dtype=int)
+            which[1 + np.array(own, dtype=int)] = 1 + np.arange(len(own))
+            self._which.append(which)
+        # per branch: its parameters (names, coordinates) and, for each of its shape coordinates, the point shifting
+        # it, which of its parameters it is and its coordinate
+        self._branch_names = [[p.name for p in branch.parameters()] for branch in self.branches]
+        self._branch_coordinates = [np.array([position[name] for name in names], dtype=int)
+                                    for names in self._branch_names]
+        self._shift_points = [1 + np.arange(len(own)) for own in self.branch_free]
+        self._shifted_coordinates = [self.free[own] for own in self.branch_free]
+        self._shifted_parameter = [
+            np.array([list(coordinates).index(self.free[i]) for i in own], dtype=int)
+            for own, coordinates in zip(self.branch_free, self._branch_coordinates)
+        ]
         is_order = coords.is_order[self.free]
         self.lower = np.where(is_order, coords.lower[self.free], -2 * LOG_BOX)
         self.upper = np.where(is_order, coords.upper[self.free], 2 * LOG_BOX)
@@ -118,70 +145,121 @@ class Projection:
         """Coordinates (..., size) from shapes (..., free), the branch scales solved by least squares, and the
         weighted relative stiffness residual (..., 2n) those coordinates leave; ``weighting`` (k,): the weighting
         of each leading row of ``psi`` (k, ..., free) when the projection has several."""
-        row_weight, target = self.row_weight, self.target
-        if weighting is not None:
-            leading = (slice(None),) + (np.newaxis,) * (psi.ndim - 2)
-            row_weight, target = row_weight[weighting][leading], target[weighting][leading]
+        row_weight, target = self._weighting(psi.ndim, weighting)
         self.problem.check_cancel()
         self.problem.evaluations += math.prod(psi.shape[:-1])
-        coords = self.problem.coords
-        theta = np.zeros(psi.shape[:-1] + (coords.size,))
-        theta[..., self.free] = psi
-        reference_values, _ = coords.reference_values(theta)
-        values = {name: reference_values[..., i, np.newaxis] for i, name in enumerate(coords.names)}
+        theta = self._theta(psi)
+        values = self._values(theta)
         with np.errstate(all="ignore"):
-            stiffness = [branch.stiffness(self.lines.s_rel, values, self.lines.log_s_rel) for branch in self.branches]
+            rows = [self._weighted_row(branch, values, row_weight) for branch in self.branches]
             # the least-squares matrix, transposed: one row per branch, its weighted stiffness (compliance) with the
             # real parts before the imaginary parts
             n_lines = len(self.index)
-            a_t = np.empty(np.broadcast_shapes(*(z.shape for z in stiffness))[:-1] + (len(stiffness), 2 * n_lines))
-            for row, z in enumerate(stiffness):
-                weighted = (1.0 / z if self.compliance else z) * row_weight
-                a_t[..., row, :n_lines] = weighted.real
-                a_t[..., row, n_lines:] = weighted.imag
-            if not np.all(np.isfinite(a_t)):
-                a_t = np.nan_to_num(a_t, nan=0.0, posinf=0.0, neginf=0.0)
-            normal = a_t @ _row_major(np.swapaxes(a_t, -1, -2))
-            right = a_t @ target if target.ndim == 1 else (a_t @ target[..., np.newaxis])[..., 0]
-            coefficients = _solve_normal(normal, right)
-            # A branch whose best coefficient is negative is dropped (its row and column of the normal equations
-            # zeroed) and the others solved again, only for the points that have one
-            positive = coefficients > 0
-            again = ~np.all(positive, axis=-1)
-            if np.any(again):
-                kept = positive[again]
-                coefficients[again] = _solve_normal(
-                    normal[again] * kept[..., :, np.newaxis] * kept[..., np.newaxis, :], right[again] * kept
-                )
-            valid = np.isfinite(coefficients) & (coefficients > 0)
-            residual = (np.where(valid, coefficients, 0.0)[..., np.newaxis, :] @ a_t)[..., 0, :] - target
-            log_coefficients = np.log(np.where(valid, coefficients, 1.0))
-            # Series: the branch scale is 1/coefficient and a dropped branch becomes infinitely stiff;
-            # parallel: the scale is the coefficient and a dropped branch becomes infinitely soft.
-            if self.compliance:
-                log_scales = np.where(valid, -log_coefficients, LOG_BOX)
-            else:
-                log_scales = np.where(valid, log_coefficients, -LOG_BOX)
+            a_t = np.empty(np.broadcast_shapes(*(row.shape for row in rows))[:-1] + (len(rows), 2 * n_lines))
+            for b, row in enumerate(rows):
+                a_t[..., b, :n_lines] = row.real
+                a_t[..., b, n_lines:] = row.imag
+            log_scales, residual = self._solve(a_t, target)
         for b, anchor in enumerate(self.anchors):
             theta[..., anchor] = log_scales[..., b]
             for member in self.members[b]:
                 theta[..., member] += log_scales[..., b]
-        return np.clip(theta, coords.lower, coords.upper), residual
+        return np.clip(theta, self.problem.coords.lower, self.problem.coords.upper), residual
+
+    def _weighting(self, ndim: int, weighting: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
+        """Row weights and target of the points (k, ..., free) of ``ndim`` dimensions in their weightings."""
+        row_weight, target = self.row_weight, self.target
+        if weighting is not None:
+            leading = (slice(None),) + (np.newaxis,) * (ndim - 2)
+            row_weight, target = row_weight[weighting][leading], target[weighting][leading]
+        return row_weight, target
+
+    def _theta(self, psi: np.ndarray) -> np.ndarray:
+        theta = np.zeros(psi.shape[:-1] + (self.problem.coords.size,))
+        theta[..., self.free] = psi
+        return theta
+
+    def _values(self, theta: np.ndarray) -> dict[str, np.ndarray]:
+        """The network's name → reference value (..., 1) mapping at coordinates (..., size)."""
+        coords = self.problem.coords
+        reference_values, _ = coords.reference_values(theta, masses=False)
+        return {name: reference_values[..., i, np.newaxis] for i, name in enumerate(coords.names)}
+
+    def _weighted_row(self, branch, values: dict[str, np.ndarray], row_weight: np.ndarray) -> np.ndarray:
+        """A branch's weighted stiffness (parallel) or compliance (series) at the points of ``values``."""
+        z = branch.stiffness(self.lines.s_rel, values, self.lines.log_s_rel)
+        return (1.0 / z if self.compliance else z) * row_weight
+
+    def _solve(
+        self, a_t: np.ndarray, target: np.ndarray, finite: bool | None = None, scales: bool = True
+    ) -> tuple[np.ndarray | None, np.ndarray]:
+        """Log branch scales (..., branches) (None without ``scales``) and the residual (..., 2n) of the least-squares
+        matrices ``a_t`` (..., branches, 2n), transposed; ``finite``: whether all of ``a_t`` is finite, when the
+        caller knows."""
+        if not (np.all(np.isfinite(a_t)) if finite is None else finite):
+            a_t = np.nan_to_num(a_t, nan=0.0, posinf=0.0, neginf=0.0)
+        normal = _gram(a_t)
+        right = a_t @ target if target.ndim == 1 else (a_t @ target[..., np.newaxis])[..., 0]
+        coefficients = _solve_normal(normal, right)
+        # A branch whose best coefficient is negative is dropped (its row and column of the normal equations
+        # zeroed) and the others solved again, only for the points that have one
+        positive = coefficients > 0
+        again = ~positive.all(axis=-1)
+        if again.any():
+            kept = positive[again]
+            coefficients[again] = _solve_normal(
+                normal[again] * kept[..., :, np.newaxis] * kept[..., np.newaxis, :], right[again] * kept
+            )
+        valid = np.isfinite(coefficients) & (coefficients > 0)
+        residual = (np.where(valid, coefficients, 0.0)[..., np.newaxis, :] @ a_t)[..., 0, :] - target
+        if not scales:
+            return None, residual
+        log_coefficients = np.log(np.where(valid, coefficients, 1.0))
+        # Series: the branch scale is 1/coefficient and a dropped branch becomes infinitely stiff;
+        # parallel: the scale is the coefficient and a dropped branch becomes infinitely soft.
+        if self.compliance:
+            return np.where(valid, -log_coefficients, LOG_BOX), residual
+        return np.where(valid, log_coefficients, -LOG_BOX), residual
 
     def residual_and_jacobian(
         self, psi: np.ndarray, weighting: np.ndarray | None = None
     ) -> tuple[np.ndarray, np.ndarray]:
         """The weighted relative stiffness residual (k, 2n) at shapes (k, free) and its Jacobian (k, 2n, free) by
         forward differences, each row in its ``weighting`` (see :meth:`project`): the shapes and all their shifts
-        projected in one call. (The exact variable-projection
-        Jacobian from the branches' analytic gradients was tried: no faster, since a gradient evaluation costs
-        about as much as the shifted projections.)"""
+        projected in one call. A shift of a shape coordinate changes only its own branch's row of the least-squares
+        matrix, so each branch is evaluated at the shapes and at the shifts of its own coordinates only (the
+        projection of every shifted point is the one :meth:`project` gives, bit for bit). (The exact
+        variable-projection Jacobian from the branches' analytic gradients was tried: no faster, since a gradient
+        evaluation costs about as much as the shifted projections.)"""
         step = 1e-7 * np.maximum(1.0, np.abs(psi))
         step = np.where(psi + step > self.upper, -step, step)
-        shifted = psi[:, np.newaxis, :] + step[:, :, np.newaxis] * np.eye(self.size)
-        points = np.concatenate([psi[:, np.newaxis, :], shifted], axis=1)
-        residuals = self.project(points, weighting)[1]
-        jacobian = np.swapaxes((residuals[:, 1:] - residuals[:, :1]) / step[:, :, np.newaxis], -1, -2)
+        count, size = psi.shape
+        row_weight, target = self._weighting(3, weighting)
+        self.problem.check_cancel()
+        self.problem.evaluations += count * (1 + size)
+        n_lines = len(self.index)
+        a_t = np.empty((count, 1 + size, len(self.branches), 2 * n_lines))
+        finite = True
+        coords = self.problem.coords
+        # the reference values at the shapes, and each coordinate's at its shift (a value depends on its coordinate)
+        at_shapes, at_shifts = coords.reference_values(self._theta(np.stack([psi, psi + step])), masses=False)[0]
+        with np.errstate(all="ignore"):
+            for b, branch in enumerate(self.branches):
+                # the branch's parameters at the shapes (point 0) and at the shift of each of its shape coordinates
+                shifted = self._shifted_parameter[b]
+                columns = self._branch_coordinates[b]
+                values = np.empty((count, 1 + len(shifted), len(columns)))
+                values[...] = at_shapes[:, np.newaxis, columns]
+                values[:, self._shift_points[b], shifted] = at_shifts[:, self._shifted_coordinates[b]]
+                row = self._weighted_row(
+                    branch, {name: values[..., i, np.newaxis] for i, name in enumerate(self._branch_names[b])},
+                    row_weight)
+                finite = finite and bool(np.isfinite(row).all())
+                which = self._which[b]
+                a_t[:, :, b, :n_lines] = row.real[:, which]
+                a_t[:, :, b, n_lines:] = row.imag[:, which]
+            residuals = self._solve(a_t, target, finite, scales=False)[1]
+        jacobian = ((residuals[:, 1:] - residuals[:, :1]) / step[:, :, np.newaxis]).swapaxes(-1, -2)
         return residuals[:, 0], jacobian
 
     def shape_of(self, theta: np.ndarray) -> np.ndarray:
@@ -213,6 +291,14 @@ class Projection:
         return starts
 
 
+def _gram(rows: np.ndarray) -> np.ndarray:
+    """``rows @ rowsᵀ`` for stacked matrices (..., m, n) with rows contiguous: numpy hands ``a @ aᵀ`` to BLAS's syrk
+    (another rounding than gemm's) and ``a @ bᵀ`` to gemm without copying ``bᵀ``, so the second operand is a
+    transposed view of a copy (plain memory copy, 5–10× cheaper than a transposed one). For up to 4 rows this gives
+    gemm's result on a transposed copy bit for bit (OpenBLAS, x86-64); with more, the last bits differ."""
+    return rows @ rows.copy().swapaxes(-1, -2)
+
+
 def _row_major(matrices: np.ndarray) -> np.ndarray:
     """``matrices`` (..., m, n) with rows contiguous: numpy's matmul hands stacked matrices to BLAS only in that
     layout and multiplies a transposed view in its own loop, 3–9× slower for these tall, narrow matrices."""
@@ -222,8 +308,17 @@ def _row_major(matrices: np.ndarray) -> np.ndarray:
 def _solve_normal(normal: np.ndarray, right: np.ndarray) -> np.ndarray:
     """Solutions (..., b) of the normal equations (..., b, b) with right-hand sides (..., b), with a ridge of 1e-12 of
     the trace (a dropped branch's zero row then gives it a zero coefficient)."""
-    ridge = 1e-12 * np.trace(normal, axis1=-2, axis2=-1)[..., np.newaxis] + 1e-300
-    return np.linalg.solve(normal + ridge[..., np.newaxis] * np.eye(normal.shape[-1]), right[..., np.newaxis])[..., 0]
+    ridge = 1e-12 * normal.trace(axis1=-2, axis2=-1)[..., np.newaxis] + 1e-300
+    system = normal + ridge[..., np.newaxis] * _identity(normal.shape[-1])
+    return np.linalg.solve(system, right[..., np.newaxis])[..., 0]
+
+
+@functools.cache
+def _identity(size: int) -> np.ndarray:
+    """The identity matrix of ``size`` (read-only, made once)."""
+    identity = np.eye(size)
+    identity.flags.writeable = False
+    return identity
 
 
 def _levenberg_marquardt(
@@ -237,6 +332,7 @@ def _levenberg_marquardt(
     behind: float = np.inf,
     behind_after: int = _BEHIND_AFTER,
     groups: np.ndarray | None = None,
+    stall: float = 0.0,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Box-constrained Levenberg–Marquardt (Nielsen's damping update) from many starts at once.
 
@@ -249,10 +345,11 @@ def _levenberg_marquardt(
     ``tolerance`` (relative) and the local model predicted no more (MINPACK's ftol test), after
     ``max_iterations``, when no damping gives a lower cost, when it comes within :data:`_DISTINCT` of a start with a
     lower cost (the same point: one search goes on), or, after ``behind_after`` iterations, when its cost is more
-    than a factor ``1 + behind`` above the lowest cost of all starts; all stop as soon as one start's cost is at most
-    ``good_enough``. With ``groups`` (one label per start) starts are only compared with the starts of their own
-    group (searches of differently weighted problems run in one batch), and ``evaluate`` is called with the
-    running points and their labels. Returns (x (starts, p), sums of squared residuals (starts,)).
+    than a factor ``1 + behind`` above the lowest cost of all starts, or, with ``stall`` > 0, when its cost fell by
+    at most ``stall`` (relative) in its last :data:`_STALL_AFTER` iterations; all stop as soon as one start's cost
+    is at most ``good_enough``. With ``groups`` (one label per start) starts are only compared with the starts of
+    their own group (searches of differently weighted problems run in one batch), and ``evaluate`` is called with
+    the running points and their labels. Returns (x (starts, p), sums of squared residuals (starts,)).
     """
     x = np.clip(np.asarray(x0, dtype=float), lower, upper)
     rows = np.arange(len(x))  # the working arrays hold the starts still running: rows of the output
@@ -265,64 +362,95 @@ def _levenberg_marquardt(
     cost = np.einsum("km,km->k", r, r)
     x_out, cost_out = x.copy(), cost.copy()
     damping, growth = np.full(len(x), 1e-3), np.full(len(x), 2.0)
-    identity = np.eye(x.shape[1])
+    identity = _identity(x.shape[1])
+    # each start's cost after every iteration, for the stall test
+    history = np.empty((len(x), max_iterations + 1)) if stall > 0 else None
+    if history is not None:
+        history[:, 0] = cost
     for iteration in range(max_iterations):
-        if rows.size == 0 or np.min(cost_out) <= good_enough:
+        if rows.size == 0 or cost_out.min() <= good_enough:
             break
-        jac_t = _row_major(np.swapaxes(jac, -1, -2))
-        normal = jac_t @ _row_major(jac)
+        jac_t = _row_major(jac.swapaxes(-1, -2))
+        normal = _gram(jac_t)
         gradient = (jac_t @ r[..., np.newaxis])[..., 0]
-        held = ((x <= lower) & (gradient > 0)) | ((x >= upper) & (gradient < 0))
-        scale = np.sqrt(np.einsum("kii->ki", normal))
-        scale[~(scale > 0) | held] = 1.0
+        scale = np.sqrt(normal.diagonal(axis1=1, axis2=2))
+        at_lower, at_upper = x <= lower, x >= upper
+        held = None
+        if at_lower.any() or at_upper.any():
+            held = (at_lower & (gradient > 0)) | (at_upper & (gradient < 0))
+            unit = ~(scale > 0) | held
+            if unit.any():
+                scale[unit] = 1.0
+            if not held.any():
+                held = None
+        elif not scale.min() > 0:  # a zero (or NaN) column
+            scale[~(scale > 0)] = 1.0
         scaled = normal / (scale[:, :, np.newaxis] * scale[:, np.newaxis, :])
-        free = ~held
-        scaled = scaled * (free[:, :, np.newaxis] & free[:, np.newaxis, :]) + identity * held[:, np.newaxis, :]
+        if held is not None:
+            free = ~held
+            scaled = scaled * (free[:, :, np.newaxis] & free[:, np.newaxis, :]) + identity * held[:, np.newaxis, :]
+            right = np.where(held, 0.0, gradient / scale)
+        else:
+            right = gradient / scale
         system = scaled + damping[:, np.newaxis, np.newaxis] * identity
-        right = np.where(held, 0.0, gradient / scale)
-        trial = np.clip(x - _solve_each(system, right) / scale, lower, upper)
+        trial = (x - _solve_each(system, right) / scale).clip(lower, upper)
         step = trial - x
         r_trial, jac_trial = evaluate_running(trial)
         cost_trial = np.einsum("km,km->k", r_trial, r_trial)
         # cost − |r + J·step|², from the normal equations
         predicted = -2.0 * np.einsum("ki,ki->k", gradient, step) - np.einsum("ki,kij,kj->k", step, normal, step)
-        better = np.isfinite(cost_trial) & (cost_trial < cost)
-        gain = np.divide(cost - cost_trial, predicted, out=np.zeros_like(cost), where=predicted > 0)
-        converged = better & (
-            ((cost - cost_trial <= tolerance * cost) & (predicted <= tolerance * cost)) | (cost_trial == 0.0)
-        )
-        if np.all(better):
+        decrease = cost - cost_trial
+        better = decrease > 0  # False for a non-finite trial cost
+        # MINPACK's ftol test: the decrease and the predicted one both at most the tolerance
+        converged = better & ((np.maximum(decrease, predicted) <= tolerance * cost) | (cost_trial == 0.0))
+        if better.all():
             x, r, cost, jac = trial, r_trial, cost_trial, jac_trial
-        else:
+            cost_out[rows] = cost
+            gain = np.divide(decrease, predicted, out=np.zeros(len(cost)), where=predicted > 0)
+            damping *= np.maximum(1.0 / 3.0, 1.0 - (2.0 * gain - 1.0) ** 3)
+            growth[:] = 2.0
+        elif better.any():
             x[better], r[better], cost[better], jac[better] = (
                 trial[better], r_trial[better], cost_trial[better], jac_trial[better])
-        x_out[rows[better]], cost_out[rows[better]] = x[better], cost[better]
-        damping[better] *= np.maximum(1.0 / 3.0, 1.0 - (2.0 * gain[better] - 1.0) ** 3)
-        growth[better] = 2.0
-        damping[~better] *= growth[~better]
-        growth[~better] *= 2.0
+            cost_out[rows[better]] = cost[better]
+            gain = np.divide(decrease, predicted, out=np.zeros(len(cost)), where=predicted > 0)
+            damping = np.where(better, damping * np.maximum(1.0 / 3.0, 1.0 - (2.0 * gain - 1.0) ** 3),
+                               damping * growth)
+            growth = np.where(better, 2.0, growth * 2.0)
+        else:
+            damping *= growth
+            growth *= 2.0
         stopped = converged | (damping > 1e16)
+        if history is not None:
+            history[rows, iteration + 1] = cost
+            if iteration + 1 >= _STALL_AFTER:
+                stopped |= history[rows, iteration + 1 - _STALL_AFTER] - cost <= stall * cost
         if iteration >= behind_after:
             best_of_group = np.full(labels.max() + 1, np.inf)
             np.minimum.at(best_of_group, labels, cost_out)
             stopped |= cost > (1.0 + behind) * best_of_group[labels[rows]]
         if len(rows) > 1:
-            stopped |= _follows_another(x, cost, labels[rows])
-        if np.any(stopped):
+            stopped |= _follows_another(x, cost, None if groups is None else labels[rows])
+        if stopped.any():
+            x_out[rows[stopped]] = x[stopped]
             going = ~stopped
             rows, x, r, cost, jac, damping, growth = (
                 rows[going], x[going], r[going], cost[going], jac[going], damping[going], growth[going])
+    x_out[rows] = x
     return x_out, cost_out
 
 
-def _follows_another(x: np.ndarray, cost: np.ndarray, labels: np.ndarray) -> np.ndarray:
+def _follows_another(x: np.ndarray, cost: np.ndarray, labels: np.ndarray | None) -> np.ndarray:
     """Which of the points (k, p) are within :data:`_DISTINCT` in every coordinate of another point of the same
-    group label with a lower cost (or the same cost and a lower row): the same point reached from two starts, which
-    is searched on once."""
-    close = np.all(np.abs(x[:, np.newaxis, :] - x[np.newaxis, :, :]) <= _DISTINCT, axis=-1)
-    close &= labels[:, np.newaxis] == labels[np.newaxis, :]
-    rank = np.argsort(np.argsort(cost, kind="stable"), kind="stable")
-    return np.any(close & (rank[:, np.newaxis] > rank[np.newaxis, :]), axis=1)
+    group label (all one group when None) with a lower cost (or the same cost and a lower row): the same point
+    reached from two starts, which is searched on once."""
+    close = (np.abs(x[:, np.newaxis, :] - x) <= _DISTINCT).all(axis=-1)
+    if labels is not None:
+        close &= labels[:, np.newaxis] == labels
+    rank = np.empty(len(cost), dtype=int)
+    rank[cost.argsort(kind="stable")] = np.arange(len(cost))
+    close &= rank[:, np.newaxis] > rank
+    return close.any(axis=1)
 
 
 def _solve_each(system: np.ndarray, right: np.ndarray) -> np.ndarray:
@@ -398,7 +526,7 @@ def _chosen_shapes(
     the projected samples that best fit the accelerance itself are appended to ``found`` (they join the polish:
     where the model cannot fit the data, the RMS optimum can lie in another basin than the log-stiffness one)."""
     problem = projection.problem
-    unit = qmc.LatinHypercube(d=projection.size, seed=rng).random(_SAMPLES_PER_SHAPE * projection.size)
+    unit = _latin_hypercube(rng, _SAMPLES_PER_SHAPE * projection.size, projection.size)
     # Each sample also with one order at 0: a spring-pot of order 0 is a spring, and a network whose best fit
     # degenerates that way lies on the edge of the box, where a search started inside rarely ends.
     span = projection.start_upper - projection.start_lower
@@ -423,15 +551,27 @@ def _chosen_shapes(
     return shapes[chosen]
 
 
+def _latin_hypercube(rng: np.random.Generator, n: int, d: int) -> np.ndarray:
+    """``n`` points of a scrambled Latin hypercube in [0, 1)^d, drawn from a generator spawned from ``rng``: the
+    samples of ``scipy.stats.qmc.LatinHypercube(d, rng=rng).random(n)`` (its default, strength 1), without the
+    engine's set-up (a deep copy of the generator, kept for a reset), which cost more than the draw."""
+    child = rng.spawn(1)[0]
+    samples = child.uniform(size=(n, d))
+    perms = np.tile(np.arange(1, n + 1), (d, 1))
+    for i in range(d):
+        child.shuffle(perms[i, :])
+    return (perms.T - samples) / n
+
+
 def _distinct(thetas: np.ndarray, count: int) -> list[int]:
     """Indices of the first ``count`` rows of ``thetas`` that differ from every earlier chosen row by more than
     :data:`_DISTINCT` in some coordinate: the same point reached from several starts is polished once."""
-    differs = np.max(np.abs(thetas[:, np.newaxis, :] - thetas[np.newaxis, :, :]), axis=-1) > _DISTINCT
+    differs = (np.max(np.abs(thetas[:, np.newaxis, :] - thetas[np.newaxis, :, :]), axis=-1) > _DISTINCT).tolist()
     chosen: list[int] = []
     for row in range(len(thetas)):
         if len(chosen) == count:
             break
-        if np.all(differs[row, chosen]):
+        if all(differs[row][other] for other in chosen):
             chosen.append(row)
     return chosen
 
@@ -472,6 +612,7 @@ def default_search(problem: Problem, seed: int, progress: Callable[[float], None
     thetas, costs = _levenberg_marquardt(
         problem.acc_residual_and_jacobian, thetas[best[_distinct(thetas[best], _POLISHED)]], coords.lower, coords.upper, 200, _POLISH_TOLERANCE,
         behind=_POLISH_BEHIND,
+        stall=_POLISH_STALL,
     )
     best_theta, best_cost = thetas[np.argmin(costs)], float(np.min(costs))
     logger.debug(

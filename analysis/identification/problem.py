@@ -95,12 +95,14 @@ class Coordinates:
         elif not isinstance(node, Spring):
             raise SettingError(f"model {self.model.name}: element {type(node).__name__} is not supported by the fitter")
 
-    def reference_values(self, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def reference_values(self, theta: np.ndarray, masses: bool = True) -> tuple[np.ndarray, np.ndarray | None]:
         """Parameter vectors (..., P) for the network at ``s/ω_r`` (coefficients g in N/m, orders) and masses (...)
-        in kg from coordinates (..., size)."""
+        in kg (None without ``masses``) from coordinates (..., size)."""
         theta = np.asarray(theta, dtype=float)
         values = theta[..., : len(self.names)]
         values = np.where(self.is_order[: len(self.names)], values, self.stiffness_ref * np.exp(values))
+        if not masses:
+            return values, None
         mass = self.mass_ref * np.exp(theta[..., -1]) if self.fit_mass else np.full(theta.shape[:-1], self.mass_ref)
         return values, mass
 
@@ -284,7 +286,7 @@ class Problem:
         with np.errstate(all="ignore"):
             h_model = s2 / (z + mass[..., np.newaxis] * s2)
         residual = h_model - lines.h
-        if not np.all(np.isfinite(residual)):
+        if not np.isfinite(residual).all():
             residual = np.nan_to_num(residual, nan=1e6, posinf=1e6, neginf=-1e6)
         # one complex factor per line and one real factor per parameter, applied in place
         weighted_h2 = h_model**2 * sqrt_w
@@ -292,7 +294,7 @@ class Problem:
         columns *= np.where(self.coords.is_order[: values.shape[-1]], 1.0, values)[..., np.newaxis]
         if self.coords.fit_mass:
             columns = np.concatenate([columns, (-weighted_h2 * mass[..., np.newaxis])[..., np.newaxis, :]], axis=-2)
-        return stack(residual * sqrt_w), np.swapaxes(stack(columns), -1, -2)
+        return stack(residual * sqrt_w), stack(columns).swapaxes(-1, -2)
 
 
 def stack(r: np.ndarray) -> np.ndarray:

@@ -122,7 +122,7 @@ class Dashpot(Node):
         self, s: np.ndarray, values: Mapping[str, np.ndarray], gradient: bool, log_s: LogLaplace | None = None
     ) -> tuple[np.ndarray, Gradient]:
         z = values[self.name] * s
-        return z, {self.name: np.broadcast_to(s, z.shape)} if gradient else {}
+        return z, {self.name: s} if gradient else {}  # dZ/dη = s, broadcast by the caller
 
     def text(self) -> str:
         return f"dashpot({self.name})"
@@ -172,14 +172,19 @@ def log_laplace(s: ArrayLike) -> LogLaplace:
     return LogLaplace(value, np.ascontiguousarray(value.real), float(phase.flat[0]) if uniform else None)
 
 
-def _power(order: np.ndarray, log_s: LogLaplace, coefficient: np.ndarray | float = 1.0) -> np.ndarray:
-    """``c·exp(α·ln s)``: on the imaginary axis (an FRF without an exponential window) ``arg s`` is the same at every
-    frequency, so ``c·s^α = |s|^α·c·e^{jα·arg s}`` needs a real exponential per frequency and one complex factor
-    per parameter set, a third of the cost of a complex exponential and its product with ``c``."""
+def _power(order: np.ndarray, log_s: LogLaplace, coefficient: np.ndarray | None = None) -> np.ndarray:
+    """``c·exp(α·ln s)`` (``c`` = 1 when None): on the imaginary axis (an FRF without an exponential window)
+    ``arg s`` is the same at every frequency, so ``c·s^α = |s|^α·c·e^{jα·arg s}`` needs a real exponential per
+    frequency and one complex factor per parameter set, a third of the cost of a complex exponential and its
+    product with ``c``."""
     if log_s.phase is not None:
         angle = order * log_s.phase
-        return np.exp(order * log_s.magnitude) * (coefficient * (np.cos(angle) + 1j * np.sin(angle)))
-    return coefficient * np.exp(order * log_s.value)
+        phasor = np.empty(np.shape(angle), dtype=complex)
+        np.cos(angle, out=phasor.real)
+        np.sin(angle, out=phasor.imag)
+        return np.exp(order * log_s.magnitude) * (phasor if coefficient is None else coefficient * phasor)
+    power = np.exp(order * log_s.value)
+    return power if coefficient is None else coefficient * power
 
 
 @dataclass(frozen=True)
@@ -220,10 +225,13 @@ class Series(_Composite):
         z = 1.0 / compliance
         # compliances add: d(1/Z) = Σ d(1/Z_i), so dZ/dp = (Z/Z_i)² dZ_i/dp for a parameter of branch i
         gradients: Gradient = {}
-        for (_, part_gradients), part_compliance in zip(parts, compliances):
+        for child, (_, part_gradients), part_compliance in zip(self.children, parts, compliances):
             if part_gradients:
                 factor = (z * part_compliance) ** 2
-                gradients.update({name: factor * g for name, g in part_gradients.items()})
+                if isinstance(child, Spring):  # dZ_i/dk = 1
+                    gradients[child.name] = factor
+                else:
+                    gradients.update({name: factor * g for name, g in part_gradients.items()})
         return z, gradients
 
     def text(self) -> str:
@@ -307,7 +315,8 @@ class FilmModel:
         self, s: ArrayLike, params: ArrayLike | Mapping[str, float]
     ) -> tuple[np.ndarray, dict[str, np.ndarray]]:
         """``s`` as a complex array and the name → value (..., 1) mapping the network evaluates."""
-        vector = self.vector(params) if isinstance(params, Mapping) else np.asarray(params, dtype=float)
+        vector = (params if isinstance(params, np.ndarray) and params.dtype == float
+                  else self.vector(params) if isinstance(params, Mapping) else np.asarray(params, dtype=float))
         if vector.shape[-1] != len(self.parameters):
             raise SettingError(
                 f"model {self.name}: expected {len(self.parameters)} parameters "
@@ -320,9 +329,9 @@ class FilmModel:
 def _over_frequencies(z: np.ndarray, s: np.ndarray) -> np.ndarray:
     """A network's stiffness as a complex array over the frequencies (a network of springs alone has one real value
     per parameter set)."""
-    if np.iscomplexobj(z):
+    if getattr(z, "dtype", None) == complex or np.iscomplexobj(z):
         return z
-    return np.broadcast_to(z, np.broadcast_shapes(np.shape(z), np.shape(s))).astype(complex)
+    return z + np.zeros(np.shape(s), dtype=complex)  # broadcast, as complex
 
 
 def laplace_variable(freq_hz: ArrayLike, decay_rate_1_s: float = 0.0) -> np.ndarray:
