@@ -19,6 +19,7 @@ import re
 from typing import Callable
 
 import numpy as np
+from scipy.stats import qmc
 
 from gasfilm.analysis.identification.problem import LOG_BOX, Problem
 from gasfilm.analysis.physics.elements import Parallel, Series
@@ -526,7 +527,7 @@ def _chosen_shapes(
     the projected samples that best fit the accelerance itself are appended to ``found`` (they join the polish:
     where the model cannot fit the data, the RMS optimum can lie in another basin than the log-stiffness one)."""
     problem = projection.problem
-    unit = _latin_hypercube(rng, _SAMPLES_PER_SHAPE * projection.size, projection.size)
+    unit = qmc.LatinHypercube(d=projection.size, seed=rng).random(_SAMPLES_PER_SHAPE * projection.size)
     # Each sample also with one order at 0: a spring-pot of order 0 is a spring, and a network whose best fit
     # degenerates that way lies on the edge of the box, where a search started inside rarely ends.
     span = projection.start_upper - projection.start_lower
@@ -549,18 +550,6 @@ def _chosen_shapes(
         if all(np.linalg.norm(unit[start] - unit[other]) > _START_SPACING for other in chosen):
             chosen.append(int(start))
     return shapes[chosen]
-
-
-def _latin_hypercube(rng: np.random.Generator, n: int, d: int) -> np.ndarray:
-    """``n`` points of a scrambled Latin hypercube in [0, 1)^d, drawn from a generator spawned from ``rng``: the
-    samples of ``scipy.stats.qmc.LatinHypercube(d, rng=rng).random(n)`` (its default, strength 1), without the
-    engine's set-up (a deep copy of the generator, kept for a reset), which cost more than the draw."""
-    child = rng.spawn(1)[0]
-    samples = child.uniform(size=(n, d))
-    perms = np.tile(np.arange(1, n + 1), (d, 1))
-    for i in range(d):
-        child.shuffle(perms[i, :])
-    return (perms.T - samples) / n
 
 
 def _distinct(thetas: np.ndarray, count: int) -> list[int]:
