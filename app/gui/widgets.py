@@ -16,6 +16,7 @@ from PySide6.QtWidgets import (
     QDoubleSpinBox,
     QFormLayout,
     QFrame,
+    QGraphicsItem,
     QHBoxLayout,
     QLabel,
     QLineEdit,
@@ -413,6 +414,10 @@ def make_plot(
         item.vb.setRange(xRange=DEFAULT_FIT_BAND_HZ, padding=0.02, disableAutoRange=False)
     item.setDownsampling(auto=True, mode="peak")
     item.setClipToView(True)
+    for side in ("left", "bottom", "top", "right"):
+        # an axis drawn once into a pixmap, redrawn only when its ticks change: replaying its recorded text at every
+        # repaint took most of a tab's repaint (~120 ms for the Measure tab offscreen, which a job's result waited for)
+        item.getAxis(side).setCacheMode(QGraphicsItem.CacheMode.DeviceCoordinateCache)
     return widget
 
 
