@@ -256,10 +256,11 @@ def _time_records(
         values = dataset.get("data")
         if not isinstance(values, np.ndarray) or values.ndim != 1 or values.dtype.kind not in "fciu":
             raise UffError(f"dataset {number} holds no column of numbers")
-    for (_, force), (_, response) in zip(forces, responses):
+    for hit, ((force_number, force), (response_number, response)) in enumerate(zip(forces, responses), start=1):
         if len(force["data"]) != len(response["data"]):  # a hit's own force and response must pair sample by sample
             pair = sorted((len(force["data"]), len(response["data"])))
-            raise UffError(f"{path}: time records have inconsistent lengths ({pair[0]}, {pair[1]} samples)")
+            raise UffError(f"{path}: time records have inconsistent lengths ({pair[0]}, {pair[1]} samples): hit {hit}'s "
+                           f"force (dataset {force_number}) and response (dataset {response_number})")
     lengths = [len(force["data"]) for _, force in forces]
     samples = min(lengths)
     length_note = None

@@ -100,6 +100,10 @@ def test_a_session_recorded_on_ai2_is_fitted_on_ai2(tmp_path, capsys, records, r
     level = float(np.sqrt(np.mean(np.abs(expected.h1[band]) ** 2)))
     # on ai2 the mass-on-film model follows the FRF closely; on the 3×-scaled ai1 no film on 25.05 kg can
     assert (result["fits"][0]["rms"] < 0.2 * level) == mass_line_ok
+    # the JSON says the unit of its RMS and gives it in g/N too, as the diagnosis's does (new-user trial)
+    fit = result["fits"][0]
+    assert fit["rms_unit"] == "(m/s^2)/N" and fit["rms_g_per_n"] == pytest.approx(fit["rms"] / 9.80665)
+    assert fit["peak_error_g_per_n"] == pytest.approx(fit["peak_error"] / 9.80665)
     assert (result["mass_line_warning"] is None) == mass_line_ok
     assert ("not a mass on a gas film" in err) == (not mass_line_ok)
     csv = tmp_path / "frf.csv"

@@ -121,7 +121,8 @@ def test_uff_errors_name_the_file(tmp_path):
     force, response = hits[0].data
     uneven = write_uff(tmp_path / "uneven.uff", [time_record(force, 1, 3, 13, "N"),
                                                  time_record(response[:-10], 5, 3, 12, "m/s^2")])
-    with pytest.raises(UffError, match="inconsistent lengths \\(2550, 2560 samples\\)"):
+    with pytest.raises(UffError, match="inconsistent lengths \\(2550, 2560 samples\\): hit 1's force \\(dataset 1\\) "
+                                      "and response \\(dataset 2\\)"):
         read_uff_time_records(uneven)
 
     unpaired = write_uff(tmp_path / "unpaired.uff", [time_record(force, 1, 3, 13, "N"),

@@ -9,6 +9,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from gasfilm.analysis.physics.elements import FilmModel, accelerance, parse_network
+from gasfilm.drivers.interface import STANDARD_GRAVITY_M_S2
 
 
 @dataclass
@@ -58,6 +59,9 @@ class FitResult:
             "correlation_names": list(self.correlation_names),
             "rms": self.rms,
             "peak_error": self.peak_error,
+            "rms_unit": "(m/s^2)/N",  # rms and peak_error; as the diagnosis's JSON, with their g/N twins
+            "rms_g_per_n": self.rms / STANDARD_GRAVITY_M_S2,
+            "peak_error_g_per_n": self.peak_error / STANDARD_GRAVITY_M_S2,
             "evaluations": self.evaluations,
             "wall_time_s": self.wall_time_s,
             "method": self.method,
