@@ -10,7 +10,8 @@ A session of 6 hits is recorded through the real GUI (offscreen) on the simulate
   ``write_outputs``), on the main thread with nothing else running;
 * **GUI, quiet**: the Identify/Diagnose tab's job on its worker thread, that tab shown, the window otherwise idle;
 * **GUI, live view**: the same job, with *Arm* pressed just after it started: the simulated device streams in real
-  time through the acquisition worker into the Measure tab's live view (25 frames per second) while the job runs.
+  time through the acquisition worker into the Measure tab's live view (25 frames per second; 5 while a job runs)
+  while the job runs.
 
 A GUI run is timed from the click (the controller's ``run_fits`` / ``run_diagnosis``) until the result is shown and
 the job has ended: the results stored in the session, the job's tab redrawn when it is the one shown (with the live

@@ -281,3 +281,35 @@ def test_fit_runs_in_the_background_and_can_be_cancelled(qtbot, window, tmp_path
     assert controller.fits == {}
     assert ("info", "fit: cancelled") in window.banner.history
     assert window.identify_tab.run_button.isEnabled()
+
+
+def test_switching_to_a_tab_paints_each_plot_once(qtbot, window):
+    """Qt activates a plot's scene whenever its view is shown (and deactivates it when hidden); every plot item then
+    repainted itself and dropped its cached axis pixmap, so a tab switch painted each plot three times, and a job's
+    result waited behind that. The scenes stay active."""
+    import pyqtgraph as pg
+    from PySide6.QtCore import QEvent, QObject
+
+    paints: dict[int, int] = {}
+
+    class CountPaints(QObject):
+        def eventFilter(self, viewport, event):  # noqa: N802
+            if event.type() == QEvent.Type.Paint:
+                paints[id(viewport)] = paints.get(id(viewport), 0) + 1
+            return False
+
+    counter = CountPaints()
+    views = window.measure_tab.findChildren(pg.GraphicsView)
+    assert len(views) >= 3
+    for view in views:
+        view.viewport().installEventFilter(counter)
+    window.activateWindow()
+    for _ in range(2):  # (the first visit also lays the tab out)
+        window.tabs.setCurrentWidget(window.identify_tab)
+        qtbot.wait(150)
+        paints.clear()
+        window.tabs.setCurrentWidget(window.measure_tab)
+        qtbot.wait(300)
+    shown = [view for view in views if view.isVisible()]
+    assert len(shown) >= 3
+    assert [paints.get(id(view.viewport()), 0) for view in shown] == [1] * len(shown)

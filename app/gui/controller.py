@@ -16,7 +16,7 @@ from pathlib import Path
 from typing import Any, Sequence
 
 import numpy as np
-from PySide6.QtCore import QCoreApplication, QEvent, QObject, QStandardPaths, QThread, Signal
+from PySide6.QtCore import QCoreApplication, QEvent, QObject, QStandardPaths, QThread, Signal, Slot
 
 from gasfilm.analysis.acquisition import AcquisitionLoop
 from gasfilm.analysis.capture import TriggerSettings
@@ -110,7 +110,8 @@ class SessionController(QObject):
         self.state = "idle"
         self._worker: AcquisitionWorker | None = None
         self._worker_thread: QThread | None = None
-        self._jobs: dict[str, tuple[BackgroundJob, QThread]] = {}
+        self._jobs: dict[str, tuple[BackgroundJob, QThread]] = {}  # the running jobs by name
+        self._ending_jobs: list[tuple[BackgroundJob, QThread]] = []  # ended jobs whose threads are winding down
         self._plan: AcquisitionPlan | None = None
         self._armed_setup: SetupState = setup  # the setup of the running acquisition (Play may use another spec)
         self._stream_end_s = 0.0  # session time where the last acquisition into the open session ended
@@ -650,23 +651,42 @@ class SessionController(QObject):
     # --- background jobs -------------------------------------------------------------------------------------------------
 
     def _start_job(self, name: str, work: Any, on_success: Any) -> None:
+        """Run ``work`` as the background job ``name``; ``on_success(result)`` on the GUI thread. The job counts as
+        ended (``job_running`` false, :meth:`job_active` false) as soon as its outcome is handled, not once its relaying
+        thread has also wound down (which waits behind the live view's repaints)."""
         job = BackgroundJob(work, in_process=True)
+        job.setObjectName(name)
         job.progress.connect(lambda fraction, text: self.job_progress.emit(name, fraction, text))
         job.succeeded.connect(on_success)
         job.failed.connect(lambda text: self.message.emit(f"{name}: {text}", "error"))
         job.cancelled.connect(lambda: self.message.emit(f"{name}: cancelled", "info"))
-        job.finished.connect(lambda: self._job_finished(name))
+        for outcome in (job.succeeded, job.failed, job.cancelled, job.finished):  # (after the handlers above)
+            outcome.connect(self._on_job_outcome)
         self._job_started_s[name] = time.monotonic()
+        job.dispatch()
         thread = start_on_thread(job, job.run, self)
+        thread.finished.connect(self._on_job_thread_finished)
         self._jobs[name] = (job, thread)
         self.job_running.emit(name, True)
 
-    def _job_finished(self, name: str) -> None:
-        job = self._jobs.pop(name, None)
-        if job is not None:
-            job[1].wait(5_000)
-            job[1].deleteLater()
-        self.job_running.emit(name, False)
+    @Slot()
+    def _on_job_outcome(self) -> None:
+        """A job's outcome was handled, or its thread returned: it no longer runs; its thread is dropped once ended."""
+        job = self.sender()
+        name = job.objectName()
+        running = self._jobs.get(name)
+        if running is not None and running[0] is job:
+            del self._jobs[name]
+            self._ending_jobs.append(running)
+            self.job_running.emit(name, False)
+
+    @Slot()
+    def _on_job_thread_finished(self) -> None:
+        """An ended job's thread has returned: both are dropped."""
+        thread = self.sender()
+        for ending in [entry for entry in self._ending_jobs if entry[1] is thread]:
+            self._ending_jobs.remove(ending)
+            thread.deleteLater()
 
     def _job_seconds(self, name: str) -> float:
         """Wall time of the job ``name`` so far (or of its last run) in s."""
@@ -828,8 +848,11 @@ class SessionController(QObject):
     def shutdown(self) -> None:
         """Stop acquisition and jobs, store results, close the session (window closing)."""
         self.stop_and_wait()
-        for name, (job, thread) in list(self._jobs.items()):
+        for job, thread in list(self._jobs.values()) + self._ending_jobs:
             job.cancel()
             thread.wait(10_000)
-            self._job_finished(name)
+        for name in list(self._jobs):
+            del self._jobs[name]
+            self.job_running.emit(name, False)
+        self._ending_jobs.clear()
         self.close_session()

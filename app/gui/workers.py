@@ -495,6 +495,27 @@ class BackgroundJob(QObject):
         self._work = work
         self._in_process = in_process
         self._cancel = threading.Event()
+        self._child: _JobProcess | None = None  # the job process once dispatched, and whether the work reached it
+        self._sent = False
+
+    def dispatch(self) -> None:
+        """In-process jobs: hand the work to a job process now, from the caller's (the GUI's) thread, so that it starts
+        at the click and not once the thread that relays its messages gets the interpreter lock (some 10 ms later when
+        the GUI is busy, as when Arm is pressed just after). A failure here is left to :meth:`run`, which reports it."""
+        if not self._in_process or self._child is not None:
+            return
+        try:
+            child = _JOB_PROCESSES.take()
+        except Exception as error:  # (the process could not start: run() tries again and says why)
+            logger.info("job not dispatched from the GUI thread: %s", error)
+            return
+        self._child = child
+        try:
+            child.works.send(self._work)
+        except Exception as error:  # (the work cannot be pickled: run() fails with the reason, and ends the child)
+            logger.info("job not dispatched from the GUI thread: %s", error)
+        else:
+            self._sent = True
 
     def cancel(self) -> None:
         """Thread-safe: the job stops at its next check."""
@@ -502,11 +523,12 @@ class BackgroundJob(QObject):
 
     def _run_in_process(self, report: Report) -> Any:
         """Start the child, relay its progress, return its result (or raise its failure or cancellation)."""
-        child = _JOB_PROCESSES.take()
+        child, sent = self._child or _JOB_PROCESSES.take(), self._sent
         messages, cancel = child.messages, child.cancel
         cancel_sent_s: float | None = None
         try:
-            child.works.send(self._work)
+            if not sent:
+                child.works.send(self._work)
             while True:
                 if self._cancel.is_set() and cancel_sent_s is None:
                     cancel.set()
