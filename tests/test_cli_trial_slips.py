@@ -345,3 +345,20 @@ def test_campaign_refuses_a_by_key_no_session_records_before_computing(tmp_path,
                          "--no-diagnosis", "--workers", 1)
     assert "--by gap_um: no session records this condition" in err and "record: bearing, supply_pressure_mpa" in err
     assert not (out / "campaign.parquet").exists() and not (out / "cache").exists()
+
+
+def test_replay_says_when_the_pretrigger_asked_is_longer_than_the_records_hold(session_path, tmp_path, capsys):
+    """Before: `replay --pretrigger-s 0.3` on records with 10 ms before their trigger printed nothing about it and
+    stored 0.3 s as the new session's pre-trigger: 0.29 s of pulse and ringing that the diagnosis would take for the
+    quiet part measuring the noise."""
+    out_path = tmp_path / "longer-pretrigger.h5"
+    status, out, err = gasfilm(capsys, "replay", session_path, "--pretrigger-s", "0.1", "--out", out_path)
+    assert status == 0, err
+    assert "--pretrigger-s 0.1 s: 3 of 3 records hold less before their trigger" in out
+    with Session.open(out_path, "r") as session:
+        assert session.settings["trigger"]["pretrigger_s"] == pytest.approx(0.01, abs=2e-4)
+    status, out, err = gasfilm(capsys, "replay", session_path, "--pretrigger-s", "0.005", "--json")
+    assert status == 0 and json.loads(out)["pretrigger_note"] is None
+    # a pre-trigger that leaves no record is refused by its own flag, not by --record-s (which was not typed)
+    err = one_line_error(capsys, "replay", session_path, "--pretrigger-s", "0.2")
+    assert err.startswith("gasfilm replay: error: --pretrigger-s: 0.2 s leaves no record") and "0.25 s long" in err

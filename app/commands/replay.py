@@ -85,6 +85,12 @@ def _new_settings(args: argparse.Namespace, source: Any) -> tuple[Any, bool, Any
         # room for the trigger to move later in the pulse by up to one pre-trigger length
         pretrigger_s = args.pretrigger_s if args.pretrigger_s is not None else trigger.pretrigger_s
         new_record_s = record_s - pretrigger_s
+        if args.pretrigger_s is not None and new_record_s <= pretrigger_s:
+            raise SettingError(
+                f"--pretrigger-s: {pretrigger_s:g} s leaves no record: the stored records are {record_s:g} s long and a "
+                f"re-triggered one is a pre-trigger shorter ({new_record_s:.3g} s), which must exceed the pre-trigger; "
+                f"give a shorter --pretrigger-s or a --record-s"
+            )
     trigger = settings_from_flags(TriggerSettings, trigger, {
         "level_n": ("--trigger-n", args.trigger_n),
         "pretrigger_s": ("--pretrigger-s", args.pretrigger_s),
@@ -120,6 +126,26 @@ def _retrigger(hits: list, trigger: Any, sample_rate_hz: float) -> tuple[list, i
         for record in records:
             found.append(replace(record, index=len(found), start_time_s=hit.start_time_s + record.start_time_s))
     return found, silent
+
+
+def _pretrigger_kept(trigger: Any, hits: list, sample_rate_hz: float, flag_given: bool) -> tuple[Any, str | None]:
+    """The trigger settings with the pre-trigger the re-triggered records really hold (a record cannot start before
+    its stored one), and a note when that is markedly shorter than asked (None otherwise). Later steps (the diagnosis measures
+    the noise there) must not take part of the pulse for pre-trigger."""
+    from dataclasses import replace
+
+    if not hits:
+        return trigger, None
+    held_s = min(hit.trigger_index for hit in hits) / sample_rate_hz
+    if held_s >= trigger.pretrigger_s - 0.5 / sample_rate_hz:
+        return trigger, None
+    if held_s >= 0.9 * trigger.pretrigger_s:  # a trigger firing a sample or two earlier is not worth a note
+        return replace(trigger, pretrigger_s=held_s), None
+    asked = f"--pretrigger-s {trigger.pretrigger_s:g} s" if flag_given else f"the pre-trigger of {trigger.pretrigger_s:g} s"
+    short = sum(hit.trigger_index / sample_rate_hz < trigger.pretrigger_s - 0.5 / sample_rate_hz for hit in hits)
+    note = (f"{asked}: {short} of {len(hits)} records hold less before their trigger (shortest {held_s * 1e3:.3g} ms: "
+            f"a record cannot start before the stored one); the result says {held_s * 1e3:.3g} ms of pre-trigger")
+    return replace(trigger, pretrigger_s=held_s), note
 
 
 def _bands(freq_hz: Any, coherence: Any) -> list[dict[str, float]]:
@@ -201,6 +227,8 @@ def _print_summary(summary: dict[str, Any], source: Path, written: str, units: s
           f"{', %d overridden by hand' % summary['overridden'] if summary['overridden'] else ''})")
     if summary["records_without_trigger"]:
         print(f"  records that no longer trigger: {summary['records_without_trigger']}")
+    if summary.get("pretrigger_note"):
+        print(f"  note: {summary['pretrigger_note']}")
     for reason, count in summary["reasons"].items():
         print(f"    {reason}: {count}")
     for reason, count in summary["flagged"].items():
@@ -248,6 +276,7 @@ def run(args: argparse.Namespace) -> int:
         raise SessionError(f"{source.path}: holds no hits to replay")
     trigger, retrigger, validation, window = _new_settings(args, source)
     hits, dropped = _retrigger(source.hits, trigger, source.sample_rate_hz) if retrigger else (source.hits, 0)
+    trigger, pretrigger_note = _pretrigger_kept(trigger, hits, source.sample_rate_hz, args.pretrigger_s is not None)
     verdicts = source.judge(validation, window, hits, None if retrigger else source.verdicts)
     accepted = [hit for hit, verdict in zip(hits, verdicts) if verdict.accepted]
     frf = session_frf(accepted, window) if accepted else None
@@ -273,7 +302,8 @@ def run(args: argparse.Namespace) -> int:
         written = "printed only (add --out SESSION.h5 to keep it as a session)"
     else:
         written = "nothing written (no accepted hits)"
-    summary = {"conditions": conditions, **summarise(frf, verdicts, dropped, hits[0].n_samples if hits else 0)}
+    summary = {"conditions": conditions, **summarise(frf, verdicts, dropped, hits[0].n_samples if hits else 0),
+               "pretrigger_note": pretrigger_note}
     shown = source.path if len(args.source) == 1 else f"{source.path} and {len(args.source) - 1} more files"
     if args.json:
         json.dump({"source": str(shown), "result": written, **summary}, sys.stdout, indent=2)
