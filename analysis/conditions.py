@@ -32,8 +32,12 @@ UNIT_SUFFIXES: dict[str, str] = {
     "um": "µm", "mm": "mm", "m": "m",
     "n": "N", "kg": "kg", "c": "°C", "k": "K",
     "hz": "Hz", "s": "s", "rpm": "rpm", "pct": "%",
-    "l_min": "l/min", "nl_min": "Nl/min",
+    "l_min": "l/min", "nl_min": "Nl/min", "psi": "psi",
 }
+#: Quantities that always have a unit: typed with a number but without a unit suffix, they are refused (stored
+#: sessions that hold one anyway still read, as a label).
+_PHYSICAL_STEMS = ("supply_pressure", "pressure", "gap", "film_thickness", "clearance", "load", "force", "mass",
+                   "temperature", "flow", "speed", "frequency")
 
 _KEY_PATTERN = re.compile(r"[a-z][a-z0-9_]{0,47}")
 MAX_CONDITIONS = 32
@@ -96,6 +100,10 @@ def parse_condition_flags(texts: Iterable[str], flag: str = "--condition") -> Co
         if key in conditions:
             raise SettingError(f"{flag} {text!r}: {key} is given twice")
         conditions[key] = check_condition(key, value, f"{flag} {text!r}")
+        if condition_unit(key) is None and isinstance(conditions[key], float) and key in _PHYSICAL_STEMS:
+            example = next((k for k in STANDARD_CONDITIONS if k.startswith(key + "_")), f"{key}_<unit>")
+            raise SettingError(f"{flag} {text!r}: {key} needs its unit at the end of the name, e.g. {example} "
+                               f"(units: {', '.join(UNIT_SUFFIXES)})")
     if len(conditions) > MAX_CONDITIONS:
         raise SettingError(f"{flag}: {len(conditions)} conditions; at most {MAX_CONDITIONS}")
     return conditions

@@ -54,9 +54,15 @@ def comparable(rows: list[dict]) -> list[dict]:
 def test_condition_flags_parse_and_refuse():
     assert parse_condition_flags(["supply_pressure_mpa=0.4", "gap_um = 10", "bearing=B-17"]) == {
         "supply_pressure_mpa": 0.4, "gap_um": 10.0, "bearing": "B-17"}
+    assert parse_condition_flags(["supply_pressure_psi=60", "run=3"]) == {"supply_pressure_psi": 60.0, "run": 3.0}
+    assert decode_conditions({"conditions": {"gap": 12}}) == {"gap": 12.0}  # an older session still reads
     for bad, words in ((["gap_um=ten"], "must be a number in µm"), (["Gap=1"], "condition name"),
                        (["gap_um"], "KEY=VALUE"), (["gap_um=1", "gap_um=2"], "given twice"),
-                       (["gap_um=nan"], "finite")):
+                       (["gap_um=nan"], "finite"),
+                       # a physical quantity typed as a bare number: the unit was forgotten (new-user trial)
+                       (["supply_pressure=0.4"], "supply_pressure needs its unit at the end of the name, e.g. "
+                                                 "supply_pressure_mpa"),
+                       (["gap=12"], "e.g. gap_um")):
         with pytest.raises(SettingError, match=words):
             parse_condition_flags(bad)
 
