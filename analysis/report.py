@@ -301,6 +301,8 @@ def band_warnings(data: ReportData, band_hz: tuple[float, float]) -> list[str]:
 
 
 def _fits_html(data: ReportData) -> str:
+    from gasfilm.analysis.identification import best_by_bic
+
     if not data.fits:
         return "<p>No fits stored in the session (run <code>gasfilm fit</code> or the GUI's Identify tab).</p>"
     g = STANDARD_GRAVITY_M_S2
@@ -313,14 +315,19 @@ def _fits_html(data: ReportData) -> str:
                      f"{mass_text}. E and E_m: improvement over SD (eq. 35) fitted over the same band.</p>")
         parts.extend(f"<p class='warning'>Warning: {html.escape(warning)}</p>"
                      for warning in band_warnings(data, (low, high)))
+        best = best_by_bic(rows)
         parts.append(_table(
             ("#", "Model", "k (1)", "RMS (g/N)", "E (%)", "Peak error (g/N)", "E_m (%)", "AIC (1)", "BIC (1)"),
             [
                 (row.rank, row.model_name, row.n_parameters, f"{row.rms / g:.4g}", _percent(row.e_percent),
-                 f"{row.peak_error / g:.4g}", _percent(row.e_m_percent), f"{row.aic:.1f}", f"{row.bic:.1f}")
+                 f"{row.peak_error / g:.4g}", _percent(row.e_m_percent), f"{row.aic:.1f}",
+                 f"{row.bic:.1f}{' *' if row is best and len(rows) > 1 else ''}")
                 for row in rows
             ],
         ))
+        if best is not None and len(rows) > 1:
+            parts.append(f"<p>Ranked by RMS; * lowest BIC: {html.escape(best.model_name)}, the model the data "
+                         f"support best.</p>")
     parameter_rows = []
     units_of = {}
     for fit in data.fits:

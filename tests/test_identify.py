@@ -12,6 +12,7 @@ from gasfilm.analysis.identification import (
     FitCancelledError,
     FitResult,
     GapsoSettings,
+    best_by_bic,
     compare_models,
     fit_model,
     format_table2,
@@ -123,6 +124,14 @@ def test_fomgf_rig_frf_ranks_fomgf_with_the_best_at_e_over_80_percent():
     # the nested models: FOMGF contains FOZGF (one arm off) and Maxwell contains Zener
     assert by_name["FOMGF"].rms <= by_name["FOZGF"].rms * (1 + 1e-6)  # to the fitter's convergence tolerance
     assert by_name["Zener"].rms <= by_name["SD"].rms
+    # ranked by RMS, but the best supported model is the lowest BIC, marked and named (before: the GUI called the
+    # lowest RMS 'best (lowest BIC)')
+    best = best_by_bic(rows)
+    assert best.bic == min(row.bic for row in rows)
+    table = format_table2(rows)
+    assert f"* lowest BIC: {best.model_name}" in table
+    assert [line.split()[1] for line in table.splitlines() if line.rstrip().endswith("*")
+            or "*  " in line] == [best.model_name]
 
 
 def test_fit_reports_rms_peak_error_uncertainties_and_round_trips():

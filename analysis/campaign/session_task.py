@@ -104,7 +104,7 @@ def _analyse(path: Path, options: CampaignOptions) -> dict[str, Any]:
     from gasfilm.analysis.conditions import condition_unit, decode_conditions
     from gasfilm.analysis.diagnosis import diagnose, load_recordings
     from gasfilm.analysis.diagnosis.parallel import worker_processes
-    from gasfilm.analysis.identification import compare_models, fit_model
+    from gasfilm.analysis.identification import best_by_bic, compare_models, fit_model
     from gasfilm.analysis.physics.elements import PAPER_MASS_KG, get_model
     from gasfilm.analysis.physics.spec import RigSpec
     from gasfilm.analysis.session import Session
@@ -152,8 +152,9 @@ def _analyse(path: Path, options: CampaignOptions) -> dict[str, Any]:
 
     fits = [fit_model(get_model(name), freq_hz, h1, mass_kg, method=options.method,
                       decay_rate_1_s=frf.decay_rate_1_s, seed=options.seed) for name in options.models]
-    comparison = {entry.model_name: entry for entry in compare_models(fits, freq_hz, h1)}
-    best = min(comparison.values(), key=lambda entry: entry.bic)
+    rows = compare_models(fits, freq_hz, h1)
+    comparison = {entry.model_name: entry for entry in rows}
+    best = best_by_bic(rows)
     row["best_model"] = best.model_name
     row["best_model_rms_m_s2_per_n"] = best.rms
     for fit in fits:

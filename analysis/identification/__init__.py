@@ -9,7 +9,7 @@
 * :mod:`.comparison` — Table 2 (RMS, E, peak error, E_m, AIC, BIC).
 """
 
-from gasfilm.analysis.identification.comparison import ComparisonRow, compare_models, format_table2
+from gasfilm.analysis.identification.comparison import ComparisonRow, best_by_bic, compare_models, format_table2
 from gasfilm.analysis.identification.fitter import DEFAULT_FIT_BAND_HZ, METHODS, default_fit_band_hz, fit_model
 from gasfilm.analysis.identification.gapso import GapsoSettings
 from gasfilm.analysis.identification.problem import FitCancelledError
@@ -22,6 +22,7 @@ __all__ = [
     "FitCancelledError",
     "FitResult",
     "GapsoSettings",
+    "best_by_bic",
     "compare_models",
     "default_fit_band_hz",
     "fit_model",

@@ -23,7 +23,7 @@ from gasfilm.analysis.capture import TriggerSettings
 from gasfilm.analysis.conditions import decode_conditions, parse_condition_table
 from gasfilm.analysis.diagnosis import load_recordings
 from gasfilm.analysis.fit_settings import FitSettings, conflicting_fits
-from gasfilm.analysis.identification import DEFAULT_FIT_BAND_HZ, compare_models
+from gasfilm.analysis.identification import DEFAULT_FIT_BAND_HZ, best_by_bic, compare_models
 from gasfilm.analysis.physics.elements import get_model
 from gasfilm.analysis.physics.laws import played_at
 from gasfilm.analysis.physics.spec import RigSpec
@@ -560,7 +560,8 @@ class SessionController(QObject):
         self.fits_changed.emit()
         self._store_results()
         low, high = self.fit_band_hz
-        best = f"; best (lowest BIC): {self.comparison[0].model_name}" if self.comparison else ""
+        best_row = best_by_bic(self.comparison)
+        best = f"; best (lowest BIC): {best_row.model_name}" if best_row is not None else ""
         count = len(self.fits)
         self.message.emit(
             f"fit finished: {count} model{'s' if count != 1 else ''} fitted in {low:g}–{high:g} Hz in "
