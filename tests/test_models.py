@@ -280,3 +280,39 @@ def test_bad_network_text_is_a_one_line_setting_error(text):
 def test_unknown_model_name_is_a_setting_error():
     with pytest.raises(SettingError, match="unknown"):
         get_model("FOXGF")
+
+
+@pytest.mark.parametrize("name, arms", [
+    ("FOMGF", (("k1", "eta1", "alpha"), ("k2", "eta2", "beta"))),
+    ("Maxwell", (("k1", "eta1"), ("k2", "eta2"))),
+])
+def test_interchangeable_arms_are_named_in_one_order(name, arms):
+    """FOMGF's and Maxwell's two arms give the same film either way round; a fit may land on either, and a
+    campaign's table then swapped columns between sessions. The canonical order: higher fractional order first,
+    then the stiffer spring — the paper's Table 1 is already in it."""
+    from gasfilm.analysis.physics.elements import PAPER_TABLE1
+
+    model = get_model(name)
+    values = dict(PAPER_TABLE1[name])
+    swapped = dict(values)
+    for first, second in zip(*arms):
+        swapped[first], swapped[second] = values[second], values[first]
+    s = 2j * np.pi * np.linspace(20.0, 1000.0, 50)
+    assert np.allclose(model.stiffness(s, values), model.stiffness(s, swapped), rtol=1e-12)
+    assert model.mapping(model.canonical(model.vector(swapped))) == values
+    assert model.mapping(model.canonical(model.vector(values))) == values
+    assert np.array_equal(get_model("FOZGF").canonical([1.0, 2.0, 3.0, 0.5]), [1.0, 2.0, 3.0, 0.5])
+
+
+def test_a_fit_names_the_arms_in_the_canonical_order():
+    from gasfilm.analysis.identification import fit_model
+    from gasfilm.analysis.physics.elements import PAPER_MASS_KG, PAPER_TABLE1
+
+    model = get_model("FOMGF")
+    values = dict(PAPER_TABLE1["FOMGF"])
+    swapped = {**values, "k1": values["k2"], "k2": values["k1"], "eta1": values["eta2"], "eta2": values["eta1"],
+               "alpha": values["beta"], "beta": values["alpha"]}
+    freq_hz = np.linspace(20.0, 1000.0, 200)
+    h = accelerance(model, swapped, freq_hz, PAPER_MASS_KG)
+    fit = fit_model(model, freq_hz, h, PAPER_MASS_KG)
+    assert fit.params["alpha"] >= fit.params["beta"]

@@ -87,6 +87,9 @@ def fit_model(
         mass = float(mass)
     if progress is not None:
         progress(1.0)
+    canonical = film.canonical(params)
+    if not np.array_equal(canonical, params):  # interchangeable arms named in one order (the same film)
+        params, theta = canonical, problem.coords.from_params(canonical, mass)
     at_bound = uncertainty.parameters_at_bounds(problem, theta, params)
     result = _result(problem, method, theta, params, mass, at_bound, started)
     logger.info(

@@ -238,6 +238,25 @@ class Series(_Composite):
         return " -- ".join(_grouped(child) for child in self.children)
 
 
+def _shape(node: Node) -> tuple:
+    """A network's structure without its parameter names: two parallel arms of one shape are interchangeable."""
+    if isinstance(node, _Composite):
+        return (type(node).__name__, tuple(_shape(child) for child in node.children))
+    return (type(node).__name__,)
+
+
+def _arm_sort_names(node: Node) -> tuple[list[str], list[str]]:
+    """An arm's fractional orders and its springs' stiffnesses (parameter names), in reading order."""
+    if isinstance(node, _Composite):
+        parts = [_arm_sort_names(child) for child in node.children]
+        return [n for orders, _ in parts for n in orders], [n for _, springs in parts for n in springs]
+    if isinstance(node, SpringPot):
+        return [node.order], []
+    if isinstance(node, Spring):
+        return [], [node.name]
+    return [], []
+
+
 def _grouped(node: Node) -> str:
     return f"({node.text()})" if isinstance(node, _Composite) else node.text()
 
@@ -258,6 +277,31 @@ class FilmModel:
 
     def __repr__(self) -> str:
         return f"FilmModel({self.name!r}, {self.network.text()!r})"
+
+    def canonical(self, vector: Sequence[float]) -> np.ndarray:
+        """The same film with its interchangeable parallel arms (two arms of one shape, as FOMGF's and Maxwell's) in
+        one order: the higher fractional order first, then the stiffer spring. Either assignment gives the same
+        Z(s); a fitter may land on either, and sessions of a campaign must name the same arm alike."""
+        values = np.array(vector, dtype=float)
+        network = self.network
+        if not isinstance(network, Parallel):
+            return values
+        index = {name: i for i, name in enumerate(self.parameter_names)}
+        shapes: dict[tuple, list[Node]] = {}
+        for child in network.children:
+            shapes.setdefault(_shape(child), []).append(child)
+        for arms in (group for group in shapes.values() if len(group) > 1):
+            slots = [[index[p.name] for p in arm.parameters()] for arm in arms]
+
+            def key(arm: Node) -> tuple[float, ...]:
+                orders, springs = _arm_sort_names(arm)
+                return tuple(-values[index[name]] for name in orders + springs)
+
+            ordered = sorted(arms, key=key)
+            taken = [values[[index[p.name] for p in arm.parameters()]] for arm in ordered]
+            for slot, arm_values in zip(slots, taken):
+                values[slot] = arm_values
+        return values
 
     @property
     def parameter_names(self) -> tuple[str, ...]:
