@@ -362,3 +362,9 @@ def test_replay_says_when_the_pretrigger_asked_is_longer_than_the_records_hold(s
     # a pre-trigger that leaves no record is refused by its own flag, not by --record-s (which was not typed)
     err = one_line_error(capsys, "replay", session_path, "--pretrigger-s", "0.2")
     assert err.startswith("gasfilm replay: error: --pretrigger-s: 0.2 s leaves no record") and "0.25 s long" in err
+
+
+def test_replay_refuses_a_trigger_level_above_every_stored_force_up_front(session_path, capsys):
+    """Before: every record was re-triggered, then 'records that no longer trigger: 3', 'no accepted hits', exit 1."""
+    err = one_line_error(capsys, "replay", session_path, "--trigger-n", "1e5")
+    assert "--trigger-n: 100000 N is above every stored record's force (largest peak" in err

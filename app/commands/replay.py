@@ -275,6 +275,11 @@ def run(args: argparse.Namespace) -> int:
     if not source.hits:
         raise SessionError(f"{source.path}: holds no hits to replay")
     trigger, retrigger, validation, window = _new_settings(args, source)
+    if args.trigger_n is not None:
+        largest_n = max(float(np.max(np.abs(hit.force_n))) for hit in source.hits)
+        if args.trigger_n >= largest_n:
+            raise SettingError(f"--trigger-n: {args.trigger_n:g} N is above every stored record's force (largest "
+                               f"peak {largest_n:.4g} N): no record would trigger")
     hits, dropped = _retrigger(source.hits, trigger, source.sample_rate_hz) if retrigger else (source.hits, 0)
     trigger, pretrigger_note = _pretrigger_kept(trigger, hits, source.sample_rate_hz, args.pretrigger_s is not None)
     verdicts = source.judge(validation, window, hits, None if retrigger else source.verdicts)
