@@ -51,7 +51,9 @@ def test_full_hammer_session_through_the_gui(qtbot, window, tmp_path):
     frf = controller.frf
     inside, outside = window.frf_tab.h1_curve, window.frf_tab.h1_outside_curve  # outside: grey, force too low
     shown_magnitude = np.concatenate((inside.yData, outside.yData))
-    np.testing.assert_allclose(shown_magnitude, np.abs(frf.h1[frf.freq_hz > 0]))
+    np.testing.assert_allclose(shown_magnitude, np.abs(frf.h1[frf.freq_hz > 0]) / 9.80665)  # g/N, as every tab
+    measure_h1 = window.measure_tab.h1_curve, window.measure_tab.h1_outside_curve
+    np.testing.assert_allclose(np.concatenate([curve.yData for curve in measure_h1]), shown_magnitude)
     shown_freq, shown_coherence = window.frf_tab.coherence_curve.xData, window.frf_tab.coherence_curve.yData
     band = (shown_freq >= 20) & (shown_freq <= 800)
     assert np.mean(shown_coherence[band]) > 0.9

@@ -22,7 +22,8 @@ from gasfilm.app.gui.widgets import (
 )
 from gasfilm.drivers.interface import STANDARD_GRAVITY_M_S2
 
-UNITS = {"(m/s²)/N": 1.0, "g/N": 1.0 / STANDARD_GRAVITY_M_S2}
+#: Accelerance units offered, the first the default: g/N as the Identify and Diagnose tabs and the command line show it
+UNITS = {"g/N": 1.0 / STANDARD_GRAVITY_M_S2, "(m/s²)/N": 1.0}
 UNCERTAINTY = {"from coherence (Bendat & Piersol)": "h1_std_coherence", "hit-to-hit scatter": "h1_std_scatter"}
 
 
@@ -65,10 +66,10 @@ class FrfTab(QWidget):
         controls.addStretch(1)
         controls.addWidget(self.summary)
 
-        self.magnitude_plot = make_plot("Accelerance magnitude |H|", ("|H|", "(m/s²)/N"), log_y=True)
+        self.magnitude_plot = make_plot("Accelerance magnitude |H|", ("|H|", "g/N"), log_y=True)
         self.phase_plot = make_plot("Phase", ("Phase", "°"))
-        self.real_plot = make_plot("Real part", ("Re H", "(m/s²)/N"))
-        self.imag_plot = make_plot("Imaginary part", ("Im H", "(m/s²)/N"))
+        self.real_plot = make_plot("Real part", ("Re H", "g/N"))
+        self.imag_plot = make_plot("Imaginary part", ("Im H", "g/N"))
         self.coherence_plot = make_plot("Coherence", ("γ²", ""))
         self.coherence_plot.setYRange(0, 1.05)
         self.phase_plot.setYRange(-90, 270)

@@ -45,7 +45,7 @@ from gasfilm.app.gui.widgets import (
 )
 from gasfilm.app.gui.workers import HitEntry
 from gasfilm.drivers.errors import GasfilmError
-from gasfilm.drivers.interface import ChannelKind
+from gasfilm.drivers.interface import STANDARD_GRAVITY_M_S2, ChannelKind
 
 REDRAW_INTERVAL_MS = 40  # 25 frames per second
 #: While a fit or diagnosis runs, the live view draws 5 frames per second: the drawing shares the Python interpreter
@@ -251,7 +251,7 @@ class MeasureTab(QWidget):
             widget.setSizePolicy(policy)
         hits_layout.addWidget(self.hit_views, 3)
 
-        self.h1_plot = make_plot("Running H1", ("|H1|", "(m/s²)/N"), log_y=True)
+        self.h1_plot = make_plot("Running H1", ("|H1|", "g/N"), log_y=True)  # as every other tab and the CLI
         self.coherence_plot = make_plot("Coherence", ("γ²", ""), legend=False)
         self.coherence_plot.setXLink(self.h1_plot)
         self.coherence_plot.setYRange(0, 1.05)
@@ -549,7 +549,7 @@ class MeasureTab(QWidget):
             keep = frf.freq_hz > 0
             freq = frf.freq_hz[keep]
             low, high = usable_band_hz(frf.freq_hz, frf.gff, self.controller.setup.usable_drop_db)
-            magnitude = np.abs(frf.h1[keep])
+            magnitude = np.abs(frf.h1[keep]) / STANDARD_GRAVITY_M_S2
             inside = freq <= high
             self.h1_curve.setData(freq[inside], magnitude[inside])
             self.h1_outside_curve.setData(freq[~inside], magnitude[~inside])
