@@ -442,3 +442,17 @@ def test_a_force_pulse_without_a_response_leaves_its_hit_out(recorded):
     assert not diagnosis.findings and not diagnosis.unexplained
     # every plain hit responds
     assert "no response" not in {note.kind for note in hit_spectra(recordings.records, recordings.sample_rate_hz).quality}
+
+
+def test_narrowband_lines_in_the_quiet_records_are_read_between_the_bins():
+    """Round 9 of the red team: a fan at 46.3 Hz (and its 2×) in 0.25 s quiet tails (4 Hz bins) was reported 'near 48,
+    92 Hz'. The vertex of the log-power parabola puts each line within a fraction of a bin."""
+    from gasfilm.analysis.diagnosis.measurement import _narrowband_lines_hz
+
+    rate_hz, samples = 12_800.0, 3200
+    time_s = np.arange(samples) / rate_hz
+    rng = np.random.default_rng(4)
+    quiet = np.array([0.3 * np.sin(2 * np.pi * 46.3 * time_s + phase) + 0.1 * np.sin(2 * np.pi * 92.6 * time_s + phase)
+                      + 1e-3 * rng.standard_normal(samples) for phase in rng.uniform(0, 2 * np.pi, 8)])
+    lines = _narrowband_lines_hz(quiet, rate_hz, [])
+    assert len(lines) == 2 and abs(lines[0] - 46.3) < 0.6 and abs(lines[1] - 92.6) < 0.6, lines

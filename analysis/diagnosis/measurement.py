@@ -902,9 +902,10 @@ def hit_spectra(
         if vibration:
             quality.append(QualityNote(
                 "floor vibration",
-                f"narrowband vibration near {', '.join(f'{f:.0f}' for f in vibration)} Hz in the quiet records, "
-                f"uncorrelated with the hammer: its leakage through the windows is part of the noise model — not "
-                f"physics", band_hz=(min(vibration), max(vibration))))
+                f"narrowband vibration or interference near {', '.join(f'{f:.0f}' for f in vibration)} Hz in the "
+                f"quiet records, uncorrelated with the hammer (floor vibration, a machine running on or near the rig, "
+                f"or electrical pick-up): its leakage through the windows is part of the noise model — not physics",
+                band_hz=(min(vibration), max(vibration))))
         # the replayed response carries the recorded force's noise through the whole record: same window as the
         # response; a line in the noise leaks through that window beyond its own frequency
         window_row = exponential[0]
@@ -1310,8 +1311,18 @@ def _narrowband_lines_hz(quiet: np.ndarray, sample_rate_hz: float, mains_hz: lis
     peaks, _ = scipy.signal.find_peaks(periodogram / np.maximum(floor, 1e-300), height=30.0)
     # a line must stand clear of DC: within the first bins a slow settling or drift (an offset decaying through the AC
     # coupling) looks like a peak against the median filter's zero-padded edge
-    return [float(freq_hz[p]) for p in peaks if p >= MIN_LINE_BIN
+    kept = [p for p in peaks if p >= MIN_LINE_BIN and p + 1 < len(periodogram)
             and all(abs(freq_hz[p] - m) > resolution_hz for m in mains_hz)]
+    # between the bins: the vertex of a parabola through the log-power of the peak bin and its neighbours (a short
+    # quiet tail has bins of several Hz; a 46 Hz line read 48 Hz)
+    log_power = np.log(periodogram + 1e-300)
+    lines = []
+    for p in kept:
+        below, at, above = log_power[p - 1], log_power[p], log_power[p + 1]
+        curvature = below - 2 * at + above
+        offset = 0.5 * (below - above) / curvature if curvature < 0 else 0.0
+        lines.append(float((p + np.clip(offset, -0.5, 0.5)) * (freq_hz[1] - freq_hz[0])))
+    return lines
 
 
 def coarsely_quantised_response(records: np.ndarray, step: float | None = None) -> bool:
