@@ -456,3 +456,18 @@ def test_narrowband_lines_in_the_quiet_records_are_read_between_the_bins():
                       + 1e-3 * rng.standard_normal(samples) for phase in rng.uniform(0, 2 * np.pi, 8)])
     lines = _narrowband_lines_hz(quiet, rate_hz, [])
     assert len(lines) == 2 and abs(lines[0] - 46.3) < 0.6 and abs(lines[1] - 92.6) < 0.6, lines
+
+
+def test_a_stuck_converter_bit_is_named_and_whole_codes_without_one_are_not():
+    """Round 9 of the red team: bit 8 of the response's 24-bit codes stuck at 1 was 'a localised peak/dip near
+    198 Hz' and, in another draw, 'changing with the hit level' — with no word of the converter."""
+    from gasfilm.analysis.diagnosis.measurement import stuck_bits
+
+    step = 5.0 / 2**23 / 0.0102  # 24 bits on ±5 V at 10.2 mV/(m/s²)
+    rng = np.random.default_rng(2)
+    response = np.sin(np.linspace(0, 60, 20_000)) * np.exp(-np.linspace(0, 5, 20_000)) * 40.0
+    codes = np.round((response + 1e-3 * rng.standard_normal(response.size)) / step).astype(np.int64)
+    assert stuck_bits(codes * step, step) == []
+    assert stuck_bits((codes | (1 << 8)) * step, step) == [(8, 1)]
+    assert stuck_bits((codes & ~(1 << 3)) * step, step) == [(3, 0)]
+    assert stuck_bits(np.round(response, 3), step) == []  # not whole codes of that step: nothing said

@@ -642,6 +642,17 @@ def hit_spectra(
     response_step = steps[1] if coarse_response else 0.0
     response_offset = (steps[1] * float(np.angle(np.mean(np.exp(2j * np.pi * records[:, 1] / steps[1])))) / (2 * np.pi)
                        if coarse_response else 0.0)
+    for channel, (name, unit) in enumerate((("force", "N"), ("response", "m/s²"))):
+        stuck = stuck_bits(records[:, channel], steps[channel]) if rounding[channel] is None else []
+        if stuck:
+            bits = ", ".join(f"bit {bit} always {value}" for bit, value in stuck)
+            worst = max(2**bit for bit, _ in stuck)
+            quality.append(QualityNote(
+                "stuck bit",
+                f"the {name} records' converter codes (steps of {steps[channel]:.3g} {unit}) have {bits} while the "
+                f"codes around them change: a stuck bit of the converter or the exporter, which moves samples by up "
+                f"to {worst} steps ({worst * steps[channel]:.3g} {unit}) — a fault of the measurement chain, not "
+                f"physics; what it distorts is left unexplained"))
     double_hits, clipped_hits, wrapped_hits = [], [], []
     for index, (record, (start, peak, end)) in enumerate(zip(records, extents)):
         after = record[0, end + 1 + pulse_samples :]
@@ -1333,6 +1344,26 @@ def coarsely_quantised_response(records: np.ndarray, step: float | None = None) 
     ending = records[:, 1, -max(records.shape[-1] // 10, 2):]
     return bool(step > 0 and np.abs(records[:, 1]).max() / step < COARSE_LEVELS
                 and float(np.median(np.std(np.diff(ending, axis=1), axis=1))) / np.sqrt(2) < step)
+
+
+def stuck_bits(records: np.ndarray, step: float) -> list[tuple[int, int]]:
+    """Bits of a channel's converter codes (``records`` / ``step``, when they are whole numbers) that never change
+    although the codes span far more than that bit: (bit, its value) pairs, lowest first; [] for data that are not
+    whole codes (floating-point or decimal exports)."""
+    if not step > 0:
+        return []
+    scaled = records.ravel() / step
+    codes = np.round(scaled)
+    if np.max(np.abs(scaled - codes)) > 0.05 or not np.all(np.abs(codes) < 2**40):
+        return []
+    codes = codes.astype(np.int64)
+    span = int(codes.max() - codes.min())
+    stuck = []
+    for bit in range(0, max(span.bit_length() - 3, 0)):  # a bit the codes cross at least 4 times over their span
+        share = float(np.mean((codes >> bit) & 1))
+        if share in (0.0, 1.0):
+            stuck.append((bit, int(share)))
+    return stuck
 
 
 def _quantisation_step(records: np.ndarray) -> float:
