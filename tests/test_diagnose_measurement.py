@@ -203,6 +203,10 @@ def test_a_level_off_by_g_is_said_and_a_per_hit_gain_is_told_from_a_change_of_sh
     notes = _level_note(evidence_for(hit_spectra(in_g, recordings.sample_rate_hz), spec), spec)
     assert notes and "ratio of g to m/s²" in notes[0].message
     assert not _level_note(evidence_for(hit_spectra(recordings.records, recordings.sample_rate_hz), spec), spec)
+    in_lbf = recordings.records.copy()  # a force recorded in lbf and read as N (red team round 9): 4.45× high
+    in_lbf[:, 0] /= 4.4482216
+    notes = _level_note(evidence_for(hit_spectra(in_lbf, recordings.sample_rate_hz), spec), spec)
+    assert notes and "ratio of a pound-force to a newton" in notes[0].message
     velocity = recordings.records.copy()  # a vibrometer's velocity (m/s) recorded as m/s²: the FRF goes as 1/f
     velocity[:, 1] = np.cumsum(velocity[:, 1], axis=-1) / recordings.sample_rate_hz
     velocity[:, 1] -= velocity[:, 1, :1]

@@ -1171,6 +1171,15 @@ RATIO_SLOPES = ((-1.0, "a velocity recorded as an acceleration (a vibrometer's o
 RATIO_SLOPE_TOLERANCE = 0.2
 
 
+#: Level ratios that are a unit mixed up, and what each would be; matched within :data:`UNIT_FACTOR_TOLERANCE`.
+UNIT_FACTORS = (
+    (STANDARD_GRAVITY_M_S2, "the ratio of g to m/s² (a sensitivity entered per g as per m/s², or the reverse)"),
+    (4.4482216, "the ratio of a pound-force to a newton (a force recorded in lbf and read as N, or the reverse)"),
+    (1000.0, "a factor of 1000 (mV taken for V, or a sensitivity per mN or per mm/s² taken per N or per m/s²)"),
+)
+UNIT_FACTOR_TOLERANCE = 0.03
+
+
 def _level_note(evidence: Evidence, spec: RigSpec) -> list[QualityNote]:
     """A note when the measured FRF's level is far from the given spec's over most of the band (the median ratio of
     magnitudes), or their ratio rises or falls with frequency as f or 1/f would: beyond what a film or a mass change
@@ -1183,8 +1192,8 @@ def _level_note(evidence: Evidence, spec: RigSpec) -> list[QualityNote]:
     if 1 / LEVEL_RATIO_NOTE <= ratio <= LEVEL_RATIO_NOTE and not quantity:
         return []
     factor = max(ratio, 1 / ratio)
-    units = (f"; {factor:.2f}× is the ratio of g to m/s² (a sensitivity entered per g as per m/s², or the reverse)"
-             if abs(factor / STANDARD_GRAVITY_M_S2 - 1) < 0.05 else "")
+    units = next((f"; {factor:.3g}× is {words}" for unit_factor, words in UNIT_FACTORS
+                  if abs(factor / unit_factor - 1) < UNIT_FACTOR_TOLERANCE), "")
     if quantity:
         units += f"; the ratio goes as f^{slope:.2f} across the band: {quantity}"
     return [QualityNote(
