@@ -272,6 +272,37 @@ def test_writer_killed_without_closing_leaves_a_readable_appendable_session(tmp_
         np.testing.assert_array_equal(session.accepted_records(), np.stack([hits[i].data for i in (0, 2, 3)]))
 
 
+@pytest.mark.parametrize("writes", ["", "session.write_fit('Zener', {'k1': 2.0}); session.add_diagnosis({'verdict': 'consistent'})"])
+def test_a_viewer_killed_keeps_the_stored_results_and_the_status(tmp_path, writes):
+    """New-user trial: the GUI opens a session for writing just to view it; killed (kill -9, or Ctrl-C ignored and
+    then killed), the file was left open for writing outside SWMR mode, which HDF5 cannot read at all — the next
+    command rebuilt the session from its journal and every stored FRF, fit and diagnosis was gone, the session marked
+    'interrupted'. Opened for writing, a session now stays readable on disk after every change."""
+    path = tmp_path / "viewed.h5"
+    with new_session(path) as session:
+        for hit in synthetic_hits(2):
+            session.append_hit(hit, Verdict(True))
+        session.write_fit("SD", {"k": 1.0})
+        session.add_diagnosis({"verdict": "missing physics"})
+    script = textwrap.dedent(
+        f"""
+        import os, signal
+        from gasfilm.analysis.session import Session
+        session = Session.open({str(path)!r}, "a")
+        {writes}
+        os.kill(os.getpid(), signal.SIGKILL)
+        """
+    )
+    result = subprocess.run([sys.executable, "-c", script], capture_output=True, timeout=60)
+    assert result.returncode == -9, result.stderr.decode()
+    fits = ["SD", "Zener"] if writes else ["SD"]
+    for mode in ("r", "a", "r"):
+        with Session.open(path, mode) as session:
+            assert session.result_names("fits") == fits and session.hit_count == 2
+            assert len(session.result_names("diagnoses")) == (3 if writes else 2)  # runs and 'latest'
+            assert session.status == "complete"
+
+
 def test_live_session_can_be_read_but_not_taken_over(tmp_path):
     path = tmp_path / "live.h5"
     script = textwrap.dedent(

@@ -206,9 +206,10 @@ _STATUS_OF_A_LEFT_JOURNAL = ("", "")
 
 
 def _rebuilt_status(salvage: h5py.File | None, closed: bool, content: JournalContent) -> tuple[str, str] | None:
-    """The status of a session rebuilt from a journal its writer left: the old file's when that was closed as
-    complete or aborted (the journal outlived a clean close), else "interrupted"."""
-    if closed and salvage is not None and salvage.attrs.get("status") in ("complete", "aborted"):
+    """The status of a session rebuilt from a journal its writer left: the old file's when that says complete or
+    aborted — the journal outlived a clean close, or its writer only viewed the session or stored results (a hit or
+    a verdict written would have set "recording" first) — else "interrupted"."""
+    if salvage is not None and salvage.attrs.get("status") in ("complete", "aborted"):
         return None
     return ("interrupted", f"the recording process ended without closing the session; {content.hit_count} hits "
                            f"rebuilt from its journal")
@@ -592,6 +593,8 @@ class Session:
                     f"{content.hit_count} hits are safe in {journal_path(path).name}"
                 ) from None
             session = cls(path, file, lock, recovered=status is not None)
+            with session._writing("the session's open state"):
+                session._settled()  # (a viewer killed now leaves a readable file, its results kept)
             if status is not None:
                 logger.warning("%s: rebuilt before writing (status %s: %s)", path, session.status,
                                session.status_reason)
@@ -822,12 +825,21 @@ class Session:
                 raise failure
             self._file = open_h5(self.path, "a")
 
+    def _settled(self) -> None:
+        """After a change of groups or attributes: flush and enter SWMR mode, so that the file on disk stays readable
+        (and its results salvageable) if this process is killed before it closes the file; a file left open for
+        writing outside SWMR mode cannot be read at all, and rebuilding the session from its journal then lost every
+        stored FRF, fit and diagnosis. The status is left as it is."""
+        self._file.flush()
+        if not self._file.swmr_mode:
+            self._file.swmr_mode = True
+
     def _appending(self) -> None:
         """Enter SWMR mode: from now on the file on disk is consistent after every flush."""
         self._require_writable()
+        if self._file.attrs["status"] != "recording":  # (a session opened for writing is already in SWMR mode)
+            self._set_status("recording", "")
         if not self._file.swmr_mode:
-            if self._file.attrs["status"] != "recording":
-                self._set_status("recording", "")
             self._file.flush()
             self._file.swmr_mode = True
 
@@ -919,7 +931,7 @@ class Session:
             self._structural()
             for key, value in encoded.items():
                 self._group("settings").attrs[key] = value
-            self._file.flush()
+            self._settled()
 
     # ----- hits ---------------------------------------------------------------------------------------------------
 
@@ -1142,8 +1154,8 @@ class Session:
             group = parent.create_group(name)
             write_mapping(group, values)
             group.attrs["written_utc"] = utc_now()
-            self._file.flush()
             del parent, group
+            self._settled()
 
     def _read_result(self, kind: str, name: str) -> dict[str, Any]:
         if name not in self._group(kind):
@@ -1239,8 +1251,8 @@ class Session:
             write_mapping(group, values)
             group.attrs["written_utc"] = utc_now()
             parent[LATEST_DIAGNOSIS] = h5py.SoftLink(f"{parent.name}/{name}")
-            self._file.flush()
             del parent, group
+            self._settled()
         return name
 
     @staticmethod
