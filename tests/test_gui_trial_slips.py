@@ -66,3 +66,34 @@ def test_a_gui_diagnosis_is_kept_beside_the_earlier_ones_and_stored_once(qtbot, 
         assert runs == ["run-001", "run-002"]
         assert session.read_diagnosis("run-001")["options"]["mass_kg"] == 25.0  # the command line's, kept
         assert session.read_diagnosis("latest")["options"]["command"] == "GUI"
+
+
+def test_ctrl_c_in_the_terminal_closes_the_gui_cleanly(tmp_path):
+    """New-user trial: Ctrl-C printed KeyboardInterrupt tracebacks (or nothing) and the window kept running, so it
+    was killed — which then cost the session its results. SIGINT now quits like SIGTERM: the session closed."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    session = tmp_path / "viewed.h5"
+    from gasfilm.app.cli import main
+
+    assert main(["acquire", *FAST_SIM, "--out", str(session), "--hits", "2", "--seed", "3"]) == 0
+    environment = {**os.environ, "QT_QPA_PLATFORM": "offscreen", "HOME": str(tmp_path),
+                   "XDG_CONFIG_HOME": str(tmp_path / "config")}
+    process = subprocess.Popen([sys.executable, "-m", "gasfilm.app.cli", "gui", "--session", str(session)],
+                               env=environment, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    time.sleep(6)  # the window is up and the session open
+    assert process.poll() is None, process.communicate()
+    process.send_signal(signal.SIGINT)
+    _, err = process.communicate(timeout=60)
+    assert process.returncode == 0 and "Traceback" not in err, err
+    with Session.open(session) as reopened:
+        assert reopened.status == "complete" and not reopened.recovered
+
+
+def test_gui_refuses_a_session_that_is_not_one_before_opening(tmp_path, capsys):
+    status, out, err = gasfilm(capsys, "gui", "--session", tmp_path / "nosuch.h5")
+    assert status == 2 and err.strip() == f"gasfilm gui: error: {tmp_path / 'nosuch.h5'}: no such session file"

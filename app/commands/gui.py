@@ -32,6 +32,11 @@ def missing_display(environ: Mapping[str, str], platform: str) -> str | None:
 
 
 def run(args: argparse.Namespace) -> int:
+    if args.session is not None:  # a mistyped session is said here, in one line, not in a window after it opens
+        from gasfilm.app.commands.common import check_inputs
+
+        check_inputs([args.session], suffixes=(), what="a session (HDF5); a UFF file becomes one with "
+                                                      "`gasfilm replay FILE.uff --out S.h5`")
     problem = missing_display(os.environ, sys.platform)
     if problem:
         raise SettingError(problem)

@@ -270,7 +270,7 @@ class MainWindow(QMainWindow):
         return clicked in (accept, reject, keep)
 
     def close_on_signal(self, signal_number: int) -> None:
-        """SIGTERM or SIGHUP (``kill``, a closed terminal, a logout): quit like *Quit*, without asking — hits that
+        """SIGTERM, SIGHUP or SIGINT (``kill``, a closed terminal, a logout, Ctrl-C): quit like *Quit*, without asking — hits that
         wait for a decision stay undecided (stored as not accepted) — and close the session cleanly."""
         logger.warning("signal %d: closing the window and the session", signal_number)
         self._closing_on_signal = True
@@ -302,7 +302,7 @@ def run_gui(device: str | None = None, session: str | Path | None = None) -> int
         window.setup_tab.set_state(state)
     if session:
         window.controller.open_session(session)
-    for number in (signal.SIGTERM, signal.SIGHUP):
+    for number in (signal.SIGTERM, signal.SIGHUP, signal.SIGINT):  # Ctrl-C in the terminal quits the same way
         signal.signal(number, lambda received, _frame: QTimer.singleShot(0, lambda: window.close_on_signal(received)))
     heartbeat = QTimer(window)  # Python runs signal handlers only between bytecodes: wake it while Qt waits
     heartbeat.timeout.connect(lambda: None)
