@@ -13,12 +13,14 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import difflib
 import importlib
 import logging
 import os
+import re
 import sys
 import warnings
-from typing import Iterator, Sequence
+from typing import Iterator, NoReturn, Sequence
 
 from gasfilm.drivers.errors import GasfilmError
 
@@ -52,8 +54,29 @@ class _VersionAction(argparse.Action):
         parser.exit()
 
 
+class _OneLineParser(argparse.ArgumentParser):
+    """A parser whose usage errors are one line (bad input gets one line, as every other refusal): the message, the
+    nearest flag for a mistyped one, and where the flags are listed. Its sub-commands' parsers are of this class too."""
+
+    def error(self, message: str) -> NoReturn:
+        hint = ""
+        unknown = re.fullmatch(r"unrecognized arguments: (.*)", message)
+        if unknown:
+            typed = next((word.split("=")[0] for word in unknown.group(1).split() if word.startswith("--")), None)
+            flags = [flag for flag in self._option_string_actions if flag.startswith("--")]
+            close = difflib.get_close_matches(typed, flags, n=1, cutoff=0.6) if typed else []
+            if close:
+                hint = f"; did you mean {close[0]}?"
+        choice = re.search(r"invalid choice: '([^']*)' \(choose from (.*)\)", message)
+        if choice:
+            close = difflib.get_close_matches(choice.group(1), re.findall(r"'([^']*)'", choice.group(2)), n=1)
+            hint = f"; did you mean '{close[0]}'?" if close else ""
+        listed = "commands" if self.prog == "gasfilm" else "flags"
+        self.exit(2, f"{self.prog}: error: {message}{hint} (`{self.prog} --help` lists the {listed})\n")
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = _OneLineParser(
         prog="gasfilm",
         description="Impact-hammer testing of air-bearing gas films: acquire, FRF, identify, diagnose.",
     )

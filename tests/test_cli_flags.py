@@ -51,12 +51,24 @@ def test_pretrigger_message_names_both_flags(tmp_path, capsys):
     assert status == 2 and "--pretrigger-s" in err and "--record-s" in err and "record_s" not in err, err
 
 
-def test_a_typo_prints_the_commands_own_usage(capsys):
+@pytest.mark.parametrize("argv, line", [
+    (["acquire", "--out", "x.h5", "--hitz", "3"],
+     "gasfilm acquire: error: unrecognized arguments: --hitz 3; did you mean --hits? (`gasfilm acquire --help` lists "
+     "the flags)"),
+    (["acquire", "--out", "x.h5", "--hits", "three"],
+     "gasfilm acquire: error: argument --hits: invalid int value: 'three' (`gasfilm acquire --help` lists the flags)"),
+    (["fitt"], "gasfilm: error: argument COMMAND: invalid choice: 'fitt' (choose from"),
+])
+def test_a_usage_error_is_one_line_with_the_nearest_flag(capsys, argv, line):
+    """New-user trial, round 3: every usage error printed the whole usage block (15+ lines); one line now, as every
+    other refusal, with the nearest flag or command for a typo."""
     with pytest.raises(SystemExit) as stop:
-        cli.main(["acquire", "--out", "x.h5", "--hitz", "3"])
+        cli.main(argv)
     assert stop.value.code == 2
     err = capsys.readouterr().err
-    assert err.startswith("usage: gasfilm acquire") and "unrecognized arguments: --hitz 3" in err, err
+    assert err.count("\n") == 1 and err.startswith(line), err
+    if argv == ["fitt"]:
+        assert "did you mean 'fit'?" in err
 
 
 def test_replay_that_gives_no_frf_exits_non_zero(tmp_path, capsys):
@@ -66,8 +78,8 @@ def test_replay_that_gives_no_frf_exits_non_zero(tmp_path, capsys):
     assert status == 2 and err.startswith("gasfilm replay: error: --trigger-n") and "level_n" not in err, err
     status, out, _ = gasfilm(capsys, "replay", path, "--min-force-snr", 1e12, "--json")
     assert status == 1 and json.loads(out)["accepted"] == 0
-    status, out, _ = gasfilm(capsys, "replay", path, "--trigger-n", 1e6)  # no record triggers any more
-    assert status == 1 and "no accepted hits" in out
+    status, _, err = gasfilm(capsys, "replay", path, "--trigger-n", 1e6)  # no record would trigger: said up front
+    assert status == 2 and "above every stored record's force" in err
     log = path.with_suffix(".log").read_text()
     assert "recording into" in log and "3 accepted" in log  # acquire's log next to the session
 
