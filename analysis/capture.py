@@ -147,7 +147,9 @@ class ImpactCapture:
             self._sign = -1.0
         # In sign-normalised force (rising: f, falling: -f) the trigger fires at >= fire and arms at < arm.
         self._fire_level = self._sign * settings.level_n
-        self._arm_level = self._fire_level - settings.hysteresis_n
+        # re-armed below the level less the hysteresis, never less than half the level: a level under the hysteresis
+        # (2 N against 5 N) would otherwise wait for a force of -3 N, which an AC-coupled quiet hammer never reaches
+        self._arm_level = self._fire_level - min(settings.hysteresis_n, 0.5 * abs(settings.level_n))
         self._capacity = 2 * self.record_samples
         self.incomplete_at_end = 0
         self._reset_stream()

@@ -37,7 +37,7 @@ def expected_triggers(force: np.ndarray, settings: TriggerSettings = SETTINGS) -
         if i < next_allowed:
             continue
         if not armed:
-            armed = value < settings.level_n - settings.hysteresis_n
+            armed = value < settings.level_n - min(settings.hysteresis_n, 0.5 * settings.level_n)
             if not armed:
                 continue
         if value >= settings.level_n:
@@ -195,3 +195,14 @@ def test_bad_chunk_shape_and_channel_are_one_line_errors():
         capture.feed(np.zeros((2, 10)), np.zeros((2, 3), bool))
     with pytest.raises(SettingError, match="response_channel"):
         ImpactCapture(SETTINGS, FS_HZ, channel_count=2, response_channel=2)
+
+
+def test_a_level_below_the_hysteresis_still_triggers():
+    """New-user trial: `acquire --trigger-n 2` never fired (hits of 200 N): with the 5 N hysteresis the trigger waited
+    for the force to fall below -3 N before arming. The hysteresis used is at most half the level."""
+    stream = stream_with_hits([2000, 9000])
+    low = TriggerSettings(level_n=2.0, hysteresis_n=5.0, pretrigger_s=0.001, record_s=0.05)
+    records, _ = capture_all(stream, [500], low)
+    assert [record.start_time_s + record.trigger_index / FS_HZ for record in records] == pytest.approx(
+        [trigger / FS_HZ for trigger in expected_triggers(stream[0], low)])
+    assert len(records) == 2
