@@ -368,3 +368,10 @@ def test_replay_refuses_a_trigger_level_above_every_stored_force_up_front(sessio
     """Before: every record was re-triggered, then 'records that no longer trigger: 3', 'no accepted hits', exit 1."""
     err = one_line_error(capsys, "replay", session_path, "--trigger-n", "1e5")
     assert "--trigger-n: 100000 N is above every stored record's force (largest peak" in err
+
+
+def test_acquire_out_dot_is_called_a_folder(tmp_path, capsys, monkeypatch):
+    """New-user trial, round 3: `acquire --out .` was 'internal error: ValueError: PosixPath('.') has an empty name'."""
+    monkeypatch.chdir(tmp_path)
+    err = one_line_error(capsys, "acquire", *FAST_SIM, "--out", ".", "--hits", "1")
+    assert "--out .: is a folder; name the session file in it" in err

@@ -313,6 +313,7 @@ def _stream(device: Any, synchronous: bool) -> Iterator[tuple[Any, Any, int]]:
 
 
 def run(args: argparse.Namespace) -> int:
+    check_session_path(args.out, "--out")  # (before its log is named after it: `--out .` has no name to take)
     handler = _attach_log(args.out)
     try:
         return _record(args)
