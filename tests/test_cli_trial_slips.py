@@ -375,3 +375,21 @@ def test_acquire_out_dot_is_called_a_folder(tmp_path, capsys, monkeypatch):
     monkeypatch.chdir(tmp_path)
     err = one_line_error(capsys, "acquire", *FAST_SIM, "--out", ".", "--hits", "1")
     assert "--out .: is a folder; name the session file in it" in err
+
+
+def test_diagnoses_of_two_sessions_without_out_go_to_their_own_folders(session_path, tmp_path, capsys, monkeypatch):
+    """New-user trial, round 3: `diagnose g.h5` then `diagnose s1.h5` was refused with '--out out/diagnosis/
+    improved-rig.toml: exists already' — a flag nobody typed — and the --overwrite it suggested would have destroyed
+    the first session's results."""
+    import shutil
+
+    monkeypatch.chdir(tmp_path)
+    first, other = tmp_path / "first.h5", tmp_path / "other.h5"
+    shutil.copy(session_path, first)  # (the module's session stays as it is)
+    shutil.copy(session_path, other)
+    for source in (first, other):
+        status, out, err = gasfilm(capsys, "diagnose", source)
+        assert status == 0, err
+        assert (tmp_path / "out" / "diagnosis" / source.stem / "improved-rig.toml").is_file()
+    err = one_line_error(capsys, "diagnose", other)
+    assert f"out/diagnosis/other: holds an earlier diagnosis of other.h5 (its default folder)" in err and "--out " in err

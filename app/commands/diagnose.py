@@ -17,6 +17,10 @@ from pathlib import Path
 from gasfilm.app.commands.common import check_inputs, check_output_folder
 from gasfilm.drivers.errors import GasfilmError, SettingError
 
+#: Where a diagnosis's files go without --out: a folder per recording below it.
+DEFAULT_OUT_ROOT = Path("out/diagnosis")
+
+
 def register(subparsers: argparse._SubParsersAction) -> None:
     parser = subparsers.add_parser(
         "diagnose",
@@ -30,8 +34,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                                                    "the mass line read off the FRF)")
     parser.add_argument("--band", help="analysis band LO:HI in Hz (default: where the hammer excites, ≤ 0.4 fs)")
     parser.add_argument("--json", action="store_true", help="print one JSON object instead of the report")
-    parser.add_argument("--out", type=Path, default=Path("out/diagnosis"),
-                        help="folder for the improved spec and the figures (default out/diagnosis)")
+    parser.add_argument("--out", type=Path,
+                        help="folder for the improved spec and the figures (default out/diagnosis/NAME, NAME the "
+                             "recording's file name without its suffix)")
     parser.add_argument("--overwrite", action="store_true",
                         help="replace an improved spec or figures in --out (and remove an earlier run's figure this "
                              "run does not draw)")
@@ -62,8 +67,17 @@ def run(args: argparse.Namespace) -> int:
     band = _band(args.band)
     check_inputs(args.source)  # the inputs before the outputs (and before any folder is made)
     spec = RigSpec.load(args.rig) if args.rig else None
+    typed = args.out is not None
+    if not typed:  # each recording's own folder: a second session's diagnosis never meets the first one's files
+        args.out = DEFAULT_OUT_ROOT / args.source[0].stem
     made = not args.out.exists()
-    check_output_folder(args.out, "--out", OUTPUT_FILES, args.overwrite)
+    try:
+        check_output_folder(args.out, "--out" if typed else "", OUTPUT_FILES, args.overwrite)
+    except SettingError as error:
+        if typed or "exists already" not in str(error):
+            raise
+        raise SettingError(f"{args.out}: holds an earlier diagnosis of {args.source[0].name} (its default folder): "
+                           f"give --overwrite to replace it, or --out FOLDER to keep both") from None
     started = time.monotonic()
     try:
         def progress(message: str) -> None:
