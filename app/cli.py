@@ -75,6 +75,21 @@ class _OneLineParser(argparse.ArgumentParser):
         self.exit(2, f"{self.prog}: error: {message}{hint} (`{self.prog} --help` lists the {listed})\n")
 
 
+def _typed_flags(parser: argparse.ArgumentParser, argv: list[str]) -> set[str]:
+    """The destinations of the flags the user typed (``--exp-end`` → ``exp_end``; abbreviations as argparse takes
+    them), so a command can tell a value typed from its default."""
+    options = {flag: action.dest for flag, action in parser._option_string_actions.items()}
+    typed = set()
+    for word in argv:
+        if not word.startswith("--"):
+            continue
+        flag = word.split("=", 1)[0]
+        matches = [flag] if flag in options else [option for option in options if option.startswith(flag)]
+        if len(matches) == 1:
+            typed.add(options[matches[0]])
+    return typed
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = _OneLineParser(
         prog="gasfilm",
@@ -140,6 +155,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     if not getattr(args, "func", None):
         parser.print_help()
         return 2
+    command_parser = args.subparsers.choices.get(args.command, parser)
+    args.typed_flags = _typed_flags(command_parser, list(sys.argv[1:] if argv is None else argv))
     try:
         with _user_messages(args.command):
             return int(args.func(args) or 0)

@@ -393,3 +393,22 @@ def test_diagnoses_of_two_sessions_without_out_go_to_their_own_folders(session_p
         assert (tmp_path / "out" / "diagnosis" / source.stem / "improved-rig.toml").is_file()
     err = one_line_error(capsys, "diagnose", other)
     assert f"out/diagnosis/other: holds an earlier diagnosis of other.h5 (its default folder)" in err and "--out " in err
+
+
+def test_append_takes_the_sessions_own_settings_unless_typed(tmp_path, capsys):
+    """New-user trial, round 3: `acquire --append` without the first run's --rate failed with 'the session is closed';
+    rate and record length had to be retyped, --exp-end silently went back to its default and the conditions were
+    printed 'not recorded'."""
+    path = tmp_path / "appended.h5"
+    fast = ["--device", "sim", "--pacing", "fast", "--hit-interval", "0.6", "0.8"]
+    status, _, err = gasfilm(capsys, "acquire", *fast, "--out", path, "--hits", 2, "--rate", 25600, "--record-s", 0.5,
+                             "--exp-end", 0.1, "--condition", "gap_um=10")
+    assert status == 0, err
+    status, out, err = gasfilm(capsys, "acquire", *fast, "--out", path, "--hits", 1, "--append")
+    assert status == 0, err
+    assert ("appending with the session's settings: --rate 25600 --record-s 0.5 --exp-end 0.1 --condition gap_um=10"
+            in out) and "gap_um = 10 µm" in out
+    with Session.open(path) as session:
+        assert session.hit_count == 3 and session.settings["window"]["exponential_end_fraction"] == 0.1
+    err = one_line_error(capsys, "acquire", *fast, "--out", path, "--hits", 1, "--append", "--rate", 12800)
+    assert "recorded with 2 channels at 25600 S/s; cannot append 2 channels at 12800 S/s (give --rate 25600)" in err

@@ -146,6 +146,49 @@ class _SessionLog(logging.FileHandler):
             super().close()
 
 
+#: Flags an appended run takes from its session when they are not typed: (destination, flag).
+APPEND_FROM_SESSION = (("rate", "--rate"), ("record_s", "--record-s"), ("pretrigger_s", "--pretrigger-s"),
+                       ("trigger_n", "--trigger-n"), ("force_window_ms", "--force-window-ms"),
+                       ("exp_end", "--exp-end"), ("double_hit_fraction", "--double-hit-fraction"),
+                       ("condition", "--condition"))
+
+
+def _settings_of_the_session(args: argparse.Namespace) -> None:
+    """--append: the flags not typed take the session's own values (its rate, records, trigger, windows and
+    conditions), said in one line; typed ones stay and are checked against the session as before."""
+    from gasfilm.analysis.conditions import decode_conditions
+    from gasfilm.analysis.session import Session
+    from gasfilm.analysis.settings import decode_settings
+    from gasfilm.analysis.validation import ValidationSettings
+
+    with Session.open(args.out) as session:
+        stored = decode_settings(session.settings, str(args.out))
+        stored_values = {
+            "rate": session.requested_sample_rate_hz or session.sample_rate_hz,
+            "record_s": stored.trigger.record_s, "pretrigger_s": stored.trigger.pretrigger_s,
+            "trigger_n": stored.trigger.level_n,
+            "force_window_ms": stored.window.force_window_ms,  # (None, no window: as when the flag is not typed)
+            "exp_end": stored.window.exponential_end_fraction,
+            "double_hit_fraction": (None if stored.validation.double_hit_fraction
+                                    == ValidationSettings().double_hit_fraction else
+                                    stored.validation.double_hit_fraction),
+            "condition": [f"{key}={value:g}" if isinstance(value, float) else f"{key}={value}" for key, value in
+                          decode_conditions(session.settings, str(args.out)).items()],
+        }
+    typed = getattr(args, "typed_flags", set())
+    taken = []
+    for dest, flag in APPEND_FROM_SESSION:
+        if dest in typed or stored_values[dest] in (None, []) or stored_values[dest] == getattr(args, dest):
+            continue
+        setattr(args, dest, stored_values[dest])
+        value = stored_values[dest]
+        shown = " ".join(f"{flag} {item}" for item in value) if isinstance(value, list) else f"{flag} {value:g}" \
+            if isinstance(value, float) else f"{flag} {value}"
+        taken.append(shown)
+    if taken:
+        print(f"appending with the session's settings: {' '.join(taken)}", flush=True)
+
+
 def _attach_log(session_path: Path) -> logging.Handler:
     """Faults, dropped chunks, recoveries and the run's summary, appended to ``<session>.log`` next to it (the file
     is made at the first message, so a run refused up front leaves none)."""
@@ -164,12 +207,12 @@ def _open_session(args: argparse.Namespace, config: Any, rate_hz: float, device_
         session = Session.open(args.out, "a")
         if session.recovered:
             logger.warning("%s: recovered before appending (%s)", args.out, session.status_reason)
-        stored = session.daq_config
-        if len(stored.channels) != len(config.channels) or abs(session.sample_rate_hz - rate_hz) > 1e-6:
+        stored, stored_rate_hz = session.daq_config, session.sample_rate_hz
+        if len(stored.channels) != len(config.channels) or abs(stored_rate_hz - rate_hz) > 1e-6:
             session.close()
             raise SessionError(
-                f"{args.out}: recorded with {len(stored.channels)} channels at {session.sample_rate_hz:g} S/s; "
-                f"cannot append {len(config.channels)} channels at {rate_hz:g} S/s"
+                f"{args.out}: recorded with {len(stored.channels)} channels at {stored_rate_hz:g} S/s; "
+                f"cannot append {len(config.channels)} channels at {rate_hz:g} S/s (give --rate {stored_rate_hz:g})"
             )
         record_samples = settings["trigger"].record_samples(rate_hz)
         stored_samples = session.record_samples
@@ -314,6 +357,8 @@ def _stream(device: Any, synchronous: bool) -> Iterator[tuple[Any, Any, int]]:
 
 def run(args: argparse.Namespace) -> int:
     check_session_path(args.out, "--out")  # (before its log is named after it: `--out .` has no name to take)
+    if args.append and args.out.is_file():
+        _settings_of_the_session(args)
     handler = _attach_log(args.out)
     try:
         return _record(args)
