@@ -294,3 +294,22 @@ def test_a_fit_with_impossible_values_is_one_line(tmp_path, capsys):
     path.write_text(json.dumps(fit))
     status, _, err = gasfilm(capsys, "model", path, "--out", tmp_path / "m.json")
     assert status == 2 and "k1 not finite" in err and len(err.strip().splitlines()) == 1
+
+
+def test_model_order_beyond_the_limit_is_refused_and_a_high_order_simulates(tmp_path, capsys):
+    """New-user trial, round 3: `model --order 200` was an internal LinAlgError; `--max-error 0.005` gave an order-9
+    model whose time-domain check printed 'rational nan %' (the transfer-function route put a pole outside the unit
+    circle). The simulation now runs mode by mode."""
+    import numpy as np
+
+    from gasfilm.analysis.control.timedomain import simulate_rational
+    from gasfilm.drivers.errors import SettingError
+
+    source = PlantSource.from_spec(RigSpec.nominal("FOMGF"))
+    with pytest.raises(SettingError, match="--order 200: at most"):
+        approximate(source, order=200)
+    model = approximate(source, max_error=5e-5)  # the trial's 0.005 %: order 9
+    force = np.zeros(6400)
+    force[10:20] = 200.0 * np.sin(np.linspace(0, np.pi, 10))
+    response = simulate_rational(model, force, 12_800.0)
+    assert np.all(np.isfinite(response)) and np.max(np.abs(response)) < 100.0

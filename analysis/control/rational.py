@@ -381,6 +381,9 @@ def approximate(
         if film_order < 0:
             raise SettingError(f"--order {order}: this plant has at least {states_without_film} states "
                                f"(mover{' and static spring' if z0 else ''})")
+        if film_order > MAX_FILM_ORDER:
+            raise SettingError(f"--order {order}: at most {MAX_FILM_ORDER + states_without_film} states for this plant "
+                               f"(a film of order {MAX_FILM_ORDER}); --max-error finds the lowest order accurate enough")
         return build_model(source, band, film_order)
     if not max_error > 0:
         raise SettingError(f"--max-error {max_error:g}: must be a positive fraction (e.g. 0.5%)")
