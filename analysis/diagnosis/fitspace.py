@@ -38,6 +38,13 @@ class Slot:
         return (f"{type_name}.{self.name}" if len(same) == 1
                 else f"{type_name}#{same.index(self.effect) + 1}.{self.name}")
 
+    def unit(self, spec: RigSpec) -> str:
+        """The parameter's unit: the film element's, or the effect field's (as the rig spec's reference gives it)."""
+        if self.effect is None:
+            return next((p.unit for p in spec.film.parameters if p.name == self.name), "")
+        fields = {item.name: item for item in dataclasses.fields(spec.effects[self.effect])}
+        return str(fields[self.name].metadata.get("unit", "")) if self.name in fields else ""
+
     def to_search(self, value: float) -> float:
         return float(np.log(value)) if self.range.scale == "log" else float(value)
 

@@ -971,7 +971,7 @@ def _recalibration_table(given: RigSpec, outcome: FitOutcome, held_only: bool = 
         at_bound = slot.at_bound(outcome.spec)  # a value at the edge of its range is not a measurement
         table[slot.label(outcome.spec)] = {"spec": slot.value(given), "fitted": slot.value(outcome.spec),
                                            "uncertainty": float("nan") if at_bound else outcome.uncertainty(index),
-                                           "at_bound": at_bound}
+                                           "at_bound": at_bound, "unit": slot.unit(given)}
     return table
 
 

@@ -26,11 +26,12 @@ def report_text(diagnosis: Diagnosis) -> str:
     if diagnosis.recalibration:
         lines.append("  recalibrated spec parameters:")
         for name, row in diagnosis.recalibration.items():
+            unit = f" {row['unit']}" if row.get("unit") and row["unit"] != "1" else ""
             if row.get("at_bound"):
-                lines.append(f"    {name:34s} {row['spec']:.6g} → {row['fitted']:.6g} at the edge of its range: not "
-                             f"a measurement (the data do not determine it)")
+                lines.append(f"    {name:34s} {row['spec']:.6g} → {row['fitted']:.6g}{unit} at the edge of its range: "
+                             f"not a measurement (the data do not determine it)")
             else:
-                lines.append(f"    {name:34s} {row['spec']:.6g} → {row['fitted']:.6g} ± {row['uncertainty']:.2g}")
+                lines.append(f"    {name:34s} {row['spec']:.6g} → {row['fitted']:.6g} ± {row['uncertainty']:.2g}{unit}")
     for finding in diagnosis.findings:
         label = "measurement chain" if finding.kind == "measurement" else "missing physics"
         lines.append(f"  {label}: {finding.effect}  (where: {finding.where}; {finding.hits})")

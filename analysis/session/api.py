@@ -1135,7 +1135,9 @@ class Session:
             row["reasons"] = reasons
             self._journal_write().set_row(index, row)
             self._digests[index] = hit_digest(self._data[index], row)
-            self._appending()
+            del table
+            self._appending()  # (may reopen the file to mark it recording: the table is taken again after it)
+            table = self._table
             table[index] = row
             table.flush()
             self._file.flush()
