@@ -412,3 +412,9 @@ def test_append_takes_the_sessions_own_settings_unless_typed(tmp_path, capsys):
         assert session.hit_count == 3 and session.settings["window"]["exponential_end_fraction"] == 0.1
     err = one_line_error(capsys, "acquire", *fast, "--out", path, "--hits", 1, "--append", "--rate", 12800)
     assert "recorded with 2 channels at 25600 S/s; cannot append 2 channels at 12800 S/s (give --rate 25600)" in err
+
+
+def test_replay_refuses_rectangular_with_a_window_and_counts_one_hit_as_one(session_path, capsys):
+    """New-user trial, round 3: `replay --rectangular --exp-end 0.1` ran without saying which won; '1 hits'."""
+    err = one_line_error(capsys, "replay", session_path, "--rectangular", "--exp-end", "0.1")
+    assert "--rectangular: no window at all, but --exp-end asks for one" in err

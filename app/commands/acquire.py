@@ -41,7 +41,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         description="Record hammer hits into an HDF5 session: every hit (accepted or rejected) is stored as soon as "
         "it is complete. Stops after --hits accepted hits, after --seconds of signal, or on Ctrl-C.",
     )
-    parser.add_argument("--device", default=SIMULATED_DEVICE_NAME, help="'sim' or an NI-DAQmx device name")
+    parser.add_argument("--device", default=SIMULATED_DEVICE_NAME,
+                        help="'sim' (the default: the simulated rig) or an NI-DAQmx device name")
     parser.add_argument("--out", type=Path, required=True, help="session file to write (HDF5)")
     limit = parser.add_mutually_exclusive_group()
     limit.add_argument("--hits", type=int, help="stop after this many accepted hits")
@@ -507,7 +508,8 @@ def _record_until_stopped(args: argparse.Namespace) -> int:
     _note_stream_end(session, stream_start_s + stream_s)
     session.close("complete")
     reasons = ", ".join(f"{reason}: {count}" for reason, count in sorted(recorder.reason_counts.items()))
-    summary = (f"session {args.out}: {recorder.hit_count} hits, {recorder.accepted_count} accepted, "
+    summary = (f"session {args.out}: {recorder.hit_count} hit{'s' if recorder.hit_count != 1 else ''}, "
+               f"{recorder.accepted_count} accepted, "
                f"{recorder.rejected_count} rejected{f' ({reasons})' if reasons else ''}; "
                f"{stream_s:.1f} s of signal in {time.monotonic() - started:.1f} s")
     print(summary, flush=True)

@@ -295,7 +295,8 @@ def load_frf_and_hits(paths: list[Path], name: str | None = None, with_hits: boo
         raise SettingError(f"{paths[0]}: all {len(source.hits)} hits are rejected ({', '.join(reasons)}); "
                            f"`gasfilm replay` shows why and takes other validation settings")
     window = decode_setting(source.settings, "window", WindowSettings, str(source.path))
-    what = f"FRF averaged from {len(hits)} of the {len(source.hits)} hits of {source.kind} records"
+    what = (f"FRF averaged from {len(hits)} of the {len(source.hits)} hit{'s' if len(source.hits) != 1 else ''} of "
+            f"{source.kind} records")
     if rejected:
         what += f" ({rejected} rejected as `gasfilm replay` rejects them)"
     if flagged:

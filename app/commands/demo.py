@@ -80,7 +80,7 @@ def run_campaign_demo(args: argparse.Namespace) -> int:
         for old in sessions.glob("*.h5"):
             old.unlink()
     record_campaign(sessions, spec, DEMO_GRID, hits=hits, seed=args.seed, on_session=lambda path, conditions: print(
-        f"  recorded {path.name}: {hits} hits at " + ", ".join(f"{k} = {v:g}" for k, v in conditions.items()),
+        f"  recorded {path.name}: {hits} hit{'s' if hits != 1 else ''} at " + ", ".join(f"{k} = {v:g}" for k, v in conditions.items()),
         flush=True))
     result = run_campaign([sessions], by, out, CampaignOptions(), workers=args.workers, progress=_Progress())
     analysed = [row for row in result.run.rows if not row.get("error")]

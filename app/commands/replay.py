@@ -103,6 +103,11 @@ def _new_settings(args: argparse.Namespace, source: Any) -> tuple[Any, bool, Any
         "min_force_snr": ("--min-force-snr", args.min_force_snr),
         "decay_fraction": ("--decay-fraction", args.decay_fraction),
     })
+    given = [flag for flag, value in (("--force-window-ms", args.force_window_ms), ("--exp-end", args.exp_end))
+             if value is not None]
+    if args.rectangular and given:  # (which would win was said nowhere)
+        raise SettingError(f"--rectangular: no window at all, but {' and '.join(given)} asks for one; give one or the "
+                           f"other")
     window = settings_from_flags(WindowSettings, WindowSettings() if args.rectangular else stored.window, {
         "force_window_ms": ("--force-window-ms", args.force_window_ms),
         "exponential_end_fraction": ("--exp-end", args.exp_end),
