@@ -418,3 +418,29 @@ def test_replay_refuses_rectangular_with_a_window_and_counts_one_hit_as_one(sess
     """New-user trial, round 3: `replay --rectangular --exp-end 0.1` ran without saying which won; '1 hits'."""
     err = one_line_error(capsys, "replay", session_path, "--rectangular", "--exp-end", "0.1")
     assert "--rectangular: no window at all, but --exp-end asks for one" in err
+
+
+def test_the_report_warns_when_a_bands_fits_were_made_with_different_masses(tmp_path, capsys):
+    """New-user trial, round 3: after `fit --mass 25050 --overwrite` and `fit --models SD --overwrite` the report's
+    Table 2 compared eight models at 25 050 kg with SD at 25.05 kg (E = −471 %) without a word."""
+    path = new_session(tmp_path, capsys)
+    assert gasfilm(capsys, "fit", path, "--models", "SD,Zener", "--out", tmp_path / "figs")[0] == 0
+    assert gasfilm(capsys, "fit", path, "--models", "Zener", "--mass", "30", "--overwrite",
+                   "--out", tmp_path / "figs")[0] == 0
+    report = tmp_path / "r.html"
+    assert gasfilm(capsys, "report", path, "--out", report)[0] == 0
+    assert "these fits were made with different mover masses" in report.read_text()
+    assert "30 kg: Zener" in report.read_text()
+
+
+def test_a_force_window_shorter_than_a_sample_is_refused_and_a_second_replay_says_it_replaces(session_path,
+                                                                                              tmp_path, capsys):
+    """New-user trial, round 3: `--force-window-ms 0.005` (a 156 µs sample at 6400 S/s) was accepted by acquire and
+    replay; a second replay replaced the first one's stored result silently."""
+    err = one_line_error(capsys, "replay", session_path, "--force-window-ms", "0.005")
+    assert "--force-window-ms: 0.005 ms is shorter than one sample (0.156 ms at 6400 S/s)" in err
+    err = one_line_error(capsys, "acquire", *FAST_SIM, "--out", tmp_path / "w.h5", "--force-window-ms", "0.005")
+    assert "--force-window-ms: 0.005 ms is shorter than one sample" in err
+    own = new_session(tmp_path, capsys, hits=2)  # (the module's session may hold a replay already)
+    outputs = [gasfilm(capsys, "replay", own)[1] for _ in range(2)]
+    assert "replacing" not in outputs[0] and "(replacing the earlier replay's" in outputs[1]

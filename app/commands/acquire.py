@@ -128,6 +128,9 @@ def _settings(args: argparse.Namespace) -> dict[str, Any]:
     validation = settings_from_flags(ValidationSettings, None, {
         "double_hit_fraction": ("--double-hit-fraction", args.double_hit_fraction),
     })
+    if isinstance(args.force_window_ms, float) and args.force_window_ms * 1e-3 < 1.0 / args.rate:
+        raise SettingError(f"--force-window-ms: {args.force_window_ms:g} ms is shorter than one sample "
+                           f"({1e3 / args.rate:.3g} ms at --rate {args.rate:g} S/s)")
     window = settings_from_flags(WindowSettings, None, {
         "force_window_ms": ("--force-window-ms", args.force_window_ms),
         "exponential_end_fraction": ("--exp-end", args.exp_end),

@@ -105,6 +105,9 @@ def _new_settings(args: argparse.Namespace, source: Any) -> tuple[Any, bool, Any
     })
     given = [flag for flag, value in (("--force-window-ms", args.force_window_ms), ("--exp-end", args.exp_end))
              if value is not None]
+    if isinstance(args.force_window_ms, float) and args.force_window_ms * 1e-3 < 1.0 / source.sample_rate_hz:
+        raise SettingError(f"--force-window-ms: {args.force_window_ms:g} ms is shorter than one sample "
+                           f"({1e3 / source.sample_rate_hz:.3g} ms at {source.sample_rate_hz:g} S/s)")
     if args.rectangular and given:  # (which would win was said nowhere)
         raise SettingError(f"--rectangular: no window at all, but {' and '.join(given)} asks for one; give one or the "
                            f"other")
@@ -305,9 +308,12 @@ def run(args: argparse.Namespace) -> int:
         written = f"new session {args.out}"
     elif source.is_session and frf is not None:
         with Session.open(source.path, "a") as session:
+            replaced = "replay" in session.result_names("frf")
             session.write_frf(frf, name="replay", hit_indices=accepted_indices if not retrigger else None)
             session.update_settings({"replay": settings})
-        written = f"FRF group 'replay' in {source.path}"
+        written = (f"FRF group 'replay' in {source.path}"
+                   + (" (replacing the earlier replay's; --out S.h5 keeps a replay as a session of its own)"
+                      if replaced else ""))
     elif frf is not None:
         written = "printed only (add --out SESSION.h5 to keep it as a session)"
     else:
