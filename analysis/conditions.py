@@ -39,6 +39,13 @@ UNIT_SUFFIXES: dict[str, str] = {
 _PHYSICAL_STEMS = ("supply_pressure", "pressure", "gap", "film_thickness", "clearance", "load", "force", "mass",
                    "temperature", "flow", "speed", "frequency")
 
+#: Units of one quantity, as factors to a common base: a condition recorded in one converts to another.
+_CONVERTIBLE: tuple[dict[str, float], ...] = (
+    {"mpa": 1e6, "kpa": 1e3, "pa": 1.0, "bar": 1e5, "psi": 6894.757293168},
+    {"um": 1e-6, "mm": 1e-3, "m": 1.0},
+    {"l_min": 1.0, "nl_min": None},  # (normal litres are not litres: no conversion; listed to keep them apart)
+)
+
 _KEY_PATTERN = re.compile(r"[a-z][a-z0-9_]{0,47}")
 MAX_CONDITIONS = 32
 MAX_LABEL_CHARACTERS = 200
@@ -143,3 +150,31 @@ def format_conditions(conditions: Mapping[str, float | str]) -> str:
     if not conditions:
         return "not recorded"
     return ", ".join(format_value(key, value) for key, value in conditions.items())
+
+
+def _stem_and_suffix(key: str) -> tuple[str, str] | None:
+    for suffix in sorted(UNIT_SUFFIXES, key=len, reverse=True):
+        if key.endswith("_" + suffix):
+            return key[: -len(suffix) - 1], suffix
+    return None
+
+
+def converted_condition(conditions: Mapping[str, Any], key: str) -> tuple[float | str | None, str | None]:
+    """The value of condition ``key`` (``supply_pressure_mpa``) in its own unit, converted from the same quantity
+    recorded in another unit (``supply_pressure_kpa = 600`` → 0.6), and the key it came from (None when not
+    recorded either way)."""
+    if key in conditions:
+        return conditions[key], key
+    parts = _stem_and_suffix(key)
+    if parts is None:
+        return None, None
+    stem, suffix = parts
+    for units in _CONVERTIBLE:
+        if units.get(suffix) is None:
+            continue
+        for other, value in conditions.items():
+            other_parts = _stem_and_suffix(other)
+            if (other_parts and other_parts[0] == stem and units.get(other_parts[1]) is not None
+                    and isinstance(value, float)):
+                return value * units[other_parts[1]] / units[suffix], other
+    return None, None

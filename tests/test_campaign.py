@@ -56,6 +56,14 @@ def test_condition_flags_parse_and_refuse():
         "supply_pressure_mpa": 0.4, "gap_um": 10.0, "bearing": "B-17"}
     assert parse_condition_flags(["supply_pressure_psi=60", "run=3"]) == {"supply_pressure_psi": 60.0, "run": 3.0}
     assert decode_conditions({"conditions": {"gap": 12}}) == {"gap": 12.0}  # an older session still reads
+    # a quantity recorded in another unit converts for grouping (new-user trial: kPa grouped as 'not recorded')
+    from gasfilm.analysis.conditions import converted_condition
+
+    assert converted_condition({"supply_pressure_kpa": 600.0}, "supply_pressure_mpa") == (
+        pytest.approx(0.6), "supply_pressure_kpa")
+    assert converted_condition({"gap_mm": 0.01}, "gap_um") == (pytest.approx(10.0), "gap_mm")
+    assert converted_condition({"gap_mm": 0.01}, "supply_pressure_mpa") == (None, None)
+    assert converted_condition({"flow_nl_min": 3.0}, "flow_l_min") == (None, None)
     for bad, words in ((["gap_um=ten"], "must be a number in µm"), (["Gap=1"], "condition name"),
                        (["gap_um"], "KEY=VALUE"), (["gap_um=1", "gap_um=2"], "given twice"),
                        (["gap_um=nan"], "finite"),
@@ -278,3 +286,18 @@ def test_local_workers_get_the_worker_configuration():
     with dask_client(1, None) as client:
         settings = list(client.run(_worker_settings_probe()).values())
     assert settings == [(None, "1", False)]
+
+
+def test_sessions_recorded_in_another_unit_are_grouped_by_the_converted_value():
+    from gasfilm.analysis.campaign import _convert_units
+    from gasfilm.analysis.campaign.table import grouped
+
+    rows = [{"session": "a.h5", "condition.supply_pressure_kpa": 600.0},
+            {"session": "b.h5", "condition.supply_pressure_mpa": 0.6},
+            {"session": "c.h5", "condition.gap_um": 10.0}]
+    notes: list[str] = []
+    _convert_units(rows, ["supply_pressure_mpa"], notes)
+    groups = grouped(rows, ["supply_pressure_mpa"])
+    assert [len(group) for group in groups.values()] == [2, 1] and list(groups)[0][0] == pytest.approx(0.6)
+    assert notes == ["--by supply_pressure_mpa: sessions recording supply_pressure_kpa are grouped by it converted "
+                     "to supply_pressure_mpa"]

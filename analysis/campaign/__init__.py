@@ -51,6 +51,7 @@ def run_campaign(
     out.mkdir(parents=True, exist_ok=True)
     run = run_sessions(paths, options, out / CACHE_FOLDER, workers, scheduler, progress)
     analysed = [row for row in run.rows if not row.get("error")]
+    _convert_units(run.rows, by, run.notes)
     for key in by:
         if analysed and not any(f"condition.{key}" in row for row in analysed):
             message = (f"--by {key}: no session analysed records this condition (those that do failed); the sessions "
@@ -62,3 +63,25 @@ def run_campaign(
     logger.info("campaign of %d sessions into %s: %d computed, %d cached, %d failed in %.1f s", len(paths), out,
                 run.computed, run.cached, run.failed, run.wall_time_s)
     return CampaignResult(run, parquet_path, csv_path, report_path)
+
+
+def _convert_units(rows: list[dict[str, Any]], by: Sequence[str], notes: list[str]) -> None:
+    """A session that recorded a ``by`` condition in another unit of the same quantity (kPa for MPa) is grouped by
+    the converted value, said once per key."""
+    from gasfilm.analysis.conditions import converted_condition
+
+    prefix = "condition."
+    for key in by:
+        sources = set()
+        for row in rows:
+            if f"{prefix}{key}" in row:
+                continue
+            recorded = {name[len(prefix):]: value for name, value in row.items() if name.startswith(prefix)}
+            value, source = converted_condition(recorded, key)
+            if source is not None:
+                row[f"{prefix}{key}"] = value
+                sources.add(source)
+        if sources:
+            message = f"--by {key}: sessions recording {', '.join(sorted(sources))} are grouped by it converted to {key}"
+            notes.append(message)
+            logger.info(message)

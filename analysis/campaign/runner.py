@@ -93,7 +93,9 @@ def check_grouping(paths: Sequence[Path], by: Sequence[str]) -> None:
     keys = recorded_conditions(paths)
     if keys is None:
         return
-    missing = [key for key in by if key not in keys]
+    from gasfilm.analysis.conditions import converted_condition
+
+    missing = [key for key in by if converted_condition(dict.fromkeys(keys, 1.0), key)[1] is None]
     if missing:
         recorded = ", ".join(sorted(keys)) if keys else "none (record them with acquire --condition KEY=VALUE)"
         which = "this condition" if len(missing) == 1 else "these conditions"

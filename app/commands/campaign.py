@@ -106,6 +106,8 @@ def run(args: argparse.Namespace) -> int:
     for row in outcome.rows:
         if row.get("error"):
             print(f"  failed: {row['error']}")
+    for note in outcome.notes:
+        print(f"  note: {note}")
     print(f"table:  {result.parquet_path} and {result.csv_path}")
     print(f"report: {result.report_path}")
     return 1 if outcome.failed == len(outcome.rows) else 0
