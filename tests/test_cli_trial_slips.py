@@ -444,3 +444,32 @@ def test_a_force_window_shorter_than_a_sample_is_refused_and_a_second_replay_say
     own = new_session(tmp_path, capsys, hits=2)  # (the module's session may hold a replay already)
     outputs = [gasfilm(capsys, "replay", own)[1] for _ in range(2)]
     assert "replacing" not in outputs[0] and "(replacing the earlier replay's" in outputs[1]
+
+
+def test_export_and_report_of_a_session_held_by_another_process_say_so(session_path, tmp_path, capsys):
+    """New-user trial, round 3: `export --csv` and `report` of a session being recorded quietly wrote what it held
+    then. They still do (a look during a recording is useful), and say so."""
+    import shutil
+    import subprocess
+    import sys
+
+    held = tmp_path / "held.h5"
+    shutil.copy(session_path, held)
+    writer = subprocess.Popen(
+        [sys.executable, "-c", "import sys, time\nfrom gasfilm.analysis.session import Session\n"
+         f"session = Session.open({str(held)!r}, 'a')\nprint('open', flush=True)\nsys.stdin.read()\nsession.close()"],
+        stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+    try:
+        assert writer.stdout.readline().strip() == "open"
+        status, out, err = gasfilm(capsys, "export", held, "--csv", tmp_path / "held.csv")
+        assert status == 0 and "open for writing in another gasfilm process" in err, (out, err)
+        from gasfilm.analysis.session import api
+
+        api._SAID_HELD_ELSEWHERE.clear()  # (said once per process; each command is a process of its own)
+        status, out, err = gasfilm(capsys, "report", held, "--out", tmp_path / "held.html")
+        assert status == 0 and "read as it stands now" in err, (out, err)
+    finally:
+        writer.communicate("", timeout=60)
+    api._SAID_HELD_ELSEWHERE.clear()
+    status, _, err = gasfilm(capsys, "export", held, "--csv", tmp_path / "after.csv")
+    assert status == 0 and "another gasfilm process" not in err

@@ -336,6 +336,10 @@ class StoredHit:
 
 
 
+#: Sessions this process has said it read while another process held them for writing (said once each).
+_SAID_HELD_ELSEWHERE: set[Path] = set()
+
+
 class Session:
     """An open session file. Create with :meth:`create`, open with :meth:`open`; use as a context manager."""
 
@@ -520,6 +524,10 @@ class Session:
                 file = open_h5(path, "r", swmr=True)
             except OSError as swmr_error:
                 raise describe_open_failure(path, swmr_error) from None
+            if live and path.resolve() not in _SAID_HELD_ELSEWHERE:  # (export, report … of a session being
+                _SAID_HELD_ELSEWHERE.add(path.resolve())                 # recorded: what it holds now, said once)
+                logger.warning("%s: open for writing in another gasfilm process (a recording or the GUI): read as "
+                               "it stands now", path)
             return cls(path, file, recovered=not live)
         return cls(path, file)
 
