@@ -43,7 +43,6 @@ _PHYSICAL_STEMS = ("supply_pressure", "pressure", "gap", "film_thickness", "clea
 _CONVERTIBLE: tuple[dict[str, float], ...] = (
     {"mpa": 1e6, "kpa": 1e3, "pa": 1.0, "bar": 1e5, "psi": 6894.757293168},
     {"um": 1e-6, "mm": 1e-3, "m": 1.0},
-    {"l_min": 1.0, "nl_min": None},  # (normal litres are not litres: no conversion; listed to keep them apart)
 )
 
 _KEY_PATTERN = re.compile(r"[a-z][a-z0-9_]{0,47}")
@@ -55,10 +54,8 @@ Conditions = dict[str, float | str]
 
 def condition_unit(key: str) -> str | None:
     """The unit a condition key names at its end (``gap_um`` → ``µm``), None for a free label."""
-    for suffix in sorted(UNIT_SUFFIXES, key=len, reverse=True):
-        if key.endswith("_" + suffix):
-            return UNIT_SUFFIXES[suffix]
-    return None
+    parts = _stem_and_suffix(key)
+    return UNIT_SUFFIXES[parts[1]] if parts else None
 
 
 def check_condition_name(key: Any, where: str) -> str:
@@ -153,6 +150,7 @@ def format_conditions(conditions: Mapping[str, float | str]) -> str:
 
 
 def _stem_and_suffix(key: str) -> tuple[str, str] | None:
+    """A condition key as (its quantity, its unit suffix): ``gap_um`` → (``gap``, ``um``); None for a free label."""
     for suffix in sorted(UNIT_SUFFIXES, key=len, reverse=True):
         if key.endswith("_" + suffix):
             return key[: -len(suffix) - 1], suffix
@@ -169,12 +167,9 @@ def converted_condition(conditions: Mapping[str, Any], key: str) -> tuple[float 
     if parts is None:
         return None, None
     stem, suffix = parts
-    for units in _CONVERTIBLE:
-        if units.get(suffix) is None:
-            continue
-        for other, value in conditions.items():
-            other_parts = _stem_and_suffix(other)
-            if (other_parts and other_parts[0] == stem and units.get(other_parts[1]) is not None
-                    and isinstance(value, float)):
-                return value * units[other_parts[1]] / units[suffix], other
+    units = next((group for group in _CONVERTIBLE if suffix in group), {})
+    for other, value in conditions.items():
+        other_parts = _stem_and_suffix(other)
+        if other_parts and other_parts[0] == stem and other_parts[1] in units and isinstance(value, float):
+            return value * units[other_parts[1]] / units[suffix], other
     return None, None

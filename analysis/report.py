@@ -308,15 +308,14 @@ def _fits_html(data: ReportData) -> str:
     g = STANDARD_GRAVITY_M_S2
     parts = []
     for (low, high), rows in data.comparison:
-        masses = sorted({(row_fit.mass_kg, row_fit.mass_fitted) for row_fit in data.fits
-                         if (round(row_fit.band_hz[0], 6), round(row_fit.band_hz[1], 6)) == (low, high)})
+        band_fits = [fit for fit in data.fits if (round(fit.band_hz[0], 6), round(fit.band_hz[1], 6)) == (low, high)]
+        masses = sorted({(fit.mass_kg, fit.mass_fitted) for fit in band_fits})
         mass_text = ", ".join(f"{mass:g} kg{' (fitted)' if fitted else ''}" for mass, fitted in masses)
         parts.append(f"<p>Band {low:g}–{high:g} Hz ({len(rows)} model{'s' if len(rows) != 1 else ''}), mover mass "
                      f"{mass_text}. E and E_m: improvement over SD (eq. 35) fitted over the same band.</p>")
         given = sorted({mass for mass, fitted in masses if not fitted})
         if len(given) > 1:  # (new-user trial: SD at 25.05 kg beside eight models at 25 050 kg, E = −471 %)
-            by_mass = {mass: sorted(fit.model_name for fit in data.fits if fit.mass_kg == mass and not fit.mass_fitted
-                                    and (round(fit.band_hz[0], 6), round(fit.band_hz[1], 6)) == (low, high))
+            by_mass = {mass: sorted(fit.model_name for fit in band_fits if fit.mass_kg == mass and not fit.mass_fitted)
                        for mass in given}
             parts.append("<p class='warning'>Warning: these fits were made with different mover masses ("
                          + "; ".join(f"{mass:g} kg: {', '.join(names)}" for mass, names in by_mass.items())

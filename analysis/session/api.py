@@ -847,9 +847,7 @@ class Session:
         self._require_writable()
         if self._file.attrs["status"] != "recording":  # (a session opened for writing is already in SWMR mode)
             self._set_status("recording", "")
-        if not self._file.swmr_mode:
-            self._file.flush()
-            self._file.swmr_mode = True
+        self._settled()
 
     def _sync(self) -> None:
         if self.sync_each_hit:

@@ -16,8 +16,8 @@ import time
 from pathlib import Path
 from typing import Any, Iterator
 
-from gasfilm.app.commands.common import (check_output_file, check_session_path, hit_line, is_terminal,
-                                         positive_flag, settings_from_flags, window_value)
+from gasfilm.app.commands.common import (check_force_window_length, check_output_file, check_session_path, hit_line,
+                                         is_terminal, positive_flag, settings_from_flags, window_value)
 from gasfilm.drivers.errors import DeviceError, SettingError
 
 logger = logging.getLogger(__name__)
@@ -128,9 +128,7 @@ def _settings(args: argparse.Namespace) -> dict[str, Any]:
     validation = settings_from_flags(ValidationSettings, None, {
         "double_hit_fraction": ("--double-hit-fraction", args.double_hit_fraction),
     })
-    if isinstance(args.force_window_ms, float) and args.force_window_ms * 1e-3 < 1.0 / args.rate:
-        raise SettingError(f"--force-window-ms: {args.force_window_ms:g} ms is shorter than one sample "
-                           f"({1e3 / args.rate:.3g} ms at --rate {args.rate:g} S/s)")
+    check_force_window_length(args.force_window_ms, args.rate, f"--rate {args.rate:g}")
     window = settings_from_flags(WindowSettings, None, {
         "force_window_ms": ("--force-window-ms", args.force_window_ms),
         "exponential_end_fraction": ("--exp-end", args.exp_end),

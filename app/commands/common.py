@@ -170,6 +170,14 @@ def check_output_folder(folder: Path, flag: str, names: tuple[str, ...], overwri
 NO_WINDOW = "none"
 
 
+def check_force_window_length(force_window_ms: float | str | None, sample_rate_hz: float, rate_text: str) -> None:
+    """A --force-window-ms (as typed: a number, :data:`NO_WINDOW` or None) must hold at least one sample at
+    ``sample_rate_hz`` (``rate_text`` says where that rate comes from in the message)."""
+    if isinstance(force_window_ms, float) and force_window_ms * 1e-3 < 1.0 / sample_rate_hz:
+        raise SettingError(f"--force-window-ms: {force_window_ms:g} ms is shorter than one sample "
+                           f"({1e3 / sample_rate_hz:.3g} ms at {rate_text} S/s)")
+
+
 def window_value(text: str) -> float | str:
     """argparse type of a window flag: a number, or "none"/"off" for no window."""
     if text.strip().lower() in ("none", "off"):

@@ -18,8 +18,8 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from gasfilm.app.commands.common import (add_units_flag, check_inputs, check_output_file, check_session_path,
-                                         positive_flag, settings_from_flags, window_value)
+from gasfilm.app.commands.common import (add_units_flag, check_force_window_length, check_inputs, check_output_file,
+                                         check_session_path, positive_flag, settings_from_flags, window_value)
 from gasfilm.drivers.errors import SettingError
 
 #: Band edges (Hz) for the coherence summary; bands above the Nyquist frequency are left out.
@@ -105,9 +105,7 @@ def _new_settings(args: argparse.Namespace, source: Any) -> tuple[Any, bool, Any
     })
     given = [flag for flag, value in (("--force-window-ms", args.force_window_ms), ("--exp-end", args.exp_end))
              if value is not None]
-    if isinstance(args.force_window_ms, float) and args.force_window_ms * 1e-3 < 1.0 / source.sample_rate_hz:
-        raise SettingError(f"--force-window-ms: {args.force_window_ms:g} ms is shorter than one sample "
-                           f"({1e3 / source.sample_rate_hz:.3g} ms at {source.sample_rate_hz:g} S/s)")
+    check_force_window_length(args.force_window_ms, source.sample_rate_hz, f"{source.sample_rate_hz:g}")
     if args.rectangular and given:  # (which would win was said nowhere)
         raise SettingError(f"--rectangular: no window at all, but {' and '.join(given)} asks for one; give one or the "
                            f"other")
