@@ -85,7 +85,8 @@ def test_ctrl_c_in_the_terminal_closes_the_gui_cleanly(tmp_path):
                    "XDG_CONFIG_HOME": str(tmp_path / "config")}
     process = subprocess.Popen([sys.executable, "-m", "gasfilm.app.cli", "gui", "--session", str(session)],
                                env=environment, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    time.sleep(6)  # the window is up and the session open
+    time.sleep(15)  # the window is up, the session open and the job process warmed up (a quit while it still
+    # starts can print its FileNotFoundError: a known race, see the closing note)
     assert process.poll() is None, process.communicate()
     process.send_signal(signal.SIGINT)
     try:
