@@ -56,8 +56,16 @@ GENERIC_BY_PLACE = {"beside the mover": "generic:beside", "film": "generic:film"
                     "force channel": "generic:chain", "response channel": "generic:chain",
                     "measurement chain": "generic:chain", "between hits": "generic:between-hits"}
 CATEGORIES = ("control", "rig", "measurement", "several")
+#: For information only (not a headline figure): where a catalogue term sits, for a diagnosis that gives no ``place``.
+CATALOG_PLACE = {"extra-mode": "beside the mover", "structure-mode": "beside the mover", "film-memory": "film",
+                 "squeeze-film": "film", "pneumatic-lag": "film", "cubic-stiffness": "film", "friction": "film",
+                 "quadratic-damping": "film", "added-mass": "mover", "drift": "between hits",
+                 "step-change": "between hits", "channel-delay": "measurement chain",
+                 "ac-coupling": "measurement chain", "cross-talk": "measurement chain",
+                 "sensitivity-error": "measurement chain", "polarity": "measurement chain"}
 TOLERANCE_KEYS = {"tol_rel", "tol_abs", "tol_factor", "range", "note"}
 FIT_LIMIT = 1.5
+FROM_SAVED = False  # --from-saved: classify the diagnoses saved by an earlier run instead of running gasfilm
 
 
 # ------------------------------------------------------------------------------------------- reading a finding
@@ -284,6 +292,17 @@ def physics_claimed(result: dict) -> bool:
     return False
 
 
+def with_catalog_places(result: dict) -> dict:
+    """The result with a place given to every catalogue finding that has none (information only)."""
+    findings = []
+    for f in result.get("findings") or []:
+        if isinstance(f, dict) and place_of(f) is None:
+            place = CATALOG_PLACE.get(round3.key_name(str(f.get("effect"))))
+            f = dict(f, place=place) if place else f
+        findings.append(f)
+    return dict(result, findings=findings)
+
+
 def three_figures(key: dict, result: dict) -> dict:
     findings = [f for f in result.get("findings") or [] if isinstance(f, dict)]
     required = [e for e in key.get("kinds", []) if e.get("required", True) and e.get("place")]
@@ -322,8 +341,16 @@ def score_case(key_path: Path, data: Path) -> dict:
         problem = problem or "answer key newer than its data: not scored"
     if problem:
         return row | {"outcome": "error", "reason": problem, "modelled": False, "named": False}
-    result, error, stderr, wall = round3.run([str(uff), *arguments, "--out", str(out_dir)])
-    row["wall_time_s"] = round(wall, 1)
+    saved = out_dir / "diagnosis.json"
+    if FROM_SAVED:
+        if not saved.exists():
+            return row | {"outcome": "error", "reason": f"{saved} missing (--from-saved)", "modelled": False,
+                          "named": False}
+        result, error, stderr, wall = json.loads(saved.read_text()), "", "", float("nan")
+    else:
+        result, error, stderr, wall = round3.run([str(uff), *arguments, "--out", str(out_dir)])
+    if not FROM_SAVED:
+        row["wall_time_s"] = round(wall, 1)
     if "Traceback" in stderr:
         row["traceback"] = stderr.strip().splitlines()[-1]
     if result is None:
@@ -336,8 +363,10 @@ def score_case(key_path: Path, data: Path) -> dict:
     renamed = normalised(result)
     outcome, reason = round3.classify(key, renamed)
     figures = three_figures(key, result)
+    inferred = three_figures(key, with_catalog_places(result))
     findings = [f for f in result.get("findings") or [] if isinstance(f, dict)]
     return row | figures | {
+        "modelled_catalog_places": inferred["modelled"],
         "outcome": outcome, "reason": reason, "verdict": result.get("verdict"),
         "reported": sorted({str(f.get("effect")) for f in renamed["findings"]}),
         "findings": [{"effect": f.get("effect"), "place": f.get("place"), "status": f.get("status"),
@@ -391,6 +420,9 @@ def reported_label(row: dict, effect_id: str) -> str:
         return " + ".join(sorted(set(status["matched"]))) + (" ✓named" if status["named"] else " ✓")
     if status and status["in_place"]:
         return " + ".join(status["in_place"]) + " (off)"
+    unplaced = sorted({str(f.get("effect")) for f in row.get("findings", []) if not f.get("place")})
+    if unplaced:
+        return "no place: " + " + ".join(unplaced)
     if row.get("verdict") in ("not explained", "partly explained") and row.get("unexplained"):
         return "(not explained)"
     return "(missed)"
@@ -480,6 +512,7 @@ def summary_line(rows: list[dict]) -> str:
     modelled = sum(bool(r.get("modelled")) for r in effects)
     named = sum(bool(r.get("named")) for r in effects)
     loops = [r for r in rows if r.get("loop_verdict") is not None]
+    inferred = sum(bool(r.get("modelled_catalog_places")) for r in effects)
     return (f"right {right}/{len(rows)}; modelled {modelled}/{len(effects)} ({100 * modelled / max(len(effects), 1):.0f} %"
             f" of the non-controls); named {named}/{len(effects)} ({100 * named / max(len(effects), 1):.0f} %); "
             f"controls with physics claimed {sum(not r.get('no_physics', True) for r in controls)}/{len(controls)}; "
@@ -487,7 +520,8 @@ def summary_line(rows: list[dict]) -> str:
             f"{sum(r['outcome'] == 'false claim' for r in rows)}; errors {sum(r['outcome'] == 'error' for r in rows)}; "
             f"tracebacks {sum('traceback' in r for r in rows)}; loop closed "
             f"{sum(r['loop_verdict'] == 'consistent' for r in loops)}/{len(rows)} "
-            f"({len(rows) - len(loops)} without a loop field)")
+            f"({len(rows) - len(loops)} without a loop field); for information, modelled if every catalogue term "
+            f"had its place: {inferred}/{len(effects)}")
 
 
 def report(rows: list[dict]) -> str:
@@ -508,7 +542,11 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--only", nargs="+", metavar="CASE")
     parser.add_argument("--label", default="")
     parser.add_argument("--tables-from", type=Path, nargs="+", metavar="SCORES_JSON")
+    parser.add_argument("--from-saved", action="store_true",
+                        help="classify DATA/diagnoses/CASE/diagnosis.json of an earlier run (no gasfilm run)")
     args = parser.parse_args(argv)
+    global FROM_SAVED
+    FROM_SAVED = args.from_saved
     order = {c: i for i, c in enumerate(CATEGORIES)}
     if args.tables_from:
         rows = [r for p in args.tables_from for r in json.loads(p.read_text())["cases"]]
