@@ -680,6 +680,29 @@ def three_at_once(case, s, drawn, on):
     return out
 
 
+WALK = {"freq_hz": 640.0, "damping_ratio": 0.006, "first_constant_1_per_kg": -2.5e-3,
+        "last_constant_1_per_kg": 2.5e-3, "walk_mm": 15.0}
+
+
+def walking_constants(hits: int) -> np.ndarray:
+    return np.linspace(WALK["first_constant_1_per_kg"], WALK["last_constant_1_per_kg"], hits)
+
+
+def walking_sensor(case, s, drawn, on):
+    """The accelerometer sits on a magnet base that walks 15 mm across the top plate under the blows, over the
+    twisting mode's nodal line: the plate's 640 Hz mode (zeta 0.006) is seen with a modal constant going linearly from
+    -2.5e-3 1/kg (hit 1) to +2.5e-3 1/kg (hit 16); the rigid body and the film do not change."""
+    h = sd_accelerance(s)
+    if "mode" not in on:
+        return {"h": h[None, :]}
+    r = walking_constants(case.hits)
+    if "walk" not in on:
+        r = np.full_like(r, -2.5e-3)  # the sensor where it was put
+    drawn["modal_constant_per_hit_1_per_kg"] = np.round(r, 6).tolist()
+    shape = mode_beside(s, 1.0, WALK["freq_hz"], WALK["damping_ratio"])
+    return {"h": h[None, :] + r[:, None] * shape[None, :]}
+
+
 def control_film(k, c):
     def model(case, s, drawn, on):
         return {"h": sd_accelerance(s, k, c)[None, :]}
@@ -1122,6 +1145,29 @@ def cases() -> list[Case]:
              expected_quality=["a narrowband line at 24.6 Hz (floor-vibration kind), not mains"],
              right_means="not explained (a change between hits within the hits) or a per-hit film description; a "
                          "line note at 24.6 Hz"),
+        Case("walking-magnet-sensor", "rig",
+             "the accelerometer's magnet base walks 15 mm across the top plate under the blows, over the nodal line of "
+             "the plate's twisting mode (640 Hz, ζ 0.006): the mode is seen with a modal constant going linearly from "
+             "−2.5e-3 1/kg at hit 1 to +2.5e-3 1/kg at hit 16 (through 0 between hits 8 and 9); rigid body and film "
+             "unchanged",
+             "ISO 5348:2021 (magnet mounting); Avitabile (2017) ch. 3 (mode shapes, nodal lines, modal constants); "
+             "Ewins (2000) §2.8",
+             "A mode beside the mover whose modal constant changes sign over the session because the measuring point "
+             "moves: a side mode at 640 Hz with a change between hits is right; an extra mode, a film or a chain term "
+             "is not.", seed=1036, model=walking_sensor, physics=dict(WALK),
+             kinds=[kind("mode", "elastic mode seen from a moving point (beside)", [BESIDE_PL],
+                         [{"frequency_hz": 640.0, "tol_rel": 0.02}, {"damping_ratio": 0.006, "tol_rel": 0.5}],
+                         "an elastic mode of the mover's plate, seen from a sensor that moved",
+                         ["elastic", "bending", "twist", "torsion", "plate", "flexible", "structural", "local mode",
+                          "mode of the mover", "mover's own", "nodal"], [G_BESIDE]),
+                    kind("walk", "the sensor moving over the session", [HITS_PL], [],
+                         "the accelerometer's position changing (a magnet base walking)",
+                         ["sensor", "accelerometer", "moved", "walk", "position", "location", "magnet", "mount",
+                          "nodal"], [G_HITS])],
+             partial_ok=["extra-mode", "added-mass", "drift", "step-change"],
+             must_not=list(AMPLITUDE) + list(MEMORY) + list(CHAIN) + ["window-damping", G_CHAIN],
+             right_means="a side mode at 640 Hz whose modal constant changes (sign) between hits; or honest not "
+                         "explained"),
     ]
     # keys with poles computed from the model
     by = {c.name: c for c in listed}
