@@ -542,11 +542,18 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--only", nargs="+", metavar="CASE")
     parser.add_argument("--label", default="")
     parser.add_argument("--tables-from", type=Path, nargs="+", metavar="SCORES_JSON")
+    parser.add_argument("--gasfilm", type=Path, metavar="PATH",
+                        help="the gasfilm command to score (default: the one beside this Python)")
+    parser.add_argument("--gasfilm-tree", type=Path, metavar="DIR",
+                        help="the git checkout that --gasfilm runs (recorded with the scores)")
     parser.add_argument("--from-saved", action="store_true",
                         help="classify DATA/diagnoses/CASE/diagnosis.json of an earlier run (no gasfilm run)")
     args = parser.parse_args(argv)
     global FROM_SAVED
     FROM_SAVED = args.from_saved
+    if args.gasfilm:
+        command = str(args.gasfilm.resolve())
+        round3.gasfilm = lambda: command  # round 3's run() calls it by name
     order = {c: i for i, c in enumerate(CATEGORIES)}
     if args.tables_from:
         rows = [r for p in args.tables_from for r in json.loads(p.read_text())["cases"]]
@@ -568,8 +575,8 @@ def main(argv: list[str] | None = None) -> int:
     text = report(rows)
     print("\n" + text)
     if not args.tables_from:
-        main_commit = subprocess.run(["git", "-C", str(Path(round3.gasfilm()).resolve().parents[2]), "rev-parse",
-                                      "HEAD"], capture_output=True, text=True).stdout.strip()
+        main_commit = subprocess.run(["git", "-C", str(args.gasfilm_tree or Path(round3.gasfilm()).resolve().parents[2]),
+                                      "rev-parse", "HEAD"], capture_output=True, text=True).stdout.strip()
         commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True,
                                 cwd=HERE).stdout.strip()
         summary = {"cases": len(rows), "summary": summary_line(rows), "worktree_commit": commit,
