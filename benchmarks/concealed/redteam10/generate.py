@@ -1,4 +1,4 @@
-"""Red-team world, round 10: sixteen cases of hidden physics and measurement faults (several at once, some varying
+"""Red-team world, round 10: seventeen cases of hidden physics and measurement faults (several at once, some varying
 over the session) plus five controls, for ``gasfilm diagnose`` scored as *right*, *modelled* and *named*.
 
 Written by a helper that has read neither ``analysis/``, ``app/``, ``drivers/`` nor ``tests/`` (only README.md, docs/,
