@@ -33,6 +33,7 @@ import argparse
 import importlib.util
 import json
 import math
+import os
 import subprocess
 import sys
 import time
@@ -545,12 +546,17 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--gasfilm", type=Path, metavar="PATH",
                         help="the gasfilm command to score (default: the one beside this Python)")
     parser.add_argument("--gasfilm-tree", type=Path, metavar="DIR",
-                        help="the git checkout that --gasfilm runs (recorded with the scores)")
+                        help="a checkout of the project to score (run by gasfilm-at.sh with this Python's packages, "
+                             "unless --gasfilm is given); its commit is recorded with the scores")
     parser.add_argument("--from-saved", action="store_true",
                         help="classify DATA/diagnoses/CASE/diagnosis.json of an earlier run (no gasfilm run)")
     args = parser.parse_args(argv)
     global FROM_SAVED
     FROM_SAVED = args.from_saved
+    if args.gasfilm_tree and not args.gasfilm:  # a checkout, run with this environment's packages
+        os.environ["GASFILM_TREE"] = str(args.gasfilm_tree.resolve())
+        os.environ.setdefault("GASFILM_PYTHON", sys.executable)
+        args.gasfilm = HERE / "gasfilm-at.sh"
     if args.gasfilm:
         command = str(args.gasfilm.resolve())
         round3.gasfilm = lambda: command  # round 3's run() calls it by name
