@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from gasfilm.analysis.physics.effects import Effect, FitContext, FitRange
+from gasfilm.analysis.physics.effects import Effect, FitContext, FitRange, TermChange
 from gasfilm.analysis.physics.response import HitConditions, hit_displacement_m, resonance_omega_rad_s
 from gasfilm.analysis.physics.spec import RigSpec
 
@@ -155,5 +155,16 @@ def with_effect(spec: RigSpec, effect: Effect) -> RigSpec:
     return spec.with_values(effects=(*spec.effects, effect))
 
 
+def removed_with(spec: RigSpec, index: int) -> set[int]:
+    """The indices :func:`without_effect` takes out with effect ``index``: it and the changes that act on it."""
+    return {index} | {i for i, effect in enumerate(spec.effects) if isinstance(effect, TermChange) and effect.term == index}
+
+
 def without_effect(spec: RigSpec, index: int) -> RigSpec:
-    return spec.with_values(effects=[e for i, e in enumerate(spec.effects) if i != index])
+    """The spec less effect ``index`` and less the changes between hits that act on it; the other changes keep
+    pointing at their terms."""
+    gone = removed_with(spec, index)
+    position = {old: new for new, old in enumerate(i for i in range(len(spec.effects)) if i not in gone)}
+    return spec.with_values(effects=[
+        dataclasses.replace(effect, term=position[effect.term]) if isinstance(effect, TermChange) else effect
+        for i, effect in enumerate(spec.effects) if i not in gone])

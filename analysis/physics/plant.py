@@ -60,18 +60,28 @@ class RigPlant:
     ) -> np.ndarray:
         """Linear specs: ``F·s²/Z(s, t)`` bin by bin (plus the force cross-talk and the structure modes). Cubic stiffness: the periodic equation of motion solved on the
         grid's samples (:func:`~gasfilm.analysis.physics.response.mover_displacement_spectrum`)."""
-        # electrical cross-talk of the force signal, and the structure modes beside the mover
-        beside_mover = (self.spec.force_leak_m_s2_per_n + response.structure_accelerance(self.spec, s)) * force_spectrum
         impulse_ns = float(force_spectrum[0].real)  # the spectrum at s ≈ 0: the hit's level
-        if self.spec.is_linear:
-            stiffness = response.rig_dynamic_stiffness(self.spec, s, time_s, impulse_ns=impulse_ns)
+        spec = self.spec.at_hit(time_s, impulse_ns)  # terms that change between hits, at this hit
+        # electrical cross-talk of the force signal, and the structure modes beside the mover
+        beside_mover = (spec.force_leak_m_s2_per_n + response.structure_accelerance(spec, s)) * force_spectrum
+        if spec is not self.spec:  # a channel term that changes between hits: its change in the FRF, on this channel
+            beside_mover = beside_mover * self._changed_channel_ratio(spec, s)
+            force_spectrum = force_spectrum * self._changed_channel_ratio(spec, s)
+        if spec.is_linear:
+            stiffness = response.rig_dynamic_stiffness(spec, s, time_s, impulse_ns=impulse_ns)
             return force_spectrum * s**2 / stiffness + beside_mover
         n_samples = 2 * (len(s) - 1)
         # the solver works on sampled signals, whose DFT is the continuous spectrum × the sample rate
         displacement = response.mover_displacement_spectrum(
-            self.spec, force_spectrum * sample_rate_hz, s, n_samples, time_s, impulse_ns=impulse_ns
+            spec, force_spectrum * sample_rate_hz, s, n_samples, time_s, impulse_ns=impulse_ns
         )
         return s**2 * displacement / sample_rate_hz + beside_mover
+
+    def _changed_channel_ratio(self, spec: RigSpec, s: np.ndarray) -> np.ndarray:
+        """How a hit's channel transfers (``spec``, the spec at the hit) change the FRF against the spec's own, which
+        :meth:`channel_transfer` gives the module once: the response channel's change over the force channel's."""
+        return (response.channel_transfer(spec, "acceleration", s) / self.channel_transfer("acceleration", s)
+                * self.channel_transfer("force", s) / response.channel_transfer(spec, "force", s))
 
     def channel_transfer(self, channel: str, s: np.ndarray) -> np.ndarray:
         return response.channel_transfer(self.spec, channel, s)

@@ -286,12 +286,41 @@ def rig_accelerance(
     (``Δk = CUBIC_EQUIVALENT·k3·x0²``); the exact nonlinear response is :func:`simulate_response`'s. ``pieces``, made
     for this ``freq_hz`` (the same array) and decay rate, remembers parts between calls (a fit's many evaluations).
     """
+    if spec.has_term_changes:
+        return _changing_accelerance(spec, freq_hz, decay_rate_1_s, time_s, conditions, pieces)
     if pieces is not None and pieces.matches(freq_hz, decay_rate_1_s):
         return accelerance_parts(spec, pieces, time_s, conditions).accelerance
     s = laplace_variable(freq_hz, decay_rate_1_s)
     stiffness = _loaded_stiffness(spec, s, time_s, conditions, None)
     return (s**2 / stiffness + structure_accelerance(spec, s) + spec.force_leak_m_s2_per_n) * (
         channel_transfer(spec, "acceleration", s) / channel_transfer(spec, "force", s))
+
+
+def _changing_accelerance(
+    spec: RigSpec,
+    freq_hz: np.ndarray,
+    decay_rate_1_s: float,
+    time_s: float,
+    conditions: HitConditions | None,
+    pieces: GridPieces | None,
+) -> np.ndarray:
+    """:func:`rig_accelerance` of a spec with terms that change between hits: hit by hit, each hit's spec
+    (:meth:`RigSpec.at_hit`); without ``conditions``, the spec at ``time_s`` with each level change at its reference."""
+    if conditions is None:
+        fixed = spec.at_hit(time_s, _reference_impulse_ns(spec))
+        return rig_accelerance(fixed, freq_hz, decay_rate_1_s, time_s, pieces=pieces)
+    rows = []
+    for time, impulse in zip(conditions.time_s, conditions.impulse_ns):
+        hit = HitConditions(time_s=np.array([time]), impulse_ns=np.array([impulse]))
+        rows.append(rig_accelerance(spec.at_hit(float(time), float(impulse)), freq_hz, decay_rate_1_s,
+                                    conditions=hit, pieces=pieces)[0])
+    return np.array(rows)
+
+
+def _reference_impulse_ns(spec: RigSpec) -> float:
+    """The impulse at which the spec's level changes are 1 (their reference; 1 N·s without any)."""
+    return next((effect.reference_impulse_ns for effect in spec.effects if hasattr(effect, "reference_impulse_ns")),
+                1.0)
 
 
 def _loaded_stiffness(

@@ -30,6 +30,7 @@ from gasfilm.analysis.physics.effects import (
     EFFECT_TYPES,
     Effect,
     EffectValueError,
+    TermChange,
     _any_number,
     _fraction,
     _non_negative,
@@ -64,6 +65,7 @@ EFFECT_UNIT_RANGES = {
     "(m/s²)/N": (0.0, 10.0),
     "1/kg": (0.0, 1e3),
     "N·s^α/m": (0.0, 1e14),
+    "N·s": (0.0, 1e5),
 }
 
 
@@ -315,6 +317,24 @@ class RigSpec:
     def with_effects(self, *effects: Effect) -> "RigSpec":
         """A copy with more effects appended."""
         return dataclasses.replace(self, effects=self.effects + tuple(effects))
+
+    @property
+    def has_term_changes(self) -> bool:
+        """Whether a term of the spec changes between hits (term-drift, term-level, term-onset)."""
+        return any(isinstance(effect, TermChange) for effect in self.effects)
+
+    def at_hit(self, time_s: float, impulse_ns: float) -> "RigSpec":
+        """The spec a hit at session time ``time_s`` with impulse ``impulse_ns`` sees: each changing term's value
+        moved by its changes, the changes themselves left out (their indices are those of :attr:`effects`)."""
+        if not self.has_term_changes:
+            return self
+        effects = list(self.effects)
+        for change in self.effects:
+            if isinstance(change, TermChange):
+                target = effects[change.term]
+                value = getattr(target, change.parameter) * change.factor(time_s, impulse_ns)
+                effects[change.term] = dataclasses.replace(target, **{change.parameter: value})
+        return self.with_values(effects=[effect for effect in effects if not isinstance(effect, TermChange)])
 
 
 @functools.lru_cache(maxsize=256)
@@ -575,6 +595,19 @@ def _check_unit_range(value: float, where: str, unit: str, upper_only: bool = Fa
         raise SettingError(f"{where} = {value!r}: outside the physical range, {bounds} ({unit})")
 
 
+def _check_term_change(spec: RigSpec, index: int, change: TermChange) -> None:
+    """A change between hits acts on a number of another effect of the spec (not on another change)."""
+    where = f"{spec.source} effects[{index}] ({type(change).type_name})"
+    if not 0 <= change.term < len(spec.effects) or isinstance(spec.effects[change.term], TermChange):
+        raise SettingError(f"{where} key 'term' = {change.term!r}: must be the index (from 0) of another effect of the "
+                           f"spec that is not itself a change")
+    target = spec.effects[change.term]
+    numbers = [item.name for item in dataclasses.fields(target) if "rule" in item.metadata]
+    if change.parameter not in numbers:
+        raise SettingError(f"{where} key 'parameter' = {change.parameter!r}: {type(target).type_name} has "
+                           f"{', '.join(numbers) or 'no numbers'}")
+
+
 def _validate_spec(spec: RigSpec) -> None:
     source = spec.source
     _float_value(spec.mass_kg, f"{source} key 'mass_kg'", _within(*MASS_RANGE_KG), "kg")
@@ -600,6 +633,8 @@ def _validate_spec(spec: RigSpec) -> None:
         if type(effect).type_name not in EFFECT_TYPES:
             raise SettingError(f"{source} effects[{index}]: {type(effect).__name__} is not a registered effect")
         _check_effect(effect, f"{source} effects[{index}]")
+        if isinstance(effect, TermChange):
+            _check_term_change(spec, index, effect)
     for channel in CHANNELS:
         sensor = spec.sensor(channel)
         sensitivity_key, noise_key = _SENSOR_KEYS[channel]
