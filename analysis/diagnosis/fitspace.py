@@ -74,14 +74,15 @@ class Slot:
 def fit_context(spec: RigSpec, conditions: HitConditions, band_hz: tuple[float, float]) -> FitContext:
     """The physical scales that bound every term in this session (from the spec as given and the hits)."""
     omega = resonance_omega_rad_s(spec)
-    film = abs(spec.film.stiffness(np.array([1j * omega]), spec.film_parameters)[0])
+    stiffness = spec.film.stiffness(np.array([1j * omega]), spec.film_parameters)[0]
     return FitContext(
         mass_kg=spec.moving_mass_kg,
-        film_stiffness_n_per_m=float(film),
+        film_stiffness_n_per_m=float(abs(stiffness)),
         resonance_hz=omega / (2 * np.pi),
         band_hz=(float(band_hz[0]), float(band_hz[1])),
         session_span_s=float(np.ptp(conditions.time_s)) if len(conditions.time_s) else 0.0,
         max_displacement_m=float(np.max(hit_displacement_m(spec, conditions.impulse_ns))),
+        film_damping_ratio=float(stiffness.imag / (2 * stiffness.real)) if stiffness.real > 0 else 0.0,
     )
 
 

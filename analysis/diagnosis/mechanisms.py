@@ -51,6 +51,11 @@ def _above_resonance(effect: Effect, context: FitContext) -> bool:
     return getattr(effect, "freq_hz", 0.0) > 1.2 * context.resonance_hz
 
 
+def _lightly_damped(effect: Effect, context: FitContext) -> bool:
+    """A mode damped far less than the film damps the mover (a structure's own mode, not one the film carries)."""
+    return getattr(effect, "damping_ratio", 1.0) < 0.3 * context.film_damping_ratio
+
+
 def _below_resonance(effect: Effect, context: FitContext) -> bool:
     return getattr(effect, "freq_hz", 0.0) < 0.8 * context.resonance_hz
 
@@ -69,12 +74,13 @@ MECHANISMS: tuple[Mechanism, ...] = (
     Mechanism("tilt (pitch or roll) of the mover on its film, seen by an accelerometer off its centre",
               ("side-mode", "structure-mode"),
               "a rigid-body rotation of the mover on the film's tilt stiffness: a mode of its own that an accelerometer "
-              "or a hammer off the centre line sees, with a modal constant of either sign",
-              "an accelerometer on the other side of the centre (the sign of the mode flips) or a hit at the centre"),
-    Mechanism("a flexible (bending) mode of the mover", ("side-mode", "structure-mode"),
-              "the mover plate's own elastic mode, lightly damped, well above the film's resonance",
+              "or a hammer off the centre line sees, with a modal constant of either sign, damped by the film as the "
+              "heave is", "an accelerometer on the other side of the centre (the sign of the mode flips) or a hit at "
+              "the centre", preference=lambda effect, context: float(not _lightly_damped(effect, context))),
+    Mechanism("an elastic (bending or twisting) mode of the mover's plate", ("side-mode", "structure-mode"),
+              "the mover's own structural mode: far less damped than the modes the gas film carries",
               "accelerometers at two points of the mover (their ratio changes across the mode)", _above_resonance,
-              lambda effect, context: float(effect.freq_hz > 4 * context.resonance_hz and effect.damping_ratio < 0.01)),
+              lambda effect, context: float(_lightly_damped(effect, context))),
     Mechanism("a mode of the base, frame or table the bearing stands on", ("side-mode", "structure-mode"),
               "the support moves the guide, and with it the mover, in a mode of its own",
               "an accelerometer on the base (it moves most there)",
@@ -86,13 +92,17 @@ MECHANISMS: tuple[Mechanism, ...] = (
               "a deliberate mass-spring-damper on the mover, often heavy and damped, near the film's resonance",
               "the mover's drawings; locking the absorber"),
     # the film's dynamic stiffness
+    Mechanism("viscoelastic memory of the film (fractional damping of a porous or graphite restrictor)",
+              ("film-memory",), "a fractional Maxwell branch: stiffness and damping changing with frequency as a "
+              "power law, as the paper's fractional films and porous bearings have", "a wider band (a softer or harder "
+              "tip), or a test at another supply pressure"),
     Mechanism("gas compressibility in the film (a squeeze film stiffening with frequency)",
-              ("film-branch", "squeeze-film", "film-memory"),
+              ("film-branch", "squeeze-film"),
               "trapped air cannot escape at high squeeze numbers: the film stiffens and damps less as the frequency "
               "rises (stiffness growing as a low power of frequency)",
               "a test at another gap or supply pressure (a squeeze film scales as h0⁻¹ and h0⁻²)",
               _order_between(0.0, 0.7)),
-    Mechanism("viscoelastic memory of the film (fractional damping)", ("film-branch", "film-memory"),
+    Mechanism("viscoelastic memory of the film (fractional damping)", ("film-branch",),
               "a power law of frequency between a spring and a dashpot, as the paper's fractional films have",
               "a wider band (a softer or harder tip)", _order_between(0.2, 1.3)),
     Mechanism("extra viscous damping (air shear in a seal or a narrow gap, an eddy-current damper)", ("film-branch",),

@@ -71,7 +71,10 @@ logger = logging.getLogger(__name__)
 
 MAX_TERMS = 6
 #: Generic descriptions at most, after the catalog's terms (modes beside the mover, film branches, channel factors).
-MAX_DESCRIPTIONS = 6
+MAX_DESCRIPTIONS = 8
+#: A generic description whose own band stays beyond the noise is still a description of what it removed when it
+#: removed at least this share of the excess there (the rest is another description's, or not explained).
+DESCRIBED_SHARE = 0.5
 #: Refits at most against the replay of their own result when the replay quantises the response.
 QUANTISED_REFITS = 8
 NONLINEAR_ITERATIONS = 3
@@ -462,14 +465,17 @@ def _drop_partial_descriptions(
     context: FitContext,
     progress: Callable[[str], None],
 ) -> tuple[list[Step], FitOutcome, Evidence, dict[str, RigSpec], dict[str, Claim]]:
-    """A generic description must bring its own band within the noise (the claim every term is held to, step 4 (a)):
-    one that leaves it beyond is a partial description of something it does not describe, taken out (the latest
-    first) and listed with its values. The catalog's terms here passed their claims already."""
+    """A generic description must describe what lies in its own band: one that leaves that band beyond the noise
+    having removed less than :data:`DESCRIBED_SHARE` of its excess there (against the written spec refitted without
+    it) describes something else, and is taken out (the latest first) and listed with its values. One that removed
+    most of it describes its part, and what is left there is another's, or is not explained. The catalog's terms here
+    passed their claims already."""
     while True:
         claims = {step.label: _claim(spectra, evidence, current, refits_without[step.label], step.label,
                                      recalibrated, rms_recalibrated) for step in steps}
         partial = [step for step in steps if EFFECT_TYPES[step.identifier].generic
-                   and claims[step.label].reason is not None][-1:]
+                   and claims[step.label].reason is not None
+                   and not _described_share_met(claims[step.label])][-1:]
         if not partial:
             return steps, current, evidence, refits_without, claims
         reasons = {step.label: claims[step.label].reason for step in partial}
@@ -477,6 +483,12 @@ def _drop_partial_descriptions(
             progress(f"  {label}: a candidate description, not a model of the data ({reason})")
         steps, current, evidence, refits_without = _demote_terms(spectra, evidence, steps, current, reasons,
                                                                  refits_without, rejected, recalibrated, context)
+
+
+def _described_share_met(claim: Claim) -> bool:
+    """Whether a term removed at least :data:`DESCRIBED_SHARE` of the excess over the noise in its own band."""
+    before, after = claim.own_band_without, claim.own_band_chi2_per_point
+    return before > 1.0 and (before - after) >= DESCRIBED_SHARE * (before - 1.0) and claim.gain_over_recalibrated > 0
 
 
 def _film_moved_from(spec: RigSpec, film: dict[str, float], tolerance: float = 0.1) -> bool:

@@ -104,6 +104,7 @@ class FitContext:
     band_hz: tuple[float, float]
     session_span_s: float  # last hit time − first hit time
     max_displacement_m: float  # initial displacement amplitude of the hardest hit, J / (M ω0)
+    film_damping_ratio: float = 0.05  # Im Z / (2 Re Z) of the film at the resonance
 
 
 @dataclass(frozen=True)
@@ -639,6 +640,7 @@ class PneumaticLag(Effect):
     explanation: ClassVar[str] = (
         "Air in the orifices and pockets reacts with a delay: part of the film force lags the motion, which lowers "
         "(or even reverses) the film's damping near the resonance.")
+    repeatable: ClassVar[bool] = True  # several volumes behind restrictors (pockets, a plenum) each lag on their own
 
     k_lag: float = _number("N/m", _positive)
     tau_lag: float = _number("s", _positive)
@@ -669,6 +671,7 @@ class FilmMemory(Effect):
 
     #: k_memory at its upper bound: the branch is a pure spring-pot η s^α beside the film, a valid limit
     open_upper: ClassVar[frozenset[str]] = frozenset({"k_memory"})
+    repeatable: ClassVar[bool] = True
 
     k_memory: float = _number("N/m", _positive)
     eta_memory: float = _number("N·s^α/m", _positive)
