@@ -256,13 +256,24 @@ _RESONANCES: dict[tuple, float] = {}
 
 
 def _resonance_omega_rad_s(spec: RigSpec) -> float:
+    """The fixed point ``ω = √(Re Z(jω)/M)``, iterated from ``√(|Z(j)|/M)`` with Steffensen's acceleration (Aitken's
+    Δ² on each pair of plain steps): a fractional film takes ten plain steps, a few accelerated ones."""
     mass_kg = spec.moving_mass_kg
+
+    def step(omega: float) -> float:
+        stiffness = spec.film.stiffness(np.array([1j * omega]), spec.film_parameters)[0].real
+        return float(np.sqrt(max(stiffness, 1e-9) / mass_kg))
+
     omega = float(np.sqrt(abs(spec.film.stiffness(np.array([1j]), spec.film_parameters)[0]) / mass_kg))
     for _ in range(20):
-        stiffness = spec.film.stiffness(np.array([1j * omega]), spec.film_parameters)[0].real
-        previous, omega = omega, float(np.sqrt(max(stiffness, 1e-9) / mass_kg))
-        if abs(omega - previous) <= 1e-12 * omega:
-            break
+        first = step(omega)
+        if abs(first - omega) <= 1e-12 * first:
+            return first
+        second = step(first)
+        curvature = second - 2 * first + omega
+        accelerated = omega - (first - omega) ** 2 / curvature if curvature != 0 else second
+        # an accelerated step that leaves the neighbourhood (or runs negative) is not taken: the plain one is
+        omega = accelerated if 0.5 * second < accelerated < 2 * second else second
     return omega
 
 
