@@ -74,7 +74,7 @@ class MatrixTerm:
     def line(self) -> str:
         k_unit, c_unit = self.units
         name = self.directions[0] if self.diagonal else f"{self.directions[0]}–{self.directions[1]}"
-        text = (f"{name:<12} K = {self.stiffness:12.6g} ± {self.stiffness_std:.2g} {k_unit:<8}  "
+        text = (f"{name:<12} K = {self.stiffness:12.6g} ± {self.stiffness_std:<7.2g} {k_unit:<8}  "
                 f"C = {self.damping:10.5g} ± {self.damping_std:.2g} {c_unit}")
         if not self.diagonal:
             text += (f"  (K/√(K_aa·K_bb) = {100 * self.normalised:+.2f} %: "

@@ -28,6 +28,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--method", default="default", help="fitter: 'default' (the fast one) or 'gapso'")
     parser.add_argument("--band", help="frequency band LO:HI in Hz (default 20:1000, capped at 0.45·fs)")
     parser.add_argument("--fit-mass", action="store_true", help="identify each direction's mass or inertia too")
+    parser.add_argument("--exp-end", type=float,
+                        help="exponential window's value at the record end for UFF time records (default: none; a "
+                             "session uses its own window)")
     parser.add_argument("--seed", type=int, default=0, help="seed of the fitters' random starts")
     parser.add_argument("--json", action="store_true", help="print one JSON object instead of the tables")
     parser.add_argument("--out", type=Path, help="folder for the figures (default: next to the input)")
@@ -63,7 +66,9 @@ def run(args: argparse.Namespace) -> int:
         if spec is None:
             raise SettingError(f"--rig: {args.source} is a UFF file; give the rig spec of its geometry "
                                f"(docs/rig-spec.md, [rigid_body])")
-        rigid = read_rigid_uff(args.source, spec)
+        from gasfilm.analysis.spectra import WindowSettings
+
+        rigid = read_rigid_uff(args.source, spec, WindowSettings(exponential_end_fraction=args.exp_end))
     else:
         with Session.open(args.source) as session:
             rigid = session_rigid_frf(session, spec=spec)
