@@ -15,6 +15,10 @@ from gasfilm.analysis.physics import response, rigid_body
 from gasfilm.analysis.physics.spec import HammerSpec, RigSpec
 
 
+#: A rigid body's accelerances kept for this many hammer points (a roving test's).
+KEPT_POINTS = 16
+
+
 class RigPlant:
     """The rig of ``spec`` behind the simulated module: its hammer, sensors, mover, channel effects and interference.
 
@@ -24,6 +28,7 @@ class RigPlant:
 
     def __init__(self, spec: RigSpec) -> None:
         self.spec = spec
+        self._kept_accelerances: list[tuple[RigSpec, np.ndarray, np.ndarray]] = []
 
     @classmethod
     def nominal(cls, film: str = "FOMGF") -> "RigPlant":
@@ -106,10 +111,17 @@ class RigPlant:
         structure modes), accelerometers × bins."""
         if self.spec.rigid_body is None:
             return self.acceleration_spectrum(force_spectrum, s, sample_rate_hz, time_s)[np.newaxis]
+        for spec, grid, accelerances in self._kept_accelerances:
+            if (spec is self.spec or spec == self.spec) and grid.shape == s.shape and np.array_equal(grid, s):
+                return accelerances * force_spectrum
         impulse_ns = float(force_spectrum[0].real)
         beside_mover = self.spec.force_leak_m_s2_per_n + response.structure_accelerance(self.spec, s)
-        mover = rigid_body.sensor_accelerances(self.spec, s, None, time_s, impulse_ns=impulse_ns)
-        return (mover + beside_mover) * force_spectrum
+        accelerances = rigid_body.sensor_accelerances(self.spec, s, None, time_s, impulse_ns=impulse_ns) + beside_mover
+        if not self.spec.is_per_hit:  # the same for every hit at this point: kept for the next ones (the simulator
+            # asks on one grid; a roving hammer comes back to its points)
+            self._kept_accelerances = [*self._kept_accelerances[-(KEPT_POINTS - 1):],
+                                       (self.spec, s.copy(), accelerances)]
+        return accelerances * force_spectrum
 
     def strike_at(self, point: str) -> None:
         """Hits from now on strike hammer point ``point`` of the rigid body (a name of its hammer points)."""

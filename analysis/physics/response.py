@@ -445,8 +445,8 @@ def _cached_response_duration_s(spec_toml: str, sample_rate_hz: float, film_scal
     if spec.rigid_body is None:
         accelerances = [s**2 / rig_dynamic_stiffness(spec, s, film_scale=film_scale) + structure_accelerance(spec, s)]
     else:  # every mode of a rigid body shows in a diagonal term of its accelerance matrix
-        matrix = rigid_body.accelerance_matrix(spec, s, film_scale=film_scale)
-        accelerances = [matrix[:, index, index] + structure_accelerance(spec, s) for index in range(3)]
+        accelerances = list(rigid_body.diagonal_accelerances(spec, s, film_scale=film_scale)
+                            + structure_accelerance(spec, s))
     durations = []
     for accelerance in accelerances:
         impulse = np.abs(scipy.fft.irfft(band_limit * accelerance, n_samples))
