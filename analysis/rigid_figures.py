@@ -18,14 +18,16 @@ from gasfilm.analysis.rigid_frf import RigidFrf
 def direction_figure(path: str | Path, rigid: RigidFrf, identification: RigidIdentification) -> Path:
     """|H| and phase of each identified direction's accelerance in the band, measured and fitted."""
     directions = list(identification.directions)
-    figure = Figure(figsize=(12, 3.2 * max(1, len(directions))), layout="tight")
+    figure = Figure(figsize=(12, 3.2 * max(1, len(directions))))
+    figure.subplots_adjust(left=0.08, right=0.98, bottom=0.06, top=0.95, hspace=0.45, wspace=0.2)
     axes = figure.subplots(max(1, len(directions)), 2, squeeze=False)
     low, high = identification.band_hz
     lines = rigid.readable() & (rigid.freq_hz >= low) & (rigid.freq_hz <= high)
     freq = rigid.freq_hz[lines]
     for row, direction in enumerate(directions):
         measured = rigid.direction_accelerance(direction)[lines]
-        unit = f"({ACCELERATION_UNITS[direction]})/{LOAD_UNITS[direction]}"
+        load = LOAD_UNITS[direction]
+        unit = f"({ACCELERATION_UNITS[direction]})/{load if direction == 'heave' else f'({load})'}"
         magnitude, phase = axes[row]
         magnitude.semilogy(freq, np.abs(measured), color="black", linewidth=2.0, label="measured")
         phase.plot(freq, np.degrees(np.angle(measured)), color="black", linewidth=2.0, label="measured")
@@ -45,7 +47,8 @@ def direction_figure(path: str | Path, rigid: RigidFrf, identification: RigidIde
 
 def channel_figure(path: str | Path, rigid: RigidFrf) -> Path:
     """|H1| and coherence of every accelerometer at every hammer point."""
-    figure = Figure(figsize=(12, 3.0 * len(rigid.point_names)), layout="tight")
+    figure = Figure(figsize=(12, 3.0 * len(rigid.point_names)))
+    figure.subplots_adjust(left=0.08, right=0.98, bottom=0.06, top=0.95, hspace=0.45, wspace=0.2)
     axes = figure.subplots(len(rigid.point_names), 2, squeeze=False)
     for row, (point, frfs) in enumerate(zip(rigid.point_names, rigid.channel_frfs)):
         magnitude, coherence = axes[row]

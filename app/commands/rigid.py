@@ -34,6 +34,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--seed", type=int, default=0, help="seed of the fitters' random starts")
     parser.add_argument("--json", action="store_true", help="print one JSON object instead of the tables")
     parser.add_argument("--out", type=Path, help="folder for the figures (default: next to the input)")
+    parser.add_argument("--no-figures", action="store_true", help="write no figures")
     parser.add_argument("--overwrite", action="store_true", help="replace figures that exist already")
     parser.set_defaults(func=run)
 
@@ -57,8 +58,9 @@ def run(args: argparse.Namespace) -> int:
         raise SettingError(f"--rig {args.rig}: the rig spec has no [rigid_body] (docs/rig-spec.md)")
     out = args.out if args.out is not None else args.source.parent
     stem = args.source.stem
-    figure_paths = check_output_folder(out, "--out" if args.out is not None else "",
-                                       (f"{stem}-rigid-directions.png", f"{stem}-rigid-channels.png"), args.overwrite)
+    figure_paths = [] if args.no_figures else check_output_folder(
+        out, "--out" if args.out is not None else "", (f"{stem}-rigid-directions.png", f"{stem}-rigid-channels.png"),
+        args.overwrite)
     uff = is_time_record_file(args.source)
     if uff:
         from gasfilm.analysis.rigid_uff import read_rigid_uff
@@ -77,7 +79,8 @@ def run(args: argparse.Namespace) -> int:
     if not uff:
         with Session.open(args.source, "a") as session:
             session.write_rigid_body(identification.to_dict())
-    figures = [direction_figure(figure_paths[0], rigid, identification), channel_figure(figure_paths[1], rigid)]
+    figures = [] if args.no_figures else [direction_figure(figure_paths[0], rigid, identification),
+                                          channel_figure(figure_paths[1], rigid)]
     if args.json:
         print(json.dumps({"source": str(args.source), **identification.to_dict(),
                           "figures": [str(path) for path in figures]}))
@@ -88,5 +91,6 @@ def run(args: argparse.Namespace) -> int:
         print(line)
     if not uff:
         print(f"stored in {args.source} (/rigid_body)")
-    print("figures: " + ", ".join(str(path) for path in figures))
+    if figures:
+        print("figures: " + ", ".join(str(path) for path in figures))
     return 0
