@@ -93,8 +93,10 @@ def session_spec(session: Any) -> RigSpec | None:
     return spec if spec.rigid_body is not None else None
 
 
-def session_rigid_frf(session: Any, window: WindowSettings | None = None, spec: RigSpec | None = None) -> RigidFrf:
-    """The rigid-body FRFs of a session's accepted hits (its rig spec, hammer-point runs and window)."""
+def session_rigid_frf(session: Any, window: WindowSettings | None = None, spec: RigSpec | None = None,
+                      points: Sequence[str] | None = None) -> RigidFrf:
+    """The rigid-body FRFs of a session's accepted hits (its rig spec, hammer-point runs and window); ``points``:
+    only the hits at these hammer points."""
     spec = spec or session_spec(session)
     if spec is None:
         raise SettingError(f"{session.path}: its rig spec has no [rigid_body] (a one-accelerometer session); a "
@@ -105,5 +107,17 @@ def session_rigid_frf(session: Any, window: WindowSettings | None = None, spec: 
         raise SettingError(f"{session.path}: no accepted hits")
     rows = accelerometer_rows(spec, session.daq_config)
     grouped = hits_by_point(spec, session.settings, accepted)
-    records = {point: np.stack([hit.data for hit in hits]) for point, hits in grouped.items()}
+    check_points(spec, points, grouped)
+    records = {point: np.stack([hit.data for hit in hits]) for point, hits in grouped.items()
+               if points is None or point in points}
     return rigid_frf(spec, records, session.sample_rate_hz, window, accepted[0].force_channel, rows)
+
+
+def check_points(spec: RigSpec, points: Sequence[str] | None, struck: Mapping[str, Any]) -> None:
+    """Refuse a chosen hammer point that is not the spec's or has no hits, naming the ones there are."""
+    for point in points or ():
+        if point not in spec.rigid_body.point_names:
+            raise SettingError(f"--points {point}: not a hammer point of the rig spec "
+                               f"({', '.join(spec.rigid_body.point_names)})")
+        if point not in struck:
+            raise SettingError(f"--points {point}: no accepted hits there (struck: {', '.join(struck) or 'none'})")

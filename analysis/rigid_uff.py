@@ -107,9 +107,10 @@ def export_rigid_uff(path: str | Path, spec: RigSpec, rigid: RigidFrf,
     return path
 
 
-def read_rigid_uff(path: str | Path, spec: RigSpec, window: WindowSettings = WindowSettings()) -> RigidFrf:
-    """The rigid-body FRFs of a UFF file's time records (every hit), with the spec's geometry (checked against the
-    file's dataset 15 when it has one)."""
+def read_rigid_uff(path: str | Path, spec: RigSpec, window: WindowSettings = WindowSettings(),
+                   points: Sequence[str] | None = None) -> RigidFrf:
+    """The rigid-body FRFs of a UFF file's time records (every hit; ``points``: only at these hammer points), with
+    the spec's geometry (checked against the file's dataset 15 when it has one)."""
     path = Path(path)
     body = spec.rigid_body
     if body is None:
@@ -159,6 +160,11 @@ def read_rigid_uff(path: str | Path, spec: RigSpec, window: WindowSettings = Win
                 data[hit, row] = values * _si_factor(path, number, dataset, role, units)
             rates.extend(_number(dataset, "abscissa_inc") for _, dataset in records)
         point_records[point] = data
+    if points is not None:
+        from gasfilm.analysis.rigid_session import check_points
+
+        check_points(spec, points, point_records)
+        point_records = {point: records for point, records in point_records.items() if point in points}
     if not point_records:
         raise UffError(f"{path}: no force records at the nodes of the spec's hammer points "
                        f"({', '.join(str(point_node(p)) for p in range(len(body.hammer_points)))})")

@@ -24,6 +24,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("source", type=Path, metavar="SESSION.h5|FILE.uff",
                         help="a session recorded with a [rigid_body] rig spec, or UFF time records with --rig")
     parser.add_argument("--rig", type=Path, help="rig spec TOML with [rigid_body] (default: the session's own)")
+    parser.add_argument("--points", help="comma-separated hammer points to use (default: every point struck)")
     parser.add_argument("--models", default="SD", help="comma-separated model names or 'all' (default SD)")
     parser.add_argument("--method", default="default", help="fitter: 'default' (the fast one) or 'gapso'")
     parser.add_argument("--band", help="frequency band LO:HI in Hz (default 20:1000, capped at 0.45·fs)")
@@ -52,6 +53,7 @@ def run(args: argparse.Namespace) -> int:
     if args.method not in METHODS:
         raise SettingError(f"--method '{args.method}': choose one of {', '.join(METHODS)}")
     models = [model.name for model in parse_models(args.models)]
+    points = None if args.points is None else [point.strip() for point in args.points.split(",") if point.strip()]
     check_inputs([args.source], (".uff", ".unv"), "a session or UFF time records")
     spec = RigSpec.load(args.rig) if args.rig is not None else None
     if spec is not None and spec.rigid_body is None:
@@ -70,10 +72,10 @@ def run(args: argparse.Namespace) -> int:
                                f"(docs/rig-spec.md, [rigid_body])")
         from gasfilm.analysis.spectra import WindowSettings
 
-        rigid = read_rigid_uff(args.source, spec, WindowSettings(exponential_end_fraction=args.exp_end))
+        rigid = read_rigid_uff(args.source, spec, WindowSettings(exponential_end_fraction=args.exp_end), points)
     else:
         with Session.open(args.source) as session:
-            rigid = session_rigid_frf(session, spec=spec)
+            rigid = session_rigid_frf(session, spec=spec, points=points)
     band = parse_band(args.band, rigid.sample_rate_hz)
     identification = identify_rigid(rigid, models, band, args.method, args.fit_mass, args.seed)
     if not uff:
