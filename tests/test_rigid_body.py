@@ -184,6 +184,13 @@ def test_the_cli_records_a_roving_test_fits_it_and_exports_it(tmp_path, capsys):
         assert opened.read_rigid_body()["coupling_found"]
         assert len(opened.daq_config.channels) == 4 and opened.daq_config.channels[1].name == "A1 (s/n LW210001)"
         assert list(opened.frf_hit_indices()) == [0, 1]  # the session's FRF: its spec's point (the centre)
+    assert gasfilm(["model", str(session), "--rigid", "--out", str(tmp_path / "plant.npz"), "--json"]) == 0
+    plant = json.loads(capsys.readouterr().out)["model"]
+    assert plant["stable"] and plant["max_error_band"] < 0.005 and plant["measured_error_median_max"][0] < 0.02
+    assert set(plant["couplings_used"]) >= {"heave–pitch"}
+    with np.load(tmp_path / "plant.npz") as arrays:
+        assert arrays["B"].shape[1] == arrays["C"].shape[0] == 3  # F_z, M_x, M_y → heave, roll, pitch
+        np.testing.assert_allclose(arrays["D"], np.linalg.inv(arrays["M"]))
     uff = tmp_path / "s.uff"
     assert gasfilm(["export", str(session), "--uff", str(uff)]) == 0
     assert gasfilm(["rigid", str(uff), "--rig", str(rig), "--json", "--no-figures"]) == 0
@@ -203,3 +210,20 @@ def test_the_one_accelerometer_path_is_bit_for_bit_what_it_was():
     assert sorted(now) == sorted(before.files)
     for key in before.files:
         assert np.array_equal(now[key], before[key]), key
+
+
+@pytest.mark.parametrize("described", [True, False])
+def test_a_rigid_spec_describes_the_tilt_modes_one_accelerometer_sees(described):
+    """Hit off the centre, the first accelerometer sees heave, roll and pitch: the spec with the rigid body
+    describes them (consistent); a one-direction spec of the same heave film leaves them unexplained."""
+    from gasfilm.analysis.diagnosis import diagnose
+    from gasfilm.analysis.diagnosis.recordings import Recordings
+    from gasfilm.analysis.diagnosis.parallel import worker_processes
+
+    spec = rigid_body.struck_at(three_pads(), "north-east")
+    records = roving_records(spec, 4, ["north-east"])["north-east"][:, :2]
+    recordings = Recordings(records, RATE_HZ, np.arange(4) * 2.0, None, None, None, "simulated rigid body")
+    given = spec if described else RigSpec.nominal("SD", parameters={"k": 3e7, "eta": 4500.0})
+    with worker_processes(1):
+        diagnosis = diagnose(recordings, given)
+    assert (diagnosis.verdict == "consistent") is described, diagnosis.verdict

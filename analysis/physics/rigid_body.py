@@ -267,6 +267,9 @@ def dynamic_stiffness_matrix(spec: "RigSpec", s: np.ndarray, time_s: np.ndarray 
         damping = sum(effect.level_damping_ns_per_m(velocity_m_s) for effect in spec.effects)
         heave = heave + (np.asarray(damping)[..., np.newaxis] if np.ndim(damping) else damping) * s
     if np.any(np.asarray(heave) != 0.0):
+        lines = np.broadcast_shapes(total.shape[:-2], np.shape(heave))
+        if lines != total.shape[:-2]:  # (a damper per hit on a film the same for every hit)
+            total = np.broadcast_to(total, lines + (3, 3)).copy()
         total[..., 0, 0] += heave
     return total
 
