@@ -28,15 +28,15 @@ from __future__ import annotations
 import math
 import re
 from dataclasses import dataclass, field, replace
-from typing import TYPE_CHECKING, Any, Mapping, Sequence
+from typing import Any, Mapping, Sequence
 
 import numpy as np
 
 from gasfilm.analysis.physics.elements import FilmModel, get_model
 from gasfilm.drivers.errors import SettingError
 
-if TYPE_CHECKING:
-    from gasfilm.analysis.physics.spec import RigSpec
+#: A :class:`gasfilm.analysis.physics.spec.RigSpec` (whose ``rigid_body`` this module defines: spec.py imports it).
+RigSpec = Any
 
 #: The rigid-body directions in the order of q, with the units of their stiffness, inertia, motion and load.
 DIRECTIONS = ("heave", "roll", "pitch")
@@ -219,13 +219,13 @@ def _film_of(model: FilmModel, parameters: Mapping[str, float], s: np.ndarray, v
     return stiffness * whole[..., np.newaxis] if whole.ndim else stiffness * float(whole)
 
 
-def _scales(spec: "RigSpec", time_s: np.ndarray | float, film_scale: float | None) -> tuple[np.ndarray, np.ndarray]:
+def _scales(spec: RigSpec, time_s: np.ndarray | float, film_scale: float | None) -> tuple[np.ndarray, np.ndarray]:
     if film_scale is not None:
         return np.asarray(1.0), np.asarray(float(film_scale))
     return (np.asarray(spec.viscous_scale(time_s), dtype=float), np.asarray(spec.film_scale(time_s), dtype=float))
 
 
-def film_matrix(spec: "RigSpec", s: np.ndarray, time_s: np.ndarray | float = 0.0,
+def film_matrix(spec: RigSpec, s: np.ndarray, time_s: np.ndarray | float = 0.0,
                 film_scale: float | None = None) -> np.ndarray:
     """The films' 3×3 dynamic stiffness at the centre of mass, (G, 3, 3) or (hits, G, 3, 3) for an array of times
     (drift and step changes scale every film as they scale a one-direction film; ``film_scale`` overrides them)."""
@@ -247,12 +247,12 @@ def film_matrix(spec: "RigSpec", s: np.ndarray, time_s: np.ndarray | float = 0.0
     return transform.T @ diagonal @ transform
 
 
-def mass_matrix(spec: "RigSpec") -> np.ndarray:
+def mass_matrix(spec: RigSpec) -> np.ndarray:
     """M (3×3): the moving mass (with added masses) and the inertia about the centre of mass."""
     return _body(spec).mass_matrix(spec.moving_mass_kg)
 
 
-def dynamic_stiffness_matrix(spec: "RigSpec", s: np.ndarray, time_s: np.ndarray | float = 0.0, *,
+def dynamic_stiffness_matrix(spec: RigSpec, s: np.ndarray, time_s: np.ndarray | float = 0.0, *,
                              film_scale: float | None = None,
                              impulse_ns: np.ndarray | float | None = None) -> np.ndarray:
     """``D(s) = Z(s) + M s²`` plus the mechanical effects on heave (added stiffness, amplitude-dependent damping at
@@ -274,7 +274,7 @@ def dynamic_stiffness_matrix(spec: "RigSpec", s: np.ndarray, time_s: np.ndarray 
     return total
 
 
-def diagonal_accelerances(spec: "RigSpec", s: np.ndarray, **options: Any) -> np.ndarray:
+def diagonal_accelerances(spec: RigSpec, s: np.ndarray, **options: Any) -> np.ndarray:
     """The diagonal of :func:`accelerance_matrix`, (3, G): each direction's accelerance to its own load (every mode
     shows in at least one of them)."""
     s = np.asarray(s, dtype=complex)
@@ -288,14 +288,14 @@ def diagonal_accelerances(spec: "RigSpec", s: np.ndarray, **options: Any) -> np.
     return minors / determinant * s**2
 
 
-def accelerance_matrix(spec: "RigSpec", s: np.ndarray, time_s: np.ndarray | float = 0.0, **options: Any
+def accelerance_matrix(spec: RigSpec, s: np.ndarray, time_s: np.ndarray | float = 0.0, **options: Any
                        ) -> np.ndarray:
     """The generalised accelerance ``A(s) = s² D(s)⁻¹`` ((m/s²)/N, (rad/s²)/(N·m), ...), (G, 3, 3)."""
     s = np.asarray(s, dtype=complex)
     return np.linalg.inv(dynamic_stiffness_matrix(spec, s, time_s, **options)) * (s**2)[..., np.newaxis, np.newaxis]
 
 
-def sensor_accelerances(spec: "RigSpec", s: np.ndarray, point: str | None = None, time_s: float = 0.0,
+def sensor_accelerances(spec: RigSpec, s: np.ndarray, point: str | None = None, time_s: float = 0.0,
                         impulse_ns: float | None = None) -> np.ndarray:
     """What each accelerometer reads of the mover's motion per N at hammer point ``point`` (default: the struck
     one), (accelerometers, G) in (m/s²)/N; without the effects beside the mover (cross-talk, structure modes)."""
@@ -305,7 +305,7 @@ def sensor_accelerances(spec: "RigSpec", s: np.ndarray, point: str | None = None
     return np.moveaxis(motion @ body.sensor_matrix().T, -1, 0) * s**2
 
 
-def effective_dynamic_stiffness(spec: "RigSpec", s: np.ndarray, time_s: np.ndarray | float = 0.0, *,
+def effective_dynamic_stiffness(spec: RigSpec, s: np.ndarray, time_s: np.ndarray | float = 0.0, *,
                                 film_scale: float | None = None,
                                 impulse_ns: np.ndarray | float | None = None) -> np.ndarray:
     """``1 / (t_1ᵀ D(s)⁻¹ g_p)``: the scalar dynamic stiffness whose ``s²/·`` is the accelerance of the first
@@ -337,7 +337,7 @@ def solve3(matrices: np.ndarray, load: np.ndarray) -> np.ndarray:
     return (cofactors @ np.asarray(load, dtype=float)) / determinant[..., np.newaxis]
 
 
-def direction_modes_hz(spec: "RigSpec") -> list[tuple[float, str]]:
+def direction_modes_hz(spec: RigSpec) -> list[tuple[float, str]]:
     """The rigid-body resonances (Hz) on the films' real stiffness near them, each named by the direction that
     dominates its mode shape — what a spec with a rigid body says of the resonances an accelerometer sees."""
     mass = mass_matrix(spec)
@@ -365,7 +365,7 @@ def _generalised_eigen(stiffness: np.ndarray, mass: np.ndarray) -> tuple[np.ndar
     return values, inverse.T @ vectors
 
 
-def layout_direction_films(spec: "RigSpec") -> dict[str, tuple[str, dict[str, float]] | None]:
+def layout_direction_films(spec: RigSpec) -> dict[str, tuple[str, dict[str, float]] | None]:
     """What the film layout implies for each diagonal term of the 3×3 film stiffness at the centre of mass (heave,
     roll, pitch) as one model with parameters, when it is one: pads of the same model and orders whose coefficients
     are proportional, or whose model only adds its elements (SD); the direction form's films about the elastic centre
@@ -381,7 +381,7 @@ def layout_direction_films(spec: "RigSpec") -> dict[str, tuple[str, dict[str, fl
     return {direction: _weighted_pads(spec, rows[:, index] ** 2) for index, direction in enumerate(DIRECTIONS)}
 
 
-def layout_coupling_sd(spec: "RigSpec") -> dict[tuple[str, str], tuple[float, float]] | None:
+def layout_coupling_sd(spec: RigSpec) -> dict[tuple[str, str], tuple[float, float]] | None:
     """For pads with a spring-damper (SD) film: the coupling stiffness and damping each pair of directions has at
     the centre of mass, ``Σ k_i g_ia g_ib`` and ``Σ η_i g_ia g_ib``; None for another layout."""
     body = _body(spec)
@@ -397,7 +397,7 @@ def layout_coupling_sd(spec: "RigSpec") -> dict[tuple[str, str], tuple[float, fl
     return out
 
 
-def _weighted_pads(spec: "RigSpec", weights: np.ndarray) -> tuple[str, dict[str, float]] | None:
+def _weighted_pads(spec: RigSpec, weights: np.ndarray) -> tuple[str, dict[str, float]] | None:
     body = _body(spec)
     models = {get_model(pad.model).text for pad in body.pads}
     if len(models) != 1:
@@ -419,13 +419,13 @@ def _weighted_pads(spec: "RigSpec", weights: np.ndarray) -> tuple[str, dict[str,
     return name, model.mapping(summed)
 
 
-def _body(spec: "RigSpec") -> RigidBody:
+def _body(spec: RigSpec) -> RigidBody:
     if spec.rigid_body is None:
         raise SettingError(f"{spec.source}: the rig spec has no [rigid_body]")
     return spec.rigid_body
 
 
-def struck_at(spec: "RigSpec", point: str) -> "RigSpec":
+def struck_at(spec: RigSpec, point: str) -> RigSpec:
     """The spec with the hammer at ``point`` (a name of ``[[rigid_body.hammer_points]]``)."""
     return replace(spec, rigid_body=_body(spec).struck_at(point))
 
@@ -606,7 +606,7 @@ def rigid_body_to_table(body: RigidBody, film_parameters: Mapping[str, float]) -
     return table
 
 
-def validate_rigid_body(spec: "RigSpec") -> None:
+def validate_rigid_body(spec: RigSpec) -> None:
     """Cross-checks of a spec's rigid body; one line naming the key at fault."""
     body = _body(spec)
     source = spec.source
@@ -687,7 +687,7 @@ def pad_spec_parts(pads: Sequence[Pad], pad_tables: Sequence[Mapping[str, Any]],
     return pads_film(pads, checked)
 
 
-def channel_names(spec: "RigSpec") -> list[str]:
+def channel_names(spec: RigSpec) -> list[str]:
     """Names of the accelerometers in channel order (ai1, ai2, ... after the hammer on ai0)."""
     return list(_body(spec).sensor_names)
 
