@@ -227,3 +227,29 @@ def test_a_rigid_spec_describes_the_tilt_modes_one_accelerometer_sees(described)
     with worker_processes(1):
         diagnosis = diagnose(recordings, given)
     assert (diagnosis.verdict == "consistent") is described, diagnosis.verdict
+
+
+def test_films_per_direction_about_the_elastic_centre_are_the_pads_they_describe():
+    """Pads whose films are proportional (one stiffer pad) have an elastic centre off the centre of mass; the same
+    rig as a heave, a roll and a pitch film about that centre has the same 3×3 film stiffness."""
+    pads = three_pads().with_values(film_parameters={**three_pads().film_parameters, "k_pad1": 1.4e7,
+                                                     "eta_pad1": 2100.0})
+    positions = np.array([pad.position_m for pad in pads.rigid_body.pads])
+    k = np.array([1.4e7, 1e7, 1e7])
+    total = float(k.sum())
+    x_e, y_e = (float(v) for v in k @ positions / total)
+    roll, pitch = float(k @ (positions[:, 1] - y_e) ** 2), float(k @ (positions[:, 0] - x_e) ** 2)
+    ratio = 1500.0 / 1e7  # the films' damping over stiffness
+    body = BASE.split("[[rigid_body.pads]]")[0].replace('mass_kg = 25.05', f'''mass_kg = 25.05
+[film]
+model = "SD"
+parameters = {{ k = {total!r}, eta = {ratio * total!r} }}''')
+    body += f'''elastic_centre_m = [{x_e!r}, {y_e!r}]
+roll = {{ model = "SD", parameters = {{ k = {roll!r}, eta = {ratio * roll!r} }} }}
+pitch = {{ model = "SD", parameters = {{ k = {pitch!r}, eta = {ratio * pitch!r} }} }}
+''' + "[[rigid_body.accelerometers]]" + BASE.split("[[rigid_body.accelerometers]]", 1)[1]
+    films = RigSpec.from_toml(body, "directions.toml")
+    assert RigSpec.from_toml(films.to_toml()) == films
+    s = 2j * np.pi * np.array([1.0, 150.0, 900.0])
+    np.testing.assert_allclose(rigid_body.film_matrix(films, s), rigid_body.film_matrix(pads, s), rtol=1e-12,
+                               atol=1e-6 * 3.4e7)
