@@ -191,6 +191,12 @@ def test_the_cli_records_a_roving_test_fits_it_and_exports_it(tmp_path, capsys):
     with np.load(tmp_path / "plant.npz") as arrays:
         assert arrays["B"].shape[1] == arrays["C"].shape[0] == 3  # F_z, M_x, M_y → heave, roll, pitch
         np.testing.assert_allclose(arrays["D"], np.linalg.inv(arrays["M"]))
+    from gasfilm.analysis.campaign.rigid import direction_column
+    from gasfilm.analysis.campaign.session_task import CampaignOptions, analyse_session
+
+    row = analyse_session(str(session), CampaignOptions(models=("SD",), diagnose=False))
+    assert row["error"] is None and row["rigid.coupling_found"] and row["rigid.full_matrix"]
+    assert row[direction_column("roll", "k")] == pytest.approx(216000.0, rel=TOLERANCE)
     uff = tmp_path / "s.uff"
     assert gasfilm(["export", str(session), "--uff", str(uff)]) == 0
     assert gasfilm(["rigid", str(uff), "--rig", str(rig), "--json", "--no-figures"]) == 0
@@ -253,3 +259,28 @@ pitch = {{ model = "SD", parameters = {{ k = {pitch!r}, eta = {ratio * pitch!r} 
     s = 2j * np.pi * np.array([1.0, 150.0, 900.0])
     np.testing.assert_allclose(rigid_body.film_matrix(films, s), rigid_body.film_matrix(pads, s), rtol=1e-12,
                                atol=1e-6 * 3.4e7)
+
+
+def test_a_fourth_accelerometer_checks_that_the_mover_is_rigid():
+    """Four accelerometers for three motions: the least-squares residual is nothing for a rigid body, and shows an
+    accelerometer that reads 5 % more than its place on the body says (a bent mover, a wrong sensitivity)."""
+    spec = three_pads()
+    body = dataclasses.replace(spec.rigid_body, accelerometers=(
+        *spec.rigid_body.accelerometers, rigid_body.Accelerometer("A4", (0.05, -0.05))))
+    spec = dataclasses.replace(spec, rigid_body=body)
+    n = int(0.5 * RATE_HZ)
+    freq_hz = np.fft.rfftfreq(n, 1 / RATE_HZ)
+    s = 2j * np.pi * np.maximum(freq_hz, 1e-3)
+    force = np.zeros(n)
+    force[5:10] = 100.0 * np.sin(np.pi * np.arange(1, 6) / 6)
+    records = {}
+    for point in ("centre", "east", "north"):
+        responses = np.fft.irfft(np.fft.rfft(force) * rigid_body.sensor_accelerances(spec, s, point), n)
+        records[point] = np.concatenate([force[np.newaxis], responses])[np.newaxis]
+    rigid = rigid_frf(spec, records, RATE_HZ, WindowSettings(), 0, [1, 2, 3, 4])
+    band = (freq_hz > 20) & (freq_hz < 1000)
+    assert np.max(rigid.rigidity_error[:, band]) < 1e-9
+    for point in records:
+        records[point][:, 4] *= 1.05
+    bent = rigid_frf(spec, records, RATE_HZ, WindowSettings(), 0, [1, 2, 3, 4])
+    assert np.median(bent.rigidity_error[:, band]) > 0.005

@@ -140,10 +140,11 @@ class RigidIdentification:
         for direction, fits in self.directions.items():
             lines.append(f"{direction} ({fits.inertia:.6g} {INERTIA_UNITS[direction]} on its film, the other "
                          f"directions held still), {self.band_hz[0]:g}–{self.band_hz[1]:g} Hz:")
-            table = format_table2(fits.table, units="SI" if direction != "heave" else units)
-            if direction != "heave":
-                table = table.replace("(m/s²)/N", f"({ACCELERATION_UNITS[direction]})/(N·m)")
-            lines.extend("  " + line for line in table.splitlines())
+            if fits.table:  # (recomputed from the FRFs; a stored identification read alone has none)
+                table = format_table2(fits.table, units="SI" if direction != "heave" else units)
+                if direction != "heave":
+                    table = table.replace("(m/s²)/N", f"({ACCELERATION_UNITS[direction]})/(N·m)")
+                lines.extend("  " + line for line in table.splitlines())
             for fit in fits.fits:
                 units_of = {p.name: p.unit for p in fit.model().parameters}
                 values = ", ".join(
