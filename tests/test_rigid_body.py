@@ -215,7 +215,10 @@ def test_the_one_accelerometer_path_is_bit_for_bit_what_it_was():
     now = one_accelerometer.figures()
     assert sorted(now) == sorted(before.files)
     for key in before.files:
-        assert np.array_equal(now[key], before[key]), key
+        if "-fit-" in key:  # (a fit's arithmetic goes through BLAS, whose kernels differ between CPUs in last bits)
+            np.testing.assert_allclose(now[key], before[key], rtol=1e-9, err_msg=key)
+        else:
+            assert np.array_equal(now[key], before[key]), key
 
 
 @pytest.mark.parametrize("described", [True, False])
