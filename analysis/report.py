@@ -65,6 +65,14 @@ class ReportData:
     diagnosis: dict[str, Any] | None  # the newest stored one
     diagnosis_name: str | None = None  # its name in the session (diagnoses/run-NNN)
     diagnosis_runs: int = 0  # how many diagnoses the session keeps
+    rigid_body: dict[str, Any] | None = None  # a rigid-body test's identification (gasfilm rigid), when stored
+
+
+def _rigid_lines(data: ReportData) -> list[str]:
+    """The stored rigid-body identification as ``gasfilm rigid`` prints it (its fits, 3×3 terms, coupling)."""
+    from gasfilm.analysis.identification.rigid import RigidIdentification
+
+    return RigidIdentification.from_dict(data.rigid_body).summary_lines()
 
 
 def fits_by_band(fits: Sequence[Any]) -> list[tuple[tuple[float, float], list[Any]]]:
@@ -158,6 +166,7 @@ def read_report_data(path: str | Path) -> ReportData:
             diagnosis=diagnosis,
             diagnosis_name=newest,
             diagnosis_runs=diagnosis_runs,
+            rigid_body=session.read_rigid_body(),
         )
 
 
@@ -591,6 +600,9 @@ def report_html(data: ReportData, drop_db: float = USABLE_DROP_DB) -> str:
     sections.append(_fits_html(data))
     if data.fits and data.frf is not None:
         sections.append(f"<img alt='fits' src='data:image/png;base64,{_png_base64(fits_figure(data.frf, data.fits))}'>")
+    if data.rigid_body is not None:
+        sections.append("<h2>Rigid body: heave, roll and pitch (gasfilm rigid)</h2>")
+        sections.append(f"<pre>{html.escape(chr(10).join(_rigid_lines(data)))}</pre>")
     sections.append("<h2>Control design: rational models</h2>")
     sections.append(_control_html(control_models(data)))
     sections.append("<h2>Diagnosis</h2>")
@@ -621,6 +633,8 @@ def _report_pdf(data: ReportData, drop_db: float) -> bytes:
             lines += ["", f"Identified models (Table 2, g/N), band {low:g}–{high:g} Hz:",
                       *format_table2(rows).splitlines()]
             lines += [f"  WARNING: {warning}" for warning in band_warnings(data, (low, high))]
+    if data.rigid_body is not None:
+        lines += ["", "Rigid body (gasfilm rigid):", *_rigid_lines(data)]
     models = control_models(data)
     if models:
         lines += ["", "Rational models for control design (0.5 %, gasfilm model):"]

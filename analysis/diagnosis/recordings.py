@@ -8,7 +8,7 @@ import logging
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Callable
+from typing import Any, Callable
 
 import numpy as np
 
@@ -92,6 +92,9 @@ def load_recordings(path: str | Path | list[Path]) -> Recordings:
     with Session.open(path) as session:
         stored = session.hits()
         accepted = [hit for hit in stored if hit.verdict.accepted]
+        rigid_note = _one_hammer_point(session, accepted)
+        if rigid_note is not None:  # a rigid-body test's roving hammer: its spec describes one point's hits
+            accepted, note = rigid_note
         rejected = [hit for hit in stored if not hit.verdict.accepted]
         if len(accepted) < 2:
             raise SettingError(f"{path}: {len(accepted)} accepted hit(s); the diagnosis needs at least 2")
@@ -100,7 +103,7 @@ def load_recordings(path: str | Path | list[Path]) -> Recordings:
         times = np.array([hit.start_time_s + hit.trigger_index / hit.sample_rate_hz for hit in accepted])
         overload = np.stack([hit.overload[[hit.force_channel, hit.response_channel]] for hit in accepted])
         window = session.settings_as("window", WindowSettings)  # missing windows are filled in by hit_spectra
-        quality = []
+        quality = [] if rigid_note is None else [note]
         if rejected:
             reasons: dict[str, int] = {}
             for hit in rejected:
@@ -111,6 +114,20 @@ def load_recordings(path: str | Path | list[Path]) -> Recordings:
                                        f"only accepted hits are compared", hits=tuple(h.index for h in rejected)))
         return Recordings(records, session.sample_rate_hz, times, window, overload, session.rig_spec_toml,
                           str(path), quality)
+
+
+def _one_hammer_point(session: Any, accepted: list) -> tuple[list, QualityNote] | None:
+    """A rigid-body session struck at several points: the hits at its spec's point (those its one-FRF view, the
+    first accelerometer for that point, describes) and a note saying so; None for any other session."""
+    from gasfilm.analysis.rigid_session import hits_at_spec_point, hits_by_point, session_spec
+
+    spec = session_spec(session)
+    if spec is None or len(hits_by_point(spec, session.settings, accepted)) < 2:
+        return None
+    kept = hits_at_spec_point(spec, session.settings, accepted)
+    return kept, QualityNote("hammer points", f"a roving rigid-body test: the {len(kept)} hits at hammer point "
+                             f"{spec.rigid_body.hammer_point} are compared (the spec's first accelerometer there; "
+                             f"`gasfilm rigid` reads every point)")
 
 
 #: Above the film resonance by this factor, |H1| approaches the mass line 1/m (within ~10 % at 3×).
@@ -388,7 +405,9 @@ def diagnose(
         rig_spec = rig_spec.with_effects(AcCoupling(channel="force", corner_hz=AC_COUPLING_HZ))
     progress(origin)
     spectra.quality[:0] = recordings.quality
-    restoring = film_restoring_force(recordings, spectra, rig_spec.moving_mass_kg)
+    # (a rigid body's accelerometer does not read the film's force as F − m·a: its rotation is in it)
+    restoring = None if rig_spec.rigid_body is not None else film_restoring_force(recordings, spectra,
+                                                                                  rig_spec.moving_mass_kg)
     diagnosis = diagnose_spectra(spectra, rig_spec, progress, restoring, structure_read_off_frf=read_off_frf,
                                  recording=Path(recordings.source).name)
     diagnosis.notes.insert(0, origin)

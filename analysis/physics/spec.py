@@ -18,6 +18,8 @@ import tomli_w
 
 
 from gasfilm.analysis.physics.elements import PAPER_MASS_KG, PAPER_MODELS, PAPER_TABLE1, FilmModel, get_model
+from gasfilm.analysis.physics.rigid_body import (RigidBody, pad_spec_parts, rigid_body_from_table,
+                                                 rigid_body_to_table, validate_rigid_body)
 from gasfilm.drivers.errors import SettingError
 from gasfilm.drivers.plant import TIPS_PULSE_WIDTH_S
 
@@ -153,6 +155,9 @@ class RigSpec:
     film_laws: Mapping[str, Mapping[str, float]] = field(default_factory=dict)
     #: How far the spec is known to be from the recording it was written from (``[description_error]``).
     description_error: DescriptionError | None = None
+    #: The mover as a rigid body on its films, with accelerometers and hammer points (``[rigid_body]``); None: the
+    #: mover in one direction, seen by one accelerometer (:mod:`gasfilm.analysis.physics.rigid_body`).
+    rigid_body: RigidBody | None = None
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "film_parameters", {k: float(v) for k, v in self.film_parameters.items()})
@@ -226,6 +231,8 @@ class RigSpec:
         """The spec as TOML text (written by tomli-w; floats round-trip exactly)."""
         table: dict[str, Any] = {"name": self.name, "mass_kg": self.mass_kg,
                                  "film": {"model": self.film_model, "parameters": dict(self.film_parameters)}}
+        if self.rigid_body is not None and self.rigid_body.has_pads:
+            del table["film"]  # the pads' films (written under [[rigid_body.pads]]) are the spec's film
         if self.film_laws:
             table["film"]["conditions"] = dict(self.film_conditions)
             table["film"]["laws"] = {name: dict(exponents) for name, exponents in self.film_laws.items()}
@@ -239,6 +246,8 @@ class RigSpec:
             table["effects"] = [effect.to_table() for effect in self.effects]
         if self.description_error is not None:
             table["description_error"] = self.description_error.to_table()
+        if self.rigid_body is not None:
+            table["rigid_body"] = rigid_body_to_table(self.rigid_body, self.film_parameters)
         return "# gasfilm rig spec (docs/rig-spec.md)\n" + tomli_w.dumps(table, multiline_strings=False)
 
     def with_values(self, film_parameters: Mapping[str, float] | None = None,
@@ -366,7 +375,8 @@ def _table(table: Mapping[str, Any], key: str, where: str) -> Mapping[str, Any]:
 
 
 def _spec_from_table(table: Mapping[str, Any], source: str) -> RigSpec:
-    _check_keys(table, ("name", "mass_kg", "film", "sensors", "hammer", "effects", "description_error"), source)
+    _check_keys(table, ("name", "mass_kg", "film", "sensors", "hammer", "effects", "description_error", "rigid_body"),
+                source)
     if "mass_kg" not in table:
         raise SettingError(f"{source}: key 'mass_kg' is missing (the mover's mass in kg)")
     mass_kg = _float_value(table["mass_kg"], f"{source} key 'mass_kg'", _within(*MASS_RANGE_KG), "kg")
@@ -375,15 +385,24 @@ def _spec_from_table(table: Mapping[str, Any], source: str) -> RigSpec:
         raise SettingError(f"{source} key 'name': must be a string")
     film = _table(table, "film", source)
     _check_keys(film, ("model", "parameters", "conditions", "laws"), f"{source} [film]")
-    model_text = film.get("model")
-    if not isinstance(model_text, str):
-        raise SettingError(f"{source} key 'film.model': missing; a paper model name or a network such as "
-                           f"'k || dashpot(eta)'")
-    _checked_film_model(model_text, source)
-    parameters = {
-        key: _float_value(value, f"{source} key 'film.parameters.{key}'", _any_number, "SI")
-        for key, value in _table(film, "parameters", f"{source} [film]").items()
-    }
+    rigid_body = None
+    if "rigid_body" in table:
+        rigid_body, pad_tables = rigid_body_from_table(table["rigid_body"], source)
+    if rigid_body is not None and rigid_body.has_pads:
+        if "model" in film or "parameters" in film:
+            raise SettingError(f"{source} [film]: a mover on pads takes its film from [[rigid_body.pads]]; give "
+                               f"either [film] with roll and pitch films, or pads")
+        model_text, parameters = pad_spec_parts(rigid_body.pads, pad_tables, source)
+    else:
+        model_text = film.get("model")
+        if not isinstance(model_text, str):
+            raise SettingError(f"{source} key 'film.model': missing; a paper model name or a network such as "
+                               f"'k || dashpot(eta)'")
+        _checked_film_model(model_text, source)
+        parameters = {
+            key: _float_value(value, f"{source} key 'film.parameters.{key}'", _any_number, "SI")
+            for key, value in _table(film, "parameters", f"{source} [film]").items()
+        }
     film_conditions = {
         key: _float_value(value, f"{source} key 'film.conditions.{key}'", _within(0.0, 1e9, low_included=False),
                           "the unit in its name")
@@ -438,7 +457,7 @@ def _spec_from_table(table: Mapping[str, Any], source: str) -> RigSpec:
                          if "description_error" in table else None)
     return RigSpec(name, mass_kg, model_text, parameters, sensor_specs["force"], sensor_specs["acceleration"],
                    hammer, effects, source, film_conditions=film_conditions, film_laws=film_laws,
-                   description_error=description_error)
+                   description_error=description_error, rigid_body=rigid_body)
 
 
 def _description_error(table: Mapping[str, Any], source: str) -> DescriptionError:
@@ -611,7 +630,8 @@ def _check_term_change(spec: RigSpec, index: int, change: TermChange) -> None:
 def _validate_spec(spec: RigSpec) -> None:
     source = spec.source
     _float_value(spec.mass_kg, f"{source} key 'mass_kg'", _within(*MASS_RANGE_KG), "kg")
-    model = _checked_film_model(spec.film_model, source)
+    pads = spec.rigid_body is not None and spec.rigid_body.has_pads  # (their network is as long as they make it)
+    model = spec.film if pads else _checked_film_model(spec.film_model, source)
     if len(spec.effects) > MAX_EFFECTS:
         raise SettingError(f"{source}: {len(spec.effects)} effects; a rig spec has at most {MAX_EFFECTS}")
     for parameter in model.parameters:
@@ -640,5 +660,7 @@ def _validate_spec(spec: RigSpec) -> None:
         sensitivity_key, noise_key = _SENSOR_KEYS[channel]
         _float_value(sensor.sensitivity_mv, f"{source} key 'sensors.{channel}.{sensitivity_key}'", _positive, "mV")
         _float_value(sensor.noise_per_sqrt_hz, f"{source} key 'sensors.{channel}.{noise_key}'", _non_negative, "SI")
+    if spec.rigid_body is not None:
+        validate_rigid_body(spec)
 
 
