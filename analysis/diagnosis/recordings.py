@@ -24,9 +24,10 @@ from gasfilm.analysis.diagnosis.measurement import (
 from gasfilm.analysis.diagnosis.pipeline import diagnose_spectra
 from gasfilm.analysis.diagnosis.restoring import RestoringForce, restoring_force
 from gasfilm.analysis.diagnosis.result import Diagnosis
-from gasfilm.analysis.diagnosis.structure import read_structure
+from gasfilm.analysis.diagnosis.structure import LSCF_ORDER, Structure, read_structure
 from gasfilm.analysis.physics.effects import MIN_DAMPING_RATIO, AcCoupling, ExtraMode, Polarity
-from gasfilm.analysis.physics.spec import RigSpec
+from gasfilm.analysis.physics.elements import get_model
+from gasfilm.analysis.physics.spec import MASS_RANGE_KG, RigSpec, film_parameter_range
 from gasfilm.analysis.spectra import (
     READ_MIN_COHERENCE,
     FrfResult,
@@ -136,7 +137,17 @@ def _low_coherence_hint(frf: FrfResult) -> str:
 
 
 def read_start(recordings: Recordings, mass_kg: float | None = None) -> tuple[RigSpec, str]:
-    """The starting spec read off the recordings' FRF when no rig spec is known, and what was read, in words.
+    """The starting spec read off the recordings' FRF when no rig spec is known, and what was read, in words
+    (:func:`read_start_with_structure` without the structure reading)."""
+    spec, text, _ = read_start_with_structure(recordings, mass_kg)
+    return spec, text
+
+
+def read_start_with_structure(
+    recordings: Recordings, mass_kg: float | None = None
+) -> tuple[RigSpec, str, Structure | None]:
+    """The starting spec read off the recordings' FRF when no rig spec is known, what was read, in words, and the
+    structure reading (modes, stabilization diagram) when it is a measured structure (else None).
 
     Only readable lines count (:func:`gasfilm.analysis.spectra.readable_lines`: the usable band of the hammer and
     coherence ≥ 0.9), never a noise peak. The lowest resonance is the mover on its film (a spring-damper: k = m·ω²,
@@ -145,7 +156,11 @@ def read_start(recordings: Recordings, mass_kg: float | None = None) -> tuple[Ri
     the mover when there are at least :data:`MULTI_MODE_MIN` of them (its own frequency at the antiresonance below
     the peak, its mass from their spacing; one alone is left to the diagnosis to test as a candidate). Raises
     :class:`SettingError` (one line) when no resonance or mass can be read: a start that cannot be read is not
-    recalibrated into parameters at their bounds."""
+    recalibrated into parameters at their bounds.
+
+    A recording whose |H1| is flat below its first resonance (a mass line), or whose FRF is not a driving point (the
+    imaginary part of the accelerance changes sign: modal constants of both signs), is a measured structure
+    (:func:`_read_structure`)."""
     records, rate_hz = recordings.records, recordings.sample_rate_hz
     window = recordings.window
     fallback = default_window(records, rate_hz)
@@ -170,7 +185,8 @@ def read_start(recordings: Recordings, mass_kg: float | None = None) -> tuple[Ri
                            f"excites with coherence ≥ 0.9 ({band}){_low_coherence_hint(frf)}; give the rig spec "
                            f"with --rig")
     freq_hz, magnitude, sigma = frf.freq_hz, np.abs(frf.h1), frf.decay_rate_1_s
-    if mass_kg is None and _mass_line_below(freq_hz, magnitude, readable, float(freq_hz[resonances[0]])):
+    if mass_kg is None and (_mass_line_below(freq_hz, magnitude, readable, float(freq_hz[resonances[0]]))
+                            or _transfer_frf(frf.h1, readable)):
         return _read_structure(recordings, frf, readable, resonances)
     main = resonances[0]
     main_hz = float(freq_hz[main])
@@ -222,7 +238,7 @@ def read_start(recordings: Recordings, mass_kg: float | None = None) -> tuple[Ri
     if modes:
         text += ("; a multi-mode structure: extra modes at " + ", ".join(f"{mode.freq_hz:.0f}" for mode in modes)
                  + " Hz are part of the start (read, not findings)")
-    return spec, text
+    return spec, text, None
 
 
 #: A hit is an outlier for the start when its FRF's median relative distance from the hits' median FRF is this many
@@ -272,30 +288,67 @@ def _mass_line_below(freq_hz: np.ndarray, magnitude: np.ndarray, readable: np.nd
     return bool(slope < MASS_LINE_SLOPE)
 
 
-def _read_structure(recordings: Recordings, frf, readable: np.ndarray, resonances: list[int]) -> tuple[RigSpec, str]:
+#: An FRF whose imaginary part has the minority sign over more than this share of its size (Σ|Im H1| on the
+#: readable lines) is not a driving point: a driving point's accelerance keeps Im H ≥ 0 (a passive structure).
+TRANSFER_SHARE = 0.2
+
+
+def _transfer_frf(h1: np.ndarray, readable: np.ndarray) -> bool:
+    """Whether the FRF is a transfer FRF (not a driving point): its imaginary part changes sign over more than
+    :data:`TRANSFER_SHARE` of it, as modal constants of both signs make it."""
+    imaginary = h1[readable].imag
+    total = float(np.sum(np.abs(imaginary)))
+    if total <= 0:
+        return False
+    minority = min(float(np.sum(imaginary[imaginary > 0])), float(-np.sum(imaginary[imaginary < 0])))
+    return minority > TRANSFER_SHARE * total
+
+
+def _read_structure(
+    recordings: Recordings, frf, readable: np.ndarray, resonances: list[int]
+) -> tuple[RigSpec, str, Structure]:
     """A start for a measured structure (:mod:`.structure`): its modes beside a residual mass line with the response
-    polarity; the mover's suspension (a spring-damper film) resonates below the band, so in band the mover is that
-    mass line."""
+    polarity, the upper residual as a mode above the band; the mover's suspension (a spring-damper film) is the soft
+    support read in the band, else it resonates below the band, so that in band the mover is that mass line."""
     freq_hz = frf.freq_hz
     lines = np.flatnonzero(readable)
-    structure = read_structure(freq_hz, frf.h1, frf.decay_rate_1_s, lines,
+    structure = read_structure(freq_hz, frf.h1, frf.coherence, frf.decay_rate_1_s, lines,
                                [float(freq_hz[line]) for line in resonances])
-    mass_kg = float(np.clip(structure.mass_kg, 1e-3, 1e4))
+    mass_kg = float(np.clip(structure.mass_kg, MASS_RANGE_KG[0], MASS_RANGE_KG[1]))
     effects: list = ([Polarity(channel="acceleration")] if structure.polarity < 0 else []) + structure.modes
-    omega = 2 * np.pi * max(SUSPENSION_BELOW * float(freq_hz[lines[0]]), 0.5)
-    spec = RigSpec.nominal("SD", mass_kg=mass_kg,
-                           parameters={"k": max(mass_kg * omega**2, 1e2), "eta": max(0.1 * mass_kg * omega, 1e-2)},
-                           effects=effects)
+    if structure.upper_residual is not None:
+        effects.append(structure.upper_residual)
+    if structure.suspension is not None:
+        suspension_hz, zeta = structure.suspension
+        omega = 2 * np.pi * suspension_hz
+        parameters = {"k": mass_kg * omega**2, "eta": 2 * zeta * mass_kg * omega}
+    else:
+        omega = 2 * np.pi * max(SUSPENSION_BELOW * float(freq_hz[lines[0]]), 0.5)
+        parameters = {"k": max(mass_kg * omega**2, 1e2), "eta": max(0.1 * mass_kg * omega, 1e-2)}
+    parameters = {name: float(np.clip(value, *film_parameter_range(get_model("SD"), name, mass_kg)))
+                  for name, value in parameters.items()}
+    spec = RigSpec.nominal("SD", mass_kg=mass_kg, parameters=parameters, effects=effects)
     spec = dataclasses.replace(spec, name=f"structure read off the FRF of {Path(recordings.source).name}")
     suspension_hz = np.sqrt(spec.film_parameters["k"] / mass_kg) / (2 * np.pi)
-    text = (f"below its first clear resonance ({freq_hz[resonances[0]]:.0f} Hz) the FRF is flat as a mass line, not "
-            f"rising as a mover on a film: a structure read as modal analysis does (LSCF poles, LSFD constants, "
+    text = (f"below its first clear resonance ({freq_hz[resonances[0]]:.0f} Hz) the FRF is "
+            + ("flat as a mass line, not rising as a mover on a film" if structure.suspension is None
+               else "a rigid body on a soft support")
+            + f": a structure read as modal analysis does (LSCF poles over {2 * LSCF_ORDER} model orders, stable in "
+            f"frequency, damping and participation; LSFD constants with lower and upper residuals, "
             f"{freq_hz[lines[0]]:.0f}–{freq_hz[lines[-1]]:.0f} Hz), {len(structure.modes)} modes at "
             + ", ".join(f"{frequency:.0f}" for frequency in sorted(mode.freq_hz for mode in structure.modes))
             + f" Hz beside a mass line of {mass_kg:.4g} kg"
             + (" read with the opposite sign (response polarity −1)" if structure.polarity < 0 else "")
-            + f", on a suspension resonating below the band ({suspension_hz:.2g} Hz); read, not findings")
-    return spec, text
+            + ("; a driving point (every modal constant of the mass line's sign)" if structure.driving_point
+               else "; a transfer FRF, not a driving point (modal constants of both signs)")
+            + (f"; the suspension (soft support) at {suspension_hz:.3g} Hz, read in the band" if structure.suspension
+               else f", on a suspension resonating below the band ({suspension_hz:.2g} Hz)")
+            + ("" if structure.upper_residual is None else
+               f"; the modes above the band as one at {structure.upper_residual.freq_hz:.0f} Hz (upper residual)")
+            + ("" if not structure.rejected else
+               "; not modes: " + ", ".join(f"{pole.freq_hz:.0f} Hz ({pole.reason})" for pole in structure.rejected))
+            + "; read, not findings")
+    return spec, text, structure
 
 
 def _half_power_width_hz(freq_hz: np.ndarray, magnitude: np.ndarray, peak: int) -> float:
@@ -315,18 +368,26 @@ def starting_spec(
 ) -> tuple[RigSpec, str]:
     """The spec to start from, and where it comes from in words: ``rig_spec`` (--rig), else the rig spec the session
     was recorded with, else one read off the FRF (:func:`read_start`); ``mass_kg`` overrides the spec's mass."""
+    spec, origin, _ = _starting_spec(recordings, rig_spec, mass_kg)
+    return spec, origin
+
+
+def _starting_spec(
+    recordings: Recordings, rig_spec: RigSpec | None, mass_kg: float | None
+) -> tuple[RigSpec, str, Structure | None]:
+    """:func:`starting_spec` with the structure reading of a start read off the FRF (None otherwise)."""
     if rig_spec is not None:
         origin = f"the given rig spec '{rig_spec.name}'"
     elif recordings.rig_spec_toml:
         rig_spec = RigSpec.from_toml(recordings.rig_spec_toml, f"{recordings.source} rig spec")
         origin = f"the rig spec recorded in the session ('{rig_spec.name}')"
     else:
-        spec, text = read_start(recordings, mass_kg)
-        return spec, f"no rig spec given: a start read off the FRF: {text}"
+        spec, text, structure = read_start_with_structure(recordings, mass_kg)
+        return spec, f"no rig spec given: a start read off the FRF: {text}", structure
     if mass_kg is not None:
         rig_spec = dataclasses.replace(rig_spec, mass_kg=mass_kg)
         origin += f" with the mass set to {mass_kg:g} kg (--mass)"
-    return rig_spec, f"starting from {origin}"
+    return rig_spec, f"starting from {origin}", None
 
 
 def film_restoring_force(recordings: Recordings, spectra: HitSpectra, mass_kg: float) -> RestoringForce | None:
@@ -383,7 +444,7 @@ def diagnose(
                               hit_times_s=recordings.hit_times_s, overload=recordings.overload, band_hz=band_hz)
     except SettingError as error:
         raise SettingError(named_refusal(recordings.source, str(error))) from None
-    rig_spec, origin = starting_spec(recordings, rig_spec, mass_kg)
+    rig_spec, origin, structure = _starting_spec(recordings, rig_spec, mass_kg)
     if response_dc_coupled:
         rig_spec = rig_spec.with_effects(AcCoupling(channel="force", corner_hz=AC_COUPLING_HZ))
     progress(origin)
@@ -392,6 +453,7 @@ def diagnose(
     diagnosis = diagnose_spectra(spectra, rig_spec, progress, restoring, structure_read_off_frf=read_off_frf,
                                  recording=Path(recordings.source).name)
     diagnosis.notes.insert(0, origin)
+    diagnosis.structure = structure
     if read_off_frf and mass_kg is None and "(mass line" in origin and diagnosis.verdict not in (
             "consistent", "parameters-only"):
         diagnosis.notes.append(f"the moving mass was read off the FRF's mass line ({rig_spec.moving_mass_kg:.4g} kg): "

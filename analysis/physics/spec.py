@@ -31,6 +31,7 @@ from gasfilm.analysis.physics.effects import (
     Effect,
     EffectValueError,
     _any_number,
+    FitRange,
     _fraction,
     _non_negative,
     _positive,
@@ -158,10 +159,7 @@ class RigSpec:
         object.__setattr__(self, "film_conditions", {k: float(v) for k, v in self.film_conditions.items()})
         object.__setattr__(self, "film_laws", {k: {c: float(e) for c, e in v.items()} for k, v in
                                                self.film_laws.items()})
-        _validate_spec(self)
-        if not self.moving_mass_kg > 0:
-            raise SettingError(f"{self.source}: the moving mass with the added masses is {self.moving_mass_kg:.4g} kg; "
-                               f"it must be > 0")
+        check_readable(self)
 
     # construction ---------------------------------------------------------------------------------------------
 
@@ -221,7 +219,9 @@ class RigSpec:
         Path(path).write_text(self.to_toml(), encoding="utf-8")
 
     def to_toml(self) -> str:
-        """The spec as TOML text (written by tomli-w; floats round-trip exactly)."""
+        """The spec as TOML text (written by tomli-w; floats round-trip exactly). The writer applies the reader's
+        checks first (:func:`check_readable`): a spec the reader would refuse is never written."""
+        check_readable(self)
         table: dict[str, Any] = {"name": self.name, "mass_kg": self.mass_kg,
                                  "film": {"model": self.film_model, "parameters": dict(self.film_parameters)}}
         if self.film_laws:
@@ -573,6 +573,49 @@ def _check_unit_range(value: float, where: str, unit: str, upper_only: bool = Fa
     if not (abs(value) <= high and (low == 0.0 or abs(value) >= low)):
         bounds = f"{low:g} to {high:g}" if low else f"at most {high:g} in magnitude"
         raise SettingError(f"{where} = {value!r}: outside the physical range, {bounds} ({unit})")
+
+
+def within_readable_range(fit_range: FitRange, unit: str) -> FitRange:
+    """A fit range cut to what the spec reader takes for a value in ``unit`` (:data:`EFFECT_UNIT_RANGES`, the range
+    :func:`_check_unit_range` applies): a fitted value at its bound is written at most there, and read back."""
+    low, high = EFFECT_UNIT_RANGES.get(unit, (0.0, math.inf))
+    if fit_range.scale == "log":
+        return FitRange("log", max(fit_range.lower, low), min(fit_range.upper, high))
+    return FitRange(fit_range.scale, max(fit_range.lower, -high), min(fit_range.upper, high))
+
+
+def film_parameter_range(
+    model: FilmModel, name: str, mass_kg: float, values: Mapping[str, float] | None = None
+) -> tuple[float, float]:
+    """The range (in the parameter's unit) the spec reader takes for film parameter ``name`` of ``model`` on
+    ``mass_kg``: its element's bounds, and for a coefficient the share of the resonance check
+    (:func:`_check_resonance`, ``RESONANCE_RANGE_HZ``) that keeps the film resonating with the mass inside it
+    whatever the other coefficients are — a spring ``k ≤ m·ω_top²/n``, a dashpot ``c ≤ m·ω_top/n``, a spring-pot
+    ``η ≤ m·ω_top^(2−α)/n`` (its order ``α`` from ``values``) for n coefficients, and a spring at least ``m·ω_low²``."""
+    parameter = next(p for p in model.parameters if p.name == name)
+    low, high = parameter.lower, parameter.upper
+    if parameter.scale != "log":
+        return low, high
+    share = 1.0 / sum(p.scale == "log" for p in model.parameters)
+    low_omega, top_omega = (2 * math.pi * f for f in RESONANCE_RANGE_HZ)
+    if parameter.unit == "N/m":
+        return max(low, min(mass_kg * low_omega**2, high)), min(high, share * mass_kg * top_omega**2)
+    if parameter.unit == "N·s/m":
+        return low, min(high, share * mass_kg * top_omega)
+    order = next((p.name for p in model.parameters if p.scale != "log" and parameter.unit.endswith(f"^{p.name}/m")),
+                 None)
+    if order is not None and values is not None and order in values:
+        return low, max(low, min(high, share * mass_kg * top_omega ** (2.0 - float(values[order]))))
+    return low, high
+
+
+def check_readable(spec: RigSpec) -> None:
+    """The spec reader's checks, which the writer applies too (:meth:`RigSpec.to_toml`): one line naming the key
+    when a value is out of its range."""
+    _validate_spec(spec)
+    if not spec.moving_mass_kg > 0:
+        raise SettingError(f"{spec.source}: the moving mass with the added masses is {spec.moving_mass_kg:.4g} kg; "
+                           f"it must be > 0")
 
 
 def _validate_spec(spec: RigSpec) -> None:
