@@ -67,6 +67,9 @@ POLE_LINES = 4
 #: The fit's weights are 1/√(|H|² + floor²), the floor this fraction of the band's median |H|: relative at the peaks,
 #: absolute at the antiresonances (where a relative weight would fit the noise).
 WEIGHT_FLOOR = 0.05
+#: H1's random error (from the coherence) is taken at least this fraction of |H1| and of the band's median |H1|.
+RELATIVE_FLOOR = 1e-4
+ABSOLUTE_FLOOR = 1e-5
 #: The upper residual is a mode above the band: it starts at this multiple of the band's top, damping ratio
 #: :data:`UPPER_DAMPING`, and stays between :data:`UPPER_RANGE` times the top.
 UPPER_START = 1.2
@@ -84,6 +87,9 @@ SIGN_SHARE = 0.1
 #: most RESIDUAL_POLES): weak modes LSCF left unstable.
 RESIDUAL_POLES = 8
 RESIDUAL_PEAK = 30.0
+#: A mode is kept when the description's misfit without it grows by more than this many times ln(points) times its
+#: misfit per point (four parameters at a BIC's price).
+MODE_COST = 4.0
 #: Residual poles are sought above this fraction of the lowest mode read.
 RESIDUAL_FROM = 0.5
 
@@ -147,6 +153,11 @@ class Structure:
             "upper_residual_hz": None if self.upper_residual is None else round(self.upper_residual.freq_hz, 1),
             "stable_orders": [int(n) for n in self.stable_orders],
             "rejected_poles": [{"freq_hz": round(p.freq_hz, 1), "reason": p.reason} for p in self.rejected],
+            "modes_read": [{"freq_hz": m.freq_hz, "damping_ratio": m.damping_ratio} for m in self.modes],
+            "stabilization": {"order": self.diagram.order.tolist(),
+                              "freq_hz": [float(f"{f:.6g}") for f in self.diagram.freq_hz],
+                              "damping_ratio": [float(f"{z:.3g}") for z in self.diagram.damping_ratio],
+                              "stability": self.diagram.stability.tolist(), "classes": list(STABILITY)},
         }
 
 
@@ -160,10 +171,10 @@ def mode_rows(modes: list[StructureMode]) -> list[dict]:
 
 
 def read_structure(freq_hz: np.ndarray, h1: np.ndarray, coherence: np.ndarray, decay_rate_1_s: float,
-                   lines: np.ndarray, resonances_hz: list[float]) -> Structure:
+                   lines: np.ndarray, resonances_hz: list[float], averages: int = 1) -> Structure:
     """The structure of an accelerance ``h1`` ((m/s²)/N at ``freq_hz``, with its ``coherence``) measured through an
-    exponential window of ``decay_rate_1_s`` (1/s), read on the readable ``lines`` (indices, ascending);
-    ``resonances_hz`` (the peaks of |H1|) that no mode accounts for become poles of their own."""
+    exponential window of ``decay_rate_1_s`` (1/s), read on the readable ``lines`` (indices, ascending), averaged over
+    ``averages`` hits; ``resonances_hz`` (the peaks of |H1|) that no mode accounts for become poles of their own."""
     low_hz, high_hz = float(freq_hz[lines[0]]), float(freq_hz[lines[-1]])
     spacing_hz = float(freq_hz[1] - freq_hz[0])
     magnitude = np.abs(h1)
@@ -172,7 +183,7 @@ def read_structure(freq_hz: np.ndarray, h1: np.ndarray, coherence: np.ndarray, d
                            decay_rate_1_s)
     s = decay_rate_1_s + 2j * np.pi * freq_hz[fit_lines]
     measured = h1[fit_lines]
-    weight = 1.0 / np.sqrt(magnitude[fit_lines] ** 2 + (WEIGHT_FLOOR * np.median(magnitude[lines])) ** 2)
+    weight = _weights(magnitude[fit_lines], coherence[fit_lines], averages, float(np.median(magnitude[lines])))
     diagram = _diagram(orders, poles, s, measured, weight, freq_hz[lines], magnitude[lines])
 
     start_hz, start_zeta, stable_orders, rejected = [], [], [], []
@@ -194,7 +205,10 @@ def read_structure(freq_hz: np.ndarray, h1: np.ndarray, coherence: np.ndarray, d
     start_zeta = np.array(start_zeta)[order]
     stable_orders = [stable_orders[i] for i in order]
 
-    fitted_hz, fitted_zeta, upper, values = _refined(s, measured, weight, start_hz, start_zeta, high_hz)
+    fitted_hz, fitted_zeta, upper, _ = _refined(s, measured, weight, start_hz, start_zeta, high_hz)
+    keep = _significant(s, measured, weight, fitted_hz, fitted_zeta, upper)[:-1]
+    fitted_hz, fitted_zeta = fitted_hz[keep], fitted_zeta[keep]
+    stable_orders = [count for count, kept in zip(stable_orders, keep) if kept]
     added = _residual_poles(s, measured, weight, fitted_hz, fitted_zeta, upper, spacing_hz,
                             RESIDUAL_FROM * float(fitted_hz.min()) if fitted_hz.size else low_hz)
     if added:
@@ -204,7 +218,13 @@ def read_structure(freq_hz: np.ndarray, h1: np.ndarray, coherence: np.ndarray, d
         order = np.argsort(start_hz)
         start_hz, start_zeta = start_hz[order], start_zeta[order]
         stable_orders = [stable_orders[i] for i in order]
-        fitted_hz, fitted_zeta, upper, values = _refined(s, measured, weight, start_hz, start_zeta, high_hz)
+        fitted_hz, fitted_zeta, upper, _ = _refined(s, measured, weight, start_hz, start_zeta, high_hz)
+        keep = _significant(s, measured, weight, fitted_hz, fitted_zeta, upper)[:-1]
+        fitted_hz, fitted_zeta = fitted_hz[keep], fitted_zeta[keep]
+        stable_orders = [count for count, kept in zip(stable_orders, keep) if kept]
+    if not _significant(s, measured, weight, fitted_hz, fitted_zeta, upper)[-1]:
+        upper = None
+    values = _pole_constants(s, measured, weight, fitted_hz, fitted_zeta, upper)
     count = fitted_hz.size
     real, quadrature = values[1 : 1 + count].real, values[1 + count : 1 + 2 * count].real
     level = float(values[0].real)  # the mass line, with its sign
@@ -233,6 +253,18 @@ def read_structure(freq_hz: np.ndarray, h1: np.ndarray, coherence: np.ndarray, d
                 polarity, "driving point" if driving else "transfer FRF")
     return Structure(modes, mass_kg, polarity, driving, suspension, upper_mode, rejected, diagram,
                      (low_hz, high_hz), stable_orders)
+
+
+def _weights(magnitude: np.ndarray, coherence: np.ndarray, averages: int, median: float) -> np.ndarray:
+    """Weights of the fits: one over H1's random error from the coherence, ``|H1|·√((1 − γ²)/(2·n·γ²))`` for n
+    averages (Bendat and Piersol), floored at :data:`RELATIVE_FLOOR` of |H1| and :data:`ABSOLUTE_FLOOR` of the band's
+    median |H1|; with a single hit (coherence 1 everywhere), 1/√(|H|² + (:data:`WEIGHT_FLOOR`·median)²): relative at
+    the peaks, absolute at the antiresonances."""
+    if averages < 2:
+        return 1.0 / np.sqrt(magnitude**2 + (WEIGHT_FLOOR * median) ** 2)
+    gamma2 = np.clip(np.nan_to_num(coherence), 1e-6, 1.0)
+    error2 = magnitude**2 * (1.0 - gamma2) / (2 * averages * gamma2)
+    return 1.0 / np.sqrt(error2 + (RELATIVE_FLOOR * magnitude) ** 2 + (ABSOLUTE_FLOOR * median) ** 2)
 
 
 def _lscf_poles(freq_hz: np.ndarray, h1: np.ndarray, lines: np.ndarray,
@@ -360,65 +392,124 @@ def _not_a_mode(pole_hz: float, zeta: float, freq_hz: np.ndarray, magnitude: np.
 
 def _refined(s: np.ndarray, measured: np.ndarray, weight: np.ndarray, start_hz: np.ndarray, start_zeta: np.ndarray,
              high_hz: float) -> tuple[np.ndarray, np.ndarray, tuple[float, float] | None, np.ndarray]:
-    """The poles (Hz, damping ratio) refined with the constants solved at every step (variable projection, Kaufman's
-    Jacobian), with one mode above the band as the upper residual; its (Hz, damping ratio), and the constants:
-    [mass line, each mode's real parts, each mode's quadrature parts, the upper residual's real and quadrature
-    parts]."""
+    """The poles (Hz, damping ratio) refined with the constants solved at every step (:func:`_projected`), with one
+    mode above the band as the upper residual; its (Hz, damping ratio), and the constants: [mass line, each mode's
+    real parts, each mode's quadrature parts, the upper residual's real and quadrature parts]."""
     count = start_hz.size
-    poles = count + 1  # the modes and the upper residual, last
-    lower = np.concatenate((np.log(start_hz * (1 - POLE_FREEDOM)), [np.log(UPPER_RANGE[0] * high_hz)],
-                            np.full(count, np.log(MIN_DAMPING_RATIO)), [np.log(1e-3)]))
-    upper = np.concatenate((np.log(start_hz * (1 + POLE_FREEDOM)), [np.log(UPPER_RANGE[1] * high_hz)],
-                            np.full(count, np.log(MAX_DAMPING_RATIO)), [np.log(0.5)]))
-    start = np.clip(np.log(np.concatenate((start_hz, [UPPER_START * high_hz], start_zeta, [UPPER_DAMPING]))),
-                    lower, upper)
+    freq = np.concatenate((start_hz, [UPPER_START * high_hz]))
+    zeta = np.concatenate((start_zeta, [UPPER_DAMPING]))
+    low = np.concatenate((start_hz * (1 - POLE_FREEDOM), [UPPER_RANGE[0] * high_hz],
+                          np.full(count, MIN_DAMPING_RATIO), [1e-3]))
+    high = np.concatenate((start_hz * (1 + POLE_FREEDOM), [UPPER_RANGE[1] * high_hz],
+                           np.full(count, MAX_DAMPING_RATIO), [0.5]))
+    freq, zeta, constants = _projected(s, measured, weight, freq, zeta, low, high, np.ones_like(s), np.ones_like(s))
+    poles = count + 1
+    values = np.concatenate((constants[:1], constants[1 : 1 + count], constants[1 + poles : 1 + poles + count],
+                             constants[poles : poles + 1], constants[-1:])).astype(complex)
+    return freq[:count], zeta[:count], (float(freq[count]), float(zeta[count])), values
+
+
+def _projected(s: np.ndarray, measured: np.ndarray, weight: np.ndarray, freq_hz: np.ndarray, zeta: np.ndarray,
+               low: np.ndarray, high: np.ndarray, base: np.ndarray, transfer: np.ndarray,
+               steps: int = REFINE_STEPS) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Variable projection of ``measured`` ≈ c₀·base + transfer·Σ_r (A_r + B_r·s/ω_r)·s²/(s² + 2ζ_rω_r s + ω_r²) at
+    ``s`` by weighted least squares: the poles (Hz, damping ratios, within ``low``/``high`` = [frequencies…,
+    damping ratios…]) by a bounded trust region with Kaufman's Jacobian, the real coefficients [c₀, A…, B…] solved at
+    every step. Returns the poles and the coefficients."""
+    poles = freq_hz.size
+    lower, upper = np.log(low), np.log(high)
+    start = np.clip(np.log(np.concatenate((freq_hz, zeta))), lower, upper)
     target = measured * weight
     stacked_target = np.concatenate((target.real, target.imag))
     s2 = s**2
+    scale = (transfer * weight)[:, None]
     cache: dict[bytes, tuple] = {}
 
     def solve(trial: np.ndarray) -> tuple:
         key = trial.tobytes()
         if key not in cache:
             cache.clear()
-            omega, zeta = 2 * np.pi * np.exp(trial[:poles]), np.exp(trial[poles:])
-            denominator = s2[:, None] + 2 * zeta * omega * s[:, None] + omega**2
+            omega, damping = 2 * np.pi * np.exp(trial[:poles]), np.exp(trial[poles:])
+            denominator = s2[:, None] + 2 * damping * omega * s[:, None] + omega**2
             mode = s2[:, None] / denominator
-            basis = np.column_stack((np.ones_like(s), mode, mode * s[:, None] / omega)) * weight[:, None]
+            basis = np.column_stack((base * weight, mode * scale, mode * s[:, None] / omega * scale))
             stacked = np.vstack((basis.real, basis.imag))
             q, r = np.linalg.qr(stacked)
             constants = np.linalg.lstsq(r, q.T @ stacked_target, rcond=None)[0]
-            cache[key] = (omega, zeta, denominator, mode, q, constants, stacked @ constants - stacked_target)
+            cache[key] = (omega, damping, denominator, mode, q, constants, stacked @ constants - stacked_target)
         return cache[key]
 
     def residual(trial: np.ndarray) -> np.ndarray:
         return solve(trial)[-1]
 
     def jacobian(trial: np.ndarray) -> np.ndarray:
-        omega, zeta, denominator, mode, q, constants, _ = solve(trial)
+        omega, damping, denominator, mode, q, constants, _ = solve(trial)
         real, quadrature = constants[1 : 1 + poles], constants[1 + poles :]
         # d(mode)/d(ln ω) and d(mode)/d(ln ζ); the quadrature column is mode·s/ω
-        d_mode_omega = -s2[:, None] * (2 * zeta * omega * s[:, None] + 2 * omega**2) / denominator**2
-        d_mode_zeta = -s2[:, None] * (2 * zeta * omega * s[:, None]) / denominator**2
+        d_mode_omega = -s2[:, None] * (2 * damping * omega * s[:, None] + 2 * omega**2) / denominator**2
+        d_mode_zeta = -s2[:, None] * (2 * damping * omega * s[:, None]) / denominator**2
         ratio = s[:, None] / omega
-        by_omega = (d_mode_omega * (real + quadrature * ratio) - mode * quadrature * ratio) * weight[:, None]
-        by_zeta = d_mode_zeta * (real + quadrature * ratio) * weight[:, None]
+        by_omega = (d_mode_omega * (real + quadrature * ratio) - mode * quadrature * ratio) * scale
+        by_zeta = d_mode_zeta * (real + quadrature * ratio) * scale
         change = np.vstack((np.column_stack((by_omega.real, by_zeta.real)),
                             np.column_stack((by_omega.imag, by_zeta.imag))))
         return change - q @ (q.T @ change)  # the part the constants cannot take up (Kaufman)
 
     try:
         refined = scipy.optimize.least_squares(residual, start, jac=jacobian, bounds=(lower, upper), method="trf",
-                                               max_nfev=REFINE_STEPS * 10, x_scale="jac").x
+                                               max_nfev=steps * 10, x_scale="jac").x
     except (ValueError, np.linalg.LinAlgError):
         refined = start
     if np.sum(residual(refined) ** 2) > np.sum(residual(start) ** 2):
         refined = start
-    constants = solve(refined)[5]
-    values = np.concatenate((constants[:1], constants[1 : 1 + count], constants[1 + poles : 1 + poles + count],
-                             constants[poles : poles + 1], constants[-1:])).astype(complex)
-    freq, zeta = np.exp(refined[:poles]), np.exp(refined[poles:])
-    return freq[:count], zeta[:count], (float(freq[count]), float(zeta[count])), values
+    return np.exp(refined[:poles]), np.exp(refined[poles:]), solve(refined)[5]
+
+
+def _pole_constants(s: np.ndarray, measured: np.ndarray, weight: np.ndarray, freq_hz: np.ndarray, zeta: np.ndarray,
+                    upper: tuple[float, float] | None) -> np.ndarray:
+    """The constants of these poles (and the upper residual's) by weighted least squares, in the order
+    :func:`_refined` returns them."""
+    count = freq_hz.size
+    extra = [] if upper is None else [upper]
+    basis = _columns(s, np.concatenate((freq_hz, [p[0] for p in extra])), np.concatenate((zeta, [p[1] for p in extra])))
+    values = _constants(basis, measured, weight)
+    poles = count + len(extra)
+    tail = values[poles : poles + 1].tolist() + values[-1:].tolist() if extra else [0.0, 0.0]
+    return np.concatenate((values[: 1 + count], values[1 + poles : 1 + poles + count], tail)).astype(complex)
+
+
+def _significant(s: np.ndarray, measured: np.ndarray, weight: np.ndarray, freq_hz: np.ndarray, zeta: np.ndarray,
+                 upper: tuple[float, float] | None) -> np.ndarray:
+    """Which modes (and, last, the upper residual) the description needs: without a mode (the other constants solved
+    again) the misfit must grow by more than its cost, :data:`MODE_COST` times ln(points) times the misfit per point
+    of the whole description — a pole LSCF kept stable on a clean FRF, whose constant is nothing, is dropped."""
+    extra = [] if upper is None else [upper]
+    all_hz = np.concatenate((freq_hz, [p[0] for p in extra]))
+    all_zeta = np.concatenate((zeta, [p[1] for p in extra]))
+    basis = _columns(s, all_hz, all_zeta) * weight[:, None]
+    stacked = np.vstack((basis.real, basis.imag))
+    target = np.concatenate(((measured * weight).real, (measured * weight).imag))
+
+    def residual(columns: np.ndarray) -> np.ndarray:
+        solution = np.linalg.lstsq(stacked[:, columns], target, rcond=None)[0]
+        return stacked[:, columns] @ solution - target
+
+    poles = all_hz.size
+    everything = np.ones(stacked.shape[1], bool)
+    left = residual(everything)
+    full = float(np.sum(left**2))
+    points = target.size
+    scale = full / max(points - stacked.shape[1], 1)
+    cost = MODE_COST * np.log(points) * scale
+
+    def misfit(columns: np.ndarray) -> float:
+        return float(np.sum(residual(columns) ** 2))
+    keep = np.ones(poles, bool)
+    for mode in range(poles):
+        without = everything.copy()
+        without[[1 + mode, 1 + poles + mode]] = False
+        keep[mode] = misfit(without) - full > cost
+    return keep
 
 
 def _residual_poles(s: np.ndarray, measured: np.ndarray, weight: np.ndarray, freq_hz: np.ndarray,
