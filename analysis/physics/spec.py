@@ -588,25 +588,30 @@ def film_parameter_range(
     model: FilmModel, name: str, mass_kg: float, values: Mapping[str, float] | None = None
 ) -> tuple[float, float]:
     """The range (in the parameter's unit) the spec reader takes for film parameter ``name`` of ``model`` on
-    ``mass_kg``: its element's bounds, and for a coefficient the share of the resonance check
-    (:func:`_check_resonance`, ``RESONANCE_RANGE_HZ``) that keeps the film resonating with the mass inside it
-    whatever the other coefficients are — a spring ``k ≤ m·ω_top²/n``, a dashpot ``c ≤ m·ω_top/n``, a spring-pot
-    ``η ≤ m·ω_top^(2−α)/n`` (its order ``α`` from ``values``) for n coefficients, and a spring at least ``m·ω_low²``."""
+    ``mass_kg``: its element's bounds, cut so that the film resonates with the mass inside ``RESONANCE_RANGE_HZ``
+    (:func:`_check_resonance`) whatever the film's other coefficients are — each of its n coefficients at most 1/n of
+    the mass's m·ω² at the top of that range and at least n times it at the bottom: a spring ``n·m·ω_low² ≤ k ≤
+    m·ω_top²/n``, a dashpot ``n·m·ω_low ≤ c ≤ m·ω_top/n``, a spring-pot ``n·m·ω_low^(2−α) ≤ η ≤ m·ω_top^(2−α)/n``
+    (its order ``α`` from ``values``; without it the element's bounds)."""
     parameter = next(p for p in model.parameters if p.name == name)
     low, high = parameter.lower, parameter.upper
     if parameter.scale != "log":
         return low, high
-    share = 1.0 / sum(p.scale == "log" for p in model.parameters)
+    count = sum(p.scale == "log" for p in model.parameters)
     low_omega, top_omega = (2 * math.pi * f for f in RESONANCE_RANGE_HZ)
     if parameter.unit == "N/m":
-        return max(low, min(mass_kg * low_omega**2, high)), min(high, share * mass_kg * top_omega**2)
-    if parameter.unit == "N·s/m":
-        return low, min(high, share * mass_kg * top_omega)
-    order = next((p.name for p in model.parameters if p.scale != "log" and parameter.unit.endswith(f"^{p.name}/m")),
-                 None)
-    if order is not None and values is not None and order in values:
-        return low, max(low, min(high, share * mass_kg * top_omega ** (2.0 - float(values[order]))))
-    return low, high
+        power = 2.0
+    elif parameter.unit == "N·s/m":
+        power = 1.0
+    else:
+        order = next((p.name for p in model.parameters
+                      if p.scale != "log" and parameter.unit.endswith(f"^{p.name}/m")), None)
+        if order is None or values is None or order not in values:
+            return low, high
+        power = 2.0 - float(values[order])
+    floor = count * mass_kg * low_omega**power
+    ceiling = mass_kg * top_omega**power / count
+    return min(max(low, floor), high), max(min(high, ceiling), low)
 
 
 def check_readable(spec: RigSpec) -> None:
