@@ -32,6 +32,7 @@ import numpy as np
 import scipy.optimize
 
 from gasfilm.analysis.physics.effects import MAX_MODAL_CONSTANT_PER_KG, MIN_DAMPING_RATIO, StructureMode
+from gasfilm.analysis.threads import one_blas_thread
 
 logger = logging.getLogger(__name__)
 
@@ -170,6 +171,7 @@ def mode_rows(modes: list[StructureMode]) -> list[dict]:
             for mode in sorted(modes, key=lambda mode: mode.freq_hz)]
 
 
+@one_blas_thread
 def read_structure(freq_hz: np.ndarray, h1: np.ndarray, coherence: np.ndarray, decay_rate_1_s: float,
                    lines: np.ndarray, resonances_hz: list[float], averages: int = 1) -> Structure:
     """The structure of an accelerance ``h1`` ((m/s²)/N at ``freq_hz``, with its ``coherence``) measured through an
