@@ -588,30 +588,50 @@ def film_parameter_range(
     model: FilmModel, name: str, mass_kg: float, values: Mapping[str, float] | None = None
 ) -> tuple[float, float]:
     """The range (in the parameter's unit) the spec reader takes for film parameter ``name`` of ``model`` on
-    ``mass_kg``: its element's bounds, cut so that the film resonates with the mass inside ``RESONANCE_RANGE_HZ``
-    (:func:`_check_resonance`) whatever the film's other coefficients are — each of its n coefficients at most 1/n of
-    the mass's m·ω² at the top of that range and at least n times it at the bottom: a spring ``n·m·ω_low² ≤ k ≤
-    m·ω_top²/n``, a dashpot ``n·m·ω_low ≤ c ≤ m·ω_top/n``, a spring-pot ``n·m·ω_low^(2−α) ≤ η ≤ m·ω_top^(2−α)/n``
-    (its order ``α`` from ``values``; without it the element's bounds)."""
+    ``mass_kg``: its element's bounds and, with the film's other parameters at ``values``, the values with which the
+    film resonates with the mass inside ``RESONANCE_RANGE_HZ`` (:func:`_check_resonance`) with a margin of
+    :data:`RESONANCE_MARGIN` at both ends (a spring run to 1e12 N/m on a 1.74 kg structure, or a Maxwell arm's dashpot
+    letting the film sag below 0.1 Hz, is never written)."""
     parameter = next(p for p in model.parameters if p.name == name)
     low, high = parameter.lower, parameter.upper
-    if parameter.scale != "log":
+    if parameter.scale != "log" or values is None or not all(p.name in values for p in model.parameters):
         return low, high
-    count = sum(p.scale == "log" for p in model.parameters)
     low_omega, top_omega = (2 * math.pi * f for f in RESONANCE_RANGE_HZ)
-    if parameter.unit == "N/m":
-        power = 2.0
-    elif parameter.unit == "N·s/m":
-        power = 1.0
-    else:
-        order = next((p.name for p in model.parameters
-                      if p.scale != "log" and parameter.unit.endswith(f"^{p.name}/m")), None)
-        if order is None or values is None or order not in values:
-            return low, high
-        power = 2.0 - float(values[order])
-    floor = count * mass_kg * low_omega**power
-    ceiling = mass_kg * top_omega**power / count
-    return min(max(low, floor), high), max(min(high, ceiling), low)
+    values = dict(values)
+
+    def stiffness(value: float, omega: float) -> float:
+        with np.errstate(all="ignore"):
+            result = abs(complex(model.stiffness(np.array([1j * omega]), {**values, name: value})[0]))
+        return result if np.isfinite(result) else math.inf
+
+    def soft_enough_at_top(value: float) -> bool:
+        return stiffness(value, top_omega) * RESONANCE_MARGIN <= mass_kg * top_omega**2
+
+    def stiff_enough_at_bottom(value: float) -> bool:
+        return stiffness(value, low_omega) >= RESONANCE_MARGIN * mass_kg * low_omega**2
+
+    # a coefficient stiffens the film: the bottom check holds above some value, the top check below another
+    if not stiff_enough_at_bottom(low) and stiff_enough_at_bottom(high):
+        low = _boundary(stiff_enough_at_bottom, low, high, holds_above=True)
+    if not soft_enough_at_top(high) and soft_enough_at_top(low):
+        high = _boundary(soft_enough_at_top, low, high, holds_above=False)
+    return low, max(high, low)
+
+
+#: A written film's stiffness stays this many times inside the mass's m·ω² at the edges of RESONANCE_RANGE_HZ.
+RESONANCE_MARGIN = 2.0
+
+
+def _boundary(holds: Callable[[float], bool], low: float, high: float, holds_above: bool) -> float:
+    """The value in [low, high] where ``holds`` changes (bisection on a log scale), on the side where it holds."""
+    lower, upper = math.log(low), math.log(high)
+    for _ in range(60):
+        middle = 0.5 * (lower + upper)
+        if holds(math.exp(middle)) == holds_above:
+            upper = middle
+        else:
+            lower = middle
+    return math.exp(upper if holds_above else lower)
 
 
 def check_readable(spec: RigSpec) -> None:
