@@ -530,7 +530,8 @@ def _residual_poles(s: np.ndarray, measured: np.ndarray, weight: np.ndarray, fre
         misfit = np.abs(basis @ _constants(basis, measured, weight).real - measured) * weight
         smoothed = np.convolve(misfit**2, np.ones(3) / 3, mode="same")
         level = np.median(smoothed)
-        near = np.min(np.abs(line_hz[:, None] - poles_hz[None, :]), axis=1) <= CLUSTER_LINES * spacing_hz
+        near = np.any(np.abs(line_hz[:, None] - poles_hz[None, :])
+                      <= np.maximum(CLUSTER_LINES * spacing_hz, STABLE_FREQUENCY * poles_hz[None, :]), axis=1)
         smoothed[near | (line_hz < from_hz)] = 0.0
         best = int(np.argmax(smoothed))
         if smoothed[best] < RESIDUAL_PEAK * level:
