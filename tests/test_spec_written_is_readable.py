@@ -34,6 +34,11 @@ EFFECTS = [
     fx.SqueezeFilm(gap_m=1e-5, length_m=0.1),
     fx.Friction(friction_force_n=2.0),
     fx.QuadraticDamping(coefficient_n_s2_per_m2=1e3),
+    fx.SideMode(freq_hz=700.0, damping_ratio=0.01, modal_constant_per_kg=0.02),
+    fx.FilmBranch(stiffness_n_per_m=1e6, order=0.5, reference_hz=200.0),
+    fx.ChannelResonance(channel="acceleration", freq_hz=1500.0, damping_ratio=0.05),
+    fx.ChannelPoleZero(pole_hz=300.0, zero_hz=330.0),
+    fx.ChannelPowerLaw(exponent=0.01, reference_hz=200.0),
 ]
 CONDITIONS = HitConditions(time_s=np.array([0.0, 60.0, 120.0]), impulse_ns=np.array([0.15, 0.2, 0.25]))
 
