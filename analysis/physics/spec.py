@@ -34,6 +34,7 @@ from gasfilm.analysis.physics.effects import (
     EffectValueError,
     TermChange,
     _any_number,
+    FitRange,
     _fraction,
     _non_negative,
     _positive,
@@ -165,10 +166,7 @@ class RigSpec:
         object.__setattr__(self, "film_conditions", {k: float(v) for k, v in self.film_conditions.items()})
         object.__setattr__(self, "film_laws", {k: {c: float(e) for c, e in v.items()} for k, v in
                                                self.film_laws.items()})
-        _validate_spec(self)
-        if not self.moving_mass_kg > 0:
-            raise SettingError(f"{self.source}: the moving mass with the added masses is {self.moving_mass_kg:.4g} kg; "
-                               f"it must be > 0")
+        check_readable(self)
 
     # construction ---------------------------------------------------------------------------------------------
 
@@ -228,7 +226,9 @@ class RigSpec:
         Path(path).write_text(self.to_toml(), encoding="utf-8")
 
     def to_toml(self) -> str:
-        """The spec as TOML text (written by tomli-w; floats round-trip exactly)."""
+        """The spec as TOML text (written by tomli-w; floats round-trip exactly). The writer applies the reader's
+        checks first (:func:`check_readable`): a spec the reader would refuse is never written."""
+        check_readable(self)
         table: dict[str, Any] = {"name": self.name, "mass_kg": self.mass_kg,
                                  "film": {"model": self.film_model, "parameters": dict(self.film_parameters)}}
         if self.rigid_body is not None and self.rigid_body.has_pads:
@@ -625,6 +625,74 @@ def _check_term_change(spec: RigSpec, index: int, change: TermChange) -> None:
     if change.parameter not in numbers:
         raise SettingError(f"{where} key 'parameter' = {change.parameter!r}: {type(target).type_name} has "
                            f"{', '.join(numbers) or 'no numbers'}")
+
+
+def within_readable_range(fit_range: FitRange, unit: str) -> FitRange:
+    """A fit range cut to what the spec reader takes for a value in ``unit`` (:data:`EFFECT_UNIT_RANGES`, the range
+    :func:`_check_unit_range` applies): a fitted value at its bound is written at most there, and read back."""
+    low, high = EFFECT_UNIT_RANGES.get(unit, (0.0, math.inf))
+    if fit_range.scale == "log":
+        return FitRange("log", max(fit_range.lower, low), min(fit_range.upper, high))
+    return FitRange(fit_range.scale, max(fit_range.lower, -high), min(fit_range.upper, high))
+
+
+def film_parameter_range(
+    model: FilmModel, name: str, mass_kg: float, values: Mapping[str, float] | None = None
+) -> tuple[float, float]:
+    """The range (in the parameter's unit) the spec reader takes for film parameter ``name`` of ``model`` on
+    ``mass_kg``: its element's bounds and, with the film's other parameters at ``values``, the values with which the
+    film resonates with the mass inside ``RESONANCE_RANGE_HZ`` (:func:`_check_resonance`) with a margin of
+    :data:`RESONANCE_MARGIN` at both ends (a spring run to 1e12 N/m on a 1.74 kg structure, or a Maxwell arm's dashpot
+    letting the film sag below 0.1 Hz, is never written)."""
+    parameter = next(p for p in model.parameters if p.name == name)
+    low, high = parameter.lower, parameter.upper
+    if parameter.scale != "log" or values is None or not all(p.name in values for p in model.parameters):
+        return low, high
+    low_omega, top_omega = (2 * math.pi * f for f in RESONANCE_RANGE_HZ)
+    values = dict(values)
+
+    def stiffness(value: float, omega: float) -> float:
+        with np.errstate(all="ignore"):
+            result = abs(complex(model.stiffness(np.array([1j * omega]), {**values, name: value})[0]))
+        return result if np.isfinite(result) else math.inf
+
+    def soft_enough_at_top(value: float) -> bool:
+        return stiffness(value, top_omega) * RESONANCE_MARGIN <= mass_kg * top_omega**2
+
+    def stiff_enough_at_bottom(value: float) -> bool:
+        return stiffness(value, low_omega) >= RESONANCE_MARGIN * mass_kg * low_omega**2
+
+    # a coefficient stiffens the film: the bottom check holds above some value, the top check below another
+    if not stiff_enough_at_bottom(low) and stiff_enough_at_bottom(high):
+        low = _boundary(stiff_enough_at_bottom, low, high, holds_above=True)
+    if not soft_enough_at_top(high) and soft_enough_at_top(low):
+        high = _boundary(soft_enough_at_top, low, high, holds_above=False)
+    return low, max(high, low)
+
+
+#: A written film's stiffness stays this many times inside the mass's m·ω² at the edges of RESONANCE_RANGE_HZ.
+RESONANCE_MARGIN = 2.0
+
+
+def _boundary(holds: Callable[[float], bool], low: float, high: float, holds_above: bool) -> float:
+    """The value in [low, high] where ``holds`` changes (bisection on a log scale), on the side where it holds."""
+    lower, upper = math.log(low), math.log(high)
+    for _ in range(60):
+        middle = 0.5 * (lower + upper)
+        if holds(math.exp(middle)) == holds_above:
+            upper = middle
+        else:
+            lower = middle
+    return math.exp(upper if holds_above else lower)
+
+
+def check_readable(spec: RigSpec) -> None:
+    """The spec reader's checks, which the writer applies too (:meth:`RigSpec.to_toml`): one line naming the key
+    when a value is out of its range."""
+    _validate_spec(spec)
+    if not spec.moving_mass_kg > 0:
+        raise SettingError(f"{spec.source}: the moving mass with the added masses is {spec.moving_mass_kg:.4g} kg; "
+                           f"it must be > 0")
 
 
 def _validate_spec(spec: RigSpec) -> None:
