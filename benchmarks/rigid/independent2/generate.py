@@ -397,7 +397,7 @@ def half_sine(t, start, width, peak):
     return np.where((u >= 0) & (u <= 1), peak * np.sin(np.pi * np.clip(u, 0, 1)), 0.0)
 
 
-def synthesise(case: Case, noise: bool = True):
+def synthesise(case: Case, noise: bool = True, scatter_m: float = POINT_SCATTER_M):
     """Per hit: (point name, point index, record start s, force record, accelerometer records (k, n)); drawn."""
     body = rigid_body(case.boxes)
     rng = np.random.default_rng(case.seed)
@@ -428,7 +428,7 @@ def synthesise(case: Case, noise: bool = True):
                                  1.5 * case.force_n))
             width = case.pulse_ms * 1e-3 * rng.uniform(0.9, 1.1)
             t0 = PRETRIGGER_S + rng.uniform(0, 1 / fs)
-            xy = xy0 + POINT_SCATTER_M * rng.standard_normal(2)
+            xy = xy0 + scatter_m * rng.standard_normal(2)
             force = half_sine(t, t0, width, peak)
             spec = np.fft.rfft(force, nfft)
             gp = g_vec(xy, body)
@@ -458,8 +458,8 @@ def write_uff(path: Path, case: Case, hits: list) -> None:
                               temp_offset=273.15)]
     nodes = [k + 1 for k in range(len(case.accelerometers))] + [101 + p for p in range(len(case.hammer_points))]
     xy = [a["position_m"] for a in case.accelerometers] + [p["position_m"] for p in case.hammer_points]
-    sets.append(pyuff.prepare_15(node_nums=[float(v) for v in nodes], def_cs=[0.0] * len(nodes),
-                                 disp_cs=[0.0] * len(nodes), color=[1.0] * len(nodes),
+    sets.append(pyuff.prepare_15(node_nums=nodes, def_cs=[0] * len(nodes),
+                                 disp_cs=[0] * len(nodes), color=[1] * len(nodes),
                                  x=[float(v[0]) for v in xy], y=[float(v[1]) for v in xy], z=[0.0] * len(nodes)))
     dt = 1.0 / case.rate_hz
 
@@ -532,6 +532,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--keys-only", action="store_true", help="write the keys (and rig specs) only")
     parser.add_argument("--keys-dir", type=Path, default=None, help="also copy the keys here (e.g. keys/)")
     parser.add_argument("--check", action="store_true", help="check the synthesis, write no data")
+    parser.add_argument("--scatter-mm", type=float, default=POINT_SCATTER_M * 1e3,
+                        help="rms scatter of where the hammer lands about its named point, each axis (mm; "
+                             "default %(default)s)")
     args = parser.parse_args(argv)
     listed = cases()
     if args.only:
@@ -556,7 +559,7 @@ def main(argv: list[str] | None = None) -> int:
             (args.keys_dir / f"{case.name}.toml").write_text(rig_toml(case))
         if args.keys_only:
             continue
-        hits, drawn = synthesise(case)
+        hits, drawn = synthesise(case, scatter_m=args.scatter_mm * 1e-3)
         time.sleep(0.01)
         write_uff(args.out / f"{case.name}.uff", case, hits)
         (args.out / f"{case.name}.drawn.json").write_text(json.dumps(drawn, indent=1))
