@@ -50,7 +50,21 @@ def read_hits(path: Path):
     return out, dt
 
 
-def analyse(key: dict, uff: Path) -> dict:
+def landed_points(drawn: list, key: dict) -> dict:
+    """Where each point's hits really landed on average, weighted as H1 weights them (|F|^2 at low frequency is
+    proportional to (peak x width)^2 for a half-sine)."""
+    out = {}
+    for p, point in enumerate(key["hammer_points"]):
+        rows = [d for d in drawn if d["point"] == point["name"]]
+        if rows:
+            w = np.array([(d["peak_force_n"] * d["pulse_width_ms"]) ** 2 for d in rows])
+            xy = np.array([d["landed_at_m"] for d in rows])
+            out[101 + p] = (w[:, None] * xy).sum(axis=0) / w.sum()
+    return out
+
+
+def analyse(key: dict, uff: Path, landed: dict | None = None) -> dict:
+    """``landed``: the load vectors from where the hits really landed (drawn.json) instead of the named points."""
     hits, dt = read_hits(uff)
     body = key["body"]
     com = body["centre_of_mass_m"]
@@ -73,7 +87,8 @@ def analyse(key: dict, uff: Path) -> dict:
         h1 = sxf / sff  # (K, f)
         u = np.linalg.lstsq(gmat, h1, rcond=None)[0]  # (3, f): generalised accelerations per newton
         cols.append(u)
-        loads.append(g_vec(key["hammer_points"][node - 101]["position_m"], com))
+        xy = landed[node] if landed else key["hammer_points"][node - 101]["position_m"]
+        loads.append(g_vec(xy, com))
     s = 2j * np.pi * f[band]
     res: dict = {"points": len(cols)}
     if len(cols) >= 3:
@@ -124,6 +139,8 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--data", type=Path, default=HERE.parents[2] / "out" / "rigid-independent2")
     parser.add_argument("--only", nargs="+")
+    parser.add_argument("--landed", action="store_true",
+                        help="load vectors from where the hits landed (drawn.json), not the named points")
     args = parser.parse_args(argv)
     out = {}
     for keyfile in sorted((HERE / "keys").glob("*.key.json")):
@@ -131,7 +148,9 @@ def main(argv=None) -> int:
         name = key["case"]
         if args.only and name not in args.only:
             continue
-        res = analyse(key, args.data / f"{name}.uff")
+        landed = landed_points(json.loads((args.data / f"{name}.drawn.json").read_text()), key) \
+            if args.landed else None
+        res = analyse(key, args.data / f"{name}.uff", landed)
         out[name] = res
         print(name)
         for what in ("K", "C"):
@@ -150,7 +169,7 @@ def main(argv=None) -> int:
         if "elastic_centre_offset_m" in res:
             print("   elastic centre", [round(v * 1e3, 3) for v in res["elastic_centre_offset_m"]], "mm; key",
                   [round(v * 1e3, 3) for v in key["elastic_centre_offset_m"]])
-    (args.data / "reference.json").write_text(json.dumps(out, indent=1))
+    (args.data / f"reference{'-landed' if args.landed else ''}.json").write_text(json.dumps(out, indent=1))
     return 0
 
 
