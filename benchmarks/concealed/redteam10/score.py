@@ -2,7 +2,7 @@
 
 Per case, as a user would (the ``gasfilm`` beside the Python that runs this file):
 
-    gasfilm diagnose out/redteam10/<case>.uff --mass 25.05 --json --out out/redteam10/diagnoses/<case> --overwrite
+    gasfilm diagnose out/redteam10/<case>.uff --mass 25.05 --json --check-loop --out out/redteam10/diagnoses/<case> --overwrite
 
 Three figures per case (docs in README.md beside this file):
 
@@ -352,7 +352,8 @@ def score_case(key_path: Path, data: Path) -> dict:
                           "named": False}
         result, error, stderr, wall = json.loads(saved.read_text()), "", "", float("nan")
     else:
-        result, error, stderr, wall = round3.run([str(uff), *arguments, "--out", str(out_dir)])
+        # --check-loop: the written spec diagnosed again on the same recordings (the JSON's "loop")
+        result, error, stderr, wall = round3.run([str(uff), *arguments, "--check-loop", "--out", str(out_dir)])
     if not FROM_SAVED:
         row["wall_time_s"] = round(wall, 1)
     if "Traceback" in stderr:
