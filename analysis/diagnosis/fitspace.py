@@ -14,7 +14,7 @@ import numpy as np
 
 from gasfilm.analysis.physics.effects import Effect, FitContext, FitRange, TermChange
 from gasfilm.analysis.physics.response import HitConditions, hit_displacement_m, resonance_omega_rad_s
-from gasfilm.analysis.physics.spec import RigSpec
+from gasfilm.analysis.physics.spec import RigSpec, film_parameter_range, within_readable_range
 
 #: Relative distance (in the search space's span) within which a fitted value counts as sitting at its bound.
 AT_BOUND_FRACTION = 1e-3
@@ -87,14 +87,23 @@ def fit_context(spec: RigSpec, conditions: HitConditions, band_hz: tuple[float, 
 
 
 def film_slots(spec: RigSpec) -> list[Slot]:
-    """The film model's own parameters (element bounds; orders linear, everything else log-scaled)."""
-    return [Slot(None, p.name, FitRange(p.scale, max(p.lower, 1e-12) if p.scale == "log" else p.lower, p.upper))
-            for p in spec.film.parameters]
+    """The film model's own parameters in the ranges the spec reader takes (:func:`film_parameter_range`: the
+    element's bounds, and the film resonating with the mass in the supported range; orders linear, everything else
+    log-scaled)."""
+    slots = []
+    for p in spec.film.parameters:
+        low, high = film_parameter_range(spec.film, p.name, spec.mass_kg, spec.film_parameters)
+        slots.append(Slot(None, p.name, FitRange(p.scale, max(low, 1e-12) if p.scale == "log" else low, high)))
+    return slots
 
 
 def effect_slots(spec: RigSpec, index: int, context: FitContext) -> list[Slot]:
-    """The continuously fitted fields of effect ``index`` with their physical ranges in this session."""
-    return [Slot(index, name, fit_range) for name, fit_range in spec.effects[index].fit_ranges(context).items()]
+    """The continuously fitted fields of effect ``index`` with their physical ranges in this session, cut to what the
+    spec reader takes (:func:`within_readable_range`)."""
+    effect = spec.effects[index]
+    units = {item.name: str(item.metadata.get("unit", "")) for item in dataclasses.fields(effect)}
+    return [Slot(index, name, within_readable_range(fit_range, units.get(name, "")))
+            for name, fit_range in effect.fit_ranges(context).items()]
 
 
 def spec_slots(spec: RigSpec, context: FitContext, recalibration: bool = False) -> list[Slot]:

@@ -23,6 +23,7 @@ from scipy.sparse.linalg import LinearOperator, bicgstab
 from gasfilm.analysis.physics.elements import FilmModel, laplace_variable
 from gasfilm.drivers.errors import GasfilmError
 
+from gasfilm.analysis.physics import rigid_body
 from gasfilm.analysis.physics.effects import CUBIC_EQUIVALENT, DECAY_TOLERANCE, MAX_RESPONSE_DURATION_S, Effect
 from gasfilm.analysis.physics.spec import RigSpec
 # --- physics -------------------------------------------------------------------------------------------------------
@@ -115,9 +116,13 @@ def rig_dynamic_stiffness(
     The film is the spec's at ``time_s`` (one time or an array of hit times) unless ``film_scale`` gives its scale.
     With ``impulse_ns`` (one hit's or an array matching ``time_s``), amplitude-dependent dampers add their equivalent
     viscous damping at the hit's initial velocity ``J / M``. ``pieces`` (made for this ``s``) remembers the film's and
-    the effects' parts between calls (the same numbers, computed once).
+    the effects' parts between calls (the same numbers, computed once). A spec with a rigid body gives the scalar
+    its first accelerometer sees for the struck hammer point
+    (:func:`~gasfilm.analysis.physics.rigid_body.effective_dynamic_stiffness`).
     """
     s = np.asarray(s, dtype=complex)
+    if spec.rigid_body is not None:  # what the first accelerometer sees of the rigid body struck where it is
+        return rigid_body.effective_dynamic_stiffness(spec, s, time_s, film_scale=film_scale, impulse_ns=impulse_ns)
     if pieces is not None and film_scale is None:
         total = pieces.film(spec, time_s)
     elif film_scale is None:
@@ -374,7 +379,7 @@ class AcceleranceParts:
         fit's forward-difference Jacobian, its columns several times cheaper than whole accelerances). None for an
         effect that changes something else."""
         parts = {"film"} if effect_index is None else _touched_parts(type(spec.effects[effect_index]))
-        if parts is None:
+        if parts is None or spec.rigid_body is not None:  # (a rigid body's films do not add to D)
             return None
         pieces = self.pieces
         change: np.ndarray | float = 0.0
@@ -476,15 +481,22 @@ def _cached_response_duration_s(spec_toml: str, sample_rate_hz: float, film_scal
     s = _grid_laplace(n_samples, sample_rate_hz)
     # a smooth band limit (raised cosine 0.2–0.4·fs) keeps the truncation at Nyquist from ringing on for ever
     ramp = np.clip((s.imag / (2 * np.pi * sample_rate_hz) - 0.2) / 0.2, 0.0, 1.0)
-    accelerance = 0.5 * (1.0 + np.cos(np.pi * ramp)) * (s**2 / rig_dynamic_stiffness(spec, s, film_scale=film_scale)
-                                                      + structure_accelerance(spec, s))
-    impulse = np.abs(scipy.fft.irfft(accelerance, n_samples))
-    causal = impulse[: n_samples // 2]  # the second half holds the band limit's (zero-phase) ringing before t = 0
-    envelope_from_end = np.maximum.accumulate(causal[::-1])[::-1]
-    decayed = np.flatnonzero(envelope_from_end < DECAY_TOLERANCE * impulse.max())
-    if not decayed.size:
-        return MAX_RESPONSE_DURATION_S
-    return min(MAX_RESPONSE_DURATION_S, 1.25 * decayed[0] / sample_rate_hz + 0.01)
+    band_limit = 0.5 * (1.0 + np.cos(np.pi * ramp))
+    if spec.rigid_body is None:
+        accelerances = [s**2 / rig_dynamic_stiffness(spec, s, film_scale=film_scale) + structure_accelerance(spec, s)]
+    else:  # every mode of a rigid body shows in a diagonal term of its accelerance matrix
+        accelerances = list(rigid_body.diagonal_accelerances(spec, s, film_scale=film_scale)
+                            + structure_accelerance(spec, s))
+    durations = []
+    for accelerance in accelerances:
+        impulse = np.abs(scipy.fft.irfft(band_limit * accelerance, n_samples))
+        causal = impulse[: n_samples // 2]  # the second half holds the band limit's (zero-phase) ringing before t = 0
+        envelope_from_end = np.maximum.accumulate(causal[::-1])[::-1]
+        decayed = np.flatnonzero(envelope_from_end < DECAY_TOLERANCE * impulse.max())
+        if not decayed.size:
+            return MAX_RESPONSE_DURATION_S
+        durations.append(min(MAX_RESPONSE_DURATION_S, 1.25 * decayed[0] / sample_rate_hz + 0.01))
+    return max(durations)
 
 
 def mover_displacement_spectrum(
