@@ -454,8 +454,15 @@ def _diagnosis_html(diagnosis: dict[str, Any] | None, name: str | None = None, r
             where = finding.get("where") or f"{band[0]}–{band[1]} Hz"
             values = "; ".join(_parameter_text(name, entry)
                                for name, entry in (finding.get("parameters") or {}).items())
-            rows.append((finding.get("effect", "?"), where, values, finding.get("evidence", "")))
-        parts.append(_table(("Effect", "Where", "Parameters", "Evidence"), rows))
+            mechanisms = [m.get("name", "") for m in finding.get("mechanisms") or [] if isinstance(m, dict)]
+            status = finding.get("status", "named")
+            named = (f"{'named' if status == 'named' else 'modelled; likely'}: {mechanisms[0]}"
+                     + (f" (also consistent: {'; '.join(mechanisms[1:])})" if mechanisms[1:] else "")
+                     if mechanisms else status)
+            place = finding.get("place") or ""
+            rows.append((finding.get("effect", "?"), f"{place}: {where}" if place else where, values, named,
+                         finding.get("evidence", "")))
+        parts.append(_table(("Effect", "Where", "Parameters", "Mechanism", "Evidence"), rows))
     elif verdict in NOTHING_MISSING:
         parts.append("<p>No missing physics found.</p>")
     unexplained = [item for item in diagnosis.get("unexplained") or [] if isinstance(item, dict)]

@@ -70,6 +70,9 @@ from gasfilm.drivers.errors import GasfilmError
 logger = logging.getLogger(__name__)
 
 MAX_TERMS = 6
+#: Passes of the catalog's selection: after terms were taken out on their claims, the rest is selected again without
+#: them (another term may take the place of one that could not be claimed).
+SELECTION_PASSES = 2
 #: Generic descriptions at most, after the catalog's terms (modes beside the mover, film branches, channel factors).
 MAX_DESCRIPTIONS = 8
 #: A generic description whose own band stays beyond the noise is still a description of what it removed when it
@@ -206,22 +209,34 @@ def diagnose_spectra(
     if within_known_error:
         progress("within the noise and the spec's recorded description error: nothing changed that a term could "
                  "describe, none is sought")
-    while len(steps) < MAX_TERMS and not within_known_error:
-        accepted = _select_one(spectra, evidence, current, context, points, rejected, progress, restoring)
-        if accepted is None:
-            break
-        step, outcome, evidence = accepted
-        steps.append(step)
-        current = fit(evidence, outcome.spec, outcome.slots)
-
-    steps, current, evidence, refits_without = _check_back(spectra, evidence, steps, current, recalibrated_spec,
-                                                           context, progress)
-    steps, current, evidence, refits_without = _drop_partial_terms(spectra, evidence, steps, current, refits_without,
-                                                                   rejected, recalibrated_spec, context, progress)
     rms_recalibrated = replay_rms(spectra, recalibrated_spec)
-    steps, current, evidence, refits_without, claims = _drop_unsupported_terms(
-        spectra, evidence, steps, current, refits_without, rejected, recalibrated_spec, rms_recalibrated, context,
-        progress, restoring)
+    excluded: set[str] = set()
+    for _ in range(SELECTION_PASSES):
+        while len(steps) < MAX_TERMS and not within_known_error:
+            accepted = _select_one(spectra, evidence, current, context, points, rejected, progress, restoring,
+                                   excluded=excluded)
+            if accepted is None:
+                break
+            step, outcome, evidence = accepted
+            steps.append(step)
+            current = fit(evidence, outcome.spec, outcome.slots)
+        demoted_before = len(rejected)
+        steps, current, evidence, refits_without = _check_back(spectra, evidence, steps, current, recalibrated_spec,
+                                                               context, progress)
+        steps, current, evidence, refits_without = _drop_partial_terms(spectra, evidence, steps, current,
+                                                                       refits_without, rejected, recalibrated_spec,
+                                                                       context, progress)
+        steps, current, evidence, refits_without, claims = _drop_unsupported_terms(
+            spectra, evidence, steps, current, refits_without, rejected, recalibrated_spec, rms_recalibrated, context,
+            progress, restoring)
+        # a term taken out leaves its mismatch to the others: another term of the catalog may take its place (a
+        # cross-talk where an added mass was not claimed because the two are as good)
+        taken_out = {candidate.effect for candidate in rejected[demoted_before:]
+                     if not EFFECT_TYPES[candidate.effect].repeatable}
+        if not taken_out - excluded or _nothing_unexplained(evidence, current.spec):
+            break
+        excluded |= taken_out
+        progress(f"what {', '.join(sorted(taken_out))} left is tried again without {'it' if len(taken_out) == 1 else 'them'}")
     unexplained = _unexplained(spectra, evidence, current.spec, rejected, restoring)
     if unexplained and not steps and not structure_read_off_frf:
         redescribed = _redescribe_structure(spectra, evidence, current, context, progress)
@@ -393,14 +408,16 @@ def _select_one(
     restoring: RestoringForce | None = None,
     generic: bool = False,
     other_films: tuple[dict[str, float], ...] = (),
+    excluded: set[str] = frozenset(),
 ) -> tuple[Step, FitOutcome, Evidence] | None:
     """The next term of the forward selection, or None when no candidate earns its place: from the catalog, or with
     ``generic`` from the generic descriptions. An amplitude-dependent term whose shape the measured restoring force
     contradicts is not tried. ``other_films``: film parameters each candidate is also started from (see
-    :func:`_candidate_fits`)."""
+    :func:`_candidate_fits`); ``excluded``: types not tried (taken out on their claims in an earlier pass)."""
     noise_scale = _noise_scale(current, points)
     trials = []
-    identifiers = _candidate_identifiers(current.spec, context, restoring, generic)
+    identifiers = [identifier for identifier in _candidate_identifiers(current.spec, context, restoring, generic)
+                   if identifier not in excluded]
     if not _hits_differ(evidence, current.spec):  # one spec for every hit is all these data can describe
         identifiers = [identifier for identifier in identifiers if identifier not in TERM_CHANGES]
 

@@ -16,6 +16,8 @@ from gasfilm.analysis.diagnosis.parallel import shared_map
 from gasfilm.analysis.diagnosis.pipeline import replayed_mean, residuals
 from gasfilm.analysis.diagnosis.restoring import RestoringForce
 from gasfilm.analysis.diagnosis.result import Diagnosis
+from gasfilm.analysis.physics.elements import laplace_variable
+from gasfilm.analysis.physics.response import rig_dynamic_stiffness
 from gasfilm.analysis.diagnosis.structure import STABILITY, Structure
 from gasfilm.analysis.threads import one_blas_thread
 from gasfilm.drivers.interface import STANDARD_GRAVITY_M_S2 as G_M_S2
@@ -31,7 +33,8 @@ OVERLAY_FILE = "diagnosis-overlay.png"
 RESIDUAL_FILE = "diagnosis-residual.png"
 RESTORING_FILE = "diagnosis-restoring-force.png"
 STABILIZATION_FILE = "diagnosis-stabilization.png"
-OUTPUT_FILES = (SPEC_FILE, OVERLAY_FILE, RESIDUAL_FILE, RESTORING_FILE, STABILIZATION_FILE)
+FILM_FILE = "diagnosis-film.png"
+OUTPUT_FILES = (SPEC_FILE, OVERLAY_FILE, RESIDUAL_FILE, RESTORING_FILE, STABILIZATION_FILE, FILM_FILE)
 #: How the stabilization diagram draws each stability class (:data:`STABILITY`): marker, size, colour.
 STABILITY_STYLE = ((".", 2.0, "0.75"), ("x", 3.0, "C1"), ("+", 4.0, "C2"), ("o", 3.5, "C0"))
 
@@ -39,11 +42,14 @@ STABILITY_STYLE = ((".", 2.0, "0.75"), ("x", 3.0, "C1"), ("+", 4.0, "C2"), ("o",
 def write_figures(diagnosis: Diagnosis, out_dir: Path) -> list[str]:
     """``diagnosis-overlay.png`` (H1 recorded, spec as given and improved spec, replayed the same way),
     ``diagnosis-residual.png`` (noise-weighted residual per frequency before/after, and per hit), with a restoring
-    force ``diagnosis-restoring-force.png``, and with a structure read off the FRF ``diagnosis-stabilization.png``;
-    drawn by two processes at once (:func:`shared_map`: each figure is the same file either way)."""
+    force ``diagnosis-restoring-force.png``, with a structure read off the FRF ``diagnosis-stabilization.png``, and
+    else ``diagnosis-film.png`` (the film's dynamic stiffness, measured and modelled); drawn by two processes at once
+    (:func:`shared_map`: each figure is the same file either way)."""
     out_dir.mkdir(parents=True, exist_ok=True)
     drawings: list[Callable[[], Path]] = [lambda: write_overlay_figure(diagnosis, out_dir / OVERLAY_FILE),
                                           lambda: write_residual_figure(diagnosis, out_dir / RESIDUAL_FILE)]
+    if diagnosis.structure is None and diagnosis.given.rigid_body is None:
+        drawings.append(lambda: write_film_figure(diagnosis, out_dir / FILM_FILE))
     if diagnosis.restoring_force is not None:
         restoring = diagnosis.restoring_force
         drawings.append(lambda: write_restoring_force_figure(restoring, out_dir / RESTORING_FILE))
@@ -55,6 +61,63 @@ def write_figures(diagnosis: Diagnosis, out_dir: Path) -> list[str]:
         if isinstance(path, Exception):
             raise path
     return [str(path) for path in written]
+
+
+def film_view(diagnosis: Diagnosis) -> dict[str, np.ndarray]:
+    """The film's dynamic stiffness ``Z(s) = F/X − M s² = s²/H − M s²`` read off the recordings (H1 at the analysis
+    lines, ``s = σ + jω``, M the written spec's moving mass) with its one-σ uncertainty (``sigma``, of each of its
+    real and imaginary parts), against what the specs give — the paper's K(ω) = Re Z and C(ω) = Im Z/ω (eqs. 19–20).
+    ``apparent``: what the written spec's whole accelerance implies the same way (channel terms and modes beside the
+    mover included, so it follows the recordings); ``written_film``: its film with the terms acting on the mover —
+    where the two differ, the written spec puts the mismatch outside the film."""
+    spectra = diagnosis.spectra
+    s = laplace_variable(spectra.freq_hz, spectra.decay_rate_1_s)
+    mass_kg = diagnosis.improved.moving_mass_kg
+    measured, weight = spectra.mean()
+
+    def from_accelerance(h: np.ndarray) -> np.ndarray:
+        return s**2 / h - mass_kg * s**2
+
+    def film(spec) -> np.ndarray:
+        return rig_dynamic_stiffness(spec, s) - spec.moving_mass_kg * s**2
+
+    return {"freq_hz": spectra.freq_hz, "omega_rad_s": 2 * np.pi * spectra.freq_hz,
+            "measured": from_accelerance(measured),
+            "sigma": np.abs(s**2 / measured**2) * np.sqrt(1.0 / np.maximum(weight, 1e-300)),
+            "apparent": from_accelerance(replayed_mean(spectra, diagnosis.improved)),
+            "given_film": film(diagnosis.given), "written_film": film(diagnosis.improved)}
+
+
+def write_film_figure(diagnosis: Diagnosis, path: Path) -> Path:
+    """The view an air-bearing engineer reads (the paper's K(ω) and C(ω), eqs. 19–20): the film's stiffness and
+    damping measured (±2σ) against the spec as given, the written spec's film, and what the written spec as a whole
+    implies (:func:`film_view`)."""
+    view = film_view(diagnosis)
+    freq_hz, omega = view["freq_hz"], view["omega_rad_s"]
+    figure = Figure(figsize=(9, 7))
+    FigureCanvasAgg(figure)
+    axes = figure.subplots(2, 1, sharex=True)
+    for axis, part, scale, label in ((axes[0], np.real, 1.0, "stiffness K (N/m)"),
+                                     (axes[1], np.imag, 1.0 / omega, "damping C (N·s/m)")):
+        measured = part(view["measured"]) * scale
+        band = 2 * view["sigma"] * np.abs(scale)
+        axis.fill_between(freq_hz, measured - band, measured + band, color="0.8", label="recorded ±2σ")
+        axis.plot(freq_hz, measured, "k-", lw=1.0, label="recorded")
+        axis.plot(freq_hz, part(view["given_film"]) * scale, "C3--", lw=1.2, label="film as given")
+        axis.plot(freq_hz, part(view["written_film"]) * scale, "C0-", lw=1.2, label="written spec: film")
+        axis.plot(freq_hz, part(view["apparent"]) * scale, "C1:", lw=1.2, label="written spec: whole chain")
+        axis.set_ylabel(label)
+        axis.set_xscale("log")
+        low, high = np.percentile(measured, [2, 98])
+        margin = 0.5 * (high - low) + 1e-12
+        axis.set_ylim(low - margin, high + margin)
+    axes[1].set_xlabel("frequency (Hz)")
+    axes[0].legend(loc="best", fontsize=8)
+    axes[0].set_title(f"the film's dynamic stiffness F/X − M·s² (M = {diagnosis.improved.moving_mass_kg:.4g} kg): "
+                      f"{diagnosis.verdict}", fontsize=10)
+    figure.subplots_adjust(left=0.11, right=0.97, bottom=0.08, top=0.94, hspace=0.2)
+    figure.savefig(path, dpi=110, pil_kwargs=FAST_PNG)
+    return path
 
 
 def write_overlay_figure(diagnosis: Diagnosis, path: Path) -> Path:

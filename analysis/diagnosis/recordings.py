@@ -519,10 +519,12 @@ def diagnose(
     mass_kg: float | None = None,
     band_hz: tuple[float, float] | None = None,
     progress: Callable[[str], None] = _silent,
+    check_loop: bool = False,
 ) -> Diagnosis:
     """Diagnose a session or UFF file against a rig spec (default: the session's recorded spec, else one read off
     the FRF, :func:`starting_spec`). Writes nothing: ``Diagnosis.improved`` is the spec to write; ``Diagnosis.notes``
-    starts with where the starting spec came from."""
+    starts with where the starting spec came from. ``check_loop``: the written spec, read back from its TOML, is
+    diagnosed again on the same recordings (``Diagnosis.loop``: it must find nothing more)."""
     started = time.monotonic()
     recordings = source if isinstance(source, Recordings) else load_recordings(source)
     _check_records(recordings)
@@ -550,6 +552,13 @@ def diagnose(
                                  recording=Path(recordings.source).name)
     diagnosis.notes.insert(0, origin)
     diagnosis.structure = structure
+    if check_loop:
+        written = RigSpec.from_toml(diagnosis.improved.to_toml(), source="the written spec")
+        progress("the loop: the written spec, read back, diagnosed again on the same recordings")
+        again = diagnose_spectra(spectra, written, restoring=restoring, recording=Path(recordings.source).name)
+        diagnosis.loop = {"verdict_on_written_spec": again.verdict, "chi2_per_point": again.chi2_per_point_after,
+                          "findings": [finding.effect for finding in again.findings],
+                          "closed": again.verdict in ("consistent", "parameters-only") and not again.findings}
     if read_off_frf and mass_kg is None and "(mass line" in origin and diagnosis.verdict not in (
             "consistent", "parameters-only"):
         diagnosis.notes.append(f"the moving mass was read off the FRF's mass line ({rig_spec.moving_mass_kg:.4g} kg): "

@@ -104,6 +104,11 @@ def report_text(diagnosis: Diagnosis) -> str:
                  f"recalibrated → {diagnosis.rms_after / G_M_S2:.4g} g/N improved spec (E = "
                  f"{diagnosis.improvement_e:.1f} %); χ²/point {diagnosis.chi2_per_point_before:.3f} → "
                  f"{diagnosis.chi2_per_point_after:.3f} (1 = noise)")
+    if diagnosis.loop is not None:
+        loop = diagnosis.loop
+        lines.append(f"  loop: the written spec diagnosed again gives '{loop['verdict_on_written_spec']}' (χ²/point "
+                     f"{loop['chi2_per_point']:.3f})" + (": closed" if loop["closed"] else
+                                                        f": NOT closed, it finds {', '.join(loop['findings'])}"))
     lines.extend(f"  note: {note}" for note in diagnosis.notes)
     if diagnosis.improved_spec_path:
         lines.append(f"  improved spec: {diagnosis.improved_spec_path}")

@@ -167,6 +167,9 @@ class Diagnosis:
     candidates: list[CandidateDescription] = field(default_factory=list)  # every term that is not a finding
     restoring_force: RestoringForce | None = None  # model-free shape of the film's force (amplitude physics)
     improved_spec_path: str | None = None  # where a caller wrote ``improved``
+    #: the written spec diagnosed again on the same recordings (``diagnose(check_loop=True)``): verdict, χ²/point,
+    #: findings, closed (nothing more found)
+    loop: dict | None = None
     figures: list[str] = field(default_factory=list)
     structure: Structure | None = None  # the measured structure read off the FRF (modes, stabilization diagram)
 
@@ -206,6 +209,7 @@ class Diagnosis:
             "hits_numbered_from": 1,
             "decay_rate_1_s": self.evidence.decay_rate_1_s,
             "improved_spec": self.improved_spec_path,
+            "loop": self.loop,
             "notes": self.notes,
             "figures": self.figures,
             "wall_time_s": self.wall_time_s,

@@ -40,6 +40,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--overwrite", action="store_true",
                         help="replace an improved spec or figures in --out (and remove an earlier run's figure this "
                              "run does not draw)")
+    parser.add_argument("--check-loop", action="store_true",
+                        help="diagnose the written spec again on the same recordings: it must find nothing more "
+                             "(the result under 'loop'; takes about as long again)")
     parser.set_defaults(func=run)
 
 
@@ -90,7 +93,7 @@ def run(args: argparse.Namespace) -> int:
         if conditions:  # files from elsewhere carry none: the report says "not recorded" once, at the end
             progress(f"{args.source[0]}: conditions {format_conditions(conditions)}")
         source = args.source[0] if len(args.source) == 1 else list(args.source)
-        diagnosis = diagnose(source, spec, args.mass, band, progress)
+        diagnosis = diagnose(source, spec, args.mass, band, progress, check_loop=args.check_loop)
         write_outputs(diagnosis, args.out)
         if args.overwrite:
             for stale in remove_stale_outputs(diagnosis, args.out):

@@ -39,7 +39,9 @@ READY_TEXT = "Acquisition stopped: diagnose the session's accepted hits against 
 def finding_title(finding: Finding) -> str:
     """A finding's line in the list: where its own signature is, in the words its details use ("extra-mode near
     640 Hz", not the wider band its χ² gain spans)."""
-    return f"{finding.effect} — {finding.where.split(';')[0]}   ({finding.hits})"
+    status = "modelled" if finding.status == "modelled" else "named"
+    place = f", {finding.place}" if finding.place else ""
+    return f"{finding.effect} — {finding.where.split(';')[0]}   ({status}{place}; {finding.hits})"
 
 
 class DiagnoseTab(QWidget):
@@ -100,7 +102,7 @@ class DiagnoseTab(QWidget):
         self.quality = QListWidget()
         self.quality.setWordWrap(True)
         self.findings.setWordWrap(True)
-        findings_box = QGroupBox("Findings (physics the spec leaves out)")
+        findings_box = QGroupBox("Findings (what the spec leaves out: named, or modelled in its place)")
         findings_layout = QVBoxLayout(findings_box)
         findings_layout.addWidget(self.status)
         findings_layout.addWidget(self.summary)
@@ -272,9 +274,18 @@ class DiagnoseTab(QWidget):
             f"<td align='right'>± {values['uncertainty']:.2g}</td><td>{values['unit']}</td></tr>"
             for name, values in finding.parameters.items()
         )
+        mechanisms = ""
+        if finding.mechanisms:
+            first, *others = finding.mechanisms
+            named = "Named" if finding.status == "named" else "Likely (modelled, not certain)"
+            mechanisms = f"<p><b>{named}:</b> {first.name}</p>"
+            if others:
+                mechanisms += (f"<p><b>Also consistent:</b> {'; '.join(m.name for m in others)} — "
+                               f"{first.tell_apart} would tell them apart</p>")
         self.details.setHtml(
             f"<h3>{finding.effect}</h3>"
-            f"<p><b>Where:</b> {finding.where}, {finding.hits}</p>"
+            f"<p><b>Where:</b> {finding.place + ': ' if finding.place else ''}{finding.where}, {finding.hits}</p>"
+            + mechanisms +
             f"<p><b>What:</b></p><table cellpadding='3'>{rows}</table>"
             f"<p><b>Why:</b> {finding.evidence}</p>"
             f"<p><b>In plain words:</b> {finding.explanation}</p>"

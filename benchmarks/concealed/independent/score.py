@@ -30,7 +30,7 @@ OUTCOMES = ("exact", "acceptable", "honest not-explained", "wrong", "false claim
 RIGHT = OUTCOMES[:3]
 CATEGORIES = ("control", "catalog", "outside", "trap")
 EXPLAINED_VERDICTS = ("consistent", "parameters-only")
-HONEST_VERDICTS = ("not explained", "partly explained")
+HONEST_VERDICTS = ("not explained", "partly explained", "modelled")  # "modelled": described, nothing claimed
 CHI2_LIMIT = 3.0
 TIMEOUT_S = 600
 
@@ -92,14 +92,18 @@ def reported(findings: list[dict], missing: set[str]) -> tuple[set[str], set[str
 def classify(key: dict, result: dict, missing: set[str]) -> tuple[str, str]:
     """(outcome, reason) of one diagnosis against its answer key."""
     verdict = result.get("verdict")
-    findings = result.get("findings") or []
+    # a description the diagnosis only modelled (status "modelled") claims no mechanism: judged like an honest "not
+    # explained", except on a control
+    described = [f for f in result.get("findings") or [] if f.get("status") == "modelled"]
+    findings = [f for f in result.get("findings") or [] if f.get("status") != "modelled"]
     effects, alternatives = reported(findings, missing)
     exact = [set(names) for names in key["exact"]]
     acceptable = [set(names) for names in key["acceptable"]]
     allowed = set().union(*exact, *acceptable)
     if key["control"]:
-        if findings:
-            return "false claim", f"finding(s) on a control: {', '.join(sorted(effects))}"
+        if findings or described:
+            names = effects | {f"modelled {f.get('effect')}" for f in described}
+            return "false claim", f"finding(s) on a control: {', '.join(sorted(names))}"
         if verdict in EXPLAINED_VERDICTS:
             return "exact", ""
         return "wrong", f"control, no finding, but verdict '{verdict}'"
@@ -119,7 +123,7 @@ def classify(key: dict, result: dict, missing: set[str]) -> tuple[str, str]:
         unexplained = result.get("unexplained")
         if unexplained is None:
             missing.add("unexplained")
-        elif not unexplained:
+        elif not unexplained and not described:
             return "wrong", f"verdict '{verdict}' with an empty unexplained list"
         return "honest not-explained", ""
     if not effects:

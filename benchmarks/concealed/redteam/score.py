@@ -49,7 +49,7 @@ OUTCOMES = ("exact", "acceptable", "honest not-explained", "wrong", "false claim
 RIGHT = OUTCOMES[:3]
 CATEGORIES = ("control", "rig", "measurement")
 EXPLAINED_VERDICTS = ("consistent", "parameters-only")
-HONEST_VERDICTS = ("not explained", "partly explained")
+HONEST_VERDICTS = ("not explained", "partly explained", "modelled")  # "modelled": described, nothing claimed
 TIMEOUT_S = 600
 
 
@@ -132,7 +132,10 @@ def condition_problem(key: dict, result: dict, findings: list[dict]) -> str:
 def classify(key: dict, result: dict) -> tuple[str, str]:
     """(outcome, reason) of one diagnosis against its answer key."""
     verdict = result.get("verdict")
-    findings = result.get("findings") or []
+    # a description the diagnosis only modelled (status "modelled") claims no mechanism: judged like an honest "not
+    # explained", except on a control
+    described = [f for f in result.get("findings") or [] if f.get("status") == "modelled"]
+    findings = [f for f in result.get("findings") or [] if f.get("status") != "modelled"]
     effects = {key_name(str(f.get("effect", "?"))) for f in findings}
     allowed = set(key["allowed"]) | set(key.get("partial_ok", []))  # partial: only beside an unexplained rest
     forbidden = effects & set(key["must_not_claim"])
@@ -140,8 +143,9 @@ def classify(key: dict, result: dict) -> tuple[str, str]:
     bad_notes = [word for word in key.get("must_not_quality", []) if any(word in note for note in notes)]
     if forbidden or bad_notes:
         return "must-not claimed", "claimed " + ", ".join(sorted(forbidden) + [f"quality '{w}'" for w in bad_notes])
-    if key["control"] and findings:
-        return "false claim", f"finding(s) on a control: {', '.join(sorted(effects))}"
+    if key["control"] and (findings or described):
+        names = effects | {f"modelled {f.get('effect')}" for f in described}
+        return "false claim", f"finding(s) on a control: {', '.join(sorted(names))}"
     outside = effects - allowed
     if outside:
         return "false claim", f"claimed {', '.join(sorted(outside))} (not there)"
@@ -154,7 +158,7 @@ def classify(key: dict, result: dict) -> tuple[str, str]:
                 return "wrong", problem
             return outcome, ""
     if key.get("honest_not_explained_ok") and verdict in HONEST_VERDICTS:
-        if not result.get("unexplained"):
+        if not result.get("unexplained") and not described:
             return "wrong", f"verdict '{verdict}' with an empty unexplained list"
         return "honest not-explained", ""
     if not effects:

@@ -2,7 +2,7 @@
 
 Per case, as a user would (the ``gasfilm`` beside the Python that runs this file):
 
-    gasfilm diagnose out/redteam10/<case>.uff --mass 25.05 --json --out out/redteam10/diagnoses/<case> --overwrite
+    gasfilm diagnose out/redteam10/<case>.uff --mass 25.05 --json --check-loop --out out/redteam10/diagnoses/<case> --overwrite
 
 Three figures per case (docs in README.md beside this file):
 
@@ -267,6 +267,9 @@ def normalised(result: dict) -> dict:
         place = place_of(f)
         if name not in CATALOG and place in GENERIC_BY_PLACE:
             f = dict(f, effect=GENERIC_BY_PLACE[place])
+        # round 3's classifier passes over descriptions that are only modelled (earlier rounds' keys name catalog
+        # terms only); this round's keys judge them by their place, so every finding is handed over as a claim
+        f = {name: value for name, value in f.items() if name != "status"}
         findings.append(f)
     out = dict(result)
     out["findings"] = findings
@@ -349,7 +352,8 @@ def score_case(key_path: Path, data: Path) -> dict:
                           "named": False}
         result, error, stderr, wall = json.loads(saved.read_text()), "", "", float("nan")
     else:
-        result, error, stderr, wall = round3.run([str(uff), *arguments, "--out", str(out_dir)])
+        # --check-loop: the written spec diagnosed again on the same recordings (the JSON's "loop")
+        result, error, stderr, wall = round3.run([str(uff), *arguments, "--check-loop", "--out", str(out_dir)])
     if not FROM_SAVED:
         row["wall_time_s"] = round(wall, 1)
     if "Traceback" in stderr:

@@ -54,7 +54,7 @@ OUTCOMES = ("exact", "acceptable", "honest not-explained", "wrong", "false claim
 RIGHT = OUTCOMES[:3]
 CATEGORIES = ("control", "rig", "measurement")
 EXPLAINED = ("consistent", "parameters-only")
-HONEST = ("not explained", "partly explained")
+HONEST = ("not explained", "partly explained", "modelled")  # "modelled": described, no mechanism claimed
 TIMEOUT_S = 420
 
 
@@ -112,19 +112,30 @@ def condition_problem(key: dict, result: dict, findings: list[dict]) -> str:
     return ""
 
 
+def claimed(result: dict) -> list[dict]:
+    """The findings that claim a mechanism: a description the diagnosis only modelled (``status`` "modelled", its
+    mechanisms candidates) claims none — it is judged like an honest "not explained", except on a control."""
+    return [f for f in result.get("findings") or [] if f.get("status") != "modelled"]
+
+
+def modelled(result: dict) -> list[dict]:
+    return [f for f in result.get("findings") or [] if f.get("status") == "modelled"]
+
+
 def classify(key: dict, result: dict) -> tuple[str, str]:
     verdict = result.get("verdict")
-    findings = result.get("findings") or []
+    findings = claimed(result)
     effects = {key_name(str(f.get("effect", "?"))) for f in findings}
     forbidden = effects & set(key["must_not_claim"])
     lowered = [n.lower() for n in notes(result)]
     bad_notes = [w for w in key.get("must_not_quality", []) if any(w in n for n in lowered)]
     if forbidden or bad_notes:
         return "must-not claimed", "claimed " + ", ".join(sorted(forbidden) + [f"quality '{w}'" for w in bad_notes])
-    if key["control"] and findings:
-        return "false claim", f"finding(s) on a control: {', '.join(sorted(effects))}"
+    if key["control"] and (findings or modelled(result)):
+        described = effects | {f"modelled {f.get('effect')}" for f in modelled(result)}
+        return "false claim", f"finding(s) on a control: {', '.join(sorted(described))}"
     partial = set(key.get("partial_ok", []))
-    honest_context = verdict in HONEST and bool(result.get("unexplained"))
+    honest_context = verdict in HONEST and (bool(result.get("unexplained")) or bool(modelled(result)))
     outside = effects - set(key["allowed"]) - (partial if honest_context else set())
     if outside:
         return "false claim", f"claimed {', '.join(sorted(outside))} (not there)"
@@ -137,7 +148,7 @@ def classify(key: dict, result: dict) -> tuple[str, str]:
                 return "wrong", problem
             return outcome, ""
     if key.get("honest_not_explained_ok") and verdict in HONEST:
-        if not result.get("unexplained"):
+        if not result.get("unexplained") and not modelled(result):
             return "wrong", f"verdict '{verdict}' with an empty unexplained list"
         return "honest not-explained", ""
     if not effects:
