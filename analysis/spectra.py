@@ -606,10 +606,10 @@ def write_frf_csv(frf: FrfResult, path: str | Path, conditions: Mapping[str, Any
             frf.h1_std_scatter,
         )
     )
-    try:
-        header = "".join(f"# condition {key} = {value}\n" for key, value in (conditions or {}).items())
-        np.savetxt(path, columns, delimiter=",", header=header + ",".join(FRF_CSV_COLUMNS), comments="",
+    from gasfilm.analysis.paths import written_whole
+
+    header = "".join(f"# condition {key} = {value}\n" for key, value in (conditions or {}).items())
+    with written_whole(path, what="the CSV") as (building,):  # a full disk leaves no partial file
+        np.savetxt(building, columns, delimiter=",", header=header + ",".join(FRF_CSV_COLUMNS), comments="",
                    fmt="%.12g")
-    except OSError as error:
-        raise SettingError(f"{path}: cannot write the CSV ({error.strerror or error})") from None
     return path

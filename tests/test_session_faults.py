@@ -1,5 +1,5 @@
 """Sessions under faults: a write error or full disk mid-recording, two writers creating the same file at once,
-SIGTERM/SIGHUP, leftovers of killed creations and recoveries, runaway rejections and the size limit.
+SIGTERM/SIGHUP, leftovers of killed creations, runaway rejections and the size limit.
 
 Each fault is real: a write limit the kernel enforces (RLIMIT_FSIZE: HDF5's writes fail with EFBIG exactly as on a full
 disk), a 2 MB tmpfs where the test may mount one (root), real signals, real concurrent processes.
@@ -213,21 +213,21 @@ def dead_pid() -> int:
     return child.pid
 
 
-def test_leftovers_of_killed_creations_and_recoveries_are_removed(tmp_path):
+def test_leftovers_of_killed_creations_are_removed(tmp_path):
     path = tmp_path / "s.h5"
     gone = dead_pid()
-    leftovers = [tmp_path / f".s.h5.{gone}.creating", tmp_path / f".s.h5.{gone}.recovering"]
+    leftover = tmp_path / f".s.h5.{gone}.creating"
     other_session = tmp_path / f".other.h5.{gone}.creating"
     live = tmp_path / f".s.h5.{os.getppid()}.creating"  # a live process (pytest's parent) may still be building
-    for file in (*leftovers, other_session, live):
+    for file in (leftover, other_session, live):
         file.write_bytes(b"half-built")
     with new_session(path) as session:
         session.append_hit(synthetic_hits(1)[0], Verdict(True))
-    assert not any(file.exists() for file in leftovers)
+    assert not leftover.exists()
     assert other_session.exists() and live.exists()
-    leftovers[1].write_bytes(b"half-recovered")
+    leftover.write_bytes(b"half-built")
     with Session.open(path, "a"):
-        assert not leftovers[1].exists()
+        assert not leftover.exists()
 
 
 def rejected_stream(count: int) -> np.ndarray:

@@ -16,6 +16,7 @@ from gasfilm.analysis.diagnosis.parallel import shared_map
 from gasfilm.analysis.diagnosis.pipeline import replayed_mean, residuals
 from gasfilm.analysis.diagnosis.restoring import RestoringForce
 from gasfilm.analysis.diagnosis.result import Diagnosis
+from gasfilm.analysis.paths import written_whole
 from gasfilm.analysis.threads import one_blas_thread
 from gasfilm.drivers.interface import STANDARD_GRAVITY_M_S2 as G_M_S2
 
@@ -32,17 +33,22 @@ RESTORING_FILE = "diagnosis-restoring-force.png"
 OUTPUT_FILES = (SPEC_FILE, OVERLAY_FILE, RESIDUAL_FILE, RESTORING_FILE)
 
 
-def write_figures(diagnosis: Diagnosis, out_dir: Path) -> list[str]:
+def figure_files(diagnosis: Diagnosis) -> tuple[str, ...]:
+    """The figures a diagnosis draws: the overlay, the residual and, with a restoring force, its figure."""
+    return (OVERLAY_FILE, RESIDUAL_FILE) + ((RESTORING_FILE,) if diagnosis.restoring_force is not None else ())
+
+
+def write_figures(diagnosis: Diagnosis, paths: dict[str, Path]) -> list[str]:
     """``diagnosis-overlay.png`` (H1 recorded, spec as given and improved spec, replayed the same way),
     ``diagnosis-residual.png`` (noise-weighted residual per frequency before/after, and per hit) and, with a
-    restoring force, ``diagnosis-restoring-force.png``; drawn by two processes at once (:func:`shared_map`: each
-    figure is the same file either way)."""
-    out_dir.mkdir(parents=True, exist_ok=True)
-    drawings: list[Callable[[], Path]] = [lambda: write_overlay_figure(diagnosis, out_dir / OVERLAY_FILE),
-                                          lambda: write_residual_figure(diagnosis, out_dir / RESIDUAL_FILE)]
+    restoring force, ``diagnosis-restoring-force.png``, each to the path ``paths`` gives its name
+    (:func:`figure_files`); drawn by two processes at once (:func:`shared_map`: each figure is the same file either
+    way)."""
+    drawings: list[Callable[[], Path]] = [lambda: write_overlay_figure(diagnosis, paths[OVERLAY_FILE]),
+                                          lambda: write_residual_figure(diagnosis, paths[RESIDUAL_FILE])]
     if diagnosis.restoring_force is not None:
         restoring = diagnosis.restoring_force
-        drawings.append(lambda: write_restoring_force_figure(restoring, out_dir / RESTORING_FILE))
+        drawings.append(lambda: write_restoring_force_figure(restoring, paths[RESTORING_FILE]))
     written = shared_map(lambda draw: draw(), drawings)
     for path in written:
         if isinstance(path, Exception):
@@ -159,14 +165,18 @@ def write_restoring_force_figure(restoring: RestoringForce, path: Path) -> Path:
 
 @one_blas_thread
 def write_outputs(diagnosis: Diagnosis, out_dir: Path) -> None:
-    """Write the improved spec (the spec that was fitted, exactly) and the figures into ``out_dir``; the paths are
-    kept in ``diagnosis.improved_spec_path`` and ``diagnosis.figures``."""
+    """Write the improved spec (the spec that was fitted, exactly) and the figures into ``out_dir``, all of them or
+    none (a full disk leaves no partial file: :func:`~gasfilm.analysis.paths.written_whole`); the paths are kept in
+    ``diagnosis.improved_spec_path`` and ``diagnosis.figures``."""
     out_dir.mkdir(parents=True, exist_ok=True)
-    spec_path = out_dir / SPEC_FILE
-    header = "".join(f"# {note}\n" for note in diagnosis.notes)
-    spec_path.write_text(header + diagnosis.improved.to_toml(), encoding="utf-8")
-    diagnosis.improved_spec_path = str(spec_path)
-    diagnosis.figures = write_figures(diagnosis, out_dir)
+    names = (SPEC_FILE, *figure_files(diagnosis))
+    with written_whole(*(out_dir / name for name in names), what="the diagnosis's files") as temporaries:
+        building = dict(zip(names, temporaries))
+        header = "".join(f"# {note}\n" for note in diagnosis.notes)
+        building[SPEC_FILE].write_text(header + diagnosis.improved.to_toml(), encoding="utf-8")
+        write_figures(diagnosis, building)
+    diagnosis.improved_spec_path = str(out_dir / SPEC_FILE)
+    diagnosis.figures = [str(out_dir / name) for name in names[1:]]
 
 
 def remove_stale_outputs(diagnosis: Diagnosis, out_dir: Path) -> list[Path]:

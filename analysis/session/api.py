@@ -460,7 +460,7 @@ class Session:
         return cls(path, file, recovered=True, store=view)
 
     @classmethod
-    def _open_for_writing(cls, path: Path) -> "Session":
+    def _open_for_writing(cls, path: Path, announce: bool = True) -> "Session":
         """Take the writer lock, restore the file from a journal a killed writer left, and open it in place for
         appending (a file whose writer was killed is opened with its flags cleared, and marked recovered)."""
         real = real_path(path)
@@ -489,7 +489,7 @@ class Session:
             session = cls(path, file, lock, recovered=killed or restored, store=store)
             file = None  # (the session owns it now, and let go of it if it refused it)
             if killed:
-                session._mark_recovered()
+                session._mark_recovered(announce)
             with session._writing("the session's open state"):
                 session._settled()
         except BaseException:
@@ -502,7 +502,7 @@ class Session:
             raise
         return session
 
-    def _mark_recovered(self) -> None:
+    def _mark_recovered(self, announce: bool) -> None:
         """A session whose writer ended without closing it: status "interrupted" when it was recording, and when."""
         with self._writing("the recovered session's status"):
             self._structural()
@@ -512,8 +512,8 @@ class Session:
                                                      f"{self._hit_count} hits recovered")
             self._file.attrs["recovered_utc"] = utc_now()
             self._changed = True
-        logger.warning("%s: its writer ended without closing it (status %s: %s)", self.path, self.status,
-                       self.status_reason)
+        logger.log(logging.WARNING if announce else logging.INFO, "%s: its writer ended without closing it (status "
+                   "%s: %s)", self.path, self.status, self.status_reason)
 
     @_reading("its layout")
     def _check_layout(self) -> None:
@@ -585,6 +585,8 @@ class Session:
             return
         if not self.writable or self._write_failure is not None:
             self._let_go()
+            if self._write_failure is not None and self._committed:
+                self._finish_after_failure()
             return
         if status is not None and status not in ("complete", "aborted"):
             raise SessionError(f"{self.path}: close status '{status}' is not valid; use 'complete' or 'aborted'")
@@ -605,6 +607,23 @@ class Session:
             self._changed = False
         finally:
             self._let_go()
+
+    def _finish_after_failure(self) -> None:
+        """After a failed write, close the session at its last commit as "interrupted", saying why, where the disk
+        still allows it (else it is left as that commit left it, open for writing: it reads as interrupted)."""
+        reason = f"writing failed ({self._write_failure}); the {self._hit_count} hits before it are kept"
+        try:
+            again = Session._open_for_writing(self.path, announce=False)
+        except SessionError as error:
+            logger.info("%s: the status is left as at the last commit (%s)", self.path, error)
+            return
+        try:
+            with again._writing("the status after the failure"):
+                again._set_status("interrupted", reason)
+                again._file.attrs["closed_utc"] = utc_now()
+            again.close()
+        except SessionError as error:
+            logger.info("%s: the status is left as at the last commit (%s)", self.path, error)
 
     def discard(self) -> None:
         """Close without committing what was written since the last commit: the file stays as that commit left it

@@ -284,7 +284,11 @@ class RollbackFile(io.RawIOBase):
         view = memoryview(buffer).cast("B")
         count = max(0, min(len(view), self._size - self._position))
         view = view[:count]
-        data = os.pread(self._fd, count, self._position)
+        try:
+            data = os.pread(self._fd, count, self._position)
+        except OSError as error:  # (HDF5 then meets zeros, which its checksums refuse)
+            self._fail(error)
+            data = b""
         view[:len(data)] = data
         view[len(data):] = bytes(count - len(data))
         if self._held:
@@ -312,9 +316,15 @@ class RollbackFile(io.RawIOBase):
             try:
                 _pwrite_all(self._fd, view[inside:], start + inside)
             except OSError as error:
-                self.failure = self.failure or error
-                raise
+                self._fail(error)
+                return
         self._size = max(self._size, end)
+
+    def _fail(self, error: OSError) -> None:
+        """A write failed: note it and take no more writes. Nothing is raised to HDF5 (an exception raised inside
+        h5py's driver can crash the process later); the session sees :attr:`failure` and rolls back."""
+        self.failure = self.failure or error
+        self._detached = True
 
     def truncate(self, size: int | None = None) -> int:
         size = self._position if size is None else size
@@ -330,8 +340,8 @@ class RollbackFile(io.RawIOBase):
             else:
                 os.ftruncate(self._fd, size)
         except OSError as error:
-            self.failure = self.failure or error
-            raise
+            self._fail(error)
+            return size
         self._size = size
         return size
 

@@ -15,6 +15,7 @@ import json
 import math
 from pathlib import Path
 
+from gasfilm.analysis.paths import written_whole
 from gasfilm.app.commands.common import check_inputs, check_output_file
 from gasfilm.drivers.errors import SettingError
 
@@ -86,8 +87,6 @@ def run(args: argparse.Namespace) -> int:
             check_output_file(path, flag, args.overwrite)
 
     model = approximate(loaded.plant, band, order=args.order, max_error=max_error)
-    written = write_model(model, args.out)
-    figures = [figure_error(error_png, model)]
     oustaloup = None
     if loaded.plant.network and "pot(" in loaded.plant.network and loaded.fit is not None:
         oustaloup = oustaloup_order(loaded.plant, model.band_hz, max_error)
@@ -100,7 +99,13 @@ def run(args: argparse.Namespace) -> int:
                                   loaded.force_channel, loaded.response_channel, loaded.hit_indices,
                                   loaded.trigger_index, frf_relative_error(loaded.fit, frf.freq_hz, frf.h1),
                                   band_hz=loaded.fit.band_hz)
-        figures.append(figure_hits(hits_png, check))
+    outputs = [args.out, error_png] + ([hits_png] if check is not None else [])
+    with written_whole(*outputs, what="the model and its figures") as building:  # all of them, or none
+        write_model(model, building[0])
+        figure_error(building[1], model)
+        if check is not None:
+            figure_hits(building[2], check)
+    written, figures = args.out, outputs[1:]
     if args.json:
         data = model_to_dict(model)
         data.pop("origin")
