@@ -19,7 +19,7 @@ import numpy as np
 from gasfilm.analysis.conditions import decode_conditions, format_conditions, format_value
 from gasfilm.analysis.diagnosis.report import VERDICT_LINES
 from gasfilm.analysis.fit_warnings import fit_warnings
-from gasfilm.analysis.paths import missing_folder, written_whole
+from gasfilm.analysis.paths import link_target, missing_folder, written_whole
 from gasfilm.analysis.session import Session
 from gasfilm.analysis.session.api import LATEST_DIAGNOSIS
 from gasfilm.analysis.spectra import (
@@ -659,9 +659,9 @@ def check_report_path(out: str | Path, overwrite: bool, flag: str = "--out") -> 
         raise SettingError(f"{flag} {out}: is a folder; name the report file in it, e.g. {out / 'report.html'}")
     if out.suffix.lower() not in REPORT_FORMATS:
         raise SettingError(f"{flag} {out}: the report is written as .html or .pdf")
-    if not out.parent.is_dir():
-        raise SettingError(f"{flag} {out}: {missing_folder(out.parent)}")
-    if (out.exists() or out.is_symlink()) and not overwrite:
+    if not link_target(out).parent.is_dir():
+        raise SettingError(f"{flag} {out}: {missing_folder(link_target(out).parent)}")
+    if out.exists() and not overwrite:
         raise SettingError(f"{flag} {out}: the file exists; add --overwrite to replace it")
     if out.is_dir():
         raise SettingError(f"{flag} {out}: is a folder")

@@ -16,6 +16,7 @@ import time
 from pathlib import Path
 from typing import Any, Iterator
 
+from gasfilm.analysis.paths import link_target
 from gasfilm.app.commands.common import (check_force_window_length, check_output_file, check_session_path, hit_line,
                                          is_terminal, positive_flag, settings_from_flags, window_value)
 from gasfilm.drivers.errors import DeviceError, SettingError
@@ -192,9 +193,9 @@ def _settings_of_the_session(args: argparse.Namespace) -> None:
 
 
 def _attach_log(session_path: Path) -> logging.Handler:
-    """Faults, dropped chunks, recoveries and the run's summary, appended to ``<session>.log`` next to it (the file
-    is made at the first message, so a run refused up front leaves none)."""
-    handler = _SessionLog(session_path.with_suffix(".log"), encoding="utf-8", delay=True)
+    """Faults, dropped chunks, recoveries and the run's summary, appended to ``<session>.log`` next to it (beside the
+    file a link points to; the file is made at the first message, so a run refused up front leaves none)."""
+    handler = _SessionLog(link_target(session_path).with_suffix(".log"), encoding="utf-8", delay=True)
     handler.setLevel(logging.INFO)
     handler.setFormatter(logging.Formatter("%(asctime)s %(levelname)s %(name)s: %(message)s"))
     logging.getLogger("gasfilm").addHandler(handler)
@@ -391,7 +392,7 @@ def _record_until_stopped(args: argparse.Namespace) -> int:
     trigger, validation, window = settings["trigger"], settings["validation"], settings["window"]
     check_session_path(args.out, "--out")
     if not args.append:
-        if args.out.exists() or args.out.is_symlink():
+        if args.out.exists():
             raise SettingError(f"--out {args.out}: the session file exists already (use --append to add hits to it)")
         check_output_file(args.out, "--out", overwrite=False)
     elif not args.out.is_file():
