@@ -310,12 +310,12 @@ def test_a_session_written_nothing_to_is_left_byte_for_byte(tmp_path):
     session.update_settings({"note": "never committed"})
     session.discard()
     assert path.read_bytes() == before
-    with pytest.raises(RuntimeError), Session.open(path, "a") as session, session.atomic():
+    with pytest.raises(RuntimeError), Session.updating(path) as session:
         session.write_fit("SD", {"k": 1.0})
         session.write_fit("Zener", {"k": 2.0})
         raise RuntimeError("the command failed before it reported anything")
     assert path.read_bytes() == before
-    with Session.open(path, "a") as session, session.atomic():
+    with Session.updating(path) as session:
         session.write_fit("SD", {"k": 1.0})
         session.write_fit("Zener", {"k": 2.0})
     with Session.open(path) as session:

@@ -261,9 +261,10 @@ class Session:
     """An open session file. Create with :meth:`create`, open with :meth:`open`; use as a context manager.
 
     A session opened for writing is written in place through its rollback journal (:mod:`.journal`): a hit or a
-    verdict is committed (durable) before its method returns, and so is a result or the settings, unless written
-    inside :meth:`atomic`; a failed write rolls back everything since the last commit, and closing a session that
-    nothing was written to leaves its file as it was, byte for byte."""
+    verdict is committed (durable) before its method returns, and so is a result (unless the session was opened with
+    :meth:`updating`: all at its close); settings are committed with the next of them or at the close. A failed write
+    rolls back everything since the last commit, and closing a session that nothing was written to leaves its file as
+    it was, byte for byte."""
 
     def __init__(self, path: Path, file: h5py.File, lock: WriterLock | None = None, recovered: bool = False,
                  store: RollbackFile | None = None) -> None:
@@ -279,7 +280,7 @@ class Session:
         self._hit_count = 0
         self._changed = False  # written since the last commit
         self._committed = False  # something was committed since the session was opened
-        self._deferred = 0  # depth of atomic() blocks: results and settings wait for their end
+        self._deferred = 0  # opened by updating(): results wait for the close
         self._records: list[tuple[int, int]] = []  # byte ranges of the stored records (a writer never writes there)
         try:
             self._check_layout()
@@ -409,6 +410,22 @@ class Session:
         if mode == "a":
             return cls._open_for_writing(path)
         return cls._open_read_only(path)
+
+    @classmethod
+    @contextlib.contextmanager
+    def updating(cls, path: str | Path) -> Iterator["Session"]:
+        """Open a session for writing to store results and settings in it, all or nothing: they are committed
+        together when the block ends and the session closes; when the block raises or a write fails, nothing of it
+        reaches the file (byte for byte as it was). Hits and verdicts are committed at once, as always."""
+        session = cls.open(path, "a")
+        session._deferred += 1
+        try:
+            yield session
+        except BaseException:
+            session.discard()
+            raise
+        session._deferred -= 1
+        session.close()
 
     @classmethod
     def _open_read_only(cls, path: Path) -> "Session":
@@ -647,22 +664,6 @@ class Session:
             self._lock = None
 
     @contextlib.contextmanager
-    def atomic(self) -> Iterator["Session"]:
-        """Results and settings written inside the block are committed together at its end; an exception inside it
-        discards everything written since the last commit and closes the session (its file as that commit left it).
-        Hits and verdicts are committed at once, as always."""
-        self._require_writable()
-        self._deferred += 1
-        try:
-            yield self
-        except BaseException:
-            self._deferred -= 1
-            self.discard()
-            raise
-        self._deferred -= 1
-        self._commit("the results")
-
-    @contextlib.contextmanager
     def _writing(self, what: str) -> Iterator[None]:
         """Run HDF5 writes; when one fails (full disk, I/O error), roll back everything since the last commit and let
         go of the file (nothing more is written), and raise one :class:`SessionWriteError` line naming ``what`` was
@@ -677,17 +678,16 @@ class Session:
             self._write_failure = _write_error_text(error)
             logger.error("%s: writing %s failed: %s; %d hits kept", self.path, what, one_line(error),
                          self._hit_count)
-            raise SessionWriteError(
-                f"{self.path}: writing {what} failed ({self._write_failure}); recording stopped, the "
-                f"{self._hit_count} hits before it are kept"
-            ) from None
+            kept = (f"recording stopped, the {self._hit_count} hits before it are kept" if what == "a new hit" else
+                    "the session is left as it was before it")
+            raise SessionWriteError(f"{self.path}: writing {what} failed ({self._write_failure}); {kept}") from None
 
     def _roll_back(self) -> None:
         if self._store is not None and self._write_failure is None:
             self._store.rollback()
 
     def _commit(self, what: str) -> None:
-        """Make what was written durable (unless inside :meth:`atomic`, whose end commits)."""
+        """Make what was written durable (unless opened by :meth:`updating`, whose close commits)."""
         if self._deferred:
             return
         with self._writing(what):

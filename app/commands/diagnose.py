@@ -105,7 +105,7 @@ def run(args: argparse.Namespace) -> int:
                "band_hz": list(band) if band else None}
     if len(args.source) == 1 and args.source[0].suffix.lower() not in (".uff", ".unv", ".npy"):
         try:
-            with Session.open(args.source[0], "a") as session:
+            with Session.updating(args.source[0]) as session:
                 run_name = session.add_diagnosis({**diagnosis.to_dict(), "options": options})
             progress(f"diagnosis stored in {args.source[0]} as diagnoses/{run_name} (the newest: diagnoses/latest; "
                      f"earlier runs are kept)")

@@ -214,7 +214,7 @@ def run(args: argparse.Namespace) -> int:
         figure18(building[0], freq_hz, h, fits)
         figure19(building[1], freq_hz, h, fits)
         if not is_time_record_file(args.source[0]):
-            with Session.open(args.source[0], "a") as session, session.atomic():
+            with Session.updating(args.source[0]) as session:
                 for fit in fits:
                     session.write_fit(fit.model_name, {**fit.to_dict(), **settings.stored_keys()})
     figures = figure_paths

@@ -305,7 +305,7 @@ def run(args: argparse.Namespace) -> int:
                 result.write_frf(frf, hit_indices=accepted_indices)
         written = f"new session {args.out}"
     elif source.is_session and frf is not None:
-        with Session.open(source.path, "a") as session:
+        with Session.updating(source.path) as session:  # the FRF and the settings, or nothing
             replaced = "replay" in session.result_names("frf")
             session.write_frf(frf, name="replay", hit_indices=accepted_indices if not retrigger else None)
             session.update_settings({"replay": settings})
