@@ -78,6 +78,8 @@ def load_source(path: Path, model: str | None) -> LoadedSource:
             data = json.loads(path.read_text(encoding="utf-8"))
         except (OSError, UnicodeDecodeError, json.JSONDecodeError) as error:
             raise SettingError(f"{path}: not a readable JSON fit ({type(error).__name__}: {error})") from None
+        except RecursionError:
+            raise SettingError(f"{path}: not a gasfilm fit (its JSON is nested too deeply)") from None
         if isinstance(data, dict) and isinstance(data.get("fits"), list):
             fits = {str(fit.get("model_name")): fit for fit in data["fits"] if isinstance(fit, dict)}
         elif isinstance(data, dict) and "model_name" in data:

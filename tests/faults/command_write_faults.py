@@ -112,7 +112,7 @@ def check(name: str, status: int, stdout: str, stderr: str, session: Path, befor
     from gasfilm.analysis.session import Session, SessionError
 
     problems = []
-    lines = [line for line in stderr.splitlines() if line.strip() and ": WARNING: " not in line]
+    lines = [line for line in stderr.splitlines() if re.match(r"gasfilm \S+: error: ", line)]  # (not diagnose's progress)
     if "internal error" in stderr or "Traceback" in stderr or "escaped:" in stderr:
         problems.append(f"not an answer: {stderr.strip()[-300:]}")
     elif status not in (0, 1, 2) or (status == 2 and len(lines) != 1):
