@@ -12,6 +12,7 @@ import os
 from pathlib import Path
 from typing import Iterator
 
+from gasfilm.analysis.interrupts import signals_deferred
 from gasfilm.drivers.errors import GasfilmError
 
 
@@ -65,10 +66,11 @@ def written_whole(*paths: Path, what: str = "the output") -> Iterator[list[Path]
     temporaries = [partial_name(target) for target in targets]
     try:
         yield temporaries
-        for temporary in temporaries:
-            _fsync(temporary)
-        for temporary, target in zip(temporaries, targets):
-            os.replace(temporary, target)
+        with signals_deferred():  # (a stop signal waits until every file has its name)
+            for temporary in temporaries:
+                _fsync(temporary)
+            for temporary, target in zip(temporaries, targets):
+                os.replace(temporary, target)
     except BaseException as error:
         for temporary in temporaries:
             with contextlib.suppress(OSError):

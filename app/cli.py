@@ -166,9 +166,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     except GasfilmError as error:
         print(f"gasfilm {args.command}: error: {error}", file=sys.stderr)
         return 2
-    except KeyboardInterrupt:
-        print(f"gasfilm {args.command}: interrupted", file=sys.stderr)
-        return 130
+    except KeyboardInterrupt as stop:  # Ctrl-C, or SIGTERM/SIGHUP (gasfilm.analysis.interrupts)
+        return stopped(stop, args.command)
     except Exception as error:  # a bug: still one line for the user, the traceback on request
         if os.environ.get("GASFILM_DEBUG") == "1":
             raise
@@ -180,5 +179,15 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 3
 
 
-if __name__ == "__main__":
+def stopped(stop: KeyboardInterrupt, command: str | None) -> int:
+    """Say in one line that a stop signal ended ``command``; the exit status, 128 + the signal's number."""
+    import signal
+
+    signum = getattr(stop, "signum", signal.SIGINT)
+    how = "interrupted" if signum == signal.SIGINT else f"stopped by {signal.Signals(signum).name}"
+    print(f"gasfilm{' ' + command if command else ''}: {how}", file=sys.stderr)
+    return 128 + signum
+
+
+if __name__ == "__main__":  # (the installed command starts at gasfilm.app.entry, which handles stop signals first)
     sys.exit(main())

@@ -20,6 +20,7 @@ from typing import Any, Callable, Iterator, Mapping, TypeVar
 import h5py
 import numpy as np
 
+from gasfilm.analysis.interrupts import signals_deferred
 from gasfilm.analysis.session.files import (
     WriterLock,
     building_path,
@@ -364,10 +365,17 @@ class Session:
                     file.flush()
                     file.swmr_mode = True
                 store.commit()
-                move_into_place(building, real, overwrite)
-                store.moved_to(real)
-                if replaced is not None:
-                    journal_path(real).unlink(missing_ok=True)  # the replaced session's, left by a killed writer
+                with signals_deferred():  # (named and handed over whole: a stop signal is raised after, see below)
+                    move_into_place(building, real, overwrite)
+                    store.moved_to(real)
+                    if replaced is not None:
+                        journal_path(real).unlink(missing_ok=True)  # the replaced session's, left by a killed writer
+                    session = cls(path, file, lock, store=store)
+                    session._committed = True
+            except KeyboardInterrupt:
+                if store.path == real:  # a stop signal during the creation, raised once the session was whole
+                    session._take_back(replaced is None)
+                raise
             except BaseException as error:
                 if isinstance(error, (OSError, RuntimeError)):
                     logger.error("%s: creating the session failed: %s", path, error)
@@ -387,9 +395,19 @@ class Session:
         finally:
             if replaced is not None:
                 replaced.release()
-        session = cls(path, file, lock, store=store)
-        session._committed = True
         return session
+
+    def _take_back(self, remove: bool) -> None:
+        """A creation stopped by a signal once the session was in place: close it as aborted and, unless it replaced
+        another file, remove it (the caller never had it: "not created" is then true)."""
+        with signals_deferred():
+            try:
+                self.close("aborted", "stopped during its creation")
+            except SessionError:
+                self.discard()
+            if remove:
+                with contextlib.suppress(OSError):
+                    real_path(self.path).unlink()
 
     @classmethod
     def open(cls, path: str | Path, mode: str = "r") -> "Session":
@@ -597,7 +615,12 @@ class Session:
 
         Without a status, a session that was recording becomes ``"complete"`` and any other keeps its status (so
         adding a fit to an aborted session does not make it complete). A session opened for writing that nothing was
-        written to is closed without a write: its file stays as it was, byte for byte."""
+        written to is closed without a write: its file stays as it was, byte for byte. A stop signal waits until the
+        session is closed."""
+        with signals_deferred():
+            self._close(status, reason)
+
+    def _close(self, status: str | None, reason: str) -> None:
         if not self.is_open:
             return
         if not self.writable or self._write_failure is not None:
@@ -690,7 +713,7 @@ class Session:
         """Make what was written durable (unless opened by :meth:`updating`, whose close commits)."""
         if self._deferred:
             return
-        with self._writing(what):
+        with self._writing(what), signals_deferred():
             self._file.flush()
             self._guard_records()
             self._store.commit()

@@ -24,6 +24,7 @@ import os
 import struct
 from pathlib import Path
 
+from gasfilm.analysis.interrupts import signals_deferred
 from gasfilm.analysis.session.layout import SessionError
 
 logger = logging.getLogger(__name__)
@@ -373,6 +374,10 @@ class RollbackFile(io.RawIOBase):
             raise self.failure
         if self._detached:
             raise OSError(f"{self.path}: the file was let go after an earlier failure")
+        with signals_deferred():  # (a stop signal waits until the commit is whole: never half applied)
+            self._commit()
+
+    def _commit(self) -> None:
         self._mark_open_for_writing()
         if not self._held and self._size == os.fstat(self._fd).st_size:
             if self.sync:
@@ -469,7 +474,7 @@ class RollbackFile(io.RawIOBase):
         being freed, closing) reach nothing. A committed file that a failed commit left changed keeps its journal."""
         self._held.clear()
         self._detached = True
-        if not self.journal.exists():
+        if not self.journal.exists():  # (no commit under way to undo, or undone)
             try:
                 os.ftruncate(self._fd, self._committed_size)
             except OSError as error:

@@ -9,11 +9,11 @@ from __future__ import annotations
 
 import argparse
 import contextlib
-import json
 import sys
 import time
 from pathlib import Path
 
+from gasfilm.analysis.jsontext import dumps
 from gasfilm.app.commands.common import check_inputs, check_output_folder
 from gasfilm.drivers.errors import GasfilmError, SettingError
 
@@ -112,7 +112,7 @@ def run(args: argparse.Namespace) -> int:
         except GasfilmError as error:
             progress(f"diagnosis not stored in the session: {error}")
     if args.json:
-        print(json.dumps({**diagnosis.to_dict(), "options": options, "conditions": conditions}, indent=2))
+        print(dumps({**diagnosis.to_dict(), "options": options, "conditions": conditions}, indent=2))
     else:
         print(f"conditions: {format_conditions(conditions)}")
         print(report_text(diagnosis))

@@ -10,12 +10,12 @@ not approach 1/m) is warned about: its fits mean little.
 from __future__ import annotations
 
 import argparse
-import json
 import logging
 import sys
 from pathlib import Path
 from typing import Any, Callable
 
+from gasfilm.analysis.jsontext import dumps
 from gasfilm.app.commands.common import (UNITS, accelerance_text, add_units_flag, check_inputs,
                                          check_output_folder, is_terminal,
                                          load_frf_and_hits, source_conditions)
@@ -219,7 +219,7 @@ def run(args: argparse.Namespace) -> int:
                     session.write_fit(fit.model_name, {**fit.to_dict(), **settings.stored_keys()})
     figures = figure_paths
     if args.json:
-        print(json.dumps({
+        print(dumps({
             "source": [str(path) for path in args.source],
             "frf": what,
             "conditions": conditions,

@@ -11,10 +11,10 @@ Next to ``--out`` go ``<stem>-error.png`` (the approximation's error against fre
 from __future__ import annotations
 
 import argparse
-import json
 import math
 from pathlib import Path
 
+from gasfilm.analysis.jsontext import dumps
 from gasfilm.analysis.paths import written_whole
 from gasfilm.app.commands.common import check_inputs, check_output_file
 from gasfilm.drivers.errors import SettingError
@@ -109,7 +109,7 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         data = model_to_dict(model)
         data.pop("origin")
-        print(json.dumps({"out": str(written), "figures": [str(path) for path in figures], "model": data,
+        print(dumps({"out": str(written), "figures": [str(path) for path in figures], "model": data,
                           "oustaloup_order": None if oustaloup is None else oustaloup[0],
                           "time_domain": None if check is None else check.to_dict()}))
         return 0
