@@ -15,15 +15,13 @@ from __future__ import annotations
 
 import contextlib
 import logging
-import signal
-import threading
 from dataclasses import dataclass
 from typing import Any, Callable, Iterator, Sequence
 
 import numpy as np
 
 from gasfilm.analysis.capture import HitRecord, ImpactCapture
-from gasfilm.analysis.interrupts import STOP_SIGNALS, StopSignal, raise_stop_signal
+from gasfilm.analysis.interrupts import StopSignal, raise_stop_signal, stop_signals_handled_by
 from gasfilm.analysis.session import Session
 from gasfilm.analysis.validation import ValidationSettings, Verdict, validate_hit
 from gasfilm.drivers.errors import GasfilmError, SettingError
@@ -150,9 +148,9 @@ class HitRecorder:
             if self._storing:
                 self._pending_signal = signum
             else:
-                raise StopSignal(signum)
+                raise_stop_signal(signum, frame)
 
-        with _stop_signals_handled_by(handler):
+        with stop_signals_handled_by(handler):
             yield
             self._raise_pending_signal()
 
@@ -163,18 +161,5 @@ def stop_signals_raised() -> Iterator[None]:
     recording (opening the device and the session), so that a signal arriving then ends the process through the
     caller's cleanup, not by the default handler. Only in the main thread; elsewhere a no-op."""
 
-    with _stop_signals_handled_by(raise_stop_signal):
+    with stop_signals_handled_by(raise_stop_signal):
         yield
-
-
-@contextlib.contextmanager
-def _stop_signals_handled_by(handler: Callable[[int, Any], None]) -> Iterator[None]:
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-    previous = {signum: signal.signal(signum, handler) for signum in STOP_SIGNALS}
-    try:
-        yield
-    finally:
-        for signum, action in previous.items():
-            signal.signal(signum, action)

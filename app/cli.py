@@ -169,6 +169,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt as stop:  # Ctrl-C, or SIGTERM/SIGHUP (gasfilm.analysis.interrupts)
         return stopped(stop, args.command)
     except Exception as error:  # a bug: still one line for the user, the traceback on request
+        from gasfilm.analysis.interrupts import StopSignal, stop_signal_raised
+
+        if stop_signal_raised() is not None:  # a stop signal that a library turned into an error of its own (an
+            return stopped(StopSignal(stop_signal_raised()), args.command)  # import interrupted: ImportError)
         if os.environ.get("GASFILM_DEBUG") == "1":
             raise
         print(

@@ -7,13 +7,13 @@ when the process starts (by its parent) are delivered once the handlers are in p
 
 import signal
 
-from gasfilm.analysis.interrupts import STOP_SIGNALS, raise_stop_signal
+from gasfilm.analysis.interrupts import STOP_SIGNALS, raise_stop_signal, stop_signal_raised
 
+if hasattr(signal, "pthread_sigmask"):  # held back until run() is in place to answer them
+    signal.pthread_sigmask(signal.SIG_BLOCK, STOP_SIGNALS)
 for _signum in STOP_SIGNALS:
     if signal.getsignal(_signum) is not signal.SIG_IGN:  # (nohup's SIGHUP stays ignored)
         signal.signal(_signum, raise_stop_signal)
-if hasattr(signal, "pthread_sigmask"):
-    signal.pthread_sigmask(signal.SIG_UNBLOCK, STOP_SIGNALS)
 
 
 def run() -> int:
@@ -22,14 +22,18 @@ def run() -> int:
     import sys
 
     try:
+        if hasattr(signal, "pthread_sigmask"):  # (one that came while they were blocked is raised here)
+            signal.pthread_sigmask(signal.SIG_UNBLOCK, STOP_SIGNALS)
         from gasfilm.app.cli import main, stopped
 
         try:
             return main()
         except KeyboardInterrupt as stop:  # before the command runs (reading its flags)
             return stopped(stop, None)
-    except KeyboardInterrupt as stop:  # during the first imports
-        signum = getattr(stop, "signum", signal.SIGINT)
+    except (KeyboardInterrupt, ImportError) as stop:  # during the first imports (an interrupted one: ImportError)
+        signum = getattr(stop, "signum", None) or stop_signal_raised()
+        if signum is None:
+            raise
         print(f"gasfilm: {'interrupted' if signum == signal.SIGINT else f'stopped by {signal.Signals(signum).name}'}",
               file=sys.stderr)
         return 128 + signum
