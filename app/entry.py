@@ -8,6 +8,7 @@ when the process starts (by its parent) are delivered once the handlers are in p
 import signal
 
 from gasfilm.analysis.interrupts import STOP_SIGNALS, raise_stop_signal, stop_signal_raised
+from gasfilm.app.memory import MIN_ADDRESS_SPACE_BYTES, address_space_limit
 
 if hasattr(signal, "pthread_sigmask"):  # held back until run() is in place to answer them
     signal.pthread_sigmask(signal.SIG_BLOCK, STOP_SIGNALS)
@@ -19,21 +20,33 @@ for _signum in STOP_SIGNALS:
 def run() -> int:
     """``gasfilm`` with the arguments of this process: its exit status (128 + the signal's number when stopped by
     one)."""
+    import os
     import sys
 
     try:
         if hasattr(signal, "pthread_sigmask"):  # (one that came while they were blocked is raised here)
             signal.pthread_sigmask(signal.SIG_UNBLOCK, STOP_SIGNALS)
+        limit = address_space_limit()
+        if limit is not None:  # each BLAS thread reserves 32 MB when its library is loaded: one will do
+            os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+            if limit < MIN_ADDRESS_SPACE_BYTES:
+                print(f"gasfilm: error: out of memory before starting: this process may use {limit / 2**20:.0f} MB "
+                      f"(ulimit -v), gasfilm's numerical libraries need about {MIN_ADDRESS_SPACE_BYTES >> 20} MB",
+                      file=sys.stderr)
+                return 2
         from gasfilm.app.cli import main, stopped
 
         try:
             return main()
         except KeyboardInterrupt as stop:  # before the command runs (reading its flags)
             return stopped(stop, None)
-    except (KeyboardInterrupt, ImportError) as stop:  # during the first imports (an interrupted one: ImportError)
-        signum = getattr(stop, "signum", None) or stop_signal_raised()
+    except (KeyboardInterrupt, ImportError, MemoryError) as stop:  # during the first imports (an interrupted one:
+        signum = getattr(stop, "signum", None) or stop_signal_raised()        # ImportError)
         if signum is None:
-            raise
+            if isinstance(stop, KeyboardInterrupt):
+                raise
+            print(f"gasfilm: error: out of memory while starting ({stop})", file=sys.stderr)
+            return 2
         print(f"gasfilm: {'interrupted' if signum == signal.SIGINT else f'stopped by {signal.Signals(signum).name}'}",
               file=sys.stderr)
         return 128 + signum
