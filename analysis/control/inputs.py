@@ -59,6 +59,18 @@ def _fit_from_dict(data: Any, path: Path) -> FitResult:
         raise SettingError(f"{path}: fit {fit.model_name}: {what}")
     if not (np.all(np.isfinite(fit.band_hz)) and 0 <= fit.band_hz[0] < fit.band_hz[1]):
         raise SettingError(f"{path}: fit {fit.model_name}: band {fit.band_hz} Hz is not LO < HI")
+    try:
+        parameters = {parameter.name: parameter for parameter in fit.model().parameters}
+    except (GasfilmError, KeyError, ValueError) as error:
+        raise SettingError(f"{path}: fit {fit.model_name}: not a model gasfilm knows ({error})") from None
+    for name, value in fit.params.items():  # a fit gasfilm made lies within its search bounds (at worst on one)
+        parameter = parameters.get(name)
+        if parameter is None:
+            raise SettingError(f"{path}: fit {fit.model_name}: '{name}' is not one of its parameters "
+                               f"({', '.join(parameters)})")
+        if not parameter.lower - 1e-9 * abs(parameter.lower) <= value <= parameter.upper + 1e-9 * abs(parameter.upper):
+            raise SettingError(f"{path}: fit {fit.model_name}: {name} = {value:g} {parameter.unit} is outside what a "
+                               f"fit can give ({parameter.lower:g} to {parameter.upper:g})")
     return fit
 
 
