@@ -1,11 +1,15 @@
-"""Damaged files through the command line: seeded mutations of UFF 58 time records, HDF5 sessions and TOML rig specs
-go through ``gasfilm.app.cli.main`` in-process (replay, export, fit, acquire, diagnose as fits each file). Every
-case must end with exit status 0, 1 (a replay with no accepted hit) or 2, never an "internal error", a refusal on one line of stderr, in under 10 s.
+"""Damaged files through the command line: seeded mutations of UFF 58 time records, HDF5 sessions (a killed writer's
+among them), TOML rig specs, ``.npy`` hit records, the JSON of ``gasfilm fit --json``, folders of sessions and the GUI's
+sensor libraries go through ``gasfilm.app.cli.main`` in-process (replay, export, fit, acquire and acquire --append,
+model, campaign, diagnose as fits each file; the sensor library through its reader). Every case must end with exit
+status 0, 1 (a replay with no accepted hit) or 2, never an "internal error", a refusal on one line of stderr, a
+``--json`` answer in strict JSON (no NaN), in under 10 s.
 
 The mutations: byte flips, truncation, random bytes inserted, slices deleted or repeated, and edits that know the
-format (numbers replaced by NaN/huge/negative values, keys and lines removed, tables nested deep, invalid UTF-8,
-thousands of effects, HDF5 attributes and datasets replaced, resized, retyped, deleted or declared giant).
-``benchmarks/bench_fuzz.py`` runs the same cases by the ten thousand.
+format (numbers replaced by NaN/huge/negative values, keys and lines removed, tables and JSON nested deep, invalid
+UTF-8, thousands of effects, HDF5 attributes and datasets replaced, resized, retyped, deleted or declared giant, .npy
+headers declaring other shapes and types, records cut to a few samples, sessions that are not sessions in a campaign's
+folder). ``benchmarks/bench_fuzz.py`` runs the same cases by the ten thousand.
 """
 
 from __future__ import annotations
@@ -119,6 +123,16 @@ def make_seeds(folder: Path) -> dict[str, list[Path]]:
         for hit in hits:
             session.append_hit(hit, validate_hit(hit))
         session.write_frf(compute_frf(np.stack([hit.data for hit in hits]), RATE_HZ))
+    killed_path = folder / "seed-killed-session.h5"  # a writer killed mid-recording: its file left open for writing
+    pid = os.fork()
+    if pid == 0:
+        try:
+            killed = Session.create(killed_path, default_hammer_and_accelerometer(RATE_HZ), rig_toml, settings)
+            for hit in hits:
+                killed.append_hit(hit, validate_hit(hit))
+        finally:
+            os._exit(0)
+    os.waitpid(pid, 0)
     uff_seeds = []
     for binary in (0, 1):
         datasets = []
@@ -158,7 +172,8 @@ def make_seeds(folder: Path) -> dict[str, list[Path]]:
                 session.append_hit(hit, Verdict(True))
     sensors_seed = folder / "seed-sensors.toml"
     shutil.copyfile(ROOT / "fixtures" / "sensors.toml", sensors_seed)
-    return {"uff": uff_seeds, "session": [session_path], "toml": toml_seeds, "npy": npy_seeds, "fit-json": [fit_seed],
+    return {"uff": uff_seeds, "session": [session_path, killed_path], "toml": toml_seeds, "npy": npy_seeds,
+            "fit-json": [fit_seed],
             "campaign": [campaign_seed], "sensors": [sensors_seed]}
 
 
@@ -316,6 +331,10 @@ def _odd_dataset(rng: np.random.Generator, old: np.ndarray | None) -> np.ndarray
 def mutate_session(path: Path, rng: np.random.Generator) -> str:
     """Edit the session file at ``path`` in place; return what was done."""
     choice = int(rng.integers(10))
+    try:
+        h5py.File(path, "r").close()
+    except OSError:  # a killed writer's file (HDF5 refuses to edit it): its bytes are damaged instead
+        choice = choice % 3
     if choice < 3:
         name = list(BYTE_MUTATIONS)[choice]
         path.write_bytes(BYTE_MUTATIONS[name](path.read_bytes(), rng))
@@ -543,6 +562,9 @@ def make_case(kind: str, seeds: dict[str, list[Path]], index: int, seed: int, wo
         shutil.copyfile(source, session)
         mutation = mutate_session(session, rng)
         command = index % 30
+        if command < 3:  # (the simulator's rate and record length are the session's own: the flags not typed)
+            return mutation, ["acquire", "--device", "sim", "--pacing", "fast", "--hit-interval", "0.4", "0.6",
+                              "--out", str(session), "--append", "--hits", "1"]
         if command < 15:
             return mutation, ["replay", str(session), "--json"]
         if command < 24:
