@@ -117,16 +117,17 @@ def check(name: str, status: int, stdout: str, stderr: str, session: Path, befor
         problems.append(f"not an answer: {stderr.strip()[-300:]}")
     elif status not in (0, 1, 2) or (status == 2 and len(lines) != 1):
         problems.append(f"exit {status} with {len(lines)} error lines: {' | '.join(lines)[:300]}")
-    restored = False
     journal = session.with_name(session.name + ".journal")
+    restored = journal.exists()
+    if restored:  # a commit failed and undoing it failed too (the disk refuses every write): the next writer restores
+        try:
+            Session.open(session, "a").discard()
+        except SessionError as error:
+            problems.append(f"a journal was left and the session cannot be restored from it: {error}")
     reported = [int(match) for match in re.findall(r"(?m)^accepted hit (\d+)", stdout)]
     if status != 0 and not reported:
         if session.read_bytes() != before:
-            if journal.exists():  # the next writer restores it (a commit failed and undoing it failed too)
-                Session.open(session, "a").discard()
-                restored = True
-            if session.read_bytes() != before:
-                problems.append("the session changed although the command failed before reporting anything")
+            problems.append("the session changed although the command failed before reporting anything")
     elif status != 0:  # acquire --append reported hits before it failed: they are stored, the session closed
         try:
             with Session.open(session) as stored:
