@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import bisect
+import collections.abc
 import contextlib
 import functools
 import json
@@ -15,7 +16,7 @@ import threading
 import traceback
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Callable, Iterator, Mapping, TypeVar
+from typing import Any, Callable, Iterator, Mapping, Sequence, TypeVar
 
 import h5py
 import numpy as np
@@ -252,6 +253,21 @@ class StoredHit:
             response_channel=self.response_channel,
         )
 
+
+
+class StoredHits(collections.abc.Sequence):
+    """Hits of a session read on demand (:meth:`Session.stored_hits`): an item or a slice reads just those records."""
+
+    def __init__(self, session: "Session", indices: np.ndarray, rows: np.ndarray) -> None:
+        self._session, self._indices, self._rows = session, indices, rows
+
+    def __len__(self) -> int:
+        return len(self._indices)
+
+    def __getitem__(self, key: int | slice) -> Any:
+        if isinstance(key, slice):
+            return self._session._stored(self._indices[key], self._rows)
+        return self._session._stored(self._indices[key: key + 1 or None], self._rows)[0]
 
 
 #: Sessions this process has said it read while another process held them for writing (said once each).
@@ -1031,6 +1047,36 @@ class Session:
                 verdict=self._verdict(row),
             )
             for index, row in zip(indices, rows)
+        ]
+
+    def stored_hits(self, indices: Sequence[int] | None = None) -> "StoredHits":
+        """The hits ``indices`` (all by default) as a sequence read from the file on demand, a slice at a time: what
+        averages a large session without holding its records in memory (NaN samples are named as by :meth:`hits`)."""
+        rows = self._rows()
+        return StoredHits(self, np.arange(len(rows)) if indices is None else np.asarray(indices, dtype=np.int64),
+                          rows)
+
+    @_reading("the hits")
+    def _stored(self, indices: np.ndarray, rows: np.ndarray) -> list[StoredHit]:
+        """The hits ``indices`` (increasing) with their records, checked for NaN samples."""
+        if len(indices) == 0:
+            return []
+        records = self._read_data(indices if len(indices) > 1 else slice(int(indices[0]), int(indices[0]) + 1))
+        self._check_finite(records, indices)
+        return [
+            StoredHit(
+                index=int(index),
+                data=record,
+                sample_rate_hz=float(rows[index]["sample_rate_hz"]),
+                trigger_index=int(rows[index]["trigger_index"]),
+                start_time_s=float(rows[index]["start_time_s"]),
+                overload=np.array(rows[index]["overload"], dtype=bool),
+                force_channel=int(rows[index]["force_channel"]),
+                response_channel=int(rows[index]["response_channel"]),
+                capture_index=int(rows[index]["capture_index"]),
+                verdict=self._verdict(rows[index]),
+            )
+            for index, record in zip(indices, records)
         ]
 
     @_reading("the hit table")

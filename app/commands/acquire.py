@@ -531,7 +531,7 @@ def _record_until_stopped(args: argparse.Namespace) -> int:
     progress.done()
     try:
         if recorder.accepted_count:
-            frf = session_frf([hit for hit in session.hits() if hit.verdict.accepted], window)
+            frf = session_frf(session.stored_hits(session.accepted_indices()), window)  # (read block by block)
             session.write_frf(frf, hit_indices=session.accepted_indices())
     except GasfilmError as error:  # (an earlier hit that cannot be read or averaged): the new hits are kept
         _note_stream_end(session, stream_start_s + stream_s)
