@@ -1,8 +1,19 @@
-"""Why a file cannot be made where a path says, in words every writer shares."""
+"""Where gasfilm writes, in rules every writer shares: why a file cannot be made where a path says, and writing
+output files whole or not at all.
+
+Symbolic links are followed everywhere, one rule for sessions, output files and output folders: a path that is a link
+names what the link points to, which is read or written in place (a file replaced by a new version is replaced where
+the link points), and the link itself is never replaced by a copy (docs/architecture.md, "Files and links")."""
 
 from __future__ import annotations
 
+import contextlib
+import os
 from pathlib import Path
+from typing import Iterator
+
+from gasfilm.analysis.interrupts import signals_deferred
+from gasfilm.drivers.errors import GasfilmError
 
 
 def file_in_the_way(folder: Path) -> Path | None:
@@ -19,3 +30,63 @@ def missing_folder(folder: Path) -> str:
     if blocker is None:
         return f"the folder {folder} does not exist"
     return f"{blocker} is a file, not a folder" if blocker.is_file() else f"{blocker} is not a folder"
+
+
+def link_target(path: Path) -> Path:
+    """The file ``path`` names, symbolic links followed (the path itself when it is no link)."""
+    return Path(os.path.realpath(path))
+
+
+def write_error(error: BaseException) -> OSError | None:
+    """The operating system's error behind a failed write (a full disk, an I/O error), also when a library wrapped it
+    in an error of its own (pyuff's "Error writing data-set #58"); None when there is none."""
+    seen = set()
+    while error is not None and id(error) not in seen:
+        if isinstance(error, OSError):
+            return error
+        seen.add(id(error))
+        error = error.__cause__ or error.__context__
+    return None
+
+
+def partial_name(target: Path) -> Path:
+    """The hidden name a file is written under before it gets its name (the suffix kept: writers choose the format
+    by it)."""
+    return target.with_name(f".{target.stem}.{os.getpid()}.partial{target.suffix}")
+
+
+@contextlib.contextmanager
+def written_whole(*paths: Path, what: str = "the output") -> Iterator[list[Path]]:
+    """Write files whole or not at all: the block writes each to the hidden name it is given (one per path, beside the
+    file the path names, links followed); when the block ends they are fsynced and renamed to their names together,
+    replacing what was there. When the block fails, every one of them is removed; a failed write (a full disk, an
+    I/O error) becomes one :class:`GasfilmError` line naming the file and the reason, anything else is raised as
+    it is."""
+    targets = [link_target(Path(path)) for path in paths]
+    temporaries = [partial_name(target) for target in targets]
+    try:
+        yield temporaries
+        with signals_deferred():  # (a stop signal waits until every file has its name)
+            for temporary in temporaries:
+                _fsync(temporary)
+            for temporary, target in zip(temporaries, targets):
+                os.replace(temporary, target)
+    except BaseException as error:
+        for temporary in temporaries:
+            with contextlib.suppress(OSError):
+                temporary.unlink()
+        cause = write_error(error)
+        if cause is None or isinstance(error, GasfilmError):
+            raise
+        named = next((path for path, temporary in zip(paths, temporaries)
+                      if cause.filename in (str(temporary), os.fsencode(temporary))), paths[0])
+        reason = cause.strerror or " ".join(str(cause).split())[:160]
+        raise GasfilmError(f"{named}: cannot write {what} ({reason}); nothing was written") from None
+
+
+def _fsync(path: Path) -> None:
+    fd = os.open(path, os.O_RDONLY)
+    try:
+        os.fsync(fd)
+    finally:
+        os.close(fd)

@@ -15,14 +15,13 @@ from __future__ import annotations
 
 import contextlib
 import logging
-import signal
-import threading
 from dataclasses import dataclass
 from typing import Any, Callable, Iterator, Sequence
 
 import numpy as np
 
 from gasfilm.analysis.capture import HitRecord, ImpactCapture
+from gasfilm.analysis.interrupts import StopSignal, raise_stop_signal, stop_signals_handled_by
 from gasfilm.analysis.session import Session
 from gasfilm.analysis.validation import ValidationSettings, Verdict, validate_hit
 from gasfilm.drivers.errors import GasfilmError, SettingError
@@ -31,20 +30,10 @@ logger = logging.getLogger(__name__)
 
 #: Consecutive rejected hits after which a recorder stops: settings that cannot give a valid hit, not bad luck.
 DEFAULT_MAX_CONSECUTIVE_REJECTIONS = 20
-#: The signals that stop a recording like Ctrl-C, where the platform has them.
-STOP_SIGNALS = tuple(getattr(signal, name) for name in ("SIGINT", "SIGTERM", "SIGHUP") if hasattr(signal, name))
 
 
 class RecordingStopped(GasfilmError):
     """The recorder stopped itself: too many consecutive hits were rejected (every hit stays in the session)."""
-
-
-class StopSignal(KeyboardInterrupt):
-    """A signal (SIGINT, SIGTERM, SIGHUP) asked the recording to stop; raised between hits."""
-
-    def __init__(self, signum: int) -> None:
-        self.signum = int(signum)
-        super().__init__(signal.Signals(signum).name)
 
 
 @dataclass(frozen=True)
@@ -162,9 +151,9 @@ class HitRecorder:
             if self._storing:
                 self._pending_signal = signum
             else:
-                raise StopSignal(signum)
+                raise_stop_signal(signum, frame)
 
-        with _stop_signals_handled_by(handler):
+        with stop_signals_handled_by(handler):
             yield
             self._raise_pending_signal()
 
@@ -175,21 +164,5 @@ def stop_signals_raised() -> Iterator[None]:
     recording (opening the device and the session), so that a signal arriving then ends the process through the
     caller's cleanup, not by the default handler. Only in the main thread; elsewhere a no-op."""
 
-    def handler(signum: int, frame: Any) -> None:
-        raise StopSignal(signum)
-
-    with _stop_signals_handled_by(handler):
+    with stop_signals_handled_by(raise_stop_signal):
         yield
-
-
-@contextlib.contextmanager
-def _stop_signals_handled_by(handler: Callable[[int, Any], None]) -> Iterator[None]:
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-    previous = {signum: signal.signal(signum, handler) for signum in STOP_SIGNALS}
-    try:
-        yield
-    finally:
-        for signum, action in previous.items():
-            signal.signal(signum, action)

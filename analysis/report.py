@@ -10,8 +10,6 @@ import datetime
 import html
 import io
 import logging
-import os
-import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Sequence
@@ -21,7 +19,7 @@ import numpy as np
 from gasfilm.analysis.conditions import decode_conditions, format_conditions, format_value
 from gasfilm.analysis.diagnosis.report import VERDICT_LINES
 from gasfilm.analysis.fit_warnings import fit_warnings
-from gasfilm.analysis.paths import missing_folder
+from gasfilm.analysis.paths import link_target, missing_folder, written_whole
 from gasfilm.analysis.session import Session
 from gasfilm.analysis.session.api import LATEST_DIAGNOSIS
 from gasfilm.analysis.spectra import (
@@ -713,9 +711,9 @@ def check_report_path(out: str | Path, overwrite: bool, flag: str = "--out") -> 
         raise SettingError(f"{flag} {out}: is a folder; name the report file in it, e.g. {out / 'report.html'}")
     if out.suffix.lower() not in REPORT_FORMATS:
         raise SettingError(f"{flag} {out}: the report is written as .html or .pdf")
-    if not out.parent.is_dir():
-        raise SettingError(f"{flag} {out}: {missing_folder(out.parent)}")
-    if (out.exists() or out.is_symlink()) and not overwrite:
+    if not link_target(out).parent.is_dir():
+        raise SettingError(f"{flag} {out}: {missing_folder(link_target(out).parent)}")
+    if out.exists() and not overwrite:
         raise SettingError(f"{flag} {out}: the file exists; add --overwrite to replace it")
     if out.is_dir():
         raise SettingError(f"{flag} {out}: is a folder")
@@ -726,29 +724,14 @@ def write_report(
     session_path: str | Path, out: str | Path, overwrite: bool = False, drop_db: float = USABLE_DROP_DB
 ) -> Path:
     """Write the report of ``session_path`` to ``out`` (.html or .pdf); never replace a file unless ``overwrite``
-    (then atomically, replacing a symlink itself, not its target)."""
+    (then whole or not at all; a symbolic link is followed: the file it points to is replaced, the link kept)."""
     out = check_report_path(out, overwrite)
     data = read_report_data(session_path)
     if out.suffix.lower() == ".pdf":
         content = _report_pdf(data, drop_db)
     else:
         content = report_html(data, drop_db).encode("utf-8")
-    try:
-        if overwrite:
-            handle, temporary = tempfile.mkstemp(dir=out.parent, prefix=f".{out.name}.", suffix=".tmp")
-            try:
-                with os.fdopen(handle, "wb") as stream:
-                    stream.write(content)
-                os.replace(temporary, out)
-            except BaseException:
-                Path(temporary).unlink(missing_ok=True)
-                raise
-        else:
-            with open(out, "xb") as stream:  # exclusive: never replaces a file or follows a symlink
-                stream.write(content)
-    except FileExistsError:
-        raise SettingError(f"--out {out}: the file exists; add --overwrite to replace it") from None
-    except OSError as error:
-        raise GasfilmError(f"--out {out}: cannot write the report ({error.strerror or error})") from None
+    with written_whole(out, what="the report") as (building,):  # a full disk leaves no partial file
+        building.write_bytes(content)
     logger.info("report of %s written to %s", session_path, out)
     return out

@@ -10,7 +10,9 @@ Files other than sessions carry no verdicts, no rig spec and no sensor ranges (n
 
 from __future__ import annotations
 
+import errno
 import logging
+import tokenize
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Mapping, Sequence
@@ -105,8 +107,13 @@ def _load_npy(paths: Sequence[Path]) -> Source:
     for path in paths:
         try:
             record = np.load(path, mmap_mode="r", allow_pickle=False)
-        except (OSError, ValueError) as error:
-            raise SettingError(f"{path}: not a readable NumPy array ({error})") from None
+        except OSError as error:
+            if error.errno == errno.ENOMEM:  # (the record cannot be mapped: memory, not the file, ran out)
+                raise MemoryError(f"{path}: {error.strerror}") from None
+            raise SettingError(f"{path}: not a readable NumPy array ({error.strerror or error})") from None
+        except (ValueError, OverflowError, SyntaxError, TypeError, EOFError,
+                tokenize.TokenError) as error:  # (numpy parses the header as Python literals)
+            raise SettingError(f"{path}: not a readable NumPy array ({' '.join(str(error).split())[:160]})") from None
         if record.ndim != 2 or record.shape[0] != 3 or not np.issubdtype(record.dtype, np.floating):
             raise SettingError(f"{path}: expected a float array of 3 rows (time s, force N, response m/s²), "
                                f"got {record.dtype} {record.shape}")

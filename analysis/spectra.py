@@ -562,20 +562,32 @@ def compute_frf(
 
 def session_frf(hits: Sequence[Any], window: WindowSettings = WindowSettings()) -> FrfResult:
     """The averaged FRF of a session's hits (:class:`gasfilm.analysis.capture.HitRecord` or stored hits), each
-    taken from its OWN force and response channels (a session whose response is on ai2 is averaged on ai2)."""
+    taken from its OWN force and response channels (a session whose response is on ai2 is averaged on ai2). ``hits``
+    is sliced a block at a time: :meth:`Session.stored_hits <gasfilm.analysis.session.Session.stored_hits>` reads a
+    session's records block by block, never all at once."""
     if len(hits) == 0:
         raise SettingError("hits: no accepted hits to average")
-    rates = {float(hit.sample_rate_hz) for hit in hits}
-    if len(rates) != 1:
-        raise SettingError(f"hits: recorded at different sample rates ({', '.join(map(str, sorted(rates)))} Hz)")
-    lengths = {hit.data.shape[-1] for hit in hits}
-    if len(lengths) != 1:
-        raise SettingError(f"hits: records of different lengths ({', '.join(map(str, sorted(lengths)))} samples)")
-    accumulator = FrfAccumulator(rates.pop(), lengths.pop(), window, capacity_hits=len(hits))
+    first_hit = hits[0]
+    accumulator = FrfAccumulator(float(first_hit.sample_rate_hz), first_hit.data.shape[-1], window,
+                                 capacity_hits=len(hits))
     block = _block_hits(accumulator.n_samples)
-    chunks = (hits[first : first + block] for first in range(0, len(hits), block))
-    accumulator.add_blocks((np.stack([hit.data[hit.force_channel] for hit in chunk]),
-                            np.stack([hit.data[hit.response_channel] for hit in chunk])) for chunk in chunks)
+
+    def blocks() -> Iterable[tuple[np.ndarray, np.ndarray]]:
+        """The hits a block at a time (a session's stored hits are read from the file block by block)."""
+        for first in range(0, len(hits), block):
+            chunk = hits[first : first + block]
+            rates = {accumulator.sample_rate_hz, *(float(hit.sample_rate_hz) for hit in chunk)}
+            if len(rates) != 1:
+                raise SettingError(f"hits: recorded at different sample rates ({', '.join(map(str, sorted(rates)))} "
+                                   f"Hz)")
+            lengths = {accumulator.n_samples, *(hit.data.shape[-1] for hit in chunk)}
+            if len(lengths) != 1:
+                raise SettingError(f"hits: records of different lengths ({', '.join(map(str, sorted(lengths)))} "
+                                   f"samples)")
+            yield (np.stack([hit.data[hit.force_channel] for hit in chunk]),
+                   np.stack([hit.data[hit.response_channel] for hit in chunk]))
+
+    accumulator.add_blocks(blocks())
     return accumulator.result()
 
 
@@ -620,10 +632,10 @@ def write_frf_csv(frf: FrfResult, path: str | Path, conditions: Mapping[str, Any
             frf.h1_std_scatter,
         )
     )
-    try:
-        header = "".join(f"# condition {key} = {value}\n" for key, value in (conditions or {}).items())
-        np.savetxt(path, columns, delimiter=",", header=header + ",".join(FRF_CSV_COLUMNS), comments="",
+    from gasfilm.analysis.paths import written_whole
+
+    header = "".join(f"# condition {key} = {value}\n" for key, value in (conditions or {}).items())
+    with written_whole(path, what="the CSV") as (building,):  # a full disk leaves no partial file
+        np.savetxt(building, columns, delimiter=",", header=header + ",".join(FRF_CSV_COLUMNS), comments="",
                    fmt="%.12g")
-    except OSError as error:
-        raise SettingError(f"{path}: cannot write the CSV ({error.strerror or error})") from None
     return path

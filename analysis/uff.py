@@ -27,7 +27,7 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 import pyuff
 
-from gasfilm.analysis.paths import missing_folder
+from gasfilm.analysis.paths import missing_folder, written_whole
 from gasfilm.analysis.session.layout import MAX_ABS_SI as LAYOUT_MAX_ABS_SI
 from gasfilm.analysis.session.layout import MAX_SAMPLE_RATE_HZ
 from gasfilm.drivers.errors import GasfilmError
@@ -464,10 +464,8 @@ def export_frf_uff(
             datasets.append(_time_record_dataset(records[row], float(hit.sample_rate_hz),
                                                  float(hit.start_time_s), dof, reference_dof, role, number,
                                                  description))
-    try:
-        pyuff.UFF(str(path)).write_sets(datasets, mode="overwrite")
-    except OSError as error:
-        raise UffError(f"{path}: cannot write the UFF file ({error.strerror or error})") from None
+    with written_whole(path, what="the UFF file") as (building,):  # a full disk leaves no partial file
+        pyuff.UFF(str(building)).write_sets(datasets, mode="overwrite")
     return path
 
 

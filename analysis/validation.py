@@ -316,6 +316,8 @@ def response_decay(
     span = max(2 * tail, int(round(settings.decay_fit_fraction * (response.size - start))))
     block = max(2, span // 10)
     first = response.size - 10 * block
+    if first < 0:  # (a record of a few samples: too short to fit a decay to)
+        return None
     mean_square = np.mean(np.square(response[first:] * weight[first:]).reshape(10, block), axis=1)
     noise_square = np.square(noise_at[first:].reshape(10, block).mean(axis=1))
     above = mean_square > settings.noise_margin**2 * noise_square

@@ -167,10 +167,19 @@ def main(argv: Sequence[str] | None = None) -> int:
     except GasfilmError as error:
         print(f"gasfilm {args.command}: error: {error}", file=sys.stderr)
         return 2
-    except KeyboardInterrupt:
-        print(f"gasfilm {args.command}: interrupted", file=sys.stderr)
-        return 130
+    except KeyboardInterrupt as stop:  # Ctrl-C, or SIGTERM/SIGHUP (gasfilm.analysis.interrupts)
+        return stopped(stop, args.command)
+    except MemoryError as error:
+        print(f"gasfilm {args.command}: error: {out_of_memory(error)}", file=sys.stderr)
+        return 2
     except Exception as error:  # a bug: still one line for the user, the traceback on request
+        from gasfilm.analysis.interrupts import StopSignal, stop_signal_raised
+
+        if stop_signal_raised() is not None:  # a stop signal that a library turned into an error of its own (an
+            return stopped(StopSignal(stop_signal_raised()), args.command)  # import interrupted: ImportError)
+        if _memory_ran_out(error):  # a library that could not map itself, or wrapped a MemoryError
+            print(f"gasfilm {args.command}: error: {out_of_memory(error)}", file=sys.stderr)
+            return 2
         if os.environ.get("GASFILM_DEBUG") == "1":
             raise
         print(
@@ -181,5 +190,39 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 3
 
 
-if __name__ == "__main__":
+def _memory_ran_out(error: BaseException) -> bool:
+    """Whether ``error`` (or what caused it) is memory running out: a MemoryError, or a library that could not be
+    mapped ("failed to map segment from shared object", "Cannot allocate memory")."""
+    seen = set()
+    while error is not None and id(error) not in seen:
+        text = str(error).lower()
+        if isinstance(error, MemoryError) or "failed to map segment" in text or "cannot allocate memory" in text:
+            return True
+        seen.add(id(error))
+        error = error.__cause__ or error.__context__
+    return False
+
+
+def out_of_memory(error: BaseException) -> str:
+    """One line saying the memory ran out: the process's limit when it has one, else the machine's memory."""
+    from gasfilm.app.memory import address_space_limit
+
+    limit = address_space_limit()
+    what = (f"this process may use {limit / 2**20:.0f} MB (ulimit -v); raise the limit" if limit is not None else
+            "the machine's memory is used up; close other programs or analyse fewer hits at once")
+    detail = " ".join(str(error).split())[:120]
+    return f"out of memory ({what}){': ' + detail if detail else ''}"
+
+
+def stopped(stop: KeyboardInterrupt, command: str | None) -> int:
+    """Say in one line that a stop signal ended ``command``; the exit status, 128 + the signal's number."""
+    import signal
+
+    signum = getattr(stop, "signum", signal.SIGINT)
+    how = "interrupted" if signum == signal.SIGINT else f"stopped by {signal.Signals(signum).name}"
+    print(f"gasfilm{' ' + command if command else ''}: {how}", file=sys.stderr)
+    return 128 + signum
+
+
+if __name__ == "__main__":  # (the installed command starts at gasfilm.app.entry, which handles stop signals first)
     sys.exit(main())

@@ -187,6 +187,7 @@ class SimulatedNI9234:
         if self._running:
             raise SettingError("sim: stop the device before configuring it")
         self._config = validate_config(config)
+        self.plant.response_duration_s(config.sample_rate_hz)  # (a plant that cannot be simulated says so now)
         channel_count = len(config.channels)
         self._open_sensor = np.zeros(channel_count, bool)
         self._status = ChannelStatus.clear(channel_count)

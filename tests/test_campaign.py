@@ -123,7 +123,10 @@ def test_campaign_local_damaged_session_is_one_row_and_cache(sessions, tmp_path,
     folder = tmp_path / "in"
     shutil.copytree(sessions, folder)
     (folder / "damaged.h5").write_bytes(b"\x89HDF\r\n\x1a\n" + os.urandom(2000))
+    results = tmp_path / "results"
+    results.mkdir()
     out = tmp_path / "out"
+    out.symlink_to(results)  # an output folder given as a link is written into (the one rule for links)
     status, stdout, err = gasfilm(capsys, "campaign", folder, *FAST_CAMPAIGN, "--out", out, "--workers", 1)
     assert status == 0, err
     assert "3 sessions, 3 computed on 1 dask worker(s)" in stdout and "1 failed" in stdout
@@ -139,6 +142,7 @@ def test_campaign_local_damaged_session_is_one_row_and_cache(sessions, tmp_path,
         assert row["diagnosis_verdict"]  # the diagnosis ran
     assert sorted(row["condition.supply_pressure_mpa"] for row in good) == [0.3, 0.6]
     assert (out / "campaign.csv").read_text().count("\n") == 4
+    assert out.is_symlink() and (results / "campaign.parquet").is_file()
     report = (out / "campaign.html").read_text()
     assert "Sessions that failed (1)" in report and "K(f) and C(f)" in report
     # a re-run computes only what is not cached: the damaged session again, a new session, nothing else

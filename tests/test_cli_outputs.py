@@ -1,5 +1,5 @@
-"""Nothing is replaced unless the user asked (--overwrite), no link is written through, and an output path that
-cannot be written is one line before any work — the same for every command."""
+"""Nothing is replaced unless the user asked (--overwrite), a link stands for the file it points to, and an output
+path that cannot be written is one line before any work — the same for every command."""
 
 from __future__ import annotations
 
@@ -28,8 +28,8 @@ def assert_one_line(status: int, err: str, *expected: str) -> None:
 
 
 @pytest.mark.parametrize("flag", ["--csv", "--uff"])
-def test_export_replaces_a_file_only_with_overwrite_and_never_writes_through_a_link(tmp_path, capsys, session_path,
-                                                                                    flag):
+def test_export_replaces_a_file_only_with_overwrite_and_writes_where_a_link_points(tmp_path, capsys, session_path,
+                                                                                   flag):
     target = tmp_path / f"frf.{flag[2:]}"
     target.write_text("the user's notes\n")
     assert_one_line(*gasfilm(capsys, "export", session_path, flag, target)[::2], f"{flag} {target}",
@@ -38,14 +38,19 @@ def test_export_replaces_a_file_only_with_overwrite_and_never_writes_through_a_l
     assert gasfilm(capsys, "export", session_path, flag, target, "--overwrite")[0] == 0
     assert target.read_text() != "the user's notes\n"
 
-    precious = tmp_path / "precious.txt"
-    precious.write_text("keep me\n")
+    shared = tmp_path / "shared"
+    shared.mkdir()
+    exported = shared / f"frf.{flag[2:]}"
+    exported.write_text("last week's export\n")
     link = tmp_path / f"link.{flag[2:]}"
-    link.symlink_to(precious)
-    assert_one_line(*gasfilm(capsys, "export", session_path, flag, link)[::2], "symbolic link")
+    link.symlink_to(exported)
+    assert_one_line(*gasfilm(capsys, "export", session_path, flag, link)[::2], "exists already",
+                    str(exported), "--overwrite")
+    assert exported.read_text() == "last week's export\n"
     assert gasfilm(capsys, "export", session_path, flag, link, "--overwrite")[0] == 0
-    assert precious.read_text() == "keep me\n"  # the link was replaced, not its target
-    assert not link.is_symlink() and link.stat().st_size > 0
+    assert link.is_symlink() and link.resolve() == exported  # the link kept, the file it points to replaced
+    assert exported.read_text() != "last week's export\n" and exported.stat().st_size > 0
+    assert sorted(os.listdir(shared)) == [exported.name]  # nothing left beside it
 
 
 def test_unwritable_output_paths_are_one_line_before_the_work(tmp_path, capsys, session_path):

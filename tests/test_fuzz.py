@@ -1,11 +1,15 @@
-"""Damaged files through the command line: seeded mutations of UFF 58 time records, HDF5 sessions and TOML rig specs
-go through ``gasfilm.app.cli.main`` in-process (replay, export, fit, acquire, diagnose as fits each file). Every
-case must end with exit status 0, 1 (a replay with no accepted hit) or 2, never an "internal error", a refusal on one line of stderr, in under 10 s.
+"""Damaged files through the command line: seeded mutations of UFF 58 time records, HDF5 sessions (a killed writer's
+among them), TOML rig specs, ``.npy`` hit records, the JSON of ``gasfilm fit --json``, folders of sessions and the GUI's
+sensor libraries go through ``gasfilm.app.cli.main`` in-process (replay, export, fit, acquire and acquire --append,
+model, campaign, diagnose as fits each file; the sensor library through its reader). Every case must end with exit
+status 0, 1 (a replay with no accepted hit) or 2, never an "internal error", a refusal on one line of stderr, a
+``--json`` answer in strict JSON (no NaN), in under 10 s.
 
 The mutations: byte flips, truncation, random bytes inserted, slices deleted or repeated, and edits that know the
-format (numbers replaced by NaN/huge/negative values, keys and lines removed, tables nested deep, invalid UTF-8,
-thousands of effects, HDF5 attributes and datasets replaced, resized, retyped, deleted or declared giant).
-``benchmarks/bench_fuzz.py`` runs the same cases by the ten thousand.
+format (numbers replaced by NaN/huge/negative values, keys and lines removed, tables and JSON nested deep, invalid
+UTF-8, thousands of effects, HDF5 attributes and datasets replaced, resized, retyped, deleted or declared giant, .npy
+headers declaring other shapes and types, records cut to a few samples, sessions that are not sessions in a campaign's
+folder). ``benchmarks/bench_fuzz.py`` runs the same cases by the ten thousand.
 """
 
 from __future__ import annotations
@@ -32,7 +36,7 @@ import pyuff
 ROOT = Path(__file__).resolve().parents[1]
 RIG_SPECS = sorted((ROOT / "fixtures" / "rigs").glob("*.toml"))
 CASE_TIMEOUT_S = 10.0
-KINDS = ("uff", "session", "toml")
+KINDS = ("uff", "session", "toml", "npy", "fit-json", "campaign", "sensors")
 
 #: Values a damaged or hostile file may hold in place of a number (text formats).
 ODD_NUMBERS = ("NaN", "nan", "inf", "-inf", "1e308", "-1e308", "1e-320", "-1", "0", "-0.0", "99999999999999999999",
@@ -55,12 +59,14 @@ class Outcome:
     stderr: str
     seconds: float
     origin: str = ""  # for an internal error: path:line of the deepest gasfilm frame
+    stdout: str = ""
+    timeout_s: float = CASE_TIMEOUT_S
 
     @property
     def problem(self) -> str | None:
         """What is wrong with this outcome, or None."""
         if self.code is None:
-            return f"hang: more than {CASE_TIMEOUT_S:g} s"
+            return f"hang: more than {self.timeout_s:g} s"
         lines = [line for line in self.stderr.splitlines() if line.strip()]
         if "internal error" in self.stderr or "Traceback" in self.stderr:
             return f"internal error at {self.origin}: {self.stderr.strip().splitlines()[-1]}"
@@ -68,6 +74,8 @@ class Outcome:
             return f"exit status {self.code}: {self.stderr.strip()[:300]}"
         if self.code == 2 and len(lines) != 1:
             return f"{len(lines)} lines on stderr: {' | '.join(lines)[:300]}"
+        if "--json" in self.argv and self.code in (0, 1):
+            return invalid_json(self.stdout)
         return None
 
     @property
@@ -75,6 +83,18 @@ class Outcome:
         """The problem without file names and numbers, to count distinct causes."""
         text = re.sub(r"(?<= )/\S+|0x[0-9a-f]+|:\d+\b", "X", self.problem or "")
         return re.sub(r"[-+]?\d[\d.e+-]*", "N", text)[:160]
+
+
+def invalid_json(text: str) -> str | None:
+    """Why ``text`` is not one strict JSON document (NaN and Infinity are not JSON), or None."""
+    def refuse(constant: str) -> None:
+        raise ValueError(f"{constant} is not JSON")
+
+    try:
+        json.loads(text, parse_constant=refuse)
+    except ValueError as error:
+        return f"invalid JSON on stdout: {' '.join(str(error).split())[:200]}"
+    return None
 
 
 # --- the seed files ------------------------------------------------------------------------------------------------
@@ -87,7 +107,7 @@ def make_seeds(folder: Path) -> dict[str, list[Path]]:
     from gasfilm.analysis.session import Session
     from gasfilm.analysis.spectra import WindowSettings, compute_frf
     from gasfilm.analysis.uff import export_frf_uff
-    from gasfilm.analysis.validation import ValidationSettings, validate_hit
+    from gasfilm.analysis.validation import ValidationSettings, Verdict, validate_hit
     from gasfilm.analysis.capture import TriggerSettings
     from gasfilm.drivers.interface import default_hammer_and_accelerometer
     from test_session import RATE_HZ, synthetic_hits
@@ -103,6 +123,16 @@ def make_seeds(folder: Path) -> dict[str, list[Path]]:
         for hit in hits:
             session.append_hit(hit, validate_hit(hit))
         session.write_frf(compute_frf(np.stack([hit.data for hit in hits]), RATE_HZ))
+    killed_path = folder / "seed-killed-session.h5"  # a writer killed mid-recording: its file left open for writing
+    pid = os.fork()
+    if pid == 0:
+        try:
+            killed = Session.create(killed_path, default_hammer_and_accelerometer(RATE_HZ), rig_toml, settings)
+            for hit in hits:
+                killed.append_hit(hit, validate_hit(hit))
+        finally:
+            os._exit(0)
+    os.waitpid(pid, 0)
     uff_seeds = []
     for binary in (0, 1):
         datasets = []
@@ -122,7 +152,29 @@ def make_seeds(folder: Path) -> dict[str, list[Path]]:
     for spec in RIG_SPECS:
         toml_seeds.append(folder / f"seed-{spec.name}")
         shutil.copyfile(spec, toml_seeds[-1])
-    return {"uff": uff_seeds, "session": [session_path], "toml": toml_seeds}
+    npy_seeds = []
+    for hit in hits:
+        npy_seeds.append(folder / f"seed-hit{hit.index + 1}.npy")
+        np.save(npy_seeds[-1], np.vstack((np.arange(hit.data.shape[1]) / RATE_HZ, hit.data)))
+    from gasfilm.app.cli import main
+
+    fit_seed = folder / "seed-fit.json"
+    with contextlib.redirect_stdout(io.StringIO()) as printed:
+        assert main(["fit", str(session_path), "--models", "SD,Zener", "--json", "--out", str(folder)]) == 0
+    fit_seed.write_text(printed.getvalue())
+    campaign_seed = folder / "seed-campaign"
+    campaign_seed.mkdir()
+    for number, pressure_mpa in enumerate((0.3, 0.6)):
+        with Session.create(campaign_seed / f"s{number}.h5", default_hammer_and_accelerometer(RATE_HZ), rig_toml,
+                            {**settings, "conditions": {"supply_pressure_mpa": pressure_mpa}},
+                            sync_each_hit=False) as session:
+            for hit in synthetic_hits(3, seed=number, samples=512):
+                session.append_hit(hit, Verdict(True))
+    sensors_seed = folder / "seed-sensors.toml"
+    shutil.copyfile(ROOT / "fixtures" / "sensors.toml", sensors_seed)
+    return {"uff": uff_seeds, "session": [session_path, killed_path], "toml": toml_seeds, "npy": npy_seeds,
+            "fit-json": [fit_seed],
+            "campaign": [campaign_seed], "sensors": [sensors_seed]}
 
 
 # --- mutations -----------------------------------------------------------------------------------------------------
@@ -279,6 +331,10 @@ def _odd_dataset(rng: np.random.Generator, old: np.ndarray | None) -> np.ndarray
 def mutate_session(path: Path, rng: np.random.Generator) -> str:
     """Edit the session file at ``path`` in place; return what was done."""
     choice = int(rng.integers(10))
+    try:
+        h5py.File(path, "r").close()
+    except OSError:  # a killed writer's file (HDF5 refuses to edit it): its bytes are damaged instead
+        choice = choice % 3
     if choice < 3:
         name = list(BYTE_MUTATIONS)[choice]
         path.write_bytes(BYTE_MUTATIONS[name](path.read_bytes(), rng))
@@ -320,6 +376,123 @@ def mutate_session(path: Path, rng: np.random.Generator) -> str:
         return "nothing changed"
 
 
+_NPY_SHAPES = (b"(3, 99999999999999)", b"(3, 0)", b"(0,)", b"(3,)", b"(3, 512, 2)", b"(-3, 512)", b"(9223372036854775807, 3)")
+_NPY_DTYPES = (b"'<i4'", b"'|O'", b"'>f8'", b"'|S10'", b"'<c16'", b"'<f2'", b"'<V8'", b"'<f8x'")
+
+
+def mutate_npy(data: bytes, rng: np.random.Generator) -> tuple[str, bytes]:
+    """A hit record's .npy file: its bytes, its header (shape, type, order, version) or its values."""
+    choice = int(rng.integers(9))
+    if choice < 4:
+        name = list(BYTE_MUTATIONS)[choice]
+        return name, BYTE_MUTATIONS[name](data, rng)
+    if choice == 4:
+        shape = _NPY_SHAPES[int(rng.integers(len(_NPY_SHAPES)))]
+        return f"header shape {shape.decode()}", re.sub(rb"\(3, \d+\)", lambda _: shape, data, count=1)
+    if choice == 5:
+        dtype = _NPY_DTYPES[int(rng.integers(len(_NPY_DTYPES)))]
+        return f"header type {dtype.decode()}", data.replace(b"'<f8'", dtype, 1)
+    if choice == 6:
+        edits = [(b"'fortran_order': False", b"'fortran_order': True"), (b"\x93NUMPY\x01", b"\x93NUMPY\x03"),
+                 (b"{'descr'", b"{'descr' 'x'"), (b"}", b"(" * 40), (b"'descr'", b"'shape'")]
+        old, new = edits[int(rng.integers(len(edits)))]
+        return f"header edit {new[:20]!r}", data.replace(old, new, 1)
+    record = np.load(io.BytesIO(data))
+    if choice == 7:
+        row, at = int(rng.integers(3)), int(rng.integers(record.shape[1]))
+        record[row, at] = [np.nan, np.inf, 1e308, -1e308, 0.0][int(rng.integers(5))]
+        what = "value replaced"
+    else:
+        what, record = [("one sample", record[:, :1]), ("two samples", record[:, :2]), ("four rows", np.vstack((record, record[:1]))),
+                        ("transposed", record.T.copy()), ("time reversed", record[:, ::-1].copy()),
+                        ("short record", record[:, :int(rng.integers(3, 40))]), ("float16", record.astype(np.float16)),
+                        ("complex", record.astype(complex)), ("time constant", np.vstack((np.zeros(record.shape[1]), record[1:])))][
+            int(rng.integers(9))]
+    buffer = io.BytesIO()
+    np.save(buffer, record)
+    return what, buffer.getvalue()
+
+
+_JSON_ODD = ("NaN", "Infinity", "-Infinity", "1e308", "-1e308", "0", "-1", "1e-320", '"text"', "null", "true", "[]", "{}",
+             "[1, 2, 3]", "99999999999999999999999")
+
+
+def mutate_fit_json(data: bytes, rng: np.random.Generator) -> tuple[str, bytes]:
+    """The JSON of ``gasfilm fit --json``: its bytes, its numbers, its keys and its structure."""
+    choice = int(rng.integers(8))
+    if choice < 3:
+        name = list(BYTE_MUTATIONS)[choice]
+        return name, BYTE_MUTATIONS[name](data, rng)
+    document = json.loads(data)
+    paths = []
+
+    def walk(node, path):  # noqa: ANN001
+        items = node.items() if isinstance(node, dict) else enumerate(node) if isinstance(node, list) else ()
+        for key, value in items:
+            paths.append(path + [key])
+            walk(value, path + [key])
+
+    walk(document, [])
+    target = paths[int(rng.integers(len(paths)))]
+    holder = document
+    for key in target[:-1]:
+        holder = holder[key]
+    if choice == 3:
+        odd = _JSON_ODD[int(rng.integers(len(_JSON_ODD)))]
+        holder[target[-1]] = "@@ODD@@"
+        return f"{target} = {odd}", json.dumps(document).replace('"@@ODD@@"', odd).encode()
+    if choice == 4:
+        numbers = [path for path in paths if isinstance(_at(document, path), (int, float))]
+        for path in (numbers[int(i)] for i in rng.integers(0, len(numbers), 3)):
+            _set(document, path, [1e308, -1e308, 1e-300, 0.0, -1.0, 1e30][int(rng.integers(6))])
+        return "numbers made extreme", json.dumps(document).encode()
+    if choice == 5:
+        if isinstance(holder, dict):
+            del holder[target[-1]]
+        else:
+            holder.pop(target[-1])
+        return f"{target} removed", json.dumps(document).encode()
+    if choice == 6:
+        depth = int(rng.integers(100, 100_000))
+        holder[target[-1]] = "@@DEEP@@"
+        return f"{target} nested {depth} deep", json.dumps(document).replace(
+            '"@@DEEP@@"', "[" * depth + "1" + "]" * depth).encode()
+    holder[target[-1]] = list(range(int(rng.integers(1000, 200_000))))
+    return f"{target} made a long list", json.dumps(document).encode()
+
+
+def _at(document, path):  # noqa: ANN001, ANN202
+    for key in path:
+        document = document[key]
+    return document
+
+
+def _set(document, path, value) -> None:  # noqa: ANN001
+    _at(document, path[:-1])[path[-1]] = value
+
+
+def mutate_campaign(folder: Path, rng: np.random.Generator) -> str:
+    """A campaign's folder of sessions: one session damaged, or something that is not a session added."""
+    choice = int(rng.integers(6))
+    sessions = sorted(folder.glob("*.h5"))
+    if choice < 3:
+        return f"{sessions[0].name}: {mutate_session(sessions[int(rng.integers(len(sessions)))], rng)}"
+    if choice == 3:
+        (folder / "empty.h5").write_bytes(b"")
+        (folder / "noise.h5").write_bytes(rng.bytes(int(rng.integers(1, 5000))))
+        return "empty and random .h5 files added"
+    if choice == 4:
+        (folder / "folder.h5").mkdir()
+        (folder / "dangling.h5").symlink_to(folder / "missing.h5")
+        (folder / "loop.h5").symlink_to(folder / "loop.h5")
+        return "a folder and broken links named .h5 added"
+    for session in sessions:
+        with h5py.File(session, "r+") as file:
+            file["settings"].attrs["conditions"] = json.dumps(
+                {"supply_pressure_mpa": [None, "0.4", [1], {"a": 1}, -1e308, 1e308, True][int(rng.integers(7))]})
+    return "conditions replaced by odd values"
+
+
 # --- running a case ------------------------------------------------------------------------------------------------
 
 
@@ -330,7 +503,7 @@ def _origin(error: BaseException) -> str:
     return f"{Path(ours[-1].filename).relative_to(ROOT)}:{ours[-1].lineno}" if ours else "?"
 
 
-def run_cli(argv: list[str], timeout_s: float = CASE_TIMEOUT_S) -> tuple[int | None, str, float, str]:
+def run_cli(argv: list[str], timeout_s: float = CASE_TIMEOUT_S) -> tuple[int | None, str, float, str, str]:
     """Run ``gasfilm argv`` in-process; the exit status (None on timeout), stderr, the seconds taken and, for an
     internal error, where in gasfilm it came from (the CLI runs with GASFILM_DEBUG=1 so that the traceback can be
     read; the line the user would see is rebuilt from it)."""
@@ -350,7 +523,7 @@ def run_cli(argv: list[str], timeout_s: float = CASE_TIMEOUT_S) -> tuple[int | N
         signal.setitimer(signal.ITIMER_REAL, timeout_s)
         with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
             try:
-                code = main(argv)
+                code = load_sensors(argv[1]) if argv[0] == "sensor-library" else main(argv)
             except SystemExit as exit_:  # argparse refusals
                 code = int(exit_.code or 0)
             except Exception as error:  # what main prints as "internal error" without GASFILM_DEBUG
@@ -366,7 +539,7 @@ def run_cli(argv: list[str], timeout_s: float = CASE_TIMEOUT_S) -> tuple[int | N
             del os.environ["GASFILM_DEBUG"]
         else:
             os.environ["GASFILM_DEBUG"] = debug
-    return code, err.getvalue(), time.perf_counter() - start, origin
+    return code, err.getvalue(), time.perf_counter() - start, origin, out.getvalue()
 
 
 def make_case(kind: str, seeds: dict[str, list[Path]], index: int, seed: int, work: Path,
@@ -389,6 +562,9 @@ def make_case(kind: str, seeds: dict[str, list[Path]], index: int, seed: int, wo
         shutil.copyfile(source, session)
         mutation = mutate_session(session, rng)
         command = index % 30
+        if command < 3:  # (the simulator's rate and record length are the session's own: the flags not typed)
+            return mutation, ["acquire", "--device", "sim", "--pacing", "fast", "--hit-interval", "0.4", "0.6",
+                              "--out", str(session), "--append", "--hits", "1"]
         if command < 15:
             return mutation, ["replay", str(session), "--json"]
         if command < 24:
@@ -396,6 +572,40 @@ def make_case(kind: str, seeds: dict[str, list[Path]], index: int, seed: int, wo
         if command < 29:
             return mutation, ["export", str(session), "--uff", str(work / "frf.uff")]
         return mutation, ["fit", str(session), "--models", "SD", "--json", "--out", str(work)]
+    if kind == "npy":
+        mutation, data = mutate_npy(source.read_bytes(), rng)
+        target = work / "hit.npy"
+        target.write_bytes(data)
+        others = []
+        for number, other in enumerate(seeds["npy"][:2]):
+            others.append(work / f"other{number}.npy")
+            shutil.copyfile(other, others[-1])
+        if diagnosed:
+            return mutation, ["diagnose", str(target), *map(str, others), "--out", str(work / "diagnosis")]
+        return mutation, [
+            ["replay", str(target), "--json"], ["replay", str(target), "--exp-end", "0.01"],
+            ["replay", str(target), "--force-window-ms", "2", "--json"],
+            ["fit", str(target), *map(str, others), "--models", "SD", "--json", "--out", str(work)],
+            ["export", str(target), *map(str, others), "--csv", str(work / "frf.csv")]][index % 5]
+    if kind == "fit-json":
+        mutation, data = mutate_fit_json(source.read_bytes(), rng)
+        target = work / "fit.json"
+        target.write_bytes(data)
+        return mutation, [["model", str(target), "--model", "SD", "--out", str(work / "model.json"), "--json"],
+                          ["model", str(target), "--model", "Zener", "--order", "4", "--out", str(work / "m.npz")],
+                          ["model", str(target), "--out", str(work / "m.mat")]][index % 3]
+    if kind == "campaign":
+        folder = work / "sessions"
+        shutil.copytree(source, folder)
+        mutation = mutate_campaign(folder, rng)
+        cluster = ["--scheduler", CAMPAIGN_SCHEDULER[0]] if CAMPAIGN_SCHEDULER else ["--workers", "1"]
+        return mutation, ["campaign", str(folder), "--by", "supply_pressure_mpa", "--models", "SD", "--no-diagnosis",
+                          *cluster, "--out", str(work / "campaign")]
+    if kind == "sensors":
+        mutation, data = mutate_toml(source.read_bytes(), rng)
+        target = work / "sensors.toml"
+        target.write_bytes(data)
+        return mutation, ["sensor-library", str(target)]
     mutation, data = mutate_toml(source.read_bytes(), rng)
     target = work / "rig.toml"
     target.write_bytes(data)
@@ -407,19 +617,37 @@ def make_case(kind: str, seeds: dict[str, list[Path]], index: int, seed: int, wo
                       "--out", str(work / "acquired.h5")]
 
 
+#: A running dask scheduler's address for the campaign cases (the benchmark starts one: a cluster per case would take
+#: most of the time); empty: each case starts its own one-worker cluster.
+CAMPAIGN_SCHEDULER: list[str] = []
+
+
+def load_sensors(path: str) -> int:
+    """The GUI's sensor library read as its Setup tab reads it, answered like a command: 0, or 2 and one line."""
+    from gasfilm.app.gui.sensors import load_sensor_library
+    from gasfilm.drivers.errors import GasfilmError
+
+    try:
+        load_sensor_library(path)
+    except GasfilmError as error:
+        print(f"sensor library: error: {error}", file=sys.stderr)
+        return 2
+    return 0
+
+
 def run_case(kind: str, seeds: dict[str, list[Path]], index: int, seed: int, work: Path,
-             diagnose_every: int = 0) -> Outcome:
+             diagnose_every: int = 0, timeout_s: float = CASE_TIMEOUT_S) -> Outcome:
     if work.exists():
         shutil.rmtree(work)
     work.mkdir(parents=True)
     mutation, argv = make_case(kind, seeds, index, seed, work, diagnose_every)
-    code, stderr, seconds, origin = run_cli(argv)
-    return Outcome(kind, mutation, argv, code, stderr, seconds, origin)
+    code, stderr, seconds, origin, stdout = run_cli(argv, timeout_s)
+    return Outcome(kind, mutation, argv, code, stderr, seconds, origin, stdout, timeout_s)
 
 
 # --- the test ------------------------------------------------------------------------------------------------------
 
-CASES_PER_KIND = {"uff": 150, "session": 120, "toml": 100}
+CASES_PER_KIND = {"uff": 150, "session": 120, "toml": 100, "npy": 80, "fit-json": 45, "campaign": 4, "sensors": 80}
 
 
 @pytest.fixture(scope="module")
@@ -450,7 +678,7 @@ def refusal(argv: list[str]) -> str:
     from gasfilm.app.cli import build_parser
 
     build_parser()
-    code, stderr, seconds, origin = run_cli(argv)
+    code, stderr, seconds, origin, _ = run_cli(argv)
     assert code == 2 and not origin, stderr
     assert seconds < 3.0
     (line,) = stderr.strip().splitlines()
@@ -625,7 +853,7 @@ def test_replays_of_odd_but_readable_sessions_print_no_warnings(seeds, tmp_path)
         shutil.copyfile(seeds["session"][0], session)
         with h5py.File(session, "r+") as file:
             edit(file)
-        code, stderr, _, origin = run_cli(["replay", str(session), "--json"])
+        code, stderr, _, origin, _ = run_cli(["replay", str(session), "--json"])
         assert code in (0, 1) and not origin and "Warning" not in stderr, stderr
 
 
@@ -652,7 +880,8 @@ def test_damaged_frf_uff_files_are_read_or_refused_with_a_reason(seeds, tmp_path
             problems.append(f"case {index} ({mutation}): an FRF with NaN or unordered lines was read")
         if index % 20 == 0:
             argv = ["fit", str(path), "--models", "SD", "--json", "--out", str(tmp_path)]
-            outcome = Outcome("uff", mutation, argv, *run_cli(argv, timeout_s=3 * CASE_TIMEOUT_S))
+            outcome = Outcome("uff", mutation, argv, *run_cli(argv, timeout_s=3 * CASE_TIMEOUT_S),
+                              timeout_s=3 * CASE_TIMEOUT_S)
             if outcome.problem:
                 problems.append(f"case {index} ({mutation}): {outcome.problem}")
     assert not problems, "\n".join(problems)

@@ -45,6 +45,7 @@ def run_campaign(
     ``campaign.csv`` and ``campaign.html`` into ``out`` (cache in ``out/cache``). A ``by`` key no session records is
     refused before anything is computed."""
     from gasfilm.analysis.campaign.report import write_campaign_report
+    from gasfilm.analysis.paths import written_whole
 
     paths = find_sessions(inputs)
     check_grouping(paths, by)  # before anything is computed
@@ -58,8 +59,10 @@ def run_campaign(
                        f"are grouped as 'not recorded'")
             run.notes.append(message)
             logger.warning(message)
-    parquet_path, csv_path = write_table(run.rows, out)
-    report_path = write_campaign_report(run.rows, by, out / REPORT_NAME)
+    parquet_path, csv_path, report_path = out / PARQUET_NAME, out / CSV_NAME, out / REPORT_NAME
+    with written_whole(parquet_path, csv_path, report_path, what="the campaign's table and report") as building:
+        write_table(run.rows, *building[:2])  # all three, or none (a full disk leaves no partial file)
+        write_campaign_report(run.rows, by, building[2])
     logger.info("campaign of %d sessions into %s: %d computed, %d cached, %d failed in %.1f s", len(paths), out,
                 run.computed, run.cached, run.failed, run.wall_time_s)
     return CampaignResult(run, parquet_path, csv_path, report_path)

@@ -15,6 +15,7 @@ import json
 import logging
 import os
 import time
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable, Iterator, Sequence
@@ -163,10 +164,13 @@ def dask_client(workers: int | None, scheduler: str | None) -> Iterator[Any]:
     # the workers' profiler and malloc tuning cost 8 % and 21-24 % of a session's CPU time (see the YAML file)
     worker_config = dask.config.merge(dask.config.config,
                                       dask.config.collect(paths=[str(WORKER_CONFIG_PATH)], env={}))
-    with dask.config.set(worker_config), \
-            LocalCluster(n_workers=count, threads_per_worker=1, processes=True, dashboard_address=None,
-                         silence_logs=logging.ERROR) as cluster, Client(cluster) as client:
-        yield client
+    with dask.config.set(worker_config), warnings.catch_warnings():
+        # the scheduler's HTTP routes take another port when 8787 is taken (another cluster on this machine): not the
+        # user's concern (its three-line warning was printed on every such campaign)
+        warnings.filterwarnings("ignore", message="Port .* is already in use", category=UserWarning)
+        with LocalCluster(n_workers=count, threads_per_worker=1, processes=True, dashboard_address=None,
+                          silence_logs=logging.ERROR) as cluster, Client(cluster) as client:
+            yield client
 
 
 def run_sessions(

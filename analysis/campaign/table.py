@@ -13,7 +13,6 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any, Sequence
 
-from gasfilm.drivers.errors import SettingError
 
 #: File names written into the campaign's output folder.
 PARQUET_NAME = "campaign.parquet"
@@ -50,19 +49,14 @@ def to_arrow(rows: Sequence[dict[str, Any]]) -> Any:
     return pa.table(arrays)
 
 
-def write_table(rows: Sequence[dict[str, Any]], folder: Path) -> tuple[Path, Path]:
-    """``campaign.parquet`` and ``campaign.csv`` in ``folder``; returns their paths."""
+def write_table(rows: Sequence[dict[str, Any]], parquet_path: Path, csv_path: Path) -> None:
+    """The rows as Parquet and as CSV (``campaign.parquet`` and ``campaign.csv`` of a campaign's folder)."""
     import pyarrow.csv as pa_csv
     import pyarrow.parquet as pq
 
     table = to_arrow(rows)
-    parquet_path, csv_path = folder / PARQUET_NAME, folder / CSV_NAME
-    try:
-        pq.write_table(table, parquet_path)
-        pa_csv.write_csv(table, csv_path)
-    except OSError as error:
-        raise SettingError(f"--out {folder}: cannot write the results table ({error})") from None
-    return parquet_path, csv_path
+    pq.write_table(table, parquet_path)
+    pa_csv.write_csv(table, csv_path)
 
 
 def read_table(path: Path) -> list[dict[str, Any]]:

@@ -17,6 +17,7 @@ import scipy.io
 import scipy.signal
 
 from gasfilm.analysis.control.rational import Passivity, RationalModel
+from gasfilm.analysis.jsontext import dumps
 from gasfilm.drivers.errors import SettingError
 
 FORMAT = "gasfilm rational plant 1"
@@ -102,7 +103,7 @@ def write_model(model: RationalModel, path: str | Path) -> Path:
         raise SettingError(f"--out {path}: name a .json, .mat or .npz file")
     data = model_to_dict(model)
     if suffix == ".json":
-        path.write_text(json.dumps(data, indent=1) + "\n", encoding="utf-8")
+        path.write_text(dumps(data, indent=1) + "\n", encoding="utf-8")
         return path
     arrays = {
         "A": model.a, "B": model.b[:, None], "C": model.c[None, :], "D": np.array([[model.d]]),

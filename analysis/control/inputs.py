@@ -59,6 +59,18 @@ def _fit_from_dict(data: Any, path: Path) -> FitResult:
         raise SettingError(f"{path}: fit {fit.model_name}: {what}")
     if not (np.all(np.isfinite(fit.band_hz)) and 0 <= fit.band_hz[0] < fit.band_hz[1]):
         raise SettingError(f"{path}: fit {fit.model_name}: band {fit.band_hz} Hz is not LO < HI")
+    try:
+        parameters = {parameter.name: parameter for parameter in fit.model().parameters}
+    except (GasfilmError, KeyError, ValueError) as error:
+        raise SettingError(f"{path}: fit {fit.model_name}: not a model gasfilm knows ({error})") from None
+    for name, value in fit.params.items():  # a fit gasfilm made lies within its search bounds (at worst on one)
+        parameter = parameters.get(name)
+        if parameter is None:
+            raise SettingError(f"{path}: fit {fit.model_name}: '{name}' is not one of its parameters "
+                               f"({', '.join(parameters)})")
+        if not parameter.lower - 1e-9 * abs(parameter.lower) <= value <= parameter.upper + 1e-9 * abs(parameter.upper):
+            raise SettingError(f"{path}: fit {fit.model_name}: {name} = {value:g} {parameter.unit} is outside what a "
+                               f"fit can give ({parameter.lower:g} to {parameter.upper:g})")
     return fit
 
 
@@ -78,6 +90,8 @@ def load_source(path: Path, model: str | None) -> LoadedSource:
             data = json.loads(path.read_text(encoding="utf-8"))
         except (OSError, UnicodeDecodeError, json.JSONDecodeError) as error:
             raise SettingError(f"{path}: not a readable JSON fit ({type(error).__name__}: {error})") from None
+        except RecursionError:
+            raise SettingError(f"{path}: not a gasfilm fit (its JSON is nested too deeply)") from None
         if isinstance(data, dict) and isinstance(data.get("fits"), list):
             fits = {str(fit.get("model_name")): fit for fit in data["fits"] if isinstance(fit, dict)}
         elif isinstance(data, dict) and "model_name" in data:

@@ -17,7 +17,10 @@ import contextvars
 import logging
 import os
 import pickle
+import signal
 from typing import Any, Callable, Iterator, Sequence, TypeVar
+
+from gasfilm.analysis.interrupts import die_with_parent
 
 logger = logging.getLogger(__name__)
 
@@ -69,6 +72,7 @@ def shared_map(function: Callable[[Item], Any], items: Sequence[Item], longest_f
     os.write(queue_write, bytes(order))
     os.close(queue_write)
     result_read, result_write = os.pipe()
+    parent = os.getpid()
     try:
         child = os.fork()
     except OSError as error:
@@ -81,6 +85,7 @@ def shared_map(function: Callable[[Item], Any], items: Sequence[Item], longest_f
     if child == 0:  # the copy: compute what it takes from the queue, send the results, never return
         status = 1
         try:
+            die_with_parent(parent)  # (a killed diagnosis leaves no process computing on)
             os.close(result_read)
             done = {index: _called(function, items[index]) for index in _taken(queue_read)}
             payload = pickle.dumps(done, protocol=pickle.HIGHEST_PROTOCOL)
@@ -90,10 +95,16 @@ def shared_map(function: Callable[[Item], Any], items: Sequence[Item], longest_f
         finally:
             os._exit(status)
     os.close(result_write)
-    results = {index: _called(function, items[index]) for index in _taken(queue_read)}
-    os.close(queue_read)
-    with os.fdopen(result_read, "rb") as stream:
-        payload = stream.read()
+    try:
+        results = {index: _called(function, items[index]) for index in _taken(queue_read)}
+        os.close(queue_read)
+        with os.fdopen(result_read, "rb") as stream:
+            payload = stream.read()
+    except BaseException:  # (stopped by a signal: the copy is stopped with it)
+        with contextlib.suppress(OSError):
+            os.kill(child, signal.SIGKILL)
+            os.waitpid(child, 0)
+        raise
     _, status = os.waitpid(child, 0)
     if payload and status == 0:
         results.update(pickle.loads(payload))

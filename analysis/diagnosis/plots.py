@@ -19,6 +19,7 @@ from gasfilm.analysis.diagnosis.result import Diagnosis
 from gasfilm.analysis.physics.elements import laplace_variable
 from gasfilm.analysis.physics.response import rig_dynamic_stiffness
 from gasfilm.analysis.diagnosis.structure import STABILITY, Structure
+from gasfilm.analysis.paths import written_whole
 from gasfilm.analysis.threads import one_blas_thread
 from gasfilm.drivers.interface import STANDARD_GRAVITY_M_S2 as G_M_S2
 
@@ -39,23 +40,33 @@ OUTPUT_FILES = (SPEC_FILE, OVERLAY_FILE, RESIDUAL_FILE, RESTORING_FILE, STABILIZ
 STABILITY_STYLE = ((".", 2.0, "0.75"), ("x", 3.0, "C1"), ("+", 4.0, "C2"), ("o", 3.5, "C0"))
 
 
-def write_figures(diagnosis: Diagnosis, out_dir: Path) -> list[str]:
-    """``diagnosis-overlay.png`` (H1 recorded, spec as given and improved spec, replayed the same way),
-    ``diagnosis-residual.png`` (noise-weighted residual per frequency before/after, and per hit), with a restoring
-    force ``diagnosis-restoring-force.png``, with a structure read off the FRF ``diagnosis-stabilization.png``, and
-    else ``diagnosis-film.png`` (the film's dynamic stiffness, measured and modelled); drawn by two processes at once
-    (:func:`shared_map`: each figure is the same file either way)."""
-    out_dir.mkdir(parents=True, exist_ok=True)
-    drawings: list[Callable[[], Path]] = [lambda: write_overlay_figure(diagnosis, out_dir / OVERLAY_FILE),
-                                          lambda: write_residual_figure(diagnosis, out_dir / RESIDUAL_FILE)]
+def figure_files(diagnosis: Diagnosis) -> tuple[str, ...]:
+    """The figures a diagnosis draws: the overlay, the residual, with a restoring force its figure, with a structure
+    read off the FRF its stabilization diagram, and else (a film on a point mover) the film's dynamic stiffness."""
+    files = [OVERLAY_FILE, RESIDUAL_FILE]
     if diagnosis.structure is None and diagnosis.given.rigid_body is None:
-        drawings.append(lambda: write_film_figure(diagnosis, out_dir / FILM_FILE))
+        files.append(FILM_FILE)
     if diagnosis.restoring_force is not None:
-        restoring = diagnosis.restoring_force
-        drawings.append(lambda: write_restoring_force_figure(restoring, out_dir / RESTORING_FILE))
+        files.append(RESTORING_FILE)
     if diagnosis.structure is not None:
-        structure = diagnosis.structure
-        drawings.append(lambda: write_stabilization_figure(structure, out_dir / STABILIZATION_FILE))
+        files.append(STABILIZATION_FILE)
+    return tuple(files)
+
+
+def write_figures(diagnosis: Diagnosis, paths: dict[str, Path]) -> list[str]:
+    """The figures :func:`figure_files` names, each to the path ``paths`` gives its name: ``diagnosis-overlay.png``
+    (H1 recorded, spec as given and improved spec, replayed the same way), ``diagnosis-residual.png``
+    (noise-weighted residual per frequency before/after, and per hit), ``diagnosis-restoring-force.png``,
+    ``diagnosis-stabilization.png`` and ``diagnosis-film.png`` (the film's dynamic stiffness, measured and
+    modelled); drawn by two processes at once (:func:`shared_map`: each figure is the same file either way)."""
+    drawers: dict[str, Callable[[Path], Path]] = {
+        OVERLAY_FILE: lambda path: write_overlay_figure(diagnosis, path),
+        RESIDUAL_FILE: lambda path: write_residual_figure(diagnosis, path),
+        FILM_FILE: lambda path: write_film_figure(diagnosis, path),
+        RESTORING_FILE: lambda path: write_restoring_force_figure(diagnosis.restoring_force, path),
+        STABILIZATION_FILE: lambda path: write_stabilization_figure(diagnosis.structure, path)}
+    drawings: list[Callable[[], Path]] = [
+        (lambda draw=drawers[name], path=paths[name]: draw(path)) for name in figure_files(diagnosis)]
     written = shared_map(lambda draw: draw(), drawings)
     for path in written:
         if isinstance(path, Exception):
@@ -279,14 +290,18 @@ def stabilization_figure(reading: dict, frf_freq_hz: np.ndarray | None = None,
 
 @one_blas_thread
 def write_outputs(diagnosis: Diagnosis, out_dir: Path) -> None:
-    """Write the improved spec (the spec that was fitted, exactly) and the figures into ``out_dir``; the paths are
-    kept in ``diagnosis.improved_spec_path`` and ``diagnosis.figures``."""
+    """Write the improved spec (the spec that was fitted, exactly) and the figures into ``out_dir``, all of them or
+    none (a full disk leaves no partial file: :func:`~gasfilm.analysis.paths.written_whole`); the paths are kept in
+    ``diagnosis.improved_spec_path`` and ``diagnosis.figures``."""
     out_dir.mkdir(parents=True, exist_ok=True)
-    spec_path = out_dir / SPEC_FILE
-    header = "".join(f"# {note}\n" for note in diagnosis.notes)
-    spec_path.write_text(header + diagnosis.improved.to_toml(), encoding="utf-8")
-    diagnosis.improved_spec_path = str(spec_path)
-    diagnosis.figures = write_figures(diagnosis, out_dir)
+    names = (SPEC_FILE, *figure_files(diagnosis))
+    with written_whole(*(out_dir / name for name in names), what="the diagnosis's files") as temporaries:
+        building = dict(zip(names, temporaries))
+        header = "".join(f"# {note}\n" for note in diagnosis.notes)
+        building[SPEC_FILE].write_text(header + diagnosis.improved.to_toml(), encoding="utf-8")
+        write_figures(diagnosis, building)
+    diagnosis.improved_spec_path = str(out_dir / SPEC_FILE)
+    diagnosis.figures = [str(out_dir / name) for name in names[1:]]
 
 
 def remove_stale_outputs(diagnosis: Diagnosis, out_dir: Path) -> list[Path]:

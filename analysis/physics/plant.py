@@ -13,6 +13,7 @@ import numpy as np
 
 from gasfilm.analysis.physics import response, rigid_body
 from gasfilm.analysis.physics.spec import HammerSpec, RigSpec
+from gasfilm.drivers.errors import SettingError
 
 
 #: A rigid body's accelerances kept for this many hammer points (a roving test's).
@@ -62,7 +63,17 @@ class RigPlant:
         return self.spec.sensor(channel).noise_per_sqrt_hz
 
     def response_duration_s(self, sample_rate_hz: float) -> float:
-        return response.response_duration_s(self.spec, sample_rate_hz)
+        """The time the rig's response takes to decay. A spec with cubic stiffness whose response does not decay
+        within :data:`~gasfilm.analysis.physics.response.MAX_RESPONSE_DURATION_S` is refused: its equation of motion
+        would be solved on a grid that long for every hit (minutes a hit, and then it does not converge)."""
+        duration_s = response.response_duration_s(self.spec, sample_rate_hz)
+        if not self.spec.is_linear and duration_s >= response.MAX_RESPONSE_DURATION_S:
+            raise SettingError(
+                f"{self.spec.source}: the rig's response does not die away within "
+                f"{response.MAX_RESPONSE_DURATION_S:g} s (its film or modes are damped too little or too much), which a "
+                f"rig with cubic stiffness needs to be simulated"
+            )
+        return duration_s
 
     def acceleration_spectrum(
         self, force_spectrum: np.ndarray, s: np.ndarray, sample_rate_hz: float, time_s: float

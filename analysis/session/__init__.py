@@ -1,15 +1,16 @@
 """HDF5 session files: everything one hammer session recorded, safe against a killed process, a full disk or a failed
 write.
 
-One file per session (layout in ``docs/session-format.md``). Every change to the hits goes first into the session's
-journal (``NAME.journal/``, one small fsynced file per change, never written again), then into the HDF5 file, where
-hits are appended to chunked, resizable datasets in HDF5's single-writer/multiple-reader (SWMR) mode. Opening a session
-for writing rewrites the file from the journal; a clean close checks the file against the journal and removes it; a
-journal left by a failed or killed writer rebuilds the session when it is next opened (``recovered`` is then True).
-Structural changes (FRF, fits, diagnoses, status) are made with the file out of SWMR mode.
+One file per session (layout in ``docs/session-format.md``), written in place through a rollback journal: writes
+inside the bytes of the last commit are held until the next commit, which journals the bytes they replace
+(``NAME.journal``, fsynced) before writing them, so the file always holds its last commit or a journal that restores
+it. A hit or a verdict is committed before it is reported; a failed write rolls back to the last commit; a command that
+fails leaves its session byte for byte as it was. Hits are appended to chunked, resizable datasets in HDF5's
+single-writer/multiple-reader (SWMR) mode; structural changes (FRF, fits, diagnoses, status) are made with the file
+out of SWMR mode.
 
-Modules: :mod:`.layout` (constants and codecs), :mod:`.files` (writer lock, opening, replacing), :mod:`.journal` (the
-journal and rebuilding from it), :mod:`.api`.
+Modules: :mod:`.layout` (constants and codecs), :mod:`.files` (writer lock, opening, naming), :mod:`.journal` (the
+rollback journal), :mod:`.api`.
 """
 
 from gasfilm.analysis.session.api import DEFAULT_SIZE_LIMIT_BYTES, Session, StoredHit

@@ -2,9 +2,10 @@
 
 from __future__ import annotations
 
+import bisect
+import collections.abc
 import contextlib
 import functools
-import io
 import json
 import logging
 import os
@@ -15,32 +16,23 @@ import threading
 import traceback
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Callable, Iterator, Mapping, TypeVar
+from typing import Any, Callable, Iterator, Mapping, Sequence, TypeVar
 
 import h5py
 import numpy as np
 
+from gasfilm.analysis.interrupts import signals_deferred
 from gasfilm.analysis.session.files import (
     WriterLock,
     building_path,
     check_unclosed_file,
     describe_open_failure,
     move_into_place,
-    open_for_salvage,
     open_h5,
+    open_store,
     remove_leftovers,
-    replace_durably,
 )
-from gasfilm.analysis.session.journal import (
-    Journal,
-    JournalContent,
-    hit_digest,
-    journal_held_elsewhere,
-    journal_path,
-    read_journal,
-    setup_of,
-    write_session_file,
-)
+from gasfilm.analysis.session.journal import RollbackFile, journal_path, restore, rolled_back_view
 from gasfilm.analysis.session.layout import (
     DEFAULT_SAMPLES_PER_CHUNK,
     FORMAT_NAME,
@@ -74,8 +66,6 @@ logger = logging.getLogger(__name__)
 DEFAULT_SIZE_LIMIT_BYTES = 4_000_000_000
 #: Free space kept on the disk besides the next hit: room for HDF5's metadata and for closing the session properly.
 FREE_SPACE_MARGIN_BYTES = 1 << 20
-#: Free space a rebuild needs besides 110 % of the larger of the old file and the hits (HDF5's metadata).
-REBUILD_MARGIN_BYTES = 64 << 10
 #: What a damaged file's metadata can make h5py, numpy or the decoders raise while it is read.
 _READ_ERRORS = (OSError, KeyError, ValueError, TypeError, RuntimeError, IndexError, AttributeError, MemoryError,
                 OverflowError, UnicodeError)
@@ -151,49 +141,6 @@ def _h5py_errors_raised(on_error: Callable[[], None] = lambda: None) -> Iterator
         raise swallowed[0]
 
 
-def _detach(file: h5py.File, path: Path) -> None:
-    """Point an HDF5 file's descriptor at /dev/null after a write failed, so HDF5 cannot put part of its cached metadata
-    over what is on disk, and closing it does not fail (a failed close leaves HDF5 in a state that crashes the process
-    when it exits). Not on Windows, where the handle is not a file descriptor."""
-    if os.name == "nt":
-        return
-    try:
-        _detach_descriptor(file.id.get_vfd_handle(), path)
-    except (OSError, RuntimeError) as error:
-        logger.warning("%s: cannot detach the file after the write failure: %s", path, one_line(error))
-
-
-def _close_or_detach(file: h5py.File, path: Path) -> BaseException | None:
-    """Close an HDF5 file; when closing fails (its last writes fail), point its descriptor at /dev/null and close it
-    again, so that HDF5 lets go of it instead of retrying, and crashing, when the process exits. Returns the
-    failure, or None."""
-    try:
-        handle = file.id.get_vfd_handle()
-    except RuntimeError:  # a session rebuilt in memory: no descriptor
-        handle = None
-    try:
-        with _h5py_errors_raised():
-            file.close()
-    except (OSError, RuntimeError) as error:
-        if handle is not None:
-            _detach_descriptor(handle, path)
-        with contextlib.suppress(OSError, RuntimeError), _h5py_errors_raised():
-            file.close()
-        return error
-    return None
-
-
-def _detach_descriptor(handle: int, path: Path) -> None:
-    """Point the file descriptor ``handle`` at /dev/null (see :func:`_detach`)."""
-    if os.name == "nt":
-        return
-    try:
-        null = os.open(os.devnull, os.O_RDWR)
-        os.dup2(null, handle)
-        os.close(null)
-    except OSError as error:
-        logger.warning("%s: cannot detach the file after the write failure: %s", path, one_line(error))
-
 
 def _write_error_text(error: BaseException) -> str:
     """The operating system's reason in an HDF5 write error (e.g. "No space left on device"), else its message."""
@@ -203,103 +150,75 @@ def _write_error_text(error: BaseException) -> str:
     return getattr(error, "strerror", None) or one_line(error)
 
 
-#: Passed as the status of a rebuild from a journal left behind: :func:`_rebuilt_status` decides it.
-_STATUS_OF_A_LEFT_JOURNAL = ("", "")
 
-
-def _rebuilt_status(salvage: h5py.File | None, closed: bool, content: JournalContent) -> tuple[str, str] | None:
-    """The status of a session rebuilt from a journal its writer left: the old file's when that says complete or
-    aborted — the journal outlived a clean close, or its writer only viewed the session or stored results (a hit or
-    a verdict written would have set "recording" first) — else "interrupted"."""
-    if salvage is not None and salvage.attrs.get("status") in ("complete", "aborted"):
-        return None
-    return ("interrupted", f"the recording process ended without closing the session; {content.hit_count} hits "
-                           f"rebuilt from its journal")
-
-
-def _rebuild_on_disk(path: Path, content: JournalContent, status: tuple[str, str] | None) -> WriterLock | None:
-    """Write the session the journal describes into a fresh file (with what the old file still holds besides the
-    hits) and put it in place of ``path``; return the writer lock on it. Raises :class:`SessionWriteError` when the
-    fresh file cannot be written (the old file and the journal are left as they are)."""
-    building = building_path(path, "recovering")
-    with contextlib.suppress(OSError):
-        old_bytes = os.path.getsize(path) if path.exists() else 0
-        needed = int(1.1 * max(old_bytes, content.records.nbytes + content.rows.nbytes)) + REBUILD_MARGIN_BYTES
-        free_bytes = shutil.disk_usage(path.parent).free
-        if free_bytes < needed:  # refused before HDF5 writes: a write failing inside HDF5 can crash the process later
-            raise SessionWriteError(
-                f"{path}: cannot rewrite the session: disk full ({free_bytes / 1e6:.3g} MB free, "
-                f"{needed / 1e6:.3g} MB needed); its {content.hit_count} hits are safe in {journal_path(path).name}, "
-                f"which gasfilm reads and rebuilds from when the session is opened"
-            )
-    salvage, closed = open_for_salvage(path)
-    if status == _STATUS_OF_A_LEFT_JOURNAL:
-        status = _rebuilt_status(salvage, closed, content)
+def _close_quietly(file: h5py.File, store: RollbackFile | None) -> BaseException | None:
+    """Close an HDF5 file; when closing fails (its last writes fail), let go of the file through ``store`` (HDF5's
+    writes then reach nothing) and close it again, so that HDF5 does not retry, and crash, when the process exits.
+    Returns the failure, or None."""
     try:
-        target = open_h5(building, "w")
-        try:
-            with _h5py_errors_raised():
-                lost = write_session_file(target, content, salvage, status)
-        finally:
-            failure = _close_or_detach(target, building)
-        if failure is not None:
-            raise failure
-        if salvage is not None:
-            salvage.close()
-            salvage = None
-        _check_rebuilt(building, content)
-        lock = replace_durably(building, path, lock=True)
-    except (*_WRITE_ERRORS, SessionError) as error:
-        building.unlink(missing_ok=True)
-        logger.error("%s: rebuilding the session from its journal failed: %s", path, one_line(error))
-        raise SessionWriteError(
-            f"{path}: cannot rewrite the session ({_write_error_text(error)}); its {content.hit_count} hits are safe "
-            f"in {journal_path(path).name}, which gasfilm reads and rebuilds from when the session is opened"
-        ) from None
-    finally:
-        if salvage is not None:
-            salvage.close()
-    for what in lost:
-        logger.warning("%s: not carried over from the damaged file: %s", path, what)
-    return lock
+        with _h5py_errors_raised():
+            file.close()
+    except (OSError, RuntimeError) as error:
+        if store is not None:
+            store.rollback()
+        with contextlib.suppress(OSError, RuntimeError), _h5py_errors_raised():
+            file.close()
+        return error
+    return None
 
 
-def _check_rebuilt(building: Path, content: JournalContent) -> None:
-    """Read a rebuilt file back before it replaces anything: the setup and every hit as the journal has them (HDF5
-    does not report every failed write)."""
-    with _h5py_errors_raised(), open_h5(building, "r") as file:
-        setup, _ = setup_of(file)
-        for name in ("rig", "daq", "settings"):
-            if setup["attrs"][name] != content.setup["attrs"][name]:
-                raise ValueError(f"the rebuilt file's '{name}' differs from the journal's")
-        if setup["rig_spec_toml"] != content.setup["rig_spec_toml"]:
-            raise ValueError("the rebuilt file's rig spec differs from the journal's")
-        table, data = file["hits/table"], file["hits/data"]
-        if committed_hits(table, data) != content.hit_count or content.digests() != [
-                hit_digest(record, row) for record, row in zip(data[:content.hit_count], table[:content.hit_count])]:
-            raise ValueError("the rebuilt file's hits differ from the journal's")
+def real_path(path: Path) -> Path:
+    """The file a session path names, links followed: a session named through a symbolic link is written where the
+    link points (in place, the link kept), its journal and hidden files beside it."""
+    return Path(os.path.realpath(path))
 
 
-def _remove_empty_journal(path: Path, overwrite: bool) -> None:
-    """Before creating ``path``: remove a journal left by a killed creation (no hits), or by the session being
-    replaced (``overwrite``); refuse to create over a journal that holds hits of a session whose file is gone."""
-    journal = Journal.resume(path)
-    if journal is None:
-        return
-    try:
-        try:
-            hits = read_journal(journal.folder).hit_count
-        except SessionError:
-            hits = 0
-        if hits and not overwrite:
-            raise SessionError(
-                f"{path}: {journal.folder.name} holds {hits} hits of a session whose file is missing; open "
-                f"{path.name} to rebuild it from them, or move the journal away"
-            )
-        journal.remove()
-        logger.warning("%s: removed the journal %s (%d hits) left before this creation", path, journal.folder, hits)
-    finally:
-        journal.release()
+def _refuse_old_journal(path: Path) -> None:
+    """A ``NAME.journal/`` folder is the hit journal of a gasfilm before the rollback journal: its hits may be missing
+    from the file, so the session is left as it is, with one line saying how to rebuild it."""
+    if journal_path(path).is_dir():
+        raise SessionError(
+            f"{path}: {journal_path(path).name}/ is the hit journal of an earlier gasfilm version (its writer stopped "
+            f"before closing the session); open the session once with that version, which rebuilds it from the "
+            f"journal, then with this one"
+        )
+
+
+def _record_extents(data: h5py.Dataset) -> list[tuple[int, int]]:
+    """Where the stored records' chunks lie in the file, as sorted (start, end) byte ranges."""
+    extents: list[tuple[int, int]] = []
+    data.id.chunk_iter(lambda chunk: extents.append((chunk.byte_offset, chunk.byte_offset + chunk.size)))
+    return sorted(extents)
+
+
+def _write_setup(file: h5py.File, daq_config: DaqConfig, rig_spec_toml: str | None, settings: Mapping[str, Any],
+                 actual_sample_rate_hz: float | None, device_name: str, record_samples: int | None) -> None:
+    """A new session's attributes, groups and empty hit datasets (docs/session-format.md)."""
+    file.attrs["format"] = FORMAT_NAME
+    file.attrs["schema_version"] = SCHEMA_VERSION
+    file.attrs["created_utc"] = utc_now()
+    file.attrs["status"] = "recording"
+    file.attrs["status_reason"] = ""
+    file.attrs["closed_utc"] = ""
+    rig = file.create_group("rig")
+    rig.attrs["present"] = rig_spec_toml is not None
+    rig.create_dataset("spec_toml", data=rig_spec_toml or "", dtype=h5py.string_dtype())
+    daq = file.create_group("daq")
+    daq.attrs["config"] = json_dumps(config_to_dict(daq_config))
+    daq.attrs["requested_sample_rate_hz"] = float(daq_config.sample_rate_hz)
+    daq.attrs["sample_rate_hz"] = float(actual_sample_rate_hz or daq_config.sample_rate_hz)
+    daq.attrs["device"] = device_name
+    settings_group = file.create_group("settings")
+    for key, value in settings.items():
+        settings_group.attrs[key] = json_dumps(value)
+    channel_count = len(daq_config.channels)
+    chunk_samples = min(record_samples or DEFAULT_SAMPLES_PER_CHUNK, MAX_SAMPLES_PER_CHUNK)
+    hits = file.create_group("hits")
+    hits.create_dataset("data", shape=(0, channel_count, 0), maxshape=(None, channel_count, None),
+                        chunks=(1, channel_count, chunk_samples), dtype="<f8", fillvalue=np.nan)
+    hits.create_dataset("table", shape=(0,), maxshape=(None,), chunks=(64,), dtype=hit_table_dtype(channel_count))
+    for name in ("frf", "fits", "diagnoses"):
+        file.create_group(name)
 
 
 @dataclass(frozen=True)
@@ -338,37 +257,76 @@ class StoredHit:
 
 
 
+class StoredHits(collections.abc.Sequence):
+    """Hits of a session read on demand (:meth:`Session.stored_hits`): an item or a slice reads just those records."""
+
+    def __init__(self, session: "Session", indices: np.ndarray, rows: np.ndarray) -> None:
+        self._session, self._indices, self._rows = session, indices, rows
+
+    def __len__(self) -> int:
+        return len(self._indices)
+
+    def __getitem__(self, key: int | slice) -> Any:
+        if isinstance(key, slice):
+            return self._session._stored(self._indices[key], self._rows)
+        return self._session._stored(self._indices[key: key + 1 or None], self._rows)[0]
+
+
 #: Sessions this process has said it read while another process held them for writing (said once each).
 _SAID_HELD_ELSEWHERE: set[Path] = set()
 
 
 class Session:
-    """An open session file. Create with :meth:`create`, open with :meth:`open`; use as a context manager."""
+    """An open session file. Create with :meth:`create`, open with :meth:`open`; use as a context manager.
 
-    def __init__(
-        self, path: Path, file: h5py.File, lock: WriterLock | None = None, recovered: bool = False
-    ) -> None:
+    A session opened for writing is written in place through its rollback journal (:mod:`.journal`): a hit or a
+    verdict is committed (durable) before its method returns, and so is a result (unless the session was opened with
+    :meth:`updating`: all at its close); settings are committed with the next of them or at the close. A failed write
+    rolls back everything since the last commit, and closing a session that nothing was written to leaves its file as
+    it was, byte for byte."""
+
+    def __init__(self, path: Path, file: h5py.File, lock: WriterLock | None = None, recovered: bool = False,
+                 store: RollbackFile | None = None) -> None:
         self.path = path
         self._file = file
         self._lock = lock
+        self._store = store
         self.writable = lock is not None
         self.recovered = recovered
-        self.sync_each_hit = True
         #: Appending a hit that would make the file larger than this raises :class:`SessionWriteError`.
         self.size_limit_bytes = DEFAULT_SIZE_LIMIT_BYTES
         self._write_failure: str | None = None  # why writing failed: the file is then closed without more writes
         self._hit_count = 0
-        #: A writer's journal (``NAME.journal``) and the fingerprint of each hit it holds, in order.
-        self._journal: Journal | None = None
-        self._digests: list[bytes] = []
-        self._close_failed = False  # closing the HDF5 file failed: its h5py object is left alone
+        self._changed = False  # written since the last commit
+        self._committed = False  # something was committed since the session was opened
+        self._deferred = 0  # opened by updating(): results wait for the close
+        self._records: list[tuple[int, int]] = []  # byte ranges of the stored records (a writer never writes there)
         try:
             self._check_layout()
-        except SessionError:
-            self._file.close()
+            if self.writable:
+                with _h5py_errors_raised():
+                    self._records = _record_extents(self._data)
+        except (SessionError, *_READ_ERRORS) as error:
+            _close_quietly(self._file, store)
+            if store is not None:
+                store.rollback()
+                store.close()
             if lock is not None:
                 lock.release()
-            raise
+            if isinstance(error, SessionError):
+                raise
+            raise SessionError(f"{path}: damaged session: its hit records cannot be located "
+                               f"({one_line(error)})") from None
+
+    @property
+    def sync_each_hit(self) -> bool:
+        """Whether each commit is fsynced (False for bulk imports: a killed process loses nothing, a power cut may)."""
+        return self._store is None or self._store.sync
+
+    @sync_each_hit.setter
+    def sync_each_hit(self, value: bool) -> None:
+        if self._store is not None:
+            self._store.sync = bool(value)
 
     # ----- creating and opening -------------------------------------------------------------------------------
 
@@ -390,128 +348,132 @@ class Session:
         ``actual_sample_rate_hz`` is the rate the device reports (the NI 9234 may coerce the requested rate);
         ``sync_each_hit=False`` skips the fsync after each hit (for bulk imports, not for live acquisition);
         ``record_samples``, the expected samples per record, sizes the storage chunks (any length can be stored).
+        A ``path`` that is a symbolic link names the file it points to: that file is created (or replaced), the link
+        kept.
         """
         path = Path(path)
         if path.exists() and not overwrite:
             raise SessionError(f"{path}: the session file exists already (choose another name, or append to it)")
         if path.is_dir():
             raise SessionError(f"{path}: is a folder, not a session file")
-        if not path.parent.is_dir():
-            raise SessionError(f"{path}: {missing_folder(path.parent)}")
-        remove_leftovers(path)
-        remove_leftovers(journal_path(path))
-        _remove_empty_journal(path, overwrite)
-        free_bytes = shutil.disk_usage(path.parent).free
+        real = real_path(path)
+        if not real.parent.is_dir():
+            raise SessionError(f"{path}: {missing_folder(real.parent)}")
+        _refuse_old_journal(real)
+        remove_leftovers(real)
+        free_bytes = shutil.disk_usage(real.parent).free
         if free_bytes < FREE_SPACE_MARGIN_BYTES:  # HDF5 failing mid-creation can crash the process when it exits
             raise SessionWriteError(f"{path}: disk full ({free_bytes / 1e6:.3g} MB free); the session is not created")
-        replaced = WriterLock(path) if overwrite and path.exists() else None  # never replace a session being recorded
-        building = building_path(path, "creating")
-        try:
-            file = open_h5(building, "w")
-        except OSError as error:
-            if replaced is not None:
-                replaced.release()
-            raise SessionError(f"{path}: cannot create the session file ({_write_error_text(error)})") from None
+        replaced = WriterLock(real) if overwrite and real.exists() else None  # never replace a session being recorded
+        building = building_path(real, "creating")
+        store = None
         lock = None
-        journal = None
         try:
-            lock = WriterLock(building)
-            with _h5py_errors_raised(on_error=lambda: _detach(file, building)):
-                file.attrs["format"] = FORMAT_NAME
-                file.attrs["schema_version"] = SCHEMA_VERSION
-                file.attrs["created_utc"] = utc_now()
-                file.attrs["status"] = "recording"
-                file.attrs["status_reason"] = ""
-                file.attrs["closed_utc"] = ""
-                rig = file.create_group("rig")
-                rig.attrs["present"] = rig_spec_toml is not None
-                rig.create_dataset("spec_toml", data=rig_spec_toml or "", dtype=h5py.string_dtype())
-                daq = file.create_group("daq")
-                daq.attrs["config"] = json_dumps(config_to_dict(daq_config))
-                daq.attrs["requested_sample_rate_hz"] = float(daq_config.sample_rate_hz)
-                daq.attrs["sample_rate_hz"] = float(actual_sample_rate_hz or daq_config.sample_rate_hz)
-                daq.attrs["device"] = device_name
-                settings_group = file.create_group("settings")
-                for key, value in settings.items():
-                    settings_group.attrs[key] = json_dumps(value)
-                channel_count = len(daq_config.channels)
-                chunk_samples = min(record_samples or DEFAULT_SAMPLES_PER_CHUNK, MAX_SAMPLES_PER_CHUNK)
-                hits = file.create_group("hits")
-                hits.create_dataset(
-                    "data",
-                    shape=(0, channel_count, 0),
-                    maxshape=(None, channel_count, None),
-                    chunks=(1, channel_count, chunk_samples),
-                    dtype="<f8",
-                    fillvalue=np.nan,
-                )
-                hits.create_dataset(
-                    "table",
-                    shape=(0,),
-                    maxshape=(None,),
-                    chunks=(64,),
-                    dtype=hit_table_dtype(channel_count),
-                )
-                for name in ("frf", "fits", "diagnoses"):
-                    file.create_group(name)
-                file.flush()
-                file.swmr_mode = True
-                del rig, daq, settings_group, hits
-                setup, table_template = setup_of(file)
             try:
-                journal = Journal.start(path, setup, table_template, np.zeros((0, channel_count, 0)),
-                                        table_template)
-            except FileExistsError:
-                raise SessionError(
-                    f"{path}: the session file exists already (another process created it at the same moment)"
-                ) from None
-            move_into_place(building, path, overwrite)
-        except BaseException as error:
-            if journal is not None:
-                with contextlib.suppress(OSError):
-                    journal.remove()
-            if isinstance(error, (OSError, RuntimeError)):
-                logger.error("%s: creating the session failed: %s", path, error)
-                error = SessionError(f"{path}: cannot create the session file ({_write_error_text(error)})")
-            with contextlib.suppress(OSError, RuntimeError):
-                file.close()
-            if lock is not None:
-                lock.release()
+                store = RollbackFile.created(building)
+                store.sync = sync_each_hit
+                file = open_store(store, "w")
+            except OSError as error:
+                raise SessionError(f"{path}: cannot create the session file ({_write_error_text(error)})") from None
+            try:
+                lock = WriterLock(building)
+                with _h5py_errors_raised():
+                    _write_setup(file, daq_config, rig_spec_toml, settings, actual_sample_rate_hz, device_name,
+                                 record_samples)
+                    file.flush()
+                    file.swmr_mode = True
+                store.commit()
+                with signals_deferred():  # (named and handed over whole: a stop signal is raised after, see below)
+                    move_into_place(building, real, overwrite)
+                    store.moved_to(real)
+                    if replaced is not None:
+                        journal_path(real).unlink(missing_ok=True)  # the replaced session's, left by a killed writer
+                    session = cls(path, file, lock, store=store)
+                    session._committed = True
+            except KeyboardInterrupt:
+                if store.path == real:  # a stop signal during the creation, raised once the session was whole
+                    session._take_back(replaced is None)
+                raise
+            except BaseException as error:
+                if isinstance(error, (OSError, RuntimeError)):
+                    logger.error("%s: creating the session failed: %s", path, error)
+                    error = SessionError(f"{path}: cannot create the session file ({_write_error_text(error)})")
+                store.rollback()
+                _close_quietly(file, store)
+                if lock is not None:
+                    lock.release()
+                if isinstance(error, SessionError):
+                    raise error from None
+                raise
+        except BaseException:
+            if store is not None:
+                store.close()
             building.unlink(missing_ok=True)
-            if isinstance(error, SessionError):
-                raise error from None
             raise
         finally:
             if replaced is not None:
                 replaced.release()
-        session = cls(path, file, lock)
-        session._journal = journal
-        session.sync_each_hit = sync_each_hit
         return session
+
+    def _take_back(self, remove: bool) -> None:
+        """A creation stopped by a signal once the session was in place: close it as aborted and, unless it replaced
+        another file, remove it (the caller never had it: "not created" is then true)."""
+        with signals_deferred():
+            try:
+                self.close("aborted", "stopped during its creation")
+            except SessionError:
+                self.discard()
+            if remove:
+                with contextlib.suppress(OSError):
+                    real_path(self.path).unlink()
 
     @classmethod
     def open(cls, path: str | Path, mode: str = "r") -> "Session":
         """Open a session for reading (``"r"``) or for appending and adding results (``"a"``).
 
-        A session whose writer failed or was killed has a journal left next to it: reading rebuilds the session from
-        it in memory, appending rebuilds the file on disk first (``recovered`` is then True)."""
+        A session whose writer was killed during a commit has a rollback journal left next to it: reading shows the
+        session as at its last commit (in memory), appending restores the file on disk first. A session whose
+        writer was killed at another moment is as at its last commit already; appending to it marks it recovered.
+        A ``path`` that is a symbolic link names the session it points to, which is written in place."""
         path = Path(path)
         if mode not in ("r", "a"):
             raise SessionError(f"{path}: mode '{mode}' is not valid; use 'r' or 'a'")
         if path.is_dir():
             raise SessionError(f"{path}: is a folder, not a session file")
-        leftover_journal = journal_path(path).is_dir() and not journal_held_elsewhere(path)
-        if not path.exists() and not leftover_journal:
+        if not path.exists():
             raise SessionError(f"{path}: no such session file")
+        _refuse_old_journal(real_path(path))
         if mode == "a":
             return cls._open_for_writing(path)
-        if leftover_journal:
-            return cls._rebuilt_in_memory(path)
-        return cls._open_read_only(path, writer_lock_held=False)
+        return cls._open_read_only(path)
 
     @classmethod
-    def _open_read_only(cls, path: Path, writer_lock_held: bool) -> "Session":
-        """The session file as it is on disk (``writer_lock_held``: this process holds its writer lock)."""
+    @contextlib.contextmanager
+    def updating(cls, path: str | Path) -> Iterator["Session"]:
+        """Open a session for writing to store results and settings in it, all or nothing: they are committed
+        together when the block ends and the session closes; when the block raises or a write fails, nothing of it
+        reaches the file (byte for byte as it was). Hits and verdicts are committed at once, as always."""
+        session = cls.open(path, "a")
+        session._deferred += 1
+        try:
+            yield session
+        except BaseException:
+            session.discard()
+            raise
+        session._deferred -= 1
+        session.close()
+
+    @classmethod
+    def _open_read_only(cls, path: Path) -> "Session":
+        """The session file as its last commit left it."""
+        real = real_path(path)
+        live = WriterLock.held_elsewhere(real)
+        if live and real not in _SAID_HELD_ELSEWHERE:  # (export, report … of a session being recorded: what it
+            _SAID_HELD_ELSEWHERE.add(real)               # holds now, said once)
+            logger.warning("%s: open for writing in another gasfilm process (a recording or the GUI): read as it "
+                           "stands now", path)
+        if not live and journal_path(real).is_file():
+            return cls._rolled_back(path, real)
         try:
             file = open_h5(path, "r")
         except OSError as error:
@@ -519,112 +481,92 @@ class Session:
                 raise describe_open_failure(path, error) from None
             # The flags of a writer that is still recording or that ended without closing the file (killed, crashed,
             # power lost): the latter is checked first (reading a truncated one in SWMR mode can run for minutes).
-            live = not writer_lock_held and WriterLock.held_elsewhere(path)
             if not live:
                 check_unclosed_file(path)
             try:
                 file = open_h5(path, "r", swmr=True)
             except OSError as swmr_error:
                 raise describe_open_failure(path, swmr_error) from None
-            if live and path.resolve() not in _SAID_HELD_ELSEWHERE:  # (export, report … of a session being
-                _SAID_HELD_ELSEWHERE.add(path.resolve())                 # recorded: what it holds now, said once)
-                logger.warning("%s: open for writing in another gasfilm process (a recording or the GUI): read as "
-                               "it stands now", path)
             return cls(path, file, recovered=not live)
         return cls(path, file)
 
     @classmethod
-    def _rebuilt_in_memory(cls, path: Path) -> "Session":
-        """A read-only session rebuilt from the journal a failed or killed writer left (nothing is written to disk)."""
-        content = read_journal(journal_path(path))
-        salvage, closed = open_for_salvage(path)
+    def _rolled_back(cls, path: Path, real: Path) -> "Session":
+        """A read-only view of a session whose writer was killed during a commit: the file with its journal applied in
+        memory (nothing is written)."""
+        view = rolled_back_view(real)
         try:
-            file = h5py.File(io.BytesIO(), "w")
             try:
-                with _h5py_errors_raised():
-                    write_session_file(file, content, salvage, _rebuilt_status(salvage, closed, content))
-            except _WRITE_ERRORS as error:
-                file.close()
-                raise SessionError(
-                    f"{path}: the session cannot be rebuilt from its journal ({one_line(error)})"
-                ) from None
-        finally:
-            if salvage is not None:
-                salvage.close()
-        logger.warning("%s: read from its journal %s (%d hits): its writer did not close it", path,
-                       journal_path(path), content.hit_count)
-        return cls(path, file, recovered=True)
+                file = open_store(view, "r")
+            except OSError as error:
+                if "already open for write" not in str(error):
+                    raise describe_open_failure(path, error) from None
+                file = open_store(view, "r", swmr_read=True, single_read_attempt=True)
+        except OSError as error:
+            view.close()
+            raise describe_open_failure(path, error) from None
+        except BaseException:
+            view.close()
+            raise
+        logger.warning("%s: read as at its last commit (its writer stopped during a commit; %s restores the file "
+                       "when the session is next opened for writing)", path, journal_path(real).name)
+        return cls(path, file, recovered=True, store=view)
 
     @classmethod
-    def _open_for_writing(cls, path: Path) -> "Session":
-        """Take the writer lock; journal the committed hits (or take over a journal left behind); rewrite the session
-        file from the journal, so that the writes to come go into a file this process made; open it for appending."""
-        lock = WriterLock(path) if path.exists() else None
-        journal = None
+    def _open_for_writing(cls, path: Path, announce: bool = True) -> "Session":
+        """Take the writer lock, restore the file from a journal a killed writer left, and open it in place for
+        appending (a file whose writer was killed is opened with its flags cleared, and marked recovered)."""
+        real = real_path(path)
+        lock = WriterLock(real)
+        store = None
+        file = None
         try:
-            remove_leftovers(path)
-            remove_leftovers(journal_path(path))
-            journal = Journal.resume(path)
-            started = journal is None
-            if journal is not None:
-                content = journal.read()
-                status = _STATUS_OF_A_LEFT_JOURNAL
-            else:
-                if lock is None:
-                    raise SessionError(f"{path}: no such session file")
-                with cls._open_read_only(path, writer_lock_held=True) as source:
-                    content = source._committed_content()
-                    status = None
-                    if source.recovered:
-                        status = ("interrupted", f"the recording process ended without closing the session; "
-                                                 f"{content.hit_count} hits recovered")
-                try:
-                    journal = Journal.start(path, content.setup, content.rows[:0], content.records, content.rows)
-                except OSError as error:
-                    raise SessionWriteError(
-                        f"{path}: cannot start the session's journal for writing ({_write_error_text(error)}); "
-                        f"nothing was changed"
-                    ) from None
+            remove_leftovers(real)
             try:
-                new_lock = _rebuild_on_disk(path, content, status)
-            except SessionWriteError:
-                if started:  # the session file is untouched: the journal just started holds nothing more
-                    journal.remove()
-                    journal = None
-                raise
-            if lock is not None:
-                lock.release()
-            lock = new_lock
-            try:
-                file = open_h5(path, "a")
+                restored = restore(real)
             except OSError as error:
-                raise SessionWriteError(
-                    f"{path}: cannot open the session for writing ({_write_error_text(error)}); its "
-                    f"{content.hit_count} hits are safe in {journal_path(path).name}"
-                ) from None
-            session = cls(path, file, lock, recovered=status is not None)
+                raise SessionWriteError(f"{path}: cannot restore the session from its journal "
+                                        f"{journal_path(real).name} ({error.strerror or error}); nothing was changed")
+            try:
+                store = RollbackFile(real, writable=True)
+            except OSError as error:
+                raise SessionError(f"{path}: cannot open the session for writing ({error.strerror or error})") from None
+            killed = store.left_open  # a writer that ended without closing the file (killed, crashed)
+            try:
+                if killed:  # checked first; then, as h5clear -s, opened with its flags cleared and closed (the clean
+                    check_unclosed_file(real)  # flags held), then opened
+                    open_store(store, "r+", clear_status_flags=True).close()
+                file = open_store(store, "r+")
+            except OSError as error:
+                raise describe_open_failure(path, error) from None
+            session = cls(path, file, lock, recovered=killed or restored, store=store)
+            file = None  # (the session owns it now, and let go of it if it refused it)
+            if killed:
+                session._mark_recovered(announce)
             with session._writing("the session's open state"):
-                session._settled()  # (a viewer killed now leaves a readable file, its results kept)
-            if status is not None:
-                logger.warning("%s: rebuilt before writing (status %s: %s)", path, session.status,
-                               session.status_reason)
+                session._settled()
         except BaseException:
-            if journal is not None:
-                journal.release()
-            if lock is not None:
-                lock.release()
+            if file is not None:
+                _close_quietly(file, store)
+            if store is not None:
+                store.rollback()
+                store.close()
+            lock.release()
             raise
-        session._journal = journal
-        session._digests = content.digests()
         return session
 
-    @_reading("the hits")
-    def _committed_content(self) -> JournalContent:
-        """The setup and every committed hit, as a journal starts with them."""
-        rows = self._rows()
-        records = self._read_data(slice(0, len(rows)))
-        setup, _ = setup_of(self._file)
-        return JournalContent(setup, np.asarray(records, dtype=np.float64), rows, [])
+    def _mark_recovered(self, announce: bool) -> None:
+        """A session whose writer ended without closing it: status "interrupted" when it was recording, and when."""
+        with self._writing("the recovered session's status"):
+            self._structural()
+            if self._file.attrs["status"] == "recording":
+                self._file.attrs["status"] = "interrupted"
+                self._file.attrs["status_reason"] = (f"the recording process ended without closing the session; "
+                                                     f"{self._hit_count} hits recovered")
+            self._file.attrs["recovered_utc"] = utc_now()
+            self._changed = True
+        logger.log(logging.WARNING if announce else logging.INFO, "%s: its writer ended without closing it (status "
+                   "%s: %s)", self.path, self.status, self.status_reason)
 
     @_reading("its layout")
     def _check_layout(self) -> None:
@@ -684,130 +626,127 @@ class Session:
 
     @property
     def is_open(self) -> bool:
-        return not self._close_failed and bool(self._file.id.valid)
+        return bool(self._file.id.valid)
 
     def close(self, status: str | None = None, reason: str = "") -> None:
         """Close the file, recording how the session ended: ``"complete"`` or ``"aborted"`` (with a reason).
 
         Without a status, a session that was recording becomes ``"complete"`` and any other keeps its status (so
-        adding a fit to an aborted session does not make it complete)."""
-        if self._write_failure is not None:
-            if self._journal is not None or self._lock is not None:
-                self._close_after_write_failure()
-            return
+        adding a fit to an aborted session does not make it complete). A session opened for writing that nothing was
+        written to is closed without a write: its file stays as it was, byte for byte. A stop signal waits until the
+        session is closed."""
+        with signals_deferred():
+            self._close(status, reason)
+
+    def _close(self, status: str | None, reason: str) -> None:
         if not self.is_open:
             return
-        final_status = None
-        if self.writable:
-            if status is None:
-                status = "complete" if self._file.attrs["status"] == "recording" else None
-            elif status not in ("complete", "aborted"):
-                raise SessionError(f"{self.path}: close status '{status}' is not valid; use 'complete' or 'aborted'")
-            if status is not None:
-                try:
-                    with self._writing(f"its status '{status}'"):
-                        self._set_status(status, reason)
-                        self._file.attrs["closed_utc"] = utc_now()
-                        self._file.flush()
-                except SessionWriteError:
-                    self._close_after_write_failure()
-                    raise
-            final_status = (str(self._file.attrs["status"]), str(self._file.attrs["status_reason"]))
-        failure = _close_or_detach(self._file, self.path)
-        if failure is not None:
-            self._write_failure = _write_error_text(failure)
-            logger.error("%s: closing the file failed: %s", self.path, one_line(failure))
+        if not self.writable or self._write_failure is not None:
+            self._let_go()
+            if self._write_failure is not None and self._committed:
+                self._finish_after_failure()
+            return
+        if status is not None and status not in ("complete", "aborted"):
+            raise SessionError(f"{self.path}: close status '{status}' is not valid; use 'complete' or 'aborted'")
+        if not (self._changed or self._committed):
+            self.discard()
+            return
+        if status is None:
+            status = "complete" if self._file.attrs["status"] == "recording" else None
         try:
-            if self._journal is not None:
-                self._settle_journal(final_status if self._write_failure is None else None)
+            with self._writing(f"its status '{status}'" if status else "the session's closing"):
+                if status is not None:
+                    self._set_status(status, reason)
+                    self._file.attrs["closed_utc"] = utc_now()
+                    self._file.flush()
+                self._file.close()
+                self._guard_records()
+                self._store.commit()
+            self._changed = False
         finally:
-            if self._lock is not None:
-                self._lock.release()
+            self._let_go()
+
+    def _finish_after_failure(self) -> None:
+        """After a failed write, close the session at its last commit as "interrupted", saying why, where the disk
+        still allows it (else it is left as that commit left it, open for writing: it reads as interrupted)."""
+        reason = f"writing failed ({self._write_failure}); the {self._hit_count} hits before it are kept"
+        try:
+            again = Session._open_for_writing(self.path, announce=False)
+        except SessionError as error:
+            logger.info("%s: the status is left as at the last commit (%s)", self.path, error)
+            return
+        try:
+            with again._writing("the status after the failure"):
+                again._set_status("interrupted", reason)
+                again._file.attrs["closed_utc"] = utc_now()
+            again.close()
+        except SessionError as error:
+            logger.info("%s: the status is left as at the last commit (%s)", self.path, error)
+
+    def discard(self) -> None:
+        """Close without committing what was written since the last commit: the file stays as that commit left it
+        (as it was when opened, when nothing was committed since)."""
+        if self._store is not None:
+            self._store.rollback()
+        self._let_go()
+
+    def _let_go(self) -> None:
+        """Close the HDF5 file (after a failure its writes reach nothing), the file behind it and the writer lock."""
+        if self.is_open:
+            failure = _close_quietly(self._file, self._store)
+            if failure is not None and self._write_failure is None and self.writable:
+                logger.error("%s: closing the file failed: %s", self.path, one_line(failure))
+        if self._store is not None:
+            if self.writable and self._write_failure is None and (self._changed or self._store.uncommitted_bytes):
+                self._store.rollback()  # (a close that did not commit: nothing of it reaches the file)
+            self._store.close()
+        if self._lock is not None:
+            self._lock.release()
+            self._lock = None
 
     @contextlib.contextmanager
     def _writing(self, what: str) -> Iterator[None]:
-        """Run HDF5 writes; when one fails (full disk, I/O error), detach the file at once, note the failure (nothing
-        more is written) and raise one :class:`SessionWriteError` line naming ``what`` was being written."""
+        """Run HDF5 writes; when one fails (full disk, I/O error), roll back everything since the last commit and let
+        go of the file (nothing more is written), and raise one :class:`SessionWriteError` line naming ``what`` was
+        being written."""
         try:
-            with _h5py_errors_raised(on_error=self._detach_file):
+            with _h5py_errors_raised(on_error=self._roll_back):
                 yield
+            if self._store is not None and self._store.failure is not None:
+                raise self._store.failure  # a write h5py reported nowhere
         except _WRITE_ERRORS as error:
-            self._detach_file()
+            self._roll_back()
             self._write_failure = _write_error_text(error)
-            kept = len(self._digests) if self._journal is not None else self._hit_count
-            logger.error("%s: writing %s failed: %s; %d hits kept", self.path, what, one_line(error), kept)
-            also = " and this one" if kept > self._hit_count else ""
-            raise SessionWriteError(
-                f"{self.path}: writing {what} failed ({self._write_failure}); recording stopped, the "
-                f"{self._hit_count} hits before it{also} are kept"
-            ) from None
+            logger.error("%s: writing %s failed: %s; %d hits kept", self.path, what, one_line(error),
+                         self._hit_count)
+            kept = (f"recording stopped, the {self._hit_count} hits before it are kept" if what == "a new hit" else
+                    "the session is left as it was before it")
+            raise SessionWriteError(f"{self.path}: writing {what} failed ({self._write_failure}); {kept}") from None
 
-    def _detach_file(self) -> None:
-        """Detach the file after a write failure (see :func:`_detach`): it keeps its "open for writing" mark and opens
-        as an interrupted session with every committed hit."""
-        if self._write_failure is None and self.is_open:
-            _detach(self._file, self.path)
+    def _roll_back(self) -> None:
+        if self._store is not None and self._write_failure is None:
+            self._store.rollback()
 
-    def _close_after_write_failure(self) -> None:
-        """Let go of a file that could not be written (detached, so nothing more reaches the disk), then rebuild it
-        from the journal where the disk allows (else the journal stays, and the next open rebuilds from it)."""
-        if not self._close_failed:
-            try:
-                with _h5py_errors_raised():
-                    self._file.close()
-            except (OSError, RuntimeError) as error:
-                logger.info("%s: closing after the write failure: %s", self.path, one_line(error))
-        try:
-            if self._journal is not None:
-                self._settle_journal(None)
-        finally:
-            if self._lock is not None:
-                self._lock.release()
-                self._lock = None
+    def _commit(self, what: str) -> None:
+        """Make what was written durable (unless opened by :meth:`updating`, whose close commits)."""
+        if self._deferred:
+            return
+        with self._writing(what), signals_deferred():
+            self._file.flush()
+            self._guard_records()
+            self._store.commit()
+        self._changed = False
+        self._committed = True
 
-    def _settle_journal(self, final_status: tuple[str, str] | None) -> None:
-        """After the file is closed: remove the journal once the file on disk holds exactly the journaled hits,
-        rebuilding the file from the journal first when it does not (or when writing failed: ``final_status`` None).
-        When the rebuild fails (a full disk), the journal stays for the next open, which rebuilds from it."""
-        journal, self._journal = self._journal, None
-        try:
-            if final_status is None or not self._file_holds_journaled_hits():
-                content = journal.read()
-                if final_status is None:
-                    status = ("interrupted", f"writing failed ({self._write_failure}); {content.hit_count} hits "
-                                             f"rebuilt from its journal")
-                else:
-                    status = (final_status[0], f"{final_status[1]}; {content.hit_count} hits rebuilt from its journal"
-                              .lstrip("; "))
-                    logger.error("%s: the closed file does not hold the %d journaled hits; rebuilding it",
-                                 self.path, len(self._digests))
-                lock = _rebuild_on_disk(self.path, content, status)
-                if lock is not None:
-                    lock.release()
-                logger.info("%s: rebuilt from its journal: %d hits", self.path, content.hit_count)
-            journal.remove()
-        except (SessionError, OSError) as error:
-            logger.error("%s: the journal %s is kept (%s)", self.path, journal.folder, one_line(error))
-            journal.release()
-
-    def _file_holds_journaled_hits(self) -> bool:
-        """Whether the closed session file reads back with exactly the hits of the journal, sample for sample."""
-        try:
-            with _h5py_errors_raised(), open_h5(self.path, "r") as file:
-                table, data = file["hits/table"], file["hits/data"]
-                count = committed_hits(table, data)
-                if count != len(self._digests):
-                    return False
-                for start in range(0, count, 64):
-                    stop = min(start + 64, count)
-                    rows, records = table[start:stop], data[start:stop]
-                    if any(hit_digest(record, row) != self._digests[start + offset]
-                           for offset, (record, row) in enumerate(zip(records, rows))):
-                        return False
-        except _READ_ERRORS as error:
-            logger.error("%s: the closed file cannot be read back: %s", self.path, one_line(error))
-            return False
-        return True
+    def _guard_records(self) -> None:
+        """Refuse a commit that would write over a stored record (HDF5 misled by damaged metadata into reusing its
+        bytes): the session is then rolled back, its hits as they were."""
+        starts = [start for start, _ in self._records]
+        for offset, length in self._store.held_ranges():
+            before = bisect.bisect_left(starts, offset + length) - 1  # the last record starting before the write ends
+            if before >= 0 and self._records[before][1] > offset:
+                raise ValueError(f"damaged session: HDF5 was about to write over the stored record at byte "
+                                 f"{self._records[before][0]}")
 
     def _set_status(self, status: str, reason: str) -> None:
         self._structural()
@@ -820,42 +759,33 @@ class Session:
     def _require_writable(self) -> None:
         if not self.writable:
             raise SessionError(f"{self.path}: the session is open read-only (open it with mode 'a' to change it)")
-        if not self.is_open:
-            raise SessionError(f"{self.path}: the session is closed")
         if self._write_failure is not None:
             raise SessionWriteError(f"{self.path}: writing failed earlier ({self._write_failure}); nothing more is written")
+        if not self.is_open:
+            raise SessionError(f"{self.path}: the session is closed")
 
     def _structural(self) -> None:
         """Leave SWMR mode (by reopening the file) so groups and attributes can be created."""
         self._require_writable()
+        self._changed = True
         if self._file.swmr_mode:
-            failure = _close_or_detach(self._file, self.path)  # raised here, before the file is opened again
-            if failure is not None:
-                self._close_failed = True  # the h5py object must not be used again (HDF5 crashes on it)
-                raise failure
-            self._file = open_h5(self.path, "a")
+            self._file.close()
+            self._file = open_store(self._store, "r+")
 
     def _settled(self) -> None:
-        """After a change of groups or attributes: flush and enter SWMR mode, so that the file on disk stays readable
-        (and its results salvageable) if this process is killed before it closes the file; a file left open for
-        writing outside SWMR mode cannot be read at all, and rebuilding the session from its journal then lost every
-        stored FRF, fit and diagnosis. The status is left as it is."""
+        """After a change of groups or attributes: flush and enter SWMR mode, so that the file a commit leaves is
+        readable while this process writes it, and after it was killed (a file left open for writing outside SWMR
+        mode cannot be read at all). The status is left as it is."""
         self._file.flush()
         if not self._file.swmr_mode:
             self._file.swmr_mode = True
 
     def _appending(self) -> None:
-        """Enter SWMR mode: from now on the file on disk is consistent after every flush."""
+        """Enter SWMR mode, the status "recording": from now on the file on disk is consistent after every commit."""
         self._require_writable()
         if self._file.attrs["status"] != "recording":  # (a session opened for writing is already in SWMR mode)
             self._set_status("recording", "")
         self._settled()
-
-    def _sync(self) -> None:
-        if self.sync_each_hit:
-            os.fsync(self._file.id.get_vfd_handle())
-
-    # ----- metadata ----------------------------------------------------------------------------------------------
 
     @property
     def _data(self) -> h5py.Dataset:
@@ -930,12 +860,13 @@ class Session:
 
         return decode_setting(self.settings, key, cls, str(self.path))
 
+
     def update_settings(self, settings: Mapping[str, Any]) -> None:
-        """Store (or replace) processing settings by key."""
+        """Store (or replace) processing settings by key; committed with the next hit, verdict or result, or when the
+        session is closed (a run that ends before recording anything can :meth:`discard` them)."""
         self._require_writable()
         encoded = {key: json_dumps(value) for key, value in settings.items()}
         with self._writing("the settings"):
-            self._journal_write().set_settings(encoded)
             self._structural()
             for key, value in encoded.items():
                 self._group("settings").attrs[key] = value
@@ -958,10 +889,11 @@ class Session:
         return int(self._data.shape[2])
 
     def append_hit(self, hit: Any, verdict: Any) -> int:
-        """Store one hit and its verdict, flushed to disk before returning; return its index in the session.
+        """Store one hit and its verdict, committed (durable) before returning; return its index in the session.
 
         Raises :class:`SessionWriteError` when the hit would pass the size limit or the free disk space, or when
-        writing fails (full disk, I/O error): the hits stored before stay in the file, and nothing more is written."""
+        writing fails (full disk, I/O error): the session is rolled back to its last commit (the hits stored before
+        are kept), and nothing more is written."""
         self._require_writable()
         data = np.asarray(hit.data, dtype=np.float64)
         channels = self._data.shape[1]
@@ -991,28 +923,32 @@ class Session:
         row["force_channel"] = int(hit.force_channel)
         row["response_channel"] = int(hit.response_channel)
         row["overload"] = np.asarray(hit.overload, dtype=bool).reshape(channels)
-        self._check_room(2 * (data.nbytes + row.nbytes))  # the journal's copy and the file's
+        self._check_room(data.nbytes + row.nbytes)
         with self._writing("a new hit"):
-            self._journal_write().add_hits(index, data[np.newaxis], row.reshape(1), sync=self.sync_each_hit)
-            self._digests.append(hit_digest(data, row))
             self._appending()
+            self._changed = True
             records, table = self._data, self._table
             records.resize((index + 1, channels, samples))
             records[index] = data
-            records.flush()
             table.resize((index + 1,))
             table[index] = row
-            table.flush()
-            self._file.flush()  # nothing left for HDF5 to write when the objects are freed, where errors pass unseen
             del records, table
-            self._sync()
+        self._commit("a new hit")
+        with self._writing("a new hit"):
+            self._records = sorted(self._records + self._chunks_of_hit(index))
         self._hit_count = index + 1
         return index
 
-    def _journal_write(self) -> Journal:
-        if self._journal is None:
-            raise SessionError(f"{self.path}: the session has no journal to write to")
-        return self._journal
+    def _chunks_of_hit(self, index: int) -> list[tuple[int, int]]:
+        """Where the record of hit ``index`` lies in the file (one range per chunk)."""
+        data = self._data
+        step = data.chunks[2]
+        ranges = []
+        for first in range(0, max(data.shape[2], 1), step):
+            info = data.id.get_chunk_info_by_coord((index, 0, first))
+            if info.byte_offset is not None:
+                ranges.append((info.byte_offset, info.byte_offset + info.size))
+        return ranges
 
     def _check_room(self, hit_bytes: int) -> None:
         """Refuse a hit that would pass the size limit or leave the disk without room to close the session."""
@@ -1115,6 +1051,36 @@ class Session:
             for index, row in zip(indices, rows)
         ]
 
+    def stored_hits(self, indices: Sequence[int] | None = None) -> "StoredHits":
+        """The hits ``indices`` (all by default) as a sequence read from the file on demand, a slice at a time: what
+        averages a large session without holding its records in memory (NaN samples are named as by :meth:`hits`)."""
+        rows = self._rows()
+        return StoredHits(self, np.arange(len(rows)) if indices is None else np.asarray(indices, dtype=np.int64),
+                          rows)
+
+    @_reading("the hits")
+    def _stored(self, indices: np.ndarray, rows: np.ndarray) -> list[StoredHit]:
+        """The hits ``indices`` (increasing) with their records, checked for NaN samples."""
+        if len(indices) == 0:
+            return []
+        records = self._read_data(indices if len(indices) > 1 else slice(int(indices[0]), int(indices[0]) + 1))
+        self._check_finite(records, indices)
+        return [
+            StoredHit(
+                index=int(index),
+                data=record,
+                sample_rate_hz=float(rows[index]["sample_rate_hz"]),
+                trigger_index=int(rows[index]["trigger_index"]),
+                start_time_s=float(rows[index]["start_time_s"]),
+                overload=np.array(rows[index]["overload"], dtype=bool),
+                force_channel=int(rows[index]["force_channel"]),
+                response_channel=int(rows[index]["response_channel"]),
+                capture_index=int(rows[index]["capture_index"]),
+                verdict=self._verdict(rows[index]),
+            )
+            for index, record in zip(indices, records)
+        ]
+
     @_reading("the hit table")
     def accepted_indices(self) -> np.ndarray:
         return np.flatnonzero(self._rows()["accepted"])
@@ -1130,27 +1096,22 @@ class Session:
         return records
 
     def set_verdict(self, index: int, verdict: Any) -> None:
-        """Replace a hit's verdict (e.g. the user overrides a rejection); flushed at once."""
+        """Replace a hit's verdict (e.g. the user overrides a rejection); committed at once."""
         self._require_writable()
         if not 0 <= index < self.hit_count:
             raise SessionError(f"{self.path}: hit {index + 1} does not exist (the session holds {self.hit_count})")
         reasons = encode_reasons(tuple(verdict.reasons), self.path)
         with self._writing(f"the verdict of hit {index + 1}"):
+            self._appending()  # (may reopen the file to mark it recording: the table is taken after it)
+            self._changed = True
             table = self._table
             row = table[index]
             row["accepted"] = bool(verdict.accepted)
             row["overridden"] = bool(getattr(verdict, "overridden", False))
             row["reasons"] = reasons
-            self._journal_write().set_row(index, row)
-            self._digests[index] = hit_digest(self._data[index], row)
-            del table
-            self._appending()  # (may reopen the file to mark it recording: the table is taken again after it)
-            table = self._table
             table[index] = row
-            table.flush()
-            self._file.flush()
             del table
-            self._sync()
+        self._commit(f"the verdict of hit {index + 1}")
 
     # ----- results ------------------------------------------------------------------------------------------------
 
@@ -1166,6 +1127,7 @@ class Session:
             group.attrs["written_utc"] = utc_now()
             del parent, group
             self._settled()
+        self._commit(f"the {kind} result '{name}'")
 
     def _read_result(self, kind: str, name: str) -> dict[str, Any]:
         if name not in self._group(kind):
@@ -1243,6 +1205,7 @@ class Session:
     def read_diagnosis(self, name: str) -> dict[str, Any]:
         return self._read_result("diagnoses", name)
 
+
     def add_diagnosis(self, values: Mapping[str, Any]) -> str:
         """Store a diagnosis as a new run (``run-001``, ``run-002``, …) and point ``latest`` at it; no earlier
         diagnosis is erased (one stored as ``latest`` itself, before runs were kept, becomes a run first). Returns the
@@ -1263,6 +1226,7 @@ class Session:
             parent[LATEST_DIAGNOSIS] = h5py.SoftLink(f"{parent.name}/{name}")
             del parent, group
             self._settled()
+        self._commit("a diagnosis")
         return name
 
     @staticmethod

@@ -1,9 +1,8 @@
-"""Session files on disk: the writer lock, opening with HDF5, checking a file whose writer died, replacing a file
-with its rebuilt copy."""
+"""Session files on disk: the writer lock, opening with HDF5 (directly, or through the rollback journal's file),
+checking a file whose writer died, giving a new file its name."""
 
 from __future__ import annotations
 
-import contextlib
 import ctypes
 import errno
 import glob
@@ -23,11 +22,8 @@ try:
 except ImportError:  # Windows: HDF5's own file locking guards the file instead of :class:`WriterLock`
     fcntl = None
 
-from gasfilm.analysis.session.layout import (
-    FORMAT_NAME,
-    SessionError,
-    one_line,
-)
+from gasfilm.analysis.session.journal import RollbackFile
+from gasfilm.analysis.session.layout import SessionError, one_line
 
 logger = logging.getLogger(__name__)
 
@@ -57,9 +53,8 @@ with h5py.File(fid) as f:
         f[name].id.chunk_iter(lambda chunk: ends.append(chunk.byte_offset + chunk.size))
     sys.exit(3 if ends and max(ends) > size else 0)
 """
-#: Hidden files a creation or a recovery builds before it moves them into place: ``.NAME.PID.creating``; and the
-#: folder a journal is started in, ``.NAME.journal.PID.starting``.
-BUILDING_SUFFIXES = ("creating", "recovering", "starting")
+#: Hidden files a creation builds before it moves them into place: ``.NAME.PID.creating``.
+BUILDING_SUFFIXES = ("creating",)
 
 
 def describe_open_failure(path: Path, error: OSError) -> SessionError:
@@ -140,74 +135,52 @@ def check_unclosed_file(path: Path) -> None:
 
 
 
-def open_for_salvage(path: Path) -> tuple[h5py.File | None, bool]:
-    """The old session file opened read-only to take what it still holds, and whether it was closed properly;
-    (None, False) when it cannot be opened (missing, damaged, not a session, or reading it would run past its end)."""
-    try:
-        return _checked_session(open_h5(path, "r")), True
-    except (OSError, SessionError) as error:
-        if "already open for write" not in str(error):
-            return None, False
-    try:
-        fapl = _single_read_attempt_access()
-        if fapl is None:  # no way to stop HDF5's retries in this process: check the file in a child first
-            check_unclosed_file(path)
-            return _checked_session(open_h5(path, "r", swmr=True)), False
-        file_id = h5py.h5f.open(os.fsencode(path), h5py.h5f.ACC_RDONLY | h5py.h5f.ACC_SWMR_READ, fapl=fapl)
-        return _checked_session(h5py.File(file_id)), False
-    except (OSError, SessionError):
-        return None, False
-
-
-def _single_read_attempt_access() -> Any:
-    """File access properties that read a file left open by its writer in SWMR mode with a single attempt per metadata
-    read (HDF5's default retries and sleeps for minutes past the end of a truncated file); None where HDF5's library
-    cannot be found in this process (H5Pset_metadata_read_attempts is called through ctypes: h5py does not wrap it)."""
+def _hdf5_library() -> ctypes.CDLL | None:
+    """h5py's HDF5 library in this process, for the few settings h5py does not wrap (None where it cannot be found)."""
     try:
         with open("/proc/self/maps") as maps:
             libraries = [line.split()[-1] for line in maps if "/libhdf5" in line]
-        function = ctypes.CDLL(libraries[0]).H5Pset_metadata_read_attempts
-    except (OSError, IndexError, AttributeError):
+        return ctypes.CDLL(libraries[0])
+    except (OSError, IndexError):
         return None
+
+
+def _set_single_read_attempt(fapl: Any) -> bool:
+    library = _hdf5_library()
+    try:
+        return library is not None and library.H5Pset_metadata_read_attempts(
+            ctypes.c_int64(fapl.id), ctypes.c_uint(1)) >= 0
+    except AttributeError:
+        return False
+
+
+def open_store(store: RollbackFile, mode: str, clear_status_flags: bool = False, swmr_read: bool = False,
+               single_read_attempt: bool = False) -> h5py.File:
+    """Open the session file HDF5 reads and writes through ``store`` (h5py's file-object driver): ``mode`` "w"
+    (a new file), "r+" or "r". ``clear_status_flags``: open for writing a file whose writer was killed (HDF5 refuses
+    it as "already open for write", as ``h5clear -s`` would); ``swmr_read``: read such a file;
+    ``single_read_attempt``: one attempt per metadata read (no minutes of retries past the end of a cut file)."""
     fapl = h5py.h5p.create(h5py.h5p.FILE_ACCESS)
-    if fcntl is not None:
-        fapl.set_file_locking(False, True)
-    if function(ctypes.c_int64(fapl.id), ctypes.c_uint(1)) < 0:
-        return None
-    return fapl
-
-
-def _checked_session(file: h5py.File) -> h5py.File:
-    if file.attrs.get("format") != FORMAT_NAME:
-        file.close()
-        raise SessionError("not a session")
-    return file
-
-
-def replace_durably(building: Path, path: Path, lock: bool) -> "WriterLock | None":
-    """Move the finished file ``building`` over ``path`` after an fsync of its data, and fsync the folder; with
-    ``lock``, take the writer lock on it first (so no other writer gets in between) and return it."""
-    fd = os.open(building, os.O_RDONLY)
-    try:
-        os.fsync(fd)
-    finally:
-        os.close(fd)
-    with contextlib.suppress(OSError):
-        shutil.copymode(path, building)
-    writer_lock = WriterLock(building) if lock else None
-    try:
-        os.replace(building, path)
-        if os.name != "nt":
-            folder = os.open(path.parent, os.O_RDONLY)
-            try:
-                os.fsync(folder)
-            finally:
-                os.close(folder)
-    except BaseException:
-        if writer_lock is not None:
-            writer_lock.release()
-        raise
-    return writer_lock
+    fapl.set_fileobj_driver(h5py.h5fd.fileobj_driver, store)
+    if mode != "r":
+        fapl.set_libver_bounds(h5py.h5f.LIBVER_LATEST, h5py.h5f.LIBVER_LATEST)
+    if single_read_attempt:
+        _set_single_read_attempt(fapl)
+    if clear_status_flags:
+        library = _hdf5_library()
+        flag = ctypes.c_bool(True)
+        if library is None or library.H5Pset(ctypes.c_int64(fapl.id), b"clear_status_flags",
+                                             ctypes.byref(flag)) < 0:
+            raise SessionError(f"{store.path}: left open by a writer that did not close it, and this HDF5 library "
+                               f"cannot clear its flags; run h5clear -s on it")
+    name = repr(store).encode("ascii", "replace")
+    if mode == "w":
+        file_id = h5py.h5f.create(name, h5py.h5f.ACC_TRUNC, fapl=fapl)
+    elif mode == "r+":
+        file_id = h5py.h5f.open(name, h5py.h5f.ACC_RDWR, fapl=fapl)
+    else:
+        file_id = h5py.h5f.open(name, h5py.h5f.ACC_RDONLY | (h5py.h5f.ACC_SWMR_READ if swmr_read else 0), fapl=fapl)
+    return h5py.File(file_id)
 
 
 def building_path(path: Path, suffix: str) -> Path:
@@ -228,8 +201,8 @@ def _process_alive(pid: int) -> bool:
 
 
 def remove_leftovers(path: Path) -> None:
-    """Delete the hidden files that killed creations or recoveries of ``path`` left behind (their process has ended
-    and no process holds their lock); a live creation or recovery keeps its file."""
+    """Delete the hidden files that killed creations of ``path`` left behind (their process has ended and no process
+    holds their lock); a live creation keeps its file."""
     pattern = re.compile(rf"^\.{re.escape(path.name)}\.(\d+)\.({'|'.join(BUILDING_SUFFIXES)})$")
     try:
         candidates = [Path(name) for suffix in BUILDING_SUFFIXES
@@ -249,11 +222,9 @@ def remove_leftovers(path: Path) -> None:
             else:
                 leftover.unlink()
         except OSError as error:
-            logger.warning("%s: cannot remove the leftover of an interrupted %s (%s)", leftover, match.group(2),
-                           error.strerror)
+            logger.warning("%s: cannot remove the leftover of an interrupted creation (%s)", leftover, error.strerror)
         else:
-            logger.warning("%s: removed the leftover of a killed %s (process %d)", leftover,
-                           {"creating": "creation", "recovering": "recovery"}.get(match.group(2), "journal start"), pid)
+            logger.warning("%s: removed the leftover of a killed creation (process %d)", leftover, pid)
 
 
 def move_into_place(building: Path, path: Path, overwrite: bool) -> None:

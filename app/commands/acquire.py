@@ -16,9 +16,11 @@ import time
 from pathlib import Path
 from typing import Any, Iterator
 
+from gasfilm.analysis.interrupts import signals_deferred
+from gasfilm.analysis.paths import link_target
 from gasfilm.app.commands.common import (check_force_window_length, check_output_file, check_session_path, hit_line,
                                          is_terminal, positive_flag, settings_from_flags, window_value)
-from gasfilm.drivers.errors import DeviceError, SettingError
+from gasfilm.drivers.errors import DeviceError, GasfilmError, SettingError
 
 logger = logging.getLogger(__name__)
 
@@ -196,9 +198,9 @@ def _settings_of_the_session(args: argparse.Namespace) -> None:
 
 
 def _attach_log(session_path: Path) -> logging.Handler:
-    """Faults, dropped chunks, recoveries and the run's summary, appended to ``<session>.log`` next to it (the file
-    is made at the first message, so a run refused up front leaves none)."""
-    handler = _SessionLog(session_path.with_suffix(".log"), encoding="utf-8", delay=True)
+    """Faults, dropped chunks, recoveries and the run's summary, appended to ``<session>.log`` next to it (beside the
+    file a link points to; the file is made at the first message, so a run refused up front leaves none)."""
+    handler = _SessionLog(link_target(session_path).with_suffix(".log"), encoding="utf-8", delay=True)
     handler.setLevel(logging.INFO)
     handler.setFormatter(logging.Formatter("%(asctime)s %(levelname)s %(name)s: %(message)s"))
     logging.getLogger("gasfilm").addHandler(handler)
@@ -313,10 +315,12 @@ def _write_session_frf(session: Any, window: Any) -> None:
     from gasfilm.analysis.rigid_session import hits_at_spec_point, session_spec
     from gasfilm.analysis.spectra import session_frf
 
-    accepted = [hit for hit in session.hits() if hit.verdict.accepted]
     spec = session_spec(session)
-    if spec is not None:
-        accepted = hits_at_spec_point(spec, session.settings, accepted)
+    if spec is None or spec.rigid_body is None:  # (read block by block: the whole session is never in memory)
+        indices = session.accepted_indices()
+        session.write_frf(session_frf(session.stored_hits(indices), window), hit_indices=indices)
+        return
+    accepted = hits_at_spec_point(spec, session.settings, [hit for hit in session.hits() if hit.verdict.accepted])
     if accepted:
         session.write_frf(session_frf(accepted, window), hit_indices=np.array([hit.index for hit in accepted]))
 
@@ -355,8 +359,20 @@ class _Progress:
             sys.stderr.flush()
 
 
-def _accepted(session: Any) -> int:
-    return sum(1 for verdict in session.verdicts() if verdict.accepted)
+def _nothing_recorded(args: argparse.Namespace, recorder: Any, hits_before: int) -> bool:
+    """Whether a run that ends now leaves no trace: before the recording started (a new session), or before its
+    first hit (an appended one: a run that adds no hit leaves its session byte for byte as it was)."""
+    return recorder is None or (args.append and recorder.hit_count == hits_before)
+
+
+def _left_unchanged(session: Any, args: argparse.Namespace) -> str:
+    """A run that recorded no hit leaves no trace: an appended session as it was (nothing it wrote is committed),
+    a new one removed. Says which."""
+    session.discard()
+    if args.append:
+        return f"{args.out} left as it was"
+    link_target(args.out).unlink(missing_ok=True)
+    return f"{args.out} not created"
 
 
 def _close_device(device: Any) -> None:
@@ -435,7 +451,7 @@ def _record_until_stopped(args: argparse.Namespace) -> int:
     trigger, validation, window = settings["trigger"], settings["validation"], settings["window"]
     check_session_path(args.out, "--out")
     if not args.append:
-        if args.out.exists() or args.out.is_symlink():
+        if args.out.exists():
             raise SettingError(f"--out {args.out}: the session file exists already (use --append to add hits to it)")
         check_output_file(args.out, "--out", overwrite=False)
     elif not args.out.is_file():
@@ -471,6 +487,7 @@ def _record_until_stopped(args: argparse.Namespace) -> int:
         raise SettingError(f"--trigger-n {args.trigger_n:g}: at or above the force channel's full scale "
                            f"({force_full_scale_n:.0f} N): no hit could ever trigger")
     session = None
+    hits_before = 0
     stream_start_s = 0.0
     recorder = None
     started = time.monotonic()
@@ -483,8 +500,10 @@ def _record_until_stopped(args: argparse.Namespace) -> int:
         except SettingError as error:  # the module's rules name the field; the user typed --rate
             raise SettingError(str(error).replace("sample_rate_hz:", f"--rate {args.rate:g}:")) from None
         rate_hz = device.sample_rate_hz
-        session = _open_session(args, config, rate_hz, device.name, stored_spec.to_toml() if stored_spec else None,
-                                settings)
+        with signals_deferred():  # (the session is handed over whole before a stop signal is raised)
+            session = _open_session(args, config, rate_hz, device.name,
+                                    stored_spec.to_toml() if stored_spec else None, settings)
+        hits_before = session.hit_count
         run, seed, stream_start_s = _continuation(session, args.seed) if args.append else (0, args.seed, 0.0)
         if args.append and run and args.device == SIMULATED_DEVICE_NAME:
             device = _open_device(args, rig_spec, seed)  # the appended run goes on, it does not repeat the first
@@ -538,41 +557,56 @@ def _record_until_stopped(args: argparse.Namespace) -> int:
         if session is None:
             _close_device(device)
             raise
-        accepted = recorder.accepted_count if recorder is not None else _accepted(session)
-        logger.error("%s: %s; session closed as aborted, %d accepted hits kept",
-                     "device fault" if isinstance(error, DeviceError) else "stopped", error, accepted)
-        _note_stream_end(session, stream_start_s + stream_s)
-        session.close("aborted", str(error))
+        with signals_deferred():  # (the clean-up is not cut short by a second signal)
+            if _nothing_recorded(args, recorder, hits_before):
+                raise DeviceError(f"{error} — {_left_unchanged(session, args)}", getattr(error, "code", None)) from None
+            accepted = recorder.accepted_count
+            logger.error("%s: %s; session closed as aborted, %d accepted hits kept",
+                         "device fault" if isinstance(error, DeviceError) else "stopped", error, accepted)
+            _note_stream_end(session, stream_start_s + stream_s)
+            session.close("aborted", str(error))
         raise DeviceError(
             f"{error} — session {args.out} closed as aborted, {accepted} accepted hits kept",
             getattr(error, "code", None),
         ) from None
     except KeyboardInterrupt as interrupt:  # Ctrl-C, or SIGTERM/SIGHUP through the stop-signal handlers
-        progress.done()
-        signum = interrupt.signum if isinstance(interrupt, StopSignal) else 2
-        how = "interrupted by the user" if signum == 2 else f"stopped by {interrupt}"
-        _close_device(device)
-        if session is None:
-            logger.info("%s before recording into %s started", how, args.out)
-            print(f"{how} before recording started: {args.out} not created", flush=True)
+        with signals_deferred():  # (the clean-up is not cut short by a second signal)
+            progress.done()
+            signum = interrupt.signum if isinstance(interrupt, StopSignal) else 2
+            how = "interrupted by the user" if signum == 2 else f"stopped by {interrupt}"
+            _close_device(device)
+            if session is None or _nothing_recorded(args, recorder, hits_before):
+                left = _left_unchanged(session, args) if session is not None else (
+                    f"{args.out} left as it was" if args.append else f"{args.out} not created")
+                logger.info("%s before recording into %s started", how, args.out)
+                print(f"{how} before recording started: {left}", flush=True)
+                return 128 + signum
+            accepted = recorder.accepted_count
+            _note_stream_end(session, stream_start_s + stream_s)
+            session.close("aborted", how)
+            logger.info("%s: %s, %d accepted hits kept", args.out, how, accepted)
+            print(f"{how}: session {args.out} closed with {accepted} accepted hits", flush=True)
             return 128 + signum
-        accepted = recorder.accepted_count if recorder is not None else _accepted(session)
-        _note_stream_end(session, stream_start_s + stream_s)
-        session.close("aborted", how)
-        logger.info("%s: %s, %d accepted hits kept", args.out, how, accepted)
-        print(f"{how}: session {args.out} closed with {accepted} accepted hits", flush=True)
-        return 128 + signum
     except BaseException as error:
         progress.done()
         _close_device(device)
         if session is None:
             raise
+        if _nothing_recorded(args, recorder, hits_before):
+            _left_unchanged(session, args)
+            raise
         logger.error("stopped by %s: %s; session closed as aborted", type(error).__name__, error)
         session.close("aborted", f"{type(error).__name__}: {error}")
         raise
     progress.done()
-    if recorder.accepted_count:
-        _write_session_frf(session, window)
+    try:
+        if recorder.accepted_count:
+            _write_session_frf(session, window)
+    except GasfilmError as error:  # (an earlier hit that cannot be read or averaged): the new hits are kept
+        _note_stream_end(session, stream_start_s + stream_s)
+        session.close("complete")
+        raise GasfilmError(f"{error} — the session's FRF is not updated; its {recorder.hit_count} hits are stored "
+                           f"and it is closed") from None
     _note_stream_end(session, stream_start_s + stream_s)
     session.close("complete")
     reasons = ", ".join(f"{reason}: {count}" for reason, count in sorted(recorder.reason_counts.items()))

@@ -12,7 +12,7 @@ import tempfile
 from pathlib import Path
 from typing import Any, Mapping, Sequence, TypeVar
 
-from gasfilm.analysis.paths import file_in_the_way, missing_folder
+from gasfilm.analysis.paths import file_in_the_way, link_target, missing_folder
 from gasfilm.drivers.errors import SettingError
 from gasfilm.drivers.units import STANDARD_GRAVITY_M_S2
 
@@ -99,26 +99,21 @@ def check_inputs(paths: Sequence[Path], suffixes: tuple[str, ...] = RECORD_FILE_
 def check_output_file(path: Path, flag: str, overwrite: bool, make_parent: bool = False) -> Path:
     """May this command write ``path``? Checked BEFORE any work; raises one :class:`SettingError` naming ``flag``.
 
-    An existing file is replaced only with ``--overwrite``; a symbolic link is never written through (with
-    ``--overwrite`` the link itself is removed, its target untouched); the folder must exist (or is made with
-    ``make_parent``) and accept a new file. ``flag`` is empty for a path the user did not type (a default)."""
+    An existing file is replaced only with ``--overwrite``; a symbolic link names the file it points to, which is
+    what is written (replaced in place with ``--overwrite``, the link kept; made where the link points when it does
+    not exist yet), as for every path gasfilm reads or writes (docs/architecture.md, "Files and links"); the folder
+    must exist (or is made with ``make_parent``) and accept a new file. ``flag`` is empty for a path the user did not
+    type (a default)."""
     where = f"{flag} {path}" if flag else str(path)
-    if path.is_symlink():
-        if not overwrite:
-            raise SettingError(f"{where}: is a symbolic link; gasfilm does not write through links "
-                               f"(--overwrite replaces the link itself)")
-        try:
-            path.unlink()
-        except OSError as error:
-            raise SettingError(f"{where}: cannot remove the link ({error.strerror or error})") from None
     if path.is_dir():
         raise SettingError(f"{where}: is a folder, not a file")
     if path.exists():
         if not overwrite:
-            raise SettingError(f"{where}: exists already (add --overwrite to replace it)")
+            linked = f" (the file its link points to, {link_target(path)})" if path.is_symlink() else ""
+            raise SettingError(f"{where}: exists already{linked} (add --overwrite to replace it)")
         if not os.access(path, os.W_OK):
             raise SettingError(f"{where}: exists and is not writable")
-    parent = path.parent
+    parent = link_target(path).parent
     if make_parent:
         if file_in_the_way(parent) is not None:
             raise SettingError(f"{where}: {missing_folder(parent)}")

@@ -9,11 +9,11 @@ from __future__ import annotations
 
 import argparse
 import contextlib
-import json
 import sys
 import time
 from pathlib import Path
 
+from gasfilm.analysis.jsontext import dumps
 from gasfilm.app.commands.common import check_inputs, check_output_folder
 from gasfilm.drivers.errors import GasfilmError, SettingError
 
@@ -108,14 +108,14 @@ def run(args: argparse.Namespace) -> int:
                "band_hz": list(band) if band else None}
     if len(args.source) == 1 and args.source[0].suffix.lower() not in (".uff", ".unv", ".npy"):
         try:
-            with Session.open(args.source[0], "a") as session:
+            with Session.updating(args.source[0]) as session:
                 run_name = session.add_diagnosis({**diagnosis.to_dict(), "options": options})
             progress(f"diagnosis stored in {args.source[0]} as diagnoses/{run_name} (the newest: diagnoses/latest; "
                      f"earlier runs are kept)")
         except GasfilmError as error:
             progress(f"diagnosis not stored in the session: {error}")
     if args.json:
-        print(json.dumps({**diagnosis.to_dict(), "options": options, "conditions": conditions}, indent=2))
+        print(dumps({**diagnosis.to_dict(), "options": options, "conditions": conditions}, indent=2))
     else:
         print(f"conditions: {format_conditions(conditions)}")
         print(report_text(diagnosis))

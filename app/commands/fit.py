@@ -10,12 +10,12 @@ not approach 1/m) is warned about: its fits mean little.
 from __future__ import annotations
 
 import argparse
-import json
 import logging
 import sys
 from pathlib import Path
 from typing import Any, Callable
 
+from gasfilm.analysis.jsontext import dumps
 from gasfilm.app.commands.common import (UNITS, accelerance_text, add_units_flag, check_inputs,
                                          check_output_folder, is_terminal,
                                          load_frf_and_hits, source_conditions)
@@ -149,6 +149,7 @@ def run(args: argparse.Namespace) -> int:
     from gasfilm.analysis.fit_settings import FitSettings
     from gasfilm.analysis.fit_warnings import mass_line_warning, not_explained_warning, other_resonances_hz
     from gasfilm.analysis.identification import METHODS, compare_models, fit_model, format_table2
+    from gasfilm.analysis.paths import written_whole
     from gasfilm.analysis.session import Session
     from gasfilm.analysis.sources import is_time_record_file
     from gasfilm.analysis.spectra import usable_band_hz
@@ -203,18 +204,22 @@ def run(args: argparse.Namespace) -> int:
             print(f"\r\033[K  [{index}/{len(models)}] {model.name:<8} RMS {accelerance_text(fit.rms, args.units)} "
                   f"in {fit.wall_time_s:.2f} s", file=sys.stderr)
         fits.append(fit)
-    if not is_time_record_file(args.source[0]):
-        with Session.open(args.source[0], "a") as session:
-            for fit in fits:
-                session.write_fit(fit.model_name, {**fit.to_dict(), **settings.stored_keys()})
     unexplained_hz = other_resonances_hz(frf, (float(freq_hz[0]), float(freq_hz[-1])))
     not_explained = not_explained_warning(unexplained_hz)
     if not_explained:
         logger.warning(not_explained)
     rows = compare_models(fits, freq_hz, h)
-    figures = [figure18(figure_paths[0], freq_hz, h, fits), figure19(figure_paths[1], freq_hz, h, fits)]
+    # the figures and the session's fits, all or nothing: the figures get their names once the fits are stored
+    with written_whole(*figure_paths, what="the figures") as building:
+        figure18(building[0], freq_hz, h, fits)
+        figure19(building[1], freq_hz, h, fits)
+        if not is_time_record_file(args.source[0]):
+            with Session.updating(args.source[0]) as session:
+                for fit in fits:
+                    session.write_fit(fit.model_name, {**fit.to_dict(), **settings.stored_keys()})
+    figures = figure_paths
     if args.json:
-        print(json.dumps({
+        print(dumps({
             "source": [str(path) for path in args.source],
             "frf": what,
             "conditions": conditions,

@@ -11,10 +11,11 @@ Next to ``--out`` go ``<stem>-error.png`` (the approximation's error against fre
 from __future__ import annotations
 
 import argparse
-import json
 import math
 from pathlib import Path
 
+from gasfilm.analysis.jsontext import dumps
+from gasfilm.analysis.paths import written_whole
 from gasfilm.app.commands.common import check_inputs, check_output_file
 from gasfilm.drivers.errors import SettingError
 
@@ -92,8 +93,6 @@ def run(args: argparse.Namespace) -> int:
             check_output_file(path, flag, args.overwrite)
 
     model = approximate(loaded.plant, band, order=args.order, max_error=max_error)
-    written = write_model(model, args.out)
-    figures = [figure_error(error_png, model)]
     oustaloup = None
     if loaded.plant.network and "pot(" in loaded.plant.network and loaded.fit is not None:
         oustaloup = oustaloup_order(loaded.plant, model.band_hz, max_error)
@@ -106,11 +105,17 @@ def run(args: argparse.Namespace) -> int:
                                   loaded.force_channel, loaded.response_channel, loaded.hit_indices,
                                   loaded.trigger_index, frf_relative_error(loaded.fit, frf.freq_hz, frf.h1),
                                   band_hz=loaded.fit.band_hz)
-        figures.append(figure_hits(hits_png, check))
+    outputs = [args.out, error_png] + ([hits_png] if check is not None else [])
+    with written_whole(*outputs, what="the model and its figures") as building:  # all of them, or none
+        write_model(model, building[0])
+        figure_error(building[1], model)
+        if check is not None:
+            figure_hits(building[2], check)
+    written, figures = args.out, outputs[1:]
     if args.json:
         data = model_to_dict(model)
         data.pop("origin")
-        print(json.dumps({"out": str(written), "figures": [str(path) for path in figures], "model": data,
+        print(dumps({"out": str(written), "figures": [str(path) for path in figures], "model": data,
                           "oustaloup_order": None if oustaloup is None else oustaloup[0],
                           "time_domain": None if check is None else check.to_dict()}))
         return 0

@@ -13,11 +13,10 @@ The exit status is 1 when no hit is accepted (no FRF).
 from __future__ import annotations
 
 import argparse
-import json
-import sys
 from pathlib import Path
 from typing import Any
 
+from gasfilm.analysis.jsontext import dumps
 from gasfilm.app.commands.common import (add_units_flag, check_force_window_length, check_inputs, check_output_file,
                                          check_session_path, positive_flag, settings_from_flags, window_value)
 from gasfilm.drivers.errors import SettingError
@@ -298,7 +297,7 @@ def run(args: argparse.Namespace) -> int:
                 result.write_frf(frf, hit_indices=accepted_indices)
         written = f"new session {args.out}"
     elif source.is_session and frf is not None:
-        with Session.open(source.path, "a") as session:
+        with Session.updating(source.path) as session:  # the FRF and the settings, or nothing
             replaced = "replay" in session.result_names("frf")
             session.write_frf(frf, name="replay", hit_indices=accepted_indices if not retrigger else None)
             session.update_settings({"replay": settings})
@@ -313,8 +312,7 @@ def run(args: argparse.Namespace) -> int:
                "pretrigger_note": pretrigger_note}
     shown = source.path if len(args.source) == 1 else f"{source.path} and {len(args.source) - 1} more files"
     if args.json:
-        json.dump({"source": str(shown), "result": written, **summary}, sys.stdout, indent=2)
-        print()
+        print(dumps({"source": str(shown), "result": written, **summary}, indent=2))
     else:
         _print_summary(summary, shown, written, args.units)
     return 0 if frf is not None else 1
