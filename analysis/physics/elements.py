@@ -245,6 +245,14 @@ def _shape(node: Node) -> tuple:
     return (type(node).__name__,)
 
 
+def network_shape(node: Node) -> tuple:
+    """A network's structure without its parameter names and without the order of its branches (parallel and series
+    combinations commute): two networks of one shape describe the same family of films."""
+    if isinstance(node, _Composite):
+        return (type(node).__name__, tuple(sorted((network_shape(child) for child in node.children), key=repr)))
+    return (type(node).__name__,)
+
+
 def _arm_sort_names(node: Node) -> tuple[list[str], list[str]]:
     """An arm's fractional orders and its springs' stiffnesses (parameter names), in reading order."""
     if isinstance(node, _Composite):
