@@ -86,7 +86,7 @@ def _one_step(node: Node) -> list[tuple[Node, str]]:
         last_of_shape = {_shape(child): i for i, child in enumerate(children)}
         for i in sorted(last_of_shape.values()):
             rest = tuple(children[:i] + children[i + 1:])
-            what = (f"the branch {children[i].text()} contributes nothing the data can tell from noise"
+            what = (f"the branch {children[i].text()} contributes below the noise"
                     if isinstance(node, Parallel) else
                     f"{children[i].text()} is too stiff to matter in its series branch")
             found.append((rest[0] if len(rest) == 1 else type(node)(rest), what))
@@ -261,7 +261,7 @@ def identifiable_form(
         if best is None or bic(best) > bic(current):
             break
         rise = 100 * (best.rms / current.rms - 1) if current.rms > 0 else 0.0
-        taken_out.append(f"{best_what} (without it the RMS changes by {rise:+.2g} %, the BIC by "
+        taken_out.append(f"{best_what} (without it the RMS changes by {rise:+.3g} %, the BIC by "
                          f"{bic(best) - bic(current):+.1f})")
         current = best
     invented = invented_features(current, freq_hz, h_measured)
