@@ -42,14 +42,18 @@ from gasfilm.analysis.physics.elements import (
 )
 from gasfilm.analysis.physics.features import Feature, film_features
 
-#: an order within this distance of 0 or 2 (or within two standard errors) is at that bound
+#: an order within this distance of 0 or 2, or within two standard errors and :data:`ORDER_NEAR_BOUND`, is at that
+#: bound
 ORDER_AT_BOUND = 1e-3
+ORDER_NEAR_BOUND = 0.02
 #: features are looked for this factor beyond each edge of the band ("near the band")
 NEAR_BAND_FACTOR = 2.0
 #: lines of the FRF a feature must span (its half-prominence width) for the FRF to show it
 MIN_LINES_ACROSS = 3
 #: a feature must change the accelerance by this many times the FRF's relative noise there to be seen
 NOISE_FACTOR = 2.0
+#: how a feature outside the band is said
+OUTSIDE = "outside the fitted band"
 #: at most this many reduction steps (each removes at least one parameter)
 MAX_STEPS = 8
 
@@ -152,15 +156,15 @@ def _orders(model: FilmModel) -> dict[str, str]:
 
 
 def order_bound_notes(fit: FitResult) -> list[str]:
-    """One sentence per order at 0 or 2 (within :data:`ORDER_AT_BOUND` or two standard errors, while it is
-    otherwise determined): what its spring-pot is there."""
+    """One sentence per order at 0 or 2 (within :data:`ORDER_AT_BOUND`, or within two standard errors up to
+    :data:`ORDER_NEAR_BOUND`): what its spring-pot is there."""
     notes = []
     for order, coefficient in _orders(fit.model()).items():
         value = fit.params[order]
         sigma = fit.std_errors.get(order, 0.0)
         if not math.isfinite(sigma) or sigma > 0.5:
             continue  # not identifiable: flagged as such
-        reach = max(ORDER_AT_BOUND, 2 * sigma)
+        reach = max(ORDER_AT_BOUND, min(2 * sigma, ORDER_NEAR_BOUND))
         pot = f"pot({coefficient}, {order})"
         eta = fit.params[coefficient]
         if value <= reach:
@@ -200,7 +204,7 @@ def _unsupported(feature: Feature, model: FilmModel, fit: FitResult, freq_hz: np
                  relative_noise: np.ndarray, z_measured: np.ndarray, band: tuple[float, float]) -> str:
     """Why the FRF does not support ``feature`` ("" when it does)."""
     if not band[0] <= feature.freq_hz <= band[1]:
-        return f"outside the fitted band ({band[0]:g}–{band[1]:g} Hz), where the data cannot confirm it"
+        return f"{OUTSIDE} ({band[0]:.4g}–{band[1]:.4g} Hz), where the data cannot confirm it"
     across = (freq_hz >= feature.low_hz) & (freq_hz <= feature.high_hz)
     if np.count_nonzero(across) < MIN_LINES_ACROSS:
         return f"narrower than {MIN_LINES_ACROSS} of the FRF's lines ({spacing:.3g} Hz apart), which cannot show it"
@@ -222,9 +226,12 @@ def _unsupported(feature: Feature, model: FilmModel, fit: FitResult, freq_hz: np
 
 
 def troubles(fit: FitResult, invented: list[str], notes: list[str]) -> bool:
-    """Whether the fit says the data do not determine all of it."""
-    return bool(fit.at_bound or invented or notes
-                or any("not identifiable" in flag or "correlated" in flag for flag in fit.flags))
+    """Whether the fit says the data do not determine all of it: a parameter at a bound or not identifiable, an
+    order at 0 or 2, a feature inside the band the data do not support. (Strong correlations alone are not: well
+    determined parameters of a film can be, and a feature outside the band is flagged but no reduction can be
+    supported by data that do not reach it.)"""
+    inside = [sentence for sentence in invented if OUTSIDE not in sentence]
+    return bool(fit.at_bound or inside or notes or any("not identifiable" in flag for flag in fit.flags))
 
 
 # --- the identifiable form -----------------------------------------------------------------------------------------
