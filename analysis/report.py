@@ -347,12 +347,12 @@ def _fits_html(data: ReportData) -> str:
             parameter_rows.append((fit.model_name, f"{fit.band_hz[0]:g}–{fit.band_hz[1]:g}", name,
                                    f"{value:.5g} {units_of.get(name, '')}".strip(), _sigma_text(fit, name)))
     flags = [f"<li><b>{html.escape(fit.model_name)}</b> ({fit.band_hz[0]:g}–{fit.band_hz[1]:g} Hz): "
-             f"{html.escape('; '.join(fit.flags))}</li>" for fit in data.fits if fit.flags]
+             f"{html.escape('; '.join(fit.notes + fit.flags))}</li>" for fit in data.fits if fit.flags or fit.notes]
     return (
         "".join(parts)
         + "<h3>Identified parameters (each with its unit; ±1σ in the same unit)</h3>"
         + _table(("Model", "Fit band (Hz)", "Parameter", "Value", "±1σ"), parameter_rows)
-        + (f"<p>Flags (once per model):</p><ul>{''.join(flags)}</ul>" if flags else "")
+        + (f"<p>Notes and flags (once per model):</p><ul>{''.join(flags)}</ul>" if flags else "")
     )
 
 

@@ -114,7 +114,9 @@ def _mass_kg(args: argparse.Namespace, rig_spec_toml: str | None) -> float:
 
 
 def format_parameters(fits: list) -> str:
-    """Each fit's identified parameters with units and 1-σ uncertainties."""
+    """Each fit's identified parameters with units and 1-σ uncertainties, and those its reduced form leaves out."""
+    from gasfilm.analysis.identification.reduction import reduced_parameters
+
     lines = []
     for fit in fits:
         units = {parameter.name: parameter.unit for parameter in fit.model().parameters}
@@ -126,6 +128,9 @@ def format_parameters(fits: list) -> str:
             error = fit.std_errors.get(name)
             spread = f"± {error:.2g}" if error is not None else "± —"
             lines.append(f"  {name:<14} {value:>12.5g} {spread:<10} {units.get(name, '')}")
+        missing = reduced_parameters(fit)
+        if missing:
+            lines.append(f"  {', '.join(missing)}: not determined by the data (the model's reduced form, below)")
     return "\n".join(lines)
 
 
@@ -241,6 +246,8 @@ def run(args: argparse.Namespace) -> int:
           f"{UNITS['si' if args.units == 'g' else 'g']})\n" + format_table2(rows, table_units))
     print("\nIdentified parameters (± 1σ)\n" + format_parameters(fits))
     for fit in fits:
+        for note in fit.notes:
+            print(f"{fit.model_name}: {note}")
         if fit.flags:
             print(f"{fit.model_name}: " + "; ".join(fit.flags))
     print("\nfigures: " + ", ".join(str(path) for path in figures))

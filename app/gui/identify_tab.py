@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import html
+
 import numpy as np
 from pathlib import Path
 
@@ -339,9 +341,11 @@ class IdentifyTab(QWidget):
                 self.parameters.setItem(r, c, QTableWidgetItem(text))
         self.parameters.resizeColumnsToContents()
         flags = "; ".join(fit.flags)
+        notes = "".join(f"<br>{html.escape(note)}" for note in fit.notes)
         self.flags_label.setText(
             f"{fit.model_name}: {fit.network} · {fit.method} fitter · {fit.evaluations} evaluations in "
-            f"{fit.wall_time_s:.2f} s" + (f"<br><span style='color:#a66300'>⚠ {flags}</span>" if flags else "")
+            f"{fit.wall_time_s:.2f} s" + notes
+            + (f"<br><span style='color:#a66300'>⚠ {html.escape(flags)}</span>" if flags else "")
         )
         if fit.model_name in self._control_models:  # the error curve shown is always the selected model's
             self.show_control_model()
