@@ -18,7 +18,6 @@ from dataclasses import dataclass
 from typing import Mapping
 
 import numpy as np
-import scipy.optimize
 import scipy.signal
 
 from gasfilm.analysis.physics.elements import FilmModel, Node, Parallel, Series, accelerance_from_stiffness
@@ -127,20 +126,33 @@ def resolving_grid_hz(span_hz: tuple[float, float], centres_hz: np.ndarray | lis
     return np.unique(grid[(grid >= low) & (grid <= high) & np.isfinite(grid)])
 
 
-def refine_maximum(function, freq_hz: np.ndarray, index: int) -> tuple[float, float]:
-    """The local maximum of the real function ``function(freq_hz)`` whose grid maximum is at ``index``: bounded
-    scalar search (in log frequency) between the neighbouring grid points. Returns (frequency, value)."""
-    lo = freq_hz[max(index - 1, 0)]
-    hi = freq_hz[min(index + 1, len(freq_hz) - 1)]
-    best = (float(freq_hz[index]), float(function(np.array([freq_hz[index]]))[0]))
-    if hi <= lo:
-        return best
-    result = scipy.optimize.minimize_scalar(
-        lambda log_f: -float(function(np.array([math.exp(log_f)]))[0]),
-        bounds=(math.log(lo), math.log(hi)), method="bounded", options={"xatol": 1e-12})
-    if np.isfinite(result.fun) and -result.fun > best[1]:
-        return math.exp(result.x), float(-result.fun)
-    return best
+def refine_maxima(function, freq_hz: np.ndarray, indices: list[int] | np.ndarray, rounds: int = 8,
+                  points: int = 17) -> list[tuple[float, float]]:
+    """The local maxima of the real function ``function(freq_hz)`` (vectorised) whose grid maxima are at
+    ``indices``: each searched between its neighbouring grid points by ``rounds`` zooms of ``points`` log-spaced
+    samples (all maxima in one call per zoom; each zoom narrows the interval ``(points − 1)/2`` times). Returns
+    (frequency, value) per index, never below the grid's value."""
+    indices = [int(i) for i in indices]
+    if not indices:
+        return []
+    last = len(freq_hz) - 1
+    low = np.log(np.array([freq_hz[max(i - 1, 0)] for i in indices]))
+    high = np.log(np.array([freq_hz[min(i + 1, last)] for i in indices]))
+    best_f = np.array([freq_hz[i] for i in indices], dtype=float)
+    best_v = np.asarray(function(best_f), dtype=float)
+    steps = np.linspace(0.0, 1.0, points)
+    for _ in range(rounds):
+        log_f = low[:, np.newaxis] + (high - low)[:, np.newaxis] * steps
+        values = np.asarray(function(np.exp(log_f).ravel()), dtype=float).reshape(log_f.shape)
+        values = np.where(np.isfinite(values), values, -np.inf)
+        top = np.argmax(values, axis=1)
+        rows = np.arange(len(indices))
+        better = values[rows, top] > best_v
+        best_v = np.where(better, values[rows, top], best_v)
+        best_f = np.where(better, np.exp(log_f[rows, top]), best_f)
+        low = log_f[rows, np.maximum(top - 1, 0)]
+        high = log_f[rows, np.minimum(top + 1, points - 1)]
+    return [(float(f), float(v)) for f, v in zip(best_f, best_v)]
 
 
 def _extrema(freq: np.ndarray, log_magnitude: np.ndarray, kind: str, sign: float, function) -> list[Feature]:
@@ -154,8 +166,8 @@ def _extrema(freq: np.ndarray, log_magnitude: np.ndarray, kind: str, sign: float
         properties["prominences"], properties["left_bases"], properties["right_bases"]))
     index = np.arange(len(freq))
     features = []
-    for peak, prominence, l, r in zip(peaks, properties["prominences"], left, right):
-        f_peak, _ = refine_maximum(lambda f: sign * function(f), freq, int(peak))
+    refined = refine_maxima(lambda f: sign * function(f), freq, peaks)
+    for (f_peak, _), prominence, l, r in zip(refined, properties["prominences"], left, right):
         features.append(Feature(kind, f_peak, float(np.exp(np.interp(l, index, np.log(freq)))),
                                 float(np.exp(np.interp(r, index, np.log(freq)))), math.expm1(float(prominence))))
     return features
