@@ -146,6 +146,9 @@ class FitHits:
     count: int
     indices: tuple[int, ...] | None = None
 
+    #: The keys :meth:`stored_keys` adds to a stored fit.
+    STORED_KEYS = ("hit_count", "hit_indices")
+
     def stored_keys(self) -> dict[str, Any]:
         """What a stored fit holds of its hits."""
         return {"hit_count": int(self.count),

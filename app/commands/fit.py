@@ -208,8 +208,9 @@ def run(args: argparse.Namespace) -> int:
         raise SettingError(f"--mass {args.mass}: must be a positive mass in kg")
     out = args.out if args.out is not None else args.source[0].parent
     stem = args.source[0].stem
+    # (--refit replaces the figures of the fits it replaces)
     figure_paths = check_output_folder(out, "--out" if args.out is not None else "",
-                                       (f"{stem}-figure18.png", f"{stem}-figure19.png"), args.overwrite)
+                                       (f"{stem}-figure18.png", f"{stem}-figure19.png"), args.overwrite or args.refit)
     from gasfilm.analysis.conditions import format_conditions
 
     loaded = load_frf_and_hits(args.source, args.frf, fresh=args.refit)
@@ -266,7 +267,8 @@ def run(args: argparse.Namespace) -> int:
                                       {**fit.to_dict(), **settings.stored_keys(), **hits.stored_keys()})
         except GasfilmError as error:  # a read-only session (or folder): the fits are shown, not kept
             stored_note = f"the fits{' and the FRF' if args.refit else ''} are not stored in the session: {error}"
-            logger.warning(stored_note)
+            if args.json:  # (the text output says it in its notes)
+                logger.warning(stored_note)
     unexplained_hz = other_resonances_hz(frf, (float(freq_hz[0]), float(freq_hz[-1])))
     not_explained = not_explained_warning(unexplained_hz)
     if not_explained:
