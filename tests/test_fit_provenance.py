@@ -136,3 +136,38 @@ def test_the_gui_opens_a_read_only_session_read_only_and_says_so(appended_sessio
         assert controller.stale_fits() == {"SD": "made on 3 of the 5 accepted hits"}
     finally:
         controller.shutdown()
+
+
+def test_the_gui_marks_fits_made_before_more_hits_stale_and_refits_them_in_one_click(appended_session, qtbot,
+                                                                                    tmp_path):
+    """The issue's trial: a session reopened after more hits showed its older fits in Table 2 without a word. Now
+    its Hits column marks them with the hits they used, the Refit button offers all of them, and one click fits
+    them again (kept in the session); a verdict changed afterwards marks them again."""
+    from PySide6.QtCore import Qt
+
+    from gui_driving import open_window
+
+    window = open_window(qtbot, tmp_path)
+    controller, tab = window.controller, window.identify_tab
+    try:
+        controller.open_session(appended_session)
+        hits_column = list(identify_columns()).index("Hits")
+        assert controller.stale_fits() == {"SD": "made on 3 of the 5 accepted hits"}
+        mark = tab.table.item(0, hits_column)
+        assert mark.text() == "3 ⚠ stale" and "made on 3 of the 5 accepted hits" in mark.toolTip()
+        assert tab.refit_button.isEnabled() and tab.refit_button.text() == "Refit on all 5 hits"
+        qtbot.mouseClick(tab.refit_button, Qt.MouseButton.LeftButton)
+        qtbot.waitUntil(lambda: not controller.job_active("fit") and controller.fit_hits("SD").count == 5,
+                        timeout=60_000)
+        assert tab.table.item(0, hits_column).text() == "5" and not tab.refit_button.isEnabled()
+        assert stored_hits(appended_session) == {"SD": (5, [0, 1, 2, 3, 4])}  # stored at once
+        controller.decide(4, False)  # the technician rejects the last hit: the fit averages it
+        assert tab.table.item(0, hits_column).text() == "5 ⚠ stale" and tab.refit_button.text() == "Refit on all 4 hits"
+    finally:
+        controller.shutdown()
+
+
+def identify_columns() -> tuple[str, ...]:
+    from gasfilm.app.gui.identify_tab import TABLE2_COLUMNS
+
+    return TABLE2_COLUMNS

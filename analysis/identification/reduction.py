@@ -36,6 +36,7 @@ from gasfilm.analysis.physics.elements import (
     Spring,
     SpringPot,
     _shape,
+    accelerance_from_stiffness,
     laplace_variable,
     network_shape,
     parse_network,
@@ -77,8 +78,9 @@ def _simplified(node: Node) -> Node:
     return kept[0] if len(kept) == 1 else type(node)(tuple(kept))
 
 
-def _one_step(node: Node) -> list[tuple[Node, str]]:
-    """Networks one step simpler than ``node`` (unsimplified) with what the step took out, in words."""
+def _one_step(node: Node, every: bool = False) -> list[tuple[Node, str]]:
+    """Networks one step simpler than ``node`` (unsimplified) with what the step took out, in words. Of
+    interchangeable children only the last is removed (the arm kept has the first arm's names), unless ``every``."""
     found: list[tuple[Node, str]] = []
     if isinstance(node, SpringPot):
         return [(Spring(node.coefficient), f"{node.text()} acts as a spring (order 0)")]
@@ -86,16 +88,15 @@ def _one_step(node: Node) -> list[tuple[Node, str]]:
         return found
     children = list(node.children)
     if len(children) > 1:
-        # of interchangeable children only the last is removed: the arm kept has the first arm's names
         last_of_shape = {_shape(child): i for i, child in enumerate(children)}
-        for i in sorted(last_of_shape.values()):
+        for i in range(len(children)) if every else sorted(last_of_shape.values()):
             rest = tuple(children[:i] + children[i + 1:])
             what = (f"the branch {children[i].text()} contributes below the noise"
                     if isinstance(node, Parallel) else
                     f"{children[i].text()} is too stiff to matter in its series branch")
             found.append((rest[0] if len(rest) == 1 else type(node)(rest), what))
     for i, child in enumerate(children):
-        for reduced, what in _one_step(child):
+        for reduced, what in _one_step(child, every):
             found.append((type(node)(tuple(children[:i] + [reduced] + children[i + 1:])), what))
     return found
 
@@ -121,6 +122,29 @@ def candidate_reductions(network: Node) -> list[tuple[Node, str]]:
         seen.add(shape)
         found.append((reduced, what))
     return found
+
+
+def _screened_shapes(fit: FitResult, freq_hz: np.ndarray, h_measured: np.ndarray) -> list[tuple]:
+    """The shapes of the reductions the fit's own values already support: the fit with an element taken out as it
+    is (not fitted again) has a BIC no higher than the fit's, best first. A spare part the data cannot see passes
+    this; a part that holds some of the film (which the others take over only when fitted again) does not."""
+    model, own = fit.model(), bic(fit)
+    s = laplace_variable(freq_hz, fit.decay_rate_1_s)
+    found = []
+    for reduced, _ in _one_step(model.network, every=True):
+        simplified = _simplified(reduced)
+        if not _dissipates(simplified) or len(simplified.parameters()) >= len(model.parameters):
+            continue
+        with np.errstate(all="ignore"):
+            z = FilmModel("screen", reduced).stiffness(s, {p.name: fit.params[p.name] for p in reduced.parameters()})
+            residual = accelerance_from_stiffness(s, z, fit.mass_kg) - h_measured
+        rms = float(np.sqrt(np.mean(np.abs(residual) ** 2)))
+        if not math.isfinite(rms):
+            continue
+        screened = dataclasses.replace(fit, rms=rms, params={p.name: 0.0 for p in simplified.parameters()})
+        if bic(screened) <= own:
+            found.append((bic(screened), network_shape(simplified)))
+    return [shape for _, shape in sorted(found, key=lambda item: item[0])]
 
 
 def paper_name_of(network: Node) -> str | None:
@@ -257,6 +281,10 @@ def identifiable_form(
             break
         best, best_what = None, ""
         candidates = candidate_reductions(current.model().network)
+        # a reduction the fit's own values support is fitted alone; only when none is are all fitted again
+        screened = _screened_shapes(current, freq_hz, h_measured)
+        if screened:
+            candidates = [candidate for candidate in candidates if network_shape(candidate[0]) == screened[0]]
         for number, (network, what) in enumerate(candidates):
             if progress is not None:
                 progress(min(1.0, (step + number / max(len(candidates), 1)) / 3))
