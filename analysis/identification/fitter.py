@@ -121,7 +121,7 @@ def _fit_once(
         theta = objective.to_coordinates(best_unit)
     params, mass = problem.coords.to_params(theta)
     mass = float(mass)
-    canonical = film.canonical(params)
+    canonical = film.canonical(params, 1j * problem.coords.omega_ref)
     if not np.array_equal(canonical, params):  # interchangeable arms named in one order (the same film)
         params, theta = canonical, problem.coords.from_params(canonical, mass)
     at_bound = uncertainty.parameters_at_bounds(problem, theta, params)

@@ -261,6 +261,11 @@ def troubles(fit: FitResult, invented: list[str], notes: list[str]) -> bool:
 # --- the identifiable form -----------------------------------------------------------------------------------------
 
 
+def _inside(invented: list[str]) -> list[str]:
+    """The invented features inside the band (those outside no data can settle)."""
+    return [sentence for sentence in invented if OUTSIDE not in sentence]
+
+
 def identifiable_form(
     fit: FitResult,
     refit: Callable[[FilmModel], FitResult],
@@ -269,7 +274,11 @@ def identifiable_form(
     progress: Callable[[float], None] | None = None,
 ) -> FitResult:
     """``fit`` reduced to what the FRF ``h_measured`` at ``freq_hz`` determines, with its notes and flags:
-    ``refit(model)`` fits a reduced network to the same data (without reducing it)."""
+    ``refit(model)`` fits a reduced network to the same data (without reducing it).
+
+    A reduction is taken when its BIC is not above the fit's; and when the fit has a feature inside the band the
+    FRF does not support (a resonance narrower than its lines, or below its noise), the best reduction without one
+    is taken even at a higher BIC — the data cannot show such a feature, so it is never reported as measured."""
     requested = fit.network
     current = fit
     taken_out: list[str] = []
@@ -277,25 +286,37 @@ def identifiable_form(
     for step in range(MAX_STEPS):
         invented = invented_features(current, freq_hz, h_measured)
         notes = order_bound_notes(current)
-        if not troubles(current, invented, notes):
-            break
-        best, best_what = None, ""
-        candidates = candidate_reductions(current.model().network)
-        # a reduction the fit's own values support is fitted alone; only when none is are all fitted again
+        # a reduction the fit's own values support (an element taken out as it is) is fitted again first, whatever
+        # the flags say; the others only when the fit says the data do not determine it
         screened = _screened_shapes(current, freq_hz, h_measured)
-        if screened:
-            candidates = [candidate for candidate in candidates if network_shape(candidate[0]) == screened[0]]
+        trouble = troubles(current, invented, notes)
+        if not screened and not trouble:
+            break
+        candidates = candidate_reductions(current.model().network)
+        candidates.sort(key=lambda candidate: network_shape(candidate[0]) not in screened[:1])
+        tried: list[tuple[FitResult, str, bool]] = []  # (fit, what was taken out, it invents nothing in the band)
         for number, (network, what) in enumerate(candidates):
+            if number == 1 and screened and bic(tried[0][0]) <= bic(current) and tried[0][2]:
+                break  # the screened reduction holds: the others need not be fitted
+            if number >= 1 and screened and not trouble:
+                break
             if progress is not None:
                 progress(min(1.0, (step + number / max(len(candidates), 1)) / 3))
             reduced = refit(FilmModel(fit.model_name, network, fit.model().description))
             evaluations += reduced.evaluations
             wall_time_s += reduced.wall_time_s
-            if best is None or bic(reduced) < bic(best):
-                best, best_what = reduced, what
-        if best is None or bic(best) > bic(current):
+            tried.append((reduced, what, not _inside(invented_features(reduced, freq_hz, h_measured))))
+        supported = [item for item in tried if bic(item[0]) <= bic(current)]
+        forced = [item for item in tried if item[2]] if _inside(invented) else []
+        chosen = min(supported or forced, key=lambda item: bic(item[0]), default=None)
+        if chosen is None:
             break
+        best, best_what, _ = chosen
         rise = 100 * (best.rms / current.rms - 1) if current.rms > 0 else 0.0
+        if not supported:  # taken out for what it invents, not for its size
+            element = best_what.split(" contributes")[0].split(" is too stiff")[0].split(" acts as")[0]
+            best_what = f"{element} made " + "; ".join(
+                sentence.removeprefix("invented feature: ") for sentence in _inside(invented))
         taken_out.append(f"{best_what} (without it the RMS changes by {rise:+.3g} %, the BIC by "
                          f"{bic(best) - bic(current):+.1f})")
         current = best

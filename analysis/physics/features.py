@@ -31,14 +31,16 @@ LOCAL_OFFSETS = np.geomspace(1e-8, 0.3, 64)
 #: least relative prominence (of the magnitude) a local extremum needs to count as a feature: rounding aside, any
 #: bump the fit can make
 FEATURE_PROMINENCE = 1e-4
+#: a series branch whose stiffness peaks at this many times the magnitude where its elements cross resonates
+BRANCH_RESONANCE_GAIN = 2.0
 
 
 @dataclass(frozen=True)
 class Feature:
     """One feature of a film's or a mover's response on the jω axis.
 
-    ``kind``: "resonance" (a peak of the accelerance |H|), "film resonance" (a peak of |Z|), "film antiresonance" (a
-    dip of |Z|) or "negative stiffness" (Re Z < 0). ``freq_hz`` its centre; ``low_hz``–``high_hz`` its width (half
+    ``kind``: "resonance" (a peak of the accelerance |H|), "film resonance" (a peak of |Z|, or of a series branch's
+    |Z| where the film's has none), "film antiresonance" (a dip of |Z|) or "negative stiffness" (Re Z < 0). ``freq_hz`` its centre; ``low_hz``–``high_hz`` its width (half
     the prominence of the log magnitude on either side; the interval itself for negative stiffness); ``size`` its
     relative prominence (|Z| or |H| at the extremum over the higher of its surroundings' levels, minus 1) or, for
     negative stiffness, min Re Z / |Z| there (a negative number)."""
@@ -75,15 +77,51 @@ def _crossings(log_a: np.ndarray, log_b: np.ndarray, log_f: np.ndarray) -> list[
 
 
 def _node_crossings(node: Node, values: Mapping[str, np.ndarray], s: np.ndarray, log_f: np.ndarray,
-                    found: list[float]) -> np.ndarray:
+                    found: list[float], series: list[tuple[Node, Node, float]] | None = None) -> np.ndarray:
     """Log |Z| of ``node`` on the grid; the crossings of every pair of its children's magnitudes (and theirs, below)
-    are appended to ``found``."""
+    are appended to ``found``, and those of a series combination, with its node and one of the two children, to
+    ``series``."""
     if isinstance(node, (Parallel, Series)):
-        logs = [_node_crossings(child, values, s, log_f, found) for child in node.children]
-        for a, b in itertools.combinations(logs, 2):
-            found.extend(_crossings(a, b, log_f))
+        logs = [_node_crossings(child, values, s, log_f, found, series) for child in node.children]
+        for (i, a), (_, b) in itertools.combinations(enumerate(logs), 2):
+            crossings = _crossings(a, b, log_f)
+            found.extend(crossings)
+            if series is not None and isinstance(node, Series):
+                series.extend((node, node.children[i], f) for f in crossings)
     with np.errstate(all="ignore"):
         return np.log(np.abs(node.stiffness(s, values)))
+
+
+def _branch_resonances(model: FilmModel, values: Mapping[str, np.ndarray], span_hz: tuple[float, float]
+                       ) -> list[Feature]:
+    """Resonances of the film's series branches: where two elements in series have magnitudes that cross with
+    nearly opposite phases (a spring and a spring-pot of order near 2, an inertance) their compliances cancel and
+    the branch's stiffness peaks, however narrowly, even where the film's |Z| shows no extremum (the peak sits on a
+    slope). Each peak at least :data:`BRANCH_RESONANCE_GAIN` times the crossing magnitude is one; its size is the
+    peak over the film's |Z| there."""
+    low, high = span_hz
+    freq = np.geomspace(low, high, max(3, int(COARSE_LINES_PER_DECADE * math.log10(high / low)) + 1))
+    series: list[tuple[Node, Node, float]] = []
+    _node_crossings(model.network, values, 2j * np.pi * freq, np.log(freq), [], series)
+    found = []
+    relative = np.concatenate([-LOCAL_OFFSETS[::-1], [0.0], LOCAL_OFFSETS])
+    for node, child, centre in series:
+        local = centre * (1.0 + relative)
+        with np.errstate(all="ignore"):
+            magnitude = np.abs(node.stiffness(2j * np.pi * local, values))
+            base = float(np.abs(child.stiffness(np.array([2j * np.pi * centre]), values))[0])
+        top = int(np.nanargmax(magnitude))
+        if not (np.isfinite(base) and base > 0 and magnitude[top] >= BRANCH_RESONANCE_GAIN * base):
+            continue
+        f_peak, peak = refine_maxima(lambda f: np.abs(node.stiffness(2j * np.pi * f, values)), local, [top])[0]
+        half = magnitude >= peak / math.sqrt(2.0)
+        edges = np.flatnonzero(half)
+        width_low, width_high = float(local[edges[0]]), float(local[edges[-1]])
+        total = abs(complex(model.network.stiffness(np.array([2j * np.pi * f_peak]), values)[0]))
+        if low <= f_peak <= high:
+            found.append(Feature("film resonance", f_peak, min(width_low, f_peak), max(width_high, f_peak),
+                                 peak / total if total > 0 else math.inf))
+    return found
 
 
 def singular_frequencies_hz(model: FilmModel, params: Mapping[str, float] | np.ndarray, span_hz: tuple[float, float],
@@ -206,6 +244,10 @@ def film_features(model: FilmModel, params: Mapping[str, float] | np.ndarray, ma
         found[strongest] = Feature(**{**found[strongest].__dict__, "main": True})
     found += _extrema(freq, lz, "film resonance", 1.0, log_z)
     found += _extrema(freq, lz, "film antiresonance", -1.0, log_z)
+    # a branch's resonance on a slope of |Z| (no extremum of the film's |Z| within its width: else it is that one)
+    for branch in _branch_resonances(model, _values(model, values), span_hz):
+        if not any(f.kind.startswith("film") and branch.low_hz <= f.freq_hz <= branch.high_hz for f in found):
+            found.append(branch)
     negative = z.real < 0
     if negative.any():
         edges = np.flatnonzero(np.diff(np.concatenate([[0], negative.astype(int), [0]])))
