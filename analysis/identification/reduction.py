@@ -87,8 +87,8 @@ def _one_step(node: Node, every: bool = False) -> list[tuple[Node, str]]:
     if not isinstance(node, (Parallel, Series)):
         return found
     children = list(node.children)
+    last_of_shape = {_shape(child): i for i, child in enumerate(children)}
     if len(children) > 1:
-        last_of_shape = {_shape(child): i for i, child in enumerate(children)}
         for i in range(len(children)) if every else sorted(last_of_shape.values()):
             rest = tuple(children[:i] + children[i + 1:])
             what = (f"the branch {children[i].text()} contributes below the noise"
@@ -96,6 +96,8 @@ def _one_step(node: Node, every: bool = False) -> list[tuple[Node, str]]:
                     f"{children[i].text()} is too stiff to matter in its series branch")
             found.append((rest[0] if len(rest) == 1 else type(node)(rest), what))
     for i, child in enumerate(children):
+        if not every and last_of_shape[_shape(child)] != i:
+            continue  # (a step inside interchangeable arms is taken in the last: the first keeps its names whole)
         for reduced, what in _one_step(child, every):
             found.append((type(node)(tuple(children[:i] + [reduced] + children[i + 1:])), what))
     return found
