@@ -10,8 +10,10 @@ VERDICT_LINES = {
     "consistent": "no missing physics: the spec explains the recordings within the noise",
     "parameters-only": "no missing physics: the recalibrated parameters explain the recordings within the noise",
     "missing physics": "the spec with the terms above explains the recordings within the noise",
-    "partly explained": "the terms above explain part of the mismatch; the rest is NOT explained (below)",
-    "not explained": "no term of the catalog explains the mismatch: it is NOT explained (below)",
+    "modelled": ("the spec with the descriptions above explains the recordings within the noise; what is only "
+                 "modelled has the mechanisms listed, none of them certain"),
+    "partly explained": "the descriptions above explain part of the mismatch; the rest is NOT explained (below)",
+    "not explained": "no description brings the recordings within the noise: the mismatch is NOT explained (below)",
 }
 
 
@@ -33,7 +35,11 @@ def report_text(diagnosis: Diagnosis) -> str:
             else:
                 lines.append(f"    {name:34s} {row['spec']:.6g} → {row['fitted']:.6g} ± {row['uncertainty']:.2g}{unit}")
     for finding in diagnosis.findings:
-        label = "measurement chain" if finding.kind == "measurement" else "missing physics"
+        if finding.status == "modelled":
+            label = f"modelled in the {finding.place}" if finding.place.endswith(("channel", "chain")) else \
+                f"modelled ({finding.place})"
+        else:
+            label = "measurement chain" if finding.kind == "measurement" else "missing physics"
         lines.append(f"  {label}: {finding.effect}  (where: {finding.where}; {finding.hits})")
         for name, row in finding.parameters.items():
             lines.append(f"      {name:30s} {row['value']:.6g} ± {row['uncertainty']:.2g} {row['unit']}")
@@ -44,6 +50,12 @@ def report_text(diagnosis: Diagnosis) -> str:
                      f"(beyond the noise above {finding.own_band_limit:.2f})")
         for alternative in finding.alternatives:
             lines.append(f"      or:   {alternative.effect} — {alternative.note}")
+        if finding.mechanisms:
+            first, *others = finding.mechanisms
+            lines.append(f"      {'named' if finding.status == 'named' else 'likely'}: {first.name}")
+            if others:
+                lines.append(f"      also consistent: {'; '.join(m.name for m in others)} — {first.tell_apart} "
+                             f"would tell them apart")
     lines.append(f"  {VERDICT_LINES[diagnosis.verdict]}")
     for item in diagnosis.unexplained:
         hits = "all hits" if len(item.hits) == diagnosis.evidence.hit_count else \

@@ -27,17 +27,22 @@ from gasfilm.analysis.physics.effects import (
     AcCoupling,
     AddedMass,
     ChannelDelay,
+    ChannelPoleZero,
+    ChannelPowerLaw,
+    ChannelResonance,
     CrossTalk,
     CubicStiffness,
     Drift,
     Effect,
     ExtraMode,
+    FilmBranch,
     FilmMemory,
     FitContext,
     Friction,
     PneumaticLag,
     QuadraticDamping,
     SensitivityError,
+    SideMode,
     StepChange,
     SqueezeFilm,
 )
@@ -558,20 +563,53 @@ def starting_effects(identifier: str, spec: RigSpec, evidence: Evidence, context
     if identifier == "pneumatic-lag":
         return [PneumaticLag(k_lag=0.01 * film, tau_lag=factor / (2 * np.pi * resonance_hz)) for factor in (0.3, 1, 3)]
     if identifier == "extra-mode":
-        freq_hz = evidence.freq_hz
-        excess = evidence.chi2_per_frequency(spec)
-        smooth = np.convolve(excess, np.ones(5) / 5, mode="same")
-        picks: list[float] = []
-        for index in np.argsort(smooth)[::-1]:
-            candidate = float(freq_hz[index])
-            if all(abs(candidate - p) > 0.05 * p for p in picks) and abs(candidate - resonance_hz) > 0.1 * resonance_hz:
-                picks.append(candidate)
-            if len(picks) == 3:
-                break
-        return [ExtraMode(freq_hz=f, damping_ratio=0.02, mass_kg=0.002 * context.mass_kg) for f in picks]
+        return [ExtraMode(freq_hz=f, damping_ratio=0.02, mass_kg=0.002 * context.mass_kg)
+                for f in _excess_peaks(spec, evidence, resonance_hz)]
     if identifier == "sensitivity-error":
         return [SensitivityError(channel="acceleration", fraction=sign * 0.01) for sign in (1.0, -1.0)]
+    if identifier == "side-mode":
+        # a mode's contribution at its own resonance is A/(2ζ)·j: its modal constant's sign and size are read off the
+        # residual's imaginary part there
+        residual = evidence.spectra.mean()[0] - evidence.mean_prediction(spec)
+        starts = []
+        for freq in _excess_peaks(spec, evidence, None):
+            line = int(np.argmin(np.abs(evidence.freq_hz - freq)))
+            constant = 2 * 0.02 * float(residual[line].imag)
+            limit = 0.5 * SideMode(freq_hz=freq, damping_ratio=0.02, modal_constant_per_kg=1.0).fit_ranges(
+                context)["modal_constant_per_kg"].upper
+            constant = float(np.clip(constant, -limit, limit)) or 1e-3 / context.mass_kg
+            starts.append(SideMode(freq_hz=freq, damping_ratio=0.02, modal_constant_per_kg=constant))
+        return starts
+    if identifier == "film-branch":
+        return [FilmBranch(stiffness_n_per_m=0.01 * film, order=order, reference_hz=resonance_hz)
+                for order in (0.3, 1.0, 1.7)]
+    if identifier == "channel-resonance":
+        peaks = _excess_peaks(spec, evidence, None)[:1]
+        return [ChannelResonance(channel=channel, freq_hz=freq, damping_ratio=0.05)
+                for channel in ("acceleration", "force") for freq in (*peaks, 2.0 * context.band_hz[1])]
+    if identifier == "channel-power-law":
+        return [ChannelPowerLaw(exponent=0.0, reference_hz=resonance_hz)]
+    if identifier == "channel-pole-zero":
+        near, far = 2.0 * context.band_hz[1], 50.0 * context.band_hz[1]
+        return [ChannelPoleZero(pole_hz=near, zero_hz=far), ChannelPoleZero(pole_hz=far, zero_hz=near)]
     raise KeyError(identifier)
+
+
+def _excess_peaks(spec: RigSpec, evidence: Evidence, resonance_hz: float | None, count: int = 3) -> list[float]:
+    """The frequencies of the ``count`` largest peaks of the spec's χ² per frequency (5-line smoothed), 5 % apart,
+    away from the film's resonance when ``resonance_hz`` is given."""
+    freq_hz = evidence.freq_hz
+    excess = evidence.chi2_per_frequency(spec)
+    smooth = np.convolve(excess, np.ones(5) / 5, mode="same")
+    picks: list[float] = []
+    for index in np.argsort(smooth)[::-1]:
+        candidate = float(freq_hz[index])
+        if all(abs(candidate - p) > 0.05 * p for p in picks) and (
+                resonance_hz is None or abs(candidate - resonance_hz) > 0.1 * resonance_hz):
+            picks.append(candidate)
+        if len(picks) == count:
+            break
+    return picks
 
 
 
