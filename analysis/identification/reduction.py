@@ -55,6 +55,8 @@ MIN_LINES_ACROSS = 3
 NOISE_FACTOR = 2.0
 #: how a feature outside the band is said
 OUTSIDE = "outside the fitted band"
+#: two fits of one film family whose BIC differ by at most this much reach the same optimum (rounding, the search)
+SAME_BIC = 1.0
 #: at most this many reduction steps (each removes at least one parameter)
 MAX_STEPS = 8
 
@@ -147,6 +149,28 @@ def _screened_shapes(fit: FitResult, freq_hz: np.ndarray, h_measured: np.ndarray
         if bic(screened) <= own:
             found.append((bic(screened), network_shape(simplified)))
     return [shape for _, shape in sorted(found, key=lambda item: item[0])]
+
+
+def _removal_forms(network: Node) -> dict[tuple, tuple[Node, list[str]]]:
+    """Shape → the first network of that shape reached from ``network`` by removals alone (parallel branches
+    removed, series elements shorted; breadth first, in :func:`candidate_reductions`'s order) and what the removals
+    took out: the names a reduced form is given whichever way it was reached — a session that reached FOZGF's shape
+    through FOMGF's spring-pot at order 0 names its parts as one that dropped the arm."""
+    forms: dict[tuple, tuple[Node, list[str]]] = {}
+    frontier: list[tuple[Node, list[str]]] = [(network, [])]
+    while frontier:
+        following = []
+        for node, path in frontier:
+            for reduced, what in _one_step(node):
+                if "acts as a spring" in what:
+                    continue
+                reduced = _simplified(reduced)
+                shape = network_shape(reduced)
+                if shape not in forms:
+                    forms[shape] = (reduced, path + [what])
+                    following.append(forms[shape])
+        frontier = following
+    return forms
 
 
 def paper_name_of(network: Node) -> str | None:
@@ -322,6 +346,18 @@ def identifiable_form(
         taken_out.append(f"{best_what} (without it the RMS changes by {rise:+.3g} %, the BIC by "
                          f"{bic(best) - bic(current):+.1f})")
         current = best
+    if taken_out:  # the reduced form named as every session names it (by removals from the requested network)
+        named = _removal_forms(fit.model().network).get(network_shape(current.model().network))
+        if named is not None and named[0].text() != current.network:
+            renamed = refit(FilmModel(fit.model_name, named[0], fit.model().description))
+            evaluations += renamed.evaluations
+            wall_time_s += renamed.wall_time_s
+            if bic(renamed) <= bic(current) + SAME_BIC:
+                current = renamed
+                if bic(current) <= bic(fit):  # said as the removals that name it, against the fit as found
+                    rise = 100 * (current.rms / fit.rms - 1) if fit.rms > 0 else 0.0
+                    taken_out = ["; ".join(named[1]) + f" (without {'them' if len(named[1]) > 1 else 'it'} the RMS "
+                                 f"changes by {rise:+.3g} %, the BIC by {bic(current) - bic(fit):+.1f})"]
     invented = invented_features(current, freq_hz, h_measured)
     notes = order_bound_notes(current)
     if taken_out:

@@ -117,7 +117,8 @@ def _branch_resonances(model: FilmModel, values: Mapping[str, np.ndarray], span_
         half = magnitude >= peak / math.sqrt(2.0)
         edges = np.flatnonzero(half)
         width_low, width_high = float(local[edges[0]]), float(local[edges[-1]])
-        total = abs(complex(model.network.stiffness(np.array([2j * np.pi * f_peak]), values)[0]))
+        with np.errstate(all="ignore"):
+            total = abs(complex(model.network.stiffness(np.array([2j * np.pi * f_peak]), values)[0]))
         if low <= f_peak <= high:
             found.append(Feature("film resonance", f_peak, min(width_low, f_peak), max(width_high, f_peak),
                                  peak / total if total > 0 else math.inf))
@@ -138,7 +139,9 @@ def singular_frequencies_hz(model: FilmModel, params: Mapping[str, float] | np.n
     if mass_kg is not None:
         mass_line = np.log(mass_kg * (2 * np.pi * freq) ** 2)
         branches = model.network.children if isinstance(model.network, Parallel) else ()
-        for log_z in [total] + [np.log(np.abs(branch.stiffness(s, values))) for branch in branches]:
+        with np.errstate(all="ignore"):
+            logs = [total] + [np.log(np.abs(branch.stiffness(s, values))) for branch in branches]
+        for log_z in logs:
             found.extend(_crossings(log_z, mass_line, log_f))
     return np.unique(np.array([f for f in found if low <= f <= high]))
 
@@ -177,11 +180,14 @@ def refine_maxima(function, freq_hz: np.ndarray, indices: list[int] | np.ndarray
     low = np.log(np.array([freq_hz[max(i - 1, 0)] for i in indices]))
     high = np.log(np.array([freq_hz[min(i + 1, last)] for i in indices]))
     best_f = np.array([freq_hz[i] for i in indices], dtype=float)
-    best_v = np.asarray(function(best_f), dtype=float)
+    with np.errstate(all="ignore"):
+        best_v = np.asarray(function(best_f), dtype=float)
+    best_v = np.where(np.isfinite(best_v), best_v, -np.inf)
     steps = np.linspace(0.0, 1.0, points)
     for _ in range(rounds):
         log_f = low[:, np.newaxis] + (high - low)[:, np.newaxis] * steps
-        values = np.asarray(function(np.exp(log_f).ravel()), dtype=float).reshape(log_f.shape)
+        with np.errstate(all="ignore"):
+            values = np.asarray(function(np.exp(log_f).ravel()), dtype=float).reshape(log_f.shape)
         values = np.where(np.isfinite(values), values, -np.inf)
         top = np.argmax(values, axis=1)
         rows = np.arange(len(indices))
@@ -221,7 +227,8 @@ def film_features(model: FilmModel, params: Mapping[str, float] | np.ndarray, ma
     freq = resolving_grid_hz(span_hz, singular_frequencies_hz(model, values, span_hz, mass_kg))
 
     def stiffness(f: np.ndarray) -> np.ndarray:
-        return model.stiffness(2j * np.pi * f, values)
+        with np.errstate(all="ignore"):  # (a film at a bound can be infinitely stiff somewhere: dropped below)
+            return model.stiffness(2j * np.pi * f, values)
 
     def log_h(f: np.ndarray) -> np.ndarray:
         s = 2j * np.pi * f
@@ -236,6 +243,7 @@ def film_features(model: FilmModel, params: Mapping[str, float] | np.ndarray, ma
     with np.errstate(all="ignore"):
         lz = np.log(np.abs(z))
         lh = log_h(freq)
+        negative = z.real < 0
     finite = np.isfinite(lz) & np.isfinite(lh)
     freq, z, lz, lh = freq[finite], z[finite], lz[finite], lh[finite]
     found = _extrema(freq, lh, "resonance", 1.0, log_h)
@@ -248,7 +256,7 @@ def film_features(model: FilmModel, params: Mapping[str, float] | np.ndarray, ma
     for branch in _branch_resonances(model, _values(model, values), span_hz):
         if not any(f.kind.startswith("film") and branch.low_hz <= f.freq_hz <= branch.high_hz for f in found):
             found.append(branch)
-    negative = z.real < 0
+    negative = negative[finite]
     if negative.any():
         edges = np.flatnonzero(np.diff(np.concatenate([[0], negative.astype(int), [0]])))
         for start, stop in zip(edges[::2], edges[1::2]):
