@@ -63,8 +63,10 @@ ERROR_LINES_PER_DECADE = 200
 #: this many of them
 REFINE_WITHIN = 0.3
 REFINED_MAXIMA = 8
-#: the least error stated: the rounding of evaluating both models in double precision
+#: the least error stated, and the relative margin a stated error carries: the rounding of evaluating both models
+#: in double precision (stiffnesses of 1e9 N/m and more, sums that cancel)
 ROUNDING_FLOOR = 1e-12
+ROUNDING_MARGIN = 1e-6
 #: a plain Oustaloup filter is designed over the band widened one of these many times on each side
 OUSTALOUP_WIDENINGS = (10.0, 100.0, 1000.0)
 
@@ -361,15 +363,16 @@ def _rational_features_hz(z0: float, impedance: PoleResidue, plant_a: np.ndarray
 def _largest_errors(source: PlantSource, z0: float, impedance: PoleResidue, grid_hz: np.ndarray,
                     refine_below: float = np.inf) -> tuple[np.ndarray, np.ndarray, float, float, float, float]:
     """The plant's and the film's relative errors on ``grid_hz`` and their largest values with where they are, each
-    local maximum within :data:`REFINE_WITHIN` of the largest refined between its grid neighbours; a largest value
-    below :data:`ROUNDING_FLOOR` is stated as that (an exact model's error is rounding, which varies between grids).
+    local maximum within :data:`REFINE_WITHIN` of the largest refined between its grid neighbours, stated with
+    :data:`ROUNDING_MARGIN` for the rounding of evaluating both models there (a flat maximum's last digits vary
+    between grids) and at least :data:`ROUNDING_FLOOR` (an exact model's error is rounding).
     An error already above ``refine_below`` on the grid is not refined (a model that misses its target does)."""
     plant, film = _relative_errors(source, z0, impedance, grid_hz)
     found = []
     for which, error in enumerate((plant, film)):
         best_hz, best = float(grid_hz[int(np.argmax(error))]), float(np.max(error))
         if max(plant.max(), film.max()) > refine_below:
-            found += [max(best, ROUNDING_FLOOR), best_hz]
+            found += [max(best, ROUNDING_FLOOR), best_hz]  # (not refined: a model that misses its target)
             continue
         inner = np.flatnonzero((error[1:-1] >= error[:-2]) & (error[1:-1] >= error[2:])) + 1
         ends = [i for i in (0, len(error) - 1) if error[i] >= REFINE_WITHIN * best]
@@ -379,7 +382,7 @@ def _largest_errors(source: PlantSource, z0: float, impedance: PoleResidue, grid
                                          chosen):
             if value > best:
                 best_hz, best = f_hz, value
-        found += [max(best, ROUNDING_FLOOR), best_hz]
+        found += [max(best * (1 + ROUNDING_MARGIN), ROUNDING_FLOOR), best_hz]
     return plant, film, found[0], found[1], found[2], found[3]
 
 
@@ -432,7 +435,7 @@ def build_model(source: PlantSource, band_hz: tuple[float, float], film_order: i
                   "spec's effects, every pole and zero of the rational model, each from 1e-8 to 0.3 relative and "
                   "from 0.1 to 10 half-power widths away —, then every local maximum within "
                   f"{REFINE_WITHIN:g} of the largest refined by zooming in between its grid neighbours; "
-                  f"at least {ROUNDING_FLOOR:g} (rounding)",
+                  f"stated with a margin of {ROUNDING_MARGIN:g} of itself and at least {ROUNDING_FLOOR:g} (rounding)",
         "base_lines_per_decade": ERROR_LINES_PER_DECADE,
         "points_band": int(band_grid.size),
         "points_outside": int(outside.size),
