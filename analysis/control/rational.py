@@ -418,16 +418,14 @@ def build_model(source: PlantSource, band_hz: tuple[float, float], film_order: i
     plant_error, film_error, plant_max, plant_at, film_max, film_at = _largest_errors(source, z0, impedance,
                                                                                       band_grid, target)
     # each side outside on its own (a maximum is refined between neighbours of its own side)
-    below, above = (_largest_errors(source, z0, impedance,
-                                    resolving_grid_hz(span, centres, widths, ERROR_LINES_PER_DECADE))
-                    for span in ((low_out, band_hz[0]), (band_hz[1], high_out)))
-    outside = np.concatenate([resolving_grid_hz((low_out, band_hz[0]), centres, widths, ERROR_LINES_PER_DECADE),
-                              resolving_grid_hz((band_hz[1], high_out), centres, widths, ERROR_LINES_PER_DECADE)])
+    sides = [resolving_grid_hz(span, centres, widths, ERROR_LINES_PER_DECADE)
+             for span in ((low_out, band_hz[0]), (band_hz[1], high_out))]
+    below, above = (_largest_errors(source, z0, impedance, grid) for grid in sides)
+    outside = np.concatenate(sides)
     outside_plant, outside_film = np.concatenate([below[0], above[0]]), np.concatenate([below[1], above[1]])
     (out_plant_max, out_plant_at), (out_film_max, out_film_at) = (
         max(((side[2], side[3]) for side in (below, above)), key=lambda item: item[0]),
         max(((side[4], side[5]) for side in (below, above)), key=lambda item: item[0]))
-    inside = (centres >= low_out) & (centres <= high_out)
     error_grid = {
         "method": "complex relative errors on a log grid of the band (and of the decade beyond each side) with "
                   "points clustered around every frequency where either model can have a narrow feature — the "
@@ -445,7 +443,6 @@ def build_model(source: PlantSource, band_hz: tuple[float, float], film_order: i
         "worst_plant_band_hz": plant_at,
         "worst_film_band_hz": film_at,
         "worst_outside_hz": out_plant_at if out_plant_max >= out_film_max else out_film_at,
-        "centres_inside_span": int(np.count_nonzero(inside)),
     }
     poles = np.linalg.eigvals(a) if a.size else np.zeros(0)
     stable = bool(np.all(poles.real < 0))
