@@ -36,6 +36,11 @@ GENERIC_DESCRIPTIONS: tuple[str, ...] = ("channel-power-law", "channel-pole-zero
                                          "side-mode")
 
 
+#: Changes between hits of a term already in the spec (any of its fitted values, with session time or hit level, or
+#: the term from one moment on): tried when the hits differ from each other beyond the noise about the spec.
+TERM_CHANGES: tuple[str, ...] = ("term-drift", "term-level", "term-onset")
+
+
 def candidates_for(spec: RigSpec) -> tuple[str, ...]:
     """The candidates for ``spec``: :data:`CANDIDATES`, and a sensitivity error when part of the spec's accelerance
     lies beside the mover (a measured structure's modes): a uniform gain then scales those parts too, which no mass

@@ -51,6 +51,11 @@ def _above_resonance(effect: Effect, context: FitContext) -> bool:
     return getattr(effect, "freq_hz", 0.0) > 1.2 * context.resonance_hz
 
 
+def _lightly_damped(effect: Effect, context: FitContext) -> bool:
+    """A mode damped far less than the film damps the mover (a structure's own mode, not one the film carries)."""
+    return getattr(effect, "damping_ratio", 1.0) < 0.3 * context.film_damping_ratio
+
+
 def _below_resonance(effect: Effect, context: FitContext) -> bool:
     return getattr(effect, "freq_hz", 0.0) < 0.8 * context.resonance_hz
 
@@ -69,12 +74,13 @@ MECHANISMS: tuple[Mechanism, ...] = (
     Mechanism("tilt (pitch or roll) of the mover on its film, seen by an accelerometer off its centre",
               ("side-mode", "structure-mode"),
               "a rigid-body rotation of the mover on the film's tilt stiffness: a mode of its own that an accelerometer "
-              "or a hammer off the centre line sees, with a modal constant of either sign",
-              "an accelerometer on the other side of the centre (the sign of the mode flips) or a hit at the centre"),
-    Mechanism("a flexible (bending) mode of the mover", ("side-mode", "structure-mode"),
-              "the mover plate's own elastic mode, lightly damped, well above the film's resonance",
+              "or a hammer off the centre line sees, with a modal constant of either sign, damped by the film as the "
+              "heave is", "an accelerometer on the other side of the centre (the sign of the mode flips) or a hit at "
+              "the centre", preference=lambda effect, context: float(not _lightly_damped(effect, context))),
+    Mechanism("an elastic (bending or twisting) mode of the mover's plate", ("side-mode", "structure-mode"),
+              "the mover's own structural mode: far less damped than the modes the gas film carries",
               "accelerometers at two points of the mover (their ratio changes across the mode)", _above_resonance,
-              lambda effect, context: float(effect.freq_hz > 4 * context.resonance_hz and effect.damping_ratio < 0.01)),
+              lambda effect, context: float(_lightly_damped(effect, context))),
     Mechanism("a mode of the base, frame or table the bearing stands on", ("side-mode", "structure-mode"),
               "the support moves the guide, and with it the mover, in a mode of its own",
               "an accelerometer on the base (it moves most there)",
@@ -86,13 +92,17 @@ MECHANISMS: tuple[Mechanism, ...] = (
               "a deliberate mass-spring-damper on the mover, often heavy and damped, near the film's resonance",
               "the mover's drawings; locking the absorber"),
     # the film's dynamic stiffness
+    Mechanism("viscoelastic memory of the film (fractional damping of a porous or graphite restrictor)",
+              ("film-memory",), "a fractional Maxwell branch: stiffness and damping changing with frequency as a "
+              "power law, as the paper's fractional films and porous bearings have", "a wider band (a softer or harder "
+              "tip), or a test at another supply pressure"),
     Mechanism("gas compressibility in the film (a squeeze film stiffening with frequency)",
-              ("film-branch", "squeeze-film", "film-memory"),
+              ("film-branch", "squeeze-film"),
               "trapped air cannot escape at high squeeze numbers: the film stiffens and damps less as the frequency "
               "rises (stiffness growing as a low power of frequency)",
               "a test at another gap or supply pressure (a squeeze film scales as h0⁻¹ and h0⁻²)",
               _order_between(0.0, 0.7)),
-    Mechanism("viscoelastic memory of the film (fractional damping)", ("film-branch", "film-memory"),
+    Mechanism("viscoelastic memory of the film (fractional damping)", ("film-branch",),
               "a power law of frequency between a spring and a dashpot, as the paper's fractional films have",
               "a wider band (a softer or harder tip)", _order_between(0.2, 1.3)),
     Mechanism("extra viscous damping (air shear in a seal or a narrow gap, an eddy-current damper)", ("film-branch",),
@@ -152,15 +162,59 @@ MECHANISMS: tuple[Mechanism, ...] = (
               "hard hits look more damped", "hits over a wider range of force levels"),
     Mechanism("a sensor mounted or wired the other way round", ("polarity",), "the mass line is negative",
               "the sensor's orientation"),
+    # changes between hits of a term (keys "change:target.value"; "*" any)
+    Mechanism("a sensor mount loosening during the session (a stud backing off, adhesive or wax softening)",
+              ("term-drift:channel-resonance.freq_hz", "term-onset:channel-resonance.*",
+               "term-level:channel-resonance.freq_hz"),
+              "the chain's own resonance moves from hit to hit", "re-tightening the mount between hits"),
+    Mechanism("a part whose stiffness changes with temperature or time (a rubber mount warming, a relaxing joint)",
+              ("term-drift:side-mode.freq_hz", "term-drift:extra-mode.freq_hz", "term-drift:side-mode.damping_ratio",
+               "term-drift:extra-mode.damping_ratio"),
+              "a mode's frequency or damping moves steadily over the session", "a temperature log of the rig"),
+    Mechanism("a joint or contact that slips more at higher levels (microslip in a bolted joint, a clamp)",
+              ("term-level:side-mode.freq_hz", "term-level:side-mode.damping_ratio", "term-level:extra-mode.freq_hz",
+               "term-level:extra-mode.damping_ratio"),
+              "a mode softens and damps more on harder hits", "hits over a wider range of force levels"),
+    Mechanism("the sensor or the excitation point moving over a mode's nodal line (a walking magnet base, a hammer "
+              "that wanders)", ("term-drift:side-mode.modal_constant_per_kg", "term-onset:side-mode.*"),
+              "a mode's modal constant changes, even its sign, from hit to hit",
+              "marking the sensor's and the hit's positions"),
+    Mechanism("the supply or the orifices changing during the session (clogging, a regulator drifting)",
+              ("term-drift:pneumatic-lag.tau_lag", "term-drift:pneumatic-lag.k_lag", "term-drift:film-branch.*",
+               "term-drift:film-memory.*", "term-drift:squeeze-film.*"),
+              "the film's lag or its frequency dependence moves steadily over the session",
+              "a log of the supply pressure and flow"),
+    Mechanism("a part set down on or taken off the mover during the session (a tool, an indicator, a cable)",
+              ("term-onset:added-mass.*", "term-onset:extra-mode.*", "term-onset:side-mode.*",
+               "term-onset:film-branch.*"),
+              "a term acts from one moment on", "the session log or a photograph of the set-up"),
+    Mechanism("an amplitude-dependent film or mount (stiffening or softening with the hit level)",
+              ("term-level:*",), "a value follows the hit level", "hits over a wider range of force levels"),
+    Mechanism("a value of the rig or of the chain drifting during the session (temperature, supply)",
+              ("term-drift:*",), "a value moves steadily over the session", "a log of the rig's conditions"),
+    Mechanism("a change of the set-up at one moment of the session", ("term-onset:*",),
+              "a term acts from one moment on", "the session log"),
 )
 
 
-def mechanisms_for(effect: Effect, context: FitContext) -> list[MechanismMatch]:
-    """Every mechanism of :data:`MECHANISMS` consistent with ``effect``'s features, best first: the one its
-    features point at most, ties in the table's order (the more common first). ``tied`` marks the first: the others
-    are consistent too, and the listed measurement tells them apart."""
+def _keys(effect: Effect, target: Effect | None) -> set[str]:
+    """The table keys a description answers to: its type, and for a change between hits ``change:target.value``
+    with the wildcards ``change:target.*`` and ``change:*``."""
+    if target is None:
+        return {effect.type_name}
+    change, parameter = effect.type_name, getattr(effect, "parameter", "")
+    return {f"{change}:{target.type_name}.{parameter}", f"{change}:{target.type_name}.*", f"{change}:*"}
+
+
+def mechanisms_for(effect: Effect, context: FitContext, target: Effect | None = None) -> list[MechanismMatch]:
+    """Every mechanism of :data:`MECHANISMS` consistent with ``effect``'s features (for a change between hits,
+    ``target`` is the term it changes), best first: the one its features point at most, ties in the table's order
+    (the more specific and the more common first). ``tied`` marks the first: the others are consistent too, and the
+    listed measurement tells them apart."""
+    keys = _keys(effect, target)
+    subject = effect if target is None else target
     matches = [mechanism for mechanism in MECHANISMS
-               if effect.type_name in mechanism.effects and mechanism.when(effect, context)]
-    matches.sort(key=lambda mechanism: -mechanism.preference(effect, context))
+               if keys & set(mechanism.effects) and mechanism.when(subject, context)]
+    matches.sort(key=lambda mechanism: -mechanism.preference(subject, context))
     return [MechanismMatch(mechanism.name, mechanism.note, mechanism.tell_apart, index == 0)
             for index, mechanism in enumerate(matches)]

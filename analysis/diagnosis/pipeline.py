@@ -27,11 +27,12 @@ import scipy.stats
 from gasfilm.analysis.diagnosis.candidates import (
     EQUIVALENT,
     GENERIC_DESCRIPTIONS,
+    TERM_CHANGES,
     candidates_for,
     gain_is_not_a_mass,
     separating_measurement,
 )
-from gasfilm.analysis.diagnosis.fitspace import fit_context, spec_slots, without_effect
+from gasfilm.analysis.diagnosis.fitspace import fit_context, removed_with, spec_slots, without_effect
 from gasfilm.analysis.diagnosis.measurement import HitSpectra, QualityNote, contiguous_bands, weighted_mean
 from gasfilm.analysis.diagnosis.mechanisms import mechanisms_for
 from gasfilm.analysis.diagnosis.modes import unmodelled_resonances_hz
@@ -59,7 +60,7 @@ from gasfilm.analysis.diagnosis.selection import (
     to_finish,
     finishing_fit,
 )
-from gasfilm.analysis.physics.effects import EFFECT_TYPES, FitContext
+from gasfilm.analysis.physics.effects import EFFECT_TYPES, FitContext, TermChange
 from gasfilm.analysis.physics.response import simulate_response
 from gasfilm.analysis.physics.spec import DescriptionError, RigSpec
 from gasfilm.analysis.threads import one_blas_thread
@@ -70,7 +71,10 @@ logger = logging.getLogger(__name__)
 
 MAX_TERMS = 6
 #: Generic descriptions at most, after the catalog's terms (modes beside the mover, film branches, channel factors).
-MAX_DESCRIPTIONS = 6
+MAX_DESCRIPTIONS = 8
+#: A generic description whose own band stays beyond the noise is still a description of what it removed when it
+#: removed at least this share of the excess there (the rest is another description's, or not explained).
+DESCRIBED_SHARE = 0.5
 #: Refits at most against the replay of their own result when the replay quantises the response.
 QUANTISED_REFITS = 8
 NONLINEAR_ITERATIONS = 3
@@ -397,6 +401,8 @@ def _select_one(
     noise_scale = _noise_scale(current, points)
     trials = []
     identifiers = _candidate_identifiers(current.spec, context, restoring, generic)
+    if not _hits_differ(evidence, current.spec):  # one spec for every hit is all these data can describe
+        identifiers = [identifier for identifier in identifiers if identifier not in TERM_CHANGES]
 
     # a candidate matters when it scores above BIC_MARGIN (chosen, or listed as an alternative)
     fitted_candidates = _candidate_fits(
@@ -459,14 +465,17 @@ def _drop_partial_descriptions(
     context: FitContext,
     progress: Callable[[str], None],
 ) -> tuple[list[Step], FitOutcome, Evidence, dict[str, RigSpec], dict[str, Claim]]:
-    """A generic description must bring its own band within the noise (the claim every term is held to, step 4 (a)):
-    one that leaves it beyond is a partial description of something it does not describe, taken out (the latest
-    first) and listed with its values. The catalog's terms here passed their claims already."""
+    """A generic description must describe what lies in its own band: one that leaves that band beyond the noise
+    having removed less than :data:`DESCRIBED_SHARE` of its excess there (against the written spec refitted without
+    it) describes something else, and is taken out (the latest first) and listed with its values. One that removed
+    most of it describes its part, and what is left there is another's, or is not explained. The catalog's terms here
+    passed their claims already."""
     while True:
         claims = {step.label: _claim(spectra, evidence, current, refits_without[step.label], step.label,
                                      recalibrated, rms_recalibrated) for step in steps}
         partial = [step for step in steps if EFFECT_TYPES[step.identifier].generic
-                   and claims[step.label].reason is not None][-1:]
+                   and claims[step.label].reason is not None
+                   and not _described_share_met(claims[step.label])][-1:]
         if not partial:
             return steps, current, evidence, refits_without, claims
         reasons = {step.label: claims[step.label].reason for step in partial}
@@ -476,10 +485,38 @@ def _drop_partial_descriptions(
                                                                  refits_without, rejected, recalibrated, context)
 
 
+def _described_share_met(claim: Claim) -> bool:
+    """Whether a term removed at least :data:`DESCRIBED_SHARE` of the excess over the noise in its own band."""
+    before, after = claim.own_band_without, claim.own_band_chi2_per_point
+    return before > 1.0 and (before - after) >= DESCRIBED_SHARE * (before - 1.0) and claim.gain_over_recalibrated > 0
+
+
 def _film_moved_from(spec: RigSpec, film: dict[str, float], tolerance: float = 0.1) -> bool:
     """Whether any of ``spec``'s film parameters differs from ``film``'s by more than ``tolerance`` (relative)."""
     return any(abs(value - film.get(name, value)) > tolerance * abs(film.get(name, value)) for name, value in
                spec.film_parameters.items())
+
+
+#: The hits' residuals about their mean (the spec's per hit) beyond the noise by this factor (and beyond what the noise
+#: reaches by chance) say that the hits differ in a way the spec does not have: changes between hits are tried.
+HITS_DIFFER = 1.2
+
+
+def _hits_differ(evidence: Evidence, spec: RigSpec) -> bool:
+    """Whether the hits differ from each other beyond the noise about the spec: the χ² of each hit's residual about
+    the hits' weighted mean residual, per real degree of freedom, above :data:`HITS_DIFFER` and the 1 in 1000 chance
+    level of the F test with the noise estimate's degrees of freedom."""
+    if evidence.hit_count < 3:
+        return False
+    residual = evidence.residual_per_hit(spec)
+    weight = evidence.spectra.weight
+    mean = (weight * residual).sum(axis=0) / weight.sum(axis=0)
+    dof = 2 * (evidence.hit_count - 1) * residual.shape[1]
+    per_dof = float(np.sum(weight * np.abs(residual - mean) ** 2)) / dof
+    noise = evidence.spectra.noise
+    chance = float(scipy.stats.f.isf(OWN_BAND_FALSE_ALARM, dof, max(noise.degrees_of_freedom, 1.0))) \
+        if noise is not None else 1.0
+    return per_dof > max(HITS_DIFFER, chance)
 
 
 def _describe_the_rest(
@@ -518,9 +555,11 @@ def _candidate_identifiers(
     descriptions): not already in it unless several of a type can be, a time term only when the hits' times are
     known, an amplitude-dependent term only when the measured restoring force allows its shape."""
     present = {effect.type_name for effect in spec.effects if not type(effect).repeatable}
-    return [identifier for identifier in (GENERIC_DESCRIPTIONS if generic else candidates_for(spec))
+    pool = (*(GENERIC_DESCRIPTIONS if generic else candidates_for(spec)), *TERM_CHANGES)
+    return [identifier for identifier in pool
             if identifier not in present
-            and not (identifier in ("drift", "step-change") and context.session_span_s <= 0)
+            and not (identifier in ("drift", "step-change", "term-drift", "term-onset")
+                     and context.session_span_s <= 0)
             and not (identifier in AMPLITUDE_TERMS and restoring is not None and not restoring.allows(identifier))]
 
 
@@ -757,6 +796,8 @@ def _drop_unsupported_terms(
                                       recalibrated, rms_recalibrated) for step in steps}
         within_noise = _nothing_unexplained(evidence, current.spec)
         for step in steps:
+            if EFFECT_TYPES[step.identifier].generic:  # a change between hits is a description: its own band only
+                continue
             if claims[step.label].reason is None:  # its own values on the written spec, as when it entered
                 claims[step.label].reason = _not_a_finding(current, _effect_index(current.spec, step.label),
                                                                 context, within_noise)
@@ -1069,19 +1110,17 @@ def _label_at(spec: RigSpec, index: int) -> str:
 
 
 def _without_steps(steps: list[Step], removed: list[Step], spec: RigSpec) -> list[Step]:
-    """``steps`` less ``removed``, relabelled for ``spec`` less the removed steps' effects (a second extra mode is the
-    first once the first is taken out)."""
-    gone = sorted(_effect_index(spec, step.label) for step in removed)
-    kept = []
-    for step in steps:
-        if step in removed:
-            continue
-        index = _effect_index(spec, step.label)
-        reduced = spec
-        for removed_index in reversed(gone):
-            reduced = without_effect(reduced, removed_index)
-        kept.append(dataclasses.replace(step, label=_label_at(reduced, index - sum(g < index for g in gone))))
-    return kept
+    """``steps`` less ``removed`` (and less the changes between hits of a removed term, which go with it),
+    relabelled for ``spec`` less their effects (a second extra mode is the first once the first is taken out)."""
+    gone: set[int] = set()
+    for step in removed:
+        gone |= removed_with(spec, _effect_index(spec, step.label))
+    reduced = spec
+    for index in sorted(gone, reverse=True):
+        reduced = reduced.with_values(effects=[e for i, e in enumerate(reduced.effects) if i != index])
+    position = {old: new for new, old in enumerate(i for i in range(len(spec.effects)) if i not in gone)}
+    return [dataclasses.replace(step, label=_label_at(reduced, position[_effect_index(spec, step.label)]))
+            for step in steps if _effect_index(spec, step.label) not in gone]
 
 
 # --- reporting ------------------------------------------------------------------------------------------------------
@@ -1171,7 +1210,8 @@ def _finding(
         place=effect.place(),
         status="modelled" if type(effect).generic else "named",
         features=effect.features(),
-        mechanisms=mechanisms_for(effect, context),
+        mechanisms=mechanisms_for(effect, context, final.spec.effects[effect.term] if isinstance(effect, TermChange)
+                                  else None),
     )
 
 

@@ -11,6 +11,7 @@ from gasfilm.analysis.diagnosis.measurement import HitSpectra, QualityNote
 from gasfilm.analysis.diagnosis.mechanisms import MechanismMatch
 from gasfilm.analysis.diagnosis.restoring import RestoringForce
 from gasfilm.analysis.diagnosis.selection import Evidence
+from gasfilm.analysis.diagnosis.structure import Structure, structure_summary
 from gasfilm.analysis.physics.spec import RigSpec
 from gasfilm.drivers.interface import STANDARD_GRAVITY_M_S2
 
@@ -167,6 +168,7 @@ class Diagnosis:
     restoring_force: RestoringForce | None = None  # model-free shape of the film's force (amplitude physics)
     improved_spec_path: str | None = None  # where a caller wrote ``improved``
     figures: list[str] = field(default_factory=list)
+    structure: Structure | None = None  # the measured structure read off the FRF (modes, stabilization diagram)
 
     @property
     def improvement_e(self) -> float:
@@ -181,6 +183,8 @@ class Diagnosis:
             "unexplained": [item.to_dict() for item in self.unexplained],
             "candidates": [candidate.to_dict() for candidate in self.candidates],
             "restoring_force": self.restoring_force.to_dict() if self.restoring_force is not None else None,
+            "structure": structure_summary(self.improved, self.structure, (float(self.evidence.freq_hz[0]),
+                                                                            float(self.evidence.freq_hz[-1]))),
             "quality": [note.to_dict() for note in self.quality],
             "noise": self.spectra.noise.to_dict() if self.spectra.noise else None,
             "recalibration": self.recalibration,

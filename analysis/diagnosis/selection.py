@@ -45,6 +45,10 @@ from gasfilm.analysis.physics.effects import (
     SideMode,
     StepChange,
     SqueezeFilm,
+    TermChange,
+    TermDrift,
+    TermLevel,
+    TermOnset,
 )
 from gasfilm.analysis.physics.response import (
     AcceleranceParts,
@@ -154,7 +158,7 @@ class Evidence:
     def predicted_parts(self, spec: RigSpec, hits: np.ndarray | None = None) -> AcceleranceParts | None:
         """:meth:`predicted` with its parts (for first-order changes, :meth:`AcceleranceParts.change`); None with
         late-triggered records (their profiled residual is not linear in the prediction)."""
-        if self.spectra.missing_fronts is not None:
+        if self.spectra.missing_fronts is not None or spec.has_term_changes:
             return None
         if not spec.is_per_hit:
             return accelerance_parts(spec, self._pieces)
@@ -592,7 +596,39 @@ def starting_effects(identifier: str, spec: RigSpec, evidence: Evidence, context
     if identifier == "channel-pole-zero":
         near, far = 2.0 * context.band_hz[1], 50.0 * context.band_hz[1]
         return [ChannelPoleZero(pole_hz=near, zero_hz=far), ChannelPoleZero(pole_hz=far, zero_hz=near)]
+    if identifier in ("term-drift", "term-level", "term-onset"):
+        return _term_change_starts(identifier, spec, evidence, context)
     raise KeyError(identifier)
+
+
+#: Units of the fields a term-onset scales: its size (a mass, a stiffness, a modal constant, a force …), so that the
+#: term is absent before the onset.
+_AMPLITUDE_UNITS = frozenset({"kg", "N/m", "1/kg", "(m/s²)/N", "N", "N·s²/m²", "N/m³", "N·s^α/m"})
+
+
+def _term_change_starts(identifier: str, spec: RigSpec, evidence: Evidence, context: FitContext) -> list[Effect]:
+    """Starts of a change between hits of each changeable term of ``spec``: every fitted value of it (with session
+    time, with the hit level), or, for an onset, its size from each likely moment on. Terms held after the
+    recalibration (a measured structure's modes) and changes themselves are not changed."""
+    conditions = evidence.spectra.conditions
+    starts: list[Effect] = []
+    for index, effect in enumerate(spec.effects):
+        if isinstance(effect, TermChange) or type(effect).held_after_recalibration:
+            continue
+        names = list(effect.fit_ranges(context))
+        if identifier == "term-drift":
+            starts += [TermDrift(term=index, parameter=name, fraction_per_hour=0.0) for name in names]
+        elif identifier == "term-level":
+            reference = float(np.median(np.abs(conditions.impulse_ns)))
+            if np.ptp(conditions.impulse_ns) > 0.05 * reference:
+                starts += [TermLevel(term=index, parameter=name, exponent=0.0, reference_impulse_ns=reference)
+                           for name in names]
+        else:
+            units = {item.name: item.metadata.get("unit") for item in dataclasses.fields(effect)}
+            sizes = [name for name in names if units.get(name) in _AMPLITUDE_UNITS][:1]
+            starts += [TermOnset(term=index, parameter=name, at_time_s=at_time_s)
+                       for name in sizes for at_time_s in _likely_step_times(spec, evidence, count=2)]
+    return starts
 
 
 def _excess_peaks(spec: RigSpec, evidence: Evidence, resonance_hz: float | None, count: int = 3) -> list[float]:

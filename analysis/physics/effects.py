@@ -104,6 +104,7 @@ class FitContext:
     band_hz: tuple[float, float]
     session_span_s: float  # last hit time − first hit time
     max_displacement_m: float  # initial displacement amplitude of the hardest hit, J / (M ω0)
+    film_damping_ratio: float = 0.05  # Im Z / (2 Re Z) of the film at the resonance
 
 
 @dataclass(frozen=True)
@@ -639,6 +640,7 @@ class PneumaticLag(Effect):
     explanation: ClassVar[str] = (
         "Air in the orifices and pockets reacts with a delay: part of the film force lags the motion, which lowers "
         "(or even reverses) the film's damping near the resonance.")
+    repeatable: ClassVar[bool] = True  # several volumes behind restrictors (pockets, a plenum) each lag on their own
 
     k_lag: float = _number("N/m", _positive)
     tau_lag: float = _number("s", _positive)
@@ -669,6 +671,7 @@ class FilmMemory(Effect):
 
     #: k_memory at its upper bound: the branch is a pure spring-pot η s^α beside the film, a valid limit
     open_upper: ClassVar[frozenset[str]] = frozenset({"k_memory"})
+    repeatable: ClassVar[bool] = True
 
     k_memory: float = _number("N/m", _positive)
     eta_memory: float = _number("N·s^α/m", _positive)
@@ -1098,3 +1101,122 @@ class ChannelPowerLaw(Effect):
 
 #: A channel power law's exponent stays within ±this (±0.3: a factor of 2 per decade).
 POWER_LAW_LIMIT = 0.3
+
+
+# --- changes between hits: a term of the spec whose value moves from hit to hit -------------------------------------
+
+
+def _term_field() -> Any:
+    """The index (in the spec's effects, from 0) of the term a change acts on."""
+    return field(metadata={"unit": "", "rule": _term_index})
+
+
+def _term_index(value: float) -> str | None:
+    return None if value >= 0 and float(value) == int(value) else "must be the index (0, 1, …) of an effect"
+
+
+@dataclass(frozen=True)
+class TermChange(Effect):
+    """A change between hits of one value of another term of the spec (``term``: its index among the effects,
+    ``parameter``: the field): the spec a hit sees is :meth:`RigSpec.at_hit`'s, the term's value moved by
+    :meth:`factor` at the hit's session time and impulse. Adds nothing by itself."""
+
+    per_hit: ClassVar[bool] = True
+    generic: ClassVar[bool] = True
+    repeatable: ClassVar[bool] = True
+
+    def factor(self, time_s: float, impulse_ns: float) -> float:
+        """The factor on the term's value for a hit at ``time_s`` with impulse ``impulse_ns``."""
+        return 1.0
+
+    def place(self) -> str:
+        return "between hits"
+
+
+@register_effect("term-drift")
+@dataclass(frozen=True)
+class TermDrift(TermChange):
+    """A term's value moves steadily over the session: × ``1 + fraction_per_hour·t/3600`` at session time t."""
+
+    explanation: ClassVar[str] = (
+        "A value of the rig or of the measurement chain moves steadily during the session (warming, wear, a "
+        "loosening mount): early and late hits see it differently.")
+
+    term: int = _term_field()
+    parameter: str = field(metadata={"unit": ""})
+    fraction_per_hour: float = _number("1/h", _finite)
+
+    def factor(self, time_s: float, impulse_ns: float) -> float:
+        return max(1.0 + self.fraction_per_hour * time_s / 3600.0, TERM_CHANGE_FLOOR)
+
+    def fit_ranges(self, context: FitContext) -> dict[str, FitRange]:
+        limit = 0.9 * 3600.0 / max(context.session_span_s, 1e-3)  # at most ±90 % over the session
+        return {"fraction_per_hour": FitRange("linear", -limit, limit)}
+
+    def features(self) -> dict[str, float]:
+        return {"fraction_per_hour": self.fraction_per_hour}
+
+    def evidence(self, sigma: Mapping[str, float], where: str, context: FitContext) -> str:
+        span_h = context.session_span_s / 3600.0
+        return (f"the term's {self.parameter} moves steadily over the session: "
+                f"{100 * self.fraction_per_hour * span_h:+.1f} ± {100 * sigma['fraction_per_hour'] * span_h:.1f} % "
+                f"from the first hit to the last, in {where}")
+
+
+@register_effect("term-level")
+@dataclass(frozen=True)
+class TermLevel(TermChange):
+    """A term's value follows the hit's level: × ``(J/J_ref)^exponent`` for a hit of impulse J (a joint that slips
+    more, a mount that softens, a film that stiffens at larger amplitude)."""
+
+    explanation: ClassVar[str] = (
+        "A value of the rig depends on how hard the mover is hit: harder hits see it changed (an amplitude-dependent "
+        "joint, mount or film).")
+
+    term: int = _term_field()
+    parameter: str = field(metadata={"unit": ""})
+    exponent: float = _number("1", _finite)
+    reference_impulse_ns: float = _number("N·s", _positive)
+
+    def factor(self, time_s: float, impulse_ns: float) -> float:
+        return (max(abs(impulse_ns), 1e-12) / self.reference_impulse_ns) ** self.exponent
+
+    def fit_ranges(self, context: FitContext) -> dict[str, FitRange]:
+        return {"exponent": FitRange("linear", -2.0, 2.0)}
+
+    def features(self) -> dict[str, float]:
+        return {"exponent": self.exponent}
+
+    def evidence(self, sigma: Mapping[str, float], where: str, context: FitContext) -> str:
+        return (f"the term's {self.parameter} follows the hit level as impulse to the power {self.exponent:+.3f} ± "
+                f"{sigma['exponent']:.3f} ({100 * (2**self.exponent - 1):+.1f} % for a hit twice as hard), in "
+                f"{where}")
+
+
+@register_effect("term-onset")
+@dataclass(frozen=True)
+class TermOnset(TermChange):
+    """A term acts only from one moment of the session on (a part set down on the mover, a sensor re-mounted): its
+    value is scaled by ``before`` (0: absent) for hits before ``at_time_s``."""
+
+    explanation: ClassVar[str] = (
+        "Something changed at one moment of the session: a term acts from then on (a part set down, a sensor "
+        "re-mounted), which hits before that moment do not see.")
+
+    term: int = _term_field()
+    parameter: str = field(metadata={"unit": ""})
+    at_time_s: float = _number("s of session time", _non_negative)
+    before: float = _number("1", _non_negative, 0.0)
+
+    def factor(self, time_s: float, impulse_ns: float) -> float:
+        return 1.0 if time_s >= self.at_time_s else max(self.before, TERM_CHANGE_FLOOR)
+
+    def features(self) -> dict[str, float]:
+        return {"at_time_s": self.at_time_s}
+
+    def evidence(self, sigma: Mapping[str, float], where: str, context: FitContext) -> str:
+        return f"the term acts from {self.at_time_s:.1f} s of the session on, not before, in {where}"
+
+
+#: A change never takes a term's value below this share of itself (a value of 0 is no term, and many are > 0).
+TERM_CHANGE_FLOOR = 1e-6

@@ -8,6 +8,7 @@ Format (``fixtures/sensors.toml``)::
     sensitivity = 11.2
     units = "mV/N"            # see drivers.interface.SENSITIVITY_UNITS
     description = "modally tuned impact hammer"
+    serial = "LW12345"        # optional: one calibrated sensor (its sheet's sensitivity); listed as "model s/n …"
 """
 
 from __future__ import annotations
@@ -32,10 +33,16 @@ class Sensor:
     sensitivity: float
     units: str
     description: str = ""
+    serial: str = ""
+
+    @property
+    def key(self) -> str:
+        """How the Setup tab names the entry: the model, and the serial number of a calibrated sensor."""
+        return f"{self.model} s/n {self.serial}" if self.serial else self.model
 
     @property
     def label(self) -> str:
-        return f"{self.model} ({self.sensitivity:g} {self.units})"
+        return f"{self.key} ({self.sensitivity:g} {self.units})"
 
 
 def load_sensor_library(path: str | Path = DEFAULT_SENSOR_LIBRARY) -> list[Sensor]:
@@ -76,7 +83,11 @@ def load_sensor_library(path: str | Path = DEFAULT_SENSOR_LIBRARY) -> list[Senso
             raise SettingError(f"{where} sensitivity: {sensitivity!r} must be a positive finite number")
         if not isinstance(entry["model"], str) or not entry["model"].strip():
             raise SettingError(f"{where} model: {entry['model']!r} must be a non-empty text")
+        serial = entry.get("serial", "")
+        if not isinstance(serial, str):
+            raise SettingError(f"{where} serial: {serial!r} must be a text")
         sensors.append(
-            Sensor(entry["model"], kind, float(sensitivity), entry["units"], str(entry.get("description", "")))
+            Sensor(entry["model"], kind, float(sensitivity), entry["units"], str(entry.get("description", "")),
+                   serial.strip())
         )
     return sensors

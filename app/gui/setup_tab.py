@@ -395,7 +395,7 @@ class SetupTab(QWidget):
         combo.addItem(TYPED_IN, "")
         for sensor in self.sensors:
             if sensor.kind.value == kind:
-                combo.addItem(sensor.model, sensor.model)
+                combo.addItem(sensor.key, sensor.key)
                 combo.setItemData(combo.count() - 1, sensor.description, Qt.ItemDataRole.ToolTipRole)
         combo.setCurrentIndex(max(0, combo.findData(selected)))
         combo.blockSignals(False)
@@ -416,8 +416,8 @@ class SetupTab(QWidget):
         self._channels_changed()
 
     def _sensor_picked(self, row: int) -> None:
-        model = self.channel_cell(row, "Sensor").currentData()
-        sensor = next((s for s in self.sensors if s.model == model), None)
+        key = self.channel_cell(row, "Sensor").currentData()
+        sensor = next((s for s in self.sensors if s.key == key), None)
         if sensor is not None:
             spin: QDoubleSpinBox = self.channel_cell(row, "Sensitivity")
             spin.blockSignals(True)
@@ -429,8 +429,8 @@ class SetupTab(QWidget):
     def _typed_in(self, row: int) -> None:
         """A sensitivity or unit edited by hand no longer matches the library entry."""
         combo: QComboBox = self.channel_cell(row, "Sensor")
-        model = combo.currentData()
-        sensor = next((s for s in self.sensors if s.model == model), None)
+        key = combo.currentData()
+        sensor = next((s for s in self.sensors if s.key == key), None)
         current = self._read_row(row)
         if sensor is not None and (sensor.sensitivity != current.sensitivity or sensor.units != current.units):
             combo.blockSignals(True)

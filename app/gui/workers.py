@@ -67,6 +67,7 @@ class AcquisitionPlan:
     ring_seconds: float = 10.0
     time_offset_s: float = 0.0  # session time of the stream's first sample (hit times continue across re-arms)
     conditions: dict = field(default_factory=dict)  # the session's operating conditions (analysis/conditions.py)
+    other_responses: tuple[int, ...] = ()  # a rigid body's further accelerometers, checked as the response is
 
 
 @dataclass
@@ -151,7 +152,8 @@ class AcquisitionWorker(QObject):
             full_scale = tuple(channel.full_scale_si for channel in plan.config.channels)
             self._capture = capture
             self.recorder = HitRecorder(
-                self.session, capture, plan.validation, full_scale_si=full_scale, window=plan.window
+                self.session, capture, plan.validation, full_scale_si=full_scale, window=plan.window,
+                other_responses=plan.other_responses,
             )
             self._record_samples = capture.record_samples
             self._force_row = force_row
