@@ -2,14 +2,18 @@
 
 A network can hold more than an FRF determines: FOMGF's second arm beside a stiff film, an order at 0 (the
 spring-pot is a spring) or at 2 (an inertance). A search then parks the spare part wherever it harms least — often
-where it makes a narrow resonance between the FRF's lines — and its values mean nothing. A fit is examined when it
-says so itself (:func:`troubles`: a parameter at a bound or not identifiable, two parameters correlated to ±0.999, an
-order at 0 or 2 within its uncertainty, a feature the data do not support); every network one step simpler is then
-fitted (:func:`candidate_reductions`: a parallel branch removed — of interchangeable arms the last one, so that every
-session names the arm it keeps alike —, a series element shorted, a spring-pot made a spring) and the simplest form
-the data support as well is kept: the one with the lowest BIC (Table 2's), if it is not above the fit's own. This
-repeats until nothing is left to examine. The result keeps the model's name, holds the reduced network and its
-parameters only, and says what was taken out and why.
+where it makes a narrow resonance between the FRF's lines — and its values mean nothing.
+
+Every network one step simpler is a candidate (:func:`candidate_reductions`: a parallel branch removed, a series
+element shorted, a spring-pot made a spring; inside interchangeable arms always in the last one, so the arm kept has
+the first arm's names). A candidate the fit's own values already support (the element taken out as it is, the BIC
+no higher) is fitted again first; the others are fitted when the fit says the data do not determine it
+(:func:`troubles`: a parameter at a bound or not identifiable, an order at 0 or 2 within its uncertainty, a feature
+inside the band the data do not support). The candidate with the lowest BIC (Table 2's) is taken if that is not
+above the fit's own — or, when the fit has a feature the FRF cannot show, the best candidate without one, whatever
+its BIC. This repeats until nothing is left to take out; the form reached is then named as the removals from the
+requested network name it (the same names in every session). The result keeps the model's name, holds the reduced
+network and its parameters only, and says what was taken out and why (:attr:`FitResult.notes`).
 
 Features (:mod:`gasfilm.analysis.physics.features`) inside and near the band are checked against the FRF: a
 resonance, antiresonance or negative stiffness of the fitted model counts as supported only inside the band, across
@@ -145,9 +149,9 @@ def _screened_shapes(fit: FitResult, freq_hz: np.ndarray, h_measured: np.ndarray
         rms = float(np.sqrt(np.mean(np.abs(residual) ** 2)))
         if not math.isfinite(rms):
             continue
-        screened = dataclasses.replace(fit, rms=rms, params={p.name: 0.0 for p in simplified.parameters()})
-        if bic(screened) <= own:
-            found.append((bic(screened), network_shape(simplified)))
+        without = bic(fit, rms, len(simplified.parameters()))
+        if without <= own:
+            found.append((without, network_shape(simplified)))
     return [shape for _, shape in sorted(found, key=lambda item: item[0])]
 
 
@@ -182,11 +186,12 @@ def paper_name_of(network: Node) -> str | None:
 # --- what a fit says about itself ----------------------------------------------------------------------------------
 
 
-def bic(fit: FitResult) -> float:
-    """Table 2's BIC of a fit on its own lines: ``2n ln(RSS/2n) + k ln 2n`` with 2n real residuals."""
+def bic(fit: FitResult, rms: float | None = None, parameters: int | None = None) -> float:
+    """Table 2's BIC of a fit on its own lines: ``2n ln(RSS/2n) + k ln 2n`` with 2n real residuals (with ``rms``
+    and ``parameters`` given: of those instead of the fit's own)."""
     n_real = 2 * fit.n_points
-    rss = fit.n_points * fit.rms**2
-    k = len(fit.params) + int(fit.mass_fitted)
+    rss = fit.n_points * (fit.rms if rms is None else rms) ** 2
+    k = (len(fit.params) if parameters is None else parameters) + int(fit.mass_fitted)
     return n_real * math.log(max(rss, 1e-300) / n_real) + k * math.log(n_real)
 
 
