@@ -2,6 +2,9 @@
 start), the fitter, and the FRF it was fitted to with that FRF's exponential-window decay rate. A session's stored
 fit is replaced only by one made with the same settings unless the user says so (``gasfilm fit --overwrite``, or the
 GUI's question): a report must never compare a fit with others made under settings it does not show.
+
+A stored fit also names the hits its FRF averaged (:class:`FitHits`): a fit made on fewer (or other) hits than the
+session now accepts is stale (:func:`stale_note`), which the GUI, ``gasfilm fit``, the report and campaigns say.
 """
 
 from __future__ import annotations
@@ -133,3 +136,52 @@ def refusal(path: Any, conflicts: list[tuple[str, list[Difference]]]) -> str:
     return (f"{flags}: {path} holds a {name} fit {', '.join(d.stored for d in found)}{also}; this one would be "
             f"{', '.join(d.new for d in found)}. Add --overwrite to replace it, or fit with the stored settings "
             f"({', '.join(d.again for d in found)})")
+
+
+@dataclass(frozen=True)
+class FitHits:
+    """The hits a fit's FRF averaged: how many, and which (the session's hit indices, from 0; None when the FRF did
+    not record them)."""
+
+    count: int
+    indices: tuple[int, ...] | None = None
+
+    #: The keys :meth:`stored_keys` adds to a stored fit.
+    STORED_KEYS = ("hit_count", "hit_indices")
+
+    def stored_keys(self) -> dict[str, Any]:
+        """What a stored fit holds of its hits."""
+        return {"hit_count": int(self.count),
+                **({"hit_indices": [int(i) for i in self.indices]} if self.indices is not None else {})}
+
+    @classmethod
+    def of_stored(cls, values: Mapping[str, Any]) -> "FitHits | None":
+        """The hits of a stored fit (None when it does not say: fits stored before it was recorded)."""
+        try:
+            indices = values.get("hit_indices")
+            count = values.get("hit_count")
+            if indices is not None:
+                indices = tuple(int(i) for i in indices)
+                return cls(len(indices) if count is None else int(count), indices)
+            return None if count is None else cls(int(count))
+        except (TypeError, ValueError):
+            return None
+
+
+def stale_note(hits: FitHits | None, accepted_indices: Any) -> str | None:
+    """Why a fit made on ``hits`` no longer describes a session whose accepted hits are ``accepted_indices`` (None
+    when it does, or when the fit does not say which hits it used): "made on 4 of the 10 accepted hits"."""
+    if hits is None:
+        return None
+    accepted = {int(i) for i in accepted_indices}
+    if hits.indices is not None:
+        used = set(hits.indices)
+        if used == accepted:
+            return None
+        if used < accepted:
+            return f"made on {len(used)} of the {len(accepted)} accepted hits"
+        return (f"made on {len(used)} hits, {len(used - accepted)} of them no longer accepted (the session accepts "
+                f"{len(accepted)})")
+    if hits.count < len(accepted):
+        return f"made on {hits.count} of the {len(accepted)} accepted hits"
+    return None

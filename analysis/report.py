@@ -10,7 +10,7 @@ import datetime
 import html
 import io
 import logging
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Sequence
 
@@ -63,7 +63,22 @@ class ReportData:
     diagnosis: dict[str, Any] | None  # the newest stored one
     diagnosis_name: str | None = None  # its name in the session (diagnoses/run-NNN)
     diagnosis_runs: int = 0  # how many diagnoses the session keeps
+    fit_hits: dict[str, int | None] = field(default_factory=dict)  # hits each fit was made on
+    stale: dict[str, str] = field(default_factory=dict)  # model → why its fit no longer describes the hits
     rigid_body: dict[str, Any] | None = None  # a rigid-body test's identification (gasfilm rigid), when stored
+
+
+def stale_warning(data: ReportData, names: Sequence[str]) -> str | None:
+    """One line for the fits among ``names`` made on fewer (or other) hits than the session accepts now."""
+    stale = {name: data.stale[name] for name in names if name in data.stale}
+    if not stale:
+        return None
+    by_note: dict[str, list[str]] = {}
+    for name, note in stale.items():
+        by_note.setdefault(note, []).append(name)
+    which = "; ".join(f"{', '.join(models)} {note}" for note, models in by_note.items())
+    return (f"stale fits: {which} — their parameters predate the hits since, while their RMS, E, AIC and BIC here are "
+            f"computed on the FRF of the hits accepted now (gasfilm fit {data.path.name} --refit fits them again)")
 
 
 def _rigid_lines(data: ReportData) -> list[str]:
@@ -101,6 +116,7 @@ def _device_from_settings(settings: Any) -> str:
 
 def read_report_data(path: str | Path) -> ReportData:
     """Everything the report needs from ``path`` (read only)."""
+    from gasfilm.analysis.fit_settings import FitHits, stale_note
     from gasfilm.analysis.identification import FitResult, compare_models
 
     path = Path(path)
@@ -137,7 +153,12 @@ def read_report_data(path: str | Path) -> ReportData:
             window = session.settings_as("window", WindowSettings)
             frf = session_frf(accepted, window) if accepted else None
             source = "computed from the accepted hits with the session's window settings"
-        fits = [FitResult.from_dict(session.read_fit(name)) for name in session.result_names("fits")]
+        stored_fits = {name: session.read_fit(name) for name in session.result_names("fits")}
+        fits = [FitResult.from_dict(values) for values in stored_fits.values()]
+        accepted_indices = session.accepted_indices()
+        fit_hits = {fit.model_name: FitHits.of_stored(values) for fit, values in zip(fits, stored_fits.values())}
+        stale = {name: note for name, hits in fit_hits.items()
+                 if (note := stale_note(hits, accepted_indices)) is not None}
         comparison: list[tuple[tuple[float, float], list[Any]]] = []
         if fits and frf is not None:
             for band_hz, group in fits_by_band(fits):
@@ -164,6 +185,8 @@ def read_report_data(path: str | Path) -> ReportData:
             diagnosis=diagnosis,
             diagnosis_name=newest,
             diagnosis_runs=diagnosis_runs,
+            fit_hits={name: None if hits is None else hits.count for name, hits in fit_hits.items()},
+            stale=stale,
             rigid_body=session.read_rigid_body(),
         )
 
@@ -297,6 +320,13 @@ def _sigma_text(fit: Any, name: str) -> str:
     return f"{std:.2g}"
 
 
+def _hits_cell(data: ReportData, name: str) -> str:
+    """The hits a fit was made on, for Table 2: "10", or "4 (stale)" (the warning above the table says more)."""
+    count = data.fit_hits.get(name)
+    text = "not recorded" if count is None else str(count)
+    return f"{text} (stale)" if name in data.stale else text
+
+
 def band_warnings(data: ReportData, band_hz: tuple[float, float]) -> list[str]:
     """The warnings ``gasfilm fit`` gives for the fits over ``band_hz`` (a structure that is not a mass on a film,
     resonances no film model explains), judged on the report's FRF."""
@@ -330,13 +360,17 @@ def _fits_html(data: ReportData) -> str:
                            "--mass M --overwrite)</p>")
         parts.extend(f"<p class='warning'>Warning: {html.escape(warning)}</p>"
                      for warning in band_warnings(data, (low, high)))
+        stale = stale_warning(data, [row.model_name for row in rows])
+        if stale:
+            parts.append(f"<p class='warning'>Warning: {html.escape(stale)}</p>")
         best = best_by_bic(rows)
         parts.append(_table(
-            ("#", "Model", "k (1)", "RMS (g/N)", "E (%)", "Peak error (g/N)", "E_m (%)", "AIC (1)", "BIC (1)"),
+            ("#", "Model", "k (1)", "RMS (g/N)", "E (%)", "Peak error (g/N)", "E_m (%)", "AIC (1)", "BIC (1)",
+             "Hits (1)"),
             [
                 (row.rank, row.model_name, row.n_parameters, f"{row.rms / g:.4g}", _percent(row.e_percent),
                  f"{row.peak_error / g:.4g}", _percent(row.e_m_percent), f"{row.aic:.1f}",
-                 f"{row.bic:.1f}{' *' if row is best and len(rows) > 1 else ''}")
+                 f"{row.bic:.1f}{' *' if row is best and len(rows) > 1 else ''}", _hits_cell(data, row.model_name))
                 for row in rows
             ],
         ))
@@ -354,12 +388,12 @@ def _fits_html(data: ReportData) -> str:
             parameter_rows.append((fit.model_name, f"{fit.band_hz[0]:g}–{fit.band_hz[1]:g}", name,
                                    f"{value:.5g} {units_of.get(name, '')}".strip(), _sigma_text(fit, name)))
     flags = [f"<li><b>{html.escape(fit.model_name)}</b> ({fit.band_hz[0]:g}–{fit.band_hz[1]:g} Hz): "
-             f"{html.escape('; '.join(fit.flags))}</li>" for fit in data.fits if fit.flags]
+             f"{html.escape('; '.join(fit.notes + fit.flags))}</li>" for fit in data.fits if fit.flags or fit.notes]
     return (
         "".join(parts)
         + "<h3>Identified parameters (each with its unit; ±1σ in the same unit)</h3>"
         + _table(("Model", "Fit band (Hz)", "Parameter", "Value", "±1σ"), parameter_rows)
-        + (f"<p>Flags (once per model):</p><ul>{''.join(flags)}</ul>" if flags else "")
+        + (f"<p>Notes and flags (once per model):</p><ul>{''.join(flags)}</ul>" if flags else "")
     )
 
 
@@ -669,6 +703,9 @@ def _report_pdf(data: ReportData, drop_db: float) -> bytes:
             lines += ["", f"Identified models (Table 2, g/N), band {low:g}–{high:g} Hz:",
                       *format_table2(rows).splitlines()]
             lines += [f"  WARNING: {warning}" for warning in band_warnings(data, (low, high))]
+            stale = stale_warning(data, [row.model_name for row in rows])
+            if stale:
+                lines.append(f"  WARNING: {stale}")
     if data.rigid_body is not None:
         lines += ["", "Rigid body (gasfilm rigid):", *_rigid_lines(data)]
     models = control_models(data)

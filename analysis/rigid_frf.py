@@ -21,7 +21,7 @@ Everything is at ``s = σ + jω`` (an exponential window's decay rate σ is the 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any, Mapping, Sequence
+from typing import Mapping, Sequence
 
 import numpy as np
 

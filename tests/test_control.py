@@ -12,6 +12,7 @@ import pytest
 import scipy.io
 import scipy.signal
 
+from gasfilm.analysis.control.export import model_to_dict
 from gasfilm.analysis.control.fitting import PoleResidue, oustaloup_response, vector_fit
 from gasfilm.analysis.control.inputs import load_source
 from gasfilm.analysis.control import rational
@@ -44,6 +45,29 @@ def _fits(path: Path) -> dict[str, FitResult]:
         return {name: FitResult.from_dict(session.read_fit(name)) for name in session.result_names("fits")}
 
 
+def dense_grid_error(model, lines: int = 200_000) -> tuple[float, float]:
+    """The largest plant-or-film error of ``model`` on ``lines`` log-spaced lines over its band and over the decade
+    beyond each side: a check of the stated errors independent of how they were found."""
+    def largest(low: float, high: float, count: int) -> float:
+        worst = 0.0
+        for chunk in np.array_split(np.geomspace(low, high, count), max(1, count // 50_000)):
+            plant, film = rational._relative_errors(model.source, model.static_stiffness_n_per_m, model.impedance,
+                                                    chunk)
+            worst = max(worst, float(plant.max()), float(film.max()))
+        return worst
+
+    low, high = model.band_hz
+    inside = largest(low, high, lines)
+    outside = max(largest(low / 10, low, lines // 4), largest(high, 10 * high, lines // 4))
+    return inside, outside
+
+
+def assert_stated_errors_are_not_below_the_dense_grid(model) -> None:
+    inside, outside = dense_grid_error(model)
+    assert model.max_error_band >= inside, (model.summary(), inside)
+    assert model.max_error_outside >= outside, (model.summary(), outside)
+
+
 # --- the approximation ---------------------------------------------------------------------------------------------
 
 
@@ -65,15 +89,26 @@ def test_oustaloup_is_accurate_inside_its_band_only():
     assert np.max(np.abs(narrow / s**0.5 - 1)) > 0.05  # the edges of its own band are poor: why it is widened
 
 
-@pytest.mark.parametrize("name", ["FOMGF", "FOZGF", "Zener"])
+@pytest.mark.parametrize("name", ["FOMGF", "Zener"])
 def test_table1_films_meet_the_error_stable_and_passive(name):
     model = approximate(PlantSource.from_spec(RigSpec.nominal(name)), max_error=MAX_ERROR)
     assert model.max_error_band <= MAX_ERROR
+    assert_stated_errors_are_not_below_the_dense_grid(model)
     assert model.stable and model.passive.passed and not model.passive.crossings_hz
     # the state-space realisation is what the errors were measured on
     freq_hz = np.geomspace(*model.band_hz, 60)
     exact = accelerance(PAPER_MODELS[name], PAPER_TABLE1[name], freq_hz, 25.05)
     assert np.max(np.abs(model.accelerance(2j * np.pi * freq_hz) / exact - 1)) <= MAX_ERROR
+
+
+def test_an_undamped_resonance_is_stated_as_missed_not_hidden_between_grid_lines():
+    """Table 1's FOZGF film (ERRATA item 5: a row with errors) has a loss factor of 1e-16 at its 2159 Hz resonance
+    under 25.05 kg: a peak 1e-4 Hz wide that no rational model follows to 0.5 %. The order a 40-lines-per-decade
+    grid had called within 0.128 % (2 states) is stated far beyond it, where it misses."""
+    model = approximate(PlantSource.from_spec(RigSpec.nominal("FOZGF")), order=2)
+    assert model.max_error_band > 10 * MAX_ERROR
+    assert model.error_grid["worst_band_hz"] == pytest.approx(2159.1, abs=0.1)
+    assert_stated_errors_are_not_below_the_dense_grid(model)
 
 
 def test_fixed_order_gives_that_many_states_and_more_states_fit_better():
@@ -82,6 +117,7 @@ def test_fixed_order_gives_that_many_states_and_more_states_fit_better():
     for order in (3, 5, 7):
         model = approximate(source, order=order)
         assert model.order == order
+        assert_stated_errors_are_not_below_the_dense_grid(model)
         errors.append(model.max_error_band)
     assert errors[0] > errors[1] > errors[2]
 
@@ -112,9 +148,48 @@ def test_negative_storage_of_the_fractional_film_is_reported_not_hidden():
     """FOBGF's Table 1 film has Re Z < 0 somewhere (an order above 1): the rational model follows it, says so, and
     says the fractional film does too; it still dissipates (passive)."""
     model = approximate(PlantSource.from_spec(RigSpec.nominal("FOBGF")), max_error=MAX_ERROR)
+    assert_stated_errors_are_not_below_the_dense_grid(model)
     assert not model.storage.passed and model.source_storage_minimum < 0
     assert model.passive.passed and model.stable
     assert "so is the fractional film's" in model.summary()
+
+
+def _fomgf_fit(params: dict[str, float]) -> FitResult:
+    fit = _table1_fit("FOMGF")
+    fit.params = dict(params)
+    return fit
+
+
+#: FOMGF fits whose second arm was a spare: an inertance on a spring, a narrow resonance between the FRF's lines
+#: (issue 31: 298.8 Hz, and 19.9 Hz at the band's edge); the stated errors were 0.133 % and 0.137 %
+NARROW_FEATURES = {
+    "300 Hz": {"k3": 3.27e7, "k1": 354.0, "eta1": 1e-4, "alpha": 1.999, "k2": 2.91e6, "eta2": 16.14, "beta": 1.7472},
+    "20 Hz": {"k3": 3.27e7, "k1": 1.03e5, "eta1": 6.57, "alpha": 1.996, "k2": 2.91e6, "eta2": 16.14, "beta": 1.7472},
+}
+
+
+@pytest.mark.parametrize("feature", NARROW_FEATURES)
+def test_stated_error_of_a_film_with_a_narrow_resonance_is_where_the_error_is_largest(feature):
+    """The error is measured on a grid that resolves every near-singular frequency of the fractional film and every
+    pole and zero of the rational one, its maxima refined: the stated error is at least the error on a dense grid,
+    in and out of band, and the model exported names where it is largest and how it was found."""
+    source = PlantSource.from_fit(_fomgf_fit(NARROW_FEATURES[feature]))
+    centre_hz = float(feature.split()[0])
+    for model in (approximate(source, max_error=MAX_ERROR), approximate(source, order=6)):
+        assert_stated_errors_are_not_below_the_dense_grid(model)
+        inside, outside = dense_grid_error(model)
+        assert model.max_error_band <= 1.001 * inside  # found, not overstated
+        assert model.max_error_outside <= 1.001 * outside
+        # the feature is where a coarse grid (the 40 lines per decade the error was measured on) misses it
+        coarse = np.geomspace(*model.band_hz, int(40 * np.log10(model.band_hz[1] / model.band_hz[0])) + 1)
+        plant, film = rational._relative_errors(source, model.static_stiffness_n_per_m, model.impedance, coarse)
+        assert max(plant.max(), film.max()) < 0.5 * inside, model.summary()
+        assert model.error_grid["worst_band_hz"] == pytest.approx(centre_hz, rel=0.05)
+        assert any(abs(f / centre_hz - 1) < 0.05 for f in model.error_grid["resolved_fractional_hz"])
+        data = model_to_dict(model)
+        assert data["error_grid"]["method"].startswith("complex relative errors on a log grid")
+        assert data["error_grid"]["base_lines_per_decade"] == rational.ERROR_LINES_PER_DECADE
+    assert model.max_error_band > MAX_ERROR  # order 6 does not reach the target: said, not hidden
 
 
 def test_rig_spec_names_what_the_linear_plant_leaves_out(tmp_path):
@@ -136,6 +211,7 @@ def test_nine_fitted_models_rational_within_half_percent_stable_passive(fitted_s
         model = approximate(PlantSource.from_fit(fit), max_error=MAX_ERROR)
         assert model.band_hz == pytest.approx((fit.band_hz[0] / 10, fit.band_hz[1] * 10))
         assert model.max_error_band <= MAX_ERROR, (name, model.summary())
+        assert_stated_errors_are_not_below_the_dense_grid(model)
         assert model.stable and model.passive.passed, (name, model.summary())
         assert 2 <= model.order <= 12, (name, model.summary())
 

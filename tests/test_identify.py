@@ -201,16 +201,24 @@ def test_standard_errors_match_the_scatter_over_noise_realisations():
         assert 0.6 < reported / scatter < 1.6, (name, reported, scatter)
 
 
-def test_over_parameterised_fit_is_flagged():
+def test_over_parameterised_fit_is_flagged_as_found_and_reported_in_its_identifiable_form():
+    """FOMGF on a spring-damper: as found, parameters the data cannot determine are flagged; as reported, the spare
+    arm and the series spring are taken out (said in a note) and a spring beside a spring-pot of order 1 is left."""
     sd = PAPER_MODELS["SD"]
     freq_hz = np.linspace(100.0, 350.0, 200)
     h = accelerance(sd, {"k": 3.78e7, "eta": 3.45e3}, freq_hz, MASS_KG)
     h = h + 1e-4 * np.max(np.abs(h)) * np.random.default_rng(2).standard_normal(200)
+    found = fit_model(PAPER_MODELS["FOMGF"], freq_hz, h, MASS_KG, reduce=False)
+    assert any("not identifiable" in flag or "correlated" in flag or "bound" in flag for flag in found.flags)
     fit = fit_model(PAPER_MODELS["FOMGF"], freq_hz, h, MASS_KG)
     assert fit.rms <= 2e-4 * np.max(np.abs(h))
-    assert any("not identifiable" in flag or "correlated" in flag or "bound" in flag for flag in fit.flags)
+    assert fit.model_name == "FOMGF" and fit.reduced_from == PAPER_MODELS["FOMGF"].text
+    assert fit.network == "k3 || pot(eta1, alpha)" and fit.params["alpha"] == pytest.approx(1.0, abs=1e-3)
+    assert fit.notes[0].startswith("FOMGF reduces to k3 || pot(eta1, alpha) here: the branch k2 -- pot(eta2, beta) "
+                                   "contributes below the noise")
+    assert not any(flag.startswith("invented feature") for flag in fit.flags)
     clean = fit_model(sd, freq_hz, h, MASS_KG)
-    assert not clean.flags
+    assert not clean.flags and not clean.notes and not clean.reduced_from
 
 
 def test_windowed_frf_is_fitted_with_the_windowed_model():
@@ -247,11 +255,12 @@ def test_fitter_jacobian_is_the_models_gradient_chained_through_the_coordinates(
 
 
 def test_a_parameter_at_its_bound_is_named_not_measured_and_marked_in_table_2(caplog):
-    """A spring-damper fitted with the Zener model: the series spring k1 runs to its upper bound (1e12 N/m)."""
+    """A spring-damper fitted with the Zener model: the series spring k1 runs to its upper bound (1e12 N/m), as the
+    search finds it (reported, the Zener reduces to SD's form: next test)."""
     freq_hz = np.linspace(100.0, 350.0, 200)
     h = accelerance(PAPER_MODELS["SD"], {"k": 3.78e7, "eta": 3.45e3}, freq_hz, MASS_KG)
     with caplog.at_level(logging.INFO, logger="gasfilm.analysis.identification"):
-        zener = fit_model(PAPER_MODELS["Zener"], freq_hz, h, MASS_KG)
+        zener = fit_model(PAPER_MODELS["Zener"], freq_hz, h, MASS_KG, reduce=False)
     logged = [record.getMessage() for record in caplog.records]
     assert logged[0].startswith("fit Zener (k2 || (k1 -- dashpot(eta1)), default fitter): 200 lines 100–350 Hz")
     assert f"{zener.evaluations} evaluations" in logged[-2]
@@ -267,6 +276,74 @@ def test_a_parameter_at_its_bound_is_named_not_measured_and_marked_in_table_2(ca
     assert "At bound" in lines[0] and lines[2].endswith("k1") and lines[3].endswith(f"{rows[1].bic:.1f}")
     again = FitResult.from_dict(json.loads(json.dumps(zener.to_dict())))
     assert again.at_bound == ("k1",) and again.std_errors == zener.std_errors
+
+
+def test_a_series_spring_at_its_bound_is_taken_out_and_the_fit_named_by_its_form():
+    freq_hz = np.linspace(100.0, 350.0, 200)
+    h = accelerance(PAPER_MODELS["SD"], {"k": 3.78e7, "eta": 3.45e3}, freq_hz, MASS_KG)
+    zener = fit_model(PAPER_MODELS["Zener"], freq_hz, h, MASS_KG)
+    assert zener.network == "k2 || dashpot(eta1)" and zener.at_bound == () and set(zener.std_errors) == {"k2", "eta1"}
+    assert zener.notes[0].startswith("Zener reduces to SD (k2 || dashpot(eta1)) here: k1 is too stiff to matter")
+    assert zener.params["k2"] == pytest.approx(3.78e7, rel=1e-9) and zener.params["eta1"] == pytest.approx(3.45e3)
+    again = FitResult.from_dict(json.loads(json.dumps(zener.to_dict())))
+    assert again.notes == zener.notes and again.reduced_from == PAPER_MODELS["Zener"].text
+    rows = compare_models([zener], freq_hz, h)
+    assert rows[0].n_parameters == 2  # the parameters the data determine
+
+
+def fomgf_rig_fits(seeds):
+    """FOMGF fitted to the H1 of 4 hits of 1 s on the simulated paper FOMGF rig (seeds ``seeds``)."""
+    return [fit_model(PAPER_MODELS["FOMGF"], frf.freq_hz, frf.h1, MASS_KG, seed=seed)
+            for seed, frf in ((seed, rig_frf(seed, record_s=1.0)) for seed in seeds)]
+
+
+def test_fomgf_rig_at_10_seeds_one_arm_order_no_invented_feature_parameters_within_their_uncertainty():
+    """The paper's FOMGF rig: its second arm (η₂·s^β ≈ 300 N/m beside k₃ = 3.3e7 N/m) is below the noise. Every
+    session reports FOMGF in the same identifiable form — FOZGF's, the film in arm 1 — with no parameter at a bound,
+    no feature the FRF lacks (a spare arm used to become a narrow resonance between the lines), and each parameter
+    within 3 standard errors of the others' weighted mean and of the rig's value: a campaign over these sessions shows
+    no trend the dynamic stiffness does not have."""
+    fits = fomgf_rig_fits(range(10))
+    nominal = RigSpec.nominal("FOMGF").film_parameters
+    for fit in fits:
+        assert fit.network == "k3 || (k1 -- pot(eta1, alpha))", (fit.network, fit.params)
+        assert fit.notes[0].startswith("FOMGF reduces to FOZGF (k3 || (k1 -- pot(eta1, alpha))) here: the branch "
+                                       "k2 -- pot(eta2, beta) contributes below the noise"), fit.notes
+        assert not fit.at_bound and not fit.flags, fit.flags
+    for name in ("k3", "k1", "eta1", "alpha"):
+        values = np.array([fit.params[name] for fit in fits])
+        sigma = np.array([fit.std_errors[name] for fit in fits])
+        mean = np.sum(values / sigma**2) / np.sum(1 / sigma**2)
+        assert np.all(np.abs(values - mean) <= 3 * sigma), (name, values, sigma)
+        assert abs(mean - nominal[name]) <= 3 * np.max(sigma), (name, mean, nominal[name])
+
+
+def test_a_spare_arm_parked_at_the_resonance_is_taken_out_and_the_film_keeps_arm_1():
+    """Relative noise (0.3 % of |H| on every line, as a coherence dip gives at the peak) on a film whose second arm
+    the data do not resolve: in some sessions the spare arm parks as an absorber at the mover's resonance (an order
+    near 2 on a few hundred N/m), a resonance narrower than the lines or below the noise that lowers the RMS by
+    fitting the peak's noise. It is taken out all the same (said, with the RMS it costs) and the film stays in
+    arm 1."""
+    model = PAPER_MODELS["FOMGF"]
+    truth = {"k3": 3e7, "k1": 6e6, "alpha": 0.75, "k2": 9e6, "beta": 0.65}
+    truth["eta1"] = truth["k1"] / (2 * np.pi * 60) ** truth["alpha"]
+    truth["eta2"] = truth["k2"] / (2 * np.pi * 500) ** truth["beta"]
+    freq_hz = np.linspace(20.0, 1000.0, 491)
+    clean = accelerance(model, truth, freq_hz, MASS_KG)
+    fits = []
+    for seed in (3, 6):  # as found, the spare arm is an absorber at the resonance in both
+        rng = np.random.default_rng(seed)
+        h = clean + 0.003 * np.abs(clean) * (rng.standard_normal(491) + 1j * rng.standard_normal(491))
+        if seed == 3:  # as found: the spare arm an absorber (the test can fail)
+            found = fit_model(model, freq_hz, h, MASS_KG, seed=seed, reduce=False)
+            assert found.params["beta"] > 1.95 and found.params["k2"] < 1e3, found.params
+        fit = fit_model(model, freq_hz, h, MASS_KG, seed=seed)
+        assert fit.network == "k3 || (k1 -- pot(eta1, alpha))" and not fit.flags[1:], (fit.params, fit.flags)
+        assert not any(flag.startswith("invented") for flag in fit.flags)
+        fits.append(fit)
+    # one film in arm 1 (a single arm for two: its values follow the noise more than its σ, not by decades)
+    assert max(fit.params["k1"] for fit in fits) < 1.5 * min(fit.params["k1"] for fit in fits)
+    assert np.ptp([fit.params["alpha"] for fit in fits]) < 0.1
 
 
 def test_mass_can_be_fitted():

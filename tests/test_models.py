@@ -304,6 +304,22 @@ def test_interchangeable_arms_are_named_in_one_order(name, arms):
     assert np.array_equal(get_model("FOZGF").canonical([1.0, 2.0, 3.0, 0.5]), [1.0, 2.0, 3.0, 0.5])
 
 
+def test_at_a_fits_resonance_the_arm_that_carries_the_film_comes_first():
+    """A spare arm (issue 31: a 0.1 g inertance on 354 N/m, order 1.999) has the higher order, so by orders it
+    would come first in some sessions and last in others; at the fit's resonance it carries almost nothing of the
+    film, and the arm that carries it is named arm 1 in every session."""
+    model = get_model("FOMGF")
+    film = {"k": 2.91e6, "eta": 16.14, "order": 1.7472}
+    spare = {"k": 354.0, "eta": 1e-4, "order": 1.999}
+    values = {"k3": 3.27e7, "k1": spare["k"], "eta1": spare["eta"], "alpha": spare["order"],
+              "k2": film["k"], "eta2": film["eta"], "beta": film["order"]}
+    by_order = model.mapping(model.canonical(model.vector(values)))
+    assert by_order["alpha"] == spare["order"]
+    at_resonance = model.mapping(model.canonical(model.vector(values), 2j * np.pi * 199.0))
+    assert (at_resonance["k1"], at_resonance["eta1"], at_resonance["alpha"]) == tuple(film.values())
+    assert (at_resonance["k2"], at_resonance["eta2"], at_resonance["beta"]) == tuple(spare.values())
+
+
 def test_a_fit_names_the_arms_in_the_canonical_order():
     from gasfilm.analysis.identification import fit_model
     from gasfilm.analysis.physics.elements import PAPER_MASS_KG, PAPER_TABLE1

@@ -52,20 +52,36 @@ def _table(header: Sequence[str], rows: Sequence[Sequence[Any]], classes: Sequen
     return f"<table><tr>{head}</tr>{body}</table>"
 
 
-def _film_curves(model_name: str, values: dict[str, float], freq_hz: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """K(f) in N/m and C(f) in N·s/m of a film model with ``values``."""
+def _film_curves(model: Any, values: dict[str, float], freq_hz: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """K(f) in N/m and C(f) in N·s/m of a film model (a name or a :class:`FilmModel`) with ``values``."""
     from gasfilm.analysis.physics.elements import get_model
 
     omega = 2 * np.pi * freq_hz
-    stiffness = get_model(model_name).stiffness(1j * omega, values)
+    stiffness = (get_model(model) if isinstance(model, str) else model).stiffness(1j * omega, values)
     return stiffness.real, stiffness.imag / omega
 
 
-def _model_values(row: dict[str, Any], model_name: str) -> dict[str, float] | None:
+def _row_model(row: dict[str, Any], model_name: str) -> Any:
+    """The network a session's fit of ``model_name`` holds (its identifiable form), else the model's own."""
+    from gasfilm.analysis.physics.elements import get_model, parse_network
+
+    network = row.get(f"{model_name}.network")
+    return parse_network(network, model_name) if network else get_model(model_name)
+
+
+def _campaign_parameters(rows: Sequence[dict[str, Any]], model_name: str) -> list[Any]:
+    """The parameters of ``model_name`` any session's fit determines, in the model's order (a parameter no session's
+    identifiable form holds is left out)."""
     from gasfilm.analysis.physics.elements import get_model
 
+    held = {parameter.name: parameter for row in rows for parameter in _row_model(row, model_name).parameters}
+    ordered = [p for p in get_model(model_name).parameters if p.name in held]
+    return ordered + [p for name, p in held.items() if name not in {q.name for q in ordered}]
+
+
+def _model_values(row: dict[str, Any], model_name: str) -> dict[str, float] | None:
     values = {}
-    for parameter in get_model(model_name).parameters:
+    for parameter in _row_model(row, model_name).parameters:
         value = row.get(parameter_column(model_name, parameter.name, parameter.unit))
         if value is None:
             return None
@@ -104,7 +120,7 @@ def kc_figure(groups: dict[tuple, list[dict[str, Any]]], by: Sequence[str]) -> A
             values = _model_values(row, row["best_model"])
             freq_hz = np.linspace(row["band_low_hz"], row["band_high_hz"], CURVE_POINTS)
             if values is not None:
-                k, c = _film_curves(row["best_model"], values, freq_hz)
+                k, c = _film_curves(_row_model(row, row["best_model"]), values, freq_hz)
                 k_axis.plot(freq_hz, k, color=colour, lw=1.2, label=label if row_number == 0 else None)
                 c_axis.plot(freq_hz, c, color=colour, lw=1.2)
         spec = _spec_values(rows[0])
@@ -134,9 +150,7 @@ def parameters_figure(rows: Sequence[dict[str, Any]], by: Sequence[str], model_n
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from gasfilm.analysis.physics.elements import get_model
-
-    parameters = get_model(model_name).parameters
+    parameters = _campaign_parameters(rows, model_name)
     x_key = f"condition.{by[0]}"
     usable = [row for row in rows if isinstance(row.get(x_key), (int, float))]
     if not usable:
@@ -162,7 +176,7 @@ def parameters_figure(rows: Sequence[dict[str, Any]], by: Sequence[str], model_n
             spec_x, spec_y = [], []
             for row in members:
                 spec = _spec_values(row)
-                if spec is not None and spec[0] == model_name:
+                if spec is not None and spec[0] == model_name and parameter.name in spec[1]:
                     spec_x.append(row[x_key])
                     spec_y.append(spec[1][parameter.name])
             if spec_x:
@@ -260,14 +274,29 @@ def campaign_html(rows: Sequence[dict[str, Any]], by: Sequence[str], title: str 
             for key, members in groups.items()]))
         sections.append("<h2>Diagnosis across the campaign</h2>")
         sections.append(_diagnosis_section(groups, by))
+    stale = [row for row in analysed if row.get("stored_fits_stale")]
+    if stale:
+        sections.append("<h2>Sessions whose stored fits are stale</h2>")
+        sections.append("<p>The campaign fits every session on all its accepted hits; these sessions also store fits "
+                        "made on fewer (their own reports and the GUI show those): <code>gasfilm fit SESSION "
+                        "--refit</code> fits them again.</p>")
+        sections.append(_table(("Session", "Stored fits"),
+                               [(Path(row["session"]).name, row["stored_fits_stale"]) for row in stale]))
+    reduced = sorted({note for row in analysed for key, note in row.items() if key.endswith(".notes") and note})
+    if reduced:
+        sections.append("<h2>Models in their identifiable form</h2>")
+        sections.append("<p>What the data do not determine is taken out of a fit (never filled with a value): a "
+                        "parameter a session's fit leaves out has no point in the figures.</p><ul>"
+                        + "".join(f"<li>{html.escape(note)}</li>" for note in reduced[:20]) + "</ul>")
     if failed:
         sections.append(f"<h2 class='error'>Sessions that failed ({len(failed)})</h2>")
         sections.append(_table(("Session", "Error"), [(row["session"], row["error"]) for row in failed]))
     sections.append("<h2>Sessions</h2>")
     sections.append(_table(
-        ("Session", *by, "Accepted hits", "Best model", "Diagnosis", "Findings", "Time (s)"),
+        ("Session", *by, "Accepted hits (fitted)", "Best model", "Diagnosis", "Findings", "Time (s)"),
         [(Path(row["session"]).name, *[row.get(f"condition.{key}", "—") for key in by],
-          row.get("accepted_hits", "—"), row.get("best_model", "—"),
+          f"{row.get('accepted_hits', '—')}" + (" (stored fits stale)" if row.get("stored_fits_stale") else ""),
+          row.get("best_model", "—"),
           row.get("diagnosis_verdict") or ("error" if row.get("error") else "—"),
           row.get("diagnosis_findings") or "—",
           "cached" if row.get("cached") else f"{row.get('seconds', 0.0):.1f}") for row in rows]))
@@ -277,9 +306,7 @@ def campaign_html(rows: Sequence[dict[str, Any]], by: Sequence[str], title: str 
 
 def _parameter_table(groups: dict[tuple, list[dict[str, Any]]], by: Sequence[str], model_name: str) -> str:
     """Per condition: each parameter's weighted mean ± σ over its sessions, and the rig spec's value."""
-    from gasfilm.analysis.physics.elements import get_model
-
-    parameters = get_model(model_name).parameters
+    parameters = _campaign_parameters([row for members in groups.values() for row in members], model_name)
     header = ["Condition", *[f"{p.name} ({p.unit})" for p in parameters]]
     lines = []
     for key, members in groups.items():
@@ -295,7 +322,7 @@ def _parameter_table(groups: dict[tuple, list[dict[str, Any]]], by: Sequence[str
             else:
                 text = "at a bound" if values else "—"
             spec = _spec_values(members[0])
-            if spec is not None and spec[0] == model_name:
+            if spec is not None and spec[0] == model_name and parameter.name in spec[1]:
                 text += f" (spec {spec[1][parameter.name]:.4g})"
             cells.append(text)
         lines.append(cells)

@@ -25,7 +25,7 @@ from typing import Any
 logger = logging.getLogger(__name__)
 
 #: Bumped when the content or meaning of a row changes: cached rows of another version are computed again.
-ROW_VERSION = 1
+ROW_VERSION = 2
 #: The default identification band in Hz (capped at 0.45·fs, the module's alias-free band), as ``gasfilm fit``'s.
 DEFAULT_BAND_HZ = (20.0, 1000.0)
 #: Columns that depend on where and how fast a task ran, not on the session (left out when comparing runs).
@@ -103,6 +103,7 @@ def _analyse(path: Path, options: CampaignOptions) -> dict[str, Any]:
 
     from gasfilm.analysis.conditions import condition_unit, decode_conditions
     from gasfilm.analysis.diagnosis import diagnose, load_recordings
+    from gasfilm.analysis.fit_settings import FitHits, stale_note
     from gasfilm.analysis.diagnosis.parallel import worker_processes
     from gasfilm.analysis.identification import best_by_bic, compare_models, fit_model
     from gasfilm.analysis.physics.elements import PAPER_MASS_KG, get_model
@@ -123,6 +124,7 @@ def _analyse(path: Path, options: CampaignOptions) -> dict[str, Any]:
         daq_config = session.daq_config
         status = session.status
         sample_rate_hz = session.sample_rate_hz
+        stored_hits = {name: FitHits.of_stored(session.read_fit(name)) for name in session.result_names("fits")}
     accepted = [hit for hit in hits if hit.verdict.accepted]
     every_point = accepted
     rigid_spec = None
@@ -134,11 +136,17 @@ def _analyse(path: Path, options: CampaignOptions) -> dict[str, Any]:
             accepted = hits_at_spec_point(rigid_spec, settings, accepted)
         else:
             rigid_spec = None
+    # (as gasfilm fit and the report judge the session's stored fits: against all its accepted hits)
+    stale = {name: note for name, used in stored_hits.items()
+             if (note := stale_note(used, [hit.index for hit in every_point])) is not None}
     row: dict[str, Any] = {
         "status": status,
         "hits": len(hits),
         "accepted_hits": len(accepted),
         "sample_rate_hz": sample_rate_hz,
+        # the campaign fits all accepted hits; the fits the session stores may predate some (its report shows them)
+        "fit_hits": len(accepted),
+        "stored_fits_stale": "; ".join(f"{name} {note}" for name, note in stale.items()),
     }
     for key, value in conditions.items():  # labels as text, so one column keeps one type across sessions
         row[condition_column(key)] = value if condition_unit(key) else str(value)
@@ -176,6 +184,9 @@ def _analyse(path: Path, options: CampaignOptions) -> dict[str, Any]:
         row[f"{fit.model_name}.E [%]"] = entry.e_percent
         row[f"{fit.model_name}.BIC"] = entry.bic
         row[f"{fit.model_name}.at_bound"] = ", ".join(fit.at_bound)
+        # the network the data determine (a reduced form's lacks the parameters they cannot: those stay empty)
+        row[f"{fit.model_name}.network"] = fit.network
+        row[f"{fit.model_name}.notes"] = "; ".join(fit.notes)
         for parameter in fit.model().parameters:
             row[parameter_column(fit.model_name, parameter.name, parameter.unit)] = fit.params[parameter.name]
             sigma = fit.std_errors.get(parameter.name)

@@ -1,11 +1,14 @@
 """The campaign's results table: one row per session, written as Parquet (pyarrow) and CSV, and grouped by conditions.
 
 Columns: ``session``, ``error`` (one line, empty when the session was analysed), the session's status and hits,
-``condition.<key>`` (unit in the key), the rig spec's film at the session's conditions (``spec.<name> [unit]``),
-band, ``best_model`` (lowest BIC), per model ``<model>.<parameter> [unit]`` and ``... sigma [unit]`` (1 σ; empty
-for a parameter at its bound, which is not a measurement), ``<model>.rms [(m/s²)/N]``, ``<model>.E [%]``,
-``<model>.BIC``, ``<model>.at_bound``, the diagnosis verdict, findings and unexplained bands, and what the task
-cost (``seconds`` of wall time, ``cpu_seconds``, ``worker_peak_rss_mb``, ``worker``, ``cached``).
+``fit_hits`` (the hits the campaign's fits average: all accepted ones) and ``stored_fits_stale`` (the session's own
+stored fits made on fewer hits, with how many), ``condition.<key>`` (unit in the key), the rig spec's film at the
+session's conditions (``spec.<name> [unit]``), band, ``best_model`` (lowest BIC), per model ``<model>.network`` (its
+identifiable form: the network the data determine) and ``<model>.notes`` (what was taken out), ``<model>.<parameter>
+[unit]`` and ``... sigma [unit]`` (1 σ; empty for a parameter at its bound, which is not a measurement; both empty for
+a parameter the identifiable form leaves out), ``<model>.rms [(m/s²)/N]``, ``<model>.E [%]``, ``<model>.BIC``,
+``<model>.at_bound``, the diagnosis verdict, findings and unexplained bands, and what the task cost (``seconds`` of
+wall time, ``cpu_seconds``, ``worker_peak_rss_mb``, ``worker``, ``cached``).
 """
 
 from __future__ import annotations
@@ -19,7 +22,7 @@ PARQUET_NAME = "campaign.parquet"
 CSV_NAME = "campaign.csv"
 REPORT_NAME = "campaign.html"
 
-_FIRST = ("session", "error", "status", "hits", "accepted_hits", "sample_rate_hz")
+_FIRST = ("session", "error", "status", "hits", "accepted_hits", "fit_hits", "stored_fits_stale", "sample_rate_hz")
 _LAST = ("diagnosis_verdict", "diagnosis_findings", "diagnosis_unexplained", "diagnosis_rms_before_m_s2_per_n",
          "diagnosis_rms_after_m_s2_per_n", "seconds", "cpu_seconds", "worker_peak_rss_mb", "worker", "cached")
 

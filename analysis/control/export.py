@@ -14,9 +14,8 @@ from typing import Any
 
 import numpy as np
 import scipy.io
-import scipy.signal
 
-from gasfilm.analysis.control.rational import Passivity, RationalModel
+from gasfilm.analysis.control.rational import Passivity, RationalModel, film_transfer_function
 from gasfilm.analysis.jsontext import dumps
 from gasfilm.drivers.errors import SettingError
 
@@ -35,19 +34,6 @@ def _passivity(check: Passivity) -> dict[str, Any]:
             "crossings_hz": list(check.crossings_hz), "note": check.note}
 
 
-def film_transfer_function(model: RationalModel) -> tuple[np.ndarray, np.ndarray]:
-    """The rational film stiffness ``Z_r(s) = Z(0) + s·Y_r(s)`` as numerator and denominator (N/m, highest power
-    first); improper (numerator one degree higher) when the film has a parallel dashpot at high frequency."""
-    a, b, c, e = model.impedance.state_space()
-    if a.shape[0] == 0:
-        num, den = np.array([e]), np.array([1.0])
-    else:
-        tf_num, den = scipy.signal.ss2tf(a, b[:, None], c[None, :], np.array([[e]]))
-        num = np.asarray(tf_num[0])
-    numerator = np.polyadd(model.static_stiffness_n_per_m * den, np.polymul(num, [1.0, 0.0]))
-    return np.trim_zeros(numerator, "f"), den
-
-
 def state_names(model: RationalModel) -> list[str]:
     names = ["x: mover displacement (m)"] if model.static_stiffness_n_per_m != 0.0 else []
     return names + ["v: mover velocity (m/s)"] + [f"film state {i + 1}" for i in range(model.film_order)]
@@ -57,7 +43,7 @@ def model_to_dict(model: RationalModel) -> dict[str, Any]:
     """The whole model as plain JSON-compatible data."""
     num, den = model.transfer_function()
     zeros, poles, gain = model.zpk()
-    film_num, film_den = film_transfer_function(model)
+    film_num, film_den = film_transfer_function(model.static_stiffness_n_per_m, model.impedance)
     return {
         "format": FORMAT,
         "description": f"force → acceleration of {model.source.description}, rational approximation by "
@@ -74,6 +60,7 @@ def model_to_dict(model: RationalModel) -> dict[str, Any]:
         "max_error_outside_band": model.max_error_outside,
         "error_definition": "max |G_rational(jω)/G_fractional(jω) − 1| (complex: magnitude and phase) of the "
                             "plant's accelerance and of the film's stiffness; outside = a decade beyond each side",
+        "error_grid": model.error_grid,
         "stable": model.stable,
         "film_passive": _passivity(model.passive),
         "film_storage_positive": _passivity(model.storage),

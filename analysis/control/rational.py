@@ -26,6 +26,7 @@ from dataclasses import dataclass, field
 from typing import Any, Callable
 
 import numpy as np
+import scipy.signal
 
 from gasfilm.analysis.control.fitting import PoleResidue, oustaloup_response, vector_fit
 from gasfilm.analysis.physics.elements import (
@@ -38,6 +39,7 @@ from gasfilm.analysis.physics.elements import (
     parse_network,
 )
 from gasfilm.analysis.physics.effects import Effect
+from gasfilm.analysis.physics.features import refine_maxima, resolving_grid_hz, singular_frequencies_hz
 from gasfilm.analysis.physics.response import rig_dynamic_stiffness
 from gasfilm.analysis.physics.spec import RigSpec
 from gasfilm.drivers.errors import SettingError
@@ -50,8 +52,21 @@ LINES_PER_DECADE = 40
 #: the passivity grid reaches this factor beyond the band on each side
 PASSIVITY_GRID_FACTOR = 1e4
 MAX_FILM_ORDER = 40
+#: the order search gives up when this many more states in a row lower the error by less than this fraction
+STALL_ORDERS = 8
+STALL_GAIN = 0.1
 #: the band a spec (which holds no measured band) is approximated over by default: a decade beyond 20–1000 Hz
 DEFAULT_MEASURED_BAND_HZ = (20.0, 1000.0)
+#: lines per decade of the base of the grid the errors are measured on (points cluster around every feature)
+ERROR_LINES_PER_DECADE = 200
+#: local maxima of an error within this fraction of the largest are refined between their grid neighbours; at most
+#: this many of them
+REFINE_WITHIN = 0.3
+REFINED_MAXIMA = 8
+#: the least error stated, and the relative margin a stated error carries: the rounding of evaluating both models
+#: in double precision (stiffnesses of 1e9 N/m and more, sums that cancel)
+ROUNDING_FLOOR = 1e-12
+ROUNDING_MARGIN = 1e-6
 #: a plain Oustaloup filter is designed over the band widened one of these many times on each side
 OUSTALOUP_WIDENINGS = (10.0, 100.0, 1000.0)
 
@@ -68,6 +83,9 @@ class PlantSource:
     excluded: tuple[str, ...] = ()  # what the linear plant leaves out (measurement chain, nonlinear terms)
     film_parameters: dict[str, float] = field(default_factory=dict)
     network: str = ""
+    #: where Z(s) (under the mass) can have narrow features in a span of Hz: centres (Hz) and widths (Hz, or None)
+    features_hz: Callable[[tuple[float, float]], tuple[np.ndarray, np.ndarray | None]] = (
+        lambda span: (np.zeros(0), None))
 
     def accelerance(self, s: np.ndarray) -> np.ndarray:
         """The exact accelerance (m/s²)/N at ``s``."""
@@ -79,6 +97,7 @@ class PlantSource:
         model = fit.model()
         params = dict(fit.params)
         band = tuple(fit.band_hz) if fit.band_hz and fit.band_hz[1] > 0 else None
+        mass = float(fit.mass_kg)
         return cls(
             description=f"{fit.model_name} fit ({fit.method} fitter, {fit.band_hz[0]:g}–{fit.band_hz[1]:g} Hz)"
                         + (f" of {where}" if where else ""),
@@ -88,6 +107,7 @@ class PlantSource:
             origin={"fit": fit.to_dict(), "source": where},
             film_parameters=params,
             network=fit.network,
+            features_hz=lambda span: (singular_frequencies_hz(model, params, span, mass), None),
         )
 
     @classmethod
@@ -110,6 +130,15 @@ class PlantSource:
             s = np.asarray(s, dtype=complex)
             return rig_dynamic_stiffness(spec, s) - mass * s**2
 
+        def features(span: tuple[float, float]) -> tuple[np.ndarray, np.ndarray]:
+            """The film's singular frequencies under the moving mass, and each mode an effect adds (its frequency and
+            its half-power width ζ·f)."""
+            film = singular_frequencies_hz(spec.film, spec.film_parameters, span, mass)
+            modes = [(float(effect.freq_hz), float(effect.damping_ratio) * float(effect.freq_hz))
+                     for effect in spec.effects if hasattr(effect, "freq_hz") and hasattr(effect, "damping_ratio")]
+            centres = np.concatenate([film, [f for f, _ in modes]])
+            return centres, np.concatenate([np.full(film.size, np.nan), [w for _, w in modes]])
+
         return cls(
             description=f"rig spec '{spec.name}'" + (f" ({where})" if where else ""),
             mass_kg=mass,
@@ -119,6 +148,7 @@ class PlantSource:
             excluded=tuple(excluded),
             film_parameters=dict(spec.film_parameters),
             network=spec.film.text,
+            features_hz=features,
         )
 
 
@@ -154,6 +184,8 @@ class RationalModel:
     source_storage_minimum: float  # min Re Z/|Z| of the fractional film on the grid (negative: Re Z < 0 there)
     target_error: float | None
     method: str = "vector fitting"
+    #: how the errors were found: the grid (its base density, the frequencies it resolves), where each is largest
+    error_grid: dict[str, Any] = field(default_factory=dict)
     curve_freq_hz: np.ndarray = field(default_factory=lambda: np.zeros(0))
     curve_plant_error: np.ndarray = field(default_factory=lambda: np.zeros(0))
     curve_film_error: np.ndarray = field(default_factory=lambda: np.zeros(0))
@@ -198,7 +230,9 @@ class RationalModel:
         storage = "" if self.storage.passed else (
             "; storage stiffness Re Z < 0 somewhere" + (" (so is the fractional film's)"
                                                        if self.source_storage_minimum < 0 else ""))
-        return (f"order {self.order} (film {self.film_order}), max error {100 * self.max_error_band:.3g} % in "
+        worst = self.error_grid.get("worst_band_hz")
+        at = f" (at {worst:.4g} Hz)" if worst else ""
+        return (f"order {self.order} (film {self.film_order}), max error {100 * self.max_error_band:.3g} %{at} in "
                 f"{self.band_hz[0]:g}–{self.band_hz[1]:g} Hz, {100 * self.max_error_outside:.3g} % in the decade "
                 f"outside, {'stable' if self.stable else 'UNSTABLE'}, film "
                 f"{'passive' if self.passive.passed else 'NOT passive'}{storage}")
@@ -301,6 +335,57 @@ def _relative_errors(source: PlantSource, z0: float, impedance: PoleResidue, fre
     return np.abs(h_r / h - 1.0), np.abs(z_r / z - 1.0)
 
 
+def film_transfer_function(z0: float, impedance: PoleResidue) -> tuple[np.ndarray, np.ndarray]:
+    """The rational film stiffness ``Z_r(s) = Z(0) + s·Y_r(s)`` as numerator and denominator (N/m, highest power
+    first); improper (numerator one degree higher) when the film has a parallel dashpot at high frequency."""
+    a, b, c, e = impedance.state_space()
+    if a.shape[0] == 0:
+        num, den = np.array([e]), np.array([1.0])
+    else:
+        tf_num, den = scipy.signal.ss2tf(a, b[:, None], c[None, :], np.array([[e]]))
+        num = np.asarray(tf_num[0])
+    numerator = np.polyadd(z0 * den, np.polymul(num, [1.0, 0.0]))
+    return np.trim_zeros(numerator, "f"), den
+
+
+def _rational_features_hz(z0: float, impedance: PoleResidue, plant_a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Where the rational model's responses have features: every pole of the plant and of the film, every zero of
+    the film's stiffness — each at |p|/2π Hz with its half-power width |Re p|/2π."""
+    roots = [np.linalg.eigvals(plant_a) if plant_a.size else np.zeros(0), impedance.poles]
+    numerator, _ = film_transfer_function(z0, impedance)
+    if numerator.size > 1 and np.all(np.isfinite(numerator)):
+        roots.append(np.roots(numerator))
+    every = np.concatenate(roots)
+    every = every[(every.imag >= 0) & (np.abs(every) > 0) & np.isfinite(every)]
+    return np.abs(every) / (2 * np.pi), np.abs(every.real) / (2 * np.pi)
+
+
+def _largest_errors(source: PlantSource, z0: float, impedance: PoleResidue, grid_hz: np.ndarray,
+                    refine_below: float = np.inf) -> tuple[np.ndarray, np.ndarray, float, float, float, float]:
+    """The plant's and the film's relative errors on ``grid_hz`` and their largest values with where they are, each
+    local maximum within :data:`REFINE_WITHIN` of the largest refined between its grid neighbours, stated with
+    :data:`ROUNDING_MARGIN` for the rounding of evaluating both models there (a flat maximum's last digits vary
+    between grids) and at least :data:`ROUNDING_FLOOR` (an exact model's error is rounding).
+    An error already above ``refine_below`` on the grid is not refined (a model that misses its target does)."""
+    plant, film = _relative_errors(source, z0, impedance, grid_hz)
+    found = []
+    for which, error in enumerate((plant, film)):
+        best_hz, best = float(grid_hz[int(np.argmax(error))]), float(np.max(error))
+        if max(plant.max(), film.max()) > refine_below:
+            found += [max(best, ROUNDING_FLOOR), best_hz]  # (not refined: a model that misses its target)
+            continue
+        inner = np.flatnonzero((error[1:-1] >= error[:-2]) & (error[1:-1] >= error[2:])) + 1
+        ends = [i for i in (0, len(error) - 1) if error[i] >= REFINE_WITHIN * best]
+        candidates = [int(i) for i in inner if error[i] >= REFINE_WITHIN * best] + ends
+        chosen = sorted(candidates, key=lambda i: -error[i])[:REFINED_MAXIMA]
+        for f_hz, value in refine_maxima(lambda f: _relative_errors(source, z0, impedance, f)[which], grid_hz,
+                                         chosen):
+            if value > best:
+                best_hz, best = f_hz, value
+        found += [max(best * (1 + ROUNDING_MARGIN), ROUNDING_FLOOR), best_hz]
+    return plant, film, found[0], found[1], found[2], found[3]
+
+
 def _fit_impedance(source: PlantSource, z0: float, band_hz: tuple[float, float], film_order: int) -> PoleResidue:
     freq_hz = _grid_hz(band_hz)
     s = 2j * np.pi * freq_hz
@@ -316,15 +401,49 @@ def _fit_impedance(source: PlantSource, z0: float, band_hz: tuple[float, float],
 
 def build_model(source: PlantSource, band_hz: tuple[float, float], film_order: int,
                 target_error: float | None = None) -> RationalModel:
-    """The rational model with ``film_order`` poles in the film's impedance, with every check done."""
+    """The rational model with ``film_order`` poles in the film's impedance, with every check done. With a
+    ``target_error`` that the grid shows the model misses, its errors are the grid's (not refined: a lower bound)."""
     z0 = static_stiffness(source, band_hz)
     impedance = _fit_impedance(source, z0, band_hz, film_order)
     a, b, c, d = _plant_state_space(z0, impedance, source.mass_kg)
-    band_grid = _grid_hz(band_hz)
-    plant_error, film_error = _relative_errors(source, z0, impedance, band_grid)
-    outside = np.concatenate([np.geomspace(band_hz[0] / 10, band_hz[0], LINES_PER_DECADE),
-                              np.geomspace(band_hz[1], band_hz[1] * 10, LINES_PER_DECADE)])
-    outside_plant, outside_film = _relative_errors(source, z0, impedance, outside)
+    # the errors where they are largest: a grid resolving every feature of both models, its maxima refined
+    low_out, high_out = band_hz[0] / 10, band_hz[1] * 10
+    source_centres, source_widths = source.features_hz((low_out, high_out))
+    source_widths = np.full(source_centres.size, np.nan) if source_widths is None else source_widths
+    rational_centres, rational_widths = _rational_features_hz(z0, impedance, a)
+    centres = np.concatenate([source_centres, rational_centres])
+    widths = np.concatenate([source_widths, rational_widths])
+    band_grid = resolving_grid_hz(band_hz, centres, widths, ERROR_LINES_PER_DECADE)
+    target = np.inf if target_error is None else target_error
+    plant_error, film_error, plant_max, plant_at, film_max, film_at = _largest_errors(source, z0, impedance,
+                                                                                      band_grid, target)
+    # each side outside on its own (a maximum is refined between neighbours of its own side)
+    sides = [resolving_grid_hz(span, centres, widths, ERROR_LINES_PER_DECADE)
+             for span in ((low_out, band_hz[0]), (band_hz[1], high_out))]
+    below, above = (_largest_errors(source, z0, impedance, grid) for grid in sides)
+    outside = np.concatenate(sides)
+    outside_plant, outside_film = np.concatenate([below[0], above[0]]), np.concatenate([below[1], above[1]])
+    (out_plant_max, out_plant_at), (out_film_max, out_film_at) = (
+        max(((side[2], side[3]) for side in (below, above)), key=lambda item: item[0]),
+        max(((side[4], side[5]) for side in (below, above)), key=lambda item: item[0]))
+    error_grid = {
+        "method": "complex relative errors on a log grid of the band (and of the decade beyond each side) with "
+                  "points clustered around every frequency where either model can have a narrow feature — the "
+                  "fractional film's magnitude crossings of sibling branches and of the mass line, each mode of a "
+                  "spec's effects, every pole and zero of the rational model, each from 1e-8 to 0.3 relative and "
+                  "from 0.1 to 10 half-power widths away —, then every local maximum within "
+                  f"{REFINE_WITHIN:g} of the largest refined by zooming in between its grid neighbours; "
+                  f"stated with a margin of {ROUNDING_MARGIN:g} of itself and at least {ROUNDING_FLOOR:g} (rounding)",
+        "base_lines_per_decade": ERROR_LINES_PER_DECADE,
+        "points_band": int(band_grid.size),
+        "points_outside": int(outside.size),
+        "resolved_fractional_hz": sorted(float(f) for f in source_centres if low_out <= f <= high_out),
+        "resolved_rational_hz": sorted(float(f) for f in rational_centres if low_out <= f <= high_out),
+        "worst_band_hz": plant_at if plant_max >= film_max else film_at,
+        "worst_plant_band_hz": plant_at,
+        "worst_film_band_hz": film_at,
+        "worst_outside_hz": out_plant_at if out_plant_max >= out_film_max else out_film_at,
+    }
     poles = np.linalg.eigvals(a) if a.size else np.zeros(0)
     stable = bool(np.all(poles.real < 0))
 
@@ -341,18 +460,18 @@ def build_model(source: PlantSource, band_hz: tuple[float, float], film_order: i
     model = RationalModel(
         source=source, band_hz=(float(band_hz[0]), float(band_hz[1])), static_stiffness_n_per_m=z0,
         impedance=impedance, a=a, b=b, c=c, d=d,
-        max_error_band=float(max(plant_error.max(), film_error.max())),
-        max_error_plant_band=float(plant_error.max()), max_error_film_band=float(film_error.max()),
-        max_error_outside=float(max(outside_plant.max(), outside_film.max())),
+        max_error_band=float(max(plant_max, film_max)),
+        max_error_plant_band=float(plant_max), max_error_film_band=float(film_max),
+        max_error_outside=float(max(out_plant_max, out_film_max)),
         stable=stable, passive=passive, storage=storage,
         source_storage_minimum=float(np.min(source_z.real / np.abs(source_z))),
         target_error=target_error,
-        curve_freq_hz=np.concatenate([outside[:LINES_PER_DECADE], band_grid, outside[LINES_PER_DECADE:]]),
-        curve_plant_error=np.concatenate([outside_plant[:LINES_PER_DECADE], plant_error,
-                                          outside_plant[LINES_PER_DECADE:]]),
-        curve_film_error=np.concatenate([outside_film[:LINES_PER_DECADE], film_error,
-                                         outside_film[LINES_PER_DECADE:]]),
+        error_grid=error_grid,
     )
+    order = np.argsort(np.concatenate([outside, band_grid]), kind="stable")
+    model.curve_freq_hz = np.concatenate([outside, band_grid])[order]
+    model.curve_plant_error = np.concatenate([outside_plant, plant_error])[order]
+    model.curve_film_error = np.concatenate([outside_film, film_error])[order]
     return model
 
 
@@ -371,8 +490,9 @@ def approximate(
 ) -> RationalModel:
     """The rational model of ``source`` over ``band_hz`` (default :func:`default_band_hz`): of ``order`` states,
     or the lowest order whose plant and film are within ``max_error`` (complex relative error) over the band,
-    stable and passive. When no order up to the limit meets it, the most accurate stable, passive one is returned
-    (its error says by how much it misses)."""
+    stable and passive. When no order up to the limit meets it (or :data:`STALL_ORDERS` more states in a row do not
+    lower the error by :data:`STALL_GAIN`), the most accurate stable, passive one is returned (its error says by how
+    much it misses)."""
     band = _check_band(band_hz) if band_hz is not None else default_band_hz(source)
     z0 = static_stiffness(source, band)
     states_without_film = 2 if z0 != 0.0 else 1
@@ -388,19 +508,25 @@ def approximate(
     if not max_error > 0:
         raise SettingError(f"--max-error {max_error:g}: must be a positive fraction (e.g. 0.5%)")
     best: RationalModel | None = None
+    since_better = 0
     for film_order in range(0, MAX_FILM_ORDER + 1):
         model = build_model(source, band, film_order, target_error=max_error)
         usable = model.stable and model.passive.passed
         if usable and model.max_error_band <= max_error:
             logger.info("%s: %s", source.description, model.summary())
             return model
-        if usable and (best is None or model.max_error_band < best.max_error_band):
-            best = model
+        since_better += 1
+        if usable and (best is None or model.max_error_band < (1 - STALL_GAIN) * best.max_error_band):
+            best, since_better = model, 0
+        if best is not None and since_better >= STALL_ORDERS:
+            break  # more states no longer help: a feature no rational model of these orders follows
     if best is None:
         raise SettingError(f"{source.description}: no stable, passive rational model up to film order "
                            f"{MAX_FILM_ORDER} in {band[0]:g}–{band[1]:g} Hz")
+    best = build_model(source, band, best.film_order)  # its errors refined (none was within the target)
+    best.target_error = max_error
     logger.warning("%s: no order up to %d reaches %.3g %%; the best reaches %.3g %%", source.description,
-                   MAX_FILM_ORDER + states_without_film, 100 * max_error, 100 * best.max_error_band)
+                   film_order + states_without_film, 100 * max_error, 100 * best.max_error_band)
     return best
 
 

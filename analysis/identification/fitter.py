@@ -17,7 +17,7 @@ from typing import Callable
 import numpy as np
 from numpy.typing import ArrayLike
 
-from gasfilm.analysis.identification import uncertainty
+from gasfilm.analysis.identification import reduction, uncertainty
 from gasfilm.analysis.identification.default_search import default_search
 from gasfilm.analysis.identification.gapso import GapsoSettings, UnitObjective, gapso_search
 from gasfilm.analysis.identification.problem import Problem
@@ -33,6 +33,8 @@ METHODS = ("default", "gapso")
 #: The band models are fitted in unless the user says otherwise (GUI and CLI alike), in Hz; it is capped at
 #: :data:`ALIAS_FREE_FRACTION` of the sample rate.
 DEFAULT_FIT_BAND_HZ = (20.0, 1000.0)
+#: the share of a fit's progress its first search takes (the rest: the searches of its reduced forms)
+REDUCTION_PROGRESS = 0.8
 
 
 def default_fit_band_hz(sample_rate_hz: float) -> tuple[float, float]:
@@ -54,40 +56,72 @@ def fit_model(
     progress: Callable[[float], None] | None = None,
     cancel: Callable[[], bool] | None = None,
     gapso_settings: GapsoSettings = GapsoSettings(),
+    reduce: bool = True,
 ) -> FitResult:
     """Fit ``model`` to the measured accelerance ``h_measured`` ((m/s²)/N at ``freq_hz``) of ``mass_kg`` on the film.
 
     ``decay_rate_1_s`` > 0 fits the exponentially windowed model; ``fit_mass`` also identifies the mass (starting
     at ``mass_kg``); ``weights`` (e.g. the coherence) weight the frequency points. ``progress`` receives fractions in
     [0, 1]; ``cancel`` returning True stops the fit with
-    :class:`~gasfilm.analysis.identification.problem.FitCancelledError`.
+    :class:`~gasfilm.analysis.identification.problem.FitCancelledError`. With ``reduce`` (the default) the result is
+    the model's identifiable form (:func:`~gasfilm.analysis.identification.reduction.identifiable_form`): what the
+    data cannot determine is taken out and said, features they do not support are flagged.
     """
-    started = time.perf_counter()
     film = get_model(model) if isinstance(model, str) else model
     freq = np.asarray(freq_hz, dtype=float)
     h = np.asarray(h_measured, dtype=complex)
     _check_inputs(film, freq, h, mass_kg, method, weights)
+
+    def fit_network(network: FilmModel, report: Callable[[float], None] | None) -> FitResult:
+        return _fit_once(network, freq, h, float(mass_kg), method, float(decay_rate_1_s), fit_mass, weights, seed,
+                         report, cancel, gapso_settings)
+
+    share = REDUCTION_PROGRESS if reduce else 1.0
+    result = fit_network(film, None if progress is None else (lambda fraction: progress(share * fraction)))
+    if reduce:
+        result = reduction.identifiable_form(
+            result, lambda network: fit_network(network, None), freq, h,
+            None if progress is None else (lambda fraction: progress(share + (1 - share) * fraction)))
+        for note in result.notes:
+            logger.info("fit %s: %s", film.name, note)
+    if progress is not None:
+        progress(1.0)
+    return result
+
+
+def _fit_once(
+    film: FilmModel,
+    freq: np.ndarray,
+    h: np.ndarray,
+    mass_kg: float,
+    method: str,
+    decay_rate_1_s: float,
+    fit_mass: bool,
+    weights: ArrayLike | None,
+    seed: int,
+    progress: Callable[[float], None] | None,
+    cancel: Callable[[], bool] | None,
+    gapso_settings: GapsoSettings,
+) -> FitResult:
+    """One search of ``film``'s parameters, as it is (see :func:`fit_model`)."""
+    started = time.perf_counter()
     logger.info(
         "fit %s (%s, %s fitter): %d lines %.6g–%.6g Hz, mass %.6g kg%s, decay rate %.6g 1/s",
         film.name, film.text, method, len(freq), freq.min(), freq.max(), mass_kg, " (fitted)" if fit_mass else "",
         decay_rate_1_s,
     )
-    problem = Problem(film, freq, h, float(mass_kg), float(decay_rate_1_s), fit_mass, weights, cancel)
+    problem = Problem(film, freq, h, mass_kg, decay_rate_1_s, fit_mass, weights, cancel)
     if method == "default":
         theta = default_search(problem, seed, progress)
-        params, mass = problem.coords.to_params(theta)
-        mass = float(mass)
     else:
         objective = UnitObjective(problem, gapso_settings.order_margin)
         best_unit, _ = gapso_search(
             objective, objective.dimension, seed, gapso_settings, progress, objective.repair, objective.orders
         )
         theta = objective.to_coordinates(best_unit)
-        params, mass = problem.coords.to_params(theta)
-        mass = float(mass)
-    if progress is not None:
-        progress(1.0)
-    canonical = film.canonical(params)
+    params, mass = problem.coords.to_params(theta)
+    mass = float(mass)
+    canonical = film.canonical(params, 1j * problem.coords.omega_ref)
     if not np.array_equal(canonical, params):  # interchangeable arms named in one order (the same film)
         params, theta = canonical, problem.coords.from_params(canonical, mass)
     at_bound = uncertainty.parameters_at_bounds(problem, theta, params)

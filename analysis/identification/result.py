@@ -18,6 +18,10 @@ class FitResult:
 
     A parameter (or ``mass_kg``) named in ``at_bound`` ended at, or within 1e-6 relative of, a bound of its search
     range: its value is where the search stopped, not a measurement, and it has no entry in ``std_errors``.
+
+    A fit in its identifiable form (:mod:`~gasfilm.analysis.identification.reduction`) keeps the model's name but
+    holds the reduced ``network`` and its parameters only; ``reduced_from`` is then the network asked for, and
+    ``notes`` say what was taken out and what an order at a bound means.
     """
 
     model_name: str
@@ -38,6 +42,8 @@ class FitResult:
     decay_rate_1_s: float
     n_points: int
     at_bound: tuple[str, ...]
+    reduced_from: str = ""  # the network asked for, when the data determine only the reduced ``network``
+    notes: tuple[str, ...] = ()  # what the reduction took out, orders at 0 or 2: sentences for the reader
 
     def model(self) -> FilmModel:
         """The fitted network as a model."""
@@ -72,6 +78,8 @@ class FitResult:
             "decay_rate_1_s": self.decay_rate_1_s,
             "n_points": self.n_points,
             "at_bound": list(self.at_bound),
+            "reduced_from": self.reduced_from,
+            "notes": list(self.notes),
         }
 
     @classmethod
@@ -96,4 +104,6 @@ class FitResult:
             decay_rate_1_s=float(data["decay_rate_1_s"]),
             n_points=int(data["n_points"]),
             at_bound=tuple(data.get("at_bound", ())),  # absent from fits stored before it was recorded
+            reduced_from=str(data.get("reduced_from", "")),  # (likewise)
+            notes=tuple(str(note) for note in data.get("notes", ())),
         )

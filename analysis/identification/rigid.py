@@ -25,7 +25,7 @@ from gasfilm.analysis.identification.comparison import ComparisonRow, best_by_bi
 from gasfilm.analysis.identification.fitter import DEFAULT_FIT_BAND_HZ, fit_model
 from gasfilm.analysis.identification.result import FitResult
 from gasfilm.analysis.physics.rigid_body import (ACCELERATION_UNITS, COUPLING_UNITS, COUPLINGS, DAMPING_UNITS,
-                                                 DIRECTIONS, INERTIA_UNITS, LOAD_UNITS, STIFFNESS_UNITS)
+                                                 DIRECTIONS, INERTIA_UNITS, STIFFNESS_UNITS)
 from gasfilm.analysis.rigid_frf import RigidFrf
 from gasfilm.drivers.errors import SettingError
 

@@ -245,6 +245,14 @@ def _shape(node: Node) -> tuple:
     return (type(node).__name__,)
 
 
+def network_shape(node: Node) -> tuple:
+    """A network's structure without its parameter names and without the order of its branches (parallel and series
+    combinations commute): two networks of one shape describe the same family of films."""
+    if isinstance(node, _Composite):
+        return (type(node).__name__, tuple(sorted((network_shape(child) for child in node.children), key=repr)))
+    return (type(node).__name__,)
+
+
 def _arm_sort_names(node: Node) -> tuple[list[str], list[str]]:
     """An arm's fractional orders and its springs' stiffnesses (parameter names), in reading order."""
     if isinstance(node, _Composite):
@@ -278,10 +286,12 @@ class FilmModel:
     def __repr__(self) -> str:
         return f"FilmModel({self.name!r}, {self.network.text()!r})"
 
-    def canonical(self, vector: Sequence[float]) -> np.ndarray:
+    def canonical(self, vector: Sequence[float], s_ref: complex | None = None) -> np.ndarray:
         """The same film with its interchangeable parallel arms (two arms of one shape, as FOMGF's and Maxwell's) in
-        one order: the higher fractional order first, then the stiffer spring. Either assignment gives the same
-        Z(s); a fitter may land on either, and sessions of a campaign must name the same arm alike."""
+        one order. Either assignment gives the same Z(s); a fitter may land on either, and sessions of a campaign
+        must name the same arm alike. With ``s_ref`` (a fit's reference, its resonance) the arm that carries more
+        of the film there comes first — a spare arm that fits little (an order near 2 beside a stiff film) comes
+        last in every session; without it, the higher fractional order first, then the stiffer spring."""
         values = np.array(vector, dtype=float)
         network = self.network
         if not isinstance(network, Parallel):
@@ -295,7 +305,13 @@ class FilmModel:
 
             def key(arm: Node) -> tuple[float, ...]:
                 orders, springs = _arm_sort_names(arm)
-                return tuple(-values[index[name]] for name in orders + springs)
+                order_key = tuple(-values[index[name]] for name in orders + springs)
+                if s_ref is None:
+                    return order_key
+                own = {p.name: np.array([values[index[p.name]]]) for p in arm.parameters()}
+                with np.errstate(all="ignore"):
+                    magnitude = float(np.abs(arm.stiffness(np.array([s_ref]), own))[0])
+                return (-magnitude if np.isfinite(magnitude) else 0.0,) + order_key
 
             ordered = sorted(arms, key=key)
             taken = [values[[index[p.name] for p in arm.parameters()]] for arm in ordered]

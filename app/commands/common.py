@@ -236,6 +236,16 @@ class LoadedFrf:
     rig_spec_toml: str | None
     hits: list = dataclasses.field(default_factory=list)
     name: str = ""
+    #: the session's hit indices the FRF averages (None when not recorded) and the hits the session accepts now
+    hit_indices: tuple[int, ...] | None = None
+    accepted_indices: tuple[int, ...] | None = None
+
+    def fit_hits(self) -> Any:
+        """The :class:`~gasfilm.analysis.fit_settings.FitHits` of a fit of this FRF."""
+        from gasfilm.analysis.fit_settings import FitHits
+
+        return FitHits(len(self.hit_indices) if self.hit_indices is not None else int(self.frf.n_averages),
+                       self.hit_indices)
 
 
 def load_frf(paths: list[Path], name: str | None = None) -> tuple[Any, str, str | None]:
@@ -245,13 +255,15 @@ def load_frf(paths: list[Path], name: str | None = None) -> tuple[Any, str, str 
     return loaded.frf, loaded.what, loaded.rig_spec_toml
 
 
-def load_frf_and_hits(paths: list[Path], name: str | None = None, with_hits: bool = False) -> LoadedFrf:
+def load_frf_and_hits(paths: list[Path], name: str | None = None, with_hits: bool = False,
+                      fresh: bool = False) -> LoadedFrf:
     """The FRF to export or fit, its description and the rig spec TOML it was recorded with (None for files).
 
-    A session gives its stored FRF ``name`` (default: "frf" or its only one), else one averaged now from its accepted
-    hits with its stored window; a UFF file its stored FRF, else the FRF of its time records; UFF or .npy time
-    records give the FRF of their hits validated as ``replay`` validates them (no window stored). ``with_hits``: also
-    the hits the FRF averages (a session's stored FRF: the hits it names, else its accepted ones)."""
+    A session gives its stored FRF ``name`` (default: "frf" or its only one), else (or with ``fresh``) one averaged
+    now from its accepted hits with its stored window; a UFF file its stored FRF, else the FRF of its time records;
+    UFF or .npy time records give the FRF of their hits validated as ``replay`` validates them (no window stored).
+    ``with_hits``: also the hits the FRF averages (a session's stored FRF: the hits it names, else its accepted
+    ones)."""
     from gasfilm.analysis.session import Session, SessionError
     from gasfilm.analysis.settings import decode_setting
     from gasfilm.analysis.sources import UFF_SUFFIXES, is_time_record_file, load_source
@@ -259,7 +271,8 @@ def load_frf_and_hits(paths: list[Path], name: str | None = None, with_hits: boo
 
     if len(paths) == 1 and not is_time_record_file(paths[0]):
         with Session.open(paths[0], "r") as session:
-            stored = session.result_names("frf")
+            stored = [] if fresh else session.result_names("frf")
+            accepted_indices = tuple(int(i) for i in session.accepted_indices())
             chosen = name
             if chosen is None and ("frf" in stored or len(stored) == 1):
                 chosen = "frf" if "frf" in stored else stored[0]
@@ -267,19 +280,22 @@ def load_frf_and_hits(paths: list[Path], name: str | None = None, with_hits: boo
                 raise SettingError(f"--frf: {session.path} holds several FRFs ({', '.join(stored)}); choose one")
             if chosen is not None:
                 frf = session.read_frf(chosen)
+                indices = session.frf_hit_indices(chosen)
                 hits = []
                 if with_hits:
-                    indices = session.frf_hit_indices(chosen)
                     every = session.hits()
                     hits = ([every[i] for i in indices if 0 <= i < len(every)] if indices is not None
                             else [hit for hit in every if hit.verdict.accepted])
-                return LoadedFrf(frf, f"FRF '{chosen}'", session.rig_spec_toml, hits, chosen)
+                return LoadedFrf(frf, f"FRF '{chosen}'", session.rig_spec_toml, hits, chosen,
+                                 None if indices is None else tuple(int(i) for i in indices), accepted_indices)
             hits = [hit for hit in session.hits() if hit.verdict.accepted]
             if not hits:
-                raise SessionError(f"{session.path}: no stored FRF and no accepted hits to average")
+                raise SessionError(f"{session.path}: no {'' if fresh else 'stored FRF and no '}accepted hits to "
+                                   f"average")
             frf = session_frf(hits, session.settings_as("window", WindowSettings))
             return LoadedFrf(frf, f"FRF averaged now from {len(hits)} accepted hits", session.rig_spec_toml,
-                             hits if with_hits else [])
+                             hits if with_hits else [], hit_indices=tuple(hit.index for hit in hits),
+                             accepted_indices=accepted_indices)
     if name is not None:
         raise SettingError(f"--frf: {paths[0]} is not a session; only sessions store named FRFs")
     if len(paths) == 1 and paths[0].suffix.lower() in UFF_SUFFIXES:

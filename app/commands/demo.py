@@ -111,7 +111,7 @@ def run(args: argparse.Namespace) -> int:
     from gasfilm.analysis.identification import default_fit_band_hz  # the one default fit band
     from gasfilm.app.commands.replay import ONE_AVERAGE_NOTE
     from gasfilm.analysis.capture import ImpactCapture, TriggerSettings
-    from gasfilm.analysis.fit_settings import FitSettings
+    from gasfilm.analysis.fit_settings import FitHits, FitSettings
     from gasfilm.analysis.identification import fit_model
     from gasfilm.analysis.physics.elements import PAPER_MODELS
     from gasfilm.analysis.physics.plant import RigPlant
@@ -173,7 +173,8 @@ def run(args: argparse.Namespace) -> int:
         hits = session.hits()
         accepted = [hit for hit in hits if hit.verdict.accepted]
         frf = session_frf(accepted, window)
-        session.write_frf(frf)
+        frf_hits = FitHits(len(accepted), tuple(hit.index for hit in accepted))
+        session.write_frf(frf, hit_indices=np.array(frf_hits.indices, dtype=np.int64))
         peak_forces = [float(np.max(np.abs(hit.data[hit.force_channel]))) for hit in hits]
         peak_responses = [float(np.max(np.abs(hit.data[hit.response_channel]))) for hit in hits]
         band = (frf.freq_hz >= 20) & (frf.freq_hz <= 1000)
@@ -199,7 +200,8 @@ def run(args: argparse.Namespace) -> int:
                     spec.mass_kg,
                     decay_rate_1_s=frf.decay_rate_1_s,
                 )
-                session.write_fit(name, {**fit.to_dict(), **FitSettings.of_fit(fit, "frf").stored_keys()})
+                session.write_fit(name, {**fit.to_dict(), **FitSettings.of_fit(fit, "frf").stored_keys(),
+                                         **frf_hits.stored_keys()})
                 rms = fit.rms / G_M_S2 if args.units == "g" else fit.rms
                 print(f"  fit {name:6s} RMS {rms:.3e} {UNITS[args.units]}  ({fit.wall_time_s:.2f} s)")
         print(f"  session:           {args.out} ({time.monotonic() - started:.1f} s)")

@@ -5,6 +5,10 @@ The FRF is a session's stored one (``--frf NAME``; by default "frf" or the only 
 hits when none is stored yet, or the average of UFF / .npy time records. The mass is ``--mass``, else the rig spec's mover mass stored in the session,
 else the paper's 25.05 kg. A structure that is not a mass on a film (its accelerance far above the resonance does
 not approach 1/m) is warned about: its fits mean little.
+
+Each stored fit names the hits it was made on: an FRF that averages fewer hits than the session now accepts is said
+to be stale, and ``--refit`` fits the stored models again, with their settings, on all the accepted hits. A session
+that cannot be written (a read-only file or folder) is fitted all the same: what could not be stored is said.
 """
 
 from __future__ import annotations
@@ -19,7 +23,7 @@ from gasfilm.analysis.jsontext import dumps
 from gasfilm.app.commands.common import (UNITS, accelerance_text, add_units_flag, check_inputs,
                                          check_output_folder, is_terminal,
                                          load_frf_and_hits, source_conditions)
-from gasfilm.drivers.errors import SettingError
+from gasfilm.drivers.errors import GasfilmError, SettingError
 
 logger = logging.getLogger(__name__)
 
@@ -45,6 +49,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--overwrite", action="store_true",
                         help="replace figures that exist already, and a session's stored fit made with other "
                              "settings (band, mass, --fit-mass, method, FRF)")
+    parser.add_argument("--refit", action="store_true",
+                        help="fit the session's stored models again, with their settings, on the FRF of all its "
+                             "accepted hits (stored as its FRF 'frf'): after more hits, its fits are current again")
     parser.set_defaults(func=run)
 
 
@@ -114,7 +121,9 @@ def _mass_kg(args: argparse.Namespace, rig_spec_toml: str | None) -> float:
 
 
 def format_parameters(fits: list) -> str:
-    """Each fit's identified parameters with units and 1-σ uncertainties."""
+    """Each fit's identified parameters with units and 1-σ uncertainties, and those its reduced form leaves out."""
+    from gasfilm.analysis.identification.reduction import reduced_parameters
+
     lines = []
     for fit in fits:
         units = {parameter.name: parameter.unit for parameter in fit.model().parameters}
@@ -126,7 +135,43 @@ def format_parameters(fits: list) -> str:
             error = fit.std_errors.get(name)
             spread = f"± {error:.2g}" if error is not None else "± —"
             lines.append(f"  {name:<14} {value:>12.5g} {spread:<10} {units.get(name, '')}")
+        missing = reduced_parameters(fit)
+        if missing:
+            lines.append(f"  {', '.join(missing)}: not determined by the data (the model's reduced form, below)")
     return "\n".join(lines)
+
+
+def refit_settings(args: argparse.Namespace) -> None:
+    """``--refit``: the models and settings of the session's stored fits, for the flags not typed (one line when the
+    stored fits disagree on one, naming the flag that settles it)."""
+    from gasfilm.analysis.fit_settings import FitSettings
+    from gasfilm.analysis.session import Session
+    from gasfilm.analysis.sources import is_time_record_file
+
+    if len(args.source) != 1 or is_time_record_file(args.source[0]):
+        raise SettingError("--refit: only for a session (it fits the session's stored models again)")
+    if args.frf is not None:
+        raise SettingError("--refit: fits on the FRF of all the session's accepted hits; leave --frf out")
+    typed = getattr(args, "typed_flags", set())
+    with Session.open(args.source[0], "r") as session:
+        stored = {name: FitSettings.of_stored(session.read_fit(name)) for name in session.result_names("fits")}
+    stored = {name: settings for name, settings in stored.items() if settings is not None}
+    if "models" not in typed:
+        if not stored:
+            raise SettingError(f"--refit: {args.source[0]} holds no fits to fit again; name them with --models")
+        args.models = ",".join(stored)
+    chosen = [settings for name, settings in stored.items() if name in args.models.split(",")]
+    for dest, flag, value in (("band", "--band", lambda f: f"{f.band_hz[0]!r}:{f.band_hz[1]!r}"),
+                              ("mass", "--mass", lambda f: f.mass_kg),
+                              ("fit_mass", "--fit-mass", lambda f: f.mass_fitted),
+                              ("method", "--method", lambda f: f.method or "default")):
+        values = list(dict.fromkeys(value(f) for f in chosen if not (dest == "mass" and f.mass_kg != f.mass_kg)))
+        if dest in typed or not values:
+            continue
+        if len(values) > 1:
+            raise SettingError(f"--refit: the stored fits differ in {flag} ({', '.join(map(str, values))}); give "
+                               f"{flag} (and --overwrite for the fits it changes)")
+        setattr(args, dest, values[0])
 
 
 def _progress_printer(name: str, index: int, count: int) -> Callable[[float], None] | None:
@@ -146,7 +191,7 @@ def run(args: argparse.Namespace) -> int:
     import numpy as np
 
     from gasfilm.analysis.figures import figure18, figure19
-    from gasfilm.analysis.fit_settings import FitSettings
+    from gasfilm.analysis.fit_settings import FitSettings, stale_note
     from gasfilm.analysis.fit_warnings import mass_line_warning, not_explained_warning, other_resonances_hz
     from gasfilm.analysis.identification import METHODS, compare_models, fit_model, format_table2
     from gasfilm.analysis.paths import written_whole
@@ -154,20 +199,28 @@ def run(args: argparse.Namespace) -> int:
     from gasfilm.analysis.sources import is_time_record_file
     from gasfilm.analysis.spectra import usable_band_hz
 
+    check_inputs(args.source)  # the inputs before the outputs
+    if args.refit:
+        refit_settings(args)
     if args.method not in METHODS:
         raise SettingError(f"--method '{args.method}': choose one of {', '.join(METHODS)}")
     models = parse_models(args.models)
     if args.mass is not None and not args.mass > 0:
         raise SettingError(f"--mass {args.mass}: must be a positive mass in kg")
-    check_inputs(args.source)  # the inputs before the outputs
     out = args.out if args.out is not None else args.source[0].parent
     stem = args.source[0].stem
+    # (--refit replaces the figures of the fits it replaces)
     figure_paths = check_output_folder(out, "--out" if args.out is not None else "",
-                                       (f"{stem}-figure18.png", f"{stem}-figure19.png"), args.overwrite)
+                                       (f"{stem}-figure18.png", f"{stem}-figure19.png"), args.overwrite or args.refit)
     from gasfilm.analysis.conditions import format_conditions
 
-    loaded = load_frf_and_hits(args.source, args.frf)
+    loaded = load_frf_and_hits(args.source, args.frf, fresh=args.refit)
     frf, what, rig_spec_toml = loaded.frf, loaded.what, loaded.rig_spec_toml
+    hits = loaded.fit_hits()
+    stale = None if loaded.accepted_indices is None else stale_note(hits, loaded.accepted_indices)
+    if stale:
+        stale = (f"the {what} is {stale}, and so are fits on it (--refit averages all "
+                 f"{len(loaded.accepted_indices)} and fits again)")
     conditions = source_conditions(args.source)
     low, high = parse_band(args.band, frf.sample_rate_hz)
     band_note = None
@@ -188,7 +241,7 @@ def run(args: argparse.Namespace) -> int:
     freq_hz, h = frf.freq_hz[keep], frf.h1[keep]
     mass_kg = _mass_kg(args, rig_spec_toml)
     settings = FitSettings((float(freq_hz[0]), float(freq_hz[-1])), mass_kg, args.fit_mass, args.method,
-                           frf.decay_rate_1_s, loaded.name)
+                           frf.decay_rate_1_s, "frf" if args.refit else loaded.name)
     if not is_time_record_file(args.source[0]):
         with Session.open(args.source[0], "r") as session:
             check_stored_fits(session, {model.name: settings for model in models}, args.overwrite)
@@ -213,10 +266,20 @@ def run(args: argparse.Namespace) -> int:
     with written_whole(*figure_paths, what="the figures") as building:
         figure18(building[0], freq_hz, h, fits)
         figure19(building[1], freq_hz, h, fits)
+        stored_note = None
         if not is_time_record_file(args.source[0]):
-            with Session.updating(args.source[0]) as session:
-                for fit in fits:
-                    session.write_fit(fit.model_name, {**fit.to_dict(), **settings.stored_keys()})
+            try:
+                with Session.updating(args.source[0]) as session:
+                    if args.refit:
+                        session.write_frf(frf, hit_indices=np.array(hits.indices, dtype=np.int64))
+                    for fit in fits:
+                        session.write_fit(fit.model_name,
+                                          {**fit.to_dict(), **settings.stored_keys(), **hits.stored_keys()})
+            except GasfilmError as error:  # a read-only session (or folder): the fits are shown, not kept
+                stored_note = (f"the fits{' and the FRF' if args.refit else ''} are not stored in the session: "
+                               f"{error}")
+                if args.json:  # (the text output says it in its notes)
+                    logger.warning(stored_note)
     figures = figure_paths
     if args.json:
         print(dumps({
@@ -229,6 +292,10 @@ def run(args: argparse.Namespace) -> int:
             "decay_rate_1_s": frf.decay_rate_1_s,
             "mass_line_warning": warning,
             "band_note": band_note,
+            "hits": {"count": hits.count, "indices": None if hits.indices is None else list(hits.indices),
+                     "accepted": None if loaded.accepted_indices is None else len(loaded.accepted_indices),
+                     "stale": stale},
+            "stored_note": stored_note,
             "not_explained_resonances_hz": unexplained_hz,
             "fits": [fit.to_dict() for fit in fits],
             "table": [dataclasses.asdict(row) for row in rows],
@@ -238,7 +305,11 @@ def run(args: argparse.Namespace) -> int:
     print(f"{args.source[0]}: {what}, {len(freq_hz)} lines, {freq_hz[0]:g}–{freq_hz[-1]:g} Hz, m = {mass_kg:g} kg, "
           f"method {args.method}")
     print(f"conditions: {format_conditions(conditions)}")
-    for line in (band_note, not_explained):
+    if loaded.accepted_indices is not None:
+        accepted = len(loaded.accepted_indices)
+        print(f"hits: the fits are made on {hits.count} of the session's {accepted} accepted hits (stale)" if stale
+              else f"hits: the fits are made on all {accepted} accepted hits of the session")
+    for line in (band_note, not_explained, stale, stored_note):
         if line:
             print(f"note: {line}")
     table_units = "g/N" if args.units == "g" else "SI"
@@ -246,6 +317,8 @@ def run(args: argparse.Namespace) -> int:
           f"{UNITS['si' if args.units == 'g' else 'g']})\n" + format_table2(rows, table_units))
     print("\nIdentified parameters (± 1σ)\n" + format_parameters(fits))
     for fit in fits:
+        for note in fit.notes:
+            print(f"{fit.model_name}: {note}")
         if fit.flags:
             print(f"{fit.model_name}: " + "; ".join(fit.flags))
     print("\nfigures: " + ", ".join(str(path) for path in figures))

@@ -165,7 +165,7 @@ def _rigid_plant(args: argparse.Namespace, max_error: float, band: tuple[float, 
     plant = rigid_plant(identification, mass_matrix(spec), args.model, band, max_error, measured)
     written = write_rigid_plant(plant, args.out)
     if args.json:
-        print(json.dumps({"out": str(written), "model": plant.to_dict()}))
+        print(dumps({"out": str(written), "model": plant.to_dict()}))
         return 0
     for line in plant.summary_lines():
         print(line)

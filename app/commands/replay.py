@@ -19,7 +19,7 @@ from typing import Any
 from gasfilm.analysis.jsontext import dumps
 from gasfilm.app.commands.common import (add_units_flag, check_force_window_length, check_inputs, check_output_file,
                                          check_session_path, positive_flag, settings_from_flags, window_value)
-from gasfilm.drivers.errors import SettingError
+from gasfilm.drivers.errors import GasfilmError, SettingError
 
 #: Band edges (Hz) for the coherence summary; bands above the Nyquist frequency are left out.
 COHERENCE_BAND_EDGES_HZ = (0.0, 100.0, 300.0, 1000.0, 3000.0, 10000.0, 30000.0)
@@ -297,13 +297,17 @@ def run(args: argparse.Namespace) -> int:
                 result.write_frf(frf, hit_indices=accepted_indices)
         written = f"new session {args.out}"
     elif source.is_session and frf is not None:
-        with Session.updating(source.path) as session:  # the FRF and the settings, or nothing
-            replaced = "replay" in session.result_names("frf")
-            session.write_frf(frf, name="replay", hit_indices=accepted_indices if not retrigger else None)
-            session.update_settings({"replay": settings})
-        written = (f"FRF group 'replay' in {source.path}"
-                   + (" (replacing the earlier replay's; --out S.h5 keeps a replay as a session of its own)"
-                      if replaced else ""))
+        try:
+            with Session.updating(source.path) as session:  # the FRF and the settings, or nothing
+                replaced = "replay" in session.result_names("frf")
+                session.write_frf(frf, name="replay", hit_indices=accepted_indices if not retrigger else None)
+                session.update_settings({"replay": settings})
+            written = (f"FRF group 'replay' in {source.path}"
+                       + (" (replacing the earlier replay's; --out S.h5 keeps a replay as a session of its own)"
+                          if replaced else ""))
+        except GasfilmError as error:  # a read-only session (or folder): the replay is shown, not kept
+            written = (f"not stored in {source.path} ({error}); --out S.h5 keeps the replay as a session of its "
+                       f"own")
     elif frf is not None:
         written = "printed only (add --out SESSION.h5 to keep it as a session)"
     else:

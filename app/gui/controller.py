@@ -22,14 +22,14 @@ from gasfilm.analysis.acquisition import AcquisitionLoop
 from gasfilm.analysis.capture import TriggerSettings
 from gasfilm.analysis.conditions import decode_conditions, parse_condition_table
 from gasfilm.analysis.diagnosis import load_recordings
-from gasfilm.analysis.fit_settings import FitSettings, conflicting_fits
+from gasfilm.analysis.fit_settings import FitHits, FitSettings, conflicting_fits, stale_note
 from gasfilm.analysis.identification import DEFAULT_FIT_BAND_HZ, best_by_bic, compare_models
 from gasfilm.analysis.physics.elements import get_model
 from gasfilm.analysis.physics.laws import played_at
 from gasfilm.analysis.physics.spec import RigSpec
 from gasfilm.analysis.rigid_session import roving_plan
 from gasfilm.analysis.spectra import usable_band_hz
-from gasfilm.analysis.session import Session, to_jsonable
+from gasfilm.analysis.session import Session, SessionWriteError, to_jsonable
 from gasfilm.analysis.spectra import FrfAccumulator, FrfResult, WindowSettings, session_frf, write_frf_csv
 from gasfilm.analysis.uff import export_frf_uff
 from gasfilm.analysis.validation import ValidationSettings, Verdict, recorded_full_scale_si, validate_hit
@@ -103,6 +103,8 @@ class SessionController(QObject):
         self._frf_sums: tuple[FrfAccumulator | None, list[int]] = (None, [])  # running sums and the hits in them
         self.fits: dict[str, Any] = {}
         self._fit_settings: dict[str, dict[str, Any]] = {}  # each fit's stored settings beyond its FitResult
+        self._frf_hits: FitHits | None = None  # the hits the current FRF averages
+        self._fitting_hits: FitHits | None = None  # those of the FRF the running fit job was given
         self.comparison: list[Any] = []
         self.fit_band_hz: tuple[float, float] = DEFAULT_FIT_BAND_HZ
         self.diagnosis: Any = None
@@ -444,6 +446,7 @@ class SessionController(QObject):
         accepted = [entry for entry in self._at_frf_point(self.hits) if entry.accepted]
         records = [entry.record for entry in accepted]
         self.frf = self._running_frf(accepted) if accepted else None
+        self._frf_hits = FitHits(len(accepted), tuple(entry.index for entry in accepted)) if accepted else None
         self.frf_changed.emit(self.frf)
         target = self._armed_setup.target_averages
         if self.acquiring and target > 0 and len(records) >= target and self.state != "stopping":
@@ -564,11 +567,38 @@ class SessionController(QObject):
             return
         work = functools.partial(jobs.fit_models, list(model_names), method, freq_hz, h, mass_kg, frf.decay_rate_1_s)
         self.fit_band_hz = (low, high)
+        self._fitting_hits = self._frf_hits
         self._start_job("fit", work, self._on_fits_done)
+
+    def stale_fits(self) -> dict[str, str]:
+        """The fits made on fewer (or other) hits than the session accepts now, each with why ("made on 4 of the 10
+        accepted hits")."""
+        accepted = [entry.index for entry in self.hits if entry.accepted]
+        found = {}
+        for name in self.fits:
+            note = stale_note(FitHits.of_stored(self._fit_settings.get(name, {})), accepted)
+            if note is not None:
+                found[name] = note
+        return found
+
+    def fit_hits(self, name: str) -> FitHits | None:
+        """The hits the fit of ``name`` was made on (None: not recorded)."""
+        return FitHits.of_stored(self._fit_settings.get(name, {}))
+
+    def refit(self) -> None:
+        """Fit the models shown again, with their fitter and band, on the FRF of all the accepted hits (one click
+        after more hits)."""
+        if not self.fits:
+            self.message.emit("no fits to refit: fit models on the Identify tab first", "warning")
+            return
+        method = next(iter(self.fits.values())).method
+        self.run_fits(list(self.fits), method, self.fit_band_hz)
 
     def _on_fits_done(self, result: tuple[dict[str, Any], list[Any]]) -> None:
         self.fits, self.comparison = result
-        self._fit_settings = {name: FitSettings.of_fit(fit, "frf").stored_keys() for name, fit in self.fits.items()}
+        hits = self._fitting_hits.stored_keys() if self._fitting_hits is not None else {}
+        self._fit_settings = {name: {**FitSettings.of_fit(fit, "frf").stored_keys(), **hits}
+                              for name, fit in self.fits.items()}
         self.fits_changed.emit()
         self._store_results()
         low, high = self.fit_band_hz
@@ -718,6 +748,7 @@ class SessionController(QObject):
         self.frf = None
         self.fits = {}
         self._fit_settings = {}
+        self._frf_hits = None
         self.comparison = []
         self.diagnosis = None
         self._diagnosis_options = None
@@ -748,8 +779,16 @@ class SessionController(QObject):
             self.message.emit("stop the acquisition before opening a session", "warning")
             return
         path = Path(path)
+        read_only = None
         try:
             session = Session.open(path, "a")
+        except SessionWriteError as error:  # a read-only file or folder: shown, nothing stored
+            read_only = error
+            try:
+                session = Session.open(path, "r")
+            except GasfilmError as second:
+                self.message.emit(str(second), "error")
+                return
         except GasfilmError as error:
             self.message.emit(str(error), "error")
             return
@@ -772,6 +811,9 @@ class SessionController(QObject):
         self.hits_reset.emit()
         if "frf" in session.result_names("frf"):
             self.frf = session.read_frf()
+            indices = session.frf_hit_indices()
+            self._frf_hits = FitHits(self.frf.n_averages if indices is None else len(indices),
+                                     None if indices is None else tuple(int(i) for i in indices))
             self.frf_changed.emit(self.frf)
         else:
             self.update_running_frf()
@@ -782,13 +824,17 @@ class SessionController(QObject):
         if session.recovered:
             self.message.emit(f"{path.name}: recovered after an interrupted recording", "warning")
         self.session_changed.emit(str(path))
+        if read_only is not None:
+            self.message.emit(f"{path.name}: opened read-only — fits and diagnoses made now are not stored in it and "
+                              f"verdicts cannot be changed (Save As keeps them in a copy) ({read_only})", "warning")
 
     def _load_fits(self, session: Session) -> None:
         from gasfilm.analysis.identification import FitResult
 
         stored = {name: session.read_fit(name) for name in session.result_names("fits")}
         self.fits = {name: FitResult.from_dict(values) for name, values in stored.items()}
-        self._fit_settings = {name: {key: values[key] for key in FitSettings.STORED_KEYS if key in values}
+        self._fit_settings = {name: {key: values[key] for key in FitSettings.STORED_KEYS + FitHits.STORED_KEYS
+                                     if key in values}
                               for name, values in stored.items()}
         if self.fits and self.frf is not None:
             first = next(iter(self.fits.values()))

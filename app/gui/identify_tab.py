@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import html
+
 import numpy as np
 from pathlib import Path
 
@@ -39,7 +41,9 @@ from gasfilm.drivers.errors import GasfilmError
 from gasfilm.drivers.interface import STANDARD_GRAVITY_M_S2
 
 DEFAULT_MODELS = ("SD", "FOMGF")
-TABLE2_COLUMNS = ("#", "Model", "k", "RMS (g/N)", "E", "Peak error (g/N)", "E_m", "AIC", "BIC")
+TABLE2_COLUMNS = ("#", "Model", "k", "RMS (g/N)", "E", "Peak error (g/N)", "E_m", "AIC", "BIC", "Hits")
+#: the colour of a stale fit's mark (made on fewer hits than the session now accepts)
+STALE_COLOR = "#a66300"
 WAITING_TEXT = "Fitting waits until the acquisition is stopped."
 READY_TEXT = "Acquisition stopped: the FRF is final. Pick the models and fit."
 METHOD_LABELS = {"default": "default (fast, multi-start least squares)", "gapso": "GA-PSO (the paper's)"}
@@ -76,6 +80,11 @@ class IdentifyTab(QWidget):
         self.run_button.setObjectName("fit")
         self.cancel_button = QPushButton("Cancel")
         self.cancel_button.setEnabled(False)
+        self.refit_button = QPushButton("Refit on all hits")
+        self.refit_button.setObjectName("refit")
+        self.refit_button.setToolTip("fit the models in Table 2 again, with their fitter and band, on the FRF of all "
+                                     "the accepted hits (gasfilm fit --refit)")
+        self.refit_button.setEnabled(False)
         self.progress = QProgressBar()
         self.progress.setRange(0, 1000)
         self.status = FixedHeightLabel(lines=2)  # its text changes with every progress report: nothing may move
@@ -94,6 +103,7 @@ class IdentifyTab(QWidget):
         buttons.addWidget(self.run_button)
         buttons.addWidget(self.cancel_button)
         left.addLayout(buttons)
+        left.addWidget(self.refit_button)
         left.addWidget(self.progress)
         left.addWidget(self.status)
 
@@ -180,6 +190,7 @@ class IdentifyTab(QWidget):
         QVBoxLayout(self).addWidget(splitter)
 
         self.run_button.clicked.connect(self.run_fits)
+        self.refit_button.clicked.connect(self.refit)
         self.control_button.clicked.connect(self._on_control_button)
         self.export_control_button.clicked.connect(lambda: self.export_control_model())
         self.cancel_button.clicked.connect(lambda: controller.cancel_job("fit"))
@@ -187,7 +198,7 @@ class IdentifyTab(QWidget):
         controller.job_running.connect(self._on_running)
         controller.acquisition_state.connect(self._on_acquisition_state)
         controller.fits_changed.connect(self.show_fits)
-        controller.frf_changed.connect(lambda _frf: self._update_band_label())
+        controller.frf_changed.connect(lambda _frf: (self._update_band_label(), self._show_hits()))
         self._update_band_label()
 
     @staticmethod
@@ -274,6 +285,7 @@ class IdentifyTab(QWidget):
             return
         self.run_button.setEnabled(not running)
         self.cancel_button.setEnabled(running)
+        self.refit_button.setEnabled(not running and bool(self.controller.stale_fits()))
         if not running:
             self.status.setText(f"{len(self.controller.fits)} model(s) fitted" if self.controller.fits else "")
 
@@ -297,6 +309,7 @@ class IdentifyTab(QWidget):
                 _percent(row.e_m_percent),
                 f"{row.aic:.1f}",
                 f"{row.bic:.1f}",
+                "",  # hits: _show_hits
             )
             for c, value in enumerate(values):
                 item = QTableWidgetItem(value)
@@ -305,7 +318,7 @@ class IdentifyTab(QWidget):
                 else:  # the swatch of the model's curves in Figures 18 and 19 (they have no legend)
                     item.setData(Qt.ItemDataRole.DecorationRole, QColor(PALETTE[r % len(PALETTE)]))
                 self.table.setItem(r, c, item)
-        self.table.resizeColumnsToContents()
+        self._show_hits()
         if rows:
             self.table.selectRow(0)
         else:
@@ -316,6 +329,35 @@ class IdentifyTab(QWidget):
             self._draw_figures()
         else:  # (fits that arrive while another tab is shown, e.g. the live view: drawn when this one is)
             self._figures_stale = True
+
+    def _show_hits(self) -> None:
+        """Each fit's hits in Table 2, a stale fit (made on fewer hits than the session accepts now) marked with
+        how many it used, and the Refit button offered while one is."""
+        stale = self.controller.stale_fits()
+        column = TABLE2_COLUMNS.index("Hits")
+        for r in range(self.table.rowCount()):
+            name_item = self.table.item(r, 1)
+            if name_item is None:
+                continue
+            hits = self.controller.fit_hits(name_item.text())
+            text = "—" if hits is None else str(hits.count)
+            item = QTableWidgetItem(f"{text} ⚠ stale" if name_item.text() in stale else text)
+            item.setTextAlignment(Qt.AlignmentFlag.AlignRight | Qt.AlignmentFlag.AlignVCenter)
+            if name_item.text() in stale:
+                item.setForeground(QColor(STALE_COLOR))
+                item.setToolTip(f"stale: {stale[name_item.text()]} — Refit on all hits fits it again")
+            elif hits is None:
+                item.setToolTip("the fit does not say which hits it was made on (stored before that was recorded)")
+            self.table.setItem(r, column, item)
+        self.table.resizeColumnsToContents()
+        self.refit_button.setEnabled(bool(stale) and not self.controller.job_active("fit"))
+        accepted = self.controller.accepted_count
+        self.refit_button.setText(f"Refit on all {accepted} hits" if stale else "Refit on all hits")
+
+    def refit(self) -> None:
+        """Fit the models of Table 2 again on all the accepted hits (their fitter and band kept)."""
+        self.progress.setValue(0)
+        self.controller.refit()
 
     def showEvent(self, event: QShowEvent) -> None:
         if self._figures_stale:
@@ -339,9 +381,11 @@ class IdentifyTab(QWidget):
                 self.parameters.setItem(r, c, QTableWidgetItem(text))
         self.parameters.resizeColumnsToContents()
         flags = "; ".join(fit.flags)
+        notes = "".join(f"<br>{html.escape(note)}" for note in fit.notes)
         self.flags_label.setText(
             f"{fit.model_name}: {fit.network} · {fit.method} fitter · {fit.evaluations} evaluations in "
-            f"{fit.wall_time_s:.2f} s" + (f"<br><span style='color:#a66300'>⚠ {flags}</span>" if flags else "")
+            f"{fit.wall_time_s:.2f} s" + notes
+            + (f"<br><span style='color:#a66300'>⚠ {html.escape(flags)}</span>" if flags else "")
         )
         if fit.model_name in self._control_models:  # the error curve shown is always the selected model's
             self.show_control_model()
