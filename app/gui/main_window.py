@@ -139,6 +139,12 @@ class MainWindow(QMainWindow):
         )
         session.addSeparator()
         self._add_action(session, "&Quit", self.close, QKeySequence.StandardKey.Quit)
+        measure = self.menuBar().addMenu("&Measure")
+        for name, action in self.measure_tab.actions_by_name.items():
+            if name in ("accept", "undo"):
+                measure.addSeparator()
+            measure.addAction(action)
+        self.measure_menu = measure
         simulator = self.menuBar().addMenu("Si&mulator")
         faults = simulator.addMenu("Inject a device &fault")
         for kind, label in SIM_FAULTS.items():

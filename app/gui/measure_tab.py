@@ -9,7 +9,7 @@ import time
 import numpy as np
 import pyqtgraph as pg
 from PySide6.QtCore import Qt, QTimer
-from PySide6.QtGui import QColor
+from PySide6.QtGui import QAction, QColor, QKeySequence
 from PySide6.QtWidgets import (
     QAbstractItemView,
     QCheckBox,
@@ -66,6 +66,17 @@ LIVE_RESPONSE_TITLE = "Live: response"
 #: The live force view reaches this far past the trigger level, so the dashed line and its label stay inside.
 TRIGGER_HEADROOM = 1.25  # force pulses are overlaid from 2 ms before to 10 ms after the trigger
 _HIT_COLUMNS = ("Hit", "Time (s)", "Peak force (N)", "Verdict", "Reasons")
+#: The technician's keys at the rig (a foot switch is set up to send one of them). Shown in the Measure menu and in
+#: the buttons' tooltips; they work wherever the focus is in the window, except while typing in a text field.
+SHORTCUTS = {
+    "hit_check": "F4",
+    "arm": "F5",
+    "stop": "F6",
+    "accept": "A",
+    "reject": "R",
+    "undo": "Ctrl+Z",
+    "accept_pending": "Shift+A",
+}
 
 
 def stacked(*widgets: QWidget) -> QWidget:
@@ -79,11 +90,12 @@ def stacked(*widgets: QWidget) -> QWidget:
 
 
 def verdict_text(entry: HitEntry) -> tuple[str, str]:
+    """The verdict in the words every view uses (the report and ``replay`` say "by hand" too)."""
     if entry.pending:
         return "pending", PENDING_COLOR
     if entry.verdict.accepted:
-        return ("accepted (by you)" if entry.verdict.overridden else "accepted"), ACCEPTED_COLOR
-    return ("rejected (by you)" if entry.verdict.overridden else "rejected"), REJECTED_COLOR
+        return ("accepted (by hand)" if entry.verdict.overridden else "accepted"), ACCEPTED_COLOR
+    return ("rejected (by hand)" if entry.verdict.overridden else "rejected"), REJECTED_COLOR
 
 
 class MeasureTab(QWidget):
@@ -100,15 +112,11 @@ class MeasureTab(QWidget):
         self.arm_button.setObjectName("arm")
         self.stop_button = QPushButton("Stop")
         self.stop_button.setObjectName("stop")
-        self.arm_button.clicked.connect(controller.arm)
-        self.stop_button.clicked.connect(controller.stop)
         self.state_label = QLabel()
         self.state_label.setMinimumWidth(260)
         self.counter_label = QLabel()
         self.accept_pending_button = QPushButton("Accept all pending")
         self.accept_pending_button.setObjectName("accept_pending")
-        self.accept_pending_button.setToolTip("Accept every hit that waits for your decision")
-        self.accept_pending_button.clicked.connect(controller.accept_all_pending)
         self.hammer_buttons: dict[str, QPushButton] = {}
         hammer_box = QGroupBox("Virtual hammer (simulated rig)")
         hammer_layout = QHBoxLayout(hammer_box)
@@ -172,8 +180,6 @@ class MeasureTab(QWidget):
         self.accept_button.setObjectName("accept")
         self.reject_button = QPushButton("Reject hit")
         self.reject_button.setObjectName("reject")
-        self.accept_button.clicked.connect(lambda: self._decide(True))
-        self.reject_button.clicked.connect(lambda: self._decide(False))
         for button in (self.accept_button, self.reject_button):
             button.setEnabled(False)  # until a hit is selected
         self.hit_plot = make_plot(
@@ -285,6 +291,8 @@ class MeasureTab(QWidget):
         layout.addLayout(top)
         layout.addWidget(splitter, 1)
 
+        self.actions_by_name = self._make_actions()
+
         self.redraw_timer = QTimer(self)
         self.redraw_timer.setInterval(REDRAW_INTERVAL_MS)
         self.redraw_timer.timeout.connect(self.redraw_live)
@@ -300,6 +308,38 @@ class MeasureTab(QWidget):
         self._on_state("idle")
         self._update_counter()
         self._on_frf(None)
+
+    def _make_actions(self) -> dict[str, QAction]:
+        """The Measure menu's actions with their keys (:data:`SHORTCUTS`), and the buttons that trigger them, each
+        button's tooltip naming its key."""
+        c = self.controller
+        spec = {
+            "arm": ("&Arm", "Arm: record every hit into the session", c.arm, self.arm_button),
+            "stop": ("&Stop", "Stop the acquisition (every hit is already stored)", c.stop, self.stop_button),
+            "accept": ("A&ccept hit", "Accept the hit that waits for you (else the selected hit)",
+                       lambda: self.decide_by_key(True), self.accept_button),
+            "reject": ("&Reject hit", "Reject the hit that waits for you (else the selected hit)",
+                       lambda: self.decide_by_key(False), self.reject_button),
+            "undo": ("&Undo last hit", "Take the newest accepted hit out of the average (rejected by hand)",
+                     self.undo_last_hit, None),
+            "accept_pending": ("Accept all &pending", "Accept every hit that waits for your decision",
+                               c.accept_all_pending, self.accept_pending_button),
+        }
+        actions = {}
+        for name, (text, tip, slot, button) in spec.items():
+            action = QAction(text, self)
+            action.setObjectName(f"{name}_action")
+            action.setShortcut(QKeySequence(SHORTCUTS[name]))
+            action.setShortcutContext(Qt.ShortcutContext.WindowShortcut)
+            key = action.shortcut().toString(QKeySequence.SequenceFormat.NativeText)
+            action.setToolTip(f"{tip} ({key})")
+            action.triggered.connect(lambda _=False, run=slot: run())
+            self.addAction(action)  # the key works whichever tab is shown
+            if button is not None:
+                button.setToolTip(f"{tip} ({key})")
+                button.clicked.connect(action.trigger)
+            actions[name] = action
+        return actions
 
     # --- live view ---------------------------------------------------------------------------------------------------
 
@@ -387,6 +427,8 @@ class MeasureTab(QWidget):
         running = state != "idle"
         self.arm_button.setEnabled(not running)
         self.stop_button.setEnabled(running)
+        self.actions_by_name["arm"].setEnabled(not running)
+        self.actions_by_name["stop"].setEnabled(running)
         self.hammer_box.setVisible(self.controller.is_simulated)
         self.hammer_box.setEnabled(running and state != "starting")
 
@@ -514,10 +556,29 @@ class MeasureTab(QWidget):
         self.accept_button.setEnabled(not entry.accepted)
         self.reject_button.setEnabled(entry.accepted or entry.pending)
 
-    def _decide(self, accepted: bool) -> None:
-        index = self.selected_index()
-        if index is not None:
-            self.controller.decide(index, accepted)
+    def decide_by_key(self, accepted: bool) -> None:
+        """Accept or reject from the rig (a key or a foot switch): the selected hit when it waits for a decision,
+        else the oldest waiting hit, else the selected hit."""
+        hits = self.controller.hits
+        selected = next((e for e in hits if e.index == self.selected_index()), None)
+        waiting = [entry for entry in hits if entry.pending]
+        target = selected if selected is not None and selected.pending else (waiting[0] if waiting else selected)
+        if target is None:
+            self.controller.message.emit("no hit to decide on yet", "info")
+            return
+        self.select_hit(target.index)
+        self.controller.decide(target.index, accepted)
+
+    def undo_last_hit(self) -> None:
+        """Take the newest accepted hit out of the average (it stays in the session, rejected by hand)."""
+        accepted = [entry for entry in self.controller.hits if entry.accepted]
+        if not accepted:
+            self.controller.message.emit("undo: no accepted hit to take out of the average", "info")
+            return
+        last = accepted[-1]
+        self.select_hit(last.index)
+        self.controller.decide(last.index, False)
+        self.controller.message.emit(f"hit {last.index + 1} taken out of the average (rejected by hand)", "info")
 
     def _show_hit_spectrum(self, entry: HitEntry) -> None:
         """The selected hit's force spectrum (dB re its low-frequency level) with the usable band shaded."""
