@@ -132,6 +132,22 @@ class FrfResult:
     window: dict
     frf_unit: str = FRF_UNIT_SI
 
+    @property
+    def hv(self) -> np.ndarray:
+        """Hv, the total-least-squares estimator: noise on the force and the response weighed alike (in N and m/s²,
+        whatever unit this result is in), between H1 (noise on the response only) and H2 (on the force only):
+        ``Hv = 2·G_fx / (G_ff − G_xx + √((G_ff − G_xx)² + 4|G_fx|²))``, the eigenvector of the smallest eigenvalue
+        of [[G_ff, G_fx], [G_xf, G_xx]] (Rocklin et al.; Shin & Hammond, *Fundamentals of Signal Processing*,
+        ch. 9). |H1| ≤ |Hv| ≤ |H2| at every line; all three agree where the coherence is 1."""
+        g = STANDARD_GRAVITY_M_S2 if self.frf_unit == FRF_UNIT_G else 1.0
+        gff, gxx, gfx = self.gff, self.gxx * g**2, self.gfx * g
+        with np.errstate(divide="ignore", invalid="ignore"):
+            root = np.sqrt((gff - gxx) ** 2 + 4.0 * _squared_magnitude(gfx))
+            # the form without cancellation on each line: the two are equal since their denominators' product is
+            # root² − (G_ff − G_xx)² = 4|G_fx|²
+            hv = np.where(gff >= gxx, 2.0 * gfx / (gff - gxx + root), (gxx - gff + root) / (2.0 * np.conj(gfx)))
+        return hv / g
+
     def to_dict(self) -> dict[str, Any]:
         """Field name → value, arrays as they are (for HDF5 datasets and attributes)."""
         return {f.name: getattr(self, f.name) for f in fields(self)}
@@ -579,12 +595,14 @@ FRF_CSV_COLUMNS = (
     "coherence",
     "h1_std_coherence_m_s2_per_n",
     "h1_std_scatter_m_s2_per_n",
+    "hv_real_m_s2_per_n",
+    "hv_imag_m_s2_per_n",
 )
 
 
 def write_frf_csv(frf: FrfResult, path: str | Path, conditions: Mapping[str, Any] | None = None) -> Path:
-    """The FRF as CSV with a header row (:data:`FRF_CSV_COLUMNS`): H1 in (m/s²)/N and g/N, H2, coherence and the
-    two uncertainties. The session's operating ``conditions``, if any, come first as ``# condition KEY = VALUE``
+    """The FRF as CSV with a header row (:data:`FRF_CSV_COLUMNS`): H1 in (m/s²)/N and g/N, H2, coherence, the
+    two uncertainties and Hv. The session's operating ``conditions``, if any, come first as ``# condition KEY = VALUE``
     comment lines."""
     path = Path(path)
     if not path.parent.is_dir():
@@ -604,6 +622,8 @@ def write_frf_csv(frf: FrfResult, path: str | Path, conditions: Mapping[str, Any
             frf.coherence,
             frf.h1_std_coherence,
             frf.h1_std_scatter,
+            frf.hv.real,
+            frf.hv.imag,
         )
     )
     try:

@@ -401,8 +401,10 @@ def export_frf_uff(
     description: str = "gasfilm averaged FRF",
     hits: Sequence[Any] = (),
     conditions: str = "",
+    estimator: str = "H1",
 ) -> Path:
-    """Write the averaged H1 (accelerance, m/s²/N) and the coherence of an ``FrfResult`` as UFF 58, then the time
+    """Write the averaged FRF (accelerance, m/s²/N; ``frf.h1``, named ``estimator`` in its description: the caller
+    puts H2 or Hv there to export those) and the coherence of an ``FrfResult`` as UFF 58, then the time
     records of ``hits`` (:class:`gasfilm.analysis.capture.HitRecord` or stored hits: force at ``reference_dof``,
     response at ``response_dof``), which ``replay``, ``diagnose`` and ``fit`` read back; ``conditions`` (the session's
     operating conditions as text) goes into ID line 4 of each dataset (80 characters)."""
@@ -436,7 +438,7 @@ def export_frf_uff(
             freq_hz,
             response_dof,
             reference_dof,
-            f"{description} H1 accelerance",
+            f"{description} {estimator} accelerance",
             (DATA_TYPE_ACCELERATION, "m/s^2"),
             (DATA_TYPE_EXCITATION_FORCE, "N"),
             conditions,

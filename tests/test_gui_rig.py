@@ -31,10 +31,9 @@ def test_every_step_of_a_hit_has_a_key_shown_in_the_menu_and_the_buttons_tooltip
     assert SetupState().auto_accept  # a hit that passes every check is accepted without a key: on by default
     menu = window.measure_menu
     shown = {action.objectName(): action.shortcut().toString() for action in menu.actions() if action.objectName()}
-    assert shown == {f"{name}_action": QKeySequence(key).toString() for name, key in SHORTCUTS.items()
-                     if name != "hit_check"}
+    assert shown == {f"{name}_action": QKeySequence(key).toString() for name, key in SHORTCUTS.items()}
     tab = window.measure_tab
-    for button, name in ((tab.arm_button, "arm"), (tab.stop_button, "stop"), (tab.accept_button, "accept"),
+    for button, name in ((tab.hit_check_button, "hit_check"), (tab.arm_button, "arm"), (tab.stop_button, "stop"), (tab.accept_button, "accept"),
                          (tab.reject_button, "reject"), (tab.accept_pending_button, "accept_pending")):
         assert f"({QKeySequence(SHORTCUTS[name]).toString()})" in button.toolTip()
 
@@ -64,3 +63,132 @@ def test_a_technician_arms_accepts_rejects_undoes_and_stops_with_keys_alone(qtbo
     qtbot.waitUntil(lambda: controller.state == "idle", timeout=10_000)
     verdicts = [entry.verdict.accepted for entry in controller.hits]
     assert verdicts == [True, False, False]
+
+
+def test_a_hit_check_records_nothing_and_its_proposal_is_applied_with_one_click(qtbot, window, tmp_path):
+    controller = window.controller
+    window.setup_tab.sim_tip.setCurrentText("soft")  # too soft for the band to 1000 Hz
+    _key(qtbot, window, "hit_check")
+    qtbot.waitUntil(lambda: controller.state == "armed", timeout=10_000)
+    assert controller.hit_checking and "nothing is recorded" in window.session_label.text()
+    assert "HIT CHECK" in window.measure_tab.state_label.text()
+    assert window.measure_tab.hit_views.currentWidget() is window.measure_tab.hit_check_page
+    for number in range(3):
+        qtbot.mouseClick(window.measure_tab.hammer_buttons["soft"], Qt.MouseButton.LeftButton)
+        qtbot.waitUntil(lambda: len(controller.taps) == number + 1, timeout=10_000)
+    proposal = controller.hit_check_proposal
+    assert proposal is not None and proposal.taps == 3 and proposal.tip == "medium"
+    assert window.measure_tab.proposal_label.text() == proposal.text()
+    assert len(window.measure_tab.tap_pulse_plot.getPlotItem().listDataItems()) == 3
+    assert controller.hits == [] and controller.session is None  # nothing recorded ...
+    assert not (tmp_path / "sessions").exists() or not any((tmp_path / "sessions").iterdir())  # ... nowhere
+    qtbot.mouseClick(window.measure_tab.apply_proposal_button, Qt.MouseButton.LeftButton)
+    qtbot.waitUntil(lambda: controller.state == "idle", timeout=10_000)
+    state = window.setup_tab.state()
+    assert state.trigger["level_n"] == proposal.trigger_level_n and state.trigger["record_s"] == proposal.record_s
+    assert state.window["force_window_ms"] == proposal.force_window_ms
+    assert state.window["exponential_end_fraction"] == proposal.exponential_end_fraction
+    assert state.sim_tip == "medium" and controller.setup.sim_tip == "medium"
+    assert "hit check applied" in window.banner.history[-1][1]
+    # the test proper then records as usual
+    arm(qtbot, window)
+    hit(qtbot, window)
+    stop(qtbot, window)
+    assert len(controller.hits) == 1 and controller.session_path.exists()
+
+
+def test_windows_dragged_on_the_trace_set_the_windows_and_the_frf_follows(qtbot, window):
+    from gasfilm.analysis.spectra import WindowSettings, session_frf
+
+    controller = window.controller
+    arm(qtbot, window)
+    for _ in range(3):
+        hit(qtbot, window)
+    stop(qtbot, window)
+    tab = window.measure_tab
+    entry = controller.hits[1]
+    tab.select_hit(entry.index)
+    record = entry.record
+    peak_s = int(np.argmax(np.abs(record.force_n))) / record.sample_rate_hz
+    assert tab.force_window_line.isVisible() and "off" in tab.force_window_line.label.format  # windows off
+    tab.force_window_line.setValue(peak_s + 3e-3)  # as a drag does
+    qtbot.waitUntil(lambda: window.setup_tab.state().window["force_window_ms"] is not None, timeout=5_000)
+    assert window.setup_tab.state().window["force_window_ms"] == pytest.approx(3.0, abs=0.01)
+    length_s = (record.n_samples - 1) / record.sample_rate_hz
+    tab.exp_window_line.setValue(0.1)  # τ = 0.1 s: the window ends at exp(-length/τ)
+    qtbot.waitUntil(lambda: window.setup_tab.state().window["exponential_end_fraction"] is not None, timeout=5_000)
+    end = window.setup_tab.state().window["exponential_end_fraction"]
+    assert end == pytest.approx(np.exp(-length_s / 0.1), rel=1e-2)
+    window_now = WindowSettings(force_window_ms=3.0, exponential_end_fraction=end)
+    expected = session_frf([e.record for e in controller.hits if e.accepted], window_now)
+    np.testing.assert_allclose(controller.frf.h1, expected.h1, rtol=1e-9)  # the FRF followed the drag at once
+    shown = np.concatenate((tab.h1_curve.yData, tab.h1_outside_curve.yData))
+    np.testing.assert_allclose(shown, np.abs(expected.h1[expected.freq_hz > 0]) / 9.80665, rtol=1e-9)
+    assert "τ 0.1 s" in tab.exp_window_line.label.format
+    # the window shapes are drawn on the trace
+    assert np.max(tab.force_window_curve.yData) > 0 and tab.exp_window_curve.yData[-1] < tab.exp_window_curve.yData[0]
+
+
+def test_every_plot_reads_out_the_point_under_the_cursor_in_its_units(qtbot, window):
+    from PySide6.QtCore import QPointF
+
+    item = window.frf_tab.magnitude_plot.getPlotItem()  # log |H| against linear frequency
+    window.tabs.setCurrentWidget(window.frf_tab)
+    item.vb.setRange(xRange=(100, 300), yRange=(-2, 0), padding=0)
+    qtbot.wait(50)
+    scene_pos = item.vb.mapViewToScene(QPointF(200.0, np.log10(0.05)))
+    item.show_readout(scene_pos)
+    assert item.readout.isVisible()
+    assert item.readout.textItem.toPlainText() == "Frequency 200 Hz, |H| 0.05 g/N"
+    item.show_readout(item.vb.sceneBoundingRect().bottomRight() + QPointF(50, 50))  # outside the view: hidden
+    assert not item.readout.isVisible()
+    live = window.measure_tab.force_plot.getPlotItem()
+    assert live.readout_text(-0.5, 12.0) == "Time before now -0.5 s, Force 12 N"
+
+
+def test_magnitude_in_db_or_linear_and_hv_beside_h1_and_h2(qtbot, window):
+    controller = window.controller
+    arm(qtbot, window)
+    for _ in range(2):
+        hit(qtbot, window)
+    stop(qtbot, window)
+    tab = window.frf_tab
+    window.tabs.setCurrentWidget(tab)
+    frf = controller.frf
+    keep = frf.freq_hz > 0
+    tab.scale_combo.setCurrentText("dB")
+    shown = np.concatenate((tab.h1_curve.yData, tab.h1_outside_curve.yData))
+    np.testing.assert_allclose(shown, 20 * np.log10(np.abs(frf.h1[keep]) / 9.80665), rtol=1e-12)
+    assert not tab.magnitude_plot.getPlotItem().vb.state["logMode"][1]
+    assert tab.magnitude_plot.getPlotItem().getAxis("left").labelUnits == "dB re 1 g/N"
+    np.testing.assert_allclose(tab.hv_curve.yData, 20 * np.log10(np.abs(frf.hv[keep]) / 9.80665), rtol=1e-12)
+    tab.scale_combo.setCurrentText("linear")
+    np.testing.assert_allclose(tab.h2_curve.yData, np.abs(frf.h2[keep]) / 9.80665, rtol=1e-12)
+    assert not tab.magnitude_plot.getPlotItem().vb.state["logMode"][1]
+    tab.scale_combo.setCurrentText("log")
+    assert tab.magnitude_plot.getPlotItem().vb.state["logMode"][1]
+
+
+def test_other_sessions_frfs_are_drawn_over_this_one_named_with_their_conditions(qtbot, window, tmp_path):
+    from gasfilm.analysis.session import Session
+    from gasfilm.app.cli import main
+    from test_cli_acquire_replay import FAST_SIM
+
+    paths = []
+    for pressure in ("0.4", "0.5"):
+        path = tmp_path / f"p{pressure}.h5"
+        assert main(["acquire", *FAST_SIM, "--out", str(path), "--hits", "2",
+                     "--condition", f"supply_pressure_mpa={pressure}"]) == 0
+        paths.append(path)
+    window.tabs.setCurrentWidget(window.frf_tab)
+    assert window.controller.add_comparisons([*paths, tmp_path / "nosuch.h5"]) == 2
+    assert "nosuch.h5" in window.banner.history[-1][1]  # a bad file is one banner line, the others still drawn
+    tab = window.frf_tab
+    names = [curve.name() for curve in tab._comparison_curves]
+    assert names[0] == "p0.4 (supply_pressure_mpa = 0.4 MPa)" and names[2] == "p0.5 (supply_pressure_mpa = 0.5 MPa)"
+    with Session.open(paths[1], "r") as session:
+        stored = session.read_frf()
+    np.testing.assert_allclose(tab._comparison_curves[2].yData, np.abs(stored.h1[stored.freq_hz > 0]) / 9.80665)
+    assert tab.clear_compare_button.isEnabled()
+    qtbot.mouseClick(tab.clear_compare_button, Qt.MouseButton.LeftButton)
+    assert tab._comparison_curves == [] and not tab.clear_compare_button.isEnabled()

@@ -31,6 +31,17 @@ def add_units_flag(parser: Any) -> None:
                              "('si'); JSON keys name their unit and stay SI")
 
 
+#: ``--estimator`` choices: the FrfResult attribute and the name printed.
+ESTIMATOR_NAMES = {"h1": "H1", "h2": "H2", "hv": "Hv"}
+
+
+def add_estimator_flag(parser: Any, what: str) -> None:
+    """The one ``--estimator`` flag of ``replay`` and ``export``."""
+    parser.add_argument("--estimator", choices=tuple(ESTIMATOR_NAMES), default="h1",
+                        help=f"{what}: H1 (noise on the response; the default, what fit and diagnose use), H2 (noise "
+                             f"on the force) or Hv (both alike, between the two)")
+
+
 def accelerance_text(value_m_s2_per_n: float, units: str = DEFAULT_UNITS, digits: int = 4) -> str:
     """An accelerance given in (m/s²)/N, printed in the chosen ``--units`` with its unit."""
     value = value_m_s2_per_n / STANDARD_GRAVITY_M_S2 if units == "g" else value_m_s2_per_n

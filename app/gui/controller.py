@@ -46,7 +46,7 @@ from gasfilm.app.gui.workers import (
 )
 from gasfilm.drivers import SIMULATED_DEVICE_NAME
 from gasfilm.drivers.errors import GasfilmError, SettingError
-from gasfilm.drivers.interface import DaqConfig
+from gasfilm.drivers.interface import ChannelKind, DaqConfig
 
 logger = logging.getLogger(__name__)
 
@@ -82,6 +82,8 @@ class SessionController(QObject):
     job_running = Signal(str, bool)  # job name ("fit" | "diagnose"), running
     message = Signal(str, str)  # text, severity ("error" | "warning" | "info")
     session_changed = Signal(str)  # path of the open session ('' for none)
+    hit_check_changed = Signal(object)  # the hit check's HitCheckProposal (None: no tap yet)
+    comparisons_changed = Signal()  # other sessions' FRFs drawn over this one's (the FRF tab)
 
     # Signals into the acquisition worker (queued onto its thread).
     _decide = Signal(int, bool)
@@ -118,6 +120,9 @@ class SessionController(QObject):
         self._created_by_arm = False  # the open session was created by the running Arm (removed if it stays empty)
         self._streamed = False  # the running acquisition's device has streamed
         self._job_started_s: dict[str, float] = {}
+        self.taps: list[Any] = []  # the hit check's taps (HitRecord), stored nowhere
+        self.comparisons: list[tuple[str, FrfResult]] = []  # (label, FRF) of other sessions to overlay
+        self.hit_check_proposal: Any = None
 
     # --- settings --------------------------------------------------------------------------------------------------
 
@@ -150,10 +155,20 @@ class SessionController(QObject):
 
     # --- acquisition -----------------------------------------------------------------------------------------------
 
-    def arm(self, setup: SetupState | None = None) -> None:
+    @property
+    def hit_checking(self) -> bool:
+        """The running acquisition is a hit check (trial taps, nothing recorded)."""
+        return self.acquiring and self._plan is not None and self._plan.hit_check
+
+    def start_hit_check(self) -> None:
+        """Trial taps before the test: the device streams and every tap is triggered and checked as in a recording,
+        but stored nowhere; each one updates :attr:`hit_check_proposal` (``hit_check_changed``)."""
+        self.arm(hit_check=True)
+
+    def arm(self, setup: SetupState | None = None, hit_check: bool = False) -> None:
         """Start streaming into the open session, or a new one when the rig, device, channels, trigger or windows
         differ from the session's (a session holds one configuration). ``setup`` replaces the Setup tab's for this
-        acquisition only."""
+        acquisition only; ``hit_check``: trial taps, no session."""
         if self.acquiring:
             return
         setup = setup or self.setup
@@ -181,17 +196,23 @@ class SessionController(QObject):
                 sim_tip=setup.sim_tip,
                 sim_seed=setup.sim_seed,
                 ring_seconds=max(10.0, 2 * setup.live_view_s),
+                hit_check=hit_check,
             )
-            self._ensure_session(plan)
-            plan = dataclasses.replace(plan, time_offset_s=self._session_time_s())
+            if not hit_check:
+                self._ensure_session(plan)
+                plan = dataclasses.replace(plan, time_offset_s=self._session_time_s())
         except GasfilmError as error:
             self.message.emit(str(error), "error")
             return
+        if hit_check:
+            self.taps = []
+            self.hit_check_proposal = None
+            self.hit_check_changed.emit(None)
         self._plan = plan
         self._armed_setup = setup
         self._created_by_arm = self.session is not previous_session
         self._streamed = False
-        worker = AcquisitionWorker(plan, self.session)
+        worker = AcquisitionWorker(plan, None if hit_check else self.session)
         worker.streaming.connect(self._on_streaming)
         worker.hit_recorded.connect(self._on_hit)
         worker.verdict_changed.connect(self._on_verdict)
@@ -323,6 +344,9 @@ class SessionController(QObject):
         self.streaming.emit(loop)
 
     def _on_hit(self, entry: HitEntry) -> None:
+        if self._plan is not None and self._plan.hit_check:
+            self._on_tap(entry.record)
+            return
         self.hits.append(entry)
         hold_reason = self._coherence_hold_reason(entry)
         if hold_reason:
@@ -352,6 +376,36 @@ class SessionController(QObject):
         coherence = float(np.mean(frf.coherence[band]))
         return f"coherence {coherence:.2f} below {minimum:g}" if coherence < minimum else ""
 
+    def _on_tap(self, record: Any) -> None:
+        """A hit-check tap: kept in memory only, the proposal made again from every tap so far."""
+        from gasfilm.analysis.hit_check import propose_settings
+        from gasfilm.drivers.plant import TIPS_PULSE_WIDTH_S
+
+        self.taps.append(record)
+        plan = self._plan
+        full_scale = [channel.full_scale_si for channel in plan.config.channels]
+        force_scale = full_scale[plan.config.channel_index(ChannelKind.FORCE)]
+        tips = TIPS_PULSE_WIDTH_S if plan.device_name == SIMULATED_DEVICE_NAME else None
+        self.hit_check_proposal = propose_settings(self.taps, self.fit_band_hz, force_scale, plan.trigger.pretrigger_s,
+                                                   tips, full_scale)
+        self.hit_check_changed.emit(self.hit_check_proposal)
+
+    def hit_check_setup(self) -> SetupState | None:
+        """The Setup tab's state with the hit check's proposal applied (trigger level, record length, windows and,
+        on the simulated rig, the tip); None without a proposal."""
+        proposal = self.hit_check_proposal
+        if proposal is None:
+            return None
+        state = dataclasses.replace(
+            self.setup,
+            trigger={**self.setup.trigger, "level_n": proposal.trigger_level_n, "record_s": proposal.record_s},
+            window={**self.setup.window, "force_window_ms": proposal.force_window_ms,
+                    "exponential_end_fraction": proposal.exponential_end_fraction},
+        )
+        if proposal.tip is not None and state.device == SIMULATED_DEVICE_NAME:
+            state.sim_tip = proposal.tip
+        return state
+
     def _on_verdict(self, entry: HitEntry) -> None:
         for position, existing in enumerate(self.hits):
             if existing.index == entry.index:
@@ -371,7 +425,7 @@ class SessionController(QObject):
         self.message.emit(f"{text} — acquisition stopped; {hits} safe in {self.session_path.name}", "error")
 
     def _on_worker_finished(self) -> None:
-        if self.loop is not None and self._plan is not None:
+        if self.loop is not None and self._plan is not None and not self._plan.hit_check:
             self._stream_end_s = self._plan.time_offset_s + self.loop.samples_read / self.loop.sample_rate_hz
         if self._worker_thread is not None:
             self._worker_thread.wait(5_000)
@@ -820,6 +874,33 @@ class SessionController(QObject):
         self.session_changed.emit(str(path))
         self.message.emit(f"saved as {path}", "info")
         return path
+
+    # --- comparison with other sessions ----------------------------------------------------------------------------------
+
+    def add_comparisons(self, paths: Sequence[str | Path]) -> int:
+        """Overlay other sessions' FRFs (each its stored FRF, else the average of its accepted hits, as ``gasfilm
+        export`` takes it), labelled with their names and operating conditions; returns how many were added."""
+        from gasfilm.analysis.conditions import format_conditions
+        from gasfilm.app.commands.common import load_frf_and_hits, source_conditions
+
+        added = 0
+        for path in map(Path, paths):
+            try:
+                frf = load_frf_and_hits([path]).frf
+                conditions = source_conditions([path])
+            except GasfilmError as error:
+                self.message.emit(f"compare: {error}", "error")
+                continue
+            label = path.stem + (f" ({format_conditions(conditions)})" if conditions else "")
+            self.comparisons = [entry for entry in self.comparisons if entry[0] != label] + [(label, frf)]
+            added += 1
+        if added:
+            self.comparisons_changed.emit()
+        return added
+
+    def clear_comparisons(self) -> None:
+        self.comparisons = []
+        self.comparisons_changed.emit()
 
     # --- exports ---------------------------------------------------------------------------------------------------------
 

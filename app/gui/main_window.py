@@ -108,9 +108,12 @@ class MainWindow(QMainWindow):
         self._build_menus()
 
         self.setup_tab.changed.connect(self._setup_changed)
+        self.measure_tab.apply_hit_check.connect(self.apply_hit_check)
+        self.measure_tab.window_dragged.connect(self.setup_tab.set_window)
         self.controller.message.connect(self.banner.show_message)
         self.controller.session_changed.connect(self._session_changed)
         self.controller.acquisition_state.connect(self._acquisition_state)
+        self.controller.acquisition_state.connect(self._session_changed)
         self.controller.fits_changed.connect(lambda: self.frf_tab.show_band(self.controller.fit_band_hz))
         self.status_timer = QTimer(self)
         self.status_timer.setInterval(STATUS_INTERVAL_MS)
@@ -213,18 +216,49 @@ class MainWindow(QMainWindow):
             return
         self.banner.show_message(f"exported {written}", "info")
 
+    def apply_hit_check(self) -> None:
+        """Stop the hit check and set the Setup tab as its taps propose (one click)."""
+        state = self.controller.hit_check_setup()
+        if state is None:
+            return
+        self.controller.stop_and_wait()
+        self.setup_tab.set_state(state)
+        proposal = self.controller.hit_check_proposal
+        window = f"exponential window to {proposal.exponential_end_fraction:g}" \
+            if proposal.exponential_end_fraction is not None else "no exponential window"
+        tip = f", {proposal.tip} tip on the simulated hammer" if proposal.tip and state.sim_tip == proposal.tip else ""
+        self.banner.show_message(
+            f"hit check applied: trigger {proposal.trigger_level_n:g} N, record {proposal.record_s:g} s, force window "
+            f"{proposal.force_window_ms:g} ms, {window}{tip}" + (f" (change the hammer's tip: {proposal.tip})"
+                                                                if proposal.tip and not tip else ""), "info")
+
     # --- state ------------------------------------------------------------------------------------------------------
 
     def _setup_changed(self) -> None:
         state = self.setup_tab.state()
+        windows_changed = state.window != self.controller.setup.window
         self.controller.setup = state
+        if windows_changed and not self.controller.acquiring:  # other windows: the FRF follows at once
+            self.controller.update_running_frf()
+            self.measure_tab.draw_windows()
         save_setup(self.settings, state)
         self.simulator_menu.setEnabled(state.device == SIMULATED_DEVICE_NAME)
         if not self.controller.acquiring:
             self.measure_tab.hammer_box.setVisible(state.device == SIMULATED_DEVICE_NAME)
 
-    def _session_changed(self, path: str) -> None:
-        self.session_label.setText(f"Session: {path}" if path else "Session: none (the next Arm creates one)")
+    def _session_changed(self, *_: object) -> None:
+        """The status bar names the session the hits go into: open, about to be created by the next Arm, or none;
+        during a hit check, that nothing is recorded."""
+        controller = self.controller
+        if controller.hit_checking:
+            text = "Hit check: nothing is recorded (Stop, then Arm to record)"
+        elif controller.session is not None and controller.session_path is not None:
+            text = f"Session: {controller.session_path}"
+        elif controller.session_path is not None:
+            text = f"Session: {controller.session_path} (new: the next Arm records into it)"
+        else:
+            text = f"Session: none (the next Arm creates one in {controller.session_dir})"
+        self.session_label.setText(text)
 
     def _acquisition_state(self, state: str) -> None:
         self.setup_tab.setEnabled(state == "idle")

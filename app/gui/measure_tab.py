@@ -4,11 +4,12 @@ coherence."""
 
 from __future__ import annotations
 
+import dataclasses
 import time
 
 import numpy as np
 import pyqtgraph as pg
-from PySide6.QtCore import Qt, QTimer
+from PySide6.QtCore import Qt, QTimer, Signal
 from PySide6.QtGui import QAction, QColor, QKeySequence
 from PySide6.QtWidgets import (
     QAbstractItemView,
@@ -48,6 +49,8 @@ from gasfilm.drivers.errors import GasfilmError
 from gasfilm.drivers.interface import STANDARD_GRAVITY_M_S2, ChannelKind
 
 REDRAW_INTERVAL_MS = 40  # 25 frames per second
+#: Where the force window's cursor sits on the selected hit while the window is off (dragging it switches it on).
+DRAG_START_FORCE_WINDOW_MS = 5.0
 #: While a fit or diagnosis runs, the live view draws 5 frames per second: the drawing shares the Python interpreter
 #: with the job, which then runs nearly as fast as on the command line (benchmarks/bench_gui_jobs.py).
 BUSY_REDRAW_INTERVAL_MS = 200
@@ -101,6 +104,9 @@ def verdict_text(entry: HitEntry) -> tuple[str, str]:
 class MeasureTab(QWidget):
     """The technician's main screen while hitting the structure."""
 
+    apply_hit_check = Signal()  # the technician accepts the hit check's proposal (the window applies it to Setup)
+    window_dragged = Signal(dict)  # window settings changed by dragging a window's cursor on the selected hit
+
     def __init__(self, controller: SessionController, parent: QWidget | None = None) -> None:
         super().__init__(parent)
         self.controller = controller
@@ -108,6 +114,8 @@ class MeasureTab(QWidget):
         self.redraw_seconds = 0.0
         self._first_redraw_s: float | None = None
 
+        self.hit_check_button = QPushButton("Hit check")
+        self.hit_check_button.setObjectName("hit_check")
         self.arm_button = QPushButton("Arm")
         self.arm_button.setObjectName("arm")
         self.stop_button = QPushButton("Stop")
@@ -129,6 +137,7 @@ class MeasureTab(QWidget):
             self.hammer_buttons[tip] = button
         self.hammer_box = hammer_box
         top = QHBoxLayout()
+        top.addWidget(self.hit_check_button)
         top.addWidget(self.arm_button)
         top.addWidget(self.stop_button)
         top.addWidget(self.state_label)
@@ -203,6 +212,29 @@ class MeasureTab(QWidget):
         self.hit_response_curve.setClipToView(True)
         self.hit_response_view.addItem(self.hit_response_curve)
         hit_item.vb.sigResized.connect(lambda: self.hit_response_view.setGeometry(hit_item.vb.sceneBoundingRect()))
+        # The windows on the trace: the force window's end and the exponential window's time constant are cursors;
+        # dragging one sets the window (Setup ▸ Windows) and the FRF follows at once.
+        self.force_window_curve = pg.PlotDataItem(pen=pen(PALETTE[0], 1.0, Qt.PenStyle.DotLine))
+        self.hit_plot.addItem(self.force_window_curve, ignoreBounds=True)
+        self.exp_window_curve = pg.PlotDataItem(pen=pen(PALETTE[1], 1.0, Qt.PenStyle.DotLine))
+        self.hit_response_view.addItem(self.exp_window_curve, ignoreBounds=True)
+        self.force_window_line = pg.InfiniteLine(
+            angle=90, movable=True, pen=pen(PALETTE[0], 2.0, Qt.PenStyle.DashLine), hoverPen=pen(PALETTE[0], 3.0),
+            label="", labelOpts={"position": 0.92, "color": PALETTE[0], "anchors": [(0, 1), (0, 1)]})
+        self.exp_window_line = pg.InfiniteLine(
+            angle=90, movable=True, pen=pen(PALETTE[1], 2.0, Qt.PenStyle.DashLine), hoverPen=pen(PALETTE[1], 3.0),
+            label="", labelOpts={"position": 0.8, "color": PALETTE[1], "anchors": [(0, 1), (0, 1)]})
+        self.force_window_line.setToolTip("Force window: drag its end (the force after it is set to 0)")
+        self.exp_window_line.setToolTip("Exponential window: drag its time constant τ (the window is 1/e there)")
+        # (the cursors join the plot with the first hit shown: hidden lines with labels would relayout the tab on
+        # every show)
+        self.force_window_line.sigPositionChanged.connect(self._force_window_dragged)
+        self.exp_window_line.sigPositionChanged.connect(self._exp_window_dragged)
+        self._dragged_window: dict = {}
+        self._window_timer = QTimer(self)
+        self._window_timer.setSingleShot(True)
+        self._window_timer.setInterval(80)  # a drag redraws the FRF at most about 12 times a second
+        self._window_timer.timeout.connect(self._apply_dragged_window)
         hits = QWidget()
         hits_layout = QVBoxLayout(hits)
         hits_layout.setContentsMargins(0, 0, 0, 0)
@@ -249,6 +281,8 @@ class MeasureTab(QWidget):
         self.hit_views.addTab(self.hit_plot, "Selected hit")
         self.hit_views.addTab(spectrum_page, "Force spectrum")
         self.hit_views.addTab(overlay_page, "Overlay of accepted hits")
+        self.hit_check_page = self._make_hit_check_page()
+        self.hit_views.addTab(self.hit_check_page, "Hit check")
         # The hit list and the views share the column 2 : 3 whatever the views' pages ask for: switching to the
         # force spectrum moves nothing.
         for widget in (self.hit_table, self.hit_views):
@@ -305,6 +339,7 @@ class MeasureTab(QWidget):
         controller.frf_changed.connect(self._on_frf)
         controller.session_changed.connect(self._clear_live)
         controller.job_running.connect(self._pace_live_view)
+        controller.hit_check_changed.connect(self._on_hit_check)
         self._on_state("idle")
         self._update_counter()
         self._on_frf(None)
@@ -314,6 +349,8 @@ class MeasureTab(QWidget):
         button's tooltip naming its key."""
         c = self.controller
         spec = {
+            "hit_check": ("&Hit check", "Hit check: tap a few times (nothing is recorded) for the trigger level, force "
+                          "range, tip, windows and record length", c.start_hit_check, self.hit_check_button),
             "arm": ("&Arm", "Arm: record every hit into the session", c.arm, self.arm_button),
             "stop": ("&Stop", "Stop the acquisition (every hit is already stored)", c.stop, self.stop_button),
             "accept": ("A&ccept hit", "Accept the hit that waits for you (else the selected hit)",
@@ -420,13 +457,19 @@ class MeasureTab(QWidget):
 
     def _on_state(self, state: str) -> None:
         text, color = _STATE_STYLE.get(state, (state.upper(), "#666666"))
+        if self.controller.hit_checking and state in ("armed", "triggered"):
+            text, color = "HIT CHECK — tap; nothing is recorded", "#6a3d9a"
+        if self.controller.hit_checking and state == "starting":
+            self.hit_views.setCurrentWidget(self.hit_check_page)
         self.state_label.setText(text)
         self.state_label.setStyleSheet(
             f"QLabel {{ color: white; background: {color}; border-radius: 4px; padding: 4px 10px; font-weight: 700; }}"
         )
         running = state != "idle"
         self.arm_button.setEnabled(not running)
+        self.hit_check_button.setEnabled(not running)
         self.stop_button.setEnabled(running)
+        self.actions_by_name["hit_check"].setEnabled(not running)
         self.actions_by_name["arm"].setEnabled(not running)
         self.actions_by_name["stop"].setEnabled(running)
         self.hammer_box.setVisible(self.controller.is_simulated)
@@ -552,9 +595,89 @@ class MeasureTab(QWidget):
         self.hit_force_curve.setData(t, record.force_n)
         self.hit_response_curve.setData(t, record.response)
         self.hit_response_view.enableAutoRange()
+        self.draw_windows(entry)
         self._show_hit_spectrum(entry)
         self.accept_button.setEnabled(not entry.accepted)
         self.reject_button.setEnabled(entry.accepted or entry.pending)
+
+    # --- the windows as cursors on the selected hit ----------------------------------------------------------------
+
+    def _selected_entry(self) -> HitEntry | None:
+        return next((e for e in self.controller.hits if e.index == self.selected_index()), None)
+
+    def draw_windows(self, entry: HitEntry | None = None) -> None:
+        """The force and exponential windows of the Setup tab over the selected hit: their shapes dotted (the force
+        window scaled to the peak force, the exponential one to the largest response) and their cursors."""
+        from gasfilm.analysis.spectra import exponential_window, force_window
+
+        entry = entry or self._selected_entry()
+        if entry is None:
+            for line in (self.force_window_line, self.exp_window_line):
+                if line.scene() is not None:
+                    self.hit_plot.removeItem(line)
+            self.force_window_curve.setData([], [])
+            self.exp_window_curve.setData([], [])
+            return
+        record = entry.record
+        rate, n = record.sample_rate_hz, record.n_samples
+        t = np.arange(n) / rate
+        window = self.controller.window_settings()
+        peak_s = int(np.argmax(np.abs(record.force_n))) / rate
+        force_ms = window.force_window_ms
+        force_on = force_ms is not None
+        shown = window if force_on else dataclasses.replace(window, force_window_ms=DRAG_START_FORCE_WINDOW_MS)
+        shape = force_window(record.force_n, rate, shown)[0]
+        self.force_window_curve.setData(t, shape * float(np.max(np.abs(record.force_n))) if force_on else [])
+        end = window.exponential_end_fraction
+        tau_s = (n - 1) / rate / -np.log(end) if end is not None and end < 1 else None
+        if tau_s is not None:
+            self.exp_window_curve.setData(t, exponential_window(n, end) * float(np.max(np.abs(record.response))))
+        else:
+            self.exp_window_curve.setData([], [])
+        for line in (self.force_window_line, self.exp_window_line):
+            if line.scene() is None:
+                self.hit_plot.addItem(line, ignoreBounds=True)
+        moving = not self.controller.acquiring  # a running acquisition keeps the windows it was armed with
+        for line, value, text in (
+            (self.force_window_line, peak_s + 1e-3 * (force_ms if force_on else DRAG_START_FORCE_WINDOW_MS),
+             f"force window {force_ms:.3g} ms" if force_on else "force window off (drag to set)"),
+            (self.exp_window_line, tau_s if tau_s is not None else 0.8 * (n - 1) / rate,
+             f"exp. window τ {tau_s:.3g} s, ends at {end:.3g}" if tau_s is not None else "exp. window off (drag)"),
+        ):
+            line.blockSignals(True)
+            line.setVisible(True)
+            line.setValue(value)
+            line.setMovable(moving)
+            line.label.setFormat(text)
+            line.blockSignals(False)
+
+    def _force_window_dragged(self) -> None:
+        entry = self._selected_entry()
+        if entry is None:
+            return
+        rate = entry.record.sample_rate_hz
+        peak_s = int(np.argmax(np.abs(entry.record.force_n))) / rate
+        width_ms = max(1e3 / rate, 1e3 * (self.force_window_line.value() - peak_s))
+        self._dragged_window["force_window_ms"] = float(f"{width_ms:.3g}")
+        self.force_window_line.label.setFormat(f"force window {width_ms:.3g} ms")
+        self._window_timer.start()
+
+    def _exp_window_dragged(self) -> None:
+        entry = self._selected_entry()
+        if entry is None:
+            return
+        record = entry.record
+        length_s = (record.n_samples - 1) / record.sample_rate_hz
+        tau_s = max(1.0 / record.sample_rate_hz, self.exp_window_line.value())
+        end = float(f"{min(1.0, max(1e-6, np.exp(-length_s / tau_s))):.3g}")
+        self._dragged_window["exponential_end_fraction"] = end
+        self.exp_window_line.label.setFormat(f"exp. window τ {tau_s:.3g} s, ends at {end:.3g}")
+        self._window_timer.start()
+
+    def _apply_dragged_window(self) -> None:
+        values, self._dragged_window = self._dragged_window, {}
+        if values:
+            self.window_dragged.emit(values)
 
     def decide_by_key(self, accepted: bool) -> None:
         """Accept or reject from the rig (a key or a foot switch): the selected hit when it waits for a decision,
@@ -596,6 +719,67 @@ class MeasureTab(QWidget):
             f"above that the hammer put too little energy in (spectral nulls) and the FRF is not trusted."
         )
         show_legend_only_with_data(self.spectrum_plot)
+
+    # --- hit check ----------------------------------------------------------------------------------------------------
+
+    def _make_hit_check_page(self) -> QWidget:
+        self.tap_pulse_plot = make_plot("Hit check: force pulses", ("Force", "N"), ("Time from trigger", "s"),
+                                        legend=False)
+        self.tap_spectrum_plot = make_plot("Hit check: force spectra", ("Force level", "dB re low f"), legend=False)
+        self.tap_spectrum_plot.getPlotItem().getAxis("left").enableAutoSIPrefix(False)
+        self.tap_spectrum_plot.setYRange(-45, 5)
+        self.tap_band = pg.LinearRegionItem(brush=pg.mkBrush(*BAND_BRUSH), movable=False)
+        self.tap_band.setZValue(-10)
+        self.tap_spectrum_plot.addItem(self.tap_band, ignoreBounds=True)
+        self.tap_drop_line = pg.InfiniteLine(pos=-self.controller.setup.usable_drop_db, angle=0,
+                                             pen=pen(REJECTED_COLOR, 1.0, Qt.PenStyle.DashLine))
+        self.tap_spectrum_plot.addItem(self.tap_drop_line, ignoreBounds=True)
+        self.proposal_label = FixedHeightLabel(
+            "Hit check: press Hit check (F4) and tap the structure a few times. Nothing is recorded; the taps "
+            "propose the trigger level, tip, windows and record length.", lines=8)
+        self.proposal_label.setTextFormat(Qt.TextFormat.PlainText)
+        self.apply_proposal_button = QPushButton("Apply the proposal to Setup")
+        self.apply_proposal_button.setObjectName("apply_hit_check")
+        self.apply_proposal_button.setToolTip("Stop the hit check and set the trigger level, record length, windows "
+                                              "(and on the simulated rig the tip) as proposed")
+        self.apply_proposal_button.setEnabled(False)
+        self.apply_proposal_button.clicked.connect(self.apply_hit_check)
+        page = QWidget()
+        layout = QVBoxLayout(page)
+        layout.setContentsMargins(0, 0, 0, 0)
+        plots = QHBoxLayout()
+        plots.addWidget(self.tap_pulse_plot)
+        plots.addWidget(self.tap_spectrum_plot)
+        layout.addLayout(plots, 1)
+        layout.addWidget(self.proposal_label)
+        layout.addWidget(self.apply_proposal_button)
+        return page
+
+    def _on_hit_check(self, proposal: object) -> None:
+        """Every tap's force pulse and spectrum, the band they cover, and the proposal in words."""
+        from gasfilm.analysis.hit_check import force_spectrum_db
+
+        for plot in (self.tap_pulse_plot, self.tap_spectrum_plot):
+            for item in plot.getPlotItem().listDataItems():
+                plot.removeItem(item)
+        taps = self.controller.taps
+        for number, record in enumerate(taps):
+            color = PALETTE[number % len(PALETTE)]
+            t_s = (np.arange(record.n_samples) - record.trigger_index) / record.sample_rate_hz
+            pulse = (t_s >= OVERLAY_PULSE_MS[0] / 1e3) & (t_s <= OVERLAY_PULSE_MS[1] / 1e3)
+            self.tap_pulse_plot.plot(t_s[pulse], record.force_n[pulse], pen=pen(color, 1.0))
+            freq, level = force_spectrum_db(record)
+            self.tap_spectrum_plot.plot(freq, level, pen=pen(color, 1.0))
+        low, high = self.controller.fit_band_hz
+        set_region_hz(self.tap_band, low, high, False)
+        self.tap_drop_line.setValue(-self.controller.setup.usable_drop_db)
+        if proposal is None:
+            self.proposal_label.setText("Hit check running: tap the structure a few times (nothing is recorded).")
+            self.apply_proposal_button.setEnabled(False)
+            return
+        self.proposal_label.setText(proposal.text())
+        self.apply_proposal_button.setEnabled(True)
+        self.tap_pulse_plot.setTitle(f"Hit check: force pulses of {len(taps)} tap{'s' if len(taps) != 1 else ''}")
 
     # --- running FRF ------------------------------------------------------------------------------------------------
 

@@ -292,6 +292,11 @@ class SetupTab(QWidget):
             conditions=self._conditions(),
         )
 
+    def set_window(self, values: dict) -> None:
+        """Change window settings (the cursors on the Measure tab); ``changed`` fires once."""
+        self.window_form.set_values(values)
+        self._emit_changed()
+
     def problem(self) -> str:
         """The first invalid setting as a one-line message, '' when the setup can be armed."""
         state = self.state()

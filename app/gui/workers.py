@@ -22,6 +22,7 @@ from PySide6.QtCore import QCoreApplication, QObject, Qt, QThread, QTimer, Signa
 
 from gasfilm.analysis.acquisition import AcquisitionLoop
 from gasfilm.analysis.capture import HitRecord, ImpactCapture, TriggerSettings
+from gasfilm.analysis.hit_check import TapRecorder
 from gasfilm.analysis.physics.plant import RigPlant
 from gasfilm.analysis.recording import HitEvent, HitRecorder
 from gasfilm.analysis.physics.spec import RigSpec
@@ -67,6 +68,7 @@ class AcquisitionPlan:
     ring_seconds: float = 10.0
     time_offset_s: float = 0.0  # session time of the stream's first sample (hit times continue across re-arms)
     conditions: dict = field(default_factory=dict)  # the session's operating conditions (analysis/conditions.py)
+    hit_check: bool = False  # trial taps before the test: triggered and checked, stored nowhere
 
 
 @dataclass
@@ -105,14 +107,14 @@ class AcquisitionWorker(QObject):
     device_fault = Signal(str)  # a DeviceError's message; acquisition has ended
     finished = Signal()
 
-    def __init__(self, plan: AcquisitionPlan, session: Session, first_index: int = 0) -> None:
+    def __init__(self, plan: AcquisitionPlan, session: Session | None, first_index: int = 0) -> None:
         super().__init__()
         self.plan = plan
         self.session = session
         self.first_index = first_index
         self.device: DaqDevice | None = None
         self.loop: AcquisitionLoop | None = None
-        self.recorder: HitRecorder | None = None
+        self.recorder: HitRecorder | TapRecorder | None = None
         self.stats = AcquisitionStats()
         self._mailbox = None
         self._timer: QTimer | None = None
@@ -150,9 +152,12 @@ class AcquisitionWorker(QObject):
             capture.time_offset_s = plan.time_offset_s
             full_scale = tuple(channel.full_scale_si for channel in plan.config.channels)
             self._capture = capture
-            self.recorder = HitRecorder(
-                self.session, capture, plan.validation, full_scale_si=full_scale, window=plan.window
-            )
+            if plan.hit_check:
+                self.recorder = TapRecorder(capture, plan.validation, full_scale_si=full_scale, window=plan.window)
+            else:
+                self.recorder = HitRecorder(
+                    self.session, capture, plan.validation, full_scale_si=full_scale, window=plan.window
+                )
             self._record_samples = capture.record_samples
             self._force_row = force_row
             self.loop = AcquisitionLoop(self.device, ring_seconds=plan.ring_seconds)
@@ -250,9 +255,10 @@ class AcquisitionWorker(QObject):
     def _on_hit(self, event: HitEvent) -> None:
         self.stats.hits += 1
         automatic = event.verdict
-        decided = (automatic.accepted and self.plan.auto_accept) or (not automatic.accepted and self.plan.auto_reject)
+        decided = (self.plan.hit_check or (automatic.accepted and self.plan.auto_accept)
+                   or (not automatic.accepted and self.plan.auto_reject))
         entry = HitEntry(event.index, event.record, automatic, automatic, pending=not decided)
-        if entry.pending:  # never on disk as accepted before the technician says so
+        if entry.pending and self.session is not None:  # never on disk as accepted before the technician says so
             self.session.set_verdict(entry.index, pending_verdict(automatic))
         self._entries[entry.index] = entry
         self.hit_recorded.emit(entry)

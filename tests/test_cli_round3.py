@@ -1,0 +1,56 @@
+"""The command line's part of issue 32: Hv in replay and export, conditions that survive UFF, output places, the
+model's default fit, the FRF a command uses, and the slips of item 15."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from gasfilm.analysis.session import Session
+from test_cli_acquire_replay import FAST_SIM, gasfilm
+
+
+@pytest.fixture(scope="module")
+def session_path(tmp_path_factory):
+    from gasfilm.app.cli import main
+
+    path = tmp_path_factory.mktemp("round3") / "run.h5"
+    assert main(["acquire", *FAST_SIM, "--out", str(path), "--hits", "4", "--seed", "3",
+                 "--condition", "supply_pressure_mpa=0.4"]) == 0
+    return path
+
+
+def test_replay_reads_the_peak_on_the_estimator_asked_for(session_path, capsys):
+    peaks = {}
+    for estimator in ("h1", "h2", "hv"):
+        status, out, err = gasfilm(capsys, "replay", session_path, "--estimator", estimator, "--json")
+        assert status == 0, err
+        summary = json.loads(out)
+        assert summary["estimator"] == {"h1": "H1", "h2": "H2", "hv": "Hv"}[estimator]
+        peaks[estimator] = summary["peak_accelerance_m_s2_per_n"]
+    assert peaks["h1"] <= peaks["hv"] <= peaks["h2"]
+    status, out, err = gasfilm(capsys, "replay", session_path, "--estimator", "hv")
+    assert "peak of |Hv|" in out
+
+
+def test_export_writes_the_estimator_asked_for_and_the_csv_holds_hv(session_path, tmp_path, capsys):
+    from gasfilm.analysis.uff import read_uff_frf
+
+    with Session.open(session_path, "r") as session:
+        stored = session.read_frf()
+    status, out, err = gasfilm(capsys, "export", session_path, "--uff", tmp_path / "hv.uff", "--estimator", "hv")
+    assert status == 0 and out.startswith("Hv of the "), (out, err)
+    np.testing.assert_allclose(read_uff_frf(tmp_path / "hv.uff").h1, stored.hv, rtol=1e-6)
+    status, out, err = gasfilm(capsys, "export", session_path, "--csv", tmp_path / "frf.csv")
+    lines = (tmp_path / "frf.csv").read_text().splitlines()
+    comments = sum(line.startswith("#") for line in lines)
+    assert lines[0] == "# condition supply_pressure_mpa = 0.4"
+    table = np.genfromtxt(tmp_path / "frf.csv", delimiter=",", names=True, skip_header=comments)
+    np.testing.assert_allclose(table["hv_real_m_s2_per_n"] + 1j * table["hv_imag_m_s2_per_n"], stored.hv,
+                               rtol=1e-9, atol=1e-12)
+    # an FRF read from a file has no spectra: Hv is refused in one line
+    status, out, err = gasfilm(capsys, "export", tmp_path / "hv.uff", "--uff", tmp_path / "again.uff",
+                               "--estimator", "hv")
+    assert status == 2 and "holds no force and response spectra" in err and err.count("\n") == 1
