@@ -100,14 +100,21 @@ def read_report_data(path: str | Path) -> ReportData:
     path = Path(path)
     with Session.open(path, "r") as session:
         config = session.daq_config
+        stored_sensors = session.settings.get("sensors")
+        sensors = {entry.get("channel"): entry for entry in stored_sensors if isinstance(entry, dict)} \
+            if isinstance(stored_sensors, list) else {}
         channels = [
             {
                 "channel": channel.physical_channel,
                 "name": channel.name,
                 "kind": channel.kind.value,
+                "sensor": str(sensors.get(channel.physical_channel, {}).get("model") or "—"),
+                "serial": str(sensors.get(channel.physical_channel, {}).get("serial") or "—"),
+                "calibrated": str(sensors.get(channel.physical_channel, {}).get("calibration_date") or "—"),
                 "sensitivity": f"{channel.sensitivity:g} {channel.sensitivity_units}",
                 "iepe": f"{channel.iepe_current_a * 1e3:g} mA" if channel.iepe_current_a else "off",
                 "coupling": channel.coupling.value,
+                "teds": str(sensors.get(channel.physical_channel, {}).get("teds") or "—"),
             }
             for channel in config.channels
         ]
@@ -546,6 +553,14 @@ pre { background: #f7f7f7; padding: 6px; font-size: 0.85em; overflow-x: auto; }
 """
 
 
+def _test_html(test: Any) -> str:
+    """Who tested what (``settings["test"]``), or that the session does not say."""
+    test = test if isinstance(test, dict) else {}
+    operator, test_object = str(test.get("operator") or ""), str(test.get("test_object") or "")
+    return (f"<p>Operator <b>{html.escape(operator or 'not recorded')}</b>; test object "
+            f"<b>{html.escape(test_object or 'not recorded')}</b>.</p>")
+
+
 def report_html(data: ReportData, drop_db: float = USABLE_DROP_DB) -> str:
     """The report as one self-contained HTML page."""
     accepted = [hit["accepted"] for hit in data.hits]
@@ -555,8 +570,9 @@ def report_html(data: ReportData, drop_db: float = USABLE_DROP_DB) -> str:
         "<h2>Setup</h2>",
         f"<p>Device <b>{html.escape(data.device_name or 'not recorded')}</b>, {data.sample_rate_hz:g} S/s, session status "
         f"{html.escape(data.status)}.</p>",
-        _table(("Channel", "Name", "Type", "Sensitivity", "IEPE", "Coupling"),
-               [tuple(c.values()) for c in data.channels]),
+        _test_html(data.settings.get("test")),
+        _table(("Channel", "Name", "Type", "Sensor", "Serial", "Calibrated", "Sensitivity", "IEPE", "Coupling",
+                "TEDS"), [tuple(c.values()) for c in data.channels]),
         _table(("Group", "Setting", "Value"), _settings_rows(data.settings)),
         "<h3>Operating conditions</h3>",
         _table(("Condition (unit in the name)", "Value"),

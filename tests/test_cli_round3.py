@@ -54,3 +54,15 @@ def test_export_writes_the_estimator_asked_for_and_the_csv_holds_hv(session_path
     status, out, err = gasfilm(capsys, "export", tmp_path / "hv.uff", "--uff", tmp_path / "again.uff",
                                "--estimator", "hv")
     assert status == 2 and "holds no force and response spectra" in err and err.count("\n") == 1
+
+
+def test_acquire_stores_who_tested_what_and_the_report_shows_it(tmp_path, capsys):
+    path = tmp_path / "who.h5"
+    status, out, err = gasfilm(capsys, "acquire", *FAST_SIM, "--out", path, "--hits", 1, "--operator", "B. Engineer",
+                               "--test-object", "mover M2")
+    assert status == 0, err
+    with Session.open(path, "r") as session:
+        assert session.settings["test"] == {"operator": "B. Engineer", "test_object": "mover M2"}
+    status, out, err = gasfilm(capsys, "report", path, "--out", tmp_path / "who.html")
+    report = (tmp_path / "who.html").read_text(encoding="utf-8")
+    assert "Operator <b>B. Engineer</b>; test object <b>mover M2</b>" in report

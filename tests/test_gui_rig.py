@@ -192,3 +192,49 @@ def test_other_sessions_frfs_are_drawn_over_this_one_named_with_their_conditions
     assert tab.clear_compare_button.isEnabled()
     qtbot.mouseClick(tab.clear_compare_button, Qt.MouseButton.LeftButton)
     assert tab._comparison_curves == [] and not tab.clear_compare_button.isEnabled()
+
+
+def test_operator_test_object_and_sensors_with_serials_and_calibration_dates_reach_the_session_and_report(
+        qtbot, window, tmp_path, monkeypatch):
+    import gasfilm.drivers as drivers
+    from gasfilm.analysis.report import write_report
+    from gasfilm.analysis.session import Session
+    from gasfilm.drivers.interface import TedsSensor
+
+    setup = window.setup_tab
+    setup.operator.setText("A. Technician")
+    setup.operator.editingFinished.emit()
+    setup.test_object.setText("bearing B-17 on mover M2")
+    setup.test_object.editingFinished.emit()
+    hammer = setup.channel_cell(0, "Sensor")
+    hammer.setCurrentIndex(hammer.findData("PCB 086C02 #LW41203"))  # the lab's own hammer, from the library
+    row = setup.state().channels[0]
+    assert (row.sensitivity, row.serial, row.calibration_date) == (11.42, "LW41203", "2026-03-02")
+    # the accelerometer has a TEDS chip, read through the NI 9234 (here: the driver's answer stands in for it)
+    monkeypatch.setattr(drivers, "read_teds", lambda device, channels: {
+        "ai0": None, "ai1": TedsSensor(12, 35201, 77001, "2A", 100.7, "mV/g")})
+    qtbot.mouseClick(setup.teds_button, Qt.MouseButton.LeftButton)
+    accelerometer = setup.state().channels[1]
+    assert (accelerometer.sensitivity, accelerometer.units, accelerometer.serial) == (100.7, "mV/g", "77001")
+    assert "serial 77001" in accelerometer.teds and "ai0 no TEDS" in window.banner.history[-1][1]
+    setup.channel_cell(1, "Calibrated").setText("2025-13-40")
+    setup.channel_cell(1, "Calibrated").editingFinished.emit()
+    assert "ai1 calibration date" in setup.problem_label.text()  # a date that is none is named
+    setup.channel_cell(1, "Calibrated").setText("2025-11-30")
+    setup.channel_cell(1, "Calibrated").editingFinished.emit()
+
+    path = tmp_path / "who.h5"
+    window.controller.new_session(path)
+    arm(qtbot, window)
+    hit(qtbot, window)
+    stop(qtbot, window)
+    with Session.open(path, "r") as session:
+        settings = session.settings
+    assert settings["test"] == {"operator": "A. Technician", "test_object": "bearing B-17 on mover M2"}
+    by_channel = {entry["channel"]: entry for entry in settings["sensors"]}
+    assert by_channel["ai0"]["serial"] == "LW41203" and by_channel["ai0"]["calibration_date"] == "2026-03-02"
+    assert by_channel["ai1"]["calibration_date"] == "2025-11-30" and "TEDS: manufacturer 12" in by_channel["ai1"]["teds"]
+    report = write_report(path, tmp_path / "who.html").read_text(encoding="utf-8")
+    for text in ("A. Technician", "bearing B-17 on mover M2", "LW41203", "2026-03-02", "77001", "2025-11-30",
+                 "TEDS: manufacturer 12, model 35201"):
+        assert text in report, text

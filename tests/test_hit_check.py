@@ -94,3 +94,17 @@ def test_a_response_that_outlasts_the_longest_record_gets_an_exponential_window(
     # exp(-0.1 t) is still at 13 % after 20 s, the longest record: a window ending near 0.01/0.13 makes up the rest
     assert proposal.record_s == 20.0, proposal.text()
     assert proposal.exponential_end_fraction == pytest.approx(0.01 / np.exp(-0.1 * 19.99), rel=0.35)
+
+
+def test_the_sensor_library_holds_serials_and_calibration_dates_and_names_a_bad_date(tmp_path):
+    from gasfilm.app.gui.sensors import DEFAULT_SENSOR_LIBRARY, load_sensor_library
+    from gasfilm.drivers.errors import SettingError
+
+    own = [sensor for sensor in load_sensor_library(DEFAULT_SENSOR_LIBRARY) if sensor.serial]
+    assert {(s.key, s.calibration_date) for s in own} == {("PCB 086C02 #LW41203", "2026-03-02"),
+                                                           ("PCB 352B #LW58817", "2026-01-19")}
+    bad = tmp_path / "sensors.toml"
+    bad.write_text('[[sensor]]\nmodel = "X"\ntype = "force"\nsensitivity = 1.0\nunits = "mV/N"\n'
+                   'calibration_date = "last spring"\n')
+    with pytest.raises(SettingError, match=r"sensors.toml: sensor #1 calibration_date: 'last spring' is not a date"):
+        load_sensor_library(bad)

@@ -338,7 +338,7 @@ def test_hv_lies_between_h1_and_h2_and_is_unbiased_when_force_and_response_are_e
     uncorrelated noise of the same variance added to the measured force and response: H1 is biased low by
     1/(1 + N_ff/G_ff), H2 high by (1 + N_xx/G_xx); Hv, weighing both noises alike, is not."""
     rng = np.random.default_rng(4)
-    rate, n, hits = 1024.0, 1024, 400
+    rate, n, hits = 1024.0, 512, 150
     freq = np.fft.rfftfreq(n, 1 / rate)
     s = 2j * np.pi * freq
     wn = 2 * np.pi * 100

@@ -62,6 +62,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         help="exponential window: value at the record end, e.g. 0.01 ('none': no window)")
     parser.add_argument("--double-hit-fraction", type=float,
                         help="a second impact above this fraction of the first rejects the hit (default 0.1)")
+    parser.add_argument("--operator", help="who runs the test (stored with the session, shown by the report)")
+    parser.add_argument("--test-object", help="what is tested, e.g. 'bearing B-17 on mover M2' (stored, reported)")
     parser.add_argument("--seed", type=int, default=0, help="simulator: random seed")
     parser.add_argument("--pacing", choices=("fast", "realtime"), default="realtime",
                         help="simulator: deliver samples as fast as possible or at the real rate (default)")
@@ -133,7 +135,10 @@ def _settings(args: argparse.Namespace) -> dict[str, Any]:
         "force_window_ms": ("--force-window-ms", args.force_window_ms),
         "exponential_end_fraction": ("--exp-end", args.exp_end),
     })
-    return {"trigger": trigger, "validation": validation, "window": window}
+    settings = {"trigger": trigger, "validation": validation, "window": window}
+    if args.operator is not None or args.test_object is not None:
+        settings["test"] = {"operator": (args.operator or "").strip(), "test_object": (args.test_object or "").strip()}
+    return settings
 
 
 class _SessionLog(logging.FileHandler):

@@ -200,6 +200,7 @@ class SessionController(QObject):
             )
             if not hit_check:
                 self._ensure_session(plan)
+                self._store_test_record(setup)
                 plan = dataclasses.replace(plan, time_offset_s=self._session_time_s())
         except GasfilmError as error:
             self.message.emit(str(error), "error")
@@ -330,6 +331,14 @@ class SessionController(QObject):
         self._reset_results()
         self.session_changed.emit(str(path))
         logger.info("recording into the new session %s", path)
+
+    def _store_test_record(self, setup: SetupState) -> None:
+        """Who tests what with which sensors (operator, test object, each sensor's model, serial, calibration date and
+        TEDS), stored with the session when it is new or they changed."""
+        record = to_jsonable(setup.test_record())
+        stored = self.session.settings
+        if any(stored.get(key) != value for key, value in record.items()):
+            self.session.update_settings(record)
 
     def _gui_settings(self) -> dict[str, Any]:
         return {

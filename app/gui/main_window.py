@@ -110,6 +110,7 @@ class MainWindow(QMainWindow):
         self.setup_tab.changed.connect(self._setup_changed)
         self.measure_tab.apply_hit_check.connect(self.apply_hit_check)
         self.measure_tab.window_dragged.connect(self.setup_tab.set_window)
+        self.setup_tab.teds_said.connect(lambda text: self.banner.show_message(text, "info"))
         self.controller.message.connect(self.banner.show_message)
         self.controller.session_changed.connect(self._session_changed)
         self.controller.acquisition_state.connect(self._acquisition_state)

@@ -8,10 +8,13 @@ Format (``fixtures/sensors.toml``)::
     sensitivity = 11.2
     units = "mV/N"            # see drivers.interface.SENSITIVITY_UNITS
     description = "modally tuned impact hammer"
+    serial = "LW41203"        # optional: one sensor of the model (the lab's own), with its
+    calibration_date = 2026-03-02   # last calibration (a TOML date or "YYYY-MM-DD")
 """
 
 from __future__ import annotations
 
+import datetime
 import math
 import tomllib
 from dataclasses import dataclass
@@ -25,17 +28,25 @@ DEFAULT_SENSOR_LIBRARY = Path(__file__).resolve().parents[2] / "fixtures" / "sen
 
 @dataclass(frozen=True)
 class Sensor:
-    """One catalogue entry: what the sensor measures and its nominal sensitivity."""
+    """One library entry: a sensor model with its nominal sensitivity, or one sensor of it (serial number, calibrated
+    sensitivity and calibration date)."""
 
     model: str
     kind: ChannelKind
     sensitivity: float
     units: str
     description: str = ""
+    serial: str = ""
+    calibration_date: str = ""  # ISO date of the last calibration, "" when not known
+
+    @property
+    def key(self) -> str:
+        """What a channel row stores to name its library entry: the model, with the serial for one sensor."""
+        return f"{self.model} #{self.serial}" if self.serial else self.model
 
     @property
     def label(self) -> str:
-        return f"{self.model} ({self.sensitivity:g} {self.units})"
+        return f"{self.key} ({self.sensitivity:g} {self.units})"
 
 
 def load_sensor_library(path: str | Path = DEFAULT_SENSOR_LIBRARY) -> list[Sensor]:
@@ -76,7 +87,24 @@ def load_sensor_library(path: str | Path = DEFAULT_SENSOR_LIBRARY) -> list[Senso
             raise SettingError(f"{where} sensitivity: {sensitivity!r} must be a positive finite number")
         if not isinstance(entry["model"], str) or not entry["model"].strip():
             raise SettingError(f"{where} model: {entry['model']!r} must be a non-empty text")
-        sensors.append(
-            Sensor(entry["model"], kind, float(sensitivity), entry["units"], str(entry.get("description", "")))
-        )
+        serial = entry.get("serial", "")
+        if not isinstance(serial, (str, int)) or isinstance(serial, bool):
+            raise SettingError(f"{where} serial: {serial!r} must be a text")
+        sensors.append(Sensor(entry["model"], kind, float(sensitivity), entry["units"],
+                              str(entry.get("description", "")), str(serial).strip(),
+                              _calibration_date(entry.get("calibration_date", ""), where)))
     return sensors
+
+
+def _calibration_date(value: object, where: str) -> str:
+    """A calibration date as ISO text: a TOML date, or text in the form YYYY-MM-DD ("" when not given)."""
+    if isinstance(value, datetime.datetime):
+        return value.date().isoformat()
+    if isinstance(value, datetime.date):
+        return value.isoformat()
+    if value == "":
+        return ""
+    try:
+        return datetime.date.fromisoformat(str(value)).isoformat()
+    except ValueError:
+        raise SettingError(f"{where} calibration_date: {value!r} is not a date (YYYY-MM-DD)") from None
