@@ -154,7 +154,9 @@ class DiagnoseTab(QWidget):
         controller.stored_diagnosis_loaded.connect(self.show_stored_diagnosis)
 
     def _choose_reference(self) -> None:
-        path, _ = QFileDialog.getOpenFileName(self, "Reference rig spec", self.reference_path.text(), "Rig spec (*.toml)")
+        start = self.reference_path.text() or str(self.controller.session_path.parent if self.controller.session_path
+                                                      else self.controller.session_dir)
+        path, _ = QFileDialog.getOpenFileName(self, "Reference rig spec", start, "Rig spec (*.toml)")
         if path:
             self.reference_path.setText(path)
 
@@ -341,7 +343,7 @@ class DiagnoseTab(QWidget):
         self.restoring_label.setText(f"Film restoring force (F − m·a, colour = hit): {restoring.description()}")
 
     def _export(self) -> None:
-        default = ""
+        default = str(self.controller.session_dir / "improved.toml")
         if self.controller.session_path is not None:
             default = str(self.controller.session_path.with_name(f"{self.controller.session_path.stem}-improved.toml"))
         path, _ = QFileDialog.getSaveFileName(self, "Improved rig spec", default, "Rig spec (*.toml)")

@@ -134,12 +134,15 @@ class MainWindow(QMainWindow):
         session.addSeparator()
         self._add_action(session, "&Replay with the current Setup settings", self.controller.replay)
         session.addSeparator()
-        self._add_action(session, "Export FRF as &UFF 58…", lambda: self._export("UFF 58 (*.uff)", self.controller.export_uff))
-        self._add_action(session, "Export FRF as &CSV…", lambda: self._export("CSV (*.csv)", self.controller.export_csv))
-        self._add_action(session, "Export this tab as &PNG…", lambda: self._export("PNG image (*.png)", self.export_png))
+        self._add_action(session, "Export FRF as &UFF 58…",
+                         lambda: self._export("UFF 58 (*.uff)", self.controller.export_uff, ".uff"))
+        self._add_action(session, "Export FRF as &CSV…",
+                         lambda: self._export("CSV (*.csv)", self.controller.export_csv, ".csv"))
+        self._add_action(session, "Export this tab as &PNG…",
+                         lambda: self._export("PNG image (*.png)", self.export_png, f"-{self._tab_name()}.png"))
         self._add_action(
             session, "Write a &report (HTML or PDF)…",
-            lambda: self._export("HTML report (*.html);;PDF report (*.pdf)", self.write_report),
+            lambda: self._export("HTML report (*.html);;PDF report (*.pdf)", self.write_report, "-report.html"),
         )
         session.addSeparator()
         self._add_action(session, "&Quit", self.close, QKeySequence.StandardKey.Quit)
@@ -167,20 +170,21 @@ class MainWindow(QMainWindow):
 
     def new_session(self) -> None:
         path, _ = QFileDialog.getSaveFileName(
-            self, "New session file", str(self.controller.session_dir), "gasfilm session (*.h5)"
+            self, "New session file", str(self.dialog_folder()), "gasfilm session (*.h5)"
         )
         if path:
             self.controller.new_session(path)
 
     def open_session(self) -> None:
         path, _ = QFileDialog.getOpenFileName(
-            self, "Open session", str(self.controller.session_dir), "gasfilm session (*.h5)"
+            self, "Open session", str(self.dialog_folder()), "gasfilm session (*.h5)"
         )
         if path:
             self.controller.open_session(path)
 
     def save_session_as(self) -> None:
-        path, _ = QFileDialog.getSaveFileName(self, "Save session as", "", "gasfilm session (*.h5)")
+        path, _ = QFileDialog.getSaveFileName(self, "Save session as", str(self.proposed_path("-copy.h5")),
+                                              "gasfilm session (*.h5)")
         if path:
             self.controller.save_session_as(path)
 
@@ -206,8 +210,23 @@ class MainWindow(QMainWindow):
             path = path.with_suffix(".html")
         return write_report(self.controller.session_path, path, overwrite=True)
 
-    def _export(self, file_filter: str, export) -> None:
-        path, _ = QFileDialog.getSaveFileName(self, "Export", "", file_filter)
+    def _tab_name(self) -> str:
+        return self.tabs.tabText(self.tabs.currentIndex()).split()[-1].lower()
+
+    def dialog_folder(self) -> Path:
+        """Where a file dialog opens: the open session's folder, else the folder sessions are made in (never the
+        process's working directory)."""
+        if self.controller.session_path is not None:
+            return self.controller.session_path.parent
+        return self.controller.session_dir
+
+    def proposed_path(self, ending: str) -> Path:
+        """The file a dialog proposes: the session's name with ``ending`` ("-report.html", ".uff", …) in its folder."""
+        stem = self.controller.session_path.stem if self.controller.session_path is not None else "gasfilm"
+        return self.dialog_folder() / f"{stem}{ending}"
+
+    def _export(self, file_filter: str, export, ending: str) -> None:
+        path, _ = QFileDialog.getSaveFileName(self, "Export", str(self.proposed_path(ending)), file_filter)
         if not path:
             return
         try:

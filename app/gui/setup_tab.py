@@ -574,7 +574,8 @@ class SetupTab(QWidget):
             self.load_sensor_library(path)
 
     def _choose_rig_spec(self) -> None:
-        path, _ = QFileDialog.getOpenFileName(self, "Rig spec", self.rig_path.text(), "Rig spec (*.toml)")
+        start = self.rig_path.text() or str(DEFAULT_SENSOR_LIBRARY.parent / "rigs")  # the shipped rig specs
+        path, _ = QFileDialog.getOpenFileName(self, "Rig spec", start, "Rig spec (*.toml)")
         if path:
             self.rig_path.setText(path)
             self._emit_changed()
