@@ -289,6 +289,29 @@ class TapRecorder:
         return events
 
 
+#: Force pulses whose widths differ by more than this factor come from different tips (or a hit on another spot).
+MIXED_TIPS_RATIO = 1.5
+
+
+def pulse_width_s(record: HitRecord) -> float:
+    """The width of a hit's force pulse (its half-sine's, as :func:`summarise_tap` measures it)."""
+    force = record.force_n - float(np.median(record.force_n[: max(1, record.trigger_index)]))
+    peak_index = int(np.argmax(force))
+    return _pulse_width_s(force, peak_index, record.sample_rate_hz)
+
+
+def mixed_tips(records: Sequence[HitRecord]) -> str:
+    """A warning when the hits' force pulses are of different widths (a 2 ms soft-tip pulse averaged with 0.5 ms
+    pulses: their force spectra roll off at different frequencies), else ''."""
+    if len(records) < 2:
+        return ""
+    widths = [pulse_width_s(record) for record in records]
+    if max(widths) <= MIXED_TIPS_RATIO * min(widths):
+        return ""
+    return (f"mixed tips: force pulses of {1e3 * min(widths):.2g} to {1e3 * max(widths):.2g} ms are averaged "
+            f"(their spectra roll off at different frequencies); keep to one tip or reject the odd hits")
+
+
 def force_spectrum_db(record: HitRecord) -> tuple[np.ndarray, np.ndarray]:
     """A tap's force autospectrum in dB re its low-frequency level, above 0 Hz: (frequency in Hz, level in dB)."""
     freq = np.fft.rfftfreq(record.n_samples, 1.0 / record.sample_rate_hz)

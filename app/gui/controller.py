@@ -49,6 +49,8 @@ from gasfilm.drivers.errors import GasfilmError, SettingError
 from gasfilm.drivers.interface import ChannelKind, DaqConfig
 
 logger = logging.getLogger(__name__)
+#: How a refusal that waits for the acquisition to stop begins (the banner withdraws it once stopped).
+STOP_FIRST = "stop the acquisition"
 
 
 def default_session_dir() -> Path:
@@ -122,6 +124,7 @@ class SessionController(QObject):
         self._job_started_s: dict[str, float] = {}
         self.taps: list[Any] = []  # the hit check's taps (HitRecord), stored nowhere
         self.comparisons: list[tuple[str, FrfResult]] = []  # (label, FRF) of other sessions to overlay
+        self._diagnosis_wait_s = 0.0  # the shown diagnosis's time from the click to its result
         self.hit_check_proposal: Any = None
 
     # --- settings --------------------------------------------------------------------------------------------------
@@ -592,7 +595,7 @@ class SessionController(QObject):
         """Fit each model to the current FRF in the band, in the background; results arrive via ``fits_changed``.
         The mass is the session's mover mass (its rig spec; else the Setup tab's), as ``gasfilm fit`` takes it."""
         if self.acquiring:
-            self.message.emit("stop the acquisition before fitting: the FRF still changes with every hit", "warning")
+            self.message.emit(f"{STOP_FIRST} before fitting: the FRF still changes with every hit", "warning")
             return
         if self.frf is None:
             self.message.emit("no FRF yet: accept at least one hit or open a session", "warning")
@@ -642,7 +645,7 @@ class SessionController(QObject):
     def run_diagnosis(self, reference_spec_path: str | Path | None = None) -> None:
         """Diagnose the session's accepted hits against ``reference_spec_path`` (default: the session's own spec)."""
         if self.acquiring:
-            self.message.emit("stop the acquisition before running the diagnosis: hits are still arriving", "warning")
+            self.message.emit(f"{STOP_FIRST} before running the diagnosis: hits are still arriving", "warning")
             return
         if self.session is None or self.accepted_count == 0:
             self.message.emit("nothing to diagnose: record or open a session with accepted hits", "warning")
@@ -671,7 +674,14 @@ class SessionController(QObject):
         text = self.session.rig_spec_toml if self.session is not None else None
         return RigSpec.from_toml(text) if text else self.rig_spec()
 
+    def diagnosis_seconds(self, diagnosis: Any) -> float:
+        """How long ``diagnosis`` took as the technician waited for it (from the click until its result arrived): the
+        one figure the banner and the Diagnose tab both show; the diagnosis's own computing time when it did not
+        run here."""
+        return self._diagnosis_wait_s if diagnosis is self.diagnosis and self._diagnosis_wait_s else diagnosis.wall_time_s
+
     def _on_diagnosis_done(self, diagnosis: Any) -> None:
+        self._diagnosis_wait_s = self._job_seconds("diagnose")
         self.diagnosis = diagnosis
         self._diagnosis_options = self._pending_diagnosis_options
         self.diagnosis_changed.emit(diagnosis)
@@ -679,7 +689,7 @@ class SessionController(QObject):
         count = len(diagnosis.findings)
         found = f"{count} finding{'s' if count != 1 else ''}" if count else "no finding"
         self.message.emit(
-            f"diagnosis finished in {self._job_seconds('diagnose'):.1f} s: verdict {diagnosis.verdict}, {found}; "
+            f"diagnosis finished in {self._diagnosis_wait_s:.1f} s: verdict {diagnosis.verdict}, {found}; "
             f"figures and improved spec in {self.session_path.stem}-diagnosis/ (Diagnose tab)",
             "info",
         )

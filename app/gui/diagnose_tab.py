@@ -211,7 +211,7 @@ class DiagnoseTab(QWidget):
         self.summary.setText(
             f"<b>Verdict: {diagnosis.verdict}</b> — RMS {diagnosis.rms_before / G:.3g} → {diagnosis.rms_after / G:.3g} g/N "
             f"(E = {better:.1f} %), BIC {diagnosis.bic_before:.0f} → {diagnosis.bic_after:.0f}, "
-            f"{diagnosis.evidence.hit_count} hits, {diagnosis.wall_time_s:.1f} s"
+            f"{diagnosis.evidence.hit_count} hits, {self.controller.diagnosis_seconds(diagnosis):.1f} s"
         )
         for finding in diagnosis.findings:
             item = QListWidgetItem(finding_title(finding))

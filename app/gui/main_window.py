@@ -21,7 +21,7 @@ from PySide6.QtWidgets import (
     QWidget,
 )
 
-from gasfilm.app.gui.controller import SessionController
+from gasfilm.app.gui.controller import STOP_FIRST, SessionController
 from gasfilm.app.gui.diagnose_tab import DiagnoseTab
 from gasfilm.app.gui.frf_tab import FrfTab
 from gasfilm.app.gui.identify_tab import IdentifyTab
@@ -63,6 +63,7 @@ class MainWindow(QMainWindow):
         self.controller = SessionController(setup, session_dir, self)
         self.banner = Banner()
         self.pending_dialog: QMessageBox | None = None
+        self.running_dialog: QMessageBox | None = None
         self._closed = False
         self._closing_on_signal = False
         try:
@@ -282,6 +283,8 @@ class MainWindow(QMainWindow):
 
     def _acquisition_state(self, state: str) -> None:
         self.setup_tab.setEnabled(state == "idle")
+        if state == "idle":
+            self.banner.withdraw(STOP_FIRST)
         if state == "starting":
             self.tabs.setCurrentWidget(self.measure_tab)
 
@@ -297,6 +300,24 @@ class MainWindow(QMainWindow):
             f"{loop.channel_count} ch · {loop.sample_rate_hz:g} S/s · "
             f"{seconds:.1f} s streamed · view {self.measure_tab.redraw_rate_hz():.0f} fps{dropped}"
         )
+
+    def ask_about_running_acquisition(self) -> bool:
+        """Quitting while armed: stop the acquisition and quit (every hit is already stored), or stay. False: stay."""
+        if not self.controller.acquiring:
+            return True
+        what = "A hit check runs" if self.controller.hit_checking else (
+            f"The acquisition runs ({len(self.controller.hits)} hits recorded, each already in the session)")
+        box = QMessageBox(self)
+        box.setIcon(QMessageBox.Icon.Question)
+        box.setWindowTitle("Stop the acquisition?")
+        box.setText(f"{what}. Stop it and quit?")
+        quit_button = box.addButton("Stop and quit", QMessageBox.ButtonRole.AcceptRole)
+        cancel = box.addButton(QMessageBox.StandardButton.Cancel)
+        box.setDefaultButton(cancel)
+        self.running_dialog = box  # tests answer it
+        box.exec()
+        self.running_dialog = None
+        return box.clickedButton() is quit_button
 
     def ask_about_pending_hits(self) -> bool:
         """Before quitting with hits that wait for a decision: accept them, reject them, or keep them waiting
@@ -340,7 +361,7 @@ class MainWindow(QMainWindow):
         if self._closed:
             super().closeEvent(event)
             return
-        if not self._closing_on_signal and not self.ask_about_pending_hits():
+        if not self._closing_on_signal and not (self.ask_about_running_acquisition() and self.ask_about_pending_hits()):
             event.ignore()
             return
         save_setup(self.settings, self.setup_tab.state())

@@ -275,6 +275,8 @@ class MeasureTab(QWidget):
             "Accepted hits: responses", ("Acceleration", "m/s²"), ("Time from trigger", "s"), legend=False
         )
         self._overlay_curves: list[pg.PlotDataItem] = []
+        self._mixed_tips_said = False
+        self.mixed_tips_warning = ""
         overlay_page = stacked(self.overlay_force_plot, self.overlay_response_plot)
 
         self.hit_views = QTabWidget()
@@ -488,6 +490,7 @@ class MeasureTab(QWidget):
     # --- hit list ---------------------------------------------------------------------------------------------------
 
     def _rebuild_hits(self) -> None:
+        self._mixed_tips_said = False
         self.hit_table.setRowCount(0)
         for entry in self.controller.hits:
             self._append_row(entry)
@@ -566,9 +569,17 @@ class MeasureTab(QWidget):
             for curve in (force, response):
                 curve.setToolTip(f"hit {entry.index + 1}")
             self._overlay_curves += [force, response]
+        from gasfilm.analysis.hit_check import mixed_tips
+
         titles = f"{len(accepted)} accepted hits"
-        self.overlay_force_plot.setTitle(f"Force pulses of the {titles}")
+        warning = mixed_tips([entry.record for entry in accepted])
+        self.overlay_force_plot.setTitle(f"Force pulses of the {titles}" + (
+            f" — <span style='color:{REJECTED_COLOR}'>{warning.split(':')[0]}</span>" if warning else ""))
         self.overlay_response_plot.setTitle(f"Responses of the {titles}")
+        if warning and not self._mixed_tips_said:  # said once per session, where the technician looks
+            self._mixed_tips_said = True
+            self.controller.message.emit(warning, "warning")
+        self.mixed_tips_warning = warning
 
     def selected_index(self) -> int | None:
         rows = self.hit_table.selectionModel().selectedRows()

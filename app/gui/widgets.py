@@ -121,6 +121,12 @@ class Banner(QFrame):
     def text(self) -> str:
         return self._label.text()
 
+    def withdraw(self, prefix: str) -> None:
+        """Hide the message shown if it starts with ``prefix``: a refusal whose reason has gone (the acquisition it
+        asked to stop has stopped) must not stay."""
+        if self.isVisible() and self.text.startswith(prefix):
+            self.hide()
+
     def show_message(self, text: str, severity: str = "error") -> None:
         background, foreground = _SEVERITY_STYLE[severity]
         self.severity = severity
