@@ -145,6 +145,18 @@ def _silence_stdout() -> None:
         pass  # stdout is not a real file (e.g. captured by a test): nothing will be flushed to a pipe
 
 
+def _interrupted_during(error: BaseException) -> bool:
+    """Whether ``error`` was caused by a Ctrl-C (a KeyboardInterrupt in its chain of causes)."""
+    seen: set[int] = set()
+    cause: BaseException | None = error
+    while cause is not None and id(cause) not in seen:
+        if isinstance(cause, KeyboardInterrupt):
+            return True
+        seen.add(id(cause))
+        cause = cause.__cause__ or cause.__context__
+    return False
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args, unknown = parser.parse_known_args(argv)
@@ -170,6 +182,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"gasfilm {args.command}: interrupted", file=sys.stderr)
         return 130
     except Exception as error:  # a bug: still one line for the user, the traceback on request
+        if _interrupted_during(error):  # Ctrl-C inside an import (numpy says "failed to import"): an interruption
+            print(f"gasfilm {args.command}: interrupted", file=sys.stderr)
+            return 130
         if os.environ.get("GASFILM_DEBUG") == "1":
             raise
         print(

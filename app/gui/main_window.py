@@ -370,10 +370,19 @@ class MainWindow(QMainWindow):
         super().closeEvent(event)
 
 
-def run_gui(device: str | None = None, session: str | Path | None = None) -> int:
-    """Start the GUI (``gasfilm gui``); ``device`` overrides the remembered device, ``session`` opens a file."""
+def run_gui(device: str | None = None, session: str | Path | None = None, received: list[int] | None = None) -> int:
+    """Start the GUI (``gasfilm gui``); ``device`` overrides the remembered device, ``session`` opens a file;
+    ``received`` holds stop signals that arrived while it loaded (kept, and more added, until the window stands)."""
+    # SIGTERM, SIGHUP and SIGINT (Ctrl-C) while the window is being built are kept, not raised inside Qt's calls
+    # (where an exception is lost): once the window stands, it quits as on a later signal.
+    received = [] if received is None else received
+    stop_signals = (signal.SIGTERM, signal.SIGHUP, signal.SIGINT)
+    for number in stop_signals:
+        signal.signal(number, lambda number_received, _frame: received.append(number_received))
     app = QApplication.instance() or QApplication(sys.argv[:1])
     warm_up_job_processes()  # fits and diagnoses run in child processes: have their fork server ready
+    if received:  # (before a window exists: the start is interrupted)
+        raise KeyboardInterrupt(signal.Signals(received[0]).name)
     app.setOrganizationName(SETTINGS_ORGANIZATION)
     app.setApplicationName(SETTINGS_APPLICATION)
     window = MainWindow()
@@ -383,10 +392,13 @@ def run_gui(device: str | None = None, session: str | Path | None = None) -> int
         window.setup_tab.set_state(state)
     if session:
         window.controller.open_session(session)
-    for number in (signal.SIGTERM, signal.SIGHUP, signal.SIGINT):  # Ctrl-C in the terminal quits the same way
-        signal.signal(number, lambda received, _frame: QTimer.singleShot(0, lambda: window.close_on_signal(received)))
+    for number in stop_signals:  # Ctrl-C in the terminal quits the same way
+        signal.signal(number, lambda number_received, _frame: QTimer.singleShot(
+            0, lambda: window.close_on_signal(number_received)))
     heartbeat = QTimer(window)  # Python runs signal handlers only between bytecodes: wake it while Qt waits
     heartbeat.timeout.connect(lambda: None)
     heartbeat.start(250)
     window.show()
+    if received:
+        QTimer.singleShot(0, lambda: window.close_on_signal(received[0]))
     return app.exec()

@@ -9,9 +9,14 @@ fast device can never flood the GUI's event loop: the GUI receives one signal pe
 from __future__ import annotations
 
 import atexit
+import contextlib
 import logging
 import multiprocessing
+import multiprocessing.forkserver
+import multiprocessing.resource_tracker
+import multiprocessing.util  # (its exit function is registered before ours, so ours runs first: see _JobProcesses)
 import queue
+import signal
 import threading
 import time
 from dataclasses import dataclass, field
@@ -372,8 +377,32 @@ CANCEL_GRACE_S = 10.0
 
 def warm_up_job_processes() -> None:
     """Start the fork server now (it imports the analysis in its own process, seconds on a busy machine) and a first
-    job process, so the first fit or diagnosis starts at once. Returns immediately."""
+    job process, so the first fit or diagnosis starts at once. Returns at once: the server is spawned here, from the
+    main thread, with Ctrl-C ignored, which it and the job processes forked from it inherit — a Ctrl-C in the terminal
+    reaches the whole process group, and the GUI, not the terminal, ends its job processes (before, a Ctrl-C while
+    the server imported the analysis printed its KeyboardInterrupt traceback). The first job process is started on a
+    thread (it waits for the server's imports)."""
+    context = _job_context()
+    if context.get_start_method() == "forkserver" and threading.current_thread() is threading.main_thread():
+        multiprocessing.resource_tracker.ensure_running()  # (it ignores Ctrl-C itself)
+        with _ctrl_c_ignored():
+            multiprocessing.forkserver.ensure_running()
     threading.Thread(target=_JOB_PROCESSES.prepare, name="gasfilm-job-warm-up", daemon=True).start()
+
+
+@contextlib.contextmanager
+def _ctrl_c_ignored():
+    """SIGINT ignored while the block runs (main thread only, for a spawn): a process spawned meanwhile is born
+    ignoring it (an ignored signal stays ignored across exec; a blocked one does not, the spawn resets the mask).
+    It is also blocked meanwhile, so that one arriving now is not lost: Linux keeps a blocked signal pending even
+    while it is ignored, and delivers it to the handler restored before it is unblocked."""
+    signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
 
 
 def job_process_ready(timeout_s: float) -> bool:
@@ -437,13 +466,23 @@ class _JobProcesses:
                 self._spare = None
             self._prepared.set()
 
-    def close(self) -> None:
-        """No more spare processes (the application ends); the waiting one ends now."""
-        with self._lock:
-            self._closed = True
+    def close(self, timeout_s: float = 30.0) -> None:
+        """No more spare processes (the application ends); the waiting one ends now. A spare being started (the warm-up
+        thread waits for the fork server's imports) is waited for first: quitting in the first seconds used to end the
+        interpreter under it — multiprocessing removed the fork server's socket folder while the thread still
+        connected, and the thread printed a FileNotFoundError traceback. This runs before multiprocessing's own exit
+        function (registered earlier, so called later)."""
+        self._closed = True  # a prepare() that has not taken the lock yet starts nothing
+        if not self._lock.acquire(timeout=timeout_s):
+            logger.warning("a job process was still starting after %.0f s; leaving it", timeout_s)
+            return
+        try:
             spare, self._spare = self._spare, None
+        finally:
+            self._lock.release()
         if spare is not None:
             spare.works.close()  # it ends at once (EOF), without work
+            spare.process.join(1.0)
 
     def take(self) -> _JobProcess:
         """The spare process (a new one when there is none)."""
