@@ -66,3 +66,23 @@ def test_acquire_stores_who_tested_what_and_the_report_shows_it(tmp_path, capsys
     status, out, err = gasfilm(capsys, "report", path, "--out", tmp_path / "who.html")
     report = (tmp_path / "who.html").read_text(encoding="utf-8")
     assert "Operator <b>B. Engineer</b>; test object <b>mover M2</b>" in report
+
+
+def test_conditions_the_simulated_rig_cannot_follow_are_said_and_each_run_draws_new_hits(tmp_path, capsys):
+    """Issue 32 item 7: two runs at two pressures on the default rig (no film laws) were byte-identical."""
+    runs = {}
+    for pressure in ("0.4", "0.5"):
+        path = tmp_path / f"p{pressure}.h5"
+        status, out, err = gasfilm(capsys, "acquire", *FAST_SIM, "--out", path, "--hits", 2,
+                                   "--condition", f"supply_pressure_mpa={pressure}")
+        assert status == 0, err
+        assert "supply_pressure_mpa: stored with the session, but the simulated rig's spec has no film law" in err
+        with Session.open(path, "r") as session:
+            runs[pressure] = (session.hits()[0].data.copy(), session.settings["acquisition"]["seed"])
+    assert runs["0.4"][1] != runs["0.5"][1]
+    assert not np.array_equal(runs["0.4"][0], runs["0.5"][0])
+    # a stored seed repeats its run
+    status, out, err = gasfilm(capsys, "acquire", *FAST_SIM, "--out", tmp_path / "again.h5", "--hits", 2,
+                               "--seed", runs["0.4"][1], "--condition", "supply_pressure_mpa=0.4")
+    with Session.open(tmp_path / "again.h5", "r") as session:
+        np.testing.assert_array_equal(session.hits()[0].data, runs["0.4"][0])

@@ -10,6 +10,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import logging
+import os
 import queue
 import sys
 import time
@@ -64,7 +65,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         help="a second impact above this fraction of the first rejects the hit (default 0.1)")
     parser.add_argument("--operator", help="who runs the test (stored with the session, shown by the report)")
     parser.add_argument("--test-object", help="what is tested, e.g. 'bearing B-17 on mover M2' (stored, reported)")
-    parser.add_argument("--seed", type=int, default=0, help="simulator: random seed")
+    parser.add_argument("--seed", type=int,
+                        help="simulator: random seed (default: a new one each run, stored with the session; give "
+                             "the stored one to repeat a run)")
     parser.add_argument("--pacing", choices=("fast", "realtime"), default="realtime",
                         help="simulator: deliver samples as fast as possible or at the real rate (default)")
     parser.add_argument("--hit-interval", type=float, nargs=2, metavar=("MIN_S", "MAX_S"),
@@ -249,9 +252,18 @@ def _check_same_conditions(path: Path, session: Any, conditions: dict) -> None:
 
 def rig_at_conditions(rig_spec: Any, conditions: dict, simulated: bool) -> tuple[Any, dict]:
     """The rig spec at the session's operating point and the conditions to store: on the simulator, a condition the
-    spec's film laws need and ``--condition`` does not give is played (and stored) at the spec's reference value."""
-    from gasfilm.analysis.physics.laws import played_at
+    spec's film laws need and ``--condition`` does not give is played (and stored) at the spec's reference value.
+    Conditions a simulated rig without film laws cannot follow are stored, and said so."""
+    from gasfilm.analysis.physics.laws import law_keys, played_at
 
+    if simulated and rig_spec is not None and conditions:
+        followed = law_keys(rig_spec.film_laws) if rig_spec.film_laws else set()
+        inert = [key for key in conditions if key not in followed]
+        if inert:
+            logger.warning("--condition %s: stored with the session, but the simulated rig's spec has no film law for "
+                           "%s, so its film is the same at any value (a rig spec with [film.laws] follows them: "
+                           "docs/campaigns.md; `gasfilm demo --campaign` shows one)", ", ".join(inert),
+                           "it" if len(inert) == 1 else "them")
     if rig_spec is None or not rig_spec.film_laws:
         return rig_spec, conditions
     if not simulated:
@@ -261,6 +273,12 @@ def rig_at_conditions(rig_spec: Any, conditions: dict, simulated: bool) -> tuple
         logger.warning("the rig spec's film laws are played at its reference %s (not given by --condition)",
                        ", ".join(f"{key} = {value:g}" for key, value in missing.items()))
     return played, conditions
+
+
+def _fresh_seed() -> int:
+    """A new simulator seed for a run not given ``--seed``: two runs (at two pressures, say) are two draws of the
+    rig's noise and hammer, not the same hits twice. It is stored with the session (``acquisition.seed``)."""
+    return int.from_bytes(os.urandom(4), "little")
 
 
 def _continuation(session: Any, seed: int) -> tuple[int, int, float]:
@@ -392,6 +410,8 @@ def _record_until_stopped(args: argparse.Namespace) -> int:
     from gasfilm.analysis.conditions import format_conditions, parse_condition_flags
 
     settings = _settings(args)
+    if args.seed is None:
+        args.seed = _fresh_seed()
     conditions = parse_condition_flags(args.condition)
     trigger, validation, window = settings["trigger"], settings["validation"], settings["window"]
     check_session_path(args.out, "--out")

@@ -25,7 +25,7 @@ from gasfilm.analysis.diagnosis import load_recordings
 from gasfilm.analysis.fit_settings import FitSettings, conflicting_fits
 from gasfilm.analysis.identification import DEFAULT_FIT_BAND_HZ, best_by_bic, compare_models
 from gasfilm.analysis.physics.elements import get_model
-from gasfilm.analysis.physics.laws import played_at
+from gasfilm.analysis.physics.laws import law_keys, played_at
 from gasfilm.analysis.physics.spec import RigSpec
 from gasfilm.analysis.spectra import usable_band_hz
 from gasfilm.analysis.session import Session, to_jsonable
@@ -181,7 +181,13 @@ class SessionController(QObject):
             conditions = parse_condition_table(setup.conditions)
             rig_spec = self.rig_spec(setup)
             if setup.device == SIMULATED_DEVICE_NAME:  # the simulated film follows the conditions (film laws)
+                inert = [key for key in conditions if key not in law_keys(rig_spec.film_laws or {})]
                 rig_spec, conditions, _missing = played_at(rig_spec, conditions)
+                if inert and not hit_check:
+                    self.message.emit(
+                        f"conditions {', '.join(inert)}: stored with the session, but the simulated rig's spec has no "
+                        f"film law for them, so its film is the same at any value (a rig spec with [film.laws] "
+                        f"follows them)", "info")
             else:
                 rig_spec = rig_spec.at_conditions(conditions)
             plan = AcquisitionPlan(
