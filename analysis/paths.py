@@ -19,3 +19,11 @@ def missing_folder(folder: Path) -> str:
     if blocker is None:
         return f"the folder {folder} does not exist"
     return f"{blocker} is a file, not a folder" if blocker.is_file() else f"{blocker} is not a folder"
+
+
+def results_folder(source: Path, what: str) -> Path:
+    """Where a command writes the files of its ``what`` ("fit", "diagnosis") of ``source`` when not told: a folder
+    beside the input named after it, ``NAME-fit/`` or ``NAME-diagnosis/`` (the one rule of every command and the
+    GUI, issue 32): two recordings' results never meet, and an existing file there is replaced only when asked."""
+    source = Path(source)
+    return source.with_name(f"{source.stem}-{what}")

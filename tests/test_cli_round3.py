@@ -86,3 +86,20 @@ def test_conditions_the_simulated_rig_cannot_follow_are_said_and_each_run_draws_
                                "--seed", runs["0.4"][1], "--condition", "supply_pressure_mpa=0.4")
     with Session.open(tmp_path / "again.h5", "r") as session:
         np.testing.assert_array_equal(session.hits()[0].data, runs["0.4"][0])
+
+
+def test_fit_and_diagnose_write_beside_their_input_in_a_folder_named_after_it(session_path, tmp_path, capsys):
+    """Issue 32 item 8: fit wrote its figures beside its input, diagnose into ./out/diagnosis/NAME/, the GUI into
+    SESSION-diagnosis/: one rule now, NAME-fit/ and NAME-diagnosis/ beside the input (the GUI's too)."""
+    import shutil
+
+    source = tmp_path / "rig.h5"
+    shutil.copy(session_path, source)
+    status, out, err = gasfilm(capsys, "fit", source, "--models", "SD")
+    assert status == 0, err
+    assert (tmp_path / "rig-fit" / "rig-figure18.png").is_file() and not (tmp_path / "rig-figure18.png").exists()
+    status, out, err = gasfilm(capsys, "diagnose", source)
+    assert status == 0, err
+    assert (tmp_path / "rig-diagnosis" / "improved-rig.toml").is_file() and not (tmp_path / "out").exists()
+    status, out, err = gasfilm(capsys, "fit", source, "--models", "SD")  # an existing figure: asked for
+    assert status == 2 and "exists already (add --overwrite" in err

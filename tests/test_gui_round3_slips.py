@@ -140,3 +140,20 @@ def test_the_banner_and_the_diagnose_tab_give_one_time_for_the_diagnosis(qtbot, 
     banner = next(text for _, text in reversed(window.banner.history) if text.startswith("diagnosis finished"))
     said = re.search(r"finished in ([0-9.]+) s", banner).group(1)
     assert window.diagnose_tab.summary.text().endswith(f"hits, {said} s")
+
+
+def test_the_gui_diagnosis_writes_where_the_command_does_and_asks_before_replacing(qtbot, window, tmp_path):
+    from gasfilm.app.cli import main
+    from test_cli_acquire_replay import FAST_SIM
+
+    path = tmp_path / "run.h5"
+    assert main(["acquire", *FAST_SIM, "--out", str(path), "--hits", "3"]) == 0
+    assert main(["diagnose", str(path)]) == 0
+    earlier = (tmp_path / "run-diagnosis" / "improved-rig.toml").read_text()
+    controller = window.controller
+    controller.open_session(path)
+    asked = []
+    controller.run_diagnosis(None, lambda folder, names: asked.append((folder, names)) or False)
+    assert asked and asked[0][0] == tmp_path / "run-diagnosis" and "improved-rig.toml" in asked[0][1]
+    assert not controller.job_active("diagnose") and "are kept" in window.banner.history[-1][1]
+    assert (tmp_path / "run-diagnosis" / "improved-rig.toml").read_text() == earlier

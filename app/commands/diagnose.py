@@ -14,12 +14,9 @@ import sys
 import time
 from pathlib import Path
 
+from gasfilm.analysis.paths import results_folder
 from gasfilm.app.commands.common import check_inputs, check_output_folder
 from gasfilm.drivers.errors import GasfilmError, SettingError
-
-#: Where a diagnosis's files go without --out: a folder per recording below it.
-DEFAULT_OUT_ROOT = Path("out/diagnosis")
-
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     parser = subparsers.add_parser(
@@ -35,8 +32,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--band", help="analysis band LO:HI in Hz (default: where the hammer excites, ≤ 0.4 fs)")
     parser.add_argument("--json", action="store_true", help="print one JSON object instead of the report")
     parser.add_argument("--out", type=Path,
-                        help="folder for the improved spec and the figures (default out/diagnosis/NAME, NAME the "
-                             "recording's file name without its suffix)")
+                        help="folder for the improved spec and the figures (default NAME-diagnosis/ beside the "
+                             "input, NAME its file name without the suffix)")
     parser.add_argument("--overwrite", action="store_true",
                         help="replace an improved spec or figures in --out (and remove an earlier run's figure this "
                              "run does not draw)")
@@ -69,7 +66,7 @@ def run(args: argparse.Namespace) -> int:
     spec = RigSpec.load(args.rig) if args.rig else None
     typed = args.out is not None
     if not typed:  # each recording's own folder: a second session's diagnosis never meets the first one's files
-        args.out = DEFAULT_OUT_ROOT / args.source[0].stem
+        args.out = results_folder(args.source[0], "diagnosis")
     made = not args.out.exists()
     try:
         check_output_folder(args.out, "--out" if typed else "", OUTPUT_FILES, args.overwrite)

@@ -16,6 +16,7 @@ import sys
 from pathlib import Path
 from typing import Any, Callable
 
+from gasfilm.analysis.paths import results_folder
 from gasfilm.app.commands.common import (UNITS, accelerance_text, add_units_flag, check_inputs,
                                          check_output_folder, is_terminal,
                                          load_frf_and_hits, source_conditions)
@@ -41,7 +42,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--seed", type=int, default=0, help="seed of the fitters' random starts")
     parser.add_argument("--json", action="store_true", help="print one JSON object instead of the tables")
     add_units_flag(parser)
-    parser.add_argument("--out", type=Path, help="folder for the figures (default: next to the input)")
+    parser.add_argument("--out", type=Path, help="folder for the figures (default NAME-fit/ beside the input, NAME "
+                                                 "its file name without the suffix)")
     parser.add_argument("--overwrite", action="store_true",
                         help="replace figures that exist already, and a session's stored fit made with other "
                              "settings (band, mass, --fit-mass, method, FRF)")
@@ -159,7 +161,7 @@ def run(args: argparse.Namespace) -> int:
     if args.mass is not None and not args.mass > 0:
         raise SettingError(f"--mass {args.mass}: must be a positive mass in kg")
     check_inputs(args.source)  # the inputs before the outputs
-    out = args.out if args.out is not None else args.source[0].parent
+    out = args.out if args.out is not None else results_folder(args.source[0], "fit")
     stem = args.source[0].stem
     figure_paths = check_output_folder(out, "--out" if args.out is not None else "",
                                        (f"{stem}-figure18.png", f"{stem}-figure19.png"), args.overwrite)

@@ -22,6 +22,8 @@ from gasfilm.analysis.acquisition import AcquisitionLoop
 from gasfilm.analysis.capture import TriggerSettings
 from gasfilm.analysis.conditions import decode_conditions, parse_condition_table
 from gasfilm.analysis.diagnosis import load_recordings
+from gasfilm.analysis.diagnosis.plots import OUTPUT_FILES
+from gasfilm.analysis.paths import results_folder
 from gasfilm.analysis.fit_settings import FitSettings, conflicting_fits
 from gasfilm.analysis.identification import DEFAULT_FIT_BAND_HZ, best_by_bic, compare_models
 from gasfilm.analysis.physics.elements import get_model
@@ -648,8 +650,11 @@ class SessionController(QObject):
 
     # --- diagnosis -----------------------------------------------------------------------------------------------------
 
-    def run_diagnosis(self, reference_spec_path: str | Path | None = None) -> None:
-        """Diagnose the session's accepted hits against ``reference_spec_path`` (default: the session's own spec)."""
+    def run_diagnosis(self, reference_spec_path: str | Path | None = None,
+                      replace_outputs: Any = lambda folder, names: True) -> None:
+        """Diagnose the session's accepted hits against ``reference_spec_path`` (default: the session's own spec);
+        its files go into ``SESSION-diagnosis/`` as ``gasfilm diagnose`` writes them, and an earlier diagnosis's
+        files there are replaced only when ``replace_outputs(folder, names)`` says so (the tab asks)."""
         if self.acquiring:
             self.message.emit(f"{STOP_FIRST} before running the diagnosis: hits are still arriving", "warning")
             return
@@ -663,7 +668,12 @@ class SessionController(QObject):
         except GasfilmError as error:
             self.message.emit(f"diagnose: {error}", "error")
             return
-        out_dir = self.session_path.with_name(f"{self.session_path.stem}-diagnosis")
+        out_dir = results_folder(self.session_path, "diagnosis")  # where `gasfilm diagnose` writes it too
+        earlier = [name for name in OUTPUT_FILES if (out_dir / name).exists()]
+        if earlier and not replace_outputs(out_dir, earlier):
+            self.message.emit(f"diagnose: the earlier diagnosis's files in {out_dir} are kept; nothing was run",
+                              "info")
+            return
         try:
             recordings = load_recordings(self.session_path)  # here, not on the job's thread: one file user at a time
         except GasfilmError as error:
@@ -696,7 +706,7 @@ class SessionController(QObject):
         found = f"{count} finding{'s' if count != 1 else ''}" if count else "no finding"
         self.message.emit(
             f"diagnosis finished in {self._diagnosis_wait_s:.1f} s: verdict {diagnosis.verdict}, {found}; "
-            f"figures and improved spec in {self.session_path.stem}-diagnosis/ (Diagnose tab)",
+            f"figures and improved spec in {results_folder(self.session_path, 'diagnosis').name}/ (Diagnose tab)",
             "info",
         )
 

@@ -3,11 +3,13 @@
 from __future__ import annotations
 
 import time
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 from PySide6.QtCore import Qt, QTimer
 from PySide6.QtWidgets import (
+    QMessageBox,
     QFileDialog,
     QGroupBox,
     QHBoxLayout,
@@ -143,7 +145,8 @@ class DiagnoseTab(QWidget):
         layout.addLayout(top)
         layout.addWidget(splitter, 1)
 
-        self.run_button.clicked.connect(lambda: controller.run_diagnosis(self.reference_path.text().strip() or None))
+        self.run_button.clicked.connect(lambda: controller.run_diagnosis(self.reference_path.text().strip() or None,
+                                                                         self.confirm_replace))
         self.cancel_button.clicked.connect(lambda: controller.cancel_job("diagnose"))
         self.export_button.clicked.connect(self._export)
         self.play_button.clicked.connect(controller.play_improved_spec)
@@ -152,6 +155,15 @@ class DiagnoseTab(QWidget):
         controller.job_progress.connect(self._on_progress)
         controller.diagnosis_changed.connect(self.show_diagnosis)
         controller.stored_diagnosis_loaded.connect(self.show_stored_diagnosis)
+
+    def confirm_replace(self, folder: Path, names: list[str]) -> bool:
+        """Ask before replacing an earlier diagnosis's files (``gasfilm diagnose`` refuses without --overwrite)."""
+        answer = QMessageBox.question(
+            self, "Replace the earlier diagnosis's files?",
+            f"{folder} holds an earlier diagnosis's files ({', '.join(names)}); the runs themselves stay in the "
+            f"session.\n\nReplace the files with this run's?",
+            QMessageBox.StandardButton.Yes | QMessageBox.StandardButton.No, QMessageBox.StandardButton.No)
+        return answer == QMessageBox.StandardButton.Yes
 
     def _choose_reference(self) -> None:
         start = self.reference_path.text() or str(self.controller.session_path.parent if self.controller.session_path
