@@ -103,3 +103,27 @@ def test_fit_and_diagnose_write_beside_their_input_in_a_folder_named_after_it(se
     assert (tmp_path / "rig-diagnosis" / "improved-rig.toml").is_file() and not (tmp_path / "out").exists()
     status, out, err = gasfilm(capsys, "fit", source, "--models", "SD")  # an existing figure: asked for
     assert status == 2 and "exists already (add --overwrite" in err
+
+
+def test_model_takes_the_lowest_bic_fit_and_a_second_format_has_its_own_figures(session_path, tmp_path, capsys):
+    """Issue 32 item 9: `model S.h5 --out x.json` needed --model although several fits were stored, and x.json after
+    x.mat was refused for x.mat's figure x-error.png."""
+    import shutil
+
+    from gasfilm.analysis.identification import FitResult, best_by_bic, compare_models
+
+    source = tmp_path / "fits.h5"
+    shutil.copy(session_path, source)
+    assert gasfilm(capsys, "fit", source, "--models", "SD,Zener", "--out", tmp_path / "f")[0] == 0
+    with Session.open(source, "r") as session:
+        fits = [FitResult.from_dict(session.read_fit(name)) for name in session.result_names("fits")]
+        frf = session.read_frf()
+    band = (frf.freq_hz >= fits[0].band_hz[0]) & (frf.freq_hz <= fits[0].band_hz[1])
+    best = best_by_bic(compare_models(fits, frf.freq_hz[band], frf.h1[band])).model_name
+    status, out, err = gasfilm(capsys, "model", source, "--out", tmp_path / "x.mat", "--json")
+    assert status == 0, err
+    assert f"--model not given: {best}, the lowest BIC of the 2 fits" in err
+    assert json.loads(out)["figures"][0] == str(tmp_path / "x.mat-error.png")
+    status, out, err = gasfilm(capsys, "model", source, "--out", tmp_path / "x.json")
+    assert status == 0, err
+    assert (tmp_path / "x.json-error.png").is_file() and (tmp_path / "x.mat-error.png").is_file()
