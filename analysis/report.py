@@ -93,8 +93,9 @@ def _device_from_settings(settings: Any) -> str:
     return ""
 
 
-def read_report_data(path: str | Path) -> ReportData:
-    """Everything the report needs from ``path`` (read only)."""
+def read_report_data(path: str | Path, frf_name: str | None = None) -> ReportData:
+    """Everything the report needs from ``path`` (read only); ``frf_name``: which stored FRF (default "frf", or the
+    only one)."""
     from gasfilm.analysis.identification import FitResult, compare_models
 
     path = Path(path)
@@ -131,8 +132,17 @@ def read_report_data(path: str | Path) -> ReportData:
             }
             for hit, record in zip(stored, records)
         ]
-        if "frf" in session.result_names("frf"):
-            frf, source = session.read_frf(), "stored in the session"
+        stored_frfs = session.result_names("frf")
+        chosen = frf_name or ("frf" if "frf" in stored_frfs else stored_frfs[0] if len(stored_frfs) == 1 else None)
+        if frf_name is not None and frf_name not in stored_frfs:
+            raise SettingError(f"--frf {frf_name}: {path} holds no such FRF (it holds "
+                               f"{', '.join(stored_frfs) or 'none'})")
+        if chosen is not None:
+            others = [name for name in stored_frfs if name != chosen]
+            frf = session.read_frf(chosen)
+            source = f"FRF '{chosen}' stored in the session" + (
+                f" (it also holds {', '.join(repr(name) for name in others)}: gasfilm report --frf NAME shows another)"
+                if others else "")
         else:
             accepted = [record for hit, record in zip(stored, records) if hit.verdict.accepted]
             window = session.settings_as("window", WindowSettings)
@@ -693,14 +703,14 @@ def check_report_path(out: str | Path, overwrite: bool, flag: str = "--out") -> 
 
 def write_report(
     session_path: str | Path, out: str | Path, overwrite: bool = False, drop_db: float = USABLE_DROP_DB,
-    paper: str | None = None,
+    paper: str | None = None, frf_name: str | None = None,
 ) -> Path:
     """Write the report of ``session_path`` to ``out`` (.html or .pdf, the PDF on ``paper``: "a4" or "letter",
     default :func:`default_paper`); never replace a file unless ``overwrite`` (then atomically, replacing a symlink
     itself, not its target)."""
     out = check_report_path(out, overwrite)
     paper = paper or default_paper()
-    data = read_report_data(session_path)
+    data = read_report_data(session_path, frf_name)
     if out.suffix.lower() == ".pdf":
         content = _report_pdf(data, drop_db, paper)
     else:

@@ -127,3 +127,23 @@ def test_model_takes_the_lowest_bic_fit_and_a_second_format_has_its_own_figures(
     status, out, err = gasfilm(capsys, "model", source, "--out", tmp_path / "x.json")
     assert status == 0, err
     assert (tmp_path / "x.json-error.png").is_file() and (tmp_path / "x.mat-error.png").is_file()
+
+
+def test_the_replayed_frf_is_named_by_every_command_that_could_take_it(session_path, tmp_path, capsys):
+    """Issue 32 item 10: replay stores its FRF as 'replay', fit, export and report kept using 'frf' without a word,
+    and report had no --frf."""
+    import shutil
+
+    source = tmp_path / "replayed.h5"
+    shutil.copy(session_path, source)
+    status, out, err = gasfilm(capsys, "replay", source, "--exp-end", "0.1")
+    assert status == 0 and "take it with --frf replay" in out, (out, err)
+    status, out, err = gasfilm(capsys, "export", source, "--csv", tmp_path / "x.csv")
+    assert "holds 2 FRFs: this is 'frf' (--frf replay takes that)" in err
+    status, out, err = gasfilm(capsys, "fit", source, "--models", "SD", "--out", tmp_path / "f")
+    assert status == 0 and "holds 2 FRFs: this is 'frf'" in err
+    status, out, err = gasfilm(capsys, "report", source, "--out", tmp_path / "r.html", "--frf", "replay")
+    assert status == 0, err
+    assert "FRF 'replay' stored in the session (it also holds 'frf'" in (tmp_path / "r.html").read_text(encoding="utf-8")
+    status, out, err = gasfilm(capsys, "report", source, "--out", tmp_path / "s.html", "--frf", "nosuch")
+    assert status == 2 and "--frf nosuch" in err and "holds no such FRF (it holds frf, replay)" in err

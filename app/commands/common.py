@@ -252,6 +252,7 @@ class LoadedFrf:
     rig_spec_toml: str | None
     hits: list = dataclasses.field(default_factory=list)
     name: str = ""
+    note: str = ""  # which stored FRF was taken when the session holds others too
 
 
 def load_frf(paths: list[Path], name: str | None = None) -> tuple[Any, str, str | None]:
@@ -281,6 +282,10 @@ def load_frf_and_hits(paths: list[Path], name: str | None = None, with_hits: boo
                 chosen = "frf" if "frf" in stored else stored[0]
             elif chosen is None and len(stored) > 1:
                 raise SettingError(f"--frf: {session.path} holds several FRFs ({', '.join(stored)}); choose one")
+            others = [other for other in stored if other != chosen]
+            note = (f"{session.path} holds {len(stored)} FRFs: this is '{chosen}' (--frf "
+                    f"{' or --frf '.join(others)} takes {'that' if len(others) == 1 else 'another'})"
+                    if name is None and chosen is not None and others else "")
             if chosen is not None:
                 frf = session.read_frf(chosen)
                 hits = []
@@ -289,7 +294,7 @@ def load_frf_and_hits(paths: list[Path], name: str | None = None, with_hits: boo
                     every = session.hits()
                     hits = ([every[i] for i in indices if 0 <= i < len(every)] if indices is not None
                             else [hit for hit in every if hit.verdict.accepted])
-                return LoadedFrf(frf, f"FRF '{chosen}'", session.rig_spec_toml, hits, chosen)
+                return LoadedFrf(frf, f"FRF '{chosen}'", session.rig_spec_toml, hits, chosen, note)
             hits = [hit for hit in session.hits() if hit.verdict.accepted]
             if not hits:
                 raise SessionError(f"{session.path}: no stored FRF and no accepted hits to average")

@@ -10,6 +10,7 @@ file is replaced only with ``--overwrite``.
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 
 from gasfilm.app.commands.common import (ESTIMATOR_NAMES, add_estimator_flag, check_inputs, check_output_file,
@@ -52,6 +53,8 @@ def run(args: argparse.Namespace) -> int:
     with_hits = args.uff is not None and args.time_records is not False
     loaded = load_frf_and_hits(args.source, args.frf, with_hits=with_hits)
     frf = loaded.frf
+    if loaded.note:
+        print(f"note: {loaded.note}", file=sys.stderr)
     conditions = source_conditions(args.source)
     estimator = ESTIMATOR_NAMES[args.estimator]
     if args.uff is not None:

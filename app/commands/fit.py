@@ -169,6 +169,8 @@ def run(args: argparse.Namespace) -> int:
 
     loaded = load_frf_and_hits(args.source, args.frf)
     frf, what, rig_spec_toml = loaded.frf, loaded.what, loaded.rig_spec_toml
+    if loaded.note:
+        logger.warning(loaded.note)
     conditions = source_conditions(args.source)
     low, high = parse_band(args.band, frf.sample_rate_hz)
     band_note = None

@@ -317,7 +317,8 @@ def run(args: argparse.Namespace) -> int:
             session.update_settings({"replay": settings})
         written = (f"FRF group 'replay' in {source.path}"
                    + (" (replacing the earlier replay's; --out S.h5 keeps a replay as a session of its own)"
-                      if replaced else ""))
+                      if replaced else "")
+                   + "; fit, export and report take it with --frf replay (without it: the stored 'frf')")
     elif frf is not None:
         written = "printed only (add --out SESSION.h5 to keep it as a session)"
     else:
