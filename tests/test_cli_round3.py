@@ -147,3 +147,20 @@ def test_the_replayed_frf_is_named_by_every_command_that_could_take_it(session_p
     assert "FRF 'replay' stored in the session (it also holds 'frf'" in (tmp_path / "r.html").read_text(encoding="utf-8")
     status, out, err = gasfilm(capsys, "report", source, "--out", tmp_path / "s.html", "--frf", "nosuch")
     assert status == 2 and "--frf nosuch" in err and "holds no such FRF (it holds frf, replay)" in err
+
+
+def test_a_uff_export_carries_the_sessions_conditions_through_replay_fit_and_diagnose(session_path, tmp_path, capsys):
+    """Issue 32 item 11: a UFF export and its replay said "conditions: not recorded"."""
+    uff = tmp_path / "run.uff"
+    assert gasfilm(capsys, "export", session_path, "--uff", uff)[0] == 0
+    status, out, err = gasfilm(capsys, "replay", uff, "--out", tmp_path / "again.h5")
+    assert status == 0 and "conditions: supply_pressure_mpa = 0.4 MPa" in out, (out, err)
+    with Session.open(tmp_path / "again.h5", "r") as session:
+        assert session.settings["conditions"] == {"supply_pressure_mpa": 0.4}
+    status, out, err = gasfilm(capsys, "fit", uff, "--models", "SD", "--out", tmp_path / "f")
+    assert "conditions: supply_pressure_mpa = 0.4 MPa" in out
+    # the line holds what fits its 80 characters, and says what it leaves out
+    from gasfilm.analysis.uff import conditions_line
+
+    line = conditions_line({f"label_{n}": "x" * 12 for n in range(6)})
+    assert len(line) <= 80 and line.startswith("conditions: label_0=xxxxxxxxxxxx; label_1=")

@@ -230,11 +230,16 @@ def is_terminal(stream: Any = None) -> bool:
 
 
 def source_conditions(paths: list[Path]) -> dict[str, Any]:
-    """The operating conditions stored in a session (``{}`` for UFF or .npy records, which carry none)."""
+    """The operating conditions stored in a session, or written into a UFF file by a gasfilm export (``{}`` for .npy
+    records and other programs' files, which carry none)."""
     from gasfilm.analysis.conditions import decode_conditions
     from gasfilm.analysis.session import Session
-    from gasfilm.analysis.sources import is_time_record_file
+    from gasfilm.analysis.sources import UFF_SUFFIXES, is_time_record_file
 
+    if len(paths) == 1 and paths[0].suffix.lower() in UFF_SUFFIXES:
+        from gasfilm.analysis.uff import read_uff_conditions
+
+        return read_uff_conditions(paths[0])
     if len(paths) != 1 or is_time_record_file(paths[0]):
         return {}
     with Session.open(paths[0], "r") as session:

@@ -40,7 +40,6 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from gasfilm.analysis.conditions import format_conditions
     from gasfilm.analysis.spectra import write_frf_csv
     from gasfilm.analysis.uff import export_frf_uff
 
@@ -68,7 +67,7 @@ def run(args: argparse.Namespace) -> int:
                                f"({estimator} needs them; an FRF read from a file has H1 only)")
         export_frf_uff(dataclasses.replace(frf, h1=np.nan_to_num(chosen)), args.uff, tuple(args.response_dof),
                        tuple(args.reference_dof), description=f"gasfilm {args.source[0].name}", hits=loaded.hits,
-                       conditions=format_conditions(conditions) if conditions else "", estimator=estimator)
+                       conditions=conditions, estimator=estimator)
     else:
         write_frf_csv(frf, args.csv, conditions)
     records = f", with the time records of {len(loaded.hits)} hits" if loaded.hits else ""

@@ -941,12 +941,15 @@ class SessionController(QObject):
 
     def export_csv(self, path: str | Path) -> Path:
         """The FRF as CSV: frequency, H1 (real, imaginary, magnitude in (m/s²)/N and g/N, phase), H2, coherence."""
-        return write_frf_csv(self._require_frf(), path)
+        conditions = decode_conditions(self.session.settings, str(self.session_path)) if self.session else {}
+        return write_frf_csv(self._require_frf(), path, conditions)
 
     def export_uff(self, path: str | Path) -> Path:
         frf = self._require_frf()
         path = Path(path)
-        export_frf_uff(frf, path)
+        conditions = decode_conditions(self.session.settings, str(self.session_path)) if self.session else {}
+        export_frf_uff(frf, path, conditions=conditions, description=f"gasfilm {path.stem}",
+                       hits=[entry.record for entry in self.hits if entry.accepted])
         return path
 
     def _require_frf(self) -> FrfResult:
