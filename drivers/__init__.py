@@ -22,7 +22,7 @@ def open_device(name: str | None = None, **options: Any) -> DaqDevice:
     Without a name, the ``GASFILM_DEVICE`` environment variable is used, then ``"sim"``.
     """
     name = name or os.environ.get("GASFILM_DEVICE", SIMULATED_DEVICE_NAME)
-    if name == SIMULATED_DEVICE_NAME:
+    if name.strip().lower() == SIMULATED_DEVICE_NAME:  # "SIM" too: never taken for an NI device
         from gasfilm.drivers.simulated import SimulatedNI9234
 
         return SimulatedNI9234(**options)

@@ -164,3 +164,70 @@ def test_a_uff_export_carries_the_sessions_conditions_through_replay_fit_and_dia
 
     line = conditions_line({f"label_{n}": "x" * 12 for n in range(6)})
     assert len(line) <= 80 and line.startswith("conditions: label_0=xxxxxxxxxxxx; label_1=")
+
+
+def test_ctrl_c_after_one_hit_says_one_hit_and_sim_in_capitals_is_the_simulator(tmp_path, capsys):
+    """Issue 32 item 15: "closed with 1 accepted hits"; --device SIM was taken for an NI device name."""
+    import signal
+    import subprocess
+    import sys
+
+    status, out, err = gasfilm(capsys, "acquire", "--device", "SIM", "--pacing", "fast", "--rate", 6400,
+                               "--record-s", 0.25, "--hit-interval", 0.3, 0.45, "--out", tmp_path / "upper.h5",
+                               "--hits", 1)
+    assert status == 0 and "from sim at 6400 S/s" in out, (out, err)
+    process = subprocess.Popen([sys.executable, "-m", "gasfilm.app.cli", "acquire", "--device", "sim", "--rate",
+                                "6400", "--record-s", "0.25", "--hit-interval", "4", "5", "--hits", "10", "--out",
+                                str(tmp_path / "one.h5")], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    lines = []
+    for line in process.stdout:
+        lines.append(line)
+        if line.startswith("accepted hit 1"):
+            process.send_signal(signal.SIGINT)
+            break
+    out = "".join(lines) + process.stdout.read()
+    process.wait(60)
+    assert "closed with 1 accepted hit\n" in out, out
+
+
+def test_a_campaign_says_what_fit_warns_and_keeps_dasks_port_warning_to_itself(tmp_path, capsys):
+    """Issue 32 item 15: a campaign of a measured structure named "best SD" without fit's "not a mass on a film"
+    warning, and dask's "Port 8787 is already in use" reached the user."""
+    import socket
+
+    from test_cli_files import REAL_FILES, REAL_WINDOW
+
+    folder = tmp_path / "sessions"
+    folder.mkdir()
+    assert gasfilm(capsys, "replay", *REAL_FILES, *REAL_WINDOW, "--out", folder / "real.h5",
+                   "--condition", "bearing=pyFRF beam")[0] == 0
+    holder = socket.socket()
+    try:
+        holder.bind(("127.0.0.1", 8787))
+        holder.listen()
+    except OSError:
+        pass  # held already: the case itself
+    try:
+        status, out, err = gasfilm(capsys, "campaign", folder, "--by", "bearing", "--out", tmp_path / "c",
+                                   "--models", "SD", "--no-diagnosis", "--workers", 1)
+    finally:
+        holder.close()
+    assert status == 0, err
+    assert "8787" not in err and "already in use" not in err, err
+    assert "best SD" in out and "not a mass on a gas film" in out, out
+    assert "not a mass on a gas film" in (tmp_path / "c" / "campaign.html").read_text(encoding="utf-8")
+
+
+def test_the_run_script_drops_setuptools_editable_banner_and_keeps_errors(tmp_path):
+    """Issue 32 item 15: `./run` showed setuptools' "Editable installation … same name" banner."""
+    import re
+    import subprocess
+    from pathlib import Path
+
+    script = (Path(__file__).resolve().parents[1] / "run").read_text(encoding="utf-8")
+    program = re.search(r"awk '(.*?)'\)", script, flags=re.S).group(1)
+    banner = ("  /tmp/x/editable_wheel.py:354: BuildBackendWarning: Editable installation.\n  !!\n  *****\n"
+              "  Please be careful with folders in your working directory with the same\n  !!\n"
+              "    with strategy, WheelFile(wheel_path, \"w\") as wheel_obj:\nERROR: something real\n")
+    result = subprocess.run(["awk", program], input=banner, capture_output=True, text=True, check=True)
+    assert result.stderr == "ERROR: something real\n" and result.stdout == ""

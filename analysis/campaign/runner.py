@@ -164,7 +164,7 @@ def dask_client(workers: int | None, scheduler: str | None) -> Iterator[Any]:
     worker_config = dask.config.merge(dask.config.config,
                                       dask.config.collect(paths=[str(WORKER_CONFIG_PATH)], env={}))
     with dask.config.set(worker_config), \
-            LocalCluster(n_workers=count, threads_per_worker=1, processes=True, dashboard_address=None,
+            LocalCluster(n_workers=count, threads_per_worker=1, processes=True, dashboard_address=":0",
                          silence_logs=logging.ERROR) as cluster, Client(cluster) as client:
         yield client
 

@@ -17,8 +17,8 @@ import time
 from pathlib import Path
 from typing import Any, Iterator
 
-from gasfilm.app.commands.common import (check_force_window_length, check_output_file, check_session_path, hit_line,
-                                         is_terminal, positive_flag, settings_from_flags, window_value)
+from gasfilm.app.commands.common import (check_force_window_length, check_output_file, check_session_path, device_name,
+                                         hit_line, is_terminal, positive_flag, settings_from_flags, window_value)
 from gasfilm.drivers.errors import DeviceError, SettingError
 
 logger = logging.getLogger(__name__)
@@ -42,7 +42,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         description="Record hammer hits into an HDF5 session: every hit (accepted or rejected) is stored as soon as "
         "it is complete. Stops after --hits accepted hits, after --seconds of signal, or on Ctrl-C.",
     )
-    parser.add_argument("--device", default=SIMULATED_DEVICE_NAME,
+    parser.add_argument("--device", default=SIMULATED_DEVICE_NAME, type=device_name,
                         help="'sim' (the default: the simulated rig) or an NI-DAQmx device name")
     parser.add_argument("--out", type=Path, required=True, help="session file to write (HDF5)")
     limit = parser.add_mutually_exclusive_group()
@@ -517,7 +517,8 @@ def _record_until_stopped(args: argparse.Namespace) -> int:
         _note_stream_end(session, stream_start_s + stream_s)
         session.close("aborted", how)
         logger.info("%s: %s, %d accepted hits kept", args.out, how, accepted)
-        print(f"{how}: session {args.out} closed with {accepted} accepted hits", flush=True)
+        print(f"{how}: session {args.out} closed with {accepted} accepted hit{'' if accepted == 1 else 's'}",
+              flush=True)
         return 128 + signum
     except BaseException as error:
         progress.done()

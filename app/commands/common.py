@@ -31,6 +31,13 @@ def add_units_flag(parser: Any) -> None:
                              "('si'); JSON keys name their unit and stay SI")
 
 
+def device_name(text: str) -> str:
+    """argparse type of ``--device``: "sim" in any case (``SIM``, ``Sim``) is the simulated rig, any other text an
+    NI-DAQmx device name as typed (NI's names are not case-sensitive either, but are kept as the user wrote them)."""
+    name = text.strip()
+    return "sim" if name.lower() == "sim" else name
+
+
 #: ``--estimator`` choices: the FrfResult attribute and the name printed.
 ESTIMATOR_NAMES = {"h1": "H1", "h2": "H2", "hv": "Hv"}
 

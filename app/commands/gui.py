@@ -9,12 +9,13 @@ import sys
 from pathlib import Path
 from typing import Mapping
 
+from gasfilm.app.commands.common import device_name
 from gasfilm.drivers.errors import SettingError
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     parser = subparsers.add_parser("gui", help="open the GUI (simulated rig or an NI 9234)")
-    parser.add_argument("--device", help="'sim' for the simulated rig or an NI-DAQmx device name (default: last used)")
+    parser.add_argument("--device", type=device_name, help="'sim' for the simulated rig or an NI-DAQmx device name (default: last used)")
     parser.add_argument("--session", type=Path, help="session file to open at start")
     parser.set_defaults(func=run)
 
