@@ -15,7 +15,6 @@ from dataclasses import dataclass, field
 from typing import Mapping, Sequence
 
 import numpy as np
-import scipy.signal
 
 from gasfilm.analysis.capture import MAX_RECORD_S, HitRecord, ImpactCapture
 from gasfilm.analysis.recording import HitEvent
@@ -102,6 +101,8 @@ def _envelope(signal: np.ndarray, block: int) -> np.ndarray:
     if signal.size < 2:
         return np.abs(signal) if signal.size else np.zeros(1)
     # zero-padded to twice its length: the transform's wrap-around would otherwise lift the record's end
+    import scipy.signal  # (on first use: the GUI's start does not wait for it)
+
     amplitude = np.abs(scipy.signal.hilbert(signal - np.mean(signal), 2 * signal.size)[: signal.size])
     usable = amplitude.size - amplitude.size % block
     if usable == 0:

@@ -30,7 +30,6 @@ from pathlib import Path
 from typing import Any, Iterable, Mapping, Sequence
 
 import numpy as np
-import scipy.signal
 
 from gasfilm.drivers.errors import SettingError
 from gasfilm.drivers.units import STANDARD_GRAVITY_M_S2
@@ -317,6 +316,48 @@ def readable_lines(frf: FrfResult, drop_db: float = USABLE_DROP_DB) -> np.ndarra
             & (np.nan_to_num(frf.coherence) >= READ_MIN_COHERENCE))
 
 
+def prominent_peaks(values: np.ndarray, min_prominence: float) -> np.ndarray:
+    """Indices of the local maxima of ``values`` whose topographic prominence is at least ``min_prominence``: what
+    ``scipy.signal.find_peaks(values, prominence=min_prominence)[0]`` returns (a flat top counts once, at its middle;
+    a maximum's prominence is its height above the higher of the lowest points on each side before a higher sample
+    or the edge), without importing ``scipy.signal`` and the ``scipy.stats`` it loads (a second of a command's
+    start-up)."""
+    x = np.asarray(values, dtype=float)
+    if x.size < 3:
+        return np.empty(0, dtype=np.intp)
+    # runs of equal samples; a run higher than both neighbouring runs, not at an edge, is a maximum (at its middle)
+    starts = np.concatenate(([0], np.flatnonzero(np.diff(x) != 0) + 1))
+    ends = np.concatenate((starts[1:] - 1, [x.size - 1]))
+    level = x[starts]
+    top = np.zeros(starts.size, bool)
+    top[1:-1] = (level[1:-1] > level[:-2]) & (level[1:-1] > level[2:])
+    peaks = (starts[top] + ends[top]) // 2
+    if peaks.size == 0:
+        return peaks.astype(np.intp)
+    # each sample's nearest strictly higher sample on the left and on the right (-1 and n where none)
+    higher_left = _nearest_higher(x)
+    higher_right = x.size - 1 - _nearest_higher(x[::-1])[::-1]
+    extended = np.append(x, np.inf)
+    left_low = np.minimum.reduceat(extended, np.ravel(np.column_stack((higher_left[peaks] + 1, peaks + 1))))[0::2]
+    right_low = np.minimum.reduceat(extended, np.ravel(np.column_stack((peaks, higher_right[peaks]))))[0::2]
+    prominence = x[peaks] - np.maximum(left_low, right_low)
+    return peaks[prominence >= min_prominence].astype(np.intp)
+
+
+def _nearest_higher(x: np.ndarray) -> np.ndarray:
+    """For each sample, the index of the nearest sample on its left that is strictly higher (-1 where none)."""
+    found = [-1] * x.size
+    values = x.tolist()
+    stack: list[int] = []
+    for index, value in enumerate(values):
+        while stack and values[stack[-1]] <= value:
+            stack.pop()
+        if stack:
+            found[index] = stack[-1]
+        stack.append(index)
+    return np.array(found, dtype=np.intp)
+
+
 def resonance_lines(frf: FrfResult, drop_db: float = USABLE_DROP_DB) -> list[int]:
     """Line indices of the resonances of |H1| inside the readable band (:func:`readable_lines`), strongest first:
     local maxima standing :data:`RESONANCE_PROMINENCE` times above the lowest |H1| on either side down to the next
@@ -326,7 +367,7 @@ def resonance_lines(frf: FrfResult, drop_db: float = USABLE_DROP_DB) -> list[int
     if lines.size < 3:
         return []
     magnitude = np.abs(frf.h1[lines])
-    peaks, properties = scipy.signal.find_peaks(np.log(magnitude), prominence=np.log(RESONANCE_PROMINENCE))
+    peaks = prominent_peaks(np.log(magnitude), np.log(RESONANCE_PROMINENCE))
     # a peak must be one of the band's own: neighbours read on both sides (no gap of unreadable lines)
     peaks = [p for p in peaks if lines[p + 1] - lines[p] == 1 and lines[p] - lines[p - 1] == 1]
     return [int(lines[p]) for p in sorted(peaks, key=lambda p: -magnitude[p])]

@@ -95,13 +95,16 @@ def test_fit_and_diagnose_write_beside_their_input_in_a_folder_named_after_it(se
 
     source = tmp_path / "rig.h5"
     shutil.copy(session_path, source)
-    status, out, err = gasfilm(capsys, "fit", source, "--models", "SD")
+    status, out, err = gasfilm(capsys, "fit", source, "--models", "SD")  # figures only when asked (item 16)
+    assert status == 0 and f"figures: not drawn (--figures draws Figures 18 and 19 into {tmp_path / 'rig-fit'})" in out
+    assert not (tmp_path / "rig-fit").exists()
+    status, out, err = gasfilm(capsys, "fit", source, "--models", "SD", "--figures", "--overwrite")
     assert status == 0, err
     assert (tmp_path / "rig-fit" / "rig-figure18.png").is_file() and not (tmp_path / "rig-figure18.png").exists()
     status, out, err = gasfilm(capsys, "diagnose", source)
     assert status == 0, err
     assert (tmp_path / "rig-diagnosis" / "improved-rig.toml").is_file() and not (tmp_path / "out").exists()
-    status, out, err = gasfilm(capsys, "fit", source, "--models", "SD")  # an existing figure: asked for
+    status, out, err = gasfilm(capsys, "fit", source, "--models", "SD", "--figures")  # an existing figure: asked
     assert status == 2 and "exists already (add --overwrite" in err
 
 

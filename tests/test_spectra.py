@@ -362,3 +362,18 @@ def test_hv_lies_between_h1_and_h2_and_is_unbiased_when_force_and_response_are_e
     np.testing.assert_allclose(clean.hv[1:], clean.h1[1:], rtol=1e-9)
     # Hv is weighed in N and m/s² whatever unit the result is shown in
     np.testing.assert_allclose(frf.in_g_per_n().hv, frf.hv / STANDARD_GRAVITY_M_S2, rtol=1e-12)
+
+
+def test_prominent_peaks_are_scipys_find_peaks_with_prominence():
+    """Issue 32 item 16: the resonance search no longer imports scipy.signal (and the scipy.stats it loads) for
+    find_peaks; the same peaks, flat tops included."""
+    import scipy.signal
+
+    from gasfilm.analysis.spectra import prominent_peaks
+
+    rng = np.random.default_rng(0)
+    for _ in range(200):
+        values = np.round(rng.standard_normal(int(rng.integers(3, 300))).cumsum(), int(rng.integers(0, 3)))
+        prominence = float(rng.uniform(0, 2))
+        np.testing.assert_array_equal(prominent_peaks(values, prominence),
+                                      scipy.signal.find_peaks(values, prominence=prominence)[0])

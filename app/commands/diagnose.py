@@ -92,6 +92,7 @@ def run(args: argparse.Namespace) -> int:
         if args.overwrite:
             for stale in remove_stale_outputs(diagnosis, args.out):
                 progress(f"removed {stale}: an earlier run's, which this run does not write")
+        computed_s = diagnosis.wall_time_s  # the diagnosis itself, without loading and figures
         diagnosis.wall_time_s = time.monotonic() - started  # what the user waited: loading to figures written
     except BaseException:
         if made:  # a failed run leaves no empty folder behind
@@ -109,7 +110,8 @@ def run(args: argparse.Namespace) -> int:
         except GasfilmError as error:
             progress(f"diagnosis not stored in the session: {error}")
     if args.json:
-        print(json.dumps({**diagnosis.to_dict(), "options": options, "conditions": conditions}, indent=2))
+        print(json.dumps({**diagnosis.to_dict(), "options": options, "conditions": conditions,
+                          "diagnosis_s": computed_s}, indent=2))
     else:
         print(f"conditions: {format_conditions(conditions)}")
         print(report_text(diagnosis))

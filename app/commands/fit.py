@@ -42,8 +42,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--seed", type=int, default=0, help="seed of the fitters' random starts")
     parser.add_argument("--json", action="store_true", help="print one JSON object instead of the tables")
     add_units_flag(parser)
-    parser.add_argument("--out", type=Path, help="folder for the figures (default NAME-fit/ beside the input, NAME "
-                                                 "its file name without the suffix)")
+    parser.add_argument("--figures", action="store_true",
+                        help="draw Figures 18 and 19 (PNG) into NAME-fit/ beside the input, NAME its file name without "
+                             "the suffix (drawing them takes longer than the fits)")
+    parser.add_argument("--out", type=Path, help="folder for Figures 18 and 19 (implies --figures)")
     parser.add_argument("--overwrite", action="store_true",
                         help="replace figures that exist already, and a session's stored fit made with other "
                              "settings (band, mass, --fit-mass, method, FRF)")
@@ -147,7 +149,6 @@ def run(args: argparse.Namespace) -> int:
 
     import numpy as np
 
-    from gasfilm.analysis.figures import figure18, figure19
     from gasfilm.analysis.fit_settings import FitSettings
     from gasfilm.analysis.fit_warnings import mass_line_warning, not_explained_warning, other_resonances_hz
     from gasfilm.analysis.identification import METHODS, compare_models, fit_model, format_table2
@@ -161,10 +162,11 @@ def run(args: argparse.Namespace) -> int:
     if args.mass is not None and not args.mass > 0:
         raise SettingError(f"--mass {args.mass}: must be a positive mass in kg")
     check_inputs(args.source)  # the inputs before the outputs
+    draw = args.figures or args.out is not None  # figures when asked: matplotlib costs more than the fits
     out = args.out if args.out is not None else results_folder(args.source[0], "fit")
     stem = args.source[0].stem
     figure_paths = check_output_folder(out, "--out" if args.out is not None else "",
-                                       (f"{stem}-figure18.png", f"{stem}-figure19.png"), args.overwrite)
+                                       (f"{stem}-figure18.png", f"{stem}-figure19.png"), args.overwrite) if draw else []
     from gasfilm.analysis.conditions import format_conditions
 
     loaded = load_frf_and_hits(args.source, args.frf)
@@ -216,7 +218,11 @@ def run(args: argparse.Namespace) -> int:
     if not_explained:
         logger.warning(not_explained)
     rows = compare_models(fits, freq_hz, h)
-    figures = [figure18(figure_paths[0], freq_hz, h, fits), figure19(figure_paths[1], freq_hz, h, fits)]
+    figures = []
+    if draw:
+        from gasfilm.analysis.figures import figure18, figure19
+
+        figures = [figure18(figure_paths[0], freq_hz, h, fits), figure19(figure_paths[1], freq_hz, h, fits)]
     if args.json:
         print(json.dumps({
             "source": [str(path) for path in args.source],
@@ -247,5 +253,6 @@ def run(args: argparse.Namespace) -> int:
     for fit in fits:
         if fit.flags:
             print(f"{fit.model_name}: " + "; ".join(fit.flags))
-    print("\nfigures: " + ", ".join(str(path) for path in figures))
+    print("\nfigures: " + (", ".join(str(path) for path in figures) if figures else
+                            f"not drawn (--figures draws Figures 18 and 19 into {out})"))
     return 0
