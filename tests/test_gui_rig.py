@@ -78,7 +78,8 @@ def test_a_hit_check_records_nothing_and_its_proposal_is_applied_with_one_click(
         qtbot.waitUntil(lambda: len(controller.taps) == number + 1, timeout=10_000)
     proposal = controller.hit_check_proposal
     assert proposal is not None and proposal.taps == 3 and proposal.tip == "medium"
-    assert window.measure_tab.proposal_label.text() == proposal.text()
+    assert window.measure_tab.proposal_label.toPlainText() == proposal.text()
+    assert not window.measure_tab.hit_table.isVisible()  # the empty hit list gives its room to the taps
     assert len(window.measure_tab.tap_pulse_plot.getPlotItem().listDataItems()) == 3
     assert controller.hits == [] and controller.session is None  # nothing recorded ...
     assert not (tmp_path / "sessions").exists() or not any((tmp_path / "sessions").iterdir())  # ... nowhere

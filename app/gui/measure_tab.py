@@ -13,6 +13,7 @@ from PySide6.QtCore import Qt, QTimer, Signal
 from PySide6.QtGui import QAction, QColor, QKeySequence
 from PySide6.QtWidgets import (
     QAbstractItemView,
+    QPlainTextEdit,
     QCheckBox,
     QGroupBox,
     QHeaderView,
@@ -463,6 +464,10 @@ class MeasureTab(QWidget):
             text, color = "HIT CHECK — tap; nothing is recorded", "#6a3d9a"
         if self.controller.hit_checking and state == "starting":
             self.hit_views.setCurrentWidget(self.hit_check_page)
+        # during a hit check the (empty) hit list gives its room to the taps and the proposal
+        checking = self.controller.hit_checking
+        for widget in (self.hit_table, self.verdict_label, self.accept_button, self.reject_button):
+            widget.setVisible(not checking)
         self.state_label.setText(text)
         self.state_label.setStyleSheet(
             f"QLabel {{ color: white; background: {color}; border-radius: 4px; padding: 4px 10px; font-weight: 700; }}"
@@ -734,9 +739,8 @@ class MeasureTab(QWidget):
     # --- hit check ----------------------------------------------------------------------------------------------------
 
     def _make_hit_check_page(self) -> QWidget:
-        self.tap_pulse_plot = make_plot("Hit check: force pulses", ("Force", "N"), ("Time from trigger", "s"),
-                                        legend=False)
-        self.tap_spectrum_plot = make_plot("Hit check: force spectra", ("Force level", "dB re low f"), legend=False)
+        self.tap_pulse_plot = make_plot("Taps: force pulses", ("Force", "N"), ("Time from trigger", "s"), legend=False)
+        self.tap_spectrum_plot = make_plot("Taps: force spectra", ("Force level", "dB re low f"), legend=False)
         self.tap_spectrum_plot.getPlotItem().getAxis("left").enableAutoSIPrefix(False)
         self.tap_spectrum_plot.setYRange(-45, 5)
         self.tap_band = pg.LinearRegionItem(brush=pg.mkBrush(*BAND_BRUSH), movable=False)
@@ -745,10 +749,13 @@ class MeasureTab(QWidget):
         self.tap_drop_line = pg.InfiniteLine(pos=-self.controller.setup.usable_drop_db, angle=0,
                                              pen=pen(REJECTED_COLOR, 1.0, Qt.PenStyle.DashLine))
         self.tap_spectrum_plot.addItem(self.tap_drop_line, ignoreBounds=True)
-        self.proposal_label = FixedHeightLabel(
+        # the proposal in a read-only text box: every line readable (it scrolls), nothing cut at the view's edge
+        self.proposal_label = QPlainTextEdit(
             "Hit check: press Hit check (F4) and tap the structure a few times. Nothing is recorded; the taps "
-            "propose the trigger level, tip, windows and record length.", lines=8)
-        self.proposal_label.setTextFormat(Qt.TextFormat.PlainText)
+            "propose the trigger level, tip, windows and record length.")
+        self.proposal_label.setReadOnly(True)
+        self.proposal_label.setObjectName("hit_check_proposal")
+        self.proposal_label.setFixedHeight(9 * self.fontMetrics().lineSpacing() + 12)
         self.apply_proposal_button = QPushButton("Apply the proposal to Setup")
         self.apply_proposal_button.setObjectName("apply_hit_check")
         self.apply_proposal_button.setToolTip("Stop the hit check and set the trigger level, record length, windows "
@@ -785,12 +792,13 @@ class MeasureTab(QWidget):
         set_region_hz(self.tap_band, low, high, False)
         self.tap_drop_line.setValue(-self.controller.setup.usable_drop_db)
         if proposal is None:
-            self.proposal_label.setText("Hit check running: tap the structure a few times (nothing is recorded).")
+            self.proposal_label.setPlainText("Hit check running: tap the structure a few times (nothing is "
+                                             "recorded).")
             self.apply_proposal_button.setEnabled(False)
             return
-        self.proposal_label.setText(proposal.text())
+        self.proposal_label.setPlainText(proposal.text())
         self.apply_proposal_button.setEnabled(True)
-        self.tap_pulse_plot.setTitle(f"Hit check: force pulses of {len(taps)} tap{'s' if len(taps) != 1 else ''}")
+        self.tap_pulse_plot.setTitle(f"{len(taps)} tap{'s' if len(taps) != 1 else ''}: force pulses")
 
     # --- running FRF ------------------------------------------------------------------------------------------------
 
