@@ -220,17 +220,3 @@ def test_a_campaign_says_what_fit_warns_and_keeps_dasks_port_warning_to_itself(t
     assert "best SD" in out and "not a mass on a gas film" in out, out
     assert "not a mass on a gas film" in (tmp_path / "c" / "campaign.html").read_text(encoding="utf-8")
 
-
-def test_the_run_script_drops_setuptools_editable_banner_and_keeps_errors(tmp_path):
-    """Issue 32 item 15: `./run` showed setuptools' "Editable installation … same name" banner."""
-    import re
-    import subprocess
-    from pathlib import Path
-
-    script = (Path(__file__).resolve().parents[1] / "run").read_text(encoding="utf-8")
-    program = re.search(r"awk '(.*?)'\)", script, flags=re.S).group(1)
-    banner = ("  /tmp/x/editable_wheel.py:354: BuildBackendWarning: Editable installation.\n  !!\n  *****\n"
-              "  Please be careful with folders in your working directory with the same\n  !!\n"
-              "    with strategy, WheelFile(wheel_path, \"w\") as wheel_obj:\nERROR: something real\n")
-    result = subprocess.run(["awk", program], input=banner, capture_output=True, text=True, check=True)
-    assert result.stderr == "ERROR: something real\n" and result.stdout == ""

@@ -3,6 +3,11 @@
 import json
 import logging
 import math
+import os
+import platform
+import subprocess
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -88,15 +93,37 @@ def random_physical_frf(model, rng, points=240):
     raise AssertionError(f"no physical parameters found for {model.name}")
 
 
-@pytest.mark.parametrize("name", PAPER_MODEL_ORDER)
-def test_default_fitter_reaches_noise_free_frfs_in_20_of_20_seeds(name):
+def noise_free_relative_rms(name: str, seeds: range) -> list[float]:
+    """The default fitter's RMS over the peak |H| on noise-free FRFs of ``name`` (:func:`random_physical_frf`)."""
     model = PAPER_MODELS[name]
     relative_rms = []
-    for seed in range(20):
+    for seed in seeds:
         _, freq_hz, h = random_physical_frf(model, np.random.default_rng(1000 + seed))
         fit = fit_model(model, freq_hz, h, MASS_KG, seed=seed)
         relative_rms.append(fit.rms / np.max(np.abs(h)))
+    return relative_rms
+
+
+@pytest.mark.parametrize("name", PAPER_MODEL_ORDER)
+def test_default_fitter_reaches_noise_free_frfs_in_20_of_20_seeds(name):
+    relative_rms = noise_free_relative_rms(name, range(20))
+    # the global optimum is exact; 1e-6 leaves room for the flat valleys where a nearly unidentifiable arm stalls
     assert max(relative_rms) <= 1e-6, [f"{r:.2e}" for r in relative_rms]
+
+
+@pytest.mark.skipif(platform.machine() not in {"x86_64", "AMD64"}, reason="OpenBLAS kernel names are x86-64's")
+def test_default_fitter_reaches_noise_free_frfs_with_another_blas_kernel():
+    """The same fits with OpenBLAS forced to its AVX (Sandybridge) kernels, as on another CPU: the last bits of the
+    arithmetic differ, and one search round missed FOTGF's optimum on seed 3 there (3.8e-6) while finding it here."""
+    script = (
+        "import sys; sys.path.insert(0, sys.argv[1]); from test_identify import noise_free_relative_rms; "
+        "print(max(max(noise_free_relative_rms(name, range(20))) for name in ('FOMGF', 'FOTGF', 'FOBGF')))"
+    )
+    env = {**os.environ, "OPENBLAS_CORETYPE": "Sandybridge", "OPENBLAS_NUM_THREADS": "1"}
+    done = subprocess.run([sys.executable, "-c", script, str(Path(__file__).parent)], env=env, capture_output=True,
+                          text=True, timeout=300)
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert float(done.stdout.split()[-1]) <= 1e-6, done.stdout
 
 
 def rig_frf(seed, hits=4, sample_rate_hz=2560.0, record_s=2.0, band_hz=(20.0, 800.0)):

@@ -30,6 +30,10 @@ _LOG_START = math.log(1e3)
 _ORDER_START = (0.05, 1.95)
 #: local searches of the default fitter from the best distinct Latin-hypercube starts
 _LOCAL_SEARCHES = 8
+#: search rounds at most; a round whose best cost is within :data:`_ROUND_AGREEMENT` (relative: RMS 0.005 %) of the
+#: best so far agrees with the rounds before and ends the search
+_MAX_ROUNDS = 3
+_ROUND_AGREEMENT = 1e-4
 #: best local-search results polished on the accelerance
 _POLISHED = 4
 #: projected Latin-hypercube samples with the lowest accelerance residual that are polished as they are
@@ -579,10 +583,35 @@ def _distinct(thetas: np.ndarray, count: int) -> list[int]:
 
 
 def default_search(problem: Problem, seed: int, progress: Callable[[float], None] | None) -> np.ndarray:
-    """Latin-hypercube shapes → projected local searches (two weightings, in one batch) → branch splits → polish
-    on the accelerance."""
-    coords = problem.coords
+    """Rounds of :func:`_search_round`, each from a fresh Latin hypercube, until two rounds reach the same optimum
+    (their costs agree) or the data are fitted to round-off; the best point of all rounds.
+
+    One round finds the global optimum of a fractional network in about 19 cases out of 20; which ones it misses
+    depends on the last bits of the arithmetic (another BLAS kernel, another CPU), because the searches that reach the
+    narrow basins of nearly degenerate networks (a spring-pot of order near 0 beside a spring, a small series arm)
+    start from points whose ranking differs in those bits. A second round misses in other cases, so agreeing rounds
+    make the result the same on every machine."""
     rng = np.random.default_rng(seed)
+    exact = _EXACT_LOG_COST * float(np.sum(np.abs(problem.h) ** 2 * problem.sqrt_w**2))
+    best_theta, best_cost = None, np.inf
+    for round_index in range(_MAX_ROUNDS):
+        theta, cost = _search_round(problem, rng, progress if round_index == 0 else None)
+        agrees = round_index > 0 and abs(cost - best_cost) <= _ROUND_AGREEMENT * best_cost
+        if cost < best_cost:
+            best_theta, best_cost = theta, cost
+        if best_cost <= exact or agrees:
+            break
+    logger.debug("%s: %d search round(s), best weighted sum of squares %.4g", problem.model.name, round_index + 1,
+                 best_cost)
+    return best_theta
+
+
+def _search_round(
+    problem: Problem, rng: np.random.Generator, progress: Callable[[float], None] | None
+) -> tuple[np.ndarray, float]:
+    """Latin-hypercube shapes → projected local searches (two weightings, in one batch) → branch splits → polish
+    on the accelerance; the best point and its weighted sum of squares."""
+    coords = problem.coords
     index = _subsample(len(problem.freq_hz), 200)
     powers, searches = (1.0, 2.0), [_LOCAL_SEARCHES, _LOCAL_SEARCHES // 2]
     projection = Projection(problem, index, np.array([problem.log_weights(power) for power in powers]))
@@ -621,4 +650,4 @@ def default_search(problem: Problem, seed: int, progress: Callable[[float], None
         "%s: %d candidates polished on the accelerance, best weighted sum of squares %.4g",
         problem.model.name, len(candidates), best_cost,
     )
-    return best_theta
+    return best_theta, best_cost
