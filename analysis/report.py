@@ -567,8 +567,11 @@ def _test_html(test: Any) -> str:
     """Who tested what (``settings["test"]``), or that the session does not say."""
     test = test if isinstance(test, dict) else {}
     operator, test_object = str(test.get("operator") or ""), str(test.get("test_object") or "")
-    return (f"<p>Operator <b>{html.escape(operator or 'not recorded')}</b>; test object "
-            f"<b>{html.escape(test_object or 'not recorded')}</b>.</p>")
+    if not operator and not test_object:
+        return ("<p>Operator and test object: not given (the GUI's Setup tab, or gasfilm acquire --operator NAME "
+                "--test-object TEXT).</p>")
+    return (f"<p>Operator <b>{html.escape(operator or '—')}</b>; test object "
+            f"<b>{html.escape(test_object or '—')}</b>.</p>")
 
 
 #: The paper sizes a report is laid out on: ``--paper`` value → CSS page size.

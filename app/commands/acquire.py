@@ -253,17 +253,9 @@ def _check_same_conditions(path: Path, session: Any, conditions: dict) -> None:
 def rig_at_conditions(rig_spec: Any, conditions: dict, simulated: bool) -> tuple[Any, dict]:
     """The rig spec at the session's operating point and the conditions to store: on the simulator, a condition the
     spec's film laws need and ``--condition`` does not give is played (and stored) at the spec's reference value.
-    Conditions a simulated rig without film laws cannot follow are stored, and said so."""
-    from gasfilm.analysis.physics.laws import law_keys, played_at
+    (Conditions a simulated rig has no film law for are stored as given: :func:`_say_inert_conditions`.)"""
+    from gasfilm.analysis.physics.laws import played_at
 
-    if simulated and rig_spec is not None and conditions:
-        followed = law_keys(rig_spec.film_laws) if rig_spec.film_laws else set()
-        inert = [key for key in conditions if key not in followed]
-        if inert:
-            logger.warning("--condition %s: stored with the session, but the simulated rig's spec has no film law for "
-                           "%s, so its film is the same at any value (a rig spec with [film.laws] follows them: "
-                           "docs/campaigns.md; `gasfilm demo --campaign` shows one)", ", ".join(inert),
-                           "it" if len(inert) == 1 else "them")
     if rig_spec is None or not rig_spec.film_laws:
         return rig_spec, conditions
     if not simulated:
@@ -273,6 +265,20 @@ def rig_at_conditions(rig_spec: Any, conditions: dict, simulated: bool) -> tuple
         logger.warning("the rig spec's film laws are played at its reference %s (not given by --condition)",
                        ", ".join(f"{key} = {value:g}" for key, value in missing.items()))
     return played, conditions
+
+
+def _say_inert_conditions(rig_spec: Any, conditions: dict) -> None:
+    """Say which ``--condition`` keys the simulated rig's spec has no film law for: stored with the session, they do
+    not change the simulated film (two runs at two pressures give the same film)."""
+    from gasfilm.analysis.physics.laws import law_keys
+
+    followed = law_keys(rig_spec.film_laws) if rig_spec is not None and rig_spec.film_laws else []
+    inert = [key for key in conditions if key not in followed]
+    if inert:
+        logger.warning("--condition %s: stored with the session, but the simulated rig's spec has no film law for %s, "
+                       "so its film is the same at any value (a rig spec with [film.laws] follows them: "
+                       "docs/campaigns.md; `gasfilm demo --campaign` shows one)", ", ".join(inert),
+                       "it" if len(inert) == 1 else "them")
 
 
 def _fresh_seed() -> int:
@@ -448,6 +454,8 @@ def _record_until_stopped(args: argparse.Namespace) -> int:
         rate_hz = device.sample_rate_hz
         session = _open_session(args, config, rate_hz, device.name, rig_spec.to_toml() if rig_spec else None,
                                 settings)
+        if args.device == SIMULATED_DEVICE_NAME and args.condition:  # said once the run can start, not before a refusal
+            _say_inert_conditions(rig_spec, conditions)
         run, seed, stream_start_s = _continuation(session, args.seed) if args.append else (0, args.seed, 0.0)
         if args.append and run and args.device == SIMULATED_DEVICE_NAME:
             device = _open_device(args, rig_spec, seed)  # the appended run goes on, it does not repeat the first

@@ -52,8 +52,6 @@ def run(args: argparse.Namespace) -> int:
     with_hits = args.uff is not None and args.time_records is not False
     loaded = load_frf_and_hits(args.source, args.frf, with_hits=with_hits)
     frf = loaded.frf
-    if loaded.note:
-        print(f"note: {loaded.note}", file=sys.stderr)
     conditions = source_conditions(args.source)
     estimator = ESTIMATOR_NAMES[args.estimator]
     if args.uff is not None:
@@ -70,6 +68,8 @@ def run(args: argparse.Namespace) -> int:
                        conditions=conditions, estimator=estimator)
     else:
         write_frf_csv(frf, args.csv, conditions)
+    if loaded.note:  # (once written: a refused export is one line)
+        print(f"note: {loaded.note}", file=sys.stderr)
     records = f", with the time records of {len(loaded.hits)} hits" if loaded.hits else ""
     if with_hits and not loaded.hits:
         records = ", no time records (the source holds none)"

@@ -171,8 +171,6 @@ def run(args: argparse.Namespace) -> int:
 
     loaded = load_frf_and_hits(args.source, args.frf)
     frf, what, rig_spec_toml = loaded.frf, loaded.what, loaded.rig_spec_toml
-    if loaded.note:
-        logger.warning(loaded.note)
     conditions = source_conditions(args.source)
     low, high = parse_band(args.band, frf.sample_rate_hz)
     band_note = None
@@ -197,6 +195,8 @@ def run(args: argparse.Namespace) -> int:
     if not is_time_record_file(args.source[0]):
         with Session.open(args.source[0], "r") as session:
             check_stored_fits(session, {model.name: settings for model in models}, args.overwrite)
+    if loaded.note:  # (after the refusals: a refused fit is one line)
+        logger.warning(loaded.note)
     warning = mass_line_warning(freq_hz, h, mass_kg)
     if warning:
         logger.warning(warning)
