@@ -191,8 +191,9 @@ def propose_settings(
         raise ValueError("propose_settings: no taps")
     taps = [summarise_tap(record, full_scale_si, drop_db) for record in records]
     peaks = [tap.peak_force_n for tap in taps]
+    widths = sorted({f"{1e3 * tap.pulse_width_s:.2g}" for tap in taps}, key=float)
     lines = [f"{len(taps)} tap{'s' if len(taps) != 1 else ''}: peaks {min(peaks):.0f}–{max(peaks):.0f} N, "
-             f"pulses {1e3 * min(t.pulse_width_s for t in taps):.2g}–{1e3 * max(t.pulse_width_s for t in taps):.2g} ms."]
+             f"pulses {widths[0] if len(widths) == 1 else widths[0] + '–' + widths[-1]} ms."]
 
     noise = max(tap.force_noise_n for tap in taps)
     level = max(TRIGGER_FRACTION_OF_SMALLEST * min(peaks), TRIGGER_NOISE_FACTOR * noise)

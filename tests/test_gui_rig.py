@@ -91,8 +91,10 @@ def test_a_hit_check_records_nothing_and_its_proposal_is_applied_with_one_click(
     assert state.window["exponential_end_fraction"] == proposal.exponential_end_fraction
     assert state.sim_tip == "medium" and controller.setup.sim_tip == "medium"
     assert "hit check applied" in window.banner.history[-1][1]
-    # the test proper then records as usual
+    # the test proper then records as usual, its hits shown (not the check's taps), the proposal no longer offered
     arm(qtbot, window)
+    assert window.measure_tab.hit_views.currentWidget() is window.measure_tab.hit_plot
+    assert not window.measure_tab.apply_proposal_button.isEnabled()
     hit(qtbot, window)
     stop(qtbot, window)
     assert len(controller.hits) == 1 and controller.session_path.exists()

@@ -157,3 +157,13 @@ def test_the_gui_diagnosis_writes_where_the_command_does_and_asks_before_replaci
     assert asked and asked[0][0] == tmp_path / "run-diagnosis" and "improved-rig.toml" in asked[0][1]
     assert not controller.job_active("diagnose") and "are kept" in window.banner.history[-1][1]
     assert (tmp_path / "run-diagnosis" / "improved-rig.toml").read_text() == earlier
+
+
+def test_every_tab_fits_the_windows_default_size(qtbot, window):
+    """New-user trial of issue 32: the new controls (FRF tab's |H| scale and comparison, the sensors' serial and
+    calibration date, Table 2's heading) widened the window past its default 1500 px: the Setup tab was cut off."""
+    from gasfilm.app.gui.main_window import DEFAULT_WINDOW_SIZE
+
+    for tab in (window.setup_tab, window.measure_tab, window.frf_tab, window.identify_tab, window.diagnose_tab):
+        assert tab.minimumSizeHint().width() <= DEFAULT_WINDOW_SIZE[0] - 24, type(tab).__name__
+    assert window.minimumSizeHint().width() <= DEFAULT_WINDOW_SIZE[0]

@@ -7,7 +7,7 @@ import pyqtgraph as pg
 from PySide6.QtCore import Qt
 from PySide6.QtGui import QShowEvent
 from PySide6.QtWidgets import (QCheckBox, QComboBox, QDoubleSpinBox, QFileDialog, QGridLayout, QHBoxLayout, QLabel,
-                               QPushButton, QWidget)
+                               QPushButton, QSizePolicy, QWidget)
 
 from gasfilm.analysis.spectra import usable_band_hz
 from gasfilm.analysis.spectra import FrfResult
@@ -79,10 +79,12 @@ class FrfTab(QWidget):
         self.clear_compare_button = QPushButton("Clear comparison")
         self.clear_compare_button.clicked.connect(controller.clear_comparisons)
         self.clear_compare_button.setEnabled(False)
+        controls.addStretch(1)
         controls.addWidget(self.compare_button)
         controls.addWidget(self.clear_compare_button)
-        controls.addStretch(1)
-        controls.addWidget(self.summary)
+        # the summary on a line of its own, elided if need be: the controls row keeps the window's default width
+        self.summary.setMinimumWidth(0)
+        self.summary.setSizePolicy(QSizePolicy.Policy.Ignored, QSizePolicy.Policy.Preferred)
 
         self.magnitude_plot = make_plot("Accelerance magnitude |H|", ("|H|", "g/N"), log_y=True)
         self.phase_plot = make_plot("Phase", ("Phase", "°"))
@@ -122,14 +124,15 @@ class FrfTab(QWidget):
 
         grid = QGridLayout(self)
         grid.addLayout(controls, 0, 0, 1, 2)
-        grid.addWidget(self.magnitude_plot, 1, 0, 2, 1)
-        grid.addWidget(self.phase_plot, 1, 1)
-        grid.addWidget(self.coherence_plot, 2, 1)
-        grid.addWidget(self.real_plot, 3, 0)
-        grid.addWidget(self.imag_plot, 3, 1)
-        grid.setRowStretch(1, 1)
+        grid.addWidget(self.summary, 1, 0, 1, 2)
+        grid.addWidget(self.magnitude_plot, 2, 0, 2, 1)
+        grid.addWidget(self.phase_plot, 2, 1)
+        grid.addWidget(self.coherence_plot, 3, 1)
+        grid.addWidget(self.real_plot, 4, 0)
+        grid.addWidget(self.imag_plot, 4, 1)
         grid.setRowStretch(2, 1)
         grid.setRowStretch(3, 1)
+        grid.setRowStretch(4, 1)
 
         self.region.sigRegionChangeFinished.connect(self._region_moved)
         self.band_low.valueChanged.connect(self._band_typed)

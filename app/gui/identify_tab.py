@@ -114,12 +114,14 @@ class IdentifyTab(QWidget):
         # every parameter of the largest model shows, whatever the flags and the control model below say
         self.parameters.setMinimumHeight(self.parameters.horizontalHeader().sizeHint().height() + PARAMETER_ROWS * 22
                                          + 2 * self.parameters.frameWidth() + 2)
-        self.flags_label = FixedHeightLabel(lines=2)
+        self.flags_label = FixedHeightLabel(lines=3)
         table_box = QWidget()
         table_layout = QVBoxLayout(table_box)
         table_layout.setContentsMargins(0, 0, 0, 0)
-        table_layout.addWidget(QLabel("<b>Table 2</b> — RMS (eq. 33) and peak error in g/N; E, E_m against SD (eq. 35); "
-                                      "* lowest BIC; at bound: parameters the fit left on a search bound"))
+        heading = QLabel("<b>Table 2</b> — RMS (eq. 33) and peak error in g/N; E, E_m against SD (eq. 35); * lowest "
+                         "BIC; at bound: parameters the fit left on a search bound")
+        heading.setWordWrap(True)
+        table_layout.addWidget(heading)
         table_layout.addWidget(self.table)
         parameters_box = QWidget()
         parameters_layout = QVBoxLayout(parameters_box)

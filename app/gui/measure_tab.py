@@ -464,6 +464,11 @@ class MeasureTab(QWidget):
             text, color = "HIT CHECK — tap; nothing is recorded", "#6a3d9a"
         if self.controller.hit_checking and state == "starting":
             self.hit_views.setCurrentWidget(self.hit_check_page)
+        elif state == "starting" and self.hit_views.currentWidget() is self.hit_check_page:
+            self.hit_views.setCurrentWidget(self.hit_plot)  # the test proper: its hits, not the check's taps
+        # the proposal applies to the Setup tab: not while a recording runs (it would stop it)
+        self.apply_proposal_button.setEnabled(self.controller.hit_check_proposal is not None
+                                              and (state == "idle" or self.controller.hit_checking))
         # during a hit check the (empty) hit list gives its room to the taps and the proposal
         checking = self.controller.hit_checking
         for widget in (self.hit_table, self.verdict_label, self.accept_button, self.reject_button):
