@@ -73,6 +73,7 @@ class HitRecorder:
         window: Any = None,
         on_hit: Callable[[HitEvent], None] | None = None,
         max_consecutive_rejections: int = DEFAULT_MAX_CONSECUTIVE_REJECTIONS,
+        other_responses: tuple[int, ...] = (),
     ) -> None:
         if max_consecutive_rejections < 1:
             raise SettingError(f"max_consecutive_rejections: {max_consecutive_rejections} must be at least 1")
@@ -85,6 +86,7 @@ class HitRecorder:
         self.validation = validation
         self.full_scale_si = None if full_scale_si is None else tuple(float(v) for v in full_scale_si)
         self.window = window
+        self.other_responses = tuple(other_responses)  # a rigid body's further accelerometers, checked alike
         self.on_hit = on_hit
         verdicts = session.verdicts()
         self.accepted_count = sum(1 for verdict in verdicts if verdict.accepted)
@@ -106,7 +108,8 @@ class HitRecorder:
         each already stored and flushed."""
         events = []
         for hit in self.capture.feed(chunk, overload):
-            verdict = validate_hit(hit, self.validation, self.full_scale_si, window=self.window)
+            verdict = validate_hit(hit, self.validation, self.full_scale_si, window=self.window,
+                                   other_responses=self.other_responses)
             self._storing = True
             try:
                 index = self.session.append_hit(hit, verdict)

@@ -65,6 +65,14 @@ class ReportData:
     diagnosis: dict[str, Any] | None  # the newest stored one
     diagnosis_name: str | None = None  # its name in the session (diagnoses/run-NNN)
     diagnosis_runs: int = 0  # how many diagnoses the session keeps
+    rigid_body: dict[str, Any] | None = None  # a rigid-body test's identification (gasfilm rigid), when stored
+
+
+def _rigid_lines(data: ReportData) -> list[str]:
+    """The stored rigid-body identification as ``gasfilm rigid`` prints it (its fits, 3×3 terms, coupling)."""
+    from gasfilm.analysis.identification.rigid import RigidIdentification
+
+    return RigidIdentification.from_dict(data.rigid_body).summary_lines()
 
 
 def fits_by_band(fits: Sequence[Any]) -> list[tuple[tuple[float, float], list[Any]]]:
@@ -175,6 +183,7 @@ def read_report_data(path: str | Path, frf_name: str | None = None) -> ReportDat
             diagnosis=diagnosis,
             diagnosis_name=newest,
             diagnosis_runs=diagnosis_runs,
+            rigid_body=session.read_rigid_body(),
         )
 
 
@@ -433,7 +442,7 @@ def diagnosis_options_text(options: Any) -> str:
             + ", " + (f"--mass {mass:g} kg" if _is_number(mass) else "the spec's mass") + f", {band_text}")
 
 
-def _diagnosis_html(diagnosis: dict[str, Any] | None, name: str | None = None, runs: int = 0) -> str:
+def _diagnosis_html(diagnosis: dict[str, Any] | None, name: str | None = None, runs: int = 0, frf: Any = None) -> str:
     if diagnosis is None:
         return "<p>No diagnosis stored in the session (run <code>gasfilm diagnose</code> or the GUI's Diagnose tab).</p>"
     kept = f" ({runs} stored; earlier runs are kept in the session)" if runs > 1 else ""
@@ -492,10 +501,41 @@ def _diagnosis_html(diagnosis: dict[str, Any] | None, name: str | None = None, r
              for name, v in recalibration.items()
              if isinstance(v, dict)],
         ))
+    structure = diagnosis.get("structure")
+    if isinstance(structure, dict) and structure.get("modes"):
+        parts.append(_structure_html(structure, frf))
     notes = [quality_note_text(note, diagnosis.get("hits_numbered_from", 0)) for note in diagnosis.get("quality") or []]
     if notes:
         parts.append("<h3>Measurement quality</h3><ul>"
                      + "".join(f"<li class='note'>{html.escape(note)}</li>" for note in notes) + "</ul>")
+    return "".join(parts)
+
+
+def _structure_html(structure: dict[str, Any], frf: Any = None) -> str:
+    """The measured structure of a stored diagnosis: its stabilization diagram (when it was read off the FRF, drawn
+    over the session's H1) and the mode table of the improved spec, by frequency."""
+    parts = ["<h3>Measured structure: modes</h3>"]
+    read = structure.get("read_off_frf")
+    if isinstance(read, dict) and isinstance(read.get("stabilization"), dict):
+        from gasfilm.analysis.diagnosis.plots import stabilization_figure
+
+        kind = "a driving point" if read.get("driving_point") else "a transfer FRF (modal constants of both signs)"
+        parts.append(f"<p>Read off the FRF as modal analysis reads it: LSCF over {read.get('lscf_orders')} model orders, "
+                     f"modes where poles are stable in frequency, damping and participation; {kind}, polarity "
+                     f"{read.get('polarity', 1):+d}, mass line {_number_text(read.get('mass_line_kg'), '.4g')} kg.</p>")
+        try:
+            figure = stabilization_figure(read, None if frf is None else np.asarray(frf.freq_hz),
+                                          None if frf is None else np.abs(np.asarray(frf.h1)))
+            parts.append(f"<img alt='stabilization diagram' src='data:image/png;base64,{_png_base64(figure)}'>")
+        except (KeyError, TypeError, ValueError):  # a reading stored by another version: the table still shows
+            pass
+    rows = [row for row in structure["modes"] if isinstance(row, dict)]
+    parts.append(_table(
+        ("#", "Frequency (Hz)", "Damping ratio", "Modal constant (1/kg)", "Quadrature (1/kg)", ""),
+        [(str(number), _number_text(row.get("freq_hz"), ".2f"), _number_text(row.get("damping_ratio"), ".3g"),
+          _number_text(row.get("modal_constant_per_kg"), "+.4g"), _number_text(row.get("quadrature_per_kg"), "+.3g"),
+          "above the band: upper residual" if row.get("above_band") else "")
+         for number, row in enumerate(sorted(rows, key=lambda row: row.get("freq_hz", 0.0)), start=1)]))
     return "".join(parts)
 
 
@@ -661,10 +701,13 @@ def report_html(data: ReportData, drop_db: float = USABLE_DROP_DB, paper: str | 
     sections.append(_fits_html(data))
     if data.fits and data.frf is not None:
         sections.append(f"<img alt='fits' src='data:image/png;base64,{_png_base64(fits_figure(data.frf, data.fits))}'>")
+    if data.rigid_body is not None:
+        sections.append("<h2>Rigid body: heave, roll and pitch (gasfilm rigid)</h2>")
+        sections.append(f"<pre>{html.escape(chr(10).join(_rigid_lines(data)))}</pre>")
     sections.append("<h2>Control design: rational models</h2>")
     sections.append(_control_html(control_models(data)))
     sections.append("<h2>Diagnosis</h2>")
-    sections.append(_diagnosis_html(data.diagnosis, data.diagnosis_name, data.diagnosis_runs))
+    sections.append(_diagnosis_html(data.diagnosis, data.diagnosis_name, data.diagnosis_runs, data.frf))
     title = html.escape(f"gasfilm report — {data.path.name}")
     return (
         f"<!DOCTYPE html><html><head><meta charset='utf-8'><title>{title}</title><style>{_STYLE}"

@@ -373,6 +373,20 @@ def resonance_lines(frf: FrfResult, drop_db: float = USABLE_DROP_DB) -> list[int
     return [int(lines[p]) for p in sorted(peaks, key=lambda p: -magnitude[p])]
 
 
+def peak_line(frf: FrfResult, drop_db: float = USABLE_DROP_DB) -> int:
+    """The line a summary calls the FRF's peak: its strongest resonance (:func:`resonance_lines`), else the largest
+    readable line, else the largest line above :data:`RESONANCE_SEARCH_FROM_HZ` — what ``replay`` reports and the
+    GUI's FRF tab shows."""
+    magnitude = np.abs(frf.h1)
+    resonances = resonance_lines(frf, drop_db)
+    if resonances:
+        return resonances[0]
+    search = readable_lines(frf, drop_db)
+    if not np.any(search):
+        search = (frf.freq_hz >= RESONANCE_SEARCH_FROM_HZ) & np.isfinite(magnitude)
+    return int(np.flatnonzero(search)[np.argmax(magnitude[search])])
+
+
 class FrfAccumulator:
     """Running sums of an averaged FRF: add hits one at a time (or a block at a time) and read the averaged
     result whenever wanted, without transforming the earlier hits again.

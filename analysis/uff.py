@@ -250,6 +250,8 @@ def _time_records(
     chosen_response = _choose_dof(path, "response", [_dof(d, "rsp") for _, d in by_role["response"]], response_dof)
     forces = [(n, d) for n, d in by_role["force"] if _dof(d, "rsp") == chosen_force]
     responses = [(n, d) for n, d in by_role["response"] if _dof(d, "rsp") == chosen_response]
+    if len({_dof(d, "ref") for _, d in responses}) > 1:  # a roving hammer: the responses to the chosen force's hits
+        responses = [(n, d) for n, d in responses if _dof(d, "ref") == chosen_force]
     if len(forces) != len(responses):
         raise UffError(
             f"{path}: {len(forces)} force records but {len(responses)} response records; each hit needs one of each"

@@ -181,12 +181,14 @@ def validate_hit(
     full_scale_si: tuple[float, ...] | None = None,
     *,
     window: WindowSettings | None = None,
+    other_responses: tuple[int, ...] = (),
 ) -> Verdict:
     """Run every check on a hit; ``full_scale_si`` gives each channel's full scale in N or m/s² (channel order),
-    ``window`` the processing window, whose exponential counts when judging whether the response has decayed."""
+    ``window`` the processing window, whose exponential counts when judging whether the response has decayed.
+    ``other_responses``: further response channels (a rigid body's other accelerometers) that get the response's
+    checks too (overload, decay, a quiet pre-trigger); a note names the channel that failed one."""
     data = np.asarray(hit.data, dtype=float)
     force = data[hit.force_channel]
-    response = data[hit.response_channel]
     quiet_end = _pretrigger_end(hit)
     reasons: list[str] = []
 
@@ -194,7 +196,7 @@ def validate_hit(
     if peak > 0 and _has_double_hit(f, peak_at, quiet_end, settings.double_hit_fraction):
         reasons.append(DOUBLE_HIT)
 
-    channels = (hit.force_channel, hit.response_channel)
+    channels = (hit.force_channel, hit.response_channel, *other_responses)
     flagged = np.asarray(hit.overload, dtype=bool)
     overload = bool(flagged.size and flagged[list(channels)].any())
     if full_scale_si is not None:
@@ -209,16 +211,22 @@ def validate_hit(
     if peak == 0 or (noise_force > 0 and peak / noise_force < settings.min_force_snr):
         reasons.append(FORCE_TOO_LOW)
 
-    pre = response[:quiet_end]
-    noise_response = _rms(pre - np.mean(pre)) if quiet_end > 1 else 0.0
     notes: list[str] = []
-    decay = response_decay(response, hit.trigger_index, hit.sample_rate_hz, noise_response, settings, window)
-    if decay is not None and decay.end_ratio > settings.decay_fraction:
-        reasons.append(NOT_DECAYED)
-        notes.append(decay.advice(settings.decay_fraction))
-
-    if noise_response > settings.pretrigger_quiet_fraction * float(np.max(np.abs(response))):
-        reasons.append(PRETRIGGER_NOT_QUIET)
+    for row in (hit.response_channel, *other_responses):
+        response = data[row]
+        named = "" if row == hit.response_channel else f"channel {row}: "
+        pre = response[:quiet_end]
+        noise_response = _rms(pre - np.mean(pre)) if quiet_end > 1 else 0.0
+        decay = response_decay(response, hit.trigger_index, hit.sample_rate_hz, noise_response, settings, window)
+        if decay is not None and decay.end_ratio > settings.decay_fraction:
+            if NOT_DECAYED not in reasons:
+                reasons.append(NOT_DECAYED)
+            notes.append(named + decay.advice(settings.decay_fraction))
+        if noise_response > settings.pretrigger_quiet_fraction * float(np.max(np.abs(response))):
+            if PRETRIGGER_NOT_QUIET not in reasons:
+                reasons.append(PRETRIGGER_NOT_QUIET)
+            if named:
+                notes.append(f"{named}the response before the hit is not quiet")
     return Verdict.from_reasons(tuple(reasons), tuple(notes))
 
 

@@ -24,7 +24,8 @@ from typing import Iterator, NoReturn, Sequence
 
 from gasfilm.drivers.errors import GasfilmError
 
-COMMAND_MODULES = ("demo", "acquire", "replay", "export", "fit", "model", "diagnose", "gui", "report", "campaign")
+COMMAND_MODULES = ("demo", "acquire", "replay", "export", "fit", "rigid", "model", "diagnose", "gui", "report",
+                   "campaign")
 #: Exit status of a command whose output pipe was closed by the reader (128 + SIGPIPE, as a shell reports it).
 BROKEN_PIPE_STATUS = 141
 

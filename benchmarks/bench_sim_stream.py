@@ -2,8 +2,9 @@
 
 Prints the simulated seconds per wall-clock second and per CPU second (the real-time factor; goal ≥ 100× on one
 core, issue 18; the CPU figure is the one to read on a shared machine) for the paper's
-FOMGF rig with hits every 1.5–3 s, with and without noise, and for the rig with every effect (cubic hardening
-solved per hit). Run: ``.venv/bin/python benchmarks/bench_sim_stream.py [--seconds 60]``.
+FOMGF rig with hits every 1.5–3 s, with and without noise, for the rig with every effect (cubic hardening
+solved per hit), and for a rigid mover on three pads whose three accelerometers each see their own motion (heave,
+roll and pitch: ``fixtures/rigs/three-pads.toml``, issue 34), its hammer at one point and roving. Run: ``.venv/bin/python benchmarks/bench_sim_stream.py [--seconds 60]``.
 """
 
 from __future__ import annotations
@@ -42,8 +43,11 @@ def four_channels(sample_rate_hz: float) -> DaqConfig:
     )
 
 
-def stream(label: str, seconds: float, sample_rate_hz: float = 51200.0, rig: RigSpec | None = None, **options) -> None:
-    device = SimulatedNI9234(RigPlant.from_spec(rig), seed=1, pacing="fast", **options)
+def stream(label: str, seconds: float, sample_rate_hz: float = 51200.0, rig: RigSpec | None = None,
+           roving: bool = False, peer: float | None = None, **options) -> float:
+    """``roving``: a rigid mover struck at its next hammer point every 10 chunks (the plant moves its hammer)."""
+    plant = RigPlant.from_spec(rig)
+    device = SimulatedNI9234(plant, seed=1, pacing="fast", **options)
     config = four_channels(sample_rate_hz)
     device.configure(config)
     buffer = np.empty((4, config.chunk_samples))
@@ -54,14 +58,20 @@ def stream(label: str, seconds: float, sample_rate_hz: float = 51200.0, rig: Rig
     started, started_cpu = time.perf_counter(), time.process_time()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", ADCOverloadWarning)
-        for _ in range(chunks):
+        points = plant.spec.rigid_body.point_names if roving else ()
+        for chunk in range(chunks):
+            if points and chunk % 10 == 0:
+                plant.strike_at(points[(chunk // 10) % len(points)])
             device.read(buffer)
     elapsed_s, cpu_s = time.perf_counter() - started, time.process_time() - started_cpu
     simulated_s = chunks * config.chunk_samples / sample_rate_hz
+    factor = simulated_s / cpu_s
+    ratio = "" if peer is None else f", {factor / peer:.2f}× the first case's"
     print(
         f"{label:44s} {simulated_s:6.1f} s simulated in {elapsed_s:6.2f} s: {simulated_s / elapsed_s:7.1f}× real time, "
-        f"{simulated_s / cpu_s:7.1f}× per CPU second ({len(device.sim_hits)} hits, start-up {setup_s * 1e3:.0f} ms)"
+        f"{factor:7.1f}× per CPU second ({len(device.sim_hits)} hits, start-up {setup_s * 1e3:.0f} ms{ratio})"
     )
+    return factor
 
 
 def main() -> None:
@@ -70,10 +80,14 @@ def main() -> None:
     args = parser.parse_args()
     print(machine_line())
     print("simulated NI 9234, 4 channels at 51.2 kS/s, chunks of 0.1 s")
-    stream("FOMGF rig, noise + quantisation", args.seconds)
+    peer = stream("FOMGF rig, noise + quantisation", args.seconds)
     stream("FOMGF rig, noise-free", args.seconds, noise=False, quantize=False)
     stream("FOMGF rig, hits every 0.2–0.4 s", args.seconds, hit_interval_s=(0.2, 0.4))
     stream("all-effects rig (cubic hardening per hit)", args.seconds, rig=RigSpec.load(RIGS / "all-effects.toml"))
+    stream("rigid mover on 3 pads, 3 accelerometers", args.seconds, rig=RigSpec.load(RIGS / "three-pads.toml"),
+           peer=peer)
+    stream("rigid mover on 3 pads, roving hammer", args.seconds, rig=RigSpec.load(RIGS / "three-pads.toml"),
+           roving=True, peer=peer)
 
 
 if __name__ == "__main__":

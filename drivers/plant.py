@@ -4,6 +4,8 @@ response, channel transfers and interference), as a small Protocol in SI units a
 The simulated device is handed a plant by its caller; drivers/ knows no rig physics. The rig spec's implementation
 is :class:`gasfilm.analysis.physics.plant.RigPlant`. Channels are named by their kind, ``"force"`` or
 ``"acceleration"``. Spectra are continuous Fourier transforms (N·s, m/s²·s) on a Laplace grid ``s = j2πf``.
+A plant whose accelerometers see different motions (a rigid mover: heave, roll and pitch) is also a
+:class:`MultiResponsePlant`: the k-th acceleration channel of the configuration carries its response k.
 """
 
 from __future__ import annotations
@@ -73,4 +75,30 @@ class Plant(Protocol):
 
     def interference(self, channel: str, time_s: np.ndarray) -> np.ndarray | None:
         """Additive interference on a ``channel`` kind (N or m/s²) at the session times ``time_s``, or ``None``."""
+        ...
+
+
+@runtime_checkable
+class MultiResponsePlant(Plant, Protocol):
+    """A plant with several accelerometers that see different motions; with :attr:`response_count` 1 it is played
+    as a :class:`Plant`. Responses are numbered from 0 in the order of the configuration's acceleration channels."""
+
+    @property
+    def response_count(self) -> int:
+        """How many distinct accelerometer responses the plant has."""
+        ...
+
+    def response_sensitivity_v_per_si(self, response: int) -> float:
+        """Accelerometer ``response``'s true sensitivity (V per m/s²)."""
+        ...
+
+    def response_noise_per_sqrt_hz(self, response: int) -> float:
+        """Accelerometer ``response``'s white noise density ((m/s²)/√Hz)."""
+        ...
+
+    def acceleration_spectra(
+        self, force_spectrum: np.ndarray, s: np.ndarray, sample_rate_hz: float, time_s: float
+    ) -> np.ndarray:
+        """Every accelerometer's acceleration (responses × bins, m/s²·s) for a force spectrum, as
+        :meth:`Plant.acceleration_spectrum` gives one."""
         ...

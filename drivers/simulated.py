@@ -9,6 +9,8 @@ zero at 0.55·fs, input delay 38.4/fs + 3 µs — evaluated on a grid twice as f
 exact. Sampling the continuous pulse directly would alias its high-frequency content, which the mass line turns
 into a several-percent FRF error at low frequency; that does not happen here.
 
+A plant with several responses (:class:`~gasfilm.drivers.plant.MultiResponsePlant`: a rigid mover seen by
+accelerometers at different points) gives one acceleration spectrum per accelerometer, each through the same chain.
 Each hit's decimated record (long enough to decay) is overlap-added into the stream, so signals are continuous
 across chunks and hits may overlap. Per channel, the stream then gets, in order: mains interference, the conversion
 to volts with the sensor's true sensitivity (the plant's), the AC-coupling high-pass (first order, 0.5 Hz, the same on
@@ -49,7 +51,7 @@ from gasfilm.drivers.interface import (
     default_hammer_and_accelerometer,
     validate_config,
 )
-from gasfilm.drivers.plant import TIPS_PULSE_WIDTH_S, Plant
+from gasfilm.drivers.plant import TIPS_PULSE_WIDTH_S, MultiResponsePlant, Plant
 
 #: The module's signal chain (NI 9234 data sheet figures).
 AA_PASSBAND_FRACTION = NI9234_ALIAS_FREE_FRACTION
@@ -214,22 +216,35 @@ class SimulatedNI9234:
         channel_count = len(config.channels)
         kinds = [ChannelKind(channel.kind) for channel in config.channels]
         self._force_row = kinds.index(ChannelKind.FORCE) if ChannelKind.FORCE in kinds else None
-        # which synthesised signal each channel carries: 0 hammer, 1 response, 2 nothing (noise only)
+        # which synthesised signal each channel carries: 0 hammer, 1… the responses (the k-th acceleration channel
+        # the plant's response k; every one the only response of a one-response plant), then nothing (noise only)
+        responses = self.plant.response_count if isinstance(self.plant, MultiResponsePlant) else 1
+        response_of_channel = {row: (k if responses > 1 else 0) for k, row in
+                               enumerate(row for row, kind in enumerate(kinds) if kind is ChannelKind.ACCELERATION)}
+        if response_of_channel and max(response_of_channel.values()) >= responses:
+            raise SettingError(f"sim: {len(response_of_channel)} acceleration channels configured; the rig has "
+                               f"{responses} accelerometers")
+        self._responses = responses
         self._signal_of_channel = np.array([
-            0 if row == self._force_row else (1 if kind is ChannelKind.ACCELERATION else 2)
+            0 if row == self._force_row else (1 + response_of_channel[row] if row in response_of_channel
+                                              else 1 + responses)
             for row, kind in enumerate(kinds)
         ])
         self._channel_kinds = [kind.value for kind in kinds]
         self._rows_of_channel_kind = {
             name: np.array([row for row, kind in enumerate(kinds) if kind.value == name]) for name in {k.value for k in kinds}
         }
-        self._true_v_per_si = np.array([self.plant.sensitivity_v_per_si(kind.value) for kind in kinds])
+        own_sensor = responses > 1  # each accelerometer its own sensitivity and noise
+        self._true_v_per_si = np.array([
+            self.plant.response_sensitivity_v_per_si(response_of_channel[row]) if own_sensor and row in
+            response_of_channel else self.plant.sensitivity_v_per_si(kind.value) for row, kind in enumerate(kinds)])
         self._configured_v_per_si = np.array([channel.sensitivity_v_per_si for channel in config.channels])
         nyquist_bandwidth = np.sqrt(fs / 2)
-        sensor_noise_v = np.array(
-            [self.plant.noise_per_sqrt_hz(kind.value) * sensitivity for kind, sensitivity in
-             zip(kinds, self._true_v_per_si)]
-        )
+        sensor_noise_v = np.array([
+            (self.plant.response_noise_per_sqrt_hz(response_of_channel[row]) if own_sensor and row in
+             response_of_channel else self.plant.noise_per_sqrt_hz(kind.value)) * sensitivity
+            for row, (kind, sensitivity) in enumerate(zip(kinds, self._true_v_per_si))
+        ])
         module_noise_v = MODULE_NOISE_V_PER_SQRT_HZ
         self._noise_rms_v = nyquist_bandwidth * np.hypot(sensor_noise_v, module_noise_v) if self.noise else None
         self._hp_b, self._hp_a = scipy.signal.butter(1, AC_COUPLING_HZ, "highpass", fs=fs)
@@ -411,9 +426,14 @@ class SimulatedNI9234:
         force_spectrum = sum(
             p.peak_force_n * self._pulse_shape(p.width_s) * np.exp(-s * (offset_s + p.delay_s)) for p in pulses
         )
-        acceleration_spectrum = self.plant.acceleration_spectrum(force_spectrum, s, 2 * fs, hit_time_s)
         band = self._chain.shape[1]
-        measured = np.stack([force_spectrum[:band], acceleration_spectrum[:band]]) * self._chain
+        if self._responses == 1:
+            acceleration_spectrum = self.plant.acceleration_spectrum(force_spectrum, s, 2 * fs, hit_time_s)
+            measured = np.stack([force_spectrum[:band], acceleration_spectrum[:band]]) * self._chain
+        else:  # one row per accelerometer, each through the acceleration channels' chain
+            spectra = self.plant.acceleration_spectra(force_spectrum, s, 2 * fs, hit_time_s)
+            measured = np.concatenate([force_spectrum[np.newaxis, :band] * self._chain[0],
+                                       spectra[:, :band] * self._chain[1]])
         records = scipy.fft.irfft(self._fold_to_sample_rate(measured), self._segment_samples, axis=-1)
         self._contributions.append((start_index, records))
         hit = SimulatedHit(hit_time_s, max(p.peak_force_n for p in pulses), tip, double,
@@ -453,17 +473,17 @@ class SimulatedNI9234:
         n_samples = out.shape[1]
         first, end = self._position, self._position + n_samples
         self._schedule_hits_until(end)
-        physical = np.zeros((3, n_samples))  # hammer, response, nothing
+        physical = np.zeros((self._responses + 2, n_samples))  # hammer, response(s), nothing
         remaining = []
         for start_index, records in self._contributions:
             lo, hi = max(start_index, first), min(start_index + records.shape[1], end)
             if lo < hi:
-                physical[:2, lo - first : hi - first] += records[:, lo - start_index : hi - start_index]
+                physical[: records.shape[0], lo - first : hi - first] += records[:, lo - start_index : hi - start_index]
             if start_index + records.shape[1] > end:
                 remaining.append((start_index, records))
         self._contributions = remaining
         # channels that carry the same signal through the same sensor kind, in the same filter state (several
-        # accelerometers on the one simulated mover), read the same volts until their own noise is added: each
+        # accelerometers on a plant with one response), read the same volts until their own noise is added: each
         # distinct one is computed once
         distinct, position, distinct_rows_of_kind = self._channel_groups()
         volts = physical[self._signal_of_channel[distinct]]

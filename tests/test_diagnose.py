@@ -31,10 +31,11 @@ WINDOW = WindowSettings(force_window_ms=4.0, force_taper_ms=0.5, exponential_end
 NOMINAL = RigSpec.nominal("SD", parameters={"k": 3.78e7, "eta": 3.45e3})
 
 
-def record(spec: RigSpec, path: Path, hits: int = 12, seed: int = 0, **options) -> Path:
+def record(spec: RigSpec, path: Path, hits: int = 12, seed: int = 0, hit_interval_s: tuple[float, float] = (1.0, 1.5),
+           **options) -> Path:
     """A session of ``hits`` accepted hits from the simulated module playing ``spec``."""
     config = default_hammer_and_accelerometer(RATE_HZ)
-    device = SimulatedNI9234(RigPlant(spec), seed=seed, pacing="fast", hit_interval_s=(1.0, 1.5), **options)
+    device = SimulatedNI9234(RigPlant(spec), seed=seed, pacing="fast", hit_interval_s=hit_interval_s, **options)
     device.configure(config)
     force_row, response_row = config.channel_index(ChannelKind.FORCE), config.channel_index(ChannelKind.ACCELERATION)
     with Session.create(path, config, spec.to_toml(), {"trigger": TRIGGER, "window": WINDOW},

@@ -70,6 +70,9 @@ def test_a_diagnosis_shared_with_a_copy_equals_one_computed_alone(tmp_path):
         shared = diagnose(path, NOMINAL)
         write_outputs(shared, tmp_path / "shared")
     for name in OUTPUT_FILES:
+        if not (tmp_path / "alone" / name).exists():  # a figure this diagnosis has none of (a stabilization diagram)
+            assert not (tmp_path / "shared" / name).exists(), name
+            continue
         assert (tmp_path / "alone" / name).read_bytes() == (tmp_path / "shared" / name).read_bytes(), name
     assert shared.verdict == alone.verdict
     assert [f.to_dict() for f in shared.findings] == [f.to_dict() for f in alone.findings]

@@ -218,8 +218,10 @@ def test_sensor_picked_from_library_sets_sensitivity_and_invalid_setup_is_named(
 
 
 def test_sensor_library_holds_the_papers_sensors_and_rejects_bad_files(tmp_path):
-    sensors = {sensor.model: sensor for sensor in load_sensor_library(DEFAULT_SENSOR_LIBRARY)}
+    sensors = {sensor.key: sensor for sensor in load_sensor_library(DEFAULT_SENSOR_LIBRARY)}
     hammer, accelerometer = sensors["PCB 086C02"], sensors["PCB 352B"]
+    calibrated = sensors["PCB 352B s/n LW210001"]  # one calibrated sensor, named by its serial number
+    assert (calibrated.model, calibrated.serial, calibrated.sensitivity) == ("PCB 352B", "LW210001", 10.31)
     assert (hammer.kind, hammer.sensitivity, hammer.units) == (ChannelKind.FORCE, 11.2, "mV/N")
     assert (accelerometer.kind, accelerometer.sensitivity, accelerometer.units) == (
         ChannelKind.ACCELERATION, 10.2, "mV/(m/s^2)"

@@ -210,7 +210,7 @@ def test_operator_test_object_and_sensors_with_serials_and_calibration_dates_rea
     setup.test_object.setText("bearing B-17 on mover M2")
     setup.test_object.editingFinished.emit()
     hammer = setup.channel_cell(0, "Sensor")
-    hammer.setCurrentIndex(hammer.findData("PCB 086C02 #LW41203"))  # the lab's own hammer, from the library
+    hammer.setCurrentIndex(hammer.findData("PCB 086C02 s/n LW41203"))  # the lab's own hammer, from the library
     row = setup.state().channels[0]
     assert (row.sensitivity, row.serial, row.calibration_date) == (11.42, "LW41203", "2026-03-02")
     # the accelerometer has a TEDS chip, read through the NI 9234 (here: the driver's answer stands in for it)

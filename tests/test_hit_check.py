@@ -101,8 +101,8 @@ def test_the_sensor_library_holds_serials_and_calibration_dates_and_names_a_bad_
     from gasfilm.drivers.errors import SettingError
 
     own = [sensor for sensor in load_sensor_library(DEFAULT_SENSOR_LIBRARY) if sensor.serial]
-    assert {(s.key, s.calibration_date) for s in own} == {("PCB 086C02 #LW41203", "2026-03-02"),
-                                                           ("PCB 352B #LW58817", "2026-01-19")}
+    assert {(s.key, s.calibration_date) for s in own} == {("PCB 086C02 s/n LW41203", "2026-03-02"),
+                                                           *((f"PCB 352B s/n LW21000{n}", "2026-10-02") for n in "123")}
     bad = tmp_path / "sensors.toml"
     bad.write_text('[[sensor]]\nmodel = "X"\ntype = "force"\nsensitivity = 1.0\nunits = "mV/N"\n'
                    'calibration_date = "last spring"\n')

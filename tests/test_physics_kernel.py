@@ -19,21 +19,29 @@ from gasfilm.analysis.physics.effects import (
     AcCoupling,
     AddedMass,
     ChannelDelay,
+    ChannelPoleZero,
+    ChannelPowerLaw,
+    ChannelResonance,
     CrossTalk,
     CubicStiffness,
     Drift,
     Effect,
     ExtraMode,
+    FilmBranch,
     FilmMemory,
     Friction,
     Mains,
     PneumaticLag,
     QuadraticDamping,
     SensitivityError,
+    SideMode,
     SqueezeFilm,
     StepChange,
     StructureMode,
     Polarity,
+    TermDrift,
+    TermLevel,
+    TermOnset,
 )
 from gasfilm.analysis.physics.plant import RigPlant
 from gasfilm.analysis.physics.response import (
@@ -46,6 +54,7 @@ from gasfilm.analysis.physics.response import (
 )
 from gasfilm.analysis.physics.spec import RigSpec
 from gasfilm.app.cli import main as gasfilm
+from gasfilm.drivers.errors import SettingError
 from test_diagnose import NOMINAL, record
 
 #: One instance of every registered effect type, at values a real rig could have.
@@ -68,14 +77,27 @@ EXAMPLES: dict[str, Effect] = {
     "structure-mode": StructureMode(freq_hz=1400.0, damping_ratio=0.004, modal_constant_per_kg=-0.02,
                                     quadrature_per_kg=0.005),
     "polarity": Polarity(channel="acceleration"),
+    "side-mode": SideMode(freq_hz=430.0, damping_ratio=0.015, modal_constant_per_kg=-0.004),
+    "film-branch": FilmBranch(stiffness_n_per_m=2e6, order=0.4, reference_hz=200.0),
+    "channel-resonance": ChannelResonance(channel="acceleration", freq_hz=1800.0, damping_ratio=0.05),
+    "channel-pole-zero": ChannelPoleZero(pole_hz=900.0, zero_hz=5000.0),
+    "channel-power-law": ChannelPowerLaw(exponent=-0.012, reference_hz=100.0),
+}
+#: Changes between hits act on another term: each example changes the first effect of a spec whose first effect is
+#: :data:`CHANGED` (checked on their own, :func:`test_a_term_that_changes_between_hits_is_played_hit_by_hit`).
+CHANGED = ExtraMode(freq_hz=610.0, damping_ratio=0.02, mass_kg=0.25)
+CHANGES: dict[str, Effect] = {
+    "term-drift": TermDrift(term=0, parameter="freq_hz", fraction_per_hour=-20.0),
+    "term-level": TermLevel(term=0, parameter="damping_ratio", exponent=0.8, reference_impulse_ns=0.15),
+    "term-onset": TermOnset(term=0, parameter="mass_kg", at_time_s=5.0),
 }
 CONDITIONS = HitConditions(time_s=np.array([0.0, 3.0, 7.0, 12.0]), impulse_ns=np.array([0.12, 0.15, 0.16, 0.2]))
 FREQ_HZ = np.linspace(5.0, 2000.0, 257)
 
 
 def test_every_registered_effect_has_an_example():
-    assert set(EXAMPLES) == set(EFFECT_TYPES)
-    for effect in EXAMPLES.values():
+    assert set(EXAMPLES) | set(CHANGES) == set(EFFECT_TYPES)
+    for effect in [*EXAMPLES.values(), *CHANGES.values()]:
         assert type(effect).explanation or effect.kind == "interference", type(effect).type_name
 
 
@@ -90,6 +112,40 @@ def test_spec_toml_spec_frf_is_exact(names):
         expected = rig_accelerance(spec, FREQ_HZ, decay_rate_1_s, conditions=CONDITIONS)
         actual = rig_accelerance(again, FREQ_HZ, decay_rate_1_s, conditions=CONDITIONS)
         np.testing.assert_allclose(actual, expected, rtol=1e-12, atol=0)
+
+
+@pytest.mark.parametrize("name", CHANGES)
+def test_a_term_that_changes_between_hits_is_played_hit_by_hit(name):
+    """spec → TOML → spec exactly; each hit's accelerance is that of the spec at the hit (the changed term's value
+    moved, the change left out), and the simulator's plant plays the same (1e-9)."""
+    spec = RigSpec.nominal("FOMGF").with_effects(CHANGED, EXAMPLES["channel-delay"], CHANGES[name])
+    assert RigSpec.from_toml(spec.to_toml()) == spec
+    per_hit = rig_accelerance(spec, FREQ_HZ, 0.0, conditions=CONDITIONS)
+    for row, time_s, impulse_ns in zip(per_hit, CONDITIONS.time_s, CONDITIONS.impulse_ns):
+        factor = CHANGES[name].factor(time_s, impulse_ns)
+        moved = dataclasses.replace(CHANGED, **{CHANGES[name].parameter: getattr(CHANGED, CHANGES[name].parameter)
+                                                * factor})
+        expected = rig_accelerance(RigSpec.nominal("FOMGF").with_effects(moved, EXAMPLES["channel-delay"]), FREQ_HZ,
+                                   0.0, time_s=time_s)
+        np.testing.assert_allclose(row, expected, rtol=1e-12, atol=0)
+    assert len({round(float(abs(row[100])), 12) for row in per_hit}) > 1  # the hits differ
+    plant = RigPlant(spec)
+    freq_hz = np.fft.rfftfreq(4096, 1.0 / RATE_HZ)[1:]
+    s = 2j * np.pi * freq_hz
+    force_spectrum = np.full(s.shape, 0.15 + 0j)
+    for time_s in (0.0, 9.0):
+        sensed = plant.acceleration_spectrum(force_spectrum, s, RATE_HZ, time_s) * plant.channel_transfer(
+            "acceleration", s)
+        hit = HitConditions(time_s=np.array([time_s]), impulse_ns=np.array([0.15]))
+        np.testing.assert_allclose(sensed / (force_spectrum * plant.channel_transfer("force", s)),
+                                   rig_accelerance(spec, freq_hz, conditions=hit)[0], rtol=1e-9, atol=0)
+
+
+def test_a_change_between_hits_must_act_on_a_number_of_another_term():
+    with pytest.raises(SettingError, match="'term'"):
+        RigSpec.nominal("FOMGF").with_effects(CHANGES["term-drift"])
+    with pytest.raises(SettingError, match="'parameter'"):
+        RigSpec.nominal("FOMGF").with_effects(CHANGED, dataclasses.replace(CHANGES["term-drift"], parameter="gap"))
 
 
 def test_drift_and_pneumatic_lag_combine_as_one_rig():

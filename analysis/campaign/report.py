@@ -249,6 +249,9 @@ def campaign_html(rows: Sequence[dict[str, Any]], by: Sequence[str], title: str 
                             "measurement, no σ).</p>")
             sections.append(_png(figure))
             sections.append(_parameter_table(groups, by, model))
+        from gasfilm.analysis.campaign.rigid import rigid_section
+
+        sections.append(rigid_section(analysed, by, _png))
         sections.append("<h2>Best model per condition</h2>")
         sections.append(_table(("Condition", "Sessions", "Best model (lowest BIC): sessions"), [
             (group_label(by, key), len(members), ", ".join(

@@ -120,9 +120,21 @@ def _analyse(path: Path, options: CampaignOptions) -> dict[str, Any]:
         hits = session.hits()
         window = session.settings_as("window", WindowSettings)
         rig_spec_toml = session.rig_spec_toml
+        settings = session.settings
+        daq_config = session.daq_config
         status = session.status
         sample_rate_hz = session.sample_rate_hz
     accepted = [hit for hit in hits if hit.verdict.accepted]
+    every_point = accepted
+    rigid_spec = None
+    if rig_spec_toml:
+        from gasfilm.analysis.rigid_session import hits_at_spec_point
+
+        rigid_spec = RigSpec.from_toml(rig_spec_toml, f"{path} rig spec")
+        if rigid_spec.rigid_body is not None:  # the one-FRF view of a rigid-body test: its spec's point
+            accepted = hits_at_spec_point(rigid_spec, settings, accepted)
+        else:
+            rigid_spec = None
     row: dict[str, Any] = {
         "status": status,
         "hits": len(hits),
@@ -136,7 +148,8 @@ def _analyse(path: Path, options: CampaignOptions) -> dict[str, Any]:
     spec_toml = options.rig_spec_toml or rig_spec_toml
     spec = RigSpec.from_toml(spec_toml, f"{path} rig spec").at_conditions(conditions) if spec_toml else None
     if spec is not None:
-        row["spec.film_model"] = spec.film.name
+        # (a network that is no paper model by its text, which names it again: a mover's pads, say)
+        row["spec.film_model"] = spec.film.name if spec.film.name != "custom" else spec.film_model
         for parameter in spec.film.parameters:
             row[spec_column(parameter.name, parameter.unit)] = spec.film_parameters[parameter.name]
     mass_kg = spec.mass_kg if spec is not None else PAPER_MASS_KG
@@ -172,6 +185,11 @@ def _analyse(path: Path, options: CampaignOptions) -> dict[str, Any]:
             row[sigma_column(fit.model_name, parameter.name, parameter.unit)] = (
                 sigma if sigma is not None and math.isfinite(sigma) else None)
 
+    if rigid_spec is not None and every_point:
+        from gasfilm.analysis.campaign.rigid import rigid_columns
+
+        row.update(rigid_columns(rigid_spec, settings, daq_config, every_point, window, (low, high),
+                                 options.method, options.seed, sample_rate_hz))
     if options.diagnose:
         recordings = load_recordings(path)
         with worker_processes(1):  # the campaign runs one task per core already

@@ -29,6 +29,18 @@ CANDIDATES: tuple[str, ...] = (
 )
 
 
+#: Generic descriptions of a place in the chain, tried for what the catalog's terms leave beyond the noise (fewest
+#: parameters first): a power law or a first-order factor of the chain, a branch of the film, a resonance of a channel,
+#: a mode beside the mover.
+GENERIC_DESCRIPTIONS: tuple[str, ...] = ("channel-power-law", "channel-pole-zero", "film-branch", "channel-resonance",
+                                         "side-mode")
+
+
+#: Changes between hits of a term already in the spec (any of its fitted values, with session time or hit level, or
+#: the term from one moment on): tried when the hits differ from each other beyond the noise about the spec.
+TERM_CHANGES: tuple[str, ...] = ("term-drift", "term-level", "term-onset")
+
+
 def candidates_for(spec: RigSpec) -> tuple[str, ...]:
     """The candidates for ``spec``: :data:`CANDIDATES`, and a sensitivity error when part of the spec's accelerance
     lies beside the mover (a measured structure's modes): a uniform gain then scales those parts too, which no mass

@@ -12,9 +12,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from gasfilm.analysis.physics.effects import Effect, FitContext, FitRange
+from gasfilm.analysis.physics.effects import Effect, FitContext, FitRange, TermChange
 from gasfilm.analysis.physics.response import HitConditions, hit_displacement_m, resonance_omega_rad_s
-from gasfilm.analysis.physics.spec import RigSpec
+from gasfilm.analysis.physics.spec import RigSpec, film_parameter_range, within_readable_range
 
 #: Relative distance (in the search space's span) within which a fitted value counts as sitting at its bound.
 AT_BOUND_FRACTION = 1e-3
@@ -74,26 +74,36 @@ class Slot:
 def fit_context(spec: RigSpec, conditions: HitConditions, band_hz: tuple[float, float]) -> FitContext:
     """The physical scales that bound every term in this session (from the spec as given and the hits)."""
     omega = resonance_omega_rad_s(spec)
-    film = abs(spec.film.stiffness(np.array([1j * omega]), spec.film_parameters)[0])
+    stiffness = spec.film.stiffness(np.array([1j * omega]), spec.film_parameters)[0]
     return FitContext(
         mass_kg=spec.moving_mass_kg,
-        film_stiffness_n_per_m=float(film),
+        film_stiffness_n_per_m=float(abs(stiffness)),
         resonance_hz=omega / (2 * np.pi),
         band_hz=(float(band_hz[0]), float(band_hz[1])),
         session_span_s=float(np.ptp(conditions.time_s)) if len(conditions.time_s) else 0.0,
         max_displacement_m=float(np.max(hit_displacement_m(spec, conditions.impulse_ns))),
+        film_damping_ratio=float(stiffness.imag / (2 * stiffness.real)) if stiffness.real > 0 else 0.0,
     )
 
 
 def film_slots(spec: RigSpec) -> list[Slot]:
-    """The film model's own parameters (element bounds; orders linear, everything else log-scaled)."""
-    return [Slot(None, p.name, FitRange(p.scale, max(p.lower, 1e-12) if p.scale == "log" else p.lower, p.upper))
-            for p in spec.film.parameters]
+    """The film model's own parameters in the ranges the spec reader takes (:func:`film_parameter_range`: the
+    element's bounds, and the film resonating with the mass in the supported range; orders linear, everything else
+    log-scaled)."""
+    slots = []
+    for p in spec.film.parameters:
+        low, high = film_parameter_range(spec.film, p.name, spec.mass_kg, spec.film_parameters)
+        slots.append(Slot(None, p.name, FitRange(p.scale, max(low, 1e-12) if p.scale == "log" else low, high)))
+    return slots
 
 
 def effect_slots(spec: RigSpec, index: int, context: FitContext) -> list[Slot]:
-    """The continuously fitted fields of effect ``index`` with their physical ranges in this session."""
-    return [Slot(index, name, fit_range) for name, fit_range in spec.effects[index].fit_ranges(context).items()]
+    """The continuously fitted fields of effect ``index`` with their physical ranges in this session, cut to what the
+    spec reader takes (:func:`within_readable_range`)."""
+    effect = spec.effects[index]
+    units = {item.name: str(item.metadata.get("unit", "")) for item in dataclasses.fields(effect)}
+    return [Slot(index, name, within_readable_range(fit_range, units.get(name, "")))
+            for name, fit_range in effect.fit_ranges(context).items()]
 
 
 def spec_slots(spec: RigSpec, context: FitContext, recalibration: bool = False) -> list[Slot]:
@@ -155,5 +165,16 @@ def with_effect(spec: RigSpec, effect: Effect) -> RigSpec:
     return spec.with_values(effects=(*spec.effects, effect))
 
 
+def removed_with(spec: RigSpec, index: int) -> set[int]:
+    """The indices :func:`without_effect` takes out with effect ``index``: it and the changes that act on it."""
+    return {index} | {i for i, effect in enumerate(spec.effects) if isinstance(effect, TermChange) and effect.term == index}
+
+
 def without_effect(spec: RigSpec, index: int) -> RigSpec:
-    return spec.with_values(effects=[e for i, e in enumerate(spec.effects) if i != index])
+    """The spec less effect ``index`` and less the changes between hits that act on it; the other changes keep
+    pointing at their terms."""
+    gone = removed_with(spec, index)
+    position = {old: new for new, old in enumerate(i for i in range(len(spec.effects)) if i not in gone)}
+    return spec.with_values(effects=[
+        dataclasses.replace(effect, term=position[effect.term]) if isinstance(effect, TermChange) else effect
+        for i, effect in enumerate(spec.effects) if i not in gone])

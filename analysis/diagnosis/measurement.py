@@ -883,7 +883,13 @@ def hit_spectra(
             f"measured from the scatter of the {len(used)} hits' FRFs about their mean ({2 * (len(used) - 1)} degrees "
             f"of freedom per line, about {dof:.0f} over the smoothing band): the pre-trigger is too short to measure "
             f"it; hit-to-hit changes count as noise, which makes the comparison conservative")
-        variance_full = output_noise[np.newaxis, :] / force_power
+        # the replay plays each whole force record, its noise after the pulse too, which the recorded FRFs (force
+        # window) do not carry: that noise, measured on the quiet force after the impacts, is the replay's own
+        quiet_force = records[:, 0, _quiet_force_from(extents, n_samples, sample_rate_hz):]
+        replayed_force_noise = _through_window(_noise_spectrum(quiet_force, full_freq_hz, sample_rate_hz, steps[0]),
+                                               exponential[0])
+        variance_full = (output_noise[np.newaxis, :] + np.abs(h1_full[np.newaxis, :]) ** 2 * replayed_force_noise
+                         ) / force_power
     else:
         quiet = records[:, :, quiet_slice]
         # a force exported with a force window is zero in the tails: its noise is measured before the hits
@@ -1055,13 +1061,19 @@ def _mains_note(base_hz: float, harmonics_hz: list[float], where: str) -> Qualit
     )
 
 
+def _quiet_force_from(extents: list[tuple[int, int, int]], n_samples: int, sample_rate_hz: float) -> int:
+    """The first sample from which every force record is quiet after its impact (10 ms after the latest pulse's end,
+    at most half the record)."""
+    last_end = max(end for _, _, end in extents)
+    return min(n_samples // 2, last_end + int(0.01 * sample_rate_hz))
+
+
 def _remove_mains_seen_on_force(
     records: np.ndarray, extents: list[tuple[int, int, int]], sample_rate_hz: float
 ) -> tuple[np.ndarray, float | None, list[float]]:
     """Mains lines when the responses ring to the end of the records: found on the force records after the impacts
     (quiet there), then fitted and removed on both channels at those lines only."""
-    last_end = max(end for _, _, end in extents)
-    start = min(records.shape[-1] // 2, last_end + int(0.01 * sample_rate_hz))
+    start = _quiet_force_from(extents, records.shape[-1], sample_rate_hz)
     _, base, found = _remove_mains(records[:, :1], start, sample_rate_hz, MAINS_HARMONICS * max(MAINS_BASES_HZ))
     if base is None:
         return records, None, []

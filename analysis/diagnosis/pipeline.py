@@ -24,9 +24,17 @@ from typing import Callable
 import numpy as np
 import scipy.stats
 
-from gasfilm.analysis.diagnosis.candidates import EQUIVALENT, candidates_for, gain_is_not_a_mass, separating_measurement
-from gasfilm.analysis.diagnosis.fitspace import fit_context, spec_slots, without_effect
+from gasfilm.analysis.diagnosis.candidates import (
+    EQUIVALENT,
+    GENERIC_DESCRIPTIONS,
+    TERM_CHANGES,
+    candidates_for,
+    gain_is_not_a_mass,
+    separating_measurement,
+)
+from gasfilm.analysis.diagnosis.fitspace import fit_context, removed_with, spec_slots, without_effect
 from gasfilm.analysis.diagnosis.measurement import HitSpectra, QualityNote, contiguous_bands, weighted_mean
+from gasfilm.analysis.diagnosis.mechanisms import mechanisms_for
 from gasfilm.analysis.diagnosis.modes import unmodelled_resonances_hz
 from gasfilm.analysis.diagnosis.parallel import shared_map
 from gasfilm.analysis.diagnosis.restoring import RestoringForce
@@ -52,7 +60,7 @@ from gasfilm.analysis.diagnosis.selection import (
     to_finish,
     finishing_fit,
 )
-from gasfilm.analysis.physics.effects import EFFECT_TYPES, FitContext
+from gasfilm.analysis.physics.effects import EFFECT_TYPES, FitContext, TermChange
 from gasfilm.analysis.physics.response import simulate_response
 from gasfilm.analysis.physics.spec import DescriptionError, RigSpec
 from gasfilm.analysis.threads import one_blas_thread
@@ -61,7 +69,12 @@ from gasfilm.drivers.errors import GasfilmError
 
 logger = logging.getLogger(__name__)
 
-MAX_TERMS = 3
+MAX_TERMS = 6
+#: Generic descriptions at most, after the catalog's terms (modes beside the mover, film branches, channel factors).
+MAX_DESCRIPTIONS = 8
+#: A generic description whose own band stays beyond the noise is still a description of what it removed when it
+#: removed at least this share of the excess there (the rest is another description's, or not explained).
+DESCRIBED_SHARE = 0.5
 #: Refits at most against the replay of their own result when the replay quantises the response.
 QUANTISED_REFITS = 8
 NONLINEAR_ITERATIONS = 3
@@ -108,8 +121,8 @@ FILM_DISPLACEMENT = 2.0
 
 @dataclass
 class Step:
-    """One accepted term: its type, χ² before and after, its held-out gains (hits, frequency bands) and the close
-    alternatives."""
+    """One accepted term: its type, its label in the spec (``extra-mode``, ``extra-mode#2`` for the second of a type:
+    :func:`_label_at`), χ² before and after, its held-out gains (hits, frequency bands) and the close alternatives."""
 
     identifier: str
     chi2_before: float
@@ -117,6 +130,10 @@ class Step:
     held_out_gain: float
     held_out_band_gain: float = 0.0
     alternatives: list[str] = field(default_factory=list)
+    label: str = ""
+
+    def __post_init__(self) -> None:
+        self.label = self.label or self.identifier
 
 
 @dataclass
@@ -205,8 +222,6 @@ def diagnose_spectra(
     steps, current, evidence, refits_without, claims = _drop_unsupported_terms(
         spectra, evidence, steps, current, refits_without, rejected, recalibrated_spec, rms_recalibrated, context,
         progress, restoring)
-    findings = [_finding(evidence, step, current, refits_without[step.identifier], claims[step.identifier], context)
-                for step in steps]
     unexplained = _unexplained(spectra, evidence, current.spec, rejected, restoring)
     if unexplained and not steps and not structure_read_off_frf:
         redescribed = _redescribe_structure(spectra, evidence, current, context, progress)
@@ -216,9 +231,23 @@ def diagnose_spectra(
             recalibrated_spec = current.spec
             rms_recalibrated = replay_rms(spectra, recalibrated_spec)
             unexplained = _unexplained(spectra, evidence, current.spec, rejected, restoring)
+    if unexplained and not within_known_error:
+        described, current, evidence = _describe_the_rest(spectra, evidence, spec, current, context, points,
+                                                          rejected, progress, restoring)
+        if described:
+            steps, current, evidence, refits_without = _check_back(spectra, evidence, steps + described, current,
+                                                                   recalibrated_spec, context, progress)
+            steps, current, evidence, refits_without, claims = _drop_partial_descriptions(
+                spectra, evidence, steps, current, refits_without, rejected, recalibrated_spec, rms_recalibrated,
+                context, progress)
+            unexplained = _unexplained(spectra, evidence, current.spec, rejected, restoring)
+    findings = [_finding(evidence, step, current, refits_without[step.label], claims[step.label], context)
+                for step in steps]
     chi2_after = current.chi2
     if unexplained:
         verdict = "partly explained" if findings else "not explained"
+    elif any(finding.status == "modelled" for finding in findings):
+        verdict = "modelled"
     elif findings:
         verdict = "missing physics"
     elif recalibration_significant:
@@ -362,18 +391,24 @@ def _select_one(
     rejected: list[CandidateDescription],
     progress: Callable[[str], None],
     restoring: RestoringForce | None = None,
+    generic: bool = False,
+    other_films: tuple[dict[str, float], ...] = (),
 ) -> tuple[Step, FitOutcome, Evidence] | None:
-    """The next term of the forward selection, or None when no candidate earns its place. An amplitude-dependent
-    term whose shape the measured restoring force contradicts is not tried."""
+    """The next term of the forward selection, or None when no candidate earns its place: from the catalog, or with
+    ``generic`` from the generic descriptions. An amplitude-dependent term whose shape the measured restoring force
+    contradicts is not tried. ``other_films``: film parameters each candidate is also started from (see
+    :func:`_candidate_fits`)."""
     noise_scale = _noise_scale(current, points)
     trials = []
-    identifiers = _candidate_identifiers(current.spec, context, restoring)
+    identifiers = _candidate_identifiers(current.spec, context, restoring, generic)
+    if not _hits_differ(evidence, current.spec):  # one spec for every hit is all these data can describe
+        identifiers = [identifier for identifier in identifiers if identifier not in TERM_CHANGES]
 
     # a candidate matters when it scores above BIC_MARGIN (chosen, or listed as an alternative)
     fitted_candidates = _candidate_fits(
         spectra, evidence, current.spec, identifiers, context, noise_scale,
         worth=lambda slot_count: current.chi2 - (BIC_MARGIN + (slot_count - len(current.slots)) * np.log(points))
-        * noise_scale)
+        * noise_scale, other_films=other_films)
     for identifier in identifiers:
         fitted = fitted_candidates[identifier]
         if isinstance(fitted, GasfilmError):  # a nonlinear replay that does not converge is no candidate
@@ -413,18 +448,118 @@ def _select_one(
             continue
         close = [other for other_score, other, _, _ in trials if other != identifier
                  and score - other_score < ALTERNATIVE_MARGIN and other_score > BIC_MARGIN]
-        step = Step(identifier, current.chi2, outcome.chi2, gain_held_out, 0.0, close)
+        step = Step(identifier, current.chi2, outcome.chi2, gain_held_out, 0.0, close, _label_at(outcome.spec, index))
         return step, outcome, evidence_for(spectra, outcome.spec)
     return None
 
 
-def _candidate_identifiers(spec: RigSpec, context: FitContext, restoring: RestoringForce | None) -> list[str]:
-    """The candidate terms that may be added to ``spec``: not already in it, a time term only when the hits' times are
+def _drop_partial_descriptions(
+    spectra: HitSpectra,
+    evidence: Evidence,
+    steps: list[Step],
+    current: FitOutcome,
+    refits_without: dict[str, RigSpec],
+    rejected: list[CandidateDescription],
+    recalibrated: RigSpec,
+    rms_recalibrated: float,
+    context: FitContext,
+    progress: Callable[[str], None],
+) -> tuple[list[Step], FitOutcome, Evidence, dict[str, RigSpec], dict[str, Claim]]:
+    """A generic description must describe what lies in its own band: one that leaves that band beyond the noise
+    having removed less than :data:`DESCRIBED_SHARE` of its excess there (against the written spec refitted without
+    it) describes something else, and is taken out (the latest first) and listed with its values. One that removed
+    most of it describes its part, and what is left there is another's, or is not explained. The catalog's terms here
+    passed their claims already."""
+    while True:
+        claims = {step.label: _claim(spectra, evidence, current, refits_without[step.label], step.label,
+                                     recalibrated, rms_recalibrated) for step in steps}
+        partial = [step for step in steps if EFFECT_TYPES[step.identifier].generic
+                   and claims[step.label].reason is not None
+                   and not _described_share_met(claims[step.label])][-1:]
+        if not partial:
+            return steps, current, evidence, refits_without, claims
+        reasons = {step.label: claims[step.label].reason for step in partial}
+        for label, reason in reasons.items():
+            progress(f"  {label}: a candidate description, not a model of the data ({reason})")
+        steps, current, evidence, refits_without = _demote_terms(spectra, evidence, steps, current, reasons,
+                                                                 refits_without, rejected, recalibrated, context)
+
+
+def _described_share_met(claim: Claim) -> bool:
+    """Whether a term removed at least :data:`DESCRIBED_SHARE` of the excess over the noise in its own band."""
+    before, after = claim.own_band_without, claim.own_band_chi2_per_point
+    return before > 1.0 and (before - after) >= DESCRIBED_SHARE * (before - 1.0) and claim.gain_over_recalibrated > 0
+
+
+def _film_moved_from(spec: RigSpec, film: dict[str, float], tolerance: float = 0.1) -> bool:
+    """Whether any of ``spec``'s film parameters differs from ``film``'s by more than ``tolerance`` (relative)."""
+    return any(abs(value - film.get(name, value)) > tolerance * abs(film.get(name, value)) for name, value in
+               spec.film_parameters.items())
+
+
+#: The hits' residuals about their mean (the spec's per hit) beyond the noise by this factor (and beyond what the noise
+#: reaches by chance) say that the hits differ in a way the spec does not have: changes between hits are tried.
+HITS_DIFFER = 1.2
+
+
+def _hits_differ(evidence: Evidence, spec: RigSpec) -> bool:
+    """Whether the hits differ from each other beyond the noise about the spec: the χ² of each hit's residual about
+    the hits' weighted mean residual, per real degree of freedom, above :data:`HITS_DIFFER` and the 1 in 1000 chance
+    level of the F test with the noise estimate's degrees of freedom."""
+    if evidence.hit_count < 3:
+        return False
+    residual = evidence.residual_per_hit(spec)
+    weight = evidence.spectra.weight
+    mean = (weight * residual).sum(axis=0) / weight.sum(axis=0)
+    dof = 2 * (evidence.hit_count - 1) * residual.shape[1]
+    per_dof = float(np.sum(weight * np.abs(residual - mean) ** 2)) / dof
+    noise = evidence.spectra.noise
+    chance = float(scipy.stats.f.isf(OWN_BAND_FALSE_ALARM, dof, max(noise.degrees_of_freedom, 1.0))) \
+        if noise is not None else 1.0
+    return per_dof > max(HITS_DIFFER, chance)
+
+
+def _describe_the_rest(
+    spectra: HitSpectra,
+    evidence: Evidence,
+    given: RigSpec,
+    current: FitOutcome,
+    context: FitContext,
+    points: int,
+    rejected: list[CandidateDescription],
+    progress: Callable[[str], None],
+    restoring: RestoringForce | None,
+) -> tuple[list[Step], FitOutcome, Evidence]:
+    """Step 2 for what the catalog's terms leave beyond the noise: generic descriptions of each place in the chain
+    (a factor of a channel, a branch of the film, modes beside the mover), as many as the data need, chosen by the
+    same criterion as the catalog's terms (BIC gain in noise units, hits left out of the fit). Each is also started
+    from the ``given`` spec's film when the recalibration moved it: a recalibration that absorbed part of a
+    mismatch of the chain into the film leaves a minimum the description's fit cannot leave."""
+    described: list[Step] = []
+    other_films = tuple(film for film in (given.film_parameters,) if _film_moved_from(current.spec, film))
+    while len(described) < MAX_DESCRIPTIONS and not _nothing_unexplained(evidence, current.spec):
+        accepted = _select_one(spectra, evidence, current, context, points, rejected, progress, restoring,
+                               generic=True, other_films=other_films)
+        if accepted is None:
+            break
+        step, outcome, evidence = accepted
+        described.append(step)
+        current = fit(evidence, outcome.spec, outcome.slots)
+    return described, current, evidence
+
+
+def _candidate_identifiers(
+    spec: RigSpec, context: FitContext, restoring: RestoringForce | None, generic: bool = False
+) -> list[str]:
+    """The candidate terms that may be added to ``spec`` (the catalog's, or with ``generic`` the generic
+    descriptions): not already in it unless several of a type can be, a time term only when the hits' times are
     known, an amplitude-dependent term only when the measured restoring force allows its shape."""
-    present = {effect.type_name for effect in spec.effects}
-    return [identifier for identifier in candidates_for(spec)
+    present = {effect.type_name for effect in spec.effects if not type(effect).repeatable}
+    pool = (*(GENERIC_DESCRIPTIONS if generic else candidates_for(spec)), *TERM_CHANGES)
+    return [identifier for identifier in pool
             if identifier not in present
-            and not (identifier in ("drift", "step-change") and context.session_span_s <= 0)
+            and not (identifier in ("drift", "step-change", "term-drift", "term-onset")
+                     and context.session_span_s <= 0)
             and not (identifier in AMPLITUDE_TERMS and restoring is not None and not restoring.allows(identifier))]
 
 
@@ -474,6 +609,7 @@ def _candidate_fits(
     spectra: HitSpectra, evidence: Evidence, spec: RigSpec, identifiers: list[str], context: FitContext,
     noise_scale: float,
     worth: Callable[[int], float] | None = None,
+    other_films: tuple[dict[str, float], ...] = (),
 ) -> dict[str, tuple[FitOutcome | None, Evidence] | Exception]:
     """Each candidate's best fit (the steps listed at :func:`candidate_starts`; None without a start) and the
     evidence it is judged on (its own for a cubic spring: :func:`_nonlinear_refit`), or the exception its fit raised.
@@ -485,13 +621,16 @@ def _candidate_fits(
     (and at once finished when the candidate has no more starts than are finished), then the best starts of the
     others finished. Single fits balance the two processes better than whole candidates (a film term's three starts
     took as long as all other candidates together); each result is what one process gives, bit for bit. A cubic
-    spring's exact nonlinear replays come last, here, each replay's hits shared.
+    spring's exact nonlinear replays come last, here, each replay's hits shared. Each start is also tried with the
+    film parameters of ``other_films`` (a recalibration may have bent the film to absorb part of what the term
+    describes, a local minimum the term's fit cannot leave).
     """
     results: dict[str, tuple[FitOutcome | None, Evidence] | Exception] = {}
     starts: list[tuple[str, RigSpec, bool]] = []
     for identifier in identifiers:
         try:
             specs = candidate_starts(evidence, spec, identifier, context)
+            specs += [start.with_values(film_parameters=film) for film in other_films for start in specs]
         except GasfilmError as error:
             results[identifier] = error
             continue
@@ -588,16 +727,16 @@ def _check_back(
         noise_scale = _noise_scale(current, points)
         trials = []
         for step in steps:
-            refit = _refit_without(evidence, current.spec, _effect_index(current.spec, step.identifier), recalibrated,
+            refit = _refit_without(evidence, current.spec, _effect_index(current.spec, step.label), recalibrated,
                                    context)
             extra = len(current.slots) - len(refit.slots)
             trials.append(((refit.chi2 - current.chi2) / noise_scale - extra * np.log(points), step, refit))
         cost, step, refit = min(trials, key=lambda trial: trial[0])
         if cost > BIC_MARGIN:
-            return steps, current, evidence, {trial_step.identifier: trial_refit.spec
+            return steps, current, evidence, {trial_step.label: trial_refit.spec
                                               for _, trial_step, trial_refit in trials}
-        progress(f"check back: {step.identifier} no longer significant (noise scale {noise_scale:.2f}); removed")
-        steps = [s for s in steps if s is not step]
+        progress(f"check back: {step.label} no longer significant (noise scale {noise_scale:.2f}); removed")
+        steps = _without_steps(steps, [step], current.spec)
         evidence = evidence_for(spectra, refit.spec)
         current = fit(evidence, refit.spec, refit.slots)
     return steps, current, evidence, {}
@@ -626,9 +765,9 @@ def _drop_partial_terms(
     reasons = {}
     for step in partial:
         share = (step.chi2_before - step.chi2_after) / (step.chi2_before - points)
-        reasons[step.identifier] = (f"it removed only {100 * share:.0f} % of the mismatch left at its step, and the "
-                                    f"rest stays far beyond the noise")
-        progress(f"  {step.identifier}: not a finding (removed {100 * share:.0f} % of a mismatch that stays "
+        reasons[step.label] = (f"it removed only {100 * share:.0f} % of the mismatch left at its step, and the "
+                               f"rest stays far beyond the noise")
+        progress(f"  {step.label}: not a finding (removed {100 * share:.0f} % of a mismatch that stays "
                  f"{current.chi2 / points:.0f}× the noise)")
     return _demote_terms(spectra, evidence, steps, current, reasons, refits_without, rejected, recalibrated, context)
 
@@ -653,32 +792,34 @@ def _drop_unsupported_terms(
     added first; the rest are refitted and checked again."""
     claims: dict[str, Claim] = {}
     while steps:
-        claims = {step.identifier: _claim(spectra, evidence, current, refits_without[step.identifier], step.identifier,
-                                           recalibrated, rms_recalibrated) for step in steps}
+        claims = {step.label: _claim(spectra, evidence, current, refits_without[step.label], step.label,
+                                      recalibrated, rms_recalibrated) for step in steps}
         within_noise = _nothing_unexplained(evidence, current.spec)
         for step in steps:
-            if claims[step.identifier].reason is None:  # its own values on the written spec, as when it entered
-                claims[step.identifier].reason = _not_a_finding(current, _effect_index(current.spec, step.identifier),
+            if EFFECT_TYPES[step.identifier].generic:  # a change between hits is a description: its own band only
+                continue
+            if claims[step.label].reason is None:  # its own values on the written spec, as when it entered
+                claims[step.label].reason = _not_a_finding(current, _effect_index(current.spec, step.label),
                                                                 context, within_noise)
-            if claims[step.identifier].reason is None:
-                claims[step.identifier].reason = _survives_left_out_data(spectra, evidence, current, step,
-                                                                         refits_without[step.identifier], context)
-            if claims[step.identifier].reason is None and len(steps) > 1:
-                claims[step.identifier].reason = _displaces_a_parameter(current, step.identifier,
-                                                                        refits_without[step.identifier])
-            if claims[step.identifier].reason is None:
-                claims[step.identifier].reason = _beside_a_larger_term(step, steps, claims[step.identifier])
-            if claims[step.identifier].reason is None:
-                claims[step.identifier].reason = _measurement_alternative(step)
-            if claims[step.identifier].reason is None and step.identifier == "added-mass":
-                claims[step.identifier].reason = _mass_line_unmoved(spectra, current.spec)
-            if claims[step.identifier].reason is None and len(steps) > 1:
-                claims[step.identifier].reason = _other_kind_in_its_place(spectra, evidence, current, step.identifier,
+            if claims[step.label].reason is None:
+                claims[step.label].reason = _survives_left_out_data(spectra, evidence, current, step,
+                                                                         refits_without[step.label], context)
+            if claims[step.label].reason is None and len(steps) > 1:
+                claims[step.label].reason = _displaces_a_parameter(current, step.label,
+                                                                        refits_without[step.label])
+            if claims[step.label].reason is None:
+                claims[step.label].reason = _beside_a_larger_term(step, steps, claims[step.label])
+            if claims[step.label].reason is None:
+                claims[step.label].reason = _measurement_alternative(step)
+            if claims[step.label].reason is None and step.identifier == "added-mass":
+                claims[step.label].reason = _mass_line_unmoved(spectra, current.spec)
+            if claims[step.label].reason is None and len(steps) > 1:
+                claims[step.label].reason = _other_kind_in_its_place(spectra, evidence, current, step.label,
                                                                           context, restoring)
-        failing = [step for step in steps if claims[step.identifier].reason is not None][-1:]
+        failing = [step for step in steps if claims[step.label].reason is not None][-1:]
         if not failing:  # (the latest failing term goes first: the others may stand once it is out)
             break
-        reasons = {step.identifier: claims[step.identifier].reason for step in failing}
+        reasons = {step.label: claims[step.label].reason for step in failing}
         for identifier, reason in reasons.items():
             progress(f"  {identifier}: a candidate description, not a finding ({reason})")
         steps, current, evidence, refits_without = _demote_terms(spectra, evidence, steps, current, reasons,
@@ -699,18 +840,19 @@ def _demote_terms(
 ) -> tuple[list[Step], FitOutcome, Evidence, dict[str, RigSpec]]:
     """Take the terms named in ``reasons`` out of the spec as candidate descriptions (band, values, reason), refit
     the rest, and refit that spec once without each term kept (where a term is needed is where that refit fails)."""
+    demoted = [step for step in steps if step.label in reasons]
+    for step in demoted:
+        band = _term_band(evidence, current.spec, refits_without[step.label])
+        rejected.append(CandidateDescription(
+            step.identifier, band, _term_parameters(current, _effect_index(current.spec, step.label)),
+            reasons[step.label]))
     spec = current.spec
-    for step in steps:
-        if step.identifier in reasons:
-            band = _term_band(evidence, current.spec, refits_without[step.identifier])
-            rejected.append(CandidateDescription(
-                step.identifier, band, _term_parameters(current, _effect_index(current.spec, step.identifier)),
-                reasons[step.identifier]))
-            spec = without_effect(spec, _effect_index(spec, step.identifier))
+    for index in sorted((_effect_index(current.spec, step.label) for step in demoted), reverse=True):
+        spec = without_effect(spec, index)
+    kept = _without_steps(steps, demoted, current.spec)
     current, evidence = _refit(spectra, spec, recalibrated, context)
-    kept = [step for step in steps if step.identifier not in reasons]
-    refits = {step.identifier: _refit_without(evidence, current.spec, _effect_index(current.spec, step.identifier),
-                                              recalibrated, context).spec for step in kept}
+    refits = {step.label: _refit_without(evidence, current.spec, _effect_index(current.spec, step.label),
+                                         recalibrated, context).spec for step in kept}
     return kept, current, evidence, refits
 
 
@@ -737,7 +879,7 @@ def _survives_left_out_data(
     selection takes on the way (and the check back removes) must not push the true terms out of its place."""
     points = evidence.point_count
     noise_scale = _noise_scale(final, points)
-    index = _effect_index(final.spec, step.identifier)
+    index = _effect_index(final.spec, step.label)
     base_evidence = evidence_for(spectra, without)
     band_folds = held_out_band_gain(base_evidence, without, evidence, final.spec, context)
     hit_folds = held_out_gain(base_evidence, without, evidence, final.spec, context)
@@ -819,6 +961,7 @@ def _other_kind_in_its_place(
     take its place (a servo's integral action beside a squeeze film reads as an AC coupling of the response)."""
     index = _effect_index(final.spec, identifier)
     kind = final.spec.effects[index].kind
+    type_name = final.spec.effects[index].type_name
     reduced = without_effect(final.spec, index)
     others = [other for other in _candidate_identifiers(reduced, context, restoring)
               if EFFECT_TYPES[other].kind in ("rig", "measurement") and EFFECT_TYPES[other].kind != kind]
@@ -847,7 +990,7 @@ def _other_kind_in_its_place(
     where = "the rig" if kind == "measurement" else "the measurement chain"
     return (f"{other} in {where} fits about as well in its place on the written spec (BIC {cost:+.1f}, within "
             f"{SWAP_MARGIN:.0f}): these data cannot tell whether the rig or the measurement differs — "
-            f"{separating_measurement(identifier, other)} would")
+            f"{separating_measurement(type_name, other)} would")
 
 
 def _mass_line_unmoved(spectra: HitSpectra, spec: RigSpec) -> str | None:
@@ -951,8 +1094,33 @@ def own_band_chance(spectra: HitSpectra, per_point: np.ndarray, lines: np.ndarra
     return level * float(scipy.stats.f.isf(OWN_BAND_FALSE_ALARM, band_dof, max(noise_dof, 1.0)))
 
 
-def _effect_index(spec: RigSpec, identifier: str) -> int:
-    return next(i for i, effect in enumerate(spec.effects) if effect.type_name == identifier)
+def _effect_index(spec: RigSpec, label: str) -> int:
+    """The index in ``spec.effects`` of the effect a label names: ``type`` the first of its type, ``type#n`` the n-th
+    (as :meth:`Slot.label` numbers repeated effects)."""
+    type_name, _, number = label.partition("#")
+    same = [i for i, effect in enumerate(spec.effects) if effect.type_name == type_name]
+    return same[int(number) - 1 if number else 0]
+
+
+def _label_at(spec: RigSpec, index: int) -> str:
+    """The label of ``spec.effects[index]``: its type, numbered (``#n``) when it is not the first of its type."""
+    type_name = spec.effects[index].type_name
+    number = [i for i, effect in enumerate(spec.effects) if effect.type_name == type_name].index(index) + 1
+    return type_name if number == 1 else f"{type_name}#{number}"
+
+
+def _without_steps(steps: list[Step], removed: list[Step], spec: RigSpec) -> list[Step]:
+    """``steps`` less ``removed`` (and less the changes between hits of a removed term, which go with it),
+    relabelled for ``spec`` less their effects (a second extra mode is the first once the first is taken out)."""
+    gone: set[int] = set()
+    for step in removed:
+        gone |= removed_with(spec, _effect_index(spec, step.label))
+    reduced = spec
+    for index in sorted(gone, reverse=True):
+        reduced = reduced.with_values(effects=[e for i, e in enumerate(reduced.effects) if i != index])
+    position = {old: new for new, old in enumerate(i for i in range(len(spec.effects)) if i not in gone)}
+    return [dataclasses.replace(step, label=_label_at(reduced, position[_effect_index(spec, step.label)]))
+            for step in steps if _effect_index(spec, step.label) not in gone]
 
 
 # --- reporting ------------------------------------------------------------------------------------------------------
@@ -987,11 +1155,11 @@ def _term_band(evidence: Evidence, final: RigSpec, without: RigSpec) -> tuple[fl
     return float(low), float(high)
 
 
-def _where(identifier: str, spec: RigSpec, band: tuple[float, float]) -> str:
+def _where(index: int, spec: RigSpec, band: tuple[float, float]) -> str:
     """A finding's location in words: its own signature's frequency first, consequences elsewhere as such."""
     band_text = f"{band[0]:.0f}–{band[1]:.0f} Hz"
-    if identifier == "extra-mode":
-        mode_hz = spec.effects[_effect_index(spec, identifier)].freq_hz
+    if spec.effects[index].type_name == "extra-mode":
+        mode_hz = spec.effects[index].freq_hz
         own = f"near {mode_hz:.0f} Hz (its own peak/dip)"
         if band[0] <= mode_hz <= band[1]:
             return own
@@ -1003,12 +1171,12 @@ def _finding(
     evidence: Evidence, step: Step, final: FitOutcome, without: RigSpec, claim: Claim, context: FitContext
 ) -> Finding:
     identifier = step.identifier
-    index = _effect_index(final.spec, identifier)
+    index = _effect_index(final.spec, step.label)
     effect = final.spec.effects[index]
     parameters = _term_parameters(final, index)
     sigma = {name: float(row["uncertainty"]) for name, row in parameters.items()}
     band = _term_band(evidence, final.spec, without)
-    where = _where(identifier, final.spec, band)
+    where = _where(index, final.spec, band)
     gain = step.chi2_before - step.chi2_after
     hits = f"all {evidence.hit_count} hits"
     if identifier in ("drift", "step-change"):
@@ -1039,6 +1207,11 @@ def _finding(
         held_out_band_gain=step.held_out_band_gain,
         own_band_chi2_per_point=claim.own_band_chi2_per_point,
         own_band_limit=claim.own_band_limit,
+        place=effect.place(),
+        status="modelled" if type(effect).generic else "named",
+        features=effect.features(),
+        mechanisms=mechanisms_for(effect, context, final.spec.effects[effect.term] if isinstance(effect, TermChange)
+                                  else None),
     )
 
 

@@ -16,6 +16,7 @@ from gasfilm.analysis.diagnosis.parallel import shared_map
 from gasfilm.analysis.diagnosis.pipeline import replayed_mean, residuals
 from gasfilm.analysis.diagnosis.restoring import RestoringForce
 from gasfilm.analysis.diagnosis.result import Diagnosis
+from gasfilm.analysis.diagnosis.structure import STABILITY, Structure
 from gasfilm.analysis.threads import one_blas_thread
 from gasfilm.drivers.interface import STANDARD_GRAVITY_M_S2 as G_M_S2
 
@@ -29,20 +30,26 @@ SPEC_FILE = "improved-rig.toml"
 OVERLAY_FILE = "diagnosis-overlay.png"
 RESIDUAL_FILE = "diagnosis-residual.png"
 RESTORING_FILE = "diagnosis-restoring-force.png"
-OUTPUT_FILES = (SPEC_FILE, OVERLAY_FILE, RESIDUAL_FILE, RESTORING_FILE)
+STABILIZATION_FILE = "diagnosis-stabilization.png"
+OUTPUT_FILES = (SPEC_FILE, OVERLAY_FILE, RESIDUAL_FILE, RESTORING_FILE, STABILIZATION_FILE)
+#: How the stabilization diagram draws each stability class (:data:`STABILITY`): marker, size, colour.
+STABILITY_STYLE = ((".", 2.0, "0.75"), ("x", 3.0, "C1"), ("+", 4.0, "C2"), ("o", 3.5, "C0"))
 
 
 def write_figures(diagnosis: Diagnosis, out_dir: Path) -> list[str]:
     """``diagnosis-overlay.png`` (H1 recorded, spec as given and improved spec, replayed the same way),
-    ``diagnosis-residual.png`` (noise-weighted residual per frequency before/after, and per hit) and, with a
-    restoring force, ``diagnosis-restoring-force.png``; drawn by two processes at once (:func:`shared_map`: each
-    figure is the same file either way)."""
+    ``diagnosis-residual.png`` (noise-weighted residual per frequency before/after, and per hit), with a restoring
+    force ``diagnosis-restoring-force.png``, and with a structure read off the FRF ``diagnosis-stabilization.png``;
+    drawn by two processes at once (:func:`shared_map`: each figure is the same file either way)."""
     out_dir.mkdir(parents=True, exist_ok=True)
     drawings: list[Callable[[], Path]] = [lambda: write_overlay_figure(diagnosis, out_dir / OVERLAY_FILE),
                                           lambda: write_residual_figure(diagnosis, out_dir / RESIDUAL_FILE)]
     if diagnosis.restoring_force is not None:
         restoring = diagnosis.restoring_force
         drawings.append(lambda: write_restoring_force_figure(restoring, out_dir / RESTORING_FILE))
+    if diagnosis.structure is not None:
+        structure = diagnosis.structure
+        drawings.append(lambda: write_stabilization_figure(structure, out_dir / STABILIZATION_FILE))
     written = shared_map(lambda draw: draw(), drawings)
     for path in written:
         if isinstance(path, Exception):
@@ -155,6 +162,56 @@ def write_restoring_force_figure(restoring: RestoringForce, path: Path) -> Path:
     figure.subplots_adjust(left=0.08, right=0.98, bottom=0.12, top=0.9, wspace=0.25)
     figure.savefig(path, dpi=110, pil_kwargs=FAST_PNG)
     return path
+
+
+def write_stabilization_figure(structure: Structure, path: Path) -> Path:
+    """``diagnosis-stabilization.png`` of a structure read off the FRF (:func:`stabilization_figure`)."""
+    figure = stabilization_figure(structure.to_dict(), structure.diagram.frf_freq_hz, structure.diagram.frf_magnitude)
+    figure.savefig(path, dpi=110, pil_kwargs=FAST_PNG)
+    return path
+
+
+def stabilization_figure(reading: dict, frf_freq_hz: np.ndarray | None = None,
+                         frf_magnitude: np.ndarray | None = None) -> Figure:
+    """The stabilization diagram of a structure read off the FRF (``reading``: :meth:`Structure.to_dict`, as stored
+    with a diagnosis): every LSCF pole by frequency and model order, marked by its stability (new; stable in
+    frequency; and damping; and participation), the modes read as lines, over |H1| ((m/s²)/N) when given."""
+    diagram = reading["stabilization"]
+    order, freq_hz = np.asarray(diagram["order"], float), np.asarray(diagram["freq_hz"], float)
+    stability = np.asarray(diagram["stability"], int)
+    band = reading["band_hz"]
+    figure = Figure(figsize=(11, 6.5))
+    FigureCanvasAgg(figure)
+    axis = figure.subplots()
+    if frf_freq_hz is not None and frf_magnitude is not None:
+        magnitude_axis = axis.twinx()
+        inside = (frf_freq_hz >= band[0]) & (frf_freq_hz <= band[1]) & (frf_magnitude > 0)
+        magnitude_axis.semilogy(frf_freq_hz[inside], frf_magnitude[inside] / G_M_S2, color="k", lw=0.7)
+        _plain_log_labels(magnitude_axis)
+        magnitude_axis.set_ylabel("|H1| (g/N)")
+        axis.set_zorder(magnitude_axis.get_zorder() + 1)
+        axis.patch.set_visible(False)
+    for index, (name, (marker, size, colour)) in enumerate(zip(STABILITY, STABILITY_STYLE)):
+        rows = stability == index
+        axis.plot(freq_hz[rows], order[rows], marker, ms=size, color=colour, ls="none",
+                  mfc="none" if marker == "o" else colour, label=f"{name} ({np.count_nonzero(rows)})")
+    for mode in reading.get("modes_read", []):
+        axis.axvline(mode["freq_hz"], color="C0", lw=0.6, alpha=0.5)
+    if reading.get("suspension_hz"):
+        axis.axvline(reading["suspension_hz"], color="C4", lw=1.0, ls="--", label="suspension (soft support)")
+    for pole in reading.get("rejected_poles", []):
+        axis.axvline(pole["freq_hz"], color="C3", lw=0.8, ls=":")
+    if reading.get("rejected_poles"):
+        axis.plot([], [], color="C3", lw=0.8, ls=":", label="stable, not a mode (antiresonance, low coherence)")
+    axis.set_xlim(*band)
+    axis.set_xlabel("frequency (Hz)")
+    axis.set_ylabel("model order (LSCF)")
+    axis.legend(loc="upper left", fontsize=7, title="poles stable in", title_fontsize=7, framealpha=0.9)
+    kind = "driving point" if reading.get("driving_point") else "transfer FRF"
+    axis.set_title(f"stabilization diagram: {len(reading.get('modes_read', []))} modes (lines), {kind}, mass line "
+                   f"{reading['mass_line_kg']:.4g} kg, polarity {int(reading['polarity']):+d}", fontsize=10)
+    figure.subplots_adjust(left=0.07, right=0.92, bottom=0.09, top=0.94)
+    return figure
 
 
 @one_blas_thread

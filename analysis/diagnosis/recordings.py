@@ -8,7 +8,7 @@ import logging
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Callable
+from typing import Any, Callable
 
 import numpy as np
 
@@ -24,9 +24,17 @@ from gasfilm.analysis.diagnosis.measurement import (
 from gasfilm.analysis.diagnosis.pipeline import diagnose_spectra
 from gasfilm.analysis.diagnosis.restoring import RestoringForce, restoring_force
 from gasfilm.analysis.diagnosis.result import Diagnosis
-from gasfilm.analysis.diagnosis.structure import read_structure
-from gasfilm.analysis.physics.effects import MIN_DAMPING_RATIO, AcCoupling, ExtraMode, Polarity
-from gasfilm.analysis.physics.spec import RigSpec
+from gasfilm.analysis.diagnosis.structure import LSCF_ORDER, UPPER_RANGE, Structure, read_structure
+from gasfilm.analysis.physics.effects import (
+    MAX_MODAL_CONSTANT_PER_KG,
+    MIN_DAMPING_RATIO,
+    AcCoupling,
+    ExtraMode,
+    Polarity,
+    StructureMode,
+)
+from gasfilm.analysis.physics.elements import get_model
+from gasfilm.analysis.physics.spec import MASS_RANGE_KG, RigSpec, film_parameter_range
 from gasfilm.analysis.spectra import (
     READ_MIN_COHERENCE,
     FrfResult,
@@ -92,6 +100,9 @@ def load_recordings(path: str | Path | list[Path]) -> Recordings:
     with Session.open(path) as session:
         stored = session.hits()
         accepted = [hit for hit in stored if hit.verdict.accepted]
+        rigid_note = _one_hammer_point(session, accepted)
+        if rigid_note is not None:  # a rigid-body test's roving hammer: its spec describes one point's hits
+            accepted, note = rigid_note
         rejected = [hit for hit in stored if not hit.verdict.accepted]
         if len(accepted) < 2:
             raise SettingError(f"{path}: {len(accepted)} accepted hit(s); the diagnosis needs at least 2")
@@ -100,7 +111,7 @@ def load_recordings(path: str | Path | list[Path]) -> Recordings:
         times = np.array([hit.start_time_s + hit.trigger_index / hit.sample_rate_hz for hit in accepted])
         overload = np.stack([hit.overload[[hit.force_channel, hit.response_channel]] for hit in accepted])
         window = session.settings_as("window", WindowSettings)  # missing windows are filled in by hit_spectra
-        quality = []
+        quality = [] if rigid_note is None else [note]
         if rejected:
             reasons: dict[str, int] = {}
             for hit in rejected:
@@ -111,6 +122,20 @@ def load_recordings(path: str | Path | list[Path]) -> Recordings:
                                        f"only accepted hits are compared", hits=tuple(h.index for h in rejected)))
         return Recordings(records, session.sample_rate_hz, times, window, overload, session.rig_spec_toml,
                           str(path), quality)
+
+
+def _one_hammer_point(session: Any, accepted: list) -> tuple[list, QualityNote] | None:
+    """A rigid-body session struck at several points: the hits at its spec's point (those its one-FRF view, the
+    first accelerometer for that point, describes) and a note saying so; None for any other session."""
+    from gasfilm.analysis.rigid_session import hits_at_spec_point, hits_by_point, session_spec
+
+    spec = session_spec(session)
+    if spec is None or len(hits_by_point(spec, session.settings, accepted)) < 2:
+        return None
+    kept = hits_at_spec_point(spec, session.settings, accepted)
+    return kept, QualityNote("hammer points", f"a roving rigid-body test: the {len(kept)} hits at hammer point "
+                             f"{spec.rigid_body.hammer_point} are compared (the spec's first accelerometer there; "
+                             f"`gasfilm rigid` reads every point)")
 
 
 #: Above the film resonance by this factor, |H1| approaches the mass line 1/m (within ~10 % at 3×).
@@ -136,7 +161,17 @@ def _low_coherence_hint(frf: FrfResult) -> str:
 
 
 def read_start(recordings: Recordings, mass_kg: float | None = None) -> tuple[RigSpec, str]:
-    """The starting spec read off the recordings' FRF when no rig spec is known, and what was read, in words.
+    """The starting spec read off the recordings' FRF when no rig spec is known, and what was read, in words
+    (:func:`read_start_with_structure` without the structure reading)."""
+    spec, text, _ = read_start_with_structure(recordings, mass_kg)
+    return spec, text
+
+
+def read_start_with_structure(
+    recordings: Recordings, mass_kg: float | None = None
+) -> tuple[RigSpec, str, Structure | None]:
+    """The starting spec read off the recordings' FRF when no rig spec is known, what was read, in words, and the
+    structure reading (modes, stabilization diagram) when it is a measured structure (else None).
 
     Only readable lines count (:func:`gasfilm.analysis.spectra.readable_lines`: the usable band of the hammer and
     coherence ≥ 0.9), never a noise peak. The lowest resonance is the mover on its film (a spring-damper: k = m·ω²,
@@ -145,7 +180,11 @@ def read_start(recordings: Recordings, mass_kg: float | None = None) -> tuple[Ri
     the mover when there are at least :data:`MULTI_MODE_MIN` of them (its own frequency at the antiresonance below
     the peak, its mass from their spacing; one alone is left to the diagnosis to test as a candidate). Raises
     :class:`SettingError` (one line) when no resonance or mass can be read: a start that cannot be read is not
-    recalibrated into parameters at their bounds."""
+    recalibrated into parameters at their bounds.
+
+    A recording whose |H1| is flat below its first resonance (a mass line), or whose FRF is not a driving point (the
+    imaginary part of the accelerance changes sign: modal constants of both signs), is a measured structure
+    (:func:`_read_structure`)."""
     records, rate_hz = recordings.records, recordings.sample_rate_hz
     window = recordings.window
     fallback = default_window(records, rate_hz)
@@ -170,8 +209,15 @@ def read_start(recordings: Recordings, mass_kg: float | None = None) -> tuple[Ri
                            f"excites with coherence ≥ 0.9 ({band}){_low_coherence_hint(frf)}; give the rig spec "
                            f"with --rig")
     freq_hz, magnitude, sigma = frf.freq_hz, np.abs(frf.h1), frf.decay_rate_1_s
-    if mass_kg is None and _mass_line_below(freq_hz, magnitude, readable, float(freq_hz[resonances[0]])):
-        return _read_structure(recordings, frf, readable, resonances)
+    if mass_kg is None:
+        if _mass_line_below(freq_hz, magnitude, readable, float(freq_hz[resonances[0]])):
+            return _read_structure(recordings, frf, readable, resonances,
+                                   f"below its first clear resonance ({freq_hz[resonances[0]]:.0f} Hz) the FRF is flat "
+                                   f"as a mass line, not rising as a mover on a film")
+        if _transfer_frf(frf.h1, readable):
+            return _read_structure(recordings, frf, readable, resonances,
+                                   "the FRF is not a driving point (its imaginary part changes sign: modal constants "
+                                   "of both signs), not a mover on a film")
     main = resonances[0]
     main_hz = float(freq_hz[main])
     how = "--mass"
@@ -222,7 +268,7 @@ def read_start(recordings: Recordings, mass_kg: float | None = None) -> tuple[Ri
     if modes:
         text += ("; a multi-mode structure: extra modes at " + ", ".join(f"{mode.freq_hz:.0f}" for mode in modes)
                  + " Hz are part of the start (read, not findings)")
-    return spec, text
+    return spec, text, None
 
 
 #: A hit is an outlier for the start when its FRF's median relative distance from the hits' median FRF is this many
@@ -272,30 +318,128 @@ def _mass_line_below(freq_hz: np.ndarray, magnitude: np.ndarray, readable: np.nd
     return bool(slope < MASS_LINE_SLOPE)
 
 
-def _read_structure(recordings: Recordings, frf, readable: np.ndarray, resonances: list[int]) -> tuple[RigSpec, str]:
+#: An FRF whose imaginary part has the minority sign over more than this share of its size (Σ|Im H1| on the
+#: readable lines) is not a driving point: a driving point's accelerance keeps Im H ≥ 0 (a passive structure).
+TRANSFER_SHARE = 0.2
+
+
+def _transfer_frf(h1: np.ndarray, readable: np.ndarray) -> bool:
+    """Whether the FRF is a transfer FRF (not a driving point): its imaginary part changes sign over more than
+    :data:`TRANSFER_SHARE` of it, as modal constants of both signs make it."""
+    imaginary = h1[readable].imag
+    total = float(np.sum(np.abs(imaginary)))
+    if total <= 0:
+        return False
+    minority = min(float(np.sum(imaginary[imaginary > 0])), float(-np.sum(imaginary[imaginary < 0])))
+    return minority > TRANSFER_SHARE * total
+
+
+def _read_structure(
+    recordings: Recordings, frf, readable: np.ndarray, resonances: list[int], why: str
+) -> tuple[RigSpec, str, Structure]:
     """A start for a measured structure (:mod:`.structure`): its modes beside a residual mass line with the response
-    polarity; the mover's suspension (a spring-damper film) resonates below the band, so in band the mover is that
-    mass line."""
+    polarity, the upper residual as a mode above the band; the mover's suspension (a spring-damper film) is the soft
+    support read in the band, else it resonates below the band, so that in band the mover is that mass line."""
     freq_hz = frf.freq_hz
     lines = np.flatnonzero(readable)
-    structure = read_structure(freq_hz, frf.h1, frf.decay_rate_1_s, lines,
-                               [float(freq_hz[line]) for line in resonances])
-    mass_kg = float(np.clip(structure.mass_kg, 1e-3, 1e4))
+    structure = read_structure(freq_hz, frf.h1, frf.coherence, frf.decay_rate_1_s, lines,
+                               [float(freq_hz[line]) for line in resonances], int(frf.n_averages))
+    mass_kg = float(np.clip(structure.mass_kg, MASS_RANGE_KG[0], MASS_RANGE_KG[1]))
     effects: list = ([Polarity(channel="acceleration")] if structure.polarity < 0 else []) + structure.modes
-    omega = 2 * np.pi * max(SUSPENSION_BELOW * float(freq_hz[lines[0]]), 0.5)
-    spec = RigSpec.nominal("SD", mass_kg=mass_kg,
-                           parameters={"k": max(mass_kg * omega**2, 1e2), "eta": max(0.1 * mass_kg * omega, 1e-2)},
-                           effects=effects)
+    if structure.upper_residual is not None:
+        effects.append(structure.upper_residual)
+    if structure.suspension is not None:
+        suspension_hz, zeta = structure.suspension
+        omega = 2 * np.pi * suspension_hz
+        parameters = {"k": mass_kg * omega**2, "eta": 2 * zeta * mass_kg * omega}
+    else:
+        omega = 2 * np.pi * max(SUSPENSION_BELOW * float(freq_hz[lines[0]]), 0.5)
+        parameters = {"k": max(mass_kg * omega**2, 1e2), "eta": max(0.1 * mass_kg * omega, 1e-2)}
+    parameters = {name: float(np.clip(value, *film_parameter_range(get_model("SD"), name, mass_kg)))
+                  for name, value in parameters.items()}
+    spec = RigSpec.nominal("SD", mass_kg=mass_kg, parameters=parameters, effects=effects)
     spec = dataclasses.replace(spec, name=f"structure read off the FRF of {Path(recordings.source).name}")
     suspension_hz = np.sqrt(spec.film_parameters["k"] / mass_kg) / (2 * np.pi)
-    text = (f"below its first clear resonance ({freq_hz[resonances[0]]:.0f} Hz) the FRF is flat as a mass line, not "
-            f"rising as a mover on a film: a structure read as modal analysis does (LSCF poles, LSFD constants, "
+    text = (f"{why}: a structure read as modal analysis does (LSCF poles over {2 * LSCF_ORDER} model orders, stable in "
+            f"frequency, damping and participation; LSFD constants with lower and upper residuals, "
             f"{freq_hz[lines[0]]:.0f}–{freq_hz[lines[-1]]:.0f} Hz), {len(structure.modes)} modes at "
             + ", ".join(f"{frequency:.0f}" for frequency in sorted(mode.freq_hz for mode in structure.modes))
             + f" Hz beside a mass line of {mass_kg:.4g} kg"
             + (" read with the opposite sign (response polarity −1)" if structure.polarity < 0 else "")
-            + f", on a suspension resonating below the band ({suspension_hz:.2g} Hz); read, not findings")
-    return spec, text
+            + ("; a driving point (every modal constant of the mass line's sign)" if structure.driving_point
+               else "; a transfer FRF, not a driving point (modal constants of both signs)")
+            + (f"; a rigid body on a soft support: the suspension at {suspension_hz:.3g} Hz, read in the band"
+               if structure.suspension
+               else f", on a suspension resonating below the band ({suspension_hz:.2g} Hz)")
+            + ("" if structure.upper_residual is None else
+               f"; the modes above the band as one at {structure.upper_residual.freq_hz:.0f} Hz (upper residual)")
+            + ("" if not structure.rejected else
+               "; not modes: " + ", ".join(f"{pole.freq_hz:.0f} Hz ({pole.reason})" for pole in structure.rejected))
+            + "; read, not findings")
+    return spec, text, structure
+
+
+#: A structure read off the FRF is finished on the diagnosis's own comparison with its poles within this fraction of
+#: their frequencies.
+POLISH_FREEDOM = 0.01
+POLISH_ROUNDS = 3
+
+
+def polished_structure(spec: RigSpec, spectra: HitSpectra) -> RigSpec:
+    """The modes of a structure read off the FRF finished on the comparison the diagnosis makes: the per-hit FRFs
+    corrected for the replay on the analysis grid, averaged as H1 with their measured noise (what a spec's χ² measures
+    when it is the same for every hit), by variable projection (:func:`.structure._projected`): the mass line's
+    level (the mass and the suspension scaled together), each mode's complex constant, and its pole within
+    :data:`POLISH_FREEDOM` (a mode above the band, the upper residual, within its range above the band). The reading
+    at full resolution placed the poles; the grid only finishes them."""
+    from gasfilm.analysis.diagnosis.pipeline import evidence_for
+    from gasfilm.analysis.diagnosis.structure import _projected
+    from gasfilm.analysis.physics.response import rig_accelerance
+
+    indices = [i for i, effect in enumerate(spec.effects) if effect.type_name == "structure-mode"]
+    if not indices or spectra.replay is None:
+        return spec
+    freq_hz, sigma = spectra.freq_hz, spectra.decay_rate_1_s
+    mean, total = evidence_for(spectra, spec).spectra.mean()
+    s = sigma + 2j * np.pi * freq_hz
+    bare = spec.with_values(effects=[e for i, e in enumerate(spec.effects) if i not in indices])
+    base = rig_accelerance(bare, freq_hz, sigma)
+    probe_hz = float(np.median(freq_hz))
+    probe = StructureMode(freq_hz=probe_hz, damping_ratio=0.1, modal_constant_per_kg=1.0)
+    omega = 2 * np.pi * probe_hz
+    transfer = ((rig_accelerance(bare.with_values(effects=[*bare.effects, probe]), freq_hz, sigma) - base)
+                / (s**2 / (s**2 + 0.2 * omega * s + omega**2)))
+    modes = [spec.effects[i] for i in indices]
+    top_hz = float(freq_hz[-1])
+    hz = np.array([mode.freq_hz for mode in modes])
+    zeta = np.array([mode.damping_ratio for mode in modes])
+    above = hz > top_hz
+    low = np.concatenate((np.where(above, UPPER_RANGE[0] * top_hz, hz * (1 - POLISH_FREEDOM)),
+                          np.full(hz.size, MIN_DAMPING_RATIO)))
+    high = np.concatenate((np.where(above, np.maximum(UPPER_RANGE[1] * top_hz, hz), hz * (1 + POLISH_FREEDOM)),
+                           np.full(hz.size, 0.5)))
+    hz, zeta, constants = _projected(s, mean, np.sqrt(total), hz, zeta, low, high, base, transfer)
+    if not constants[0] > 0:
+        return spec
+    limit = MAX_MODAL_CONSTANT_PER_KG
+    polished = {index: dataclasses.replace(
+        mode, freq_hz=float(hz[k]), damping_ratio=float(zeta[k]),
+        modal_constant_per_kg=float(np.clip(constants[1 + k], -limit, limit)) or mode.modal_constant_per_kg,
+        quadrature_per_kg=float(np.clip(constants[1 + hz.size + k], -limit, limit)))
+        for k, (index, mode) in enumerate(zip(indices, modes))}
+    scale = float(constants[0])  # the mass line's level: the mass and the suspension's coefficients over it
+    mass_kg = float(np.clip(spec.mass_kg / scale, *MASS_RANGE_KG))
+    film = {name: float(np.clip(value / scale, *film_parameter_range(spec.film, name, mass_kg, spec.film_parameters)))
+            if name in _coefficients(spec) else value for name, value in spec.film_parameters.items()}
+    candidate = dataclasses.replace(spec, mass_kg=mass_kg, film_parameters=film,
+                                    effects=[polished.get(i, effect) for i, effect in enumerate(spec.effects)])
+    return candidate
+
+
+def _coefficients(spec: RigSpec) -> set[str]:
+    """The film's coefficients (springs, dashpots, spring-pot coefficients): scaled with the mass, the film's
+    accelerance keeps its shape and scales by the inverse."""
+    return {parameter.name for parameter in spec.film.parameters if parameter.scale == "log"}
 
 
 def _half_power_width_hz(freq_hz: np.ndarray, magnitude: np.ndarray, peak: int) -> float:
@@ -315,18 +459,26 @@ def starting_spec(
 ) -> tuple[RigSpec, str]:
     """The spec to start from, and where it comes from in words: ``rig_spec`` (--rig), else the rig spec the session
     was recorded with, else one read off the FRF (:func:`read_start`); ``mass_kg`` overrides the spec's mass."""
+    spec, origin, _ = _starting_spec(recordings, rig_spec, mass_kg)
+    return spec, origin
+
+
+def _starting_spec(
+    recordings: Recordings, rig_spec: RigSpec | None, mass_kg: float | None
+) -> tuple[RigSpec, str, Structure | None]:
+    """:func:`starting_spec` with the structure reading of a start read off the FRF (None otherwise)."""
     if rig_spec is not None:
         origin = f"the given rig spec '{rig_spec.name}'"
     elif recordings.rig_spec_toml:
         rig_spec = RigSpec.from_toml(recordings.rig_spec_toml, f"{recordings.source} rig spec")
         origin = f"the rig spec recorded in the session ('{rig_spec.name}')"
     else:
-        spec, text = read_start(recordings, mass_kg)
-        return spec, f"no rig spec given: a start read off the FRF: {text}"
+        spec, text, structure = read_start_with_structure(recordings, mass_kg)
+        return spec, f"no rig spec given: a start read off the FRF: {text}", structure
     if mass_kg is not None:
         rig_spec = dataclasses.replace(rig_spec, mass_kg=mass_kg)
         origin += f" with the mass set to {mass_kg:g} kg (--mass)"
-    return rig_spec, f"starting from {origin}"
+    return rig_spec, f"starting from {origin}", None
 
 
 def film_restoring_force(recordings: Recordings, spectra: HitSpectra, mass_kg: float) -> RestoringForce | None:
@@ -383,15 +535,21 @@ def diagnose(
                               hit_times_s=recordings.hit_times_s, overload=recordings.overload, band_hz=band_hz)
     except SettingError as error:
         raise SettingError(named_refusal(recordings.source, str(error))) from None
-    rig_spec, origin = starting_spec(recordings, rig_spec, mass_kg)
+    rig_spec, origin, structure = _starting_spec(recordings, rig_spec, mass_kg)
+    if structure is not None:
+        for _ in range(POLISH_ROUNDS):  # each round with the replay correction of the spec it starts from
+            rig_spec = polished_structure(rig_spec, spectra)
     if response_dc_coupled:
         rig_spec = rig_spec.with_effects(AcCoupling(channel="force", corner_hz=AC_COUPLING_HZ))
     progress(origin)
     spectra.quality[:0] = recordings.quality
-    restoring = film_restoring_force(recordings, spectra, rig_spec.moving_mass_kg)
+    # (a rigid body's accelerometer does not read the film's force as F − m·a: its rotation is in it)
+    restoring = None if rig_spec.rigid_body is not None else film_restoring_force(recordings, spectra,
+                                                                                  rig_spec.moving_mass_kg)
     diagnosis = diagnose_spectra(spectra, rig_spec, progress, restoring, structure_read_off_frf=read_off_frf,
                                  recording=Path(recordings.source).name)
     diagnosis.notes.insert(0, origin)
+    diagnosis.structure = structure
     if read_off_frf and mass_kg is None and "(mass line" in origin and diagnosis.verdict not in (
             "consistent", "parameters-only"):
         diagnosis.notes.append(f"the moving mass was read off the FRF's mass line ({rig_spec.moving_mass_kg:.4g} kg): "

@@ -3,15 +3,22 @@
 from __future__ import annotations
 
 from gasfilm.analysis.diagnosis.result import Diagnosis
+from gasfilm.analysis.diagnosis.structure import structure_summary
 from gasfilm.drivers.interface import STANDARD_GRAVITY_M_S2 as G_M_S2
+
+#: A band not explained is listed on its own line when it holds at least this share of the excess χ²; the others are
+#: counted in one line (all are in --json and the session report).
+LISTED_SHARE = 0.01
 
 #: Each verdict in words (the terminal report's line, the session report's).
 VERDICT_LINES = {
     "consistent": "no missing physics: the spec explains the recordings within the noise",
     "parameters-only": "no missing physics: the recalibrated parameters explain the recordings within the noise",
     "missing physics": "the spec with the terms above explains the recordings within the noise",
-    "partly explained": "the terms above explain part of the mismatch; the rest is NOT explained (below)",
-    "not explained": "no term of the catalog explains the mismatch: it is NOT explained (below)",
+    "modelled": ("the spec with the descriptions above explains the recordings within the noise; what is only "
+                 "modelled has the mechanisms listed, none of them certain"),
+    "partly explained": "the descriptions above explain part of the mismatch; the rest is NOT explained (below)",
+    "not explained": "no description brings the recordings within the noise: the mismatch is NOT explained (below)",
 }
 
 
@@ -23,17 +30,33 @@ def report_text(diagnosis: Diagnosis) -> str:
                  f"replayed with the recorded forces through the same windows")
     if diagnosis.spectra.noise is not None:
         lines.append(f"  noise: {diagnosis.spectra.noise.source} — {diagnosis.spectra.noise.detail}")
+    band = (float(evidence.freq_hz[0]), float(evidence.freq_hz[-1]))
+    structure = structure_summary(diagnosis.improved, diagnosis.structure, band)
     if diagnosis.recalibration:
         lines.append("  recalibrated spec parameters:")
+        modal = {name: row for name, row in diagnosis.recalibration.items() if name.startswith("structure-mode")}
         for name, row in diagnosis.recalibration.items():
+            if name in modal:
+                continue
             unit = f" {row['unit']}" if row.get("unit") and row["unit"] != "1" else ""
             if row.get("at_bound"):
                 lines.append(f"    {name:34s} {row['spec']:.6g} → {row['fitted']:.6g}{unit} at the edge of its range: "
                              f"not a measurement (the data do not determine it)")
             else:
                 lines.append(f"    {name:34s} {row['spec']:.6g} → {row['fitted']:.6g} ± {row['uncertainty']:.2g}{unit}")
+        if modal:
+            edge = sum(bool(row.get("at_bound")) for row in modal.values())
+            lines.append(f"    the structure's modes: {len(modal)} parameters recalibrated (the mode table below)"
+                         + (f", {edge} at the edge of their range: not a measurement" if edge else "")
+                         + "; each one with its uncertainty in --json and the session report")
+    if structure is not None:
+        lines.extend(_structure_lines(structure, diagnosis))
     for finding in diagnosis.findings:
-        label = "measurement chain" if finding.kind == "measurement" else "missing physics"
+        if finding.status == "modelled":
+            label = f"modelled in the {finding.place}" if finding.place.endswith(("channel", "chain")) else \
+                f"modelled ({finding.place})"
+        else:
+            label = "measurement chain" if finding.kind == "measurement" else "missing physics"
         lines.append(f"  {label}: {finding.effect}  (where: {finding.where}; {finding.hits})")
         for name, row in finding.parameters.items():
             lines.append(f"      {name:30s} {row['value']:.6g} ± {row['uncertainty']:.2g} {row['unit']}")
@@ -44,8 +67,15 @@ def report_text(diagnosis: Diagnosis) -> str:
                      f"(beyond the noise above {finding.own_band_limit:.2f})")
         for alternative in finding.alternatives:
             lines.append(f"      or:   {alternative.effect} — {alternative.note}")
+        if finding.mechanisms:
+            first, *others = finding.mechanisms
+            lines.append(f"      {'named' if finding.status == 'named' else 'likely'}: {first.name}")
+            if others:
+                lines.append(f"      also consistent: {'; '.join(m.name for m in others)} — {first.tell_apart} "
+                             f"would tell them apart")
     lines.append(f"  {VERDICT_LINES[diagnosis.verdict]}")
-    for item in diagnosis.unexplained:
+    minor = [item for item in diagnosis.unexplained if item.chi2_share < LISTED_SHARE]
+    for item in (item for item in diagnosis.unexplained if item.chi2_share >= LISTED_SHARE):
         hits = "all hits" if len(item.hits) == diagnosis.evidence.hit_count else \
             f"hits {', '.join(str(hit + 1) for hit in item.hits)}"  # numbered from 1, as everywhere the user sees
         lines.append(f"  NOT explained: {item.band_hz[0]:.0f}–{item.band_hz[1]:.0f} Hz, {hits}, "
@@ -54,6 +84,10 @@ def report_text(diagnosis: Diagnosis) -> str:
             values = ", ".join(f"{name} {row['value']:.4g} ± {row['uncertainty']:.2g} {row['unit']}".rstrip()
                                for name, row in candidate.parameters.items())
             lines.append(f"      candidate description (not a finding): {candidate.effect} ({values})")
+    if minor:
+        lines.append(f"  and {len(minor)} more band(s) beyond the noise holding under {100 * LISTED_SHARE:.0f} % of the "
+                     f"excess χ² each (" + ", ".join(f"{item.band_hz[0]:.0f}–{item.band_hz[1]:.0f}" for item in minor)
+                     + " Hz; in --json)")
     listed = {id(candidate) for item in diagnosis.unexplained for candidate in item.candidates}
     others = [candidate for candidate in diagnosis.candidates if id(candidate) not in listed]
     if others:
@@ -76,3 +110,32 @@ def report_text(diagnosis: Diagnosis) -> str:
     lines.extend(f"  figure: {figure}" for figure in diagnosis.figures)
     lines.append(f"  time: {diagnosis.wall_time_s:.1f} s from loading the recordings")
     return "\n".join(lines)
+
+
+def _structure_lines(structure: dict, diagnosis: Diagnosis) -> list[str]:
+    """The measured structure: how it was read off the FRF (when it was) and its mode table, by frequency."""
+    lines = []
+    read = structure["read_off_frf"]
+    if read is not None:
+        poles = read["poles"]
+        lines.append(f"  structure read off the FRF ({read['band_hz'][0]:.0f}–{read['band_hz'][1]:.0f} Hz): LSCF over "
+                     f"{read['lscf_orders']} model orders, {poles['frequency, damping and participation']} poles "
+                     f"stable in frequency, damping and participation; "
+                     + ("a driving point" if read["driving_point"] else "a transfer FRF (modal constants of both signs)")
+                     + f", polarity {read['polarity']:+d}, mass line {read['mass_line_kg']:.4g} kg"
+                     + (f", suspension (soft support) at {read['suspension_hz']:.3g} Hz" if read["suspension_hz"]
+                        else "")
+                     + (f", upper residual as a mode at {read['upper_residual_hz']:.0f} Hz"
+                        if read["upper_residual_hz"] else "")
+                     + "; stabilization diagram in diagnosis-stabilization.png")
+        for pole in read["rejected_poles"]:
+            lines.append(f"    stable pole at {pole['freq_hz']:.0f} Hz is not a mode: {pole['reason']}")
+    rows = structure["modes"]
+    lines.append(f"  modes of the improved spec ({len(rows)}, by frequency; modal constants with the polarity taken "
+                 f"out):")
+    lines.append(f"    {'#':>3} {'frequency (Hz)':>14} {'damping ratio':>13} {'modal constant (1/kg)':>23}")
+    for number, row in enumerate(rows, start=1):
+        constant = f"{row['modal_constant_per_kg']:+.4g} {row['quadrature_per_kg']:+.2g}j"
+        note = "  above the band: upper residual" if row["above_band"] else ""
+        lines.append(f"    {number:>3} {row['freq_hz']:14.2f} {row['damping_ratio']:13.3g} {constant:>23}{note}")
+    return lines

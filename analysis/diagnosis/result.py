@@ -8,12 +8,14 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 from gasfilm.analysis.diagnosis.measurement import HitSpectra, QualityNote
+from gasfilm.analysis.diagnosis.mechanisms import MechanismMatch
 from gasfilm.analysis.diagnosis.restoring import RestoringForce
 from gasfilm.analysis.diagnosis.selection import Evidence
+from gasfilm.analysis.diagnosis.structure import Structure, structure_summary
 from gasfilm.analysis.physics.spec import RigSpec
 from gasfilm.drivers.interface import STANDARD_GRAVITY_M_S2
 
-VERDICTS = ("consistent", "parameters-only", "missing physics", "partly explained", "not explained")
+VERDICTS = ("consistent", "parameters-only", "missing physics", "modelled", "partly explained", "not explained")
 
 
 @dataclass
@@ -29,7 +31,9 @@ class Alternative:
 
 @dataclass
 class Finding:
-    """A missing piece of physics (or of the measurement chain), named, located, fitted and explained."""
+    """A description of a mismatch in the written spec: located (``place`` in the chain), fitted (``parameters``,
+    ``features``) and named (``mechanisms``, best first). ``status`` "named": a catalog term of known mechanism
+    that passed every claim; "modelled": a generic description of its place, whose mechanisms are candidates."""
 
     effect: str
     kind: str  # "rig" or "measurement"
@@ -46,11 +50,19 @@ class Finding:
     held_out_band_gain: float = 0.0  # χ² gain (noise units) on interleaved sub-bands left out of the fit
     own_band_chi2_per_point: float = 0.0  # χ² per point of the written spec in the term's own band (1 = noise)
     own_band_limit: float = 0.0  # χ² per point beyond which that band is beyond the noise (F test)
+    place: str = ""  # where in the chain (gasfilm.analysis.physics.effects.PLACES)
+    status: str = "named"  # "named" or "modelled"
+    features: dict[str, float] = field(default_factory=dict)  # what the description shows (frequency_hz, …)
+    mechanisms: list[MechanismMatch] = field(default_factory=list)  # consistent mechanisms, best first
 
     def to_dict(self) -> dict:
         return {
             "effect": self.effect,
             "kind": self.kind,
+            "place": self.place,
+            "status": self.status,
+            "features": {name: _finite_or_none(value) for name, value in self.features.items()},
+            "mechanisms": [mechanism.to_dict() for mechanism in self.mechanisms],
             "band_hz": [round(self.band_hz[0], 1), round(self.band_hz[1], 1)],
             "where": self.where,
             "parameters": self.parameters,
@@ -81,7 +93,16 @@ class Finding:
             held_out_band_gain=values.get("held_out_band_gain", 0.0),
             own_band_chi2_per_point=values.get("own_band_chi2_per_point", 0.0),
             own_band_limit=values.get("own_band_limit", 0.0),
+            place=values.get("place", ""), status=values.get("status", "named"),
+            features={name: value for name, value in values.get("features", {}).items() if value is not None},
+            mechanisms=[MechanismMatch(m["name"], m.get("note", ""), m.get("tell_apart", ""), bool(m.get("tied")))
+                        for m in values.get("mechanisms", [])],
         )
+
+
+def _finite_or_none(value: float) -> float | None:
+    """A number for JSON: non-finite values are null (JSON has no NaN)."""
+    return float(value) if value == value and abs(value) != float("inf") else None
 
 
 @dataclass
@@ -147,6 +168,7 @@ class Diagnosis:
     restoring_force: RestoringForce | None = None  # model-free shape of the film's force (amplitude physics)
     improved_spec_path: str | None = None  # where a caller wrote ``improved``
     figures: list[str] = field(default_factory=list)
+    structure: Structure | None = None  # the measured structure read off the FRF (modes, stabilization diagram)
 
     @property
     def improvement_e(self) -> float:
@@ -161,6 +183,8 @@ class Diagnosis:
             "unexplained": [item.to_dict() for item in self.unexplained],
             "candidates": [candidate.to_dict() for candidate in self.candidates],
             "restoring_force": self.restoring_force.to_dict() if self.restoring_force is not None else None,
+            "structure": structure_summary(self.improved, self.structure, (float(self.evidence.freq_hz[0]),
+                                                                            float(self.evidence.freq_hz[-1]))),
             "quality": [note.to_dict() for note in self.quality],
             "noise": self.spectra.noise.to_dict() if self.spectra.noise else None,
             "recalibration": self.recalibration,

@@ -27,19 +27,28 @@ from gasfilm.analysis.physics.effects import (
     AcCoupling,
     AddedMass,
     ChannelDelay,
+    ChannelPoleZero,
+    ChannelPowerLaw,
+    ChannelResonance,
     CrossTalk,
     CubicStiffness,
     Drift,
     Effect,
     ExtraMode,
+    FilmBranch,
     FilmMemory,
     FitContext,
     Friction,
     PneumaticLag,
     QuadraticDamping,
     SensitivityError,
+    SideMode,
     StepChange,
     SqueezeFilm,
+    TermChange,
+    TermDrift,
+    TermLevel,
+    TermOnset,
 )
 from gasfilm.analysis.physics.response import (
     AcceleranceParts,
@@ -149,7 +158,7 @@ class Evidence:
     def predicted_parts(self, spec: RigSpec, hits: np.ndarray | None = None) -> AcceleranceParts | None:
         """:meth:`predicted` with its parts (for first-order changes, :meth:`AcceleranceParts.change`); None with
         late-triggered records (their profiled residual is not linear in the prediction)."""
-        if self.spectra.missing_fronts is not None:
+        if self.spectra.missing_fronts is not None or spec.has_term_changes:
             return None
         if not spec.is_per_hit:
             return accelerance_parts(spec, self._pieces)
@@ -558,20 +567,85 @@ def starting_effects(identifier: str, spec: RigSpec, evidence: Evidence, context
     if identifier == "pneumatic-lag":
         return [PneumaticLag(k_lag=0.01 * film, tau_lag=factor / (2 * np.pi * resonance_hz)) for factor in (0.3, 1, 3)]
     if identifier == "extra-mode":
-        freq_hz = evidence.freq_hz
-        excess = evidence.chi2_per_frequency(spec)
-        smooth = np.convolve(excess, np.ones(5) / 5, mode="same")
-        picks: list[float] = []
-        for index in np.argsort(smooth)[::-1]:
-            candidate = float(freq_hz[index])
-            if all(abs(candidate - p) > 0.05 * p for p in picks) and abs(candidate - resonance_hz) > 0.1 * resonance_hz:
-                picks.append(candidate)
-            if len(picks) == 3:
-                break
-        return [ExtraMode(freq_hz=f, damping_ratio=0.02, mass_kg=0.002 * context.mass_kg) for f in picks]
+        return [ExtraMode(freq_hz=f, damping_ratio=0.02, mass_kg=0.002 * context.mass_kg)
+                for f in _excess_peaks(spec, evidence, resonance_hz)]
     if identifier == "sensitivity-error":
         return [SensitivityError(channel="acceleration", fraction=sign * 0.01) for sign in (1.0, -1.0)]
+    if identifier == "side-mode":
+        # a mode's contribution at its own resonance is A/(2ζ)·j: its modal constant's sign and size are read off the
+        # residual's imaginary part there
+        residual = evidence.spectra.mean()[0] - evidence.mean_prediction(spec)
+        starts = []
+        for freq in _excess_peaks(spec, evidence, None):
+            line = int(np.argmin(np.abs(evidence.freq_hz - freq)))
+            constant = 2 * 0.02 * float(residual[line].imag)
+            limit = 0.5 * SideMode(freq_hz=freq, damping_ratio=0.02, modal_constant_per_kg=1.0).fit_ranges(
+                context)["modal_constant_per_kg"].upper
+            constant = float(np.clip(constant, -limit, limit)) or 1e-3 / context.mass_kg
+            starts.append(SideMode(freq_hz=freq, damping_ratio=0.02, modal_constant_per_kg=constant))
+        return starts
+    if identifier == "film-branch":
+        return [FilmBranch(stiffness_n_per_m=0.01 * film, order=order, reference_hz=resonance_hz)
+                for order in (0.3, 1.0, 1.7)]
+    if identifier == "channel-resonance":
+        peaks = _excess_peaks(spec, evidence, None)[:1]
+        return [ChannelResonance(channel=channel, freq_hz=freq, damping_ratio=0.05)
+                for channel in ("acceleration", "force") for freq in (*peaks, 2.0 * context.band_hz[1])]
+    if identifier == "channel-power-law":
+        return [ChannelPowerLaw(exponent=0.0, reference_hz=resonance_hz)]
+    if identifier == "channel-pole-zero":
+        near, far = 2.0 * context.band_hz[1], 50.0 * context.band_hz[1]
+        return [ChannelPoleZero(pole_hz=near, zero_hz=far), ChannelPoleZero(pole_hz=far, zero_hz=near)]
+    if identifier in ("term-drift", "term-level", "term-onset"):
+        return _term_change_starts(identifier, spec, evidence, context)
     raise KeyError(identifier)
+
+
+#: Units of the fields a term-onset scales: its size (a mass, a stiffness, a modal constant, a force …), so that the
+#: term is absent before the onset.
+_AMPLITUDE_UNITS = frozenset({"kg", "N/m", "1/kg", "(m/s²)/N", "N", "N·s²/m²", "N/m³", "N·s^α/m"})
+
+
+def _term_change_starts(identifier: str, spec: RigSpec, evidence: Evidence, context: FitContext) -> list[Effect]:
+    """Starts of a change between hits of each changeable term of ``spec``: every fitted value of it (with session
+    time, with the hit level), or, for an onset, its size from each likely moment on. Terms held after the
+    recalibration (a measured structure's modes) and changes themselves are not changed."""
+    conditions = evidence.spectra.conditions
+    starts: list[Effect] = []
+    for index, effect in enumerate(spec.effects):
+        if isinstance(effect, TermChange) or type(effect).held_after_recalibration:
+            continue
+        names = list(effect.fit_ranges(context))
+        if identifier == "term-drift":
+            starts += [TermDrift(term=index, parameter=name, fraction_per_hour=0.0) for name in names]
+        elif identifier == "term-level":
+            reference = float(np.median(np.abs(conditions.impulse_ns)))
+            if np.ptp(conditions.impulse_ns) > 0.05 * reference:
+                starts += [TermLevel(term=index, parameter=name, exponent=0.0, reference_impulse_ns=reference)
+                           for name in names]
+        else:
+            units = {item.name: item.metadata.get("unit") for item in dataclasses.fields(effect)}
+            sizes = [name for name in names if units.get(name) in _AMPLITUDE_UNITS][:1]
+            starts += [TermOnset(term=index, parameter=name, at_time_s=at_time_s)
+                       for name in sizes for at_time_s in _likely_step_times(spec, evidence, count=2)]
+    return starts
+
+
+def _excess_peaks(spec: RigSpec, evidence: Evidence, resonance_hz: float | None, count: int = 3) -> list[float]:
+    """The frequencies of the ``count`` largest peaks of the spec's χ² per frequency (5-line smoothed), 5 % apart,
+    away from the film's resonance when ``resonance_hz`` is given."""
+    freq_hz = evidence.freq_hz
+    excess = evidence.chi2_per_frequency(spec)
+    smooth = np.convolve(excess, np.ones(5) / 5, mode="same")
+    picks: list[float] = []
+    for index in np.argsort(smooth)[::-1]:
+        candidate = float(freq_hz[index])
+        if all(abs(candidate - p) > 0.05 * p for p in picks) and (
+                resonance_hz is None or abs(candidate - resonance_hz) > 0.1 * resonance_hz):
+            picks.append(candidate)
+        if len(picks) == count:
+            break
+    return picks
 
 
 

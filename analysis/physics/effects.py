@@ -104,6 +104,7 @@ class FitContext:
     band_hz: tuple[float, float]
     session_span_s: float  # last hit time − first hit time
     max_displacement_m: float  # initial displacement amplitude of the hardest hit, J / (M ω0)
+    film_damping_ratio: float = 0.05  # Im Z / (2 Re Z) of the film at the resonance
 
 
 @dataclass(frozen=True)
@@ -119,6 +120,11 @@ class Effect:
     #: Fitted with the spec's own parameters in a diagnosis's recalibration, then held while candidate terms are
     #: tried (a measured structure's modes: many parameters that no candidate term competes with).
     held_after_recalibration: ClassVar[bool] = False
+    #: Several effects of this type may describe one rig (several modes beside or on the mover).
+    repeatable: ClassVar[bool] = False
+    #: A generic description of a place in the chain (a mode beside the mover, a film branch, a channel factor),
+    #: not a mechanism: what it is made of is named from its features (analysis/diagnosis/mechanisms.py).
+    generic: ClassVar[bool] = False
 
     def validate(self) -> None:
         """Cross-field checks; raise :class:`EffectValueError` naming the key."""
@@ -179,6 +185,19 @@ class Effect:
         """What the recordings show, in words, with this term's values; ``where`` names the band."""
         return f"the term improves the fit in {where}"
 
+    def place(self) -> str:
+        """Where in the chain the effect sits (:data:`PLACES`): a change between hits for per-hit terms, the
+        measurement chain for a measurement term whose channel the FRF cannot tell, else the film."""
+        if self.per_hit:
+            return "between hits"
+        return "measurement chain" if self.kind == "measurement" else "film"
+
+    def features(self) -> dict[str, float]:
+        """What the description shows, read off its values (frequencies in Hz, damping ratios, delays in s, …): by
+        default its fields."""
+        return {item.name: float(getattr(self, item.name)) for item in dataclasses.fields(self)
+                if isinstance(getattr(self, item.name), (int, float))}
+
     def to_table(self) -> dict[str, Any]:
         table: dict[str, Any] = {"type": self.type_name}
         for item in dataclasses.fields(self):
@@ -186,6 +205,10 @@ class Effect:
             table[item.name] = list(value) if isinstance(value, tuple) else value
         return table
 
+
+#: Where a mismatch can sit in the chain from hammer to accelerometer (:meth:`Effect.place`).
+PLACES = ("force channel", "response channel", "measurement chain", "mover", "film", "beside the mover",
+          "between hits")
 
 EFFECT_TYPES: dict[str, type[Effect]] = {}
 
@@ -199,6 +222,10 @@ def register_effect(type_name: str) -> Callable[[type[Effect]], type[Effect]]:
         return cls
 
     return register
+
+
+def _channel_place(channel: str) -> str:
+    return "force channel" if channel == "force" else "response channel"
 
 
 def _band_excitable(freq_hz: float, context: FitContext) -> str | None:
@@ -224,6 +251,7 @@ class ExtraMode(Effect):
     explanation: ClassVar[str] = (
         "Something on the mover (a plate, the sensor mount, the fixture) has its own resonance that adds a small "
         "peak and dip to the measured FRF.")
+    repeatable: ClassVar[bool] = True
 
     freq_hz: float = _number("Hz", _positive)
     damping_ratio: float = _number("1", _positive)
@@ -235,6 +263,9 @@ class ExtraMode(Effect):
         if self.damping_ratio < MIN_DAMPING_RATIO:
             raise EffectValueError("damping_ratio", f"must be at least {MIN_DAMPING_RATIO:g} (a mode that never "
                                                     f"decays cannot be simulated)")
+
+    def place(self) -> str:
+        return "mover"
 
     def added_stiffness(self, s: np.ndarray) -> np.ndarray:
         omega = 2 * np.pi * self.freq_hz
@@ -294,6 +325,9 @@ class StructureMode(Effect):
             if abs(getattr(self, key)) > MAX_MODAL_CONSTANT_PER_KG:
                 raise EffectValueError(key, f"must be at most {MAX_MODAL_CONSTANT_PER_KG:g} 1/kg in size")
 
+    def place(self) -> str:
+        return "beside the mover"
+
     def added_accelerance(self, s: np.ndarray) -> np.ndarray:
         omega = 2 * np.pi * self.freq_hz
         numerator = self.modal_constant_per_kg + self.quadrature_per_kg * s / omega
@@ -327,6 +361,9 @@ class Polarity(Effect):
         "(phase 180° where it should be 0°), as an accelerometer mounted or wired the other way round makes it.")
 
     channel: str = _channel_field()
+
+    def place(self) -> str:
+        return _channel_place(self.channel)
 
     def channel_transfer(self, channel: str, s: np.ndarray) -> np.ndarray | float:
         return -1.0 if channel == self.channel else 1.0
@@ -411,6 +448,9 @@ class AddedMass(Effect):
         "high-frequency level 1/m and the resonance both move as a mass change predicts.")
 
     mass_kg: float = _number("kg", _nonzero)
+
+    def place(self) -> str:
+        return "mover"
 
     def added_mass_kg(self) -> float:
         return self.mass_kg
@@ -600,6 +640,7 @@ class PneumaticLag(Effect):
     explanation: ClassVar[str] = (
         "Air in the orifices and pockets reacts with a delay: part of the film force lags the motion, which lowers "
         "(or even reverses) the film's damping near the resonance.")
+    repeatable: ClassVar[bool] = True  # several volumes behind restrictors (pockets, a plenum) each lag on their own
 
     k_lag: float = _number("N/m", _positive)
     tau_lag: float = _number("s", _positive)
@@ -630,6 +671,7 @@ class FilmMemory(Effect):
 
     #: k_memory at its upper bound: the branch is a pure spring-pot η s^α beside the film, a valid limit
     open_upper: ClassVar[frozenset[str]] = frozenset({"k_memory"})
+    repeatable: ClassVar[bool] = True
 
     k_memory: float = _number("N/m", _positive)
     eta_memory: float = _number("N·s^α/m", _positive)
@@ -663,6 +705,9 @@ class AcCoupling(Effect):
 
     channel: str = _channel_field()
     corner_hz: float = _number("Hz", _positive)
+
+    def place(self) -> str:
+        return _channel_place(self.channel)
 
     def channel_transfer(self, channel: str, s: np.ndarray) -> np.ndarray | float:
         return s / (s + 2 * np.pi * self.corner_hz) if channel == self.channel else 1.0
@@ -716,6 +761,9 @@ class CrossTalk(Effect):
         "anti-resonances).")
 
     leak_m_s2_per_n: float = _number("(m/s²)/N", _nonzero)
+
+    def place(self) -> str:
+        return "response channel"
 
     def force_leak_m_s2_per_n(self) -> float:
         return self.leak_m_s2_per_n
@@ -842,3 +890,333 @@ class QuadraticDamping(Effect):
     def evidence(self, sigma: Mapping[str, float], where: str, context: FitContext) -> str:
         return (f"the damping grows with the hit's velocity, as quadratic (flow) damping makes it: c2 = "
                 f"{self.coefficient_n_s2_per_m2:.3g} ± {sigma['coefficient_n_s2_per_m2']:.2g} N·s²/m², in {where}")
+
+
+# --- generic descriptions: the smallest model of a place in the chain, named afterwards from its features ----------
+
+
+@register_effect("side-mode")
+@dataclass(frozen=True)
+class SideMode(StructureMode):
+    """A mode beside the mover, as the diagnosis describes a resonance no mechanism of the catalog makes: accelerance
+    ``A·s² / (s² + 2ζω s + ω²)`` added to the mover's (modal superposition) with a real signed modal constant ``A``
+    (1/kg: positive where the mode moves the accelerometer with the hammer's force, as the mover does; negative
+    where it moves it against it)."""
+
+    explanation: ClassVar[str] = (
+        "The FRF has a resonance the mover on its film does not make: a mode of something that moves the "
+        "accelerometer beside the mover's own motion (a second mode of the mover seen off its centre, the base or "
+        "frame, a fixture), described by its frequency, damping and signed modal constant.")
+    held_after_recalibration: ClassVar[bool] = False
+    repeatable: ClassVar[bool] = True
+    generic: ClassVar[bool] = True
+
+    def fit_ranges(self, context: FitContext) -> dict[str, FitRange]:
+        low, high = context.band_hz
+        limit = SIDE_MODE_MASS_LINES / context.mass_kg
+        return {"freq_hz": FitRange("log", 0.5 * low, 1.5 * high), "damping_ratio": FitRange("log", 1e-4, 0.5),
+                "modal_constant_per_kg": FitRange("linear", -limit, limit)}
+
+    def implausible(self, context: FitContext) -> str | None:
+        return _band_excitable(self.freq_hz, context)
+
+    def features(self) -> dict[str, float]:
+        return {"frequency_hz": self.freq_hz, "damping_ratio": self.damping_ratio,
+                "modal_constant_per_kg": self.modal_constant_per_kg, "sign": float(np.sign(self.modal_constant_per_kg))}
+
+    def evidence(self, sigma: Mapping[str, float], where: str, context: FitContext) -> str:
+        share = self.modal_constant_per_kg * context.mass_kg
+        return (f"a resonance near {self.freq_hz:.1f} ± {sigma['freq_hz']:.1f} Hz (damping ratio "
+                f"{self.damping_ratio:.3g}) beside the mover's own motion, with a modal constant of "
+                f"{self.modal_constant_per_kg:+.3g} ± {sigma['modal_constant_per_kg']:.2g} 1/kg ({share:+.3g} times the "
+                f"mover's mass line), in {where}")
+
+
+#: A side mode's modal constant is at most this many times the mover's mass line 1/M (a modal mass of M/10).
+SIDE_MODE_MASS_LINES = 10.0
+
+
+@register_effect("film-branch")
+@dataclass(frozen=True)
+class FilmBranch(Effect):
+    """A branch added to the film's dynamic stiffness, described by a spring-pot: ``k_ref·(s/(2π f_ref))^order`` —
+    a spring at order 0, a dashpot at order 1, a mass at order 2, a power law in between — of stiffness magnitude
+    ``stiffness_n_per_m`` at the reference frequency ``reference_hz`` (the film's resonance when it was found)."""
+
+    explanation: ClassVar[str] = (
+        "The film's dynamic stiffness differs from the spec's by a part that grows as a power of frequency: its "
+        "stiffness and damping change together in a way the spec's film does not have.")
+    repeatable: ClassVar[bool] = True
+    generic: ClassVar[bool] = True
+
+    stiffness_n_per_m: float = _number("N/m", _positive)
+    order: float = _number("1", _order)
+    reference_hz: float = _number("Hz", _positive)
+
+    def added_stiffness(self, s: np.ndarray) -> np.ndarray:
+        return self.stiffness_n_per_m * (s / (2 * np.pi * self.reference_hz)) ** self.order
+
+    def fit_ranges(self, context: FitContext) -> dict[str, FitRange]:
+        k = context.film_stiffness_n_per_m
+        return {"stiffness_n_per_m": FitRange("log", 1e-5 * k, 10.0 * k), "order": FitRange("linear", *FILM_BRANCH_ORDERS)}
+
+    def features(self) -> dict[str, float]:
+        phase = np.pi / 2 * self.order
+        return {"order": self.order, "stiffness_n_per_m": self.stiffness_n_per_m * float(np.cos(phase)),
+                "damping_ns_per_m": self.stiffness_n_per_m * float(np.sin(phase)) / (2 * np.pi * self.reference_hz),
+                "reference_hz": self.reference_hz}
+
+    def evidence(self, sigma: Mapping[str, float], where: str, context: FitContext) -> str:
+        phase = np.pi / 2 * self.order
+        return (f"the film's dynamic stiffness differs by a branch growing as frequency to the power {self.order:.2f} "
+                f"± {sigma['order']:.2f}: at {self.reference_hz:.0f} Hz "
+                f"{self.stiffness_n_per_m * np.cos(phase):+.3g} N/m of stiffness and "
+                f"{self.stiffness_n_per_m * np.sin(phase) / (2 * np.pi * self.reference_hz):+.3g} N·s/m of damping, "
+                f"in {where}")
+
+
+#: The orders a film branch may take: at 0 a spring-pot is a spring beside the film's own, at 2 a mass beside the
+#: mover's — a branch that runs there duplicates the spec (or invents a resonance) and ends at its bound.
+FILM_BRANCH_ORDERS = (0.05, 1.95)
+
+
+@register_effect("channel-resonance")
+@dataclass(frozen=True)
+class ChannelResonance(Effect):
+    """A resonance inside the measurement chain: a channel's signal passes ``ω²/(s² + 2ζω s + ω²)`` (unity at low
+    frequency). On the response channel the FRF rises towards it (a sensor on a compliant mount); on the force
+    channel the FRF falls towards it (the hammer's head or its force gauge's own mode)."""
+
+    kind: ClassVar[str] = "measurement"
+    explanation: ClassVar[str] = (
+        "Something between the structure and the recorded signal resonates: the channel's signal is amplified "
+        "towards a resonance of the chain itself, whatever the mover does.")
+    generic: ClassVar[bool] = True
+
+    channel: str = _channel_field()
+    freq_hz: float = _number("Hz", _positive)
+    damping_ratio: float = _number("1", _positive)
+
+    def place(self) -> str:
+        return _channel_place(self.channel)
+
+    def channel_transfer(self, channel: str, s: np.ndarray) -> np.ndarray | float:
+        if channel != self.channel:
+            return 1.0
+        omega = 2 * np.pi * self.freq_hz
+        return omega**2 / (s**2 + 2 * self.damping_ratio * omega * s + omega**2)
+
+    def fit_ranges(self, context: FitContext) -> dict[str, FitRange]:
+        low, high = context.band_hz
+        return {"freq_hz": FitRange("log", 0.5 * low, 5.0 * high), "damping_ratio": FitRange("log", 1e-3, 1.0)}
+
+    def features(self) -> dict[str, float]:
+        return {"frequency_hz": self.freq_hz, "damping_ratio": self.damping_ratio}
+
+    def evidence(self, sigma: Mapping[str, float], where: str, context: FitContext) -> str:
+        way = "rises" if self.channel == "acceleration" else "falls"
+        return (f"the FRF {way} towards a resonance of the {self.channel} channel itself near {self.freq_hz:.0f} ± "
+                f"{sigma['freq_hz']:.0f} Hz (damping ratio {self.damping_ratio:.2g}), whatever the mover does, in "
+                f"{where}")
+
+
+@register_effect("channel-pole-zero")
+@dataclass(frozen=True)
+class ChannelPoleZero(Effect):
+    """A first-order factor in the measurement chain: the response reads ``(1 + s/ω_z)/(1 + s/ω_p)`` times the truth
+    (a low-pass where only the pole lies in or near the band, a lead where only the zero does). The FRF cannot tell
+    the channel: the same factor inverted on the force channel is the same FRF."""
+
+    kind: ClassVar[str] = "measurement"
+    explanation: ClassVar[str] = (
+        "The measurement chain filters the signals: a first-order lag or lead (a pole or a zero) scales and turns "
+        "the FRF smoothly with frequency, whatever the mover does.")
+    generic: ClassVar[bool] = True
+    #: a corner at its upper bound is far above the band: the factor is then a pure lag or a pure lead, a valid limit
+    open_upper: ClassVar[frozenset[str]] = frozenset({"pole_hz", "zero_hz"})
+
+    pole_hz: float = _number("Hz", _positive)
+    zero_hz: float = _number("Hz", _positive)
+
+    def channel_transfer(self, channel: str, s: np.ndarray) -> np.ndarray | float:
+        if channel != "acceleration":
+            return 1.0
+        return (1.0 + s / (2 * np.pi * self.zero_hz)) / (1.0 + s / (2 * np.pi * self.pole_hz))
+
+    def fit_ranges(self, context: FitContext) -> dict[str, FitRange]:
+        low, high = context.band_hz
+        return {"pole_hz": FitRange("log", 0.05 * low, 100.0 * high),
+                "zero_hz": FitRange("log", 0.05 * low, 100.0 * high)}
+
+    def features(self) -> dict[str, float]:
+        return {"pole_hz": self.pole_hz, "zero_hz": self.zero_hz}
+
+    def evidence(self, sigma: Mapping[str, float], where: str, context: FitContext) -> str:
+        return (f"the FRF is scaled and turned smoothly with frequency as a first-order factor of the measurement "
+                f"chain does: a pole at {self.pole_hz:.4g} ± {sigma['pole_hz']:.2g} Hz and a zero at "
+                f"{self.zero_hz:.4g} ± {sigma['zero_hz']:.2g} Hz, in {where}")
+
+
+@register_effect("channel-power-law")
+@dataclass(frozen=True)
+class ChannelPowerLaw(Effect):
+    """The measurement chain reads ``gain·(s/(2π f_ref))^exponent`` times the truth: a sensitivity that changes as a
+    power of frequency with a constant phase of ``exponent·90°`` (a piezoceramic's dielectric relaxation, a charge
+    amplifier's or cable's loss), ``gain`` its magnitude at the reference frequency. The FRF cannot tell the
+    channel."""
+
+    kind: ClassVar[str] = "measurement"
+    explanation: ClassVar[str] = (
+        "A sensor's sensitivity changes slowly with frequency: the FRF is scaled by a power of frequency with a "
+        "constant phase, whatever the mover does.")
+    generic: ClassVar[bool] = True
+
+    exponent: float = _number("1", _finite)
+    reference_hz: float = _number("Hz", _positive)
+    gain: float = _number("1", _positive, 1.0)
+
+    def validate(self) -> None:
+        if not -POWER_LAW_LIMIT <= self.exponent <= POWER_LAW_LIMIT:
+            raise EffectValueError("exponent", f"must be between {-POWER_LAW_LIMIT:g} and {POWER_LAW_LIMIT:g}")
+
+    def channel_transfer(self, channel: str, s: np.ndarray) -> np.ndarray | float:
+        if channel != "acceleration":
+            return 1.0
+        return self.gain * (s / (2 * np.pi * self.reference_hz)) ** self.exponent
+
+    def fit_ranges(self, context: FitContext) -> dict[str, FitRange]:
+        return {"exponent": FitRange("linear", -POWER_LAW_LIMIT, POWER_LAW_LIMIT),
+                "gain": FitRange("log", 0.5, 2.0)}
+
+    def features(self) -> dict[str, float]:
+        return {"exponent": self.exponent, "percent_per_decade": 100.0 * (10.0**self.exponent - 1.0),
+                "phase_deg": 90.0 * self.exponent, "gain": self.gain}
+
+    def evidence(self, sigma: Mapping[str, float], where: str, context: FitContext) -> str:
+        return (f"the FRF is scaled by frequency to the power {self.exponent:+.4f} ± {sigma['exponent']:.4f} "
+                f"({100 * (10**self.exponent - 1):+.2f} % per decade, a constant phase of {90 * self.exponent:+.2f}°; "
+                f"{self.gain:.4f} at {self.reference_hz:.0f} Hz), as a sensor whose sensitivity changes with frequency "
+                f"makes it, in {where}")
+
+
+#: A channel power law's exponent stays within ±this (±0.3: a factor of 2 per decade).
+POWER_LAW_LIMIT = 0.3
+
+
+# --- changes between hits: a term of the spec whose value moves from hit to hit -------------------------------------
+
+
+def _term_field() -> Any:
+    """The index (in the spec's effects, from 0) of the term a change acts on."""
+    return field(metadata={"unit": "", "rule": _term_index})
+
+
+def _term_index(value: float) -> str | None:
+    return None if value >= 0 and float(value) == int(value) else "must be the index (0, 1, …) of an effect"
+
+
+@dataclass(frozen=True)
+class TermChange(Effect):
+    """A change between hits of one value of another term of the spec (``term``: its index among the effects,
+    ``parameter``: the field): the spec a hit sees is :meth:`RigSpec.at_hit`'s, the term's value moved by
+    :meth:`factor` at the hit's session time and impulse. Adds nothing by itself."""
+
+    per_hit: ClassVar[bool] = True
+    generic: ClassVar[bool] = True
+    repeatable: ClassVar[bool] = True
+
+    def factor(self, time_s: float, impulse_ns: float) -> float:
+        """The factor on the term's value for a hit at ``time_s`` with impulse ``impulse_ns``."""
+        return 1.0
+
+    def place(self) -> str:
+        return "between hits"
+
+
+@register_effect("term-drift")
+@dataclass(frozen=True)
+class TermDrift(TermChange):
+    """A term's value moves steadily over the session: × ``1 + fraction_per_hour·t/3600`` at session time t."""
+
+    explanation: ClassVar[str] = (
+        "A value of the rig or of the measurement chain moves steadily during the session (warming, wear, a "
+        "loosening mount): early and late hits see it differently.")
+
+    term: int = _term_field()
+    parameter: str = field(metadata={"unit": ""})
+    fraction_per_hour: float = _number("1/h", _finite)
+
+    def factor(self, time_s: float, impulse_ns: float) -> float:
+        return max(1.0 + self.fraction_per_hour * time_s / 3600.0, TERM_CHANGE_FLOOR)
+
+    def fit_ranges(self, context: FitContext) -> dict[str, FitRange]:
+        limit = 0.9 * 3600.0 / max(context.session_span_s, 1e-3)  # at most ±90 % over the session
+        return {"fraction_per_hour": FitRange("linear", -limit, limit)}
+
+    def features(self) -> dict[str, float]:
+        return {"fraction_per_hour": self.fraction_per_hour}
+
+    def evidence(self, sigma: Mapping[str, float], where: str, context: FitContext) -> str:
+        span_h = context.session_span_s / 3600.0
+        return (f"the term's {self.parameter} moves steadily over the session: "
+                f"{100 * self.fraction_per_hour * span_h:+.1f} ± {100 * sigma['fraction_per_hour'] * span_h:.1f} % "
+                f"from the first hit to the last, in {where}")
+
+
+@register_effect("term-level")
+@dataclass(frozen=True)
+class TermLevel(TermChange):
+    """A term's value follows the hit's level: × ``(J/J_ref)^exponent`` for a hit of impulse J (a joint that slips
+    more, a mount that softens, a film that stiffens at larger amplitude)."""
+
+    explanation: ClassVar[str] = (
+        "A value of the rig depends on how hard the mover is hit: harder hits see it changed (an amplitude-dependent "
+        "joint, mount or film).")
+
+    term: int = _term_field()
+    parameter: str = field(metadata={"unit": ""})
+    exponent: float = _number("1", _finite)
+    reference_impulse_ns: float = _number("N·s", _positive)
+
+    def factor(self, time_s: float, impulse_ns: float) -> float:
+        return (max(abs(impulse_ns), 1e-12) / self.reference_impulse_ns) ** self.exponent
+
+    def fit_ranges(self, context: FitContext) -> dict[str, FitRange]:
+        return {"exponent": FitRange("linear", -2.0, 2.0)}
+
+    def features(self) -> dict[str, float]:
+        return {"exponent": self.exponent}
+
+    def evidence(self, sigma: Mapping[str, float], where: str, context: FitContext) -> str:
+        return (f"the term's {self.parameter} follows the hit level as impulse to the power {self.exponent:+.3f} ± "
+                f"{sigma['exponent']:.3f} ({100 * (2**self.exponent - 1):+.1f} % for a hit twice as hard), in "
+                f"{where}")
+
+
+@register_effect("term-onset")
+@dataclass(frozen=True)
+class TermOnset(TermChange):
+    """A term acts only from one moment of the session on (a part set down on the mover, a sensor re-mounted): its
+    value is scaled by ``before`` (0: absent) for hits before ``at_time_s``."""
+
+    explanation: ClassVar[str] = (
+        "Something changed at one moment of the session: a term acts from then on (a part set down, a sensor "
+        "re-mounted), which hits before that moment do not see.")
+
+    term: int = _term_field()
+    parameter: str = field(metadata={"unit": ""})
+    at_time_s: float = _number("s of session time", _non_negative)
+    before: float = _number("1", _non_negative, 0.0)
+
+    def factor(self, time_s: float, impulse_ns: float) -> float:
+        return 1.0 if time_s >= self.at_time_s else max(self.before, TERM_CHANGE_FLOOR)
+
+    def features(self) -> dict[str, float]:
+        return {"at_time_s": self.at_time_s}
+
+    def evidence(self, sigma: Mapping[str, float], where: str, context: FitContext) -> str:
+        return f"the term acts from {self.at_time_s:.1f} s of the session on, not before, in {where}"
+
+
+#: A change never takes a term's value below this share of itself (a value of 0 is no term, and many are > 0).
+TERM_CHANGE_FLOOR = 1e-6

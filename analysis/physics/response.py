@@ -23,6 +23,7 @@ from scipy.sparse.linalg import LinearOperator, bicgstab
 from gasfilm.analysis.physics.elements import FilmModel, laplace_variable
 from gasfilm.drivers.errors import GasfilmError
 
+from gasfilm.analysis.physics import rigid_body
 from gasfilm.analysis.physics.effects import CUBIC_EQUIVALENT, DECAY_TOLERANCE, MAX_RESPONSE_DURATION_S, Effect
 from gasfilm.analysis.physics.spec import RigSpec
 # --- physics -------------------------------------------------------------------------------------------------------
@@ -115,9 +116,13 @@ def rig_dynamic_stiffness(
     The film is the spec's at ``time_s`` (one time or an array of hit times) unless ``film_scale`` gives its scale.
     With ``impulse_ns`` (one hit's or an array matching ``time_s``), amplitude-dependent dampers add their equivalent
     viscous damping at the hit's initial velocity ``J / M``. ``pieces`` (made for this ``s``) remembers the film's and
-    the effects' parts between calls (the same numbers, computed once).
+    the effects' parts between calls (the same numbers, computed once). A spec with a rigid body gives the scalar
+    its first accelerometer sees for the struck hammer point
+    (:func:`~gasfilm.analysis.physics.rigid_body.effective_dynamic_stiffness`).
     """
     s = np.asarray(s, dtype=complex)
+    if spec.rigid_body is not None:  # what the first accelerometer sees of the rigid body struck where it is
+        return rigid_body.effective_dynamic_stiffness(spec, s, time_s, film_scale=film_scale, impulse_ns=impulse_ns)
     if pieces is not None and film_scale is None:
         total = pieces.film(spec, time_s)
     elif film_scale is None:
@@ -256,13 +261,24 @@ _RESONANCES: dict[tuple, float] = {}
 
 
 def _resonance_omega_rad_s(spec: RigSpec) -> float:
+    """The fixed point ``ω = √(Re Z(jω)/M)``, iterated from ``√(|Z(j)|/M)`` with Steffensen's acceleration (Aitken's
+    Δ² on each pair of plain steps): a fractional film takes ten plain steps, a few accelerated ones."""
     mass_kg = spec.moving_mass_kg
+
+    def step(omega: float) -> float:
+        stiffness = spec.film.stiffness(np.array([1j * omega]), spec.film_parameters)[0].real
+        return float(np.sqrt(max(stiffness, 1e-9) / mass_kg))
+
     omega = float(np.sqrt(abs(spec.film.stiffness(np.array([1j]), spec.film_parameters)[0]) / mass_kg))
     for _ in range(20):
-        stiffness = spec.film.stiffness(np.array([1j * omega]), spec.film_parameters)[0].real
-        previous, omega = omega, float(np.sqrt(max(stiffness, 1e-9) / mass_kg))
-        if abs(omega - previous) <= 1e-12 * omega:
-            break
+        first = step(omega)
+        if abs(first - omega) <= 1e-12 * first:
+            return first
+        second = step(first)
+        curvature = second - 2 * first + omega
+        accelerated = omega - (first - omega) ** 2 / curvature if curvature != 0 else second
+        # an accelerated step that leaves the neighbourhood (or runs negative) is not taken: the plain one is
+        omega = accelerated if 0.5 * second < accelerated < 2 * second else second
     return omega
 
 
@@ -286,12 +302,41 @@ def rig_accelerance(
     (``Δk = CUBIC_EQUIVALENT·k3·x0²``); the exact nonlinear response is :func:`simulate_response`'s. ``pieces``, made
     for this ``freq_hz`` (the same array) and decay rate, remembers parts between calls (a fit's many evaluations).
     """
+    if spec.has_term_changes:
+        return _changing_accelerance(spec, freq_hz, decay_rate_1_s, time_s, conditions, pieces)
     if pieces is not None and pieces.matches(freq_hz, decay_rate_1_s):
         return accelerance_parts(spec, pieces, time_s, conditions).accelerance
     s = laplace_variable(freq_hz, decay_rate_1_s)
     stiffness = _loaded_stiffness(spec, s, time_s, conditions, None)
     return (s**2 / stiffness + structure_accelerance(spec, s) + spec.force_leak_m_s2_per_n) * (
         channel_transfer(spec, "acceleration", s) / channel_transfer(spec, "force", s))
+
+
+def _changing_accelerance(
+    spec: RigSpec,
+    freq_hz: np.ndarray,
+    decay_rate_1_s: float,
+    time_s: float,
+    conditions: HitConditions | None,
+    pieces: GridPieces | None,
+) -> np.ndarray:
+    """:func:`rig_accelerance` of a spec with terms that change between hits: hit by hit, each hit's spec
+    (:meth:`RigSpec.at_hit`); without ``conditions``, the spec at ``time_s`` with each level change at its reference."""
+    if conditions is None:
+        fixed = spec.at_hit(time_s, _reference_impulse_ns(spec))
+        return rig_accelerance(fixed, freq_hz, decay_rate_1_s, time_s, pieces=pieces)
+    rows = []
+    for time, impulse in zip(conditions.time_s, conditions.impulse_ns):
+        hit = HitConditions(time_s=np.array([time]), impulse_ns=np.array([impulse]))
+        rows.append(rig_accelerance(spec.at_hit(float(time), float(impulse)), freq_hz, decay_rate_1_s,
+                                    conditions=hit, pieces=pieces)[0])
+    return np.array(rows)
+
+
+def _reference_impulse_ns(spec: RigSpec) -> float:
+    """The impulse at which the spec's level changes are 1 (their reference; 1 N·s without any)."""
+    return next((effect.reference_impulse_ns for effect in spec.effects if hasattr(effect, "reference_impulse_ns")),
+                1.0)
 
 
 def _loaded_stiffness(
@@ -334,7 +379,7 @@ class AcceleranceParts:
         fit's forward-difference Jacobian, its columns several times cheaper than whole accelerances). None for an
         effect that changes something else."""
         parts = {"film"} if effect_index is None else _touched_parts(type(spec.effects[effect_index]))
-        if parts is None:
+        if parts is None or spec.rigid_body is not None:  # (a rigid body's films do not add to D)
             return None
         pieces = self.pieces
         change: np.ndarray | float = 0.0
@@ -436,15 +481,22 @@ def _cached_response_duration_s(spec_toml: str, sample_rate_hz: float, film_scal
     s = _grid_laplace(n_samples, sample_rate_hz)
     # a smooth band limit (raised cosine 0.2–0.4·fs) keeps the truncation at Nyquist from ringing on for ever
     ramp = np.clip((s.imag / (2 * np.pi * sample_rate_hz) - 0.2) / 0.2, 0.0, 1.0)
-    accelerance = 0.5 * (1.0 + np.cos(np.pi * ramp)) * (s**2 / rig_dynamic_stiffness(spec, s, film_scale=film_scale)
-                                                      + structure_accelerance(spec, s))
-    impulse = np.abs(scipy.fft.irfft(accelerance, n_samples))
-    causal = impulse[: n_samples // 2]  # the second half holds the band limit's (zero-phase) ringing before t = 0
-    envelope_from_end = np.maximum.accumulate(causal[::-1])[::-1]
-    decayed = np.flatnonzero(envelope_from_end < DECAY_TOLERANCE * impulse.max())
-    if not decayed.size:
-        return MAX_RESPONSE_DURATION_S
-    return min(MAX_RESPONSE_DURATION_S, 1.25 * decayed[0] / sample_rate_hz + 0.01)
+    band_limit = 0.5 * (1.0 + np.cos(np.pi * ramp))
+    if spec.rigid_body is None:
+        accelerances = [s**2 / rig_dynamic_stiffness(spec, s, film_scale=film_scale) + structure_accelerance(spec, s)]
+    else:  # every mode of a rigid body shows in a diagonal term of its accelerance matrix
+        accelerances = list(rigid_body.diagonal_accelerances(spec, s, film_scale=film_scale)
+                            + structure_accelerance(spec, s))
+    durations = []
+    for accelerance in accelerances:
+        impulse = np.abs(scipy.fft.irfft(band_limit * accelerance, n_samples))
+        causal = impulse[: n_samples // 2]  # the second half holds the band limit's (zero-phase) ringing before t = 0
+        envelope_from_end = np.maximum.accumulate(causal[::-1])[::-1]
+        decayed = np.flatnonzero(envelope_from_end < DECAY_TOLERANCE * impulse.max())
+        if not decayed.size:
+            return MAX_RESPONSE_DURATION_S
+        durations.append(min(MAX_RESPONSE_DURATION_S, 1.25 * decayed[0] / sample_rate_hz + 0.01))
+    return max(durations)
 
 
 def mover_displacement_spectrum(

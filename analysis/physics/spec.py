@@ -18,6 +18,8 @@ import tomli_w
 
 
 from gasfilm.analysis.physics.elements import PAPER_MASS_KG, PAPER_MODELS, PAPER_TABLE1, FilmModel, get_model
+from gasfilm.analysis.physics.rigid_body import (RigidBody, pad_spec_parts, rigid_body_from_table,
+                                                 rigid_body_to_table, validate_rigid_body)
 from gasfilm.drivers.errors import SettingError
 from gasfilm.drivers.plant import TIPS_PULSE_WIDTH_S
 
@@ -30,7 +32,9 @@ from gasfilm.analysis.physics.effects import (
     EFFECT_TYPES,
     Effect,
     EffectValueError,
+    TermChange,
     _any_number,
+    FitRange,
     _fraction,
     _non_negative,
     _positive,
@@ -64,6 +68,7 @@ EFFECT_UNIT_RANGES = {
     "(m/s²)/N": (0.0, 10.0),
     "1/kg": (0.0, 1e3),
     "N·s^α/m": (0.0, 1e14),
+    "N·s": (0.0, 1e5),
 }
 
 
@@ -151,6 +156,9 @@ class RigSpec:
     film_laws: Mapping[str, Mapping[str, float]] = field(default_factory=dict)
     #: How far the spec is known to be from the recording it was written from (``[description_error]``).
     description_error: DescriptionError | None = None
+    #: The mover as a rigid body on its films, with accelerometers and hammer points (``[rigid_body]``); None: the
+    #: mover in one direction, seen by one accelerometer (:mod:`gasfilm.analysis.physics.rigid_body`).
+    rigid_body: RigidBody | None = None
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "film_parameters", {k: float(v) for k, v in self.film_parameters.items()})
@@ -158,10 +166,7 @@ class RigSpec:
         object.__setattr__(self, "film_conditions", {k: float(v) for k, v in self.film_conditions.items()})
         object.__setattr__(self, "film_laws", {k: {c: float(e) for c, e in v.items()} for k, v in
                                                self.film_laws.items()})
-        _validate_spec(self)
-        if not self.moving_mass_kg > 0:
-            raise SettingError(f"{self.source}: the moving mass with the added masses is {self.moving_mass_kg:.4g} kg; "
-                               f"it must be > 0")
+        check_readable(self)
 
     # construction ---------------------------------------------------------------------------------------------
 
@@ -221,9 +226,13 @@ class RigSpec:
         Path(path).write_text(self.to_toml(), encoding="utf-8")
 
     def to_toml(self) -> str:
-        """The spec as TOML text (written by tomli-w; floats round-trip exactly)."""
+        """The spec as TOML text (written by tomli-w; floats round-trip exactly). The writer applies the reader's
+        checks first (:func:`check_readable`): a spec the reader would refuse is never written."""
+        check_readable(self)
         table: dict[str, Any] = {"name": self.name, "mass_kg": self.mass_kg,
                                  "film": {"model": self.film_model, "parameters": dict(self.film_parameters)}}
+        if self.rigid_body is not None and self.rigid_body.has_pads:
+            del table["film"]  # the pads' films (written under [[rigid_body.pads]]) are the spec's film
         if self.film_laws:
             table["film"]["conditions"] = dict(self.film_conditions)
             table["film"]["laws"] = {name: dict(exponents) for name, exponents in self.film_laws.items()}
@@ -237,6 +246,8 @@ class RigSpec:
             table["effects"] = [effect.to_table() for effect in self.effects]
         if self.description_error is not None:
             table["description_error"] = self.description_error.to_table()
+        if self.rigid_body is not None:
+            table["rigid_body"] = rigid_body_to_table(self.rigid_body, self.film_parameters)
         return "# gasfilm rig spec (docs/rig-spec.md)\n" + tomli_w.dumps(table, multiline_strings=False)
 
     def with_values(self, film_parameters: Mapping[str, float] | None = None,
@@ -316,6 +327,24 @@ class RigSpec:
         """A copy with more effects appended."""
         return dataclasses.replace(self, effects=self.effects + tuple(effects))
 
+    @property
+    def has_term_changes(self) -> bool:
+        """Whether a term of the spec changes between hits (term-drift, term-level, term-onset)."""
+        return any(isinstance(effect, TermChange) for effect in self.effects)
+
+    def at_hit(self, time_s: float, impulse_ns: float) -> "RigSpec":
+        """The spec a hit at session time ``time_s`` with impulse ``impulse_ns`` sees: each changing term's value
+        moved by its changes, the changes themselves left out (their indices are those of :attr:`effects`)."""
+        if not self.has_term_changes:
+            return self
+        effects = list(self.effects)
+        for change in self.effects:
+            if isinstance(change, TermChange):
+                target = effects[change.term]
+                value = getattr(target, change.parameter) * change.factor(time_s, impulse_ns)
+                effects[change.term] = dataclasses.replace(target, **{change.parameter: value})
+        return self.with_values(effects=[effect for effect in effects if not isinstance(effect, TermChange)])
+
 
 @functools.lru_cache(maxsize=256)
 def _film_model(text: str) -> FilmModel:
@@ -346,7 +375,8 @@ def _table(table: Mapping[str, Any], key: str, where: str) -> Mapping[str, Any]:
 
 
 def _spec_from_table(table: Mapping[str, Any], source: str) -> RigSpec:
-    _check_keys(table, ("name", "mass_kg", "film", "sensors", "hammer", "effects", "description_error"), source)
+    _check_keys(table, ("name", "mass_kg", "film", "sensors", "hammer", "effects", "description_error", "rigid_body"),
+                source)
     if "mass_kg" not in table:
         raise SettingError(f"{source}: key 'mass_kg' is missing (the mover's mass in kg)")
     mass_kg = _float_value(table["mass_kg"], f"{source} key 'mass_kg'", _within(*MASS_RANGE_KG), "kg")
@@ -355,15 +385,24 @@ def _spec_from_table(table: Mapping[str, Any], source: str) -> RigSpec:
         raise SettingError(f"{source} key 'name': must be a string")
     film = _table(table, "film", source)
     _check_keys(film, ("model", "parameters", "conditions", "laws"), f"{source} [film]")
-    model_text = film.get("model")
-    if not isinstance(model_text, str):
-        raise SettingError(f"{source} key 'film.model': missing; a paper model name or a network such as "
-                           f"'k || dashpot(eta)'")
-    _checked_film_model(model_text, source)
-    parameters = {
-        key: _float_value(value, f"{source} key 'film.parameters.{key}'", _any_number, "SI")
-        for key, value in _table(film, "parameters", f"{source} [film]").items()
-    }
+    rigid_body = None
+    if "rigid_body" in table:
+        rigid_body, pad_tables = rigid_body_from_table(table["rigid_body"], source)
+    if rigid_body is not None and rigid_body.has_pads:
+        if "model" in film or "parameters" in film:
+            raise SettingError(f"{source} [film]: a mover on pads takes its film from [[rigid_body.pads]]; give "
+                               f"either [film] with roll and pitch films, or pads")
+        model_text, parameters = pad_spec_parts(rigid_body.pads, pad_tables, source)
+    else:
+        model_text = film.get("model")
+        if not isinstance(model_text, str):
+            raise SettingError(f"{source} key 'film.model': missing; a paper model name or a network such as "
+                               f"'k || dashpot(eta)'")
+        _checked_film_model(model_text, source)
+        parameters = {
+            key: _float_value(value, f"{source} key 'film.parameters.{key}'", _any_number, "SI")
+            for key, value in _table(film, "parameters", f"{source} [film]").items()
+        }
     film_conditions = {
         key: _float_value(value, f"{source} key 'film.conditions.{key}'", _within(0.0, 1e9, low_included=False),
                           "the unit in its name")
@@ -418,7 +457,7 @@ def _spec_from_table(table: Mapping[str, Any], source: str) -> RigSpec:
                          if "description_error" in table else None)
     return RigSpec(name, mass_kg, model_text, parameters, sensor_specs["force"], sensor_specs["acceleration"],
                    hammer, effects, source, film_conditions=film_conditions, film_laws=film_laws,
-                   description_error=description_error)
+                   description_error=description_error, rigid_body=rigid_body)
 
 
 def _description_error(table: Mapping[str, Any], source: str) -> DescriptionError:
@@ -575,10 +614,92 @@ def _check_unit_range(value: float, where: str, unit: str, upper_only: bool = Fa
         raise SettingError(f"{where} = {value!r}: outside the physical range, {bounds} ({unit})")
 
 
+def _check_term_change(spec: RigSpec, index: int, change: TermChange) -> None:
+    """A change between hits acts on a number of another effect of the spec (not on another change)."""
+    where = f"{spec.source} effects[{index}] ({type(change).type_name})"
+    if not 0 <= change.term < len(spec.effects) or isinstance(spec.effects[change.term], TermChange):
+        raise SettingError(f"{where} key 'term' = {change.term!r}: must be the index (from 0) of another effect of the "
+                           f"spec that is not itself a change")
+    target = spec.effects[change.term]
+    numbers = [item.name for item in dataclasses.fields(target) if "rule" in item.metadata]
+    if change.parameter not in numbers:
+        raise SettingError(f"{where} key 'parameter' = {change.parameter!r}: {type(target).type_name} has "
+                           f"{', '.join(numbers) or 'no numbers'}")
+
+
+def within_readable_range(fit_range: FitRange, unit: str) -> FitRange:
+    """A fit range cut to what the spec reader takes for a value in ``unit`` (:data:`EFFECT_UNIT_RANGES`, the range
+    :func:`_check_unit_range` applies): a fitted value at its bound is written at most there, and read back."""
+    low, high = EFFECT_UNIT_RANGES.get(unit, (0.0, math.inf))
+    if fit_range.scale == "log":
+        return FitRange("log", max(fit_range.lower, low), min(fit_range.upper, high))
+    return FitRange(fit_range.scale, max(fit_range.lower, -high), min(fit_range.upper, high))
+
+
+def film_parameter_range(
+    model: FilmModel, name: str, mass_kg: float, values: Mapping[str, float] | None = None
+) -> tuple[float, float]:
+    """The range (in the parameter's unit) the spec reader takes for film parameter ``name`` of ``model`` on
+    ``mass_kg``: its element's bounds and, with the film's other parameters at ``values``, the values with which the
+    film resonates with the mass inside ``RESONANCE_RANGE_HZ`` (:func:`_check_resonance`) with a margin of
+    :data:`RESONANCE_MARGIN` at both ends (a spring run to 1e12 N/m on a 1.74 kg structure, or a Maxwell arm's dashpot
+    letting the film sag below 0.1 Hz, is never written)."""
+    parameter = next(p for p in model.parameters if p.name == name)
+    low, high = parameter.lower, parameter.upper
+    if parameter.scale != "log" or values is None or not all(p.name in values for p in model.parameters):
+        return low, high
+    low_omega, top_omega = (2 * math.pi * f for f in RESONANCE_RANGE_HZ)
+    values = dict(values)
+
+    def stiffness(value: float, omega: float) -> float:
+        with np.errstate(all="ignore"):
+            result = abs(complex(model.stiffness(np.array([1j * omega]), {**values, name: value})[0]))
+        return result if np.isfinite(result) else math.inf
+
+    def soft_enough_at_top(value: float) -> bool:
+        return stiffness(value, top_omega) * RESONANCE_MARGIN <= mass_kg * top_omega**2
+
+    def stiff_enough_at_bottom(value: float) -> bool:
+        return stiffness(value, low_omega) >= RESONANCE_MARGIN * mass_kg * low_omega**2
+
+    # a coefficient stiffens the film: the bottom check holds above some value, the top check below another
+    if not stiff_enough_at_bottom(low) and stiff_enough_at_bottom(high):
+        low = _boundary(stiff_enough_at_bottom, low, high, holds_above=True)
+    if not soft_enough_at_top(high) and soft_enough_at_top(low):
+        high = _boundary(soft_enough_at_top, low, high, holds_above=False)
+    return low, max(high, low)
+
+
+#: A written film's stiffness stays this many times inside the mass's m·ω² at the edges of RESONANCE_RANGE_HZ.
+RESONANCE_MARGIN = 2.0
+
+
+def _boundary(holds: Callable[[float], bool], low: float, high: float, holds_above: bool) -> float:
+    """The value in [low, high] where ``holds`` changes (bisection on a log scale), on the side where it holds."""
+    lower, upper = math.log(low), math.log(high)
+    for _ in range(60):
+        middle = 0.5 * (lower + upper)
+        if holds(math.exp(middle)) == holds_above:
+            upper = middle
+        else:
+            lower = middle
+    return math.exp(upper if holds_above else lower)
+
+
+def check_readable(spec: RigSpec) -> None:
+    """The spec reader's checks, which the writer applies too (:meth:`RigSpec.to_toml`): one line naming the key
+    when a value is out of its range."""
+    _validate_spec(spec)
+    if not spec.moving_mass_kg > 0:
+        raise SettingError(f"{spec.source}: the moving mass with the added masses is {spec.moving_mass_kg:.4g} kg; "
+                           f"it must be > 0")
+
+
 def _validate_spec(spec: RigSpec) -> None:
     source = spec.source
     _float_value(spec.mass_kg, f"{source} key 'mass_kg'", _within(*MASS_RANGE_KG), "kg")
-    model = _checked_film_model(spec.film_model, source)
+    pads = spec.rigid_body is not None and spec.rigid_body.has_pads  # (their network is as long as they make it)
+    model = spec.film if pads else _checked_film_model(spec.film_model, source)
     if len(spec.effects) > MAX_EFFECTS:
         raise SettingError(f"{source}: {len(spec.effects)} effects; a rig spec has at most {MAX_EFFECTS}")
     for parameter in model.parameters:
@@ -600,10 +721,14 @@ def _validate_spec(spec: RigSpec) -> None:
         if type(effect).type_name not in EFFECT_TYPES:
             raise SettingError(f"{source} effects[{index}]: {type(effect).__name__} is not a registered effect")
         _check_effect(effect, f"{source} effects[{index}]")
+        if isinstance(effect, TermChange):
+            _check_term_change(spec, index, effect)
     for channel in CHANNELS:
         sensor = spec.sensor(channel)
         sensitivity_key, noise_key = _SENSOR_KEYS[channel]
         _float_value(sensor.sensitivity_mv, f"{source} key 'sensors.{channel}.{sensitivity_key}'", _positive, "mV")
         _float_value(sensor.noise_per_sqrt_hz, f"{source} key 'sensors.{channel}.{noise_key}'", _non_negative, "SI")
+    if spec.rigid_body is not None:
+        validate_rigid_body(spec)
 
 

@@ -83,6 +83,8 @@ _READ_ERRORS = (OSError, KeyError, ValueError, TypeError, RuntimeError, IndexErr
 _WRITE_ERRORS = (OSError, RuntimeError, KeyError, ValueError, TypeError, IndexError, AttributeError, OverflowError)
 #: The groups every session holds.
 _GROUPS = ("rig", "daq", "settings", "hits", "frf", "fits", "diagnoses")
+#: A rigid-body identification (``gasfilm rigid``), when one was made (an optional group).
+RIGID_BODY_GROUP = "rigid_body"
 #: The diagnosis most recently stored is found under this name: a link to its run (``Session.add_diagnosis``).
 LATEST_DIAGNOSIS = "latest"
 #: Each stored diagnosis run is kept as ``run-001``, ``run-002``, … (numbered from 1, never reused).
@@ -1283,3 +1285,29 @@ class Session:
             if newest is None or key > newest[0]:
                 newest = (key, name)
         return None if newest is None else newest[1]
+
+    # ----- a rigid body's identification (gasfilm rigid) ------------------------------------------------------------
+
+    def write_rigid_body(self, values: Mapping[str, Any]) -> None:
+        """Store a rigid-body identification (:class:`gasfilm.analysis.identification.rigid.RigidIdentification`'s
+        dict) as ``/rigid_body`` (replacing an earlier one; the group is made at the first)."""
+        self._require_writable()
+        with self._writing("the rigid-body identification"):
+            self._structural()
+            if RIGID_BODY_GROUP in self._file:
+                del self._file[RIGID_BODY_GROUP]
+            group = self._file.create_group(RIGID_BODY_GROUP)
+            write_mapping(group, values)
+            group.attrs["written_utc"] = utc_now()
+            del group
+            self._settled()
+
+    @_reading("the rigid-body identification")
+    def read_rigid_body(self) -> dict[str, Any] | None:
+        """The stored rigid-body identification, or None when there is none."""
+        group = self._file.get(RIGID_BODY_GROUP)
+        if not isinstance(group, h5py.Group):
+            return None
+        values = read_mapping(group)
+        values.pop("written_utc", None)
+        return values

@@ -74,6 +74,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         help="simulator: time between hammer hits, drawn between MIN_S and MAX_S")
     parser.add_argument("--double-hit-rate", type=float,
                         help="simulator: fraction of double hits (default: the rig spec's, else 0)")
+    parser.add_argument("--hammer-point", metavar="NAME",
+                        help="rigid-body rig: the hammer point struck in this run (a name of the rig spec's "
+                             "[[rigid_body.hammer_points]]; default its hammer_point); --append a run per point for "
+                             "a roving test")
     parser.add_argument("--append", action="store_true", help="append to an existing session instead of creating")
     parser.add_argument("--max-rejected", type=int,
                         help="stop after this many consecutive rejected hits (default 20, the recorder's)")
@@ -305,6 +309,47 @@ def _continuation(session: Any, seed: int) -> tuple[int, int, float]:
     return runs, run_seed, float(end_s)
 
 
+def _rigid_spec_of_session(path: Path) -> Any:
+    """The rig spec stored in a session when it has a rigid body (an appended run of a roving test plays it)."""
+    from gasfilm.analysis.rigid_session import session_spec
+    from gasfilm.analysis.session import Session
+
+    if not path.is_file():
+        return None
+    with Session.open(path) as session:
+        return session_spec(session)
+
+
+def _note_hammer_point(session: Any, rig_spec: Any) -> None:
+    """Record the run's hammer point in the session (its ``hammer_points`` runs) and say where the roving test
+    stands."""
+    from gasfilm.analysis.rigid_session import HAMMER_POINTS_SETTING, next_point, roving_plan
+
+    point = rig_spec.rigid_body.hammer_point
+    plan = roving_plan(session.settings).with_run(point, session.hit_count)
+    session.update_settings({HAMMER_POINTS_SETTING: plan.to_setting()})
+    coming = next_point(rig_spec, plan)
+    print(f"hammer point {point} (struck so far: {', '.join(plan.points())}; "
+          + (f"next: {coming}, with --append --hammer-point {coming})" if coming else "every point struck)"),
+          flush=True)
+
+
+def _write_session_frf(session: Any, window: Any) -> None:
+    """The session's FRF "frf": its accepted hits' (of a rigid-body session, those at its spec's hammer point, on
+    its first accelerometer: what the spec's one-FRF view describes)."""
+    import numpy as np
+
+    from gasfilm.analysis.rigid_session import hits_at_spec_point, session_spec
+    from gasfilm.analysis.spectra import session_frf
+
+    accepted = [hit for hit in session.hits() if hit.verdict.accepted]
+    spec = session_spec(session)
+    if spec is not None:
+        accepted = hits_at_spec_point(spec, session.settings, accepted)
+    if accepted:
+        session.write_frf(session_frf(accepted, window), hit_indices=np.array([hit.index for hit in accepted]))
+
+
 def _note_stream_end(session: Any, stream_end_s: float) -> None:
     """Record where this run's signal ended (session time), for the next --append; a failing file is left alone."""
     try:
@@ -410,7 +455,6 @@ def _record_until_stopped(args: argparse.Namespace) -> int:
     from gasfilm.analysis.capture import ImpactCapture
     from gasfilm.analysis.physics.spec import RigSpec
     from gasfilm.analysis.recording import DEFAULT_MAX_CONSECUTIVE_REJECTIONS, HitRecorder, RecordingStopped, StopSignal
-    from gasfilm.analysis.spectra import session_frf
     from gasfilm.drivers.interface import ChannelKind, default_hammer_and_accelerometer
 
     from gasfilm.analysis.conditions import format_conditions, parse_condition_flags
@@ -430,11 +474,29 @@ def _record_until_stopped(args: argparse.Namespace) -> int:
     rig_spec = None
     if args.rig is not None:
         rig_spec = RigSpec.load(args.rig)
-    elif args.device == SIMULATED_DEVICE_NAME:
+    elif args.append:
+        rig_spec = _rigid_spec_of_session(args.out)  # a roving test's next run plays the session's rigid body
+    if rig_spec is None and args.device == SIMULATED_DEVICE_NAME:
         rig_spec = RigSpec.nominal("FOMGF")  # the simulated rig's default
     rig_spec, settings["conditions"] = rig_at_conditions(rig_spec, conditions,
                                                          args.device == SIMULATED_DEVICE_NAME)
-    config = default_hammer_and_accelerometer(args.rate)
+    rigid = rig_spec is not None and rig_spec.rigid_body is not None
+    if args.hammer_point is not None and not rigid:
+        raise SettingError("--hammer-point: the rig spec has no [rigid_body] with hammer points (docs/rig-spec.md)")
+    stored_spec = rig_spec
+    if rigid:
+        from gasfilm.analysis.physics.rigid_body import struck_at
+        from gasfilm.analysis.rigid_session import rigid_daq_config
+
+        point = args.hammer_point or rig_spec.rigid_body.hammer_point
+        if point not in rig_spec.rigid_body.point_names:
+            raise SettingError(f"--hammer-point {point}: not a hammer point of the rig spec (points: "
+                               f"{', '.join(rig_spec.rigid_body.point_names)})")
+        rig_spec = struck_at(rig_spec, point)
+        stored_spec = rig_spec  # a new session is struck first where this run strikes
+        config = rigid_daq_config(rig_spec, args.rate)
+    else:
+        config = default_hammer_and_accelerometer(args.rate)
     force_full_scale_n = config.channels[config.channel_index(ChannelKind.FORCE)].full_scale_si
     if args.trigger_n >= force_full_scale_n:
         raise SettingError(f"--trigger-n {args.trigger_n:g}: at or above the force channel's full scale "
@@ -452,7 +514,7 @@ def _record_until_stopped(args: argparse.Namespace) -> int:
         except SettingError as error:  # the module's rules name the field; the user typed --rate
             raise SettingError(str(error).replace("sample_rate_hz:", f"--rate {args.rate:g}:")) from None
         rate_hz = device.sample_rate_hz
-        session = _open_session(args, config, rate_hz, device.name, rig_spec.to_toml() if rig_spec else None,
+        session = _open_session(args, config, rate_hz, device.name, stored_spec.to_toml() if stored_spec else None,
                                 settings)
         if args.device == SIMULATED_DEVICE_NAME and args.condition:  # said once the run can start, not before a refusal
             _say_inert_conditions(rig_spec, conditions)
@@ -467,6 +529,11 @@ def _record_until_stopped(args: argparse.Namespace) -> int:
         force_row = config.channel_index(ChannelKind.FORCE)
         response_row = config.channel_index(ChannelKind.ACCELERATION)
         capture = ImpactCapture(trigger, rate_hz, len(config.channels), force_row, response_row, stream_start_s)
+        other_responses: tuple[int, ...] = ()
+        if rigid:
+            other_responses = tuple(row for row, channel in enumerate(config.channels)
+                                    if channel.kind is ChannelKind.ACCELERATION and row != response_row)
+            _note_hammer_point(session, rig_spec)
         recorder = HitRecorder(
             session,
             capture,
@@ -475,6 +542,7 @@ def _record_until_stopped(args: argparse.Namespace) -> int:
             window=window,
             on_hit=progress.hit,
             max_consecutive_rejections=args.max_rejected or DEFAULT_MAX_CONSECUTIVE_REJECTIONS,
+            other_responses=other_responses,
         )
         accepted_before = recorder.accepted_count
         print(f"recording into {args.out} from {device.name} at {rate_hz:g} S/s; conditions: "
@@ -538,8 +606,7 @@ def _record_until_stopped(args: argparse.Namespace) -> int:
         raise
     progress.done()
     if recorder.accepted_count:
-        frf = session_frf([hit for hit in session.hits() if hit.verdict.accepted], window)
-        session.write_frf(frf, hit_indices=session.accepted_indices())
+        _write_session_frf(session, window)
     _note_stream_end(session, stream_start_s + stream_s)
     session.close("complete")
     reasons = ", ".join(f"{reason}: {count}" for reason, count in sorted(recorder.reason_counts.items()))

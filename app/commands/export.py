@@ -4,7 +4,9 @@ The FRF stored in a session is exported (``--frf NAME``; by default "frf", or th
 without a stored FRF is averaged from its accepted hits with the session's window settings first; UFF or .npy time
 records are averaged over the hits ``replay`` would accept. A UFF export also holds the time records of the hits the
 FRF averages (unless ``--no-time-records``), so ``replay``, ``diagnose`` and ``fit`` read it back. An existing output
-file is replaced only with ``--overwrite``.
+file is replaced only with ``--overwrite``. A session of a rigid-body test (a ``[rigid_body]`` rig spec) goes to UFF
+whole: its geometry, every accelerometer's H1 and coherence at every hammer point and the time records
+(:mod:`gasfilm.analysis.rigid_uff`; ``gasfilm rigid FILE.uff --rig SPEC`` reads it back).
 """
 
 from __future__ import annotations
@@ -49,6 +51,8 @@ def run(args: argparse.Namespace) -> int:
     if args.csv is not None and args.time_records:
         raise SettingError("--time-records: only a UFF export holds time records (use --uff OUT.uff)")
     check_output_file(target, flag, args.overwrite)
+    if args.uff is not None and args.frf is None and _export_rigid_body(args):
+        return 0
     with_hits = args.uff is not None and args.time_records is not False
     loaded = load_frf_and_hits(args.source, args.frf, with_hits=with_hits)
     frf = loaded.frf
@@ -77,3 +81,30 @@ def run(args: argparse.Namespace) -> int:
     print(f"{written}{loaded.what} of {args.source[0]} ({len(frf.freq_hz)} lines, {frf.n_averages} averages{records}) "
           f"written to {target}")
     return 0
+
+
+def _export_rigid_body(args: argparse.Namespace) -> bool:
+    """A rigid-body session to UFF (geometry, every channel at every point, time records); False for another
+    source, which is exported as one FRF."""
+    from gasfilm.analysis.conditions import format_conditions
+    from gasfilm.analysis.rigid_session import accelerometer_rows, hits_by_point, session_rigid_frf, session_spec
+    from gasfilm.analysis.rigid_uff import export_rigid_uff
+    from gasfilm.analysis.session import Session
+    from gasfilm.analysis.sources import is_time_record_file
+
+    if len(args.source) != 1 or is_time_record_file(args.source[0]):
+        return False
+    with Session.open(args.source[0]) as session:
+        spec = session_spec(session)
+        if spec is None:
+            return False
+        rigid = session_rigid_frf(session, spec=spec)
+        hits = [hit for hit in session.hits() if hit.verdict.accepted] if args.time_records is not False else []
+        conditions = source_conditions(args.source)
+        export_rigid_uff(args.uff, spec, rigid, hits_by_point(spec, session.settings, hits),
+                         accelerometer_rows(spec, session.daq_config), f"gasfilm {args.source[0].name}",
+                         format_conditions(conditions) if conditions else "")
+    print(f"rigid-body test {args.source[0]}: geometry, H1 and coherence of {len(rigid.sensor_names)} accelerometers "
+          f"at {len(rigid.point_names)} hammer points ({len(rigid.freq_hz)} lines)"
+          + (f", time records of {len(hits)} hits" if hits else "") + f" written to {args.uff}")
+    return True

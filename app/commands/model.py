@@ -38,6 +38,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--out", type=Path, required=True, help="the model file: .json, .mat or .npz")
     parser.add_argument("--json", action="store_true", help="print one JSON object instead of the summary")
     parser.add_argument("--overwrite", action="store_true", help="replace the model file and figures if they exist")
+    parser.add_argument("--rigid", action="store_true",
+                        help="a rigid-body session (after gasfilm rigid): the MIMO plant, force and moments → heave, "
+                             "roll and pitch accelerations (--model: the film model of every direction, default each "
+                             "direction's lowest BIC)")
     parser.set_defaults(func=run)
 
 
@@ -80,6 +84,8 @@ def run(args: argparse.Namespace) -> int:
         raise SettingError(f"--order {args.order}: must be a positive number of states")
     max_error = parse_percent(args.max_error)
     band = parse_band(args.band)
+    if args.rigid:
+        return _rigid_plant(args, max_error, band)
     loaded = load_source(args.source, args.model)
     error_png = args.out.with_name(f"{args.out.name}-error.png")  # (each format its own figures)
     hits_png = args.out.with_name(f"{args.out.name}-hits.png") if loaded.records is not None else None
@@ -133,4 +139,34 @@ def run(args: argparse.Namespace) -> int:
         for line in check.summary_lines():
             print("  " + line)
     print(f"written: {written}; figures: {', '.join(str(path) for path in figures)}")
+    return 0
+
+
+def _rigid_plant(args: argparse.Namespace, max_error: float, band: tuple[float, float] | None) -> int:
+    """``--rigid``: the MIMO plant of a session's stored rigid-body identification."""
+    from gasfilm.analysis.control.rigid import rigid_plant, write_rigid_plant
+    from gasfilm.analysis.identification.rigid import RigidIdentification
+    from gasfilm.analysis.physics.rigid_body import mass_matrix
+    from gasfilm.analysis.rigid_session import session_rigid_frf, session_spec
+    from gasfilm.analysis.session import Session
+
+    if args.order is not None:
+        raise SettingError("--order: a MIMO plant is made direction by direction within --max-error")
+    check_output_file(args.out, "--out", args.overwrite)
+    with Session.open(args.source) as session:
+        spec = session_spec(session)
+        stored = session.read_rigid_body()
+        if spec is None or stored is None:
+            raise SettingError(f"{args.source}: no rigid-body identification stored (a session recorded with a "
+                               f"[rigid_body] rig spec, then gasfilm rigid)")
+        measured = session_rigid_frf(session, spec=spec)
+    identification = RigidIdentification.from_dict(stored, measured)
+    plant = rigid_plant(identification, mass_matrix(spec), args.model, band, max_error, measured)
+    written = write_rigid_plant(plant, args.out)
+    if args.json:
+        print(json.dumps({"out": str(written), "model": plant.to_dict()}))
+        return 0
+    for line in plant.summary_lines():
+        print(line)
+    print(f"written: {written}")
     return 0

@@ -184,7 +184,7 @@ def summarise(frf: Any, verdicts: list, dropped: int, record_samples: int, estim
 
     import numpy as np
 
-    from gasfilm.analysis.spectra import RESONANCE_SEARCH_FROM_HZ, readable_lines, resonance_lines
+    from gasfilm.analysis.spectra import peak_line
 
     reasons: dict[str, int] = {}
     flagged: dict[str, int] = {}
@@ -208,14 +208,7 @@ def summarise(frf: Any, verdicts: list, dropped: int, record_samples: int, estim
     if frf is not None:
         frf = dataclasses.replace(frf, h1=getattr(frf, estimator))  # the peak is read on the chosen estimator
         magnitude = np.abs(frf.h1)
-        resonances = resonance_lines(frf)
-        if resonances:
-            peak = resonances[0]
-        else:  # no clear resonance: the largest readable line (all lines above 5 Hz when none is readable)
-            search = readable_lines(frf)
-            if not np.any(search):
-                search = (frf.freq_hz >= RESONANCE_SEARCH_FROM_HZ) & np.isfinite(magnitude)
-            peak = int(np.flatnonzero(search)[np.argmax(magnitude[search])])
+        peak = peak_line(frf)  # the strongest resonance, else the largest readable line (as the GUI's FRF tab)
         summary.update(
             estimator=ESTIMATOR_NAMES[estimator],
             peak_frequency_hz=float(frf.freq_hz[peak]),

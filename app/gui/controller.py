@@ -29,12 +29,14 @@ from gasfilm.analysis.identification import DEFAULT_FIT_BAND_HZ, best_by_bic, co
 from gasfilm.analysis.physics.elements import get_model
 from gasfilm.analysis.physics.laws import law_keys, played_at
 from gasfilm.analysis.physics.spec import RigSpec
+from gasfilm.analysis.rigid_session import roving_plan
 from gasfilm.analysis.spectra import usable_band_hz
 from gasfilm.analysis.session import Session, to_jsonable
 from gasfilm.analysis.spectra import FrfAccumulator, FrfResult, WindowSettings, session_frf, write_frf_csv
 from gasfilm.analysis.uff import export_frf_uff
 from gasfilm.analysis.validation import ValidationSettings, Verdict, recorded_full_scale_si, validate_hit
 from gasfilm.app.gui import jobs
+from gasfilm.app.gui.rigid import entries_at_point, note_hammer_run, rigid_plan, same_rig, struck_point
 from gasfilm.app.gui.settings import SetupState, settings_from_dict
 from gasfilm.app.gui.workers import (
     PENDING_REASON,
@@ -128,6 +130,8 @@ class SessionController(QObject):
         self.comparisons: list[tuple[str, FrfResult]] = []  # (label, FRF) of other sessions to overlay
         self._diagnosis_wait_s = 0.0  # the shown diagnosis's time from the click to its result
         self.hit_check_proposal: Any = None
+        self.hammer_point: str | None = None  # a rigid-body rig's point to strike next (None: the spec's)
+        self._roving: tuple[Any, str | None] = (None, None)  # a roving test's runs and the point of its FRF
 
     # --- settings --------------------------------------------------------------------------------------------------
 
@@ -192,10 +196,13 @@ class SessionController(QObject):
                         f"follows them)", "info")
             else:
                 rig_spec = rig_spec.at_conditions(conditions)
+            response_row = setup.response_row(config)
+            rig_spec, other_responses = rigid_plan(rig_spec, self.hammer_point, config, response_row)
             plan = AcquisitionPlan(
                 device_name=setup.device,
                 config=config,
-                response_row=setup.response_row(config),
+                response_row=response_row,
+                other_responses=other_responses,
                 rig_spec=rig_spec,
                 conditions=conditions,
                 trigger=setup.trigger_settings(),
@@ -212,6 +219,7 @@ class SessionController(QObject):
             if not hit_check:
                 self._ensure_session(plan)
                 self._store_test_record(setup)
+                self._roving = (note_hammer_run(self.session, plan.rig_spec), struck_point(plan.rig_spec))
                 plan = dataclasses.replace(plan, time_offset_s=self._session_time_s())
         except GasfilmError as error:
             self.message.emit(str(error), "error")
@@ -299,7 +307,7 @@ class SessionController(QObject):
             differences.append("channels or sample rate")
         if session.device_name != plan.device_name:
             differences.append("device")
-        if (session.rig_spec_toml or "") != plan.rig_spec.to_toml():
+        if not same_rig(session.rig_spec_toml, plan.rig_spec):
             differences.append("rig spec")
         for key, value in (("trigger", plan.trigger), ("window", plan.window)):
             if stored.get(key) != to_jsonable(value):
@@ -382,7 +390,7 @@ class SessionController(QObject):
         """Why an automatically accepted hit should wait for the technician instead ('' when it may stay): with it,
         the mean coherence in the usable band (from the fit band's lower edge) falls below the Setup tab's minimum."""
         minimum = self._armed_setup.min_coherence
-        earlier = [e.record for e in self.hits if e.accepted and e is not entry]
+        earlier = [e.record for e in self._at_frf_point(self.hits) if e.accepted and e is not entry]
         if not entry.accepted or minimum <= 0 or not earlier:
             return ""
         try:
@@ -507,7 +515,7 @@ class SessionController(QObject):
     def update_running_frf(self) -> None:
         """The FRF of the accepted hits, recomputed after every hit and decision (the one place the GUI's FRF is
         made); then stops the acquisition when the target number of averages is reached."""
-        accepted = [entry for entry in self.hits if entry.accepted]
+        accepted = [entry for entry in self._at_frf_point(self.hits) if entry.accepted]
         records = [entry.record for entry in accepted]
         self.frf = self._running_frf(accepted) if accepted else None
         self.frf_changed.emit(self.frf)
@@ -516,6 +524,10 @@ class SessionController(QObject):
             self.message.emit(f"target of {target} averages reached: acquisition stopped", "info")
             self._set_state("stopping")
             self.stop()
+
+    def _at_frf_point(self, entries: list) -> list:
+        """The hits the running FRF averages: in a rigid body's roving test those at the point struck (its FRF)."""
+        return entries_at_point(entries, *self._roving)
 
     def _running_frf(self, accepted: list) -> FrfResult:
         """Running sums of the accepted hits: a newly accepted hit is added to them; a decision that removes or
@@ -789,6 +801,7 @@ class SessionController(QObject):
 
     def _reset_results(self) -> None:
         self._stream_end_s = 0.0
+        self._roving = (None, None)
         self.hits = []
         self._frf_sums = (None, [])
         self.frf = None
@@ -833,6 +846,8 @@ class SessionController(QObject):
         self.session = session
         self.session_path = path
         self._reset_results()
+        stored_spec = RigSpec.from_toml(session.rig_spec_toml) if session.rig_spec_toml else None
+        self._roving = (roving_plan(session.settings), struck_point(stored_spec))
         for stored in session.hits():
             verdict = stored.verdict
             if PENDING_REASON in verdict.reasons:  # stored while waiting for a decision: it waits again
@@ -877,7 +892,7 @@ class SessionController(QObject):
         if session is None or not session.writable or not session.is_open or self.acquiring:
             return
         if self.frf is not None:
-            accepted = [entry.index for entry in self.hits if entry.accepted]
+            accepted = [entry.index for entry in self._at_frf_point(self.hits) if entry.accepted]
             session.write_frf(self.frf, hit_indices=np.array(accepted, dtype=np.int64))
         for name, fit in self.fits.items():
             session.write_fit(name, {**fit.to_dict(), **self._fit_settings.get(name, {})})

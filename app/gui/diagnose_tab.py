@@ -129,6 +129,10 @@ class DiagnoseTab(QWidget):
         restoring_layout.addWidget(self.restoring_damping_plot)
         self.restoring_label = QLabel()
         self.restoring_label.setWordWrap(True)
+        # a structure read off the FRF: its stabilization diagram (as diagnosis-stabilization.png); hidden otherwise
+        self.stabilization_plot = make_plot("Stabilization diagram (LSCF): poles by model order, modes as lines",
+                                            ("model order", ""))
+        self.stabilization_plot.hide()
         plots = QWidget()
         plots_layout = QVBoxLayout(plots)
         plots_layout.setContentsMargins(0, 0, 0, 0)
@@ -136,6 +140,7 @@ class DiagnoseTab(QWidget):
         plots_layout.addWidget(self.residual_plot, 2)
         plots_layout.addWidget(restoring, 2)
         plots_layout.addWidget(self.restoring_label)
+        plots_layout.addWidget(self.stabilization_plot, 3)
 
         splitter = QSplitter(Qt.Orientation.Horizontal)
         splitter.addWidget(left)
@@ -213,6 +218,8 @@ class DiagnoseTab(QWidget):
         self.restoring_stiffness_plot.clear()
         self.restoring_damping_plot.clear()
         self.restoring_label.clear()
+        self.stabilization_plot.clear()
+        self.stabilization_plot.hide()
         has_spec = diagnosis is not None and diagnosis.improved_spec_path is not None
         self.export_button.setEnabled(has_spec)
         self.play_button.setEnabled(has_spec)
@@ -232,6 +239,7 @@ class DiagnoseTab(QWidget):
         if not diagnosis.findings:
             self._show_no_findings(diagnosis.verdict, diagnosis.recalibration)
         self._show_unexplained([item.to_dict() for item in diagnosis.unexplained])
+        self._show_structure(diagnosis.to_dict().get("structure"))
         for note in diagnosis.quality:
             band = f" ({note.band_hz[0]:.0f}–{note.band_hz[1]:.0f} Hz)" if note.band_hz else ""
             self.quality.addItem(f"{note.kind}{band}: {note.message}")
@@ -256,6 +264,7 @@ class DiagnoseTab(QWidget):
         if not stored["findings"]:
             self._show_no_findings(stored["verdict"], stored["recalibration"])
         self._show_unexplained(stored.get("unexplained", []))
+        self._show_structure(stored.get("structure"))
         for note in stored["quality"]:
             band = f" ({note['band_hz'][0]:.0f}–{note['band_hz'][1]:.0f} Hz)" if note.get("band_hz") else ""
             self.quality.addItem(f"{note['kind']}{band}: {note['message']}")
@@ -268,6 +277,9 @@ class DiagnoseTab(QWidget):
             return
         finding = item.data(Qt.ItemDataRole.UserRole)
         if finding is None:
+            return
+        if isinstance(finding, dict):  # the measured structure's item: its mode table
+            self.details.setHtml(self._modes_html(finding))
             return
         rows = "".join(
             f"<tr><td>{name}</td><td align='right'>{values['value']:.4g}</td>"
@@ -286,12 +298,69 @@ class DiagnoseTab(QWidget):
                       for alternative in finding.alternatives)
         )
 
+    def _show_structure(self, structure: dict[str, Any] | None) -> None:
+        """A measured structure: an item whose details are the mode table, and the stabilization diagram when the
+        structure was read off the FRF (poles by class, modes as lines)."""
+        if not structure or not structure.get("modes"):
+            return
+        read = structure.get("read_off_frf")
+        item = QListWidgetItem(f"Measured structure: {len(structure['modes'])} modes (mode table)"
+                               + (", read off the FRF (stabilization diagram)" if read else ""))
+        item.setData(Qt.ItemDataRole.UserRole, structure)
+        self.findings.addItem(item)
+        if not self.findings.currentItem():
+            self.details.setHtml(self._modes_html(structure))
+        if not read or not isinstance(read.get("stabilization"), dict):
+            return
+        from gasfilm.analysis.diagnosis.plots import STABILITY_STYLE
+        from gasfilm.analysis.diagnosis.structure import STABILITY
+
+        diagram = read["stabilization"]
+        order = np.asarray(diagram["order"], float)
+        freq = np.asarray(diagram["freq_hz"], float)
+        stability = np.asarray(diagram["stability"], int)
+        symbols = {".": "o", "x": "x", "+": "+", "o": "o"}
+        for index, (name, (marker, size, _)) in enumerate(zip(STABILITY, STABILITY_STYLE)):
+            rows = stability == index
+            colour = PALETTE[8] if index == 0 else PALETTE[index - 1]
+            self.stabilization_plot.plot(freq[rows], order[rows], pen=None, symbol=symbols[marker],
+                                         symbolSize=2 * size + 1, symbolPen=colour,
+                                         symbolBrush=colour if index < len(STABILITY) - 1 else None,
+                                         name=f"stable in {name}" if index else "new")
+        for mode in read.get("modes_read", []):
+            self.stabilization_plot.addLine(x=mode["freq_hz"], pen=pen(PALETTE[0], 0.6, Qt.PenStyle.DashLine))
+        self.stabilization_plot.setXRange(*read["band_hz"], padding=0.01)
+        self.stabilization_plot.show()
+
+    @staticmethod
+    def _modes_html(structure: dict[str, Any]) -> str:
+        rows = "".join(
+            f"<tr><td>{number}</td><td align='right'>{row['freq_hz']:.2f}</td>"
+            f"<td align='right'>{row['damping_ratio']:.3g}</td><td align='right'>{row['modal_constant_per_kg']:+.4g}</td>"
+            f"<td align='right'>{row['quadrature_per_kg']:+.3g}</td>"
+            f"<td>{'above the band: upper residual' if row.get('above_band') else ''}</td></tr>"
+            for number, row in enumerate(sorted(structure["modes"], key=lambda row: row["freq_hz"]), start=1))
+        kind = "a driving point" if structure.get("driving_point") else "a transfer FRF (modal constants of both signs)"
+        return (f"<h3>Measured structure: modes</h3><p>{kind}; mass line {structure.get('mass_line_kg', 0):.4g} kg, "
+                f"polarity {structure.get('polarity', 1):+d}.</p><table cellpadding='3'><tr><th>#</th>"
+                f"<th>frequency (Hz)</th><th>damping ratio</th><th>modal constant (1/kg)</th>"
+                f"<th>quadrature (1/kg)</th><th></th></tr>{rows}</table>")
+
     def _show_unexplained(self, unexplained: list[dict[str, Any]]) -> None:
-        """What the final spec does not explain within the noise, where and in which hits."""
+        """What the final spec does not explain within the noise, where and in which hits: each band holding a share
+        of the excess on its own line, the rest counted in one (as the terminal report does)."""
+        from gasfilm.analysis.diagnosis.report import LISTED_SHARE
+
+        minor = [item for item in unexplained if item["chi2_share"] < LISTED_SHARE]
         for item in unexplained:
+            if item["chi2_share"] < LISTED_SHARE:
+                continue
             low, high = item["band_hz"]
             self.findings.addItem(f"NOT explained: {low:.0f}–{high:.0f} Hz, {100 * item['chi2_share']:.0f} % of the "
                                   f"excess — {item['character']}")
+        if minor:
+            self.findings.addItem(f"and {len(minor)} more band(s) beyond the noise, each under "
+                                  f"{100 * LISTED_SHARE:.0f} % of the excess")
 
     def _show_no_findings(self, verdict: str, recalibration: dict[str, dict[str, float]]) -> None:
         self.findings.addItem({

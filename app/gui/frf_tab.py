@@ -9,7 +9,7 @@ from PySide6.QtGui import QShowEvent
 from PySide6.QtWidgets import (QCheckBox, QComboBox, QDoubleSpinBox, QFileDialog, QGridLayout, QHBoxLayout, QLabel,
                                QPushButton, QSizePolicy, QWidget)
 
-from gasfilm.analysis.spectra import usable_band_hz
+from gasfilm.analysis.spectra import peak_line, usable_band_hz
 from gasfilm.analysis.spectra import FrfResult
 from gasfilm.app.gui.controller import SessionController
 from gasfilm.app.gui.widgets import (
@@ -215,15 +215,15 @@ class FrfTab(QWidget):
         self.imag_curve.setData(freq, h1.imag)
         self.coherence_curve.setData(freq, frf.coherence[keep])
         low, high = self.controller.fit_band_hz
-        if not self._view_set:  # open on the band of interest; zoom out for the rest up to Nyquist
-            self._show_default_range(freq, high)
+        if not self._view_set:  # open on the whole usable band (and the fit band); zoom out for the rest up to Nyquist
+            self._show_default_range(freq, max(high, usable_high))
             self._view_set = True
         band = (freq >= low) & (freq <= high)
         mean_coherence = float(np.mean(frf.coherence[keep][band])) if np.any(band) else float("nan")
-        peak = int(np.argmax(np.where(band, magnitude, 0))) if np.any(band) else int(np.argmax(magnitude))
+        peak = peak_line(frf, self.controller.setup.usable_drop_db)  # as `gasfilm replay` reports it
         self.summary.setText(
             f"{frf.n_averages} averages · {frf.sample_rate_hz:g} S/s · Δf {freq[0]:.3g} Hz · "
-            f"peak {freq[peak]:.1f} Hz · mean γ² in band {mean_coherence:.3f} · usable to {usable_high:.0f} Hz"
+            f"peak {frf.freq_hz[peak]:.1f} Hz · mean γ² in band {mean_coherence:.3f} · usable to {usable_high:.0f} Hz"
         )
         self._update_legends()
 
@@ -261,7 +261,8 @@ class FrfTab(QWidget):
             show_legend_only_with_data(plot)
 
     def _show_default_range(self, freq, high_hz: float) -> None:
-        top = min(float(freq[-1]), 2.5 * high_hz)
+        """Frequencies up to ``high_hz`` (the usable band's top, or the fit band's when higher) and a little beyond."""
+        top = min(float(freq[-1]), 1.1 * high_hz)
         if self.log_frequency.isChecked():
             self.magnitude_plot.setXRange(np.log10(freq[0]), np.log10(top), padding=0.02)
         else:
@@ -274,7 +275,8 @@ class FrfTab(QWidget):
         self._set_band(low, high, move_region=True)
         if self.frf is not None:
             keep = self.frf.freq_hz > 0
-            self._show_default_range(self.frf.freq_hz[keep], high)
+            _, usable_high = usable_band_hz(self.frf.freq_hz, self.frf.gff, self.controller.setup.usable_drop_db)
+            self._show_default_range(self.frf.freq_hz[keep], max(high, usable_high))
 
     def _region_moved(self) -> None:
         low, high = self.region.getRegion()

@@ -26,6 +26,7 @@ from gasfilm.app.gui.diagnose_tab import DiagnoseTab
 from gasfilm.app.gui.frf_tab import FrfTab
 from gasfilm.app.gui.identify_tab import IdentifyTab
 from gasfilm.app.gui.measure_tab import MeasureTab
+from gasfilm.app.gui.rigid_tab import RigidTab
 from gasfilm.app.gui.settings import (
     SETTINGS_APPLICATION,
     SETTINGS_ORGANIZATION,
@@ -52,7 +53,7 @@ DEFAULT_WINDOW_SIZE = (1500, 950)
 
 
 class MainWindow(QMainWindow):
-    """Setup → Measure → FRF → Identify → Diagnose."""
+    """Setup → Measure → FRF → Identify → Diagnose, and the Rigid body tab of a mover with several accelerometers."""
 
     def __init__(self, settings: QSettings | None = None, session_dir: Path | None = None) -> None:
         super().__init__()
@@ -80,6 +81,7 @@ class MainWindow(QMainWindow):
         self.frf_tab = FrfTab(self.controller)
         self.identify_tab = IdentifyTab(self.controller)
         self.diagnose_tab = DiagnoseTab(self.controller)
+        self.rigid_tab = RigidTab(self.controller)
         self.tabs = QTabWidget()
         for tab, title in (
             (self.setup_tab, "1  Setup"),
@@ -87,6 +89,7 @@ class MainWindow(QMainWindow):
             (self.frf_tab, "3  FRF"),
             (self.identify_tab, "4  Identify"),
             (self.diagnose_tab, "5  Diagnose"),
+            (self.rigid_tab, "6  Rigid body"),
         ):
             self.tabs.addTab(tab, title)
         central = QWidget()
@@ -112,6 +115,7 @@ class MainWindow(QMainWindow):
         self.measure_tab.apply_hit_check.connect(self.apply_hit_check)
         self.measure_tab.window_dragged.connect(self.setup_tab.set_window)
         self.setup_tab.teds_said.connect(lambda text: self.banner.show_message(text, "info"))
+        self.setup_tab.changed.connect(lambda: self.rigid_tab.refresh() if self.controller.session is None else None)
         self.controller.message.connect(self.banner.show_message)
         self.controller.session_changed.connect(self._session_changed)
         self.controller.acquisition_state.connect(self._acquisition_state)

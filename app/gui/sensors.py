@@ -8,8 +8,8 @@ Format (``fixtures/sensors.toml``)::
     sensitivity = 11.2
     units = "mV/N"            # see drivers.interface.SENSITIVITY_UNITS
     description = "modally tuned impact hammer"
-    serial = "LW41203"        # optional: one sensor of the model (the lab's own), with its
-    calibration_date = 2026-03-02   # last calibration (a TOML date or "YYYY-MM-DD")
+    serial = "LW12345"        # optional: one calibrated sensor (its sheet's sensitivity); listed as "model s/n …",
+    calibration_date = 2026-03-02   # with its last calibration (a TOML date or "YYYY-MM-DD")
 """
 
 from __future__ import annotations
@@ -41,8 +41,9 @@ class Sensor:
 
     @property
     def key(self) -> str:
-        """What a channel row stores to name its library entry: the model, with the serial for one sensor."""
-        return f"{self.model} #{self.serial}" if self.serial else self.model
+        """How the Setup tab names the entry (and a channel row stores it): the model, and the serial number of a
+        calibrated sensor."""
+        return f"{self.model} s/n {self.serial}" if self.serial else self.model
 
     @property
     def label(self) -> str:

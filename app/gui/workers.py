@@ -74,6 +74,7 @@ class AcquisitionPlan:
     time_offset_s: float = 0.0  # session time of the stream's first sample (hit times continue across re-arms)
     conditions: dict = field(default_factory=dict)  # the session's operating conditions (analysis/conditions.py)
     hit_check: bool = False  # trial taps before the test: triggered and checked, stored nowhere
+    other_responses: tuple[int, ...] = ()  # a rigid body's further accelerometers, checked as the response is
 
 
 @dataclass
@@ -161,7 +162,8 @@ class AcquisitionWorker(QObject):
                 self.recorder = TapRecorder(capture, plan.validation, full_scale_si=full_scale, window=plan.window)
             else:
                 self.recorder = HitRecorder(
-                    self.session, capture, plan.validation, full_scale_si=full_scale, window=plan.window
+                    self.session, capture, plan.validation, full_scale_si=full_scale, window=plan.window,
+                    other_responses=plan.other_responses,
                 )
             self._record_samples = capture.record_samples
             self._force_row = force_row
