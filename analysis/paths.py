@@ -76,7 +76,7 @@ def written_whole(*paths: Path, what: str = "the output") -> Iterator[list[Path]
             with contextlib.suppress(OSError):
                 temporary.unlink()
         cause = write_error(error)
-        if cause is None or isinstance(error, GasfilmError):
+        if cause is None or isinstance(error, GasfilmError) or not paths:
             raise
         named = next((path for path, temporary in zip(paths, temporaries)
                       if cause.filename in (str(temporary), os.fsencode(temporary))), paths[0])
@@ -90,3 +90,9 @@ def _fsync(path: Path) -> None:
         os.fsync(fd)
     finally:
         os.close(fd)
+def results_folder(source: Path, what: str) -> Path:
+    """Where a command writes the files of its ``what`` ("fit", "diagnosis") of ``source`` when not told: a folder
+    beside the input named after it, ``NAME-fit/`` or ``NAME-diagnosis/`` (the one rule of every command and the
+    GUI, issue 32): two recordings' results never meet, and an existing file there is replaced only when asked."""
+    source = Path(source)
+    return source.with_name(f"{source.stem}-{what}")

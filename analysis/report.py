@@ -10,13 +10,14 @@ import datetime
 import html
 import io
 import logging
+import os
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Sequence
 
 import numpy as np
 
-from gasfilm.analysis.conditions import decode_conditions, format_conditions, format_value
+from gasfilm.analysis.conditions import decode_conditions, format_value
 from gasfilm.analysis.diagnosis.report import VERDICT_LINES
 from gasfilm.analysis.fit_warnings import fit_warnings
 from gasfilm.analysis.paths import link_target, missing_folder, written_whole
@@ -114,22 +115,30 @@ def _device_from_settings(settings: Any) -> str:
     return ""
 
 
-def read_report_data(path: str | Path) -> ReportData:
-    """Everything the report needs from ``path`` (read only)."""
+def read_report_data(path: str | Path, frf_name: str | None = None) -> ReportData:
+    """Everything the report needs from ``path`` (read only); ``frf_name``: which stored FRF (default "frf", or the
+    only one)."""
     from gasfilm.analysis.fit_settings import FitHits, stale_note
     from gasfilm.analysis.identification import FitResult, compare_models
 
     path = Path(path)
     with Session.open(path, "r") as session:
         config = session.daq_config
+        stored_sensors = session.settings.get("sensors")
+        sensors = {entry.get("channel"): entry for entry in stored_sensors if isinstance(entry, dict)} \
+            if isinstance(stored_sensors, list) else {}
         channels = [
             {
                 "channel": channel.physical_channel,
                 "name": channel.name,
                 "kind": channel.kind.value,
+                "sensor": str(sensors.get(channel.physical_channel, {}).get("model") or "—"),
+                "serial": str(sensors.get(channel.physical_channel, {}).get("serial") or "—"),
+                "calibrated": str(sensors.get(channel.physical_channel, {}).get("calibration_date") or "—"),
                 "sensitivity": f"{channel.sensitivity:g} {channel.sensitivity_units}",
                 "iepe": f"{channel.iepe_current_a * 1e3:g} mA" if channel.iepe_current_a else "off",
                 "coupling": channel.coupling.value,
+                "teds": str(sensors.get(channel.physical_channel, {}).get("teds") or "—"),
             }
             for channel in config.channels
         ]
@@ -146,8 +155,17 @@ def read_report_data(path: str | Path) -> ReportData:
             }
             for hit, record in zip(stored, records)
         ]
-        if "frf" in session.result_names("frf"):
-            frf, source = session.read_frf(), "stored in the session"
+        stored_frfs = session.result_names("frf")
+        chosen = frf_name or ("frf" if "frf" in stored_frfs else stored_frfs[0] if len(stored_frfs) == 1 else None)
+        if frf_name is not None and frf_name not in stored_frfs:
+            raise SettingError(f"--frf {frf_name}: {path} holds no such FRF (it holds "
+                               f"{', '.join(stored_frfs) or 'none'})")
+        if chosen is not None:
+            others = [name for name in stored_frfs if name != chosen]
+            frf = session.read_frf(chosen)
+            source = f"FRF '{chosen}' stored in the session" + (
+                f" (it also holds {', '.join(repr(name) for name in others)}: gasfilm report --frf NAME shows another)"
+                if others else "")
         else:
             accepted = [record for hit, record in zip(stored, records) if hit.verdict.accepted]
             window = session.settings_as("window", WindowSettings)
@@ -365,8 +383,8 @@ def _fits_html(data: ReportData) -> str:
             parts.append(f"<p class='warning'>Warning: {html.escape(stale)}</p>")
         best = best_by_bic(rows)
         parts.append(_table(
-            ("#", "Model", "k (1)", "RMS (g/N)", "E (%)", "Peak error (g/N)", "E_m (%)", "AIC (1)", "BIC (1)",
-             "Hits (1)"),
+            ("#", "Model", "Parameters (count)", "RMS (g/N)", "E (%)", "Peak error (g/N)", "E_m (%)", "AIC (1)",
+             "BIC (1)", "Hits (count)"),
             [
                 (row.rank, row.model_name, row.n_parameters, f"{row.rms / g:.4g}", _percent(row.e_percent),
                  f"{row.peak_error / g:.4g}", _percent(row.e_m_percent), f"{row.aic:.1f}",
@@ -625,8 +643,60 @@ pre { background: #f7f7f7; padding: 6px; font-size: 0.85em; overflow-x: auto; }
 """
 
 
-def report_html(data: ReportData, drop_db: float = USABLE_DROP_DB) -> str:
-    """The report as one self-contained HTML page."""
+def _test_html(test: Any) -> str:
+    """Who tested what (``settings["test"]``), or that the session does not say."""
+    test = test if isinstance(test, dict) else {}
+    operator, test_object = str(test.get("operator") or ""), str(test.get("test_object") or "")
+    if not operator and not test_object:
+        return ("<p>Operator and test object: not given (the GUI's Setup tab, or gasfilm acquire --operator NAME "
+                "--test-object TEXT).</p>")
+    return (f"<p>Operator <b>{html.escape(operator or '—')}</b>; test object "
+            f"<b>{html.escape(test_object or '—')}</b>.</p>")
+
+
+#: The paper sizes a report is laid out on: ``--paper`` value → CSS page size.
+PAPER_SIZES = {"a4": "A4", "letter": "letter"}
+#: Territories whose locales print on US Letter (glibc's LC_PAPER); everywhere else A4.
+LETTER_TERRITORIES = frozenset({"US", "CA", "MX", "PR", "CL", "CO", "CR", "GT", "NI", "PA", "PH", "SV", "VE", "DO",
+                                "BZ"})
+
+
+def default_paper() -> str:
+    """"letter" or "a4" as this machine prints: the PAPERSIZE variable, else /etc/papersize (libpaper), else the
+    locale's territory (LC_ALL, LC_PAPER, LANG: en_US → letter, de_DE → A4); A4 when none says."""
+    named = os.environ.get("PAPERSIZE", "").strip().lower()
+    if not named:
+        try:
+            named = Path("/etc/papersize").read_text(encoding="utf-8").split("#")[0].strip().lower()
+        except (OSError, UnicodeDecodeError):
+            named = ""
+    if named in PAPER_SIZES:
+        return named
+    for variable in ("LC_ALL", "LC_PAPER", "LANG"):
+        value = os.environ.get(variable, "")
+        if value:
+            territory = value.split(".")[0].split("@")[0].partition("_")[2].upper()
+            return "letter" if territory in LETTER_TERRITORIES else "a4"
+    return "a4"
+
+
+#: Print layout: the page, its margins and number, figures and tables to the page's width, no row split over pages.
+_PRINT_STYLE = """
+@page { size: PAPER; margin: 14mm 12mm 16mm 12mm;
+        @bottom-right { content: "page " counter(page) " of " counter(pages); font-size: 8pt; color: #666; } }
+@media print {
+  body { max-width: none; margin: 0; font-size: 9pt; }
+  h1 { font-size: 15pt; } h2 { font-size: 12pt; break-after: avoid; } h3 { font-size: 10pt; break-after: avoid; }
+  table { font-size: 7.5pt; max-width: 100%; } th, td { overflow-wrap: anywhere; padding: 1px 4px; }
+  tr, img { break-inside: avoid; } img { width: 100%; }
+  pre { white-space: pre-wrap; overflow-wrap: anywhere; font-size: 7pt; }
+}
+"""
+
+
+def report_html(data: ReportData, drop_db: float = USABLE_DROP_DB, paper: str | None = None) -> str:
+    """The report as one self-contained HTML page; printed (or made a PDF) on ``paper`` ("a4" or "letter"; default
+    :func:`default_paper`)."""
     accepted = [hit["accepted"] for hit in data.hits]
     sections = [
         f"<h1>gasfilm session report</h1><p>Session <code>{html.escape(str(data.path))}</code>; "
@@ -634,8 +704,9 @@ def report_html(data: ReportData, drop_db: float = USABLE_DROP_DB) -> str:
         "<h2>Setup</h2>",
         f"<p>Device <b>{html.escape(data.device_name or 'not recorded')}</b>, {data.sample_rate_hz:g} S/s, session status "
         f"{html.escape(data.status)}.</p>",
-        _table(("Channel", "Name", "Type", "Sensitivity", "IEPE", "Coupling"),
-               [tuple(c.values()) for c in data.channels]),
+        _test_html(data.settings.get("test")),
+        _table(("Channel", "Name", "Type", "Sensor", "Serial", "Calibrated", "Sensitivity", "IEPE", "Coupling",
+                "TEDS"), [tuple(c.values()) for c in data.channels]),
         _table(("Group", "Setting", "Value"), _settings_rows(data.settings)),
         "<h3>Operating conditions</h3>",
         _table(("Condition (unit in the name)", "Value"),
@@ -679,66 +750,25 @@ def report_html(data: ReportData, drop_db: float = USABLE_DROP_DB) -> str:
     sections.append(_diagnosis_html(data.diagnosis, data.diagnosis_name, data.diagnosis_runs, data.frf))
     title = html.escape(f"gasfilm report — {data.path.name}")
     return (
-        f"<!DOCTYPE html><html><head><meta charset='utf-8'><title>{title}</title><style>{_STYLE}</style></head>"
+        f"<!DOCTYPE html><html><head><meta charset='utf-8'><title>{title}</title><style>{_STYLE}"
+        f"{_PRINT_STYLE.replace('PAPER', PAPER_SIZES[paper or default_paper()])}</style></head>"
         f"<body>{''.join(sections)}</body></html>\n"
     )
 
 
-def _report_pdf(data: ReportData, drop_db: float) -> bytes:
-    """The figures, one page each, after a text page with setup, hits, fits and diagnosis verdict."""
-    from matplotlib.backends.backend_pdf import PdfPages
+def _report_pdf(data: ReportData, drop_db: float, paper: str) -> bytes:
+    """The HTML report laid out on ``paper`` pages by WeasyPrint: the same sections, tables and figures."""
+    import weasyprint
 
-    lines = [f"gasfilm session report — {data.path}", "",
-             f"Device {data.device_name}, {data.sample_rate_hz:g} S/s, status {data.status}",
-             f"Conditions: {format_conditions(data.conditions)}"]
-    lines += [f"  {c['channel']} {c['name']} ({c['kind']}): {c['sensitivity']}, IEPE {c['iepe']}, {c['coupling']}"
-              for c in data.channels]
-    lines += ["", f"Hits: {sum(h['accepted'] for h in data.hits)} accepted of {len(data.hits)}"]
-    lines += [f"  {h['number']:>3}  {h['time_s']:8.2f} s  {h['peak_force_n']:6.0f} N  "
-              f"{'accepted' if h['accepted'] else 'rejected'}  {h['reasons']}" for h in data.hits[:60]]
-    if data.comparison:
-        from gasfilm.analysis.identification import format_table2
-
-        for (low, high), rows in data.comparison:
-            lines += ["", f"Identified models (Table 2, g/N), band {low:g}–{high:g} Hz:",
-                      *format_table2(rows).splitlines()]
-            lines += [f"  WARNING: {warning}" for warning in band_warnings(data, (low, high))]
-            stale = stale_warning(data, [row.model_name for row in rows])
-            if stale:
-                lines.append(f"  WARNING: {stale}")
-    if data.rigid_body is not None:
-        lines += ["", "Rigid body (gasfilm rigid):", *_rigid_lines(data)]
-    models = control_models(data)
-    if models:
-        lines += ["", "Rational models for control design (0.5 %, gasfilm model):"]
-        lines += [f"  {fit.model_name:<8} " + (model if isinstance(model, str) else model.summary())
-                  for fit, model in models]
-    if data.diagnosis is not None:
-        diagnosis = data.diagnosis
-        verdict = str(diagnosis.get("verdict", "?"))
-        lines += ["", f"Diagnosis verdict: {verdict}"
-                  + (f" — {VERDICT_LINES[verdict]}" if verdict in VERDICT_LINES else ""),
-                  f"  diagnoses/{data.diagnosis_name}, run by {diagnosis_options_text(diagnosis.get('options'))}"]
-        noise = diagnosis.get("noise")
-        if isinstance(noise, dict) and noise.get("source"):
-            lines.append(f"  noise: {noise['source']}")
-        lines += [f"  {finding.get('effect', '?')}: {finding.get('where', '')}"
-                  for finding in diagnosis.get("findings") or [] if isinstance(finding, dict)]
-        lines += [f"  NOT explained: {_band_text(item.get('band_hz'))} Hz, hits "
-                  f"{_hits_text(item.get('hits'), diagnosis.get('hits_numbered_from', 0))}: {item.get('character', '')}"
-                  for item in diagnosis.get("unexplained") or [] if isinstance(item, dict)]
-    buffer = io.BytesIO()
-    with PdfPages(buffer) as pdf:
-        text_page = _new_figure(11)
-        text_page.text(0.01, 0.99, "\n".join(lines), va="top", family="monospace", fontsize=7)
-        pdf.savefig(text_page)
-        if data.records:
-            pdf.savefig(hits_figure(data.records, [h["accepted"] for h in data.hits]))
-        if data.frf is not None:
-            pdf.savefig(frf_figure(data.frf, drop_db))
-            if data.fits:
-                pdf.savefig(fits_figure(data.frf, data.fits))
-    return buffer.getvalue()
+    quiet = logging.getLogger("weasyprint"), logging.getLogger("fontTools")
+    levels = [log.level for log in quiet]
+    for log in quiet:  # its notes on CSS it skips are not the user's business
+        log.setLevel(logging.ERROR)
+    try:
+        return weasyprint.HTML(string=report_html(data, drop_db, paper), base_url=str(data.path.parent)).write_pdf()
+    finally:
+        for log, level in zip(quiet, levels):
+            log.setLevel(level)
 
 
 def check_report_path(out: str | Path, overwrite: bool, flag: str = "--out") -> Path:
@@ -758,16 +788,18 @@ def check_report_path(out: str | Path, overwrite: bool, flag: str = "--out") -> 
 
 
 def write_report(
-    session_path: str | Path, out: str | Path, overwrite: bool = False, drop_db: float = USABLE_DROP_DB
+    session_path: str | Path, out: str | Path, overwrite: bool = False, drop_db: float = USABLE_DROP_DB,
+    paper: str | None = None, frf_name: str | None = None,
 ) -> Path:
     """Write the report of ``session_path`` to ``out`` (.html or .pdf); never replace a file unless ``overwrite``
     (then whole or not at all; a symbolic link is followed: the file it points to is replaced, the link kept)."""
     out = check_report_path(out, overwrite)
-    data = read_report_data(session_path)
+    paper = paper or default_paper()
+    data = read_report_data(session_path, frf_name)
     if out.suffix.lower() == ".pdf":
-        content = _report_pdf(data, drop_db)
+        content = _report_pdf(data, drop_db, paper)
     else:
-        content = report_html(data, drop_db).encode("utf-8")
+        content = report_html(data, drop_db, paper).encode("utf-8")
     with written_whole(out, what="the report") as (building,):  # a full disk leaves no partial file
         building.write_bytes(content)
     logger.info("report of %s written to %s", session_path, out)

@@ -151,6 +151,8 @@ def _load_uff(path: Path, force_dof: Any, response_dof: Any) -> Source:
             for i, record in enumerate(records.records)]
     settings = {"source": {"uff_file": str(path), "force_dof": records.force_dof,
                            "response_dof": records.response_dof}}
+    if records.conditions:  # written by a gasfilm export: the session's operating point travels with its records
+        settings["conditions"] = records.conditions
     return Source(path, "uff", default_hammer_and_accelerometer(records.sample_rate_hz), records.sample_rate_hz,
                   None, settings, hits, [None] * len(hits), None)
 

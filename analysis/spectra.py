@@ -30,7 +30,6 @@ from pathlib import Path
 from typing import Any, Iterable, Mapping, Sequence
 
 import numpy as np
-import scipy.signal
 
 from gasfilm.drivers.errors import SettingError
 from gasfilm.drivers.units import STANDARD_GRAVITY_M_S2
@@ -131,6 +130,22 @@ class FrfResult:
     h1_std_scatter: np.ndarray
     window: dict
     frf_unit: str = FRF_UNIT_SI
+
+    @property
+    def hv(self) -> np.ndarray:
+        """Hv, the total-least-squares estimator: noise on the force and the response weighed alike (in N and m/s²,
+        whatever unit this result is in), between H1 (noise on the response only) and H2 (on the force only):
+        ``Hv = 2·G_fx / (G_ff − G_xx + √((G_ff − G_xx)² + 4|G_fx|²))``, the eigenvector of the smallest eigenvalue
+        of [[G_ff, G_fx], [G_xf, G_xx]] (Rocklin et al.; Shin & Hammond, *Fundamentals of Signal Processing*,
+        ch. 9). |H1| ≤ |Hv| ≤ |H2| at every line; all three agree where the coherence is 1."""
+        g = STANDARD_GRAVITY_M_S2 if self.frf_unit == FRF_UNIT_G else 1.0
+        gff, gxx, gfx = self.gff, self.gxx * g**2, self.gfx * g
+        with np.errstate(divide="ignore", invalid="ignore"):
+            root = np.sqrt((gff - gxx) ** 2 + 4.0 * _squared_magnitude(gfx))
+            # the form without cancellation on each line: the two are equal since their denominators' product is
+            # root² − (G_ff − G_xx)² = 4|G_fx|²
+            hv = np.where(gff >= gxx, 2.0 * gfx / (gff - gxx + root), (gxx - gff + root) / (2.0 * np.conj(gfx)))
+        return hv / g
 
     def to_dict(self) -> dict[str, Any]:
         """Field name → value, arrays as they are (for HDF5 datasets and attributes)."""
@@ -301,6 +316,48 @@ def readable_lines(frf: FrfResult, drop_db: float = USABLE_DROP_DB) -> np.ndarra
             & (np.nan_to_num(frf.coherence) >= READ_MIN_COHERENCE))
 
 
+def prominent_peaks(values: np.ndarray, min_prominence: float) -> np.ndarray:
+    """Indices of the local maxima of ``values`` whose topographic prominence is at least ``min_prominence``: what
+    ``scipy.signal.find_peaks(values, prominence=min_prominence)[0]`` returns (a flat top counts once, at its middle;
+    a maximum's prominence is its height above the higher of the lowest points on each side before a higher sample
+    or the edge), without importing ``scipy.signal`` and the ``scipy.stats`` it loads (a second of a command's
+    start-up)."""
+    x = np.asarray(values, dtype=float)
+    if x.size < 3:
+        return np.empty(0, dtype=np.intp)
+    # runs of equal samples; a run higher than both neighbouring runs, not at an edge, is a maximum (at its middle)
+    starts = np.concatenate(([0], np.flatnonzero(np.diff(x) != 0) + 1))
+    ends = np.concatenate((starts[1:] - 1, [x.size - 1]))
+    level = x[starts]
+    top = np.zeros(starts.size, bool)
+    top[1:-1] = (level[1:-1] > level[:-2]) & (level[1:-1] > level[2:])
+    peaks = (starts[top] + ends[top]) // 2
+    if peaks.size == 0:
+        return peaks.astype(np.intp)
+    # each sample's nearest strictly higher sample on the left and on the right (-1 and n where none)
+    higher_left = _nearest_higher(x)
+    higher_right = x.size - 1 - _nearest_higher(x[::-1])[::-1]
+    extended = np.append(x, np.inf)
+    left_low = np.minimum.reduceat(extended, np.ravel(np.column_stack((higher_left[peaks] + 1, peaks + 1))))[0::2]
+    right_low = np.minimum.reduceat(extended, np.ravel(np.column_stack((peaks, higher_right[peaks]))))[0::2]
+    prominence = x[peaks] - np.maximum(left_low, right_low)
+    return peaks[prominence >= min_prominence].astype(np.intp)
+
+
+def _nearest_higher(x: np.ndarray) -> np.ndarray:
+    """For each sample, the index of the nearest sample on its left that is strictly higher (-1 where none)."""
+    found = [-1] * x.size
+    values = x.tolist()
+    stack: list[int] = []
+    for index, value in enumerate(values):
+        while stack and values[stack[-1]] <= value:
+            stack.pop()
+        if stack:
+            found[index] = stack[-1]
+        stack.append(index)
+    return np.array(found, dtype=np.intp)
+
+
 def resonance_lines(frf: FrfResult, drop_db: float = USABLE_DROP_DB) -> list[int]:
     """Line indices of the resonances of |H1| inside the readable band (:func:`readable_lines`), strongest first:
     local maxima standing :data:`RESONANCE_PROMINENCE` times above the lowest |H1| on either side down to the next
@@ -310,7 +367,7 @@ def resonance_lines(frf: FrfResult, drop_db: float = USABLE_DROP_DB) -> list[int
     if lines.size < 3:
         return []
     magnitude = np.abs(frf.h1[lines])
-    peaks, properties = scipy.signal.find_peaks(np.log(magnitude), prominence=np.log(RESONANCE_PROMINENCE))
+    peaks = prominent_peaks(np.log(magnitude), np.log(RESONANCE_PROMINENCE))
     # a peak must be one of the band's own: neighbours read on both sides (no gap of unreadable lines)
     peaks = [p for p in peaks if lines[p + 1] - lines[p] == 1 and lines[p] - lines[p - 1] == 1]
     return [int(lines[p]) for p in sorted(peaks, key=lambda p: -magnitude[p])]
@@ -605,12 +662,14 @@ FRF_CSV_COLUMNS = (
     "coherence",
     "h1_std_coherence_m_s2_per_n",
     "h1_std_scatter_m_s2_per_n",
+    "hv_real_m_s2_per_n",
+    "hv_imag_m_s2_per_n",
 )
 
 
 def write_frf_csv(frf: FrfResult, path: str | Path, conditions: Mapping[str, Any] | None = None) -> Path:
-    """The FRF as CSV with a header row (:data:`FRF_CSV_COLUMNS`): H1 in (m/s²)/N and g/N, H2, coherence and the
-    two uncertainties. The session's operating ``conditions``, if any, come first as ``# condition KEY = VALUE``
+    """The FRF as CSV with a header row (:data:`FRF_CSV_COLUMNS`): H1 in (m/s²)/N and g/N, H2, coherence, the
+    two uncertainties and Hv. The session's operating ``conditions``, if any, come first as ``# condition KEY = VALUE``
     comment lines."""
     path = Path(path)
     if not path.parent.is_dir():
@@ -630,6 +689,8 @@ def write_frf_csv(frf: FrfResult, path: str | Path, conditions: Mapping[str, Any
             frf.coherence,
             frf.h1_std_coherence,
             frf.h1_std_scatter,
+            frf.hv.real,
+            frf.hv.imag,
         )
     )
     from gasfilm.analysis.paths import written_whole

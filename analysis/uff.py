@@ -85,6 +85,8 @@ class UffTimeRecords:
     descriptions: tuple[str, ...] = field(default=())
     #: what was done to records of different lengths (all cut to the shortest), or None when all had one length
     length_note: str | None = None
+    #: the operating conditions a gasfilm export wrote into the datasets' ID line 4 ({} for another program's file)
+    conditions: dict = field(default_factory=dict)
 
     @property
     def hit_count(self) -> int:
@@ -296,7 +298,7 @@ def _time_records(
         start_times_s = minima
     descriptions = tuple(_label(d, "id1") for _, d in forces)
     return UffTimeRecords(path, records, sample_rate_hz, chosen_force, chosen_response, start_times_s, descriptions,
-                          length_note)
+                          length_note, uff_conditions(path, datasets))
 
 
 def _hit_list(hits: list[int]) -> str:
@@ -370,14 +372,64 @@ def _frf_id3(frf: Any) -> str:
             f"n_samples={int(frf.n_samples)} decay_rate_1_s={float(frf.decay_rate_1_s):.10g}")
 
 
+#: How ID line 4 of a gasfilm export begins when it holds the session's operating conditions (``KEY=VALUE; …``).
+CONDITIONS_PREFIX = "conditions: "
+#: The characters of a UFF ID line.
+ID_LINE_CHARS = 80
+
+
+def conditions_line(conditions: Mapping[str, Any]) -> str:
+    """The operating conditions as one ID line, ``conditions: supply_pressure_mpa=0.4; bearing=B-17``, read back by
+    :func:`uff_conditions`. A table too long for the line's 80 characters keeps the entries that fit and says which
+    it leaves out (a warning)."""
+    if not conditions:
+        return ""
+    line, left_out = CONDITIONS_PREFIX, []
+    for key, value in conditions.items():
+        entry = f"{key}={value:.10g}" if isinstance(value, float) else f"{key}={value}"
+        joined = entry if line == CONDITIONS_PREFIX else f"; {entry}"
+        if len(line) + len(joined) <= ID_LINE_CHARS:
+            line += joined
+        else:
+            left_out.append(key)
+    if left_out:
+        logger.warning("UFF: the operating conditions %s do not fit the 80 characters of ID line 4 and are left out "
+                       "of the export", ", ".join(left_out))
+    return line if line != CONDITIONS_PREFIX else ""
+
+
+def uff_conditions(path: Path, datasets: Sequence[Mapping[str, Any]]) -> dict:
+    """The operating conditions in the first dataset 58's ID line 4 written by :func:`conditions_line` ({} when
+    none); a damaged entry is one line naming the file."""
+    from gasfilm.analysis.conditions import parse_condition_flags
+
+    for dataset in datasets:
+        if dataset.get("type") != 58:
+            continue
+        text = _label(dataset, "id4")
+        if not text.startswith(CONDITIONS_PREFIX):
+            continue
+        entries = [entry.strip() for entry in text[len(CONDITIONS_PREFIX):].split(";") if entry.strip()]
+        return parse_condition_flags(entries, f"{path}: ID line 4 condition")
+    return {}
+
+
+def read_uff_conditions(path: str | Path) -> dict:
+    """The operating conditions a gasfilm export wrote into a UFF file ({} when none)."""
+    path = Path(path)
+    return uff_conditions(path, _read_datasets(path))
+
+
 def _time_record_dataset(values: np.ndarray, sample_rate_hz: float, start_time_s: float, dof: Dof,
-                         reference_dof: Dof, role: str, hit_number: int, description: str) -> dict[str, Any]:
+                         reference_dof: Dof, role: str, hit_number: int, description: str,
+                         conditions: str = "") -> dict[str, Any]:
     data_type, unit = (DATA_TYPE_EXCITATION_FORCE, "N") if role == "force" else (DATA_TYPE_ACCELERATION, "m/s^2")
     values = np.asarray(values, dtype=float)
     return pyuff.prepare_58(
         binary=0,
         id1=f"{description} hit {hit_number} {role}"[:80],
         id2="gasfilm",
+        id4=conditions[:ID_LINE_CHARS] or "NONE",
         func_type=FUNCTION_TIME_RESPONSE,
         ver_num=hit_number,
         rsp_node=int(dof[0]),
@@ -402,12 +454,15 @@ def export_frf_uff(
     reference_dof: Dof = (1, 3),
     description: str = "gasfilm averaged FRF",
     hits: Sequence[Any] = (),
-    conditions: str = "",
+    conditions: Mapping[str, Any] | None = None,
+    estimator: str = "H1",
 ) -> Path:
-    """Write the averaged H1 (accelerance, m/s²/N) and the coherence of an ``FrfResult`` as UFF 58, then the time
+    """Write the averaged FRF (accelerance, m/s²/N; ``frf.h1``, named ``estimator`` in its description: the caller
+    puts H2 or Hv there to export those) and the coherence of an ``FrfResult`` as UFF 58, then the time
     records of ``hits`` (:class:`gasfilm.analysis.capture.HitRecord` or stored hits: force at ``reference_dof``,
-    response at ``response_dof``), which ``replay``, ``diagnose`` and ``fit`` read back; ``conditions`` (the session's
-    operating conditions as text) goes into ID line 4 of each dataset (80 characters)."""
+    response at ``response_dof``), which ``replay``, ``diagnose`` and ``fit`` read back; the session's operating
+    ``conditions`` go into ID line 4 of each dataset (:func:`conditions_line`), and come back with the records."""
+    conditions = conditions_line(conditions or {})
     path = Path(path)
     if not path.parent.is_dir():
         raise UffError(f"{path}: {missing_folder(path.parent)}")
@@ -438,7 +493,7 @@ def export_frf_uff(
             freq_hz,
             response_dof,
             reference_dof,
-            f"{description} H1 accelerance",
+            f"{description} {estimator} accelerance",
             (DATA_TYPE_ACCELERATION, "m/s^2"),
             (DATA_TYPE_EXCITATION_FORCE, "N"),
             conditions,
@@ -463,7 +518,7 @@ def export_frf_uff(
                                ("response", hit.response_channel, response_dof)):
             datasets.append(_time_record_dataset(records[row], float(hit.sample_rate_hz),
                                                  float(hit.start_time_s), dof, reference_dof, role, number,
-                                                 description))
+                                                 description, conditions))
     with written_whole(path, what="the UFF file") as (building,):  # a full disk leaves no partial file
         pyuff.UFF(str(building)).write_sets(datasets, mode="overwrite")
     return path

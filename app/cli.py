@@ -146,6 +146,18 @@ def _silence_stdout() -> None:
         pass  # stdout is not a real file (e.g. captured by a test): nothing will be flushed to a pipe
 
 
+def _interrupted_during(error: BaseException) -> bool:
+    """Whether ``error`` was caused by a Ctrl-C (a KeyboardInterrupt in its chain of causes)."""
+    seen: set[int] = set()
+    cause: BaseException | None = error
+    while cause is not None and id(cause) not in seen:
+        if isinstance(cause, KeyboardInterrupt):
+            return True
+        seen.add(id(cause))
+        cause = cause.__cause__ or cause.__context__
+    return False
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args, unknown = parser.parse_known_args(argv)
@@ -177,6 +189,8 @@ def main(argv: Sequence[str] | None = None) -> int:
 
         if stop_signal_raised() is not None:  # a stop signal that a library turned into an error of its own (an
             return stopped(StopSignal(stop_signal_raised()), args.command)  # import interrupted: ImportError)
+        if _interrupted_during(error):  # a Ctrl-C inside an import (numpy says "failed to import")
+            return stopped(KeyboardInterrupt(), args.command)
         if _memory_ran_out(error):  # a library that could not map itself, or wrapped a MemoryError
             print(f"gasfilm {args.command}: error: {out_of_memory(error)}", file=sys.stderr)
             return 2

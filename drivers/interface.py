@@ -172,6 +172,23 @@ def validate_config(config: DaqConfig) -> DaqConfig:
     return config
 
 
+@dataclass(frozen=True)
+class TedsSensor:
+    """What an IEPE sensor's TEDS chip (IEEE 1451.4) says, read through the NI 9234: the basic TEDS and the
+    sensitivity NI-DAQmx scales the channel with (in one of :data:`SENSITIVITY_UNITS`)."""
+
+    manufacturer_id: int
+    model_number: int
+    serial_number: int
+    version: str
+    sensitivity: float
+    sensitivity_units: str
+
+    def description(self) -> str:
+        return (f"TEDS: manufacturer {self.manufacturer_id}, model {self.model_number}, serial {self.serial_number}, "
+                f"version {self.version}, {self.sensitivity:g} {self.sensitivity_units}")
+
+
 @runtime_checkable
 class DaqDevice(Protocol):
     """What gasfilm needs from an acquisition backend.

@@ -19,6 +19,7 @@ from dataclasses import dataclass
 import nidaqmx
 import nidaqmx.errors
 import nidaqmx.stream_readers
+import nidaqmx.system
 import numpy as np
 from nidaqmx.constants import (
     AccelSensitivityUnits,
@@ -45,12 +46,14 @@ from gasfilm.drivers.errors import (
     SettingError,
 )
 from gasfilm.drivers.interface import (
+    NI9234_IEPE_CURRENT_A,
     STANDARD_GRAVITY_M_S2,
     ChannelConfig,
     ChannelKind,
     ChannelStatus,
     Coupling,
     DaqConfig,
+    TedsSensor,
     check_read_buffer,
     validate_config,
 )
@@ -431,6 +434,66 @@ class NidaqmxNI9234:
             ),
             stacklevel=5,
         )
+
+
+#: Ranges of the throw-away TEDS channel (only its sensitivity is read): well inside ±5 V for any hammer or
+#: accelerometer the sensor library knows.
+TEDS_RANGE_N = 100.0
+TEDS_RANGE_M_S2 = 50.0
+#: DAQmx errors of a channel whose sensor carries no TEDS (none detected; the terminal cannot read TEDS).
+DAQMX_NO_TEDS = (-200709, -200741)
+#: DAQmx's sensitivity units of a TEDS channel → gasfilm's (:data:`gasfilm.drivers.interface.SENSITIVITY_UNITS`)
+#: and the factor to them (mV/lb → mV/N: 1 lbf = 4.448 N).
+_TEDS_UNITS = {
+    ForceIEPESensorSensitivityUnits.MILLIVOLTS_PER_NEWTON: ("mV/N", 1.0),
+    ForceIEPESensorSensitivityUnits.MILLIVOLTS_PER_POUND: ("mV/N", 1.0 / 4.4482216152605),
+    AccelSensitivityUnits.MILLIVOLTS_PER_G: ("mV/g", 1.0),
+    AccelSensitivityUnits.VOLTS_PER_G: ("V/g", 1.0),
+}
+
+
+def read_teds(device_name: str, channels: dict[str, ChannelKind]) -> dict[str, TedsSensor | None]:
+    """Read the TEDS of the IEPE sensors on ``channels`` (physical channel → kind) through NI-DAQmx: the physical
+    channel is configured from the sensor's TEDS chip (``PhysicalChannel.configure_teds``, which reads it), its basic
+    TEDS read back, and a TEDS channel created in a task of its own (``add_teds_ai_force_iepe_chan`` or
+    ``add_teds_ai_accel_chan``, 2 mA IEPE excitation) gives the sensitivity NI-DAQmx scales with. A sensor without
+    TEDS gives None. (The calibration date sits in the TEDS template, which NI-DAQmx does not decode.)"""
+    found: dict[str, TedsSensor | None] = {}
+    for channel, kind in channels.items():
+        path = f"{device_name}/{channel}"
+        physical = nidaqmx.system.PhysicalChannel(path)
+        try:
+            physical.configure_teds()
+        except nidaqmx.errors.DaqError as error:
+            if error.error_code in DAQMX_NO_TEDS:
+                found[channel] = None
+                continue
+            raise translate_daq_error(error, device_name, f"reading the TEDS of {channel}") from error
+        except (nidaqmx.errors.DaqNotFoundError, nidaqmx.errors.DaqNotSupportedError) as error:
+            raise _missing_driver_error(device_name, error) from error
+        try:
+            with nidaqmx.Task() as task:
+                if ChannelKind(kind) is ChannelKind.FORCE:
+                    created = task.ai_channels.add_teds_ai_force_iepe_chan(
+                        path, name_to_assign_to_channel=f"teds_{channel}", min_val=-TEDS_RANGE_N, max_val=TEDS_RANGE_N,
+                        units=ForceUnits.NEWTONS, current_excit_source=ExcitationSource.INTERNAL,
+                        current_excit_val=NI9234_IEPE_CURRENT_A)
+                    value, units = created.ai_force_iepe_sensor_sensitivity, created.ai_force_iepe_sensor_sensitivity_units
+                else:
+                    created = task.ai_channels.add_teds_ai_accel_chan(
+                        path, name_to_assign_to_channel=f"teds_{channel}", min_val=-TEDS_RANGE_M_S2,
+                        max_val=TEDS_RANGE_M_S2, units=AccelUnits.METERS_PER_SECOND_SQUARED,
+                        current_excit_source=ExcitationSource.INTERNAL, current_excit_val=NI9234_IEPE_CURRENT_A)
+                    value, units = created.ai_accel_sensitivity, created.ai_accel_sensitivity_units
+            name, factor = _TEDS_UNITS[units]
+            found[channel] = TedsSensor(
+                manufacturer_id=int(physical.teds_mfg_id), model_number=int(physical.teds_model_num),
+                serial_number=int(physical.teds_serial_num),
+                version=f"{physical.teds_version_num}{physical.teds_version_letter}",
+                sensitivity=float(value) * factor, sensitivity_units=name)
+        except nidaqmx.errors.DaqError as error:
+            raise translate_daq_error(error, device_name, f"reading the TEDS of {channel}") from error
+    return found
 
 
 def local_ni9234_names() -> list[str]:

@@ -390,9 +390,10 @@ def test_diagnoses_of_two_sessions_without_out_go_to_their_own_folders(session_p
     for source in (first, other):
         status, out, err = gasfilm(capsys, "diagnose", source)
         assert status == 0, err
-        assert (tmp_path / "out" / "diagnosis" / source.stem / "improved-rig.toml").is_file()
+        assert (tmp_path / f"{source.stem}-diagnosis" / "improved-rig.toml").is_file()  # beside it (issue 32)
     err = one_line_error(capsys, "diagnose", other)
-    assert f"out/diagnosis/other: holds an earlier diagnosis of other.h5 (its default folder)" in err and "--out " in err
+    assert f"{tmp_path / 'other-diagnosis'}: holds an earlier diagnosis of other.h5 (its default folder)" in err
+    assert "--out " in err
 
 
 def test_append_takes_the_sessions_own_settings_unless_typed(tmp_path, capsys):

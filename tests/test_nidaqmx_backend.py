@@ -672,3 +672,62 @@ def test_list_devices_offers_sim_and_the_ni9234_modules_daqmx_reports():
                SimpleNamespace(name="cDAQ1Mod2", product_type="NI 9263")]
     with mock.patch("nidaqmx.system.System.local", return_value=SimpleNamespace(devices=modules)):
         assert list_devices() == ["sim", "cDAQ1Mod1"]
+
+
+# -- TEDS (issue 32 item 5) -----------------------------------------------------------------------------------------
+
+
+def test_teds_is_read_through_the_physical_channel_and_a_teds_channel_of_its_own(interpreter: mock.Mock) -> None:
+    """The hammer's and the accelerometer's TEDS chips are read (configure_teds, then the basic TEDS attributes of
+    the physical channel), each sensitivity from a TEDS channel NI-DAQmx scales from the chip; a sensor without TEDS
+    (DAQmx -200709) is None, not an error."""
+    from gasfilm.drivers import read_teds
+    from gasfilm.drivers.interface import TedsSensor
+
+    def configure_teds(name, file_path):
+        if name == "cDAQ1Mod1/ai2":
+            raise nidaqmx.errors.DaqError("TEDS sensor not detected.", -200709)
+
+    interpreter.configure_teds.side_effect = configure_teds
+    basic = {0x21da: 12, 0x21db: 8602, 0x21dd: 3}  # manufacturer (PCB), model, version number
+    serials = {"cDAQ1Mod1/ai0": 31415, "cDAQ1Mod1/ai1": 27182}
+    interpreter.get_physical_chan_attribute_uint32.side_effect = (
+        lambda name, attribute: serials[name] if attribute == 0x21dc else basic[attribute])
+    interpreter.get_physical_chan_attribute_string.side_effect = lambda name, attribute: {0x21de: "B"}[attribute]
+    sensitivities = {("teds_ai0", 0x2f81): 11.42, ("teds_ai1", 0x692): 101.3}
+    units = {("teds_ai0", 0x2f82): ForceIEPESensorSensitivityUnits.MILLIVOLTS_PER_NEWTON.value,
+             ("teds_ai1", 0x219c): AccelSensitivityUnits.MILLIVOLTS_PER_G.value}
+    interpreter.get_chan_attribute_double.side_effect = lambda task, name, attribute: sensitivities[name, attribute]
+    interpreter.get_chan_attribute_int32.side_effect = lambda task, name, attribute: units[name, attribute]
+
+    found = read_teds(DEVICE, {"ai0": ChannelKind.FORCE, "ai1": ChannelKind.ACCELERATION,
+                               "ai2": ChannelKind.ACCELERATION})
+
+    assert found == {
+        "ai0": TedsSensor(12, 8602, 31415, "3B", 11.42, "mV/N"),
+        "ai1": TedsSensor(12, 8602, 27182, "3B", 101.3, "mV/g"),
+        "ai2": None,
+    }
+    assert [c.args for c in interpreter.configure_teds.call_args_list] == [
+        ("cDAQ1Mod1/ai0", ""), ("cDAQ1Mod1/ai1", ""), ("cDAQ1Mod1/ai2", "")]
+    interpreter.create_tedsai_force_iepe_chan.assert_called_once_with(
+        HANDLE, "cDAQ1Mod1/ai0", "teds_ai0", TerminalConfiguration.DEFAULT.value, -100.0, 100.0,
+        ForceUnits.NEWTONS.value, ExcitationSource.INTERNAL.value, 0.002, "")
+    interpreter.create_tedsai_accel_chan.assert_called_once_with(
+        HANDLE, "cDAQ1Mod1/ai1", "teds_ai1", TerminalConfiguration.DEFAULT.value, -50.0, 50.0,
+        AccelUnits.METERS_PER_SECOND_SQUARED.value, ExcitationSource.INTERNAL.value, 0.002, "")
+    assert interpreter.clear_task.call_count == 2  # each TEDS channel's task closed
+
+
+def test_a_teds_read_that_daqmx_refuses_is_a_device_error_naming_the_channel(interpreter: mock.Mock) -> None:
+    from gasfilm.drivers import read_teds
+
+    interpreter.configure_teds.side_effect = nidaqmx.errors.DaqError("Device cannot be accessed.", -201003)
+    with pytest.raises(DeviceRemovedError, match="reading the TEDS of ai1"):
+        read_teds(DEVICE, {"ai1": ChannelKind.ACCELERATION})
+
+
+def test_the_simulated_sensors_carry_no_teds() -> None:
+    from gasfilm.drivers import read_teds
+
+    assert read_teds("sim", {"ai0": ChannelKind.FORCE}) == {"ai0": None}

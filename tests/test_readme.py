@@ -29,3 +29,22 @@ def test_the_first_run_says_what_pip_is_doing_and_how_long_it_takes():
     install = script[script.index("ensure_venv()"):script.index("ensure_qt_runtime()")]
     says = " ".join(re.findall(r'say "([^"]*)"', install))
     assert "minutes" in says and "step 1/2" in says and "step 2/2" in says and "installed in" in says
+
+
+def test_benchmark_table_is_one_short_line_per_benchmark_with_its_history_elsewhere():
+    """A newcomer reads what each benchmark measures, its figure, goal and machine; the dated history is in
+    benchmarks/README.md (issue 32, item 17)."""
+    text = (ROOT / "README.md").read_text(encoding="utf-8")
+    section = text[text.index("## Benchmarks"):]
+    header = next(line for line in section.splitlines() if line.startswith("| script"))
+    assert [c.strip() for c in header.strip("|").split("|")] == [
+        "script", "what it measures", "current figure", "goal", "machine, date"]
+    rows = [line for line in section.splitlines() if line.startswith("| `")]
+    for row in rows:
+        assert all(len(cell.split()) <= 20 for cell in row.strip("|").split(" | ")), f"a long cell: {row[:80]}"
+    named = " ".join(rows)
+    scripts = sorted(p.name for p in (ROOT / "benchmarks").glob("*.py") if p.name != "machine.py")
+    assert [s for s in scripts if f"`{s}`" not in named] == []
+    history = (ROOT / "benchmarks" / "README.md").read_text(encoding="utf-8")
+    assert all(f"## `{s}`" in history for s in scripts)
+    assert len(section.encode()) < 6_000  # (the table was 14 kB of dated history)

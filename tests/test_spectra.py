@@ -331,3 +331,49 @@ def test_bad_records_are_one_line_errors():
         compute_frf([], fs)
     with pytest.raises(SettingError, match="response_row"):
         compute_frf(records, fs, response_row=2)
+
+
+def test_hv_lies_between_h1_and_h2_and_is_unbiased_when_force_and_response_are_equally_noisy():
+    """Issue 32 item 4. A known system (a two-pole low-pass, |H| about 1 in N and m/s²) driven by random force, with
+    uncorrelated noise of the same variance added to the measured force and response: H1 is biased low by
+    1/(1 + N_ff/G_ff), H2 high by (1 + N_xx/G_xx); Hv, weighing both noises alike, is not."""
+    rng = np.random.default_rng(4)
+    rate, n, hits = 1024.0, 512, 150
+    freq = np.fft.rfftfreq(n, 1 / rate)
+    s = 2j * np.pi * freq
+    wn = 2 * np.pi * 100
+    true_h = wn**2 / (s**2 + 2 * 0.3 * wn * s + wn**2)
+    records = np.empty((hits, 2, n))
+    for hit in range(hits):
+        force = rng.standard_normal(n)
+        response = np.fft.irfft(np.fft.rfft(force) * true_h, n)
+        records[hit, 0] = force + 0.5 * rng.standard_normal(n)
+        records[hit, 1] = response + 0.5 * rng.standard_normal(n)
+    frf = compute_frf(records, rate)
+    band = (freq > 5) & (freq < 80)
+    h1, h2, hv = (np.abs(h[band]) for h in (frf.h1, frf.h2, frf.hv))
+    assert np.all(h1 <= hv * (1 + 1e-12)) and np.all(hv <= h2 * (1 + 1e-12))
+    error = {name: float(np.median(np.abs(h / np.abs(true_h[band]) - 1))) for name, h in
+             (("H1", h1), ("H2", h2), ("Hv", hv))}
+    assert error["Hv"] < 0.03 and error["H1"] > 0.15 and error["H2"] > 0.15, error
+    # noise-free, the three are one
+    clean = compute_frf(records[:, :, :] * 0 + np.stack([records[:, 0], np.fft.irfft(
+        np.fft.rfft(records[:, 0], axis=-1) * true_h, n, axis=-1)], axis=1), rate)
+    np.testing.assert_allclose(clean.hv[1:], clean.h1[1:], rtol=1e-9)
+    # Hv is weighed in N and m/s² whatever unit the result is shown in
+    np.testing.assert_allclose(frf.in_g_per_n().hv, frf.hv / STANDARD_GRAVITY_M_S2, rtol=1e-12)
+
+
+def test_prominent_peaks_are_scipys_find_peaks_with_prominence():
+    """Issue 32 item 16: the resonance search no longer imports scipy.signal (and the scipy.stats it loads) for
+    find_peaks; the same peaks, flat tops included."""
+    import scipy.signal
+
+    from gasfilm.analysis.spectra import prominent_peaks
+
+    rng = np.random.default_rng(0)
+    for _ in range(200):
+        values = np.round(rng.standard_normal(int(rng.integers(3, 300))).cumsum(), int(rng.integers(0, 3)))
+        prominence = float(rng.uniform(0, 2))
+        np.testing.assert_array_equal(prominent_peaks(values, prominence),
+                                      scipy.signal.find_peaks(values, prominence=prominence)[0])

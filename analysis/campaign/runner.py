@@ -168,7 +168,7 @@ def dask_client(workers: int | None, scheduler: str | None) -> Iterator[Any]:
         # the scheduler's HTTP routes take another port when 8787 is taken (another cluster on this machine): not the
         # user's concern (its three-line warning was printed on every such campaign)
         warnings.filterwarnings("ignore", message="Port .* is already in use", category=UserWarning)
-        with LocalCluster(n_workers=count, threads_per_worker=1, processes=True, dashboard_address=None,
+        with LocalCluster(n_workers=count, threads_per_worker=1, processes=True, dashboard_address=":0",
                           silence_logs=logging.ERROR) as cluster, Client(cluster) as client:
             yield client
 

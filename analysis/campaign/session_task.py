@@ -105,6 +105,7 @@ def _analyse(path: Path, options: CampaignOptions) -> dict[str, Any]:
     from gasfilm.analysis.diagnosis import diagnose, load_recordings
     from gasfilm.analysis.fit_settings import FitHits, stale_note
     from gasfilm.analysis.diagnosis.parallel import worker_processes
+    from gasfilm.analysis.fit_warnings import fit_warnings
     from gasfilm.analysis.identification import best_by_bic, compare_models, fit_model
     from gasfilm.analysis.physics.elements import PAPER_MASS_KG, get_model
     from gasfilm.analysis.physics.spec import RigSpec
@@ -178,6 +179,8 @@ def _analyse(path: Path, options: CampaignOptions) -> dict[str, Any]:
     best = best_by_bic(rows)
     row["best_model"] = best.model_name
     row["best_model_rms_m_s2_per_n"] = best.rms
+    # what `gasfilm fit` warns of (not a mass on a film, resonances no film explains): a "best model" means little then
+    row["fit_warnings"] = "; ".join(fit_warnings(frf, keep, [mass_kg])) or None
     for fit in fits:
         entry = comparison[fit.model_name]
         row[f"{fit.model_name}.rms [(m/s²)/N]"] = entry.rms

@@ -32,20 +32,46 @@ class LoadedSource:
     response_channel: int = 1
     sample_rate_hz: float = 0.0
     frf: Any = None
+    note: str = ""  # how the fit was chosen when --model was not given
 
 
-def _choose(fits: dict[str, dict], model: str | None, path: Path) -> dict:
+def _choose(fits: dict[str, dict], model: str | None, path: Path,
+            bic: dict[str, float] | None = None) -> tuple[dict, str]:
+    """The fit ``model`` names, and a note ('' when named): without a name, the only fit, else the one of lowest
+    BIC (``bic``: model name → BIC, when the fits share one band; otherwise a name is asked for)."""
     if not fits:
         raise SettingError(f"{path}: holds no fitted model (run gasfilm fit first)")
     if model is None:
         if len(fits) == 1:
-            return next(iter(fits.values()))
-        raise SettingError(f"--model: {path} holds several fits ({', '.join(fits)}); name one")
+            return next(iter(fits.values())), ""
+        if bic and set(bic) >= set(fits):
+            best = min(fits, key=lambda name: bic[name])
+            return fits[best], (f"--model not given: {best}, the lowest BIC of the {len(fits)} fits "
+                                f"({', '.join(fits)}); --model NAME takes another")
+        raise SettingError(f"--model: {path} holds several fits ({', '.join(fits)}) that no one BIC ranks (made over "
+                           f"other bands or FRFs, or stored without Table 2); name one")
     for name, fit in fits.items():
         if name.lower() == model.strip().lower():
-            return fit
+            return fit, ""
     raise SettingError(f"--model {model}: {path} holds no fit of it (it holds {', '.join(fits)}; run gasfilm fit "
                        f"with --models {model})")
+
+
+def _bic_of_session_fits(session: Any, fits: dict[str, dict]) -> dict[str, float] | None:
+    """Each stored fit's BIC on the session's FRF, when they were all made over one band of one FRF."""
+    from gasfilm.analysis.identification import compare_models
+
+    made = {(tuple(np.round(np.asarray(fit.get("band_hz", (0, 0)), float), 6)), fit.get("frf_name", "frf"))
+            for fit in fits.values()}
+    if len(made) != 1:
+        return None
+    (band, frf_name), = made
+    if frf_name not in session.result_names("frf"):
+        return None
+    frf = session.read_frf(frf_name)
+    lines = (frf.freq_hz >= band[0] - 1e-6) & (frf.freq_hz <= band[1] + 1e-6)
+    results = [_fit_from_dict(fit, session.path) for fit in fits.values()]
+    return {row.model_name: row.bic for row in compare_models(results, frf.freq_hz[lines], frf.h1[lines])}
 
 
 def _fit_from_dict(data: Any, path: Path) -> FitResult:
@@ -98,8 +124,12 @@ def load_source(path: Path, model: str | None) -> LoadedSource:
             fits = {str(data["model_name"]): data}
         else:
             raise SettingError(f"{path}: not a gasfilm fit (expected the output of gasfilm fit --json)")
-        fit = _fit_from_dict(_choose(fits, model, path), path)
-        return LoadedSource(PlantSource.from_fit(fit, str(path)), fit=fit)
+        table = data.get("table") if isinstance(data, dict) else None
+        bic = {str(row.get("model_name")): float(row["bic"]) for row in table
+               if isinstance(row, dict) and isinstance(row.get("bic"), (int, float))} if isinstance(table, list) else None
+        chosen, note = _choose(fits, model, path, bic)
+        fit = _fit_from_dict(chosen, path)
+        return LoadedSource(PlantSource.from_fit(fit, str(path)), fit=fit, note=note)
     return _from_session(path, model)
 
 
@@ -109,14 +139,16 @@ def _from_session(path: Path, model: str | None) -> LoadedSource:
     try:
         with Session.open(path, "r") as session:
             fits = {name: session.read_fit(name) for name in session.result_names("fits")}
-            fit = _fit_from_dict(_choose(fits, model, path), path)
+            bic = _bic_of_session_fits(session, fits) if model is None and len(fits) > 1 else None
+            chosen, note = _choose(fits, model, path, bic)
+            fit = _fit_from_dict(chosen, path)
             hits = [hit for hit in session.hits() if hit.verdict.accepted]
             sample_rate_hz = session.sample_rate_hz
     except GasfilmError:
         raise
     except OSError as error:
         raise SettingError(f"{path}: not a session, a .json fit or a .toml rig spec ({error})") from None
-    loaded = LoadedSource(PlantSource.from_fit(fit, str(path)), fit=fit, sample_rate_hz=sample_rate_hz)
+    loaded = LoadedSource(PlantSource.from_fit(fit, str(path)), fit=fit, sample_rate_hz=sample_rate_hz, note=note)
     if hits:
         loaded.records = np.stack([hit.data for hit in hits])
         loaded.hit_indices = tuple(hit.index for hit in hits)

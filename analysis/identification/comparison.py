@@ -67,7 +67,7 @@ def best_by_bic(rows: Sequence[ComparisonRow]) -> ComparisonRow | None:
 
 def format_table2(rows: Sequence[ComparisonRow], units: str = "g/N") -> str:
     """The comparison as a text table in g/N (like the paper's Table 2, ERRATA item 5) or SI ((m/s²)/N), ranked by
-    RMS; the lowest BIC is marked and named below."""
+    RMS; the lowest BIC is marked and named below. "Params" is the number of identified parameters (the BIC's k)."""
     if units not in ("g/N", "SI"):
         raise SettingError(f"table units '{units}': choose 'g/N' or 'SI'")
     scale, label = (1.0 / STANDARD_GRAVITY_M_S2, "g/N") if units == "g/N" else (1.0, "(m/s²)/N")
@@ -76,7 +76,7 @@ def format_table2(rows: Sequence[ComparisonRow], units: str = "g/N") -> str:
         return "—" if value is None else f"{value:.2f}%"
 
     header = (
-        f"{'#':>2}  {'Model':<10}{'k':>3}  {'RMS ' + label:>16}  {'E':>9}  {'Peak error ' + label:>22}  "
+        f"{'#':>2}  {'Model':<10}{'Params':>6}  {'RMS ' + label:>16}  {'E':>9}  {'Peak error ' + label:>22}  "
         f"{'E_m':>9}  {'AIC':>10}  {'BIC':>10}  At bound (not measured)"
     )
     lines = [header, "-" * len(header)]
@@ -84,7 +84,7 @@ def format_table2(rows: Sequence[ComparisonRow], units: str = "g/N") -> str:
     for row in rows:
         mark = "*" if row is best and len(rows) > 1 else " "
         lines.append(
-            f"{row.rank:>2}  {row.model_name:<10}{row.n_parameters:>3}  {row.rms * scale:>16.6g}  "
+            f"{row.rank:>2}  {row.model_name:<10}{row.n_parameters:>6}  {row.rms * scale:>16.6g}  "
             f"{percent(row.e_percent):>9}  "
             f"{row.peak_error * scale:>22.6g}  {percent(row.e_m_percent):>9}  {row.aic:>10.1f}  {row.bic:>9.1f}{mark}  "
             f"{', '.join(row.at_bound)}".rstrip()

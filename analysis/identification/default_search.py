@@ -19,7 +19,6 @@ import re
 from typing import Callable
 
 import numpy as np
-from scipy.stats import qmc
 
 from gasfilm.analysis.identification.problem import LOG_BOX, Problem
 from gasfilm.analysis.physics.elements import Parallel, Series
@@ -520,6 +519,20 @@ def _projected_searches(
     return found
 
 
+def latin_hypercube(dimensions: int, samples: int, rng: np.random.Generator) -> np.ndarray:
+    """``samples`` points of a Latin hypercube in [0, 1)^``dimensions``: the same points, bit for bit, as
+    ``scipy.stats.qmc.LatinHypercube(d=dimensions, seed=rng).random(samples)`` (a generator spawned from ``rng``,
+    one uniform draw per point and coordinate, then a shuffled stratum per coordinate), without importing
+    ``scipy.stats`` (half of a command's start-up)."""
+    bit_generator = rng.bit_generator
+    own = np.random.Generator(type(bit_generator)(bit_generator.seed_seq.spawn(1)[0]))
+    jitter = own.uniform(size=(samples, dimensions))
+    strata = np.tile(np.arange(1, samples + 1), (dimensions, 1))
+    for row in strata:
+        own.shuffle(row)
+    return (strata.T - jitter) / samples
+
+
 def _chosen_shapes(
     projection: Projection,
     weighting: int,
@@ -531,7 +544,7 @@ def _chosen_shapes(
     the projected samples that best fit the accelerance itself are appended to ``found`` (they join the polish:
     where the model cannot fit the data, the RMS optimum can lie in another basin than the log-stiffness one)."""
     problem = projection.problem
-    unit = qmc.LatinHypercube(d=projection.size, seed=rng).random(_SAMPLES_PER_SHAPE * projection.size)
+    unit = latin_hypercube(projection.size, _SAMPLES_PER_SHAPE * projection.size, rng)
     # Each sample also with one order at 0: a spring-pot of order 0 is a spring, and a network whose best fit
     # degenerates that way lies on the edge of the box, where a search started inside rarely ends.
     span = projection.start_upper - projection.start_lower

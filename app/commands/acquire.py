@@ -10,6 +10,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import logging
+import os
 import queue
 import sys
 import time
@@ -18,8 +19,8 @@ from typing import Any, Iterator
 
 from gasfilm.analysis.interrupts import signals_deferred
 from gasfilm.analysis.paths import link_target
-from gasfilm.app.commands.common import (check_force_window_length, check_output_file, check_session_path, hit_line,
-                                         is_terminal, positive_flag, settings_from_flags, window_value)
+from gasfilm.app.commands.common import (check_force_window_length, check_output_file, check_session_path, device_name,
+                                         hit_line, is_terminal, positive_flag, settings_from_flags, window_value)
 from gasfilm.drivers.errors import DeviceError, GasfilmError, SettingError
 
 logger = logging.getLogger(__name__)
@@ -43,7 +44,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         description="Record hammer hits into an HDF5 session: every hit (accepted or rejected) is stored as soon as "
         "it is complete. Stops after --hits accepted hits, after --seconds of signal, or on Ctrl-C.",
     )
-    parser.add_argument("--device", default=SIMULATED_DEVICE_NAME,
+    parser.add_argument("--device", default=SIMULATED_DEVICE_NAME, type=device_name,
                         help="'sim' (the default: the simulated rig) or an NI-DAQmx device name")
     parser.add_argument("--out", type=Path, required=True, help="session file to write (HDF5)")
     limit = parser.add_mutually_exclusive_group()
@@ -64,7 +65,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         help="exponential window: value at the record end, e.g. 0.01 ('none': no window)")
     parser.add_argument("--double-hit-fraction", type=float,
                         help="a second impact above this fraction of the first rejects the hit (default 0.1)")
-    parser.add_argument("--seed", type=int, default=0, help="simulator: random seed")
+    parser.add_argument("--operator", help="who runs the test (stored with the session, shown by the report)")
+    parser.add_argument("--test-object", help="what is tested, e.g. 'bearing B-17 on mover M2' (stored, reported)")
+    parser.add_argument("--seed", type=int,
+                        help="simulator: random seed (default: a new one each run, stored with the session; give "
+                             "the stored one to repeat a run)")
     parser.add_argument("--pacing", choices=("fast", "realtime"), default="realtime",
                         help="simulator: deliver samples as fast as possible or at the real rate (default)")
     parser.add_argument("--hit-interval", type=float, nargs=2, metavar=("MIN_S", "MAX_S"),
@@ -139,7 +144,10 @@ def _settings(args: argparse.Namespace) -> dict[str, Any]:
         "force_window_ms": ("--force-window-ms", args.force_window_ms),
         "exponential_end_fraction": ("--exp-end", args.exp_end),
     })
-    return {"trigger": trigger, "validation": validation, "window": window}
+    settings = {"trigger": trigger, "validation": validation, "window": window}
+    if args.operator is not None or args.test_object is not None:
+        settings["test"] = {"operator": (args.operator or "").strip(), "test_object": (args.test_object or "").strip()}
+    return settings
 
 
 class _SessionLog(logging.FileHandler):
@@ -250,7 +258,8 @@ def _check_same_conditions(path: Path, session: Any, conditions: dict) -> None:
 
 def rig_at_conditions(rig_spec: Any, conditions: dict, simulated: bool) -> tuple[Any, dict]:
     """The rig spec at the session's operating point and the conditions to store: on the simulator, a condition the
-    spec's film laws need and ``--condition`` does not give is played (and stored) at the spec's reference value."""
+    spec's film laws need and ``--condition`` does not give is played (and stored) at the spec's reference value.
+    (Conditions a simulated rig has no film law for are stored as given: :func:`_say_inert_conditions`.)"""
     from gasfilm.analysis.physics.laws import played_at
 
     if rig_spec is None or not rig_spec.film_laws:
@@ -262,6 +271,26 @@ def rig_at_conditions(rig_spec: Any, conditions: dict, simulated: bool) -> tuple
         logger.warning("the rig spec's film laws are played at its reference %s (not given by --condition)",
                        ", ".join(f"{key} = {value:g}" for key, value in missing.items()))
     return played, conditions
+
+
+def _say_inert_conditions(rig_spec: Any, conditions: dict) -> None:
+    """Say which ``--condition`` keys the simulated rig's spec has no film law for: stored with the session, they do
+    not change the simulated film (two runs at two pressures give the same film)."""
+    from gasfilm.analysis.physics.laws import law_keys
+
+    followed = law_keys(rig_spec.film_laws) if rig_spec is not None and rig_spec.film_laws else []
+    inert = [key for key in conditions if key not in followed]
+    if inert:
+        logger.warning("--condition %s: stored with the session, but the simulated rig's spec has no film law for %s, "
+                       "so its film is the same at any value (a rig spec with [film.laws] follows them: "
+                       "docs/campaigns.md; `gasfilm demo --campaign` shows one)", ", ".join(inert),
+                       "it" if len(inert) == 1 else "them")
+
+
+def _fresh_seed() -> int:
+    """A new simulator seed for a run not given ``--seed``: two runs (at two pressures, say) are two draws of the
+    rig's noise and hammer, not the same hits twice. It is stored with the session (``acquisition.seed``)."""
+    return int.from_bytes(os.urandom(4), "little")
 
 
 def _continuation(session: Any, seed: int) -> tuple[int, int, float]:
@@ -447,6 +476,8 @@ def _record_until_stopped(args: argparse.Namespace) -> int:
     from gasfilm.analysis.conditions import format_conditions, parse_condition_flags
 
     settings = _settings(args)
+    if args.seed is None:
+        args.seed = _fresh_seed()
     conditions = parse_condition_flags(args.condition)
     trigger, validation, window = settings["trigger"], settings["validation"], settings["window"]
     check_session_path(args.out, "--out")
@@ -504,6 +535,8 @@ def _record_until_stopped(args: argparse.Namespace) -> int:
             session = _open_session(args, config, rate_hz, device.name,
                                     stored_spec.to_toml() if stored_spec else None, settings)
         hits_before = session.hit_count
+        if args.device == SIMULATED_DEVICE_NAME and args.condition:  # said once the run can start, not before a refusal
+            _say_inert_conditions(rig_spec, conditions)
         run, seed, stream_start_s = _continuation(session, args.seed) if args.append else (0, args.seed, 0.0)
         if args.append and run and args.device == SIMULATED_DEVICE_NAME:
             device = _open_device(args, rig_spec, seed)  # the appended run goes on, it does not repeat the first
@@ -585,7 +618,8 @@ def _record_until_stopped(args: argparse.Namespace) -> int:
             _note_stream_end(session, stream_start_s + stream_s)
             session.close("aborted", how)
             logger.info("%s: %s, %d accepted hits kept", args.out, how, accepted)
-            print(f"{how}: session {args.out} closed with {accepted} accepted hits", flush=True)
+            print(f"{how}: session {args.out} closed with {accepted} accepted hit{'' if accepted == 1 else 's'}",
+                  flush=True)
             return 128 + signum
     except BaseException as error:
         progress.done()

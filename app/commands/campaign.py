@@ -67,7 +67,8 @@ class _Progress:
             what = f"failed: {row['error']}"
         else:
             what = (f"best {row.get('best_model', '—')}, diagnosis {row.get('diagnosis_verdict') or 'not run'}"
-                    f"{' (cached)' if row.get('cached') else ''}")
+                    f"{' (cached)' if row.get('cached') else ''}"
+                    + (f"; warning: {row['fit_warnings']}" if row.get("fit_warnings") else ""))
         print(f"  {done}/{total} {name}: {what}", flush=True)
 
 

@@ -31,6 +31,24 @@ def add_units_flag(parser: Any) -> None:
                              "('si'); JSON keys name their unit and stay SI")
 
 
+def device_name(text: str) -> str:
+    """argparse type of ``--device``: "sim" in any case (``SIM``, ``Sim``) is the simulated rig, any other text an
+    NI-DAQmx device name as typed (NI's names are not case-sensitive either, but are kept as the user wrote them)."""
+    name = text.strip()
+    return "sim" if name.lower() == "sim" else name
+
+
+#: ``--estimator`` choices: the FrfResult attribute and the name printed.
+ESTIMATOR_NAMES = {"h1": "H1", "h2": "H2", "hv": "Hv"}
+
+
+def add_estimator_flag(parser: Any, what: str) -> None:
+    """The one ``--estimator`` flag of ``replay`` and ``export``."""
+    parser.add_argument("--estimator", choices=tuple(ESTIMATOR_NAMES), default="h1",
+                        help=f"{what}: H1 (noise on the response; the default, what fit and diagnose use), H2 (noise "
+                             f"on the force) or Hv (both alike, between the two)")
+
+
 def accelerance_text(value_m_s2_per_n: float, units: str = DEFAULT_UNITS, digits: int = 4) -> str:
     """An accelerance given in (m/s²)/N, printed in the chosen ``--units`` with its unit."""
     value = value_m_s2_per_n / STANDARD_GRAVITY_M_S2 if units == "g" else value_m_s2_per_n
@@ -214,11 +232,16 @@ def is_terminal(stream: Any = None) -> bool:
 
 
 def source_conditions(paths: list[Path]) -> dict[str, Any]:
-    """The operating conditions stored in a session (``{}`` for UFF or .npy records, which carry none)."""
+    """The operating conditions stored in a session, or written into a UFF file by a gasfilm export (``{}`` for .npy
+    records and other programs' files, which carry none)."""
     from gasfilm.analysis.conditions import decode_conditions
     from gasfilm.analysis.session import Session
-    from gasfilm.analysis.sources import is_time_record_file
+    from gasfilm.analysis.sources import UFF_SUFFIXES, is_time_record_file
 
+    if len(paths) == 1 and paths[0].suffix.lower() in UFF_SUFFIXES:
+        from gasfilm.analysis.uff import read_uff_conditions
+
+        return read_uff_conditions(paths[0])
     if len(paths) != 1 or is_time_record_file(paths[0]):
         return {}
     with Session.open(paths[0], "r") as session:
@@ -239,6 +262,7 @@ class LoadedFrf:
     #: the session's hit indices the FRF averages (None when not recorded) and the hits the session accepts now
     hit_indices: tuple[int, ...] | None = None
     accepted_indices: tuple[int, ...] | None = None
+    note: str = ""  # which stored FRF was taken when the session holds others too
 
     def fit_hits(self) -> Any:
         """The :class:`~gasfilm.analysis.fit_settings.FitHits` of a fit of this FRF."""
@@ -278,6 +302,10 @@ def load_frf_and_hits(paths: list[Path], name: str | None = None, with_hits: boo
                 chosen = "frf" if "frf" in stored else stored[0]
             elif chosen is None and len(stored) > 1:
                 raise SettingError(f"--frf: {session.path} holds several FRFs ({', '.join(stored)}); choose one")
+            others = [other for other in stored if other != chosen]
+            note = (f"{session.path} holds {len(stored)} FRFs: this is '{chosen}' (--frf "
+                    f"{' or --frf '.join(others)} takes {'that' if len(others) == 1 else 'another'})"
+                    if name is None and chosen is not None and others else "")
             if chosen is not None:
                 frf = session.read_frf(chosen)
                 indices = session.frf_hit_indices(chosen)
@@ -287,7 +315,7 @@ def load_frf_and_hits(paths: list[Path], name: str | None = None, with_hits: boo
                     hits = ([every[i] for i in indices if 0 <= i < len(every)] if indices is not None
                             else [hit for hit in every if hit.verdict.accepted])
                 return LoadedFrf(frf, f"FRF '{chosen}'", session.rig_spec_toml, hits, chosen,
-                                 None if indices is None else tuple(int(i) for i in indices), accepted_indices)
+                                 None if indices is None else tuple(int(i) for i in indices), accepted_indices, note)
             hits = [hit for hit in session.hits() if hit.verdict.accepted]
             if not hits:
                 raise SessionError(f"{session.path}: no {'' if fresh else 'stored FRF and no '}accepted hits to "

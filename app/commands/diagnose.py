@@ -14,12 +14,9 @@ import time
 from pathlib import Path
 
 from gasfilm.analysis.jsontext import dumps
+from gasfilm.analysis.paths import results_folder
 from gasfilm.app.commands.common import check_inputs, check_output_folder
 from gasfilm.drivers.errors import GasfilmError, SettingError
-
-#: Where a diagnosis's files go without --out: a folder per recording below it.
-DEFAULT_OUT_ROOT = Path("out/diagnosis")
-
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     parser = subparsers.add_parser(
@@ -35,8 +32,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--band", help="analysis band LO:HI in Hz (default: where the hammer excites, ≤ 0.4 fs)")
     parser.add_argument("--json", action="store_true", help="print one JSON object instead of the report")
     parser.add_argument("--out", type=Path,
-                        help="folder for the improved spec and the figures (default out/diagnosis/NAME, NAME the "
-                             "recording's file name without its suffix)")
+                        help="folder for the improved spec and the figures (default NAME-diagnosis/ beside the "
+                             "input, NAME its file name without the suffix)")
     parser.add_argument("--overwrite", action="store_true",
                         help="replace an improved spec or figures in --out (and remove an earlier run's figure this "
                              "run does not draw)")
@@ -72,7 +69,7 @@ def run(args: argparse.Namespace) -> int:
     spec = RigSpec.load(args.rig) if args.rig else None
     typed = args.out is not None
     if not typed:  # each recording's own folder: a second session's diagnosis never meets the first one's files
-        args.out = DEFAULT_OUT_ROOT / args.source[0].stem
+        args.out = results_folder(args.source[0], "diagnosis")
     made = not args.out.exists()
     try:
         check_output_folder(args.out, "--out" if typed else "", OUTPUT_FILES, args.overwrite)
@@ -98,6 +95,7 @@ def run(args: argparse.Namespace) -> int:
         if args.overwrite:
             for stale in remove_stale_outputs(diagnosis, args.out):
                 progress(f"removed {stale}: an earlier run's, which this run does not write")
+        computed_s = diagnosis.wall_time_s  # the diagnosis itself, without loading and figures
         diagnosis.wall_time_s = time.monotonic() - started  # what the user waited: loading to figures written
     except BaseException:
         if made:  # a failed run leaves no empty folder behind
@@ -115,7 +113,8 @@ def run(args: argparse.Namespace) -> int:
         except GasfilmError as error:
             progress(f"diagnosis not stored in the session: {error}")
     if args.json:
-        print(dumps({**diagnosis.to_dict(), "options": options, "conditions": conditions}, indent=2))
+        print(dumps({**diagnosis.to_dict(), "options": options, "conditions": conditions, "diagnosis_s": computed_s},
+                    indent=2))
     else:
         print(f"conditions: {format_conditions(conditions)}")
         print(report_text(diagnosis))

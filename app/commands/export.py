@@ -12,10 +12,11 @@ whole: its geometry, every accelerometer's H1 and coherence at every hammer poin
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 
-from gasfilm.app.commands.common import (check_inputs, check_output_file, check_output_suffix,
-                                         load_frf_and_hits, source_conditions)
+from gasfilm.app.commands.common import (ESTIMATOR_NAMES, add_estimator_flag, check_inputs, check_output_file,
+                                         check_output_suffix, load_frf_and_hits, source_conditions)
 from gasfilm.drivers.errors import SettingError
 
 
@@ -31,6 +32,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         help="UFF: also write the averaged hits' force and response time records (dataset 58, "
                              "function type 1), which replay and diagnose need (default: yes)")
     parser.add_argument("--overwrite", action="store_true", help="replace the output file if it exists")
+    add_estimator_flag(parser, "UFF: which FRF estimator is written (the CSV holds H1, H2 and Hv)")
     parser.add_argument("--frf", metavar="NAME", help="which stored FRF (default: 'frf' or the only one)")
     parser.add_argument("--response-dof", type=int, nargs=2, default=(1, 3), metavar=("NODE", "DIR"),
                         help="UFF: response node and direction (default 1 3)")
@@ -40,7 +42,6 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from gasfilm.analysis.conditions import format_conditions
     from gasfilm.analysis.spectra import write_frf_csv
     from gasfilm.analysis.uff import export_frf_uff
 
@@ -56,16 +57,28 @@ def run(args: argparse.Namespace) -> int:
     loaded = load_frf_and_hits(args.source, args.frf, with_hits=with_hits)
     frf = loaded.frf
     conditions = source_conditions(args.source)
+    estimator = ESTIMATOR_NAMES[args.estimator]
     if args.uff is not None:
-        export_frf_uff(frf, args.uff, tuple(args.response_dof), tuple(args.reference_dof),
-                       description=f"gasfilm {args.source[0].name}", hits=loaded.hits,
-                       conditions=format_conditions(conditions) if conditions else "")
+        import dataclasses
+
+        import numpy as np
+
+        chosen = getattr(frf, args.estimator)
+        if not np.all(np.isfinite(chosen[frf.freq_hz > 0])):
+            raise SettingError(f"--estimator {args.estimator}: {args.source[0]} holds no force and response spectra "
+                               f"({estimator} needs them; an FRF read from a file has H1 only)")
+        export_frf_uff(dataclasses.replace(frf, h1=np.nan_to_num(chosen)), args.uff, tuple(args.response_dof),
+                       tuple(args.reference_dof), description=f"gasfilm {args.source[0].name}", hits=loaded.hits,
+                       conditions=conditions, estimator=estimator)
     else:
         write_frf_csv(frf, args.csv, conditions)
+    if loaded.note:  # (once written: a refused export is one line)
+        print(f"note: {loaded.note}", file=sys.stderr)
     records = f", with the time records of {len(loaded.hits)} hits" if loaded.hits else ""
     if with_hits and not loaded.hits:
         records = ", no time records (the source holds none)"
-    print(f"{loaded.what} of {args.source[0]} ({len(frf.freq_hz)} lines, {frf.n_averages} averages{records}) "
+    written = f"{estimator} of the " if args.uff is not None and args.estimator != "h1" else ""
+    print(f"{written}{loaded.what} of {args.source[0]} ({len(frf.freq_hz)} lines, {frf.n_averages} averages{records}) "
           f"written to {target}")
     return 0
 

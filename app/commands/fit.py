@@ -20,6 +20,7 @@ from pathlib import Path
 from typing import Any, Callable
 
 from gasfilm.analysis.jsontext import dumps
+from gasfilm.analysis.paths import results_folder
 from gasfilm.app.commands.common import (UNITS, accelerance_text, add_units_flag, check_inputs,
                                          check_output_folder, is_terminal,
                                          load_frf_and_hits, source_conditions)
@@ -45,7 +46,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--seed", type=int, default=0, help="seed of the fitters' random starts")
     parser.add_argument("--json", action="store_true", help="print one JSON object instead of the tables")
     add_units_flag(parser)
-    parser.add_argument("--out", type=Path, help="folder for the figures (default: next to the input)")
+    parser.add_argument("--figures", action="store_true",
+                        help="draw Figures 18 and 19 (PNG) into NAME-fit/ beside the input, NAME its file name without "
+                             "the suffix (drawing them takes longer than the fits)")
+    parser.add_argument("--out", type=Path, help="folder for Figures 18 and 19 (implies --figures)")
     parser.add_argument("--overwrite", action="store_true",
                         help="replace figures that exist already, and a session's stored fit made with other "
                              "settings (band, mass, --fit-mass, method, FRF)")
@@ -190,7 +194,6 @@ def run(args: argparse.Namespace) -> int:
 
     import numpy as np
 
-    from gasfilm.analysis.figures import figure18, figure19
     from gasfilm.analysis.fit_settings import FitSettings, stale_note
     from gasfilm.analysis.fit_warnings import mass_line_warning, not_explained_warning, other_resonances_hz
     from gasfilm.analysis.identification import METHODS, compare_models, fit_model, format_table2
@@ -207,11 +210,12 @@ def run(args: argparse.Namespace) -> int:
     models = parse_models(args.models)
     if args.mass is not None and not args.mass > 0:
         raise SettingError(f"--mass {args.mass}: must be a positive mass in kg")
-    out = args.out if args.out is not None else args.source[0].parent
+    draw = args.figures or args.out is not None  # figures when asked: matplotlib costs more than the fits
+    out = args.out if args.out is not None else results_folder(args.source[0], "fit")
     stem = args.source[0].stem
     # (--refit replaces the figures of the fits it replaces)
     figure_paths = check_output_folder(out, "--out" if args.out is not None else "",
-                                       (f"{stem}-figure18.png", f"{stem}-figure19.png"), args.overwrite or args.refit)
+                                       (f"{stem}-figure18.png", f"{stem}-figure19.png"), args.overwrite or args.refit) if draw else []
     from gasfilm.analysis.conditions import format_conditions
 
     loaded = load_frf_and_hits(args.source, args.frf, fresh=args.refit)
@@ -245,6 +249,8 @@ def run(args: argparse.Namespace) -> int:
     if not is_time_record_file(args.source[0]):
         with Session.open(args.source[0], "r") as session:
             check_stored_fits(session, {model.name: settings for model in models}, args.overwrite)
+    if loaded.note:  # (after the refusals: a refused fit is one line)
+        logger.warning(loaded.note)
     warning = mass_line_warning(freq_hz, h, mass_kg)
     if warning:
         logger.warning(warning)
@@ -263,10 +269,15 @@ def run(args: argparse.Namespace) -> int:
         logger.warning(not_explained)
     rows = compare_models(fits, freq_hz, h)
     # the figures and the session's fits, all or nothing: the figures get their names once the fits are stored
+    figures: list[Path] = []
+    stored_note = None
     with written_whole(*figure_paths, what="the figures") as building:
-        figure18(building[0], freq_hz, h, fits)
-        figure19(building[1], freq_hz, h, fits)
-        stored_note = None
+        if draw:
+            from gasfilm.analysis.figures import figure18, figure19
+
+            figure18(building[0], freq_hz, h, fits)
+            figure19(building[1], freq_hz, h, fits)
+            figures = figure_paths
         if not is_time_record_file(args.source[0]):
             try:
                 with Session.updating(args.source[0]) as session:
@@ -280,7 +291,6 @@ def run(args: argparse.Namespace) -> int:
                                f"{error}")
                 if args.json:  # (the text output says it in its notes)
                     logger.warning(stored_note)
-    figures = figure_paths
     if args.json:
         print(dumps({
             "source": [str(path) for path in args.source],
@@ -321,5 +331,6 @@ def run(args: argparse.Namespace) -> int:
             print(f"{fit.model_name}: {note}")
         if fit.flags:
             print(f"{fit.model_name}: " + "; ".join(fit.flags))
-    print("\nfigures: " + ", ".join(str(path) for path in figures))
+    print("\nfigures: " + (", ".join(str(path) for path in figures) if figures else
+                            f"not drawn (--figures draws Figures 18 and 19 into {out})"))
     return 0

@@ -4,16 +4,18 @@ from __future__ import annotations
 
 import argparse
 import os
+import signal
 import sys
 from pathlib import Path
 from typing import Mapping
 
+from gasfilm.app.commands.common import device_name
 from gasfilm.drivers.errors import SettingError
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     parser = subparsers.add_parser("gui", help="open the GUI (simulated rig or an NI 9234)")
-    parser.add_argument("--device", help="'sim' for the simulated rig or an NI-DAQmx device name (default: last used)")
+    parser.add_argument("--device", type=device_name, help="'sim' for the simulated rig or an NI-DAQmx device name (default: last used)")
     parser.add_argument("--session", type=Path, help="session file to open at start")
     parser.set_defaults(func=run)
 
@@ -31,6 +33,10 @@ def missing_display(environ: Mapping[str, str], platform: str) -> str | None:
             "QT_QPA_PLATFORM=offscreen (python -m gasfilm.app.gui.screenshots)")
 
 
+#: The signals that end the GUI as its Quit does.
+STOP_SIGNALS = (signal.SIGTERM, signal.SIGHUP, signal.SIGINT)
+
+
 def run(args: argparse.Namespace) -> int:
     if args.session is not None:  # a mistyped session is said here, in one line, not in a window after it opens
         from gasfilm.app.commands.common import check_inputs
@@ -40,6 +46,14 @@ def run(args: argparse.Namespace) -> int:
     problem = missing_display(os.environ, sys.platform)
     if problem:
         raise SettingError(problem)
+    # SIGTERM, SIGHUP and Ctrl-C while the GUI loads are kept, not raised inside the imports (where one could be lost
+    # or leave a half-imported module): before the window stands they end the start as "interrupted", the job
+    # processes and their fork server shut down by multiprocessing's exit; afterwards the window quits cleanly.
+    received: list[int] = []
+    for number in STOP_SIGNALS:
+        signal.signal(number, lambda number_received, _frame: received.append(number_received))
     from gasfilm.app.gui.main_window import run_gui
 
-    return run_gui(device=args.device, session=args.session)
+    if received:
+        raise KeyboardInterrupt(signal.Signals(received[0]).name)
+    return run_gui(device=args.device, session=args.session, received=received)

@@ -4,14 +4,17 @@ the time-domain check of the fractional and the rational model against the recor
 
 SOURCE is a session (its stored fit ``--model NAME``), a fit written by ``gasfilm fit --json``, or a rig spec
 (.toml, e.g. the spec ``gasfilm diagnose`` writes: the film and its mechanical effects under the moving mass).
-Next to ``--out`` go ``<stem>-error.png`` (the approximation's error against frequency) and, with hits,
-``<stem>-hits.png`` (recorded, fractional and rational acceleration).
+Next to ``--out`` go ``<name>-error.png`` (the approximation's error against frequency) and, with hits,
+``<name>-hits.png`` (recorded, fractional and rational acceleration), ``<name>`` the whole file name with its format
+(``plant.mat-error.png``): a second format of the same model does not meet the first one's figures. Without
+``--model``, a session's or fit file's only fit, else the one of lowest BIC (said).
 """
 
 from __future__ import annotations
 
 import argparse
 import math
+import sys
 from pathlib import Path
 
 from gasfilm.analysis.jsontext import dumps
@@ -85,13 +88,14 @@ def run(args: argparse.Namespace) -> int:
     if args.rigid:
         return _rigid_plant(args, max_error, band)
     loaded = load_source(args.source, args.model)
-    stem = args.out.with_suffix("")
-    error_png = Path(f"{stem}-error.png")
-    hits_png = Path(f"{stem}-hits.png") if loaded.records is not None else None
+    error_png = args.out.with_name(f"{args.out.name}-error.png")  # (each format its own figures)
+    hits_png = args.out.with_name(f"{args.out.name}-hits.png") if loaded.records is not None else None
     for path, flag in ((args.out, "--out"), (error_png, ""), (hits_png, "")):
         if path is not None:
             check_output_file(path, flag, args.overwrite)
 
+    if loaded.note:
+        print(f"note: {loaded.note}", file=sys.stderr)
     model = approximate(loaded.plant, band, order=args.order, max_error=max_error)
     oustaloup = None
     if loaded.plant.network and "pot(" in loaded.plant.network and loaded.fit is not None:

@@ -17,8 +17,9 @@ from pathlib import Path
 from typing import Any
 
 from gasfilm.analysis.jsontext import dumps
-from gasfilm.app.commands.common import (add_units_flag, check_force_window_length, check_inputs, check_output_file,
-                                         check_session_path, positive_flag, settings_from_flags, window_value)
+from gasfilm.app.commands.common import (ESTIMATOR_NAMES, add_estimator_flag, add_units_flag, check_force_window_length,
+                                         check_inputs, check_output_file, check_session_path, positive_flag,
+                                         settings_from_flags, window_value)
 from gasfilm.drivers.errors import GasfilmError, SettingError
 
 #: Band edges (Hz) for the coherence summary; bands above the Nyquist frequency are left out.
@@ -61,6 +62,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         help="with --out: the new session's operating condition, the unit at the end of the key "
                         "(repeatable; replaces the input's value of that key), e.g. supply_pressure_mpa=0.4")
     parser.add_argument("--json", action="store_true", help="print the summary as JSON")
+    add_estimator_flag(parser, "the FRF estimator whose peak is read")
     add_units_flag(parser)
     parser.set_defaults(func=run)
 
@@ -174,9 +176,11 @@ def _advised_exp_end(notes: list[str]) -> float | None:
     return min(values) if values else None
 
 
-def summarise(frf: Any, verdicts: list, dropped: int, record_samples: int) -> dict[str, Any]:
-    """Hits and reasons, peak frequency of |H1| and mean coherence by band (``frf``: an FrfResult or None). Hits are
-    numbered from 1, as everywhere the user sees them."""
+def summarise(frf: Any, verdicts: list, dropped: int, record_samples: int, estimator: str = "h1") -> dict[str, Any]:
+    """Hits and reasons, peak frequency of |H| (the ``estimator``'s: "h1", "h2" or "hv") and mean coherence by band
+    (``frf``: an FrfResult or None). Hits are numbered from 1, as everywhere the user sees them."""
+    import dataclasses
+
     import numpy as np
 
     from gasfilm.analysis.spectra import peak_line
@@ -201,9 +205,11 @@ def summarise(frf: Any, verdicts: list, dropped: int, record_samples: int) -> di
         "notes": notes,
     }
     if frf is not None:
+        frf = dataclasses.replace(frf, h1=getattr(frf, estimator))  # the peak is read on the chosen estimator
         magnitude = np.abs(frf.h1)
         peak = peak_line(frf)  # the strongest resonance, else the largest readable line (as the GUI's FRF tab)
         summary.update(
+            estimator=ESTIMATOR_NAMES[estimator],
             peak_frequency_hz=float(frf.freq_hz[peak]),
             peak_accelerance_m_s2_per_n=float(magnitude[peak]),
             decay_rate_1_s=frf.decay_rate_1_s,
@@ -238,7 +244,7 @@ def _print_summary(summary: dict[str, Any], source: Path, written: str, units: s
     if summary["advised_exp_end"] is not None:
         print(f"  advice: add --exp-end {summary['advised_exp_end']:g} to window the ringing away")
     if "peak_frequency_hz" in summary:
-        print(f"  peak of |H1| (usable band, coherence >= 0.9): {summary['peak_frequency_hz']:.2f} Hz, "
+        print(f"  peak of |{summary['estimator']}| (usable band, coherence >= 0.9): {summary['peak_frequency_hz']:.2f} Hz, "
               f"{accelerance_text(summary['peak_accelerance_m_s2_per_n'], units)}")
         if summary["coherence_note"]:
             print(f"  coherence: {summary['coherence_note']}")
@@ -304,7 +310,8 @@ def run(args: argparse.Namespace) -> int:
                 session.update_settings({"replay": settings})
             written = (f"FRF group 'replay' in {source.path}"
                        + (" (replacing the earlier replay's; --out S.h5 keeps a replay as a session of its own)"
-                          if replaced else ""))
+                          if replaced else "")
+                       + "; fit, export and report take it with --frf replay (without it: the stored 'frf')")
         except GasfilmError as error:  # a read-only session (or folder): the replay is shown, not kept
             written = (f"not stored in {source.path} ({error}); --out S.h5 keeps the replay as a session of its "
                        f"own")
@@ -312,7 +319,8 @@ def run(args: argparse.Namespace) -> int:
         written = "printed only (add --out SESSION.h5 to keep it as a session)"
     else:
         written = "nothing written (no accepted hits)"
-    summary = {"conditions": conditions, **summarise(frf, verdicts, dropped, hits[0].n_samples if hits else 0),
+    summary = {"conditions": conditions,
+               **summarise(frf, verdicts, dropped, hits[0].n_samples if hits else 0, args.estimator),
                "pretrigger_note": pretrigger_note}
     shown = source.path if len(args.source) == 1 else f"{source.path} and {len(args.source) - 1} more files"
     if args.json:

@@ -13,6 +13,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("session", type=Path, help="session file (.h5)")
     parser.add_argument("--out", type=Path, required=True, help="report file to write: .html (self-contained) or .pdf")
     parser.add_argument("--overwrite", action="store_true", help="replace --out if it exists")
+    parser.add_argument("--frf", metavar="NAME", help="which stored FRF (default: 'frf' or the only one, e.g. "
+                                                      "'replay' for what gasfilm replay stored)")
+    parser.add_argument("--paper", choices=("a4", "letter"),
+                        help="the PDF's page size (default: as this machine prints: PAPERSIZE, /etc/papersize or "
+                             "the locale, e.g. en_US → letter; A4 otherwise)")
     parser.set_defaults(func=run)
 
 
@@ -22,6 +27,6 @@ def run(args: argparse.Namespace) -> int:
 
     check_inputs([args.session], (), "a session (HDF5)")  # the input first, then the output, then the work
     check_report_path(args.out, args.overwrite)  # before reading the session: a bad --out answers at once
-    written = write_report(args.session, args.out, overwrite=args.overwrite)
+    written = write_report(args.session, args.out, overwrite=args.overwrite, paper=args.paper, frf_name=args.frf)
     print(f"wrote {written}")
     return 0

@@ -22,10 +22,12 @@ from gasfilm.analysis.acquisition import AcquisitionLoop
 from gasfilm.analysis.capture import TriggerSettings
 from gasfilm.analysis.conditions import decode_conditions, parse_condition_table
 from gasfilm.analysis.diagnosis import load_recordings
+from gasfilm.analysis.diagnosis.plots import OUTPUT_FILES
 from gasfilm.analysis.fit_settings import FitHits, FitSettings, conflicting_fits, stale_note
+from gasfilm.analysis.paths import results_folder
 from gasfilm.analysis.identification import DEFAULT_FIT_BAND_HZ, best_by_bic, compare_models
 from gasfilm.analysis.physics.elements import get_model
-from gasfilm.analysis.physics.laws import played_at
+from gasfilm.analysis.physics.laws import law_keys, played_at
 from gasfilm.analysis.physics.spec import RigSpec
 from gasfilm.analysis.rigid_session import roving_plan
 from gasfilm.analysis.spectra import usable_band_hz
@@ -48,9 +50,11 @@ from gasfilm.app.gui.workers import (
 )
 from gasfilm.drivers import SIMULATED_DEVICE_NAME
 from gasfilm.drivers.errors import GasfilmError, SettingError
-from gasfilm.drivers.interface import DaqConfig
+from gasfilm.drivers.interface import ChannelKind, DaqConfig
 
 logger = logging.getLogger(__name__)
+#: How a refusal that waits for the acquisition to stop begins (the banner withdraws it once stopped).
+STOP_FIRST = "stop the acquisition"
 
 
 def default_session_dir() -> Path:
@@ -84,6 +88,8 @@ class SessionController(QObject):
     job_running = Signal(str, bool)  # job name ("fit" | "diagnose"), running
     message = Signal(str, str)  # text, severity ("error" | "warning" | "info")
     session_changed = Signal(str)  # path of the open session ('' for none)
+    hit_check_changed = Signal(object)  # the hit check's HitCheckProposal (None: no tap yet)
+    comparisons_changed = Signal()  # other sessions' FRFs drawn over this one's (the FRF tab)
 
     # Signals into the acquisition worker (queued onto its thread).
     _decide = Signal(int, bool)
@@ -122,6 +128,10 @@ class SessionController(QObject):
         self._created_by_arm = False  # the open session was created by the running Arm (removed if it stays empty)
         self._streamed = False  # the running acquisition's device has streamed
         self._job_started_s: dict[str, float] = {}
+        self.taps: list[Any] = []  # the hit check's taps (HitRecord), stored nowhere
+        self.comparisons: list[tuple[str, FrfResult]] = []  # (label, FRF) of other sessions to overlay
+        self._diagnosis_wait_s = 0.0  # the shown diagnosis's time from the click to its result
+        self.hit_check_proposal: Any = None
         self.hammer_point: str | None = None  # a rigid-body rig's point to strike next (None: the spec's)
         self._roving: tuple[Any, str | None] = (None, None)  # a roving test's runs and the point of its FRF
 
@@ -156,10 +166,20 @@ class SessionController(QObject):
 
     # --- acquisition -----------------------------------------------------------------------------------------------
 
-    def arm(self, setup: SetupState | None = None) -> None:
+    @property
+    def hit_checking(self) -> bool:
+        """The running acquisition is a hit check (trial taps, nothing recorded)."""
+        return self.acquiring and self._plan is not None and self._plan.hit_check
+
+    def start_hit_check(self) -> None:
+        """Trial taps before the test: the device streams and every tap is triggered and checked as in a recording,
+        but stored nowhere; each one updates :attr:`hit_check_proposal` (``hit_check_changed``)."""
+        self.arm(hit_check=True)
+
+    def arm(self, setup: SetupState | None = None, hit_check: bool = False) -> None:
         """Start streaming into the open session, or a new one when the rig, device, channels, trigger or windows
         differ from the session's (a session holds one configuration). ``setup`` replaces the Setup tab's for this
-        acquisition only."""
+        acquisition only; ``hit_check``: trial taps, no session."""
         if self.acquiring:
             return
         setup = setup or self.setup
@@ -169,7 +189,13 @@ class SessionController(QObject):
             conditions = parse_condition_table(setup.conditions)
             rig_spec = self.rig_spec(setup)
             if setup.device == SIMULATED_DEVICE_NAME:  # the simulated film follows the conditions (film laws)
+                inert = [key for key in conditions if key not in law_keys(rig_spec.film_laws or {})]
                 rig_spec, conditions, _missing = played_at(rig_spec, conditions)
+                if inert and not hit_check:
+                    self.message.emit(
+                        f"conditions {', '.join(inert)}: stored with the session, but the simulated rig's spec has no "
+                        f"film law for them, so its film is the same at any value (a rig spec with [film.laws] "
+                        f"follows them)", "info")
             else:
                 rig_spec = rig_spec.at_conditions(conditions)
             response_row = setup.response_row(config)
@@ -190,18 +216,25 @@ class SessionController(QObject):
                 sim_tip=setup.sim_tip,
                 sim_seed=setup.sim_seed,
                 ring_seconds=max(10.0, 2 * setup.live_view_s),
+                hit_check=hit_check,
             )
-            self._ensure_session(plan)
-            self._roving = (note_hammer_run(self.session, plan.rig_spec), struck_point(plan.rig_spec))
-            plan = dataclasses.replace(plan, time_offset_s=self._session_time_s())
+            if not hit_check:
+                self._ensure_session(plan)
+                self._store_test_record(setup)
+                self._roving = (note_hammer_run(self.session, plan.rig_spec), struck_point(plan.rig_spec))
+                plan = dataclasses.replace(plan, time_offset_s=self._session_time_s())
         except GasfilmError as error:
             self.message.emit(str(error), "error")
             return
+        if hit_check:
+            self.taps = []
+            self.hit_check_proposal = None
+            self.hit_check_changed.emit(None)
         self._plan = plan
         self._armed_setup = setup
         self._created_by_arm = self.session is not previous_session
         self._streamed = False
-        worker = AcquisitionWorker(plan, self.session)
+        worker = AcquisitionWorker(plan, None if hit_check else self.session)
         worker.streaming.connect(self._on_streaming)
         worker.hit_recorded.connect(self._on_hit)
         worker.verdict_changed.connect(self._on_verdict)
@@ -320,6 +353,14 @@ class SessionController(QObject):
         self.session_changed.emit(str(path))
         logger.info("recording into the new session %s", path)
 
+    def _store_test_record(self, setup: SetupState) -> None:
+        """Who tests what with which sensors (operator, test object, each sensor's model, serial, calibration date and
+        TEDS), stored with the session when it is new or they changed."""
+        record = to_jsonable(setup.test_record())
+        stored = self.session.settings
+        if any(stored.get(key) != value for key, value in record.items()):
+            self.session.update_settings(record)
+
     def _gui_settings(self) -> dict[str, Any]:
         return {
             "response_channel": self.setup.response_channel,
@@ -333,6 +374,9 @@ class SessionController(QObject):
         self.streaming.emit(loop)
 
     def _on_hit(self, entry: HitEntry) -> None:
+        if self._plan is not None and self._plan.hit_check:
+            self._on_tap(entry.record)
+            return
         self.hits.append(entry)
         hold_reason = self._coherence_hold_reason(entry)
         if hold_reason:
@@ -362,6 +406,36 @@ class SessionController(QObject):
         coherence = float(np.mean(frf.coherence[band]))
         return f"coherence {coherence:.2f} below {minimum:g}" if coherence < minimum else ""
 
+    def _on_tap(self, record: Any) -> None:
+        """A hit-check tap: kept in memory only, the proposal made again from every tap so far."""
+        from gasfilm.analysis.hit_check import propose_settings
+        from gasfilm.drivers.plant import TIPS_PULSE_WIDTH_S
+
+        self.taps.append(record)
+        plan = self._plan
+        full_scale = [channel.full_scale_si for channel in plan.config.channels]
+        force_scale = full_scale[plan.config.channel_index(ChannelKind.FORCE)]
+        tips = TIPS_PULSE_WIDTH_S if plan.device_name == SIMULATED_DEVICE_NAME else None
+        self.hit_check_proposal = propose_settings(self.taps, self.fit_band_hz, force_scale, plan.trigger.pretrigger_s,
+                                                   tips, full_scale)
+        self.hit_check_changed.emit(self.hit_check_proposal)
+
+    def hit_check_setup(self) -> SetupState | None:
+        """The Setup tab's state with the hit check's proposal applied (trigger level, record length, windows and,
+        on the simulated rig, the tip); None without a proposal."""
+        proposal = self.hit_check_proposal
+        if proposal is None:
+            return None
+        state = dataclasses.replace(
+            self.setup,
+            trigger={**self.setup.trigger, "level_n": proposal.trigger_level_n, "record_s": proposal.record_s},
+            window={**self.setup.window, "force_window_ms": proposal.force_window_ms,
+                    "exponential_end_fraction": proposal.exponential_end_fraction},
+        )
+        if proposal.tip is not None and state.device == SIMULATED_DEVICE_NAME:
+            state.sim_tip = proposal.tip
+        return state
+
     def _on_verdict(self, entry: HitEntry) -> None:
         for position, existing in enumerate(self.hits):
             if existing.index == entry.index:
@@ -381,7 +455,7 @@ class SessionController(QObject):
         self.message.emit(f"{text} — acquisition stopped; {hits} safe in {self.session_path.name}", "error")
 
     def _on_worker_finished(self) -> None:
-        if self.loop is not None and self._plan is not None:
+        if self.loop is not None and self._plan is not None and not self._plan.hit_check:
             self._stream_end_s = self._plan.time_offset_s + self.loop.samples_read / self.loop.sample_rate_hz
         if self._worker_thread is not None:
             self._worker_thread.wait(5_000)
@@ -544,7 +618,7 @@ class SessionController(QObject):
         """Fit each model to the current FRF in the band, in the background; results arrive via ``fits_changed``.
         The mass is the session's mover mass (its rig spec; else the Setup tab's), as ``gasfilm fit`` takes it."""
         if self.acquiring:
-            self.message.emit("stop the acquisition before fitting: the FRF still changes with every hit", "warning")
+            self.message.emit(f"{STOP_FIRST} before fitting: the FRF still changes with every hit", "warning")
             return
         if self.frf is None:
             self.message.emit("no FRF yet: accept at least one hit or open a session", "warning")
@@ -618,10 +692,13 @@ class SessionController(QObject):
 
     # --- diagnosis -----------------------------------------------------------------------------------------------------
 
-    def run_diagnosis(self, reference_spec_path: str | Path | None = None) -> None:
-        """Diagnose the session's accepted hits against ``reference_spec_path`` (default: the session's own spec)."""
+    def run_diagnosis(self, reference_spec_path: str | Path | None = None,
+                      replace_outputs: Any = lambda folder, names: True) -> None:
+        """Diagnose the session's accepted hits against ``reference_spec_path`` (default: the session's own spec);
+        its files go into ``SESSION-diagnosis/`` as ``gasfilm diagnose`` writes them, and an earlier diagnosis's
+        files there are replaced only when ``replace_outputs(folder, names)`` says so (the tab asks)."""
         if self.acquiring:
-            self.message.emit("stop the acquisition before running the diagnosis: hits are still arriving", "warning")
+            self.message.emit(f"{STOP_FIRST} before running the diagnosis: hits are still arriving", "warning")
             return
         if self.session is None or self.accepted_count == 0:
             self.message.emit("nothing to diagnose: record or open a session with accepted hits", "warning")
@@ -633,7 +710,12 @@ class SessionController(QObject):
         except GasfilmError as error:
             self.message.emit(f"diagnose: {error}", "error")
             return
-        out_dir = self.session_path.with_name(f"{self.session_path.stem}-diagnosis")
+        out_dir = results_folder(self.session_path, "diagnosis")  # where `gasfilm diagnose` writes it too
+        earlier = [name for name in OUTPUT_FILES if (out_dir / name).exists()]
+        if earlier and not replace_outputs(out_dir, earlier):
+            self.message.emit(f"diagnose: the earlier diagnosis's files in {out_dir} are kept; nothing was run",
+                              "info")
+            return
         try:
             recordings = load_recordings(self.session_path)  # here, not on the job's thread: one file user at a time
         except GasfilmError as error:
@@ -650,7 +732,14 @@ class SessionController(QObject):
         text = self.session.rig_spec_toml if self.session is not None else None
         return RigSpec.from_toml(text) if text else self.rig_spec()
 
+    def diagnosis_seconds(self, diagnosis: Any) -> float:
+        """How long ``diagnosis`` took as the technician waited for it (from the click until its result arrived): the
+        one figure the banner and the Diagnose tab both show; the diagnosis's own computing time when it did not
+        run here."""
+        return self._diagnosis_wait_s if diagnosis is self.diagnosis and self._diagnosis_wait_s else diagnosis.wall_time_s
+
     def _on_diagnosis_done(self, diagnosis: Any) -> None:
+        self._diagnosis_wait_s = self._job_seconds("diagnose")
         self.diagnosis = diagnosis
         self._diagnosis_options = self._pending_diagnosis_options
         self.diagnosis_changed.emit(diagnosis)
@@ -658,8 +747,8 @@ class SessionController(QObject):
         count = len(diagnosis.findings)
         found = f"{count} finding{'s' if count != 1 else ''}" if count else "no finding"
         self.message.emit(
-            f"diagnosis finished in {self._job_seconds('diagnose'):.1f} s: verdict {diagnosis.verdict}, {found}; "
-            f"figures and improved spec in {self.session_path.stem}-diagnosis/ (Diagnose tab)",
+            f"diagnosis finished in {self._diagnosis_wait_s:.1f} s: verdict {diagnosis.verdict}, {found}; "
+            f"figures and improved spec in {results_folder(self.session_path, 'diagnosis').name}/ (Diagnose tab)",
             "info",
         )
 
@@ -882,16 +971,46 @@ class SessionController(QObject):
         self.message.emit(f"saved as {path}", "info")
         return path
 
+    # --- comparison with other sessions ----------------------------------------------------------------------------------
+
+    def add_comparisons(self, paths: Sequence[str | Path]) -> int:
+        """Overlay other sessions' FRFs (each its stored FRF, else the average of its accepted hits, as ``gasfilm
+        export`` takes it), labelled with their names and operating conditions; returns how many were added."""
+        from gasfilm.analysis.conditions import format_conditions
+        from gasfilm.app.commands.common import load_frf_and_hits, source_conditions
+
+        added = 0
+        for path in map(Path, paths):
+            try:
+                frf = load_frf_and_hits([path]).frf
+                conditions = source_conditions([path])
+            except GasfilmError as error:
+                self.message.emit(f"compare: {error}", "error")
+                continue
+            label = path.stem + (f" ({format_conditions(conditions)})" if conditions else "")
+            self.comparisons = [entry for entry in self.comparisons if entry[0] != label] + [(label, frf)]
+            added += 1
+        if added:
+            self.comparisons_changed.emit()
+        return added
+
+    def clear_comparisons(self) -> None:
+        self.comparisons = []
+        self.comparisons_changed.emit()
+
     # --- exports ---------------------------------------------------------------------------------------------------------
 
     def export_csv(self, path: str | Path) -> Path:
         """The FRF as CSV: frequency, H1 (real, imaginary, magnitude in (m/s²)/N and g/N, phase), H2, coherence."""
-        return write_frf_csv(self._require_frf(), path)
+        conditions = decode_conditions(self.session.settings, str(self.session_path)) if self.session else {}
+        return write_frf_csv(self._require_frf(), path, conditions)
 
     def export_uff(self, path: str | Path) -> Path:
         frf = self._require_frf()
         path = Path(path)
-        export_frf_uff(frf, path)
+        conditions = decode_conditions(self.session.settings, str(self.session_path)) if self.session else {}
+        export_frf_uff(frf, path, conditions=conditions, description=f"gasfilm {path.stem}",
+                       hits=[entry.record for entry in self.hits if entry.accepted])
         return path
 
     def _require_frf(self) -> FrfResult:

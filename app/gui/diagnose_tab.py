@@ -3,11 +3,13 @@
 from __future__ import annotations
 
 import time
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 from PySide6.QtCore import Qt, QTimer
 from PySide6.QtWidgets import (
+    QMessageBox,
     QFileDialog,
     QGroupBox,
     QHBoxLayout,
@@ -150,7 +152,8 @@ class DiagnoseTab(QWidget):
         layout.addLayout(top)
         layout.addWidget(splitter, 1)
 
-        self.run_button.clicked.connect(lambda: controller.run_diagnosis(self.reference_path.text().strip() or None))
+        self.run_button.clicked.connect(lambda: controller.run_diagnosis(self.reference_path.text().strip() or None,
+                                                                         self.confirm_replace))
         self.cancel_button.clicked.connect(lambda: controller.cancel_job("diagnose"))
         self.export_button.clicked.connect(self._export)
         self.play_button.clicked.connect(controller.play_improved_spec)
@@ -160,8 +163,19 @@ class DiagnoseTab(QWidget):
         controller.diagnosis_changed.connect(self.show_diagnosis)
         controller.stored_diagnosis_loaded.connect(self.show_stored_diagnosis)
 
+    def confirm_replace(self, folder: Path, names: list[str]) -> bool:
+        """Ask before replacing an earlier diagnosis's files (``gasfilm diagnose`` refuses without --overwrite)."""
+        answer = QMessageBox.question(
+            self, "Replace the earlier diagnosis's files?",
+            f"{folder} holds an earlier diagnosis's files ({', '.join(names)}); the runs themselves stay in the "
+            f"session.\n\nReplace the files with this run's?",
+            QMessageBox.StandardButton.Yes | QMessageBox.StandardButton.No, QMessageBox.StandardButton.No)
+        return answer == QMessageBox.StandardButton.Yes
+
     def _choose_reference(self) -> None:
-        path, _ = QFileDialog.getOpenFileName(self, "Reference rig spec", self.reference_path.text(), "Rig spec (*.toml)")
+        start = self.reference_path.text() or str(self.controller.session_path.parent if self.controller.session_path
+                                                      else self.controller.session_dir)
+        path, _ = QFileDialog.getOpenFileName(self, "Reference rig spec", start, "Rig spec (*.toml)")
         if path:
             self.reference_path.setText(path)
 
@@ -218,7 +232,7 @@ class DiagnoseTab(QWidget):
         self.summary.setText(
             f"<b>Verdict: {diagnosis.verdict}</b> — RMS {diagnosis.rms_before / G:.3g} → {diagnosis.rms_after / G:.3g} g/N "
             f"(E = {better:.1f} %), BIC {diagnosis.bic_before:.0f} → {diagnosis.bic_after:.0f}, "
-            f"{diagnosis.evidence.hit_count} hits, {diagnosis.wall_time_s:.1f} s"
+            f"{diagnosis.evidence.hit_count} hits, {self.controller.diagnosis_seconds(diagnosis):.1f} s"
         )
         for finding in diagnosis.findings:
             item = QListWidgetItem(finding_title(finding))
@@ -421,7 +435,7 @@ class DiagnoseTab(QWidget):
         self.restoring_label.setText(f"Film restoring force (F − m·a, colour = hit): {restoring.description()}")
 
     def _export(self) -> None:
-        default = ""
+        default = str(self.controller.session_dir / "improved.toml")
         if self.controller.session_path is not None:
             default = str(self.controller.session_path.with_name(f"{self.controller.session_path.stem}-improved.toml"))
         path, _ = QFileDialog.getSaveFileName(self, "Improved rig spec", default, "Rig spec (*.toml)")

@@ -6,7 +6,8 @@ import numpy as np
 import pyqtgraph as pg
 from PySide6.QtCore import Qt
 from PySide6.QtGui import QShowEvent
-from PySide6.QtWidgets import QCheckBox, QComboBox, QDoubleSpinBox, QGridLayout, QHBoxLayout, QLabel, QWidget
+from PySide6.QtWidgets import (QCheckBox, QComboBox, QDoubleSpinBox, QFileDialog, QGridLayout, QHBoxLayout, QLabel,
+                               QPushButton, QSizePolicy, QWidget)
 
 from gasfilm.analysis.spectra import peak_line, usable_band_hz
 from gasfilm.analysis.spectra import FrfResult
@@ -25,6 +26,8 @@ from gasfilm.drivers.interface import STANDARD_GRAVITY_M_S2
 #: Accelerance units offered, the first the default: g/N as the Identify and Diagnose tabs and the command line show it
 UNITS = {"g/N": 1.0 / STANDARD_GRAVITY_M_S2, "(m/s²)/N": 1.0}
 UNCERTAINTY = {"from coherence (Bendat & Piersol)": "h1_std_coherence", "hit-to-hit scatter": "h1_std_scatter"}
+#: How |H| is drawn: on a logarithmic axis, a linear one, or in dB re 1 unit (20·log10 |H|).
+MAGNITUDE_SCALES = ("log", "linear", "dB")
 
 
 class FrfTab(QWidget):
@@ -39,6 +42,10 @@ class FrfTab(QWidget):
 
         self.unit_combo = QComboBox()
         self.unit_combo.addItems(list(UNITS))
+        self.scale_combo = QComboBox()
+        self.scale_combo.setObjectName("magnitude_scale")
+        self.scale_combo.addItems(list(MAGNITUDE_SCALES))
+        self.scale_combo.setToolTip("|H| on a logarithmic axis, a linear axis, or in dB re 1 (g/N or (m/s²)/N)")
         self.uncertainty_combo = QComboBox()
         self.uncertainty_combo.addItems(list(UNCERTAINTY))
         self.band_low = QDoubleSpinBox()
@@ -56,6 +63,8 @@ class FrfTab(QWidget):
         controls = QHBoxLayout()
         controls.addWidget(QLabel("Units"))
         controls.addWidget(self.unit_combo)
+        controls.addWidget(QLabel("|H|"))
+        controls.addWidget(self.scale_combo)
         controls.addWidget(QLabel("Uncertainty band (±1σ)"))
         controls.addWidget(self.uncertainty_combo)
         controls.addWidget(QLabel("Fit band"))
@@ -63,8 +72,19 @@ class FrfTab(QWidget):
         controls.addWidget(QLabel("to"))
         controls.addWidget(self.band_high)
         controls.addWidget(self.log_frequency)
+        self.compare_button = QPushButton("Compare sessions…")
+        self.compare_button.setObjectName("compare_sessions")
+        self.compare_button.setToolTip("Draw other sessions' FRFs over this one (named with their conditions)")
+        self.compare_button.clicked.connect(self._choose_comparisons)
+        self.clear_compare_button = QPushButton("Clear comparison")
+        self.clear_compare_button.clicked.connect(controller.clear_comparisons)
+        self.clear_compare_button.setEnabled(False)
         controls.addStretch(1)
-        controls.addWidget(self.summary)
+        controls.addWidget(self.compare_button)
+        controls.addWidget(self.clear_compare_button)
+        # the summary on a line of its own, elided if need be: the controls row keeps the window's default width
+        self.summary.setMinimumWidth(0)
+        self.summary.setSizePolicy(QSizePolicy.Policy.Ignored, QSizePolicy.Policy.Preferred)
 
         self.magnitude_plot = make_plot("Accelerance magnitude |H|", ("|H|", "g/N"), log_y=True)
         self.phase_plot = make_plot("Phase", ("Phase", "°"))
@@ -80,6 +100,7 @@ class FrfTab(QWidget):
         self.h1_curve = self.magnitude_plot.plot(pen=pen(MEASURED_COLOR), name="H1")
         self.h1_outside_curve = self.magnitude_plot.plot(pen=pen("#bbbbbb", 1.0), name="H1, force too low")
         self.h2_curve = self.magnitude_plot.plot(pen=pen(PALETTE[4], 1.0, Qt.PenStyle.DashLine), name="H2")
+        self.hv_curve = self.magnitude_plot.plot(pen=pen(PALETTE[6], 1.0, Qt.PenStyle.DotLine), name="Hv")
         self.upper_curve = pg.PlotDataItem(pen=pen(PALETTE[5], 0.5))
         self.lower_curve = pg.PlotDataItem(pen=pen(PALETTE[5], 0.5))
         band_brush = pg.mkBrush(86, 180, 233, 80)
@@ -103,26 +124,46 @@ class FrfTab(QWidget):
 
         grid = QGridLayout(self)
         grid.addLayout(controls, 0, 0, 1, 2)
-        grid.addWidget(self.magnitude_plot, 1, 0, 2, 1)
-        grid.addWidget(self.phase_plot, 1, 1)
-        grid.addWidget(self.coherence_plot, 2, 1)
-        grid.addWidget(self.real_plot, 3, 0)
-        grid.addWidget(self.imag_plot, 3, 1)
-        grid.setRowStretch(1, 1)
+        grid.addWidget(self.summary, 1, 0, 1, 2)
+        grid.addWidget(self.magnitude_plot, 2, 0, 2, 1)
+        grid.addWidget(self.phase_plot, 2, 1)
+        grid.addWidget(self.coherence_plot, 3, 1)
+        grid.addWidget(self.real_plot, 4, 0)
+        grid.addWidget(self.imag_plot, 4, 1)
         grid.setRowStretch(2, 1)
         grid.setRowStretch(3, 1)
+        grid.setRowStretch(4, 1)
 
         self.region.sigRegionChangeFinished.connect(self._region_moved)
         self.band_low.valueChanged.connect(self._band_typed)
         self.band_high.valueChanged.connect(self._band_typed)
         self.unit_combo.currentIndexChanged.connect(self.redraw)
+        self.scale_combo.currentIndexChanged.connect(self._set_magnitude_scale)
         self.uncertainty_combo.currentIndexChanged.connect(self.redraw)
         self.log_frequency.toggled.connect(self._set_log_frequency)
         controller.frf_changed.connect(self.set_frf)
+        controller.comparisons_changed.connect(self._comparisons_changed)
+        self._comparison_curves: list[pg.PlotDataItem] = []
 
     @property
     def unit(self) -> str:
         return self.unit_combo.currentText()
+
+    @property
+    def magnitude_scale(self) -> str:
+        return self.scale_combo.currentText()
+
+    def _shown_magnitude(self, magnitude: np.ndarray) -> np.ndarray:
+        """|H| as the magnitude plot draws it: as it is (log or linear axis) or in dB re 1 unit."""
+        if self.magnitude_scale != "dB":
+            return magnitude
+        with np.errstate(divide="ignore"):
+            return 20.0 * np.log10(magnitude)
+
+    def _set_magnitude_scale(self) -> None:
+        self.magnitude_plot.getPlotItem().setLogMode(y=self.magnitude_scale == "log")
+        self.redraw()
+        self.magnitude_plot.getPlotItem().vb.enableAutoRange(y=True)
 
     def set_frf(self, frf: FrfResult | None) -> None:
         """Keep the FRF; draw it now if the tab is visible, else when it is shown (hits arrive while measuring)."""
@@ -139,8 +180,9 @@ class FrfTab(QWidget):
     def redraw(self) -> None:
         self._stale = False
         frf = self.frf
-        curves = (self.h1_curve, self.h1_outside_curve, self.h2_curve, self.upper_curve, self.lower_curve, self.phase_curve,
+        curves = (self.h1_curve, self.h1_outside_curve, self.h2_curve, self.hv_curve, self.upper_curve, self.lower_curve, self.phase_curve,
                   self.real_curve, self.imag_curve, self.coherence_curve)
+        self._draw_comparisons(UNITS[self.unit])
         if frf is None:
             for curve in curves:
                 curve.setData([], [])
@@ -151,6 +193,8 @@ class FrfTab(QWidget):
         scale = UNITS[self.unit]
         for plot, label in ((self.magnitude_plot, "|H|"), (self.real_plot, "Re H"), (self.imag_plot, "Im H")):
             plot.getPlotItem().setLabel("left", label, units=self.unit)
+        if self.magnitude_scale == "dB":
+            self.magnitude_plot.getPlotItem().setLabel("left", "|H|", units=f"dB re 1 {self.unit}")
         keep = frf.freq_hz > 0
         freq = frf.freq_hz[keep]
         h1 = frf.h1[keep] * scale
@@ -159,11 +203,13 @@ class FrfTab(QWidget):
         floor = np.min(magnitude[magnitude > 0]) * 0.1 if np.any(magnitude > 0) else 1e-12
         _, usable_high = usable_band_hz(frf.freq_hz, frf.gff, self.controller.setup.usable_drop_db)
         inside = freq <= usable_high
-        self.h1_curve.setData(freq[inside], magnitude[inside])
-        self.h1_outside_curve.setData(freq[~inside], magnitude[~inside])
-        self.h2_curve.setData(freq, np.abs(frf.h2[keep] * scale))
-        self.upper_curve.setData(freq, magnitude + sigma)
-        self.lower_curve.setData(freq, np.maximum(magnitude - sigma, floor))
+        shown = self._shown_magnitude
+        self.h1_curve.setData(freq[inside], shown(magnitude[inside]))
+        self.h1_outside_curve.setData(freq[~inside], shown(magnitude[~inside]))
+        self.h2_curve.setData(freq, shown(np.abs(frf.h2[keep] * scale)))
+        self.hv_curve.setData(freq, shown(np.abs(frf.hv[keep] * scale)))
+        self.upper_curve.setData(freq, shown(magnitude + sigma))
+        self.lower_curve.setData(freq, shown(np.maximum(magnitude - sigma, floor)))
         self.phase_curve.setData(freq, phase_deg(h1))
         self.real_curve.setData(freq, h1.real)
         self.imag_curve.setData(freq, h1.imag)
@@ -180,6 +226,35 @@ class FrfTab(QWidget):
             f"peak {frf.freq_hz[peak]:.1f} Hz · mean γ² in band {mean_coherence:.3f} · usable to {usable_high:.0f} Hz"
         )
         self._update_legends()
+
+    def _choose_comparisons(self) -> None:
+        folder = self.controller.session_path.parent if self.controller.session_path else self.controller.session_dir
+        paths, _ = QFileDialog.getOpenFileNames(self, "Sessions to compare", str(folder), "gasfilm session (*.h5)")
+        if paths:
+            self.controller.add_comparisons(paths)
+
+    def _comparisons_changed(self) -> None:
+        self.clear_compare_button.setEnabled(bool(self.controller.comparisons))
+        self._stale = True
+        if self.isVisible():
+            self.redraw()
+
+    def _draw_comparisons(self, scale: float) -> None:
+        """Each compared session's H1 (magnitude and phase) in its own colour, named in the legends."""
+        for curve in self._comparison_curves:
+            for plot in (self.magnitude_plot, self.phase_plot):
+                if curve in plot.getPlotItem().listDataItems():
+                    plot.removeItem(curve)
+        self._comparison_curves = []
+        for number, (label, frf) in enumerate(self.controller.comparisons):
+            keep = frf.freq_hz > 0
+            color = PALETTE[(number + 1) % len(PALETTE)]
+            h = frf.h1[keep] * scale
+            self._comparison_curves += [
+                self.magnitude_plot.plot(frf.freq_hz[keep], self._shown_magnitude(np.abs(h)), pen=pen(color, 1.2),
+                                         name=label),
+                self.phase_plot.plot(frf.freq_hz[keep], phase_deg(h), pen=pen(color, 1.0), name=label),
+            ]
 
     def _update_legends(self) -> None:
         for plot in (self.magnitude_plot, self.phase_plot, self.real_plot, self.imag_plot, self.coherence_plot):

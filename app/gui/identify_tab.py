@@ -33,7 +33,7 @@ from PySide6.QtWidgets import (
 
 from gasfilm.analysis.control import DEFAULT_MAX_ERROR, PlantSource, RationalModel, approximate
 from gasfilm.analysis.control.export import SUFFIXES, write_model
-from gasfilm.analysis.identification import METHODS
+from gasfilm.analysis.identification import DEFAULT_FIT_BAND_HZ, METHODS, best_by_bic
 from gasfilm.analysis.physics.elements import PAPER_MODEL_ORDER, PAPER_MODEL_TEXT, get_model
 from gasfilm.app.gui.controller import SessionController
 from gasfilm.app.gui.widgets import MEASURED_COLOR, PALETTE, FixedHeightLabel, make_plot, pen, phase_deg
@@ -41,9 +41,12 @@ from gasfilm.drivers.errors import GasfilmError
 from gasfilm.drivers.interface import STANDARD_GRAVITY_M_S2
 
 DEFAULT_MODELS = ("SD", "FOMGF")
-TABLE2_COLUMNS = ("#", "Model", "k", "RMS (g/N)", "E", "Peak error (g/N)", "E_m", "AIC", "BIC", "Hits")
 #: the colour of a stale fit's mark (made on fewer hits than the session now accepts)
 STALE_COLOR = "#a66300"
+TABLE2_COLUMNS = ("#", "Model", "Parameters", "RMS (g/N)", "E", "Peak error (g/N)", "E_m", "AIC", "BIC", "At bound",
+                  "Hits")
+#: Rows the parameter table shows without scrolling: the most parameters of the paper's models (FOBGF), and one more.
+PARAMETER_ROWS = 9
 WAITING_TEXT = "Fitting waits until the acquisition is stopped."
 READY_TEXT = "Acquisition stopped: the FRF is final. Pick the models and fit."
 METHOD_LABELS = {"default": "default (fast, multi-start least squares)", "gapso": "GA-PSO (the paper's)"}
@@ -119,12 +122,17 @@ class IdentifyTab(QWidget):
         self.parameters.setEditTriggers(QAbstractItemView.EditTrigger.NoEditTriggers)
         for table in (self.table, self.parameters):  # compact rows: Table 2's nine models show without scrolling
             table.verticalHeader().setDefaultSectionSize(22)
-        self.flags_label = QLabel()
-        self.flags_label.setWordWrap(True)
+        # every parameter of the largest model shows, whatever the flags and the control model below say
+        self.parameters.setMinimumHeight(self.parameters.horizontalHeader().sizeHint().height() + PARAMETER_ROWS * 22
+                                         + 2 * self.parameters.frameWidth() + 2)
+        self.flags_label = FixedHeightLabel(lines=3)
         table_box = QWidget()
         table_layout = QVBoxLayout(table_box)
         table_layout.setContentsMargins(0, 0, 0, 0)
-        table_layout.addWidget(QLabel("<b>Table 2</b> — RMS (eq. 33) and peak error in g/N; E, E_m against SD (eq. 35)"))
+        heading = QLabel("<b>Table 2</b> — RMS (eq. 33) and peak error in g/N; E, E_m against SD (eq. 35); * lowest "
+                         "BIC; at bound: parameters the fit left on a search bound")
+        heading.setWordWrap(True)
+        table_layout.addWidget(heading)
         table_layout.addWidget(self.table)
         parameters_box = QWidget()
         parameters_layout = QVBoxLayout(parameters_box)
@@ -137,8 +145,7 @@ class IdentifyTab(QWidget):
                                        f"{100 * DEFAULT_MAX_ERROR:g} % of it, stable and passive (gasfilm model)")
         self.export_control_button = QPushButton("Export for control design…")
         self.export_control_button.setToolTip("write the selected fit's state-space model as .json, .mat or .npz")
-        self.control_label = QLabel()
-        self.control_label.setWordWrap(True)
+        self.control_label = FixedHeightLabel(lines=2)
         control_row = QHBoxLayout()
         control_row.addWidget(self.control_button)
         control_row.addWidget(self.export_control_button)
@@ -172,6 +179,9 @@ class IdentifyTab(QWidget):
         self.control_plot = make_plot("Rational model of the selected fit: error against the fractional one",
                                       ("|G_rational / G_fractional − 1|", "%"), log_y=True)
         self.control_plot.getPlotItem().setLogMode(x=True, y=True)
+        # the empty plot's band in log10 coordinates (20–1000 read as exponents overflowed numpy at every start)
+        self.control_plot.getPlotItem().vb.setRange(xRange=np.log10(DEFAULT_FIT_BAND_HZ), padding=0.02,
+                                                    disableAutoRange=False)
         self.control_plot.getPlotItem().getAxis("bottom").enableAutoSIPrefix(False)
         figures = QTabWidget()
         figures.addTab(self._grid(list(self.fig18.values()), 2), "Figure 18 — fits")
@@ -182,7 +192,7 @@ class IdentifyTab(QWidget):
         right = QSplitter(Qt.Orientation.Vertical)
         right.addWidget(table_panel)
         right.addWidget(figures)
-        right.setSizes([330, 600])
+        right.setSizes([400, 530])
         splitter = QSplitter(Qt.Orientation.Horizontal)
         splitter.addWidget(left_box)
         splitter.addWidget(right)
@@ -297,8 +307,11 @@ class IdentifyTab(QWidget):
         self.control_label.clear()
         rows = self.controller.comparison
         g = STANDARD_GRAVITY_M_S2
+        best = best_by_bic(rows) if len(rows) > 1 else None
         self.table.setRowCount(len(rows))
         for r, row in enumerate(rows):
+            fit = self.controller.fits.get(row.model_name)
+            at_bound = ", ".join(fit.at_bound) if fit is not None and fit.at_bound else "—"
             values = (
                 str(row.rank),
                 row.model_name,
@@ -308,7 +321,8 @@ class IdentifyTab(QWidget):
                 f"{row.peak_error / g:.4g}",
                 _percent(row.e_m_percent),
                 f"{row.aic:.1f}",
-                f"{row.bic:.1f}",
+                f"{row.bic:.1f}" + (" *" if row is best else ""),
+                at_bound,
                 "",  # hits: _show_hits
             )
             for c, value in enumerate(values):

@@ -21,7 +21,7 @@ from PySide6.QtWidgets import (
     QWidget,
 )
 
-from gasfilm.app.gui.controller import SessionController
+from gasfilm.app.gui.controller import STOP_FIRST, SessionController
 from gasfilm.app.gui.diagnose_tab import DiagnoseTab
 from gasfilm.app.gui.frf_tab import FrfTab
 from gasfilm.app.gui.identify_tab import IdentifyTab
@@ -64,6 +64,7 @@ class MainWindow(QMainWindow):
         self.controller = SessionController(setup, session_dir, self)
         self.banner = Banner()
         self.pending_dialog: QMessageBox | None = None
+        self.running_dialog: QMessageBox | None = None
         self._closed = False
         self._closing_on_signal = False
         try:
@@ -111,10 +112,14 @@ class MainWindow(QMainWindow):
         self._build_menus()
 
         self.setup_tab.changed.connect(self._setup_changed)
+        self.measure_tab.apply_hit_check.connect(self.apply_hit_check)
+        self.measure_tab.window_dragged.connect(self.setup_tab.set_window)
+        self.setup_tab.teds_said.connect(lambda text: self.banner.show_message(text, "info"))
         self.setup_tab.changed.connect(lambda: self.rigid_tab.refresh() if self.controller.session is None else None)
         self.controller.message.connect(self.banner.show_message)
         self.controller.session_changed.connect(self._session_changed)
         self.controller.acquisition_state.connect(self._acquisition_state)
+        self.controller.acquisition_state.connect(self._session_changed)
         self.controller.fits_changed.connect(lambda: self.frf_tab.show_band(self.controller.fit_band_hz))
         self.status_timer = QTimer(self)
         self.status_timer.setInterval(STATUS_INTERVAL_MS)
@@ -134,15 +139,24 @@ class MainWindow(QMainWindow):
         session.addSeparator()
         self._add_action(session, "&Replay with the current Setup settings", self.controller.replay)
         session.addSeparator()
-        self._add_action(session, "Export FRF as &UFF 58…", lambda: self._export("UFF 58 (*.uff)", self.controller.export_uff))
-        self._add_action(session, "Export FRF as &CSV…", lambda: self._export("CSV (*.csv)", self.controller.export_csv))
-        self._add_action(session, "Export this tab as &PNG…", lambda: self._export("PNG image (*.png)", self.export_png))
+        self._add_action(session, "Export FRF as &UFF 58…",
+                         lambda: self._export("UFF 58 (*.uff)", self.controller.export_uff, ".uff"))
+        self._add_action(session, "Export FRF as &CSV…",
+                         lambda: self._export("CSV (*.csv)", self.controller.export_csv, ".csv"))
+        self._add_action(session, "Export this tab as &PNG…",
+                         lambda: self._export("PNG image (*.png)", self.export_png, f"-{self._tab_name()}.png"))
         self._add_action(
             session, "Write a &report (HTML or PDF)…",
-            lambda: self._export("HTML report (*.html);;PDF report (*.pdf)", self.write_report),
+            lambda: self._export("HTML report (*.html);;PDF report (*.pdf)", self.write_report, "-report.html"),
         )
         session.addSeparator()
         self._add_action(session, "&Quit", self.close, QKeySequence.StandardKey.Quit)
+        measure = self.menuBar().addMenu("&Measure")
+        for name, action in self.measure_tab.actions_by_name.items():
+            if name in ("accept", "undo"):
+                measure.addSeparator()
+            measure.addAction(action)
+        self.measure_menu = measure
         simulator = self.menuBar().addMenu("Si&mulator")
         faults = simulator.addMenu("Inject a device &fault")
         for kind, label in SIM_FAULTS.items():
@@ -161,20 +175,21 @@ class MainWindow(QMainWindow):
 
     def new_session(self) -> None:
         path, _ = QFileDialog.getSaveFileName(
-            self, "New session file", str(self.controller.session_dir), "gasfilm session (*.h5)"
+            self, "New session file", str(self.dialog_folder()), "gasfilm session (*.h5)"
         )
         if path:
             self.controller.new_session(path)
 
     def open_session(self) -> None:
         path, _ = QFileDialog.getOpenFileName(
-            self, "Open session", str(self.controller.session_dir), "gasfilm session (*.h5)"
+            self, "Open session", str(self.dialog_folder()), "gasfilm session (*.h5)"
         )
         if path:
             self.controller.open_session(path)
 
     def save_session_as(self) -> None:
-        path, _ = QFileDialog.getSaveFileName(self, "Save session as", "", "gasfilm session (*.h5)")
+        path, _ = QFileDialog.getSaveFileName(self, "Save session as", str(self.proposed_path("-copy.h5")),
+                                              "gasfilm session (*.h5)")
         if path:
             self.controller.save_session_as(path)
 
@@ -200,8 +215,23 @@ class MainWindow(QMainWindow):
             path = path.with_suffix(".html")
         return write_report(self.controller.session_path, path, overwrite=True)
 
-    def _export(self, file_filter: str, export) -> None:
-        path, _ = QFileDialog.getSaveFileName(self, "Export", "", file_filter)
+    def _tab_name(self) -> str:
+        return self.tabs.tabText(self.tabs.currentIndex()).split()[-1].lower()
+
+    def dialog_folder(self) -> Path:
+        """Where a file dialog opens: the open session's folder, else the folder sessions are made in (never the
+        process's working directory)."""
+        if self.controller.session_path is not None:
+            return self.controller.session_path.parent
+        return self.controller.session_dir
+
+    def proposed_path(self, ending: str) -> Path:
+        """The file a dialog proposes: the session's name with ``ending`` ("-report.html", ".uff", …) in its folder."""
+        stem = self.controller.session_path.stem if self.controller.session_path is not None else "gasfilm"
+        return self.dialog_folder() / f"{stem}{ending}"
+
+    def _export(self, file_filter: str, export, ending: str) -> None:
+        path, _ = QFileDialog.getSaveFileName(self, "Export", str(self.proposed_path(ending)), file_filter)
         if not path:
             return
         try:
@@ -211,21 +241,54 @@ class MainWindow(QMainWindow):
             return
         self.banner.show_message(f"exported {written}", "info")
 
+    def apply_hit_check(self) -> None:
+        """Stop the hit check and set the Setup tab as its taps propose (one click)."""
+        state = self.controller.hit_check_setup()
+        if state is None:
+            return
+        self.controller.stop_and_wait()
+        self.setup_tab.set_state(state)
+        proposal = self.controller.hit_check_proposal
+        window = f"exponential window to {proposal.exponential_end_fraction:g}" \
+            if proposal.exponential_end_fraction is not None else "no exponential window"
+        tip = f", {proposal.tip} tip on the simulated hammer" if proposal.tip and state.sim_tip == proposal.tip else ""
+        self.banner.show_message(
+            f"hit check applied: trigger {proposal.trigger_level_n:g} N, record {proposal.record_s:g} s, force window "
+            f"{proposal.force_window_ms:g} ms, {window}{tip}" + (f" (change the hammer's tip: {proposal.tip})"
+                                                                if proposal.tip and not tip else ""), "info")
+
     # --- state ------------------------------------------------------------------------------------------------------
 
     def _setup_changed(self) -> None:
         state = self.setup_tab.state()
+        windows_changed = state.window != self.controller.setup.window
         self.controller.setup = state
+        if windows_changed and not self.controller.acquiring:  # other windows: the FRF follows at once
+            self.controller.update_running_frf()
+            self.measure_tab.draw_windows()
         save_setup(self.settings, state)
         self.simulator_menu.setEnabled(state.device == SIMULATED_DEVICE_NAME)
         if not self.controller.acquiring:
             self.measure_tab.hammer_box.setVisible(state.device == SIMULATED_DEVICE_NAME)
 
-    def _session_changed(self, path: str) -> None:
-        self.session_label.setText(f"Session: {path}" if path else "Session: none (the next Arm creates one)")
+    def _session_changed(self, *_: object) -> None:
+        """The status bar names the session the hits go into: open, about to be created by the next Arm, or none;
+        during a hit check, that nothing is recorded."""
+        controller = self.controller
+        if controller.hit_checking:
+            text = "Hit check: nothing is recorded (Stop, then Arm to record)"
+        elif controller.session is not None and controller.session_path is not None:
+            text = f"Session: {controller.session_path}"
+        elif controller.session_path is not None:
+            text = f"Session: {controller.session_path} (new: the next Arm records into it)"
+        else:
+            text = f"Session: none (the next Arm creates one in {controller.session_dir})"
+        self.session_label.setText(text)
 
     def _acquisition_state(self, state: str) -> None:
         self.setup_tab.setEnabled(state == "idle")
+        if state == "idle":
+            self.banner.withdraw(STOP_FIRST)
         if state == "starting":
             self.tabs.setCurrentWidget(self.measure_tab)
 
@@ -241,6 +304,24 @@ class MainWindow(QMainWindow):
             f"{loop.channel_count} ch · {loop.sample_rate_hz:g} S/s · "
             f"{seconds:.1f} s streamed · view {self.measure_tab.redraw_rate_hz():.0f} fps{dropped}"
         )
+
+    def ask_about_running_acquisition(self) -> bool:
+        """Quitting while armed: stop the acquisition and quit (every hit is already stored), or stay. False: stay."""
+        if not self.controller.acquiring:
+            return True
+        what = "A hit check runs" if self.controller.hit_checking else (
+            f"The acquisition runs ({len(self.controller.hits)} hits recorded, each already in the session)")
+        box = QMessageBox(self)
+        box.setIcon(QMessageBox.Icon.Question)
+        box.setWindowTitle("Stop the acquisition?")
+        box.setText(f"{what}. Stop it and quit?")
+        quit_button = box.addButton("Stop and quit", QMessageBox.ButtonRole.AcceptRole)
+        cancel = box.addButton(QMessageBox.StandardButton.Cancel)
+        box.setDefaultButton(cancel)
+        self.running_dialog = box  # tests answer it
+        box.exec()
+        self.running_dialog = None
+        return box.clickedButton() is quit_button
 
     def ask_about_pending_hits(self) -> bool:
         """Before quitting with hits that wait for a decision: accept them, reject them, or keep them waiting
@@ -284,7 +365,7 @@ class MainWindow(QMainWindow):
         if self._closed:
             super().closeEvent(event)
             return
-        if not self._closing_on_signal and not self.ask_about_pending_hits():
+        if not self._closing_on_signal and not (self.ask_about_running_acquisition() and self.ask_about_pending_hits()):
             event.ignore()
             return
         save_setup(self.settings, self.setup_tab.state())
@@ -293,10 +374,19 @@ class MainWindow(QMainWindow):
         super().closeEvent(event)
 
 
-def run_gui(device: str | None = None, session: str | Path | None = None) -> int:
-    """Start the GUI (``gasfilm gui``); ``device`` overrides the remembered device, ``session`` opens a file."""
+def run_gui(device: str | None = None, session: str | Path | None = None, received: list[int] | None = None) -> int:
+    """Start the GUI (``gasfilm gui``); ``device`` overrides the remembered device, ``session`` opens a file;
+    ``received`` holds stop signals that arrived while it loaded (kept, and more added, until the window stands)."""
+    # SIGTERM, SIGHUP and SIGINT (Ctrl-C) while the window is being built are kept, not raised inside Qt's calls
+    # (where an exception is lost): once the window stands, it quits as on a later signal.
+    received = [] if received is None else received
+    stop_signals = (signal.SIGTERM, signal.SIGHUP, signal.SIGINT)
+    for number in stop_signals:
+        signal.signal(number, lambda number_received, _frame: received.append(number_received))
     app = QApplication.instance() or QApplication(sys.argv[:1])
     warm_up_job_processes()  # fits and diagnoses run in child processes: have their fork server ready
+    if received:  # (before a window exists: the start is interrupted)
+        raise KeyboardInterrupt(signal.Signals(received[0]).name)
     app.setOrganizationName(SETTINGS_ORGANIZATION)
     app.setApplicationName(SETTINGS_APPLICATION)
     window = MainWindow()
@@ -306,10 +396,13 @@ def run_gui(device: str | None = None, session: str | Path | None = None) -> int
         window.setup_tab.set_state(state)
     if session:
         window.controller.open_session(session)
-    for number in (signal.SIGTERM, signal.SIGHUP, signal.SIGINT):  # Ctrl-C in the terminal quits the same way
-        signal.signal(number, lambda received, _frame: QTimer.singleShot(0, lambda: window.close_on_signal(received)))
+    for number in stop_signals:  # Ctrl-C in the terminal quits the same way
+        signal.signal(number, lambda number_received, _frame: QTimer.singleShot(
+            0, lambda: window.close_on_signal(number_received)))
     heartbeat = QTimer(window)  # Python runs signal handlers only between bytecodes: wake it while Qt waits
     heartbeat.timeout.connect(lambda: None)
     heartbeat.start(250)
     window.show()
+    if received:
+        QTimer.singleShot(0, lambda: window.close_on_signal(received[0]))
     return app.exec()

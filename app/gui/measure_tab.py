@@ -4,14 +4,16 @@ coherence."""
 
 from __future__ import annotations
 
+import dataclasses
 import time
 
 import numpy as np
 import pyqtgraph as pg
-from PySide6.QtCore import Qt, QTimer
-from PySide6.QtGui import QColor
+from PySide6.QtCore import Qt, QTimer, Signal
+from PySide6.QtGui import QAction, QColor, QKeySequence
 from PySide6.QtWidgets import (
     QAbstractItemView,
+    QPlainTextEdit,
     QCheckBox,
     QGroupBox,
     QHeaderView,
@@ -48,6 +50,8 @@ from gasfilm.drivers.errors import GasfilmError
 from gasfilm.drivers.interface import STANDARD_GRAVITY_M_S2, ChannelKind
 
 REDRAW_INTERVAL_MS = 40  # 25 frames per second
+#: Where the force window's cursor sits on the selected hit while the window is off (dragging it switches it on).
+DRAG_START_FORCE_WINDOW_MS = 5.0
 #: While a fit or diagnosis runs, the live view draws 5 frames per second: the drawing shares the Python interpreter
 #: with the job, which then runs nearly as fast as on the command line (benchmarks/bench_gui_jobs.py).
 BUSY_REDRAW_INTERVAL_MS = 200
@@ -66,6 +70,17 @@ LIVE_RESPONSE_TITLE = "Live: response"
 #: The live force view reaches this far past the trigger level, so the dashed line and its label stay inside.
 TRIGGER_HEADROOM = 1.25  # force pulses are overlaid from 2 ms before to 10 ms after the trigger
 _HIT_COLUMNS = ("Hit", "Time (s)", "Peak force (N)", "Verdict", "Reasons")
+#: The technician's keys at the rig (a foot switch is set up to send one of them). Shown in the Measure menu and in
+#: the buttons' tooltips; they work wherever the focus is in the window, except while typing in a text field.
+SHORTCUTS = {
+    "hit_check": "F4",
+    "arm": "F5",
+    "stop": "F6",
+    "accept": "A",
+    "reject": "R",
+    "undo": "Ctrl+Z",
+    "accept_pending": "Shift+A",
+}
 
 
 def stacked(*widgets: QWidget) -> QWidget:
@@ -79,15 +94,19 @@ def stacked(*widgets: QWidget) -> QWidget:
 
 
 def verdict_text(entry: HitEntry) -> tuple[str, str]:
+    """The verdict in the words every view uses (the report and ``replay`` say "by hand" too)."""
     if entry.pending:
         return "pending", PENDING_COLOR
     if entry.verdict.accepted:
-        return ("accepted (by you)" if entry.verdict.overridden else "accepted"), ACCEPTED_COLOR
-    return ("rejected (by you)" if entry.verdict.overridden else "rejected"), REJECTED_COLOR
+        return ("accepted (by hand)" if entry.verdict.overridden else "accepted"), ACCEPTED_COLOR
+    return ("rejected (by hand)" if entry.verdict.overridden else "rejected"), REJECTED_COLOR
 
 
 class MeasureTab(QWidget):
     """The technician's main screen while hitting the structure."""
+
+    apply_hit_check = Signal()  # the technician accepts the hit check's proposal (the window applies it to Setup)
+    window_dragged = Signal(dict)  # window settings changed by dragging a window's cursor on the selected hit
 
     def __init__(self, controller: SessionController, parent: QWidget | None = None) -> None:
         super().__init__(parent)
@@ -96,19 +115,17 @@ class MeasureTab(QWidget):
         self.redraw_seconds = 0.0
         self._first_redraw_s: float | None = None
 
+        self.hit_check_button = QPushButton("Hit check")
+        self.hit_check_button.setObjectName("hit_check")
         self.arm_button = QPushButton("Arm")
         self.arm_button.setObjectName("arm")
         self.stop_button = QPushButton("Stop")
         self.stop_button.setObjectName("stop")
-        self.arm_button.clicked.connect(controller.arm)
-        self.stop_button.clicked.connect(controller.stop)
         self.state_label = QLabel()
         self.state_label.setMinimumWidth(260)
         self.counter_label = QLabel()
         self.accept_pending_button = QPushButton("Accept all pending")
         self.accept_pending_button.setObjectName("accept_pending")
-        self.accept_pending_button.setToolTip("Accept every hit that waits for your decision")
-        self.accept_pending_button.clicked.connect(controller.accept_all_pending)
         self.hammer_buttons: dict[str, QPushButton] = {}
         hammer_box = QGroupBox("Virtual hammer (simulated rig)")
         hammer_layout = QHBoxLayout(hammer_box)
@@ -121,6 +138,7 @@ class MeasureTab(QWidget):
             self.hammer_buttons[tip] = button
         self.hammer_box = hammer_box
         top = QHBoxLayout()
+        top.addWidget(self.hit_check_button)
         top.addWidget(self.arm_button)
         top.addWidget(self.stop_button)
         top.addWidget(self.state_label)
@@ -172,8 +190,6 @@ class MeasureTab(QWidget):
         self.accept_button.setObjectName("accept")
         self.reject_button = QPushButton("Reject hit")
         self.reject_button.setObjectName("reject")
-        self.accept_button.clicked.connect(lambda: self._decide(True))
-        self.reject_button.clicked.connect(lambda: self._decide(False))
         for button in (self.accept_button, self.reject_button):
             button.setEnabled(False)  # until a hit is selected
         self.hit_plot = make_plot(
@@ -197,6 +213,29 @@ class MeasureTab(QWidget):
         self.hit_response_curve.setClipToView(True)
         self.hit_response_view.addItem(self.hit_response_curve)
         hit_item.vb.sigResized.connect(lambda: self.hit_response_view.setGeometry(hit_item.vb.sceneBoundingRect()))
+        # The windows on the trace: the force window's end and the exponential window's time constant are cursors;
+        # dragging one sets the window (Setup ▸ Windows) and the FRF follows at once.
+        self.force_window_curve = pg.PlotDataItem(pen=pen(PALETTE[0], 1.0, Qt.PenStyle.DotLine))
+        self.hit_plot.addItem(self.force_window_curve, ignoreBounds=True)
+        self.exp_window_curve = pg.PlotDataItem(pen=pen(PALETTE[1], 1.0, Qt.PenStyle.DotLine))
+        self.hit_response_view.addItem(self.exp_window_curve, ignoreBounds=True)
+        self.force_window_line = pg.InfiniteLine(
+            angle=90, movable=True, pen=pen(PALETTE[0], 2.0, Qt.PenStyle.DashLine), hoverPen=pen(PALETTE[0], 3.0),
+            label="", labelOpts={"position": 0.92, "color": PALETTE[0], "anchors": [(0, 1), (0, 1)]})
+        self.exp_window_line = pg.InfiniteLine(
+            angle=90, movable=True, pen=pen(PALETTE[1], 2.0, Qt.PenStyle.DashLine), hoverPen=pen(PALETTE[1], 3.0),
+            label="", labelOpts={"position": 0.8, "color": PALETTE[1], "anchors": [(0, 1), (0, 1)]})
+        self.force_window_line.setToolTip("Force window: drag its end (the force after it is set to 0)")
+        self.exp_window_line.setToolTip("Exponential window: drag its time constant τ (the window is 1/e there)")
+        # (the cursors join the plot with the first hit shown: hidden lines with labels would relayout the tab on
+        # every show)
+        self.force_window_line.sigPositionChanged.connect(self._force_window_dragged)
+        self.exp_window_line.sigPositionChanged.connect(self._exp_window_dragged)
+        self._dragged_window: dict = {}
+        self._window_timer = QTimer(self)
+        self._window_timer.setSingleShot(True)
+        self._window_timer.setInterval(80)  # a drag redraws the FRF at most about 12 times a second
+        self._window_timer.timeout.connect(self._apply_dragged_window)
         hits = QWidget()
         hits_layout = QVBoxLayout(hits)
         hits_layout.setContentsMargins(0, 0, 0, 0)
@@ -237,12 +276,16 @@ class MeasureTab(QWidget):
             "Accepted hits: responses", ("Acceleration", "m/s²"), ("Time from trigger", "s"), legend=False
         )
         self._overlay_curves: list[pg.PlotDataItem] = []
+        self._mixed_tips_said = False
+        self.mixed_tips_warning = ""
         overlay_page = stacked(self.overlay_force_plot, self.overlay_response_plot)
 
         self.hit_views = QTabWidget()
         self.hit_views.addTab(self.hit_plot, "Selected hit")
         self.hit_views.addTab(spectrum_page, "Force spectrum")
         self.hit_views.addTab(overlay_page, "Overlay of accepted hits")
+        self.hit_check_page = self._make_hit_check_page()
+        self.hit_views.addTab(self.hit_check_page, "Hit check")
         # The hit list and the views share the column 2 : 3 whatever the views' pages ask for: switching to the
         # force spectrum moves nothing.
         for widget in (self.hit_table, self.hit_views):
@@ -285,6 +328,8 @@ class MeasureTab(QWidget):
         layout.addLayout(top)
         layout.addWidget(splitter, 1)
 
+        self.actions_by_name = self._make_actions()
+
         self.redraw_timer = QTimer(self)
         self.redraw_timer.setInterval(REDRAW_INTERVAL_MS)
         self.redraw_timer.timeout.connect(self.redraw_live)
@@ -297,9 +342,44 @@ class MeasureTab(QWidget):
         controller.frf_changed.connect(self._on_frf)
         controller.session_changed.connect(self._clear_live)
         controller.job_running.connect(self._pace_live_view)
+        controller.hit_check_changed.connect(self._on_hit_check)
         self._on_state("idle")
         self._update_counter()
         self._on_frf(None)
+
+    def _make_actions(self) -> dict[str, QAction]:
+        """The Measure menu's actions with their keys (:data:`SHORTCUTS`), and the buttons that trigger them, each
+        button's tooltip naming its key."""
+        c = self.controller
+        spec = {
+            "hit_check": ("&Hit check", "Hit check: tap a few times (nothing is recorded) for the trigger level, force "
+                          "range, tip, windows and record length", c.start_hit_check, self.hit_check_button),
+            "arm": ("&Arm", "Arm: record every hit into the session", c.arm, self.arm_button),
+            "stop": ("&Stop", "Stop the acquisition (every hit is already stored)", c.stop, self.stop_button),
+            "accept": ("A&ccept hit", "Accept the hit that waits for you (else the selected hit)",
+                       lambda: self.decide_by_key(True), self.accept_button),
+            "reject": ("&Reject hit", "Reject the hit that waits for you (else the selected hit)",
+                       lambda: self.decide_by_key(False), self.reject_button),
+            "undo": ("&Undo last hit", "Take the newest accepted hit out of the average (rejected by hand)",
+                     self.undo_last_hit, None),
+            "accept_pending": ("Accept all &pending", "Accept every hit that waits for your decision",
+                               c.accept_all_pending, self.accept_pending_button),
+        }
+        actions = {}
+        for name, (text, tip, slot, button) in spec.items():
+            action = QAction(text, self)
+            action.setObjectName(f"{name}_action")
+            action.setShortcut(QKeySequence(SHORTCUTS[name]))
+            action.setShortcutContext(Qt.ShortcutContext.WindowShortcut)
+            key = action.shortcut().toString(QKeySequence.SequenceFormat.NativeText)
+            action.setToolTip(f"{tip} ({key})")
+            action.triggered.connect(lambda _=False, run=slot: run())
+            self.addAction(action)  # the key works whichever tab is shown
+            if button is not None:
+                button.setToolTip(f"{tip} ({key})")
+                button.clicked.connect(action.trigger)
+            actions[name] = action
+        return actions
 
     # --- live view ---------------------------------------------------------------------------------------------------
 
@@ -380,13 +460,30 @@ class MeasureTab(QWidget):
 
     def _on_state(self, state: str) -> None:
         text, color = _STATE_STYLE.get(state, (state.upper(), "#666666"))
+        if self.controller.hit_checking and state in ("armed", "triggered"):
+            text, color = "HIT CHECK — tap; nothing is recorded", "#6a3d9a"
+        if self.controller.hit_checking and state == "starting":
+            self.hit_views.setCurrentWidget(self.hit_check_page)
+        elif state == "starting" and self.hit_views.currentWidget() is self.hit_check_page:
+            self.hit_views.setCurrentWidget(self.hit_plot)  # the test proper: its hits, not the check's taps
+        # the proposal applies to the Setup tab: not while a recording runs (it would stop it)
+        self.apply_proposal_button.setEnabled(self.controller.hit_check_proposal is not None
+                                              and (state == "idle" or self.controller.hit_checking))
+        # during a hit check the (empty) hit list gives its room to the taps and the proposal
+        checking = self.controller.hit_checking
+        for widget in (self.hit_table, self.verdict_label, self.accept_button, self.reject_button):
+            widget.setVisible(not checking)
         self.state_label.setText(text)
         self.state_label.setStyleSheet(
             f"QLabel {{ color: white; background: {color}; border-radius: 4px; padding: 4px 10px; font-weight: 700; }}"
         )
         running = state != "idle"
         self.arm_button.setEnabled(not running)
+        self.hit_check_button.setEnabled(not running)
         self.stop_button.setEnabled(running)
+        self.actions_by_name["hit_check"].setEnabled(not running)
+        self.actions_by_name["arm"].setEnabled(not running)
+        self.actions_by_name["stop"].setEnabled(running)
         self.hammer_box.setVisible(self.controller.is_simulated)
         self.hammer_box.setEnabled(running and state != "starting")
 
@@ -403,6 +500,7 @@ class MeasureTab(QWidget):
     # --- hit list ---------------------------------------------------------------------------------------------------
 
     def _rebuild_hits(self) -> None:
+        self._mixed_tips_said = False
         self.hit_table.setRowCount(0)
         for entry in self.controller.hits:
             self._append_row(entry)
@@ -481,9 +579,17 @@ class MeasureTab(QWidget):
             for curve in (force, response):
                 curve.setToolTip(f"hit {entry.index + 1}")
             self._overlay_curves += [force, response]
+        from gasfilm.analysis.hit_check import mixed_tips
+
         titles = f"{len(accepted)} accepted hits"
-        self.overlay_force_plot.setTitle(f"Force pulses of the {titles}")
+        warning = mixed_tips([entry.record for entry in accepted])
+        self.overlay_force_plot.setTitle(f"Force pulses of the {titles}" + (
+            f" — <span style='color:{REJECTED_COLOR}'>{warning.split(':')[0]}</span>" if warning else ""))
         self.overlay_response_plot.setTitle(f"Responses of the {titles}")
+        if warning and not self._mixed_tips_said:  # said once per session, where the technician looks
+            self._mixed_tips_said = True
+            self.controller.message.emit(warning, "warning")
+        self.mixed_tips_warning = warning
 
     def selected_index(self) -> int | None:
         rows = self.hit_table.selectionModel().selectedRows()
@@ -510,14 +616,113 @@ class MeasureTab(QWidget):
         self.hit_force_curve.setData(t, record.force_n)
         self.hit_response_curve.setData(t, record.response)
         self.hit_response_view.enableAutoRange()
+        self.draw_windows(entry)
         self._show_hit_spectrum(entry)
         self.accept_button.setEnabled(not entry.accepted)
         self.reject_button.setEnabled(entry.accepted or entry.pending)
 
-    def _decide(self, accepted: bool) -> None:
-        index = self.selected_index()
-        if index is not None:
-            self.controller.decide(index, accepted)
+    # --- the windows as cursors on the selected hit ----------------------------------------------------------------
+
+    def _selected_entry(self) -> HitEntry | None:
+        return next((e for e in self.controller.hits if e.index == self.selected_index()), None)
+
+    def draw_windows(self, entry: HitEntry | None = None) -> None:
+        """The force and exponential windows of the Setup tab over the selected hit: their shapes dotted (the force
+        window scaled to the peak force, the exponential one to the largest response) and their cursors."""
+        from gasfilm.analysis.spectra import exponential_window, force_window
+
+        entry = entry or self._selected_entry()
+        if entry is None:
+            for line in (self.force_window_line, self.exp_window_line):
+                if line.scene() is not None:
+                    self.hit_plot.removeItem(line)
+            self.force_window_curve.setData([], [])
+            self.exp_window_curve.setData([], [])
+            return
+        record = entry.record
+        rate, n = record.sample_rate_hz, record.n_samples
+        t = np.arange(n) / rate
+        window = self.controller.window_settings()
+        peak_s = int(np.argmax(np.abs(record.force_n))) / rate
+        force_ms = window.force_window_ms
+        force_on = force_ms is not None
+        shown = window if force_on else dataclasses.replace(window, force_window_ms=DRAG_START_FORCE_WINDOW_MS)
+        shape = force_window(record.force_n, rate, shown)[0]
+        self.force_window_curve.setData(t, shape * float(np.max(np.abs(record.force_n))) if force_on else [])
+        end = window.exponential_end_fraction
+        tau_s = (n - 1) / rate / -np.log(end) if end is not None and end < 1 else None
+        if tau_s is not None:
+            self.exp_window_curve.setData(t, exponential_window(n, end) * float(np.max(np.abs(record.response))))
+        else:
+            self.exp_window_curve.setData([], [])
+        for line in (self.force_window_line, self.exp_window_line):
+            if line.scene() is None:
+                self.hit_plot.addItem(line, ignoreBounds=True)
+        moving = not self.controller.acquiring  # a running acquisition keeps the windows it was armed with
+        for line, value, text in (
+            (self.force_window_line, peak_s + 1e-3 * (force_ms if force_on else DRAG_START_FORCE_WINDOW_MS),
+             f"force window {force_ms:.3g} ms" if force_on else "force window off (drag to set)"),
+            (self.exp_window_line, tau_s if tau_s is not None else 0.8 * (n - 1) / rate,
+             f"exp. window τ {tau_s:.3g} s, ends at {end:.3g}" if tau_s is not None else "exp. window off (drag)"),
+        ):
+            line.blockSignals(True)
+            line.setVisible(True)
+            line.setValue(value)
+            line.setMovable(moving)
+            line.label.setFormat(text)
+            line.blockSignals(False)
+
+    def _force_window_dragged(self) -> None:
+        entry = self._selected_entry()
+        if entry is None:
+            return
+        rate = entry.record.sample_rate_hz
+        peak_s = int(np.argmax(np.abs(entry.record.force_n))) / rate
+        width_ms = max(1e3 / rate, 1e3 * (self.force_window_line.value() - peak_s))
+        self._dragged_window["force_window_ms"] = float(f"{width_ms:.3g}")
+        self.force_window_line.label.setFormat(f"force window {width_ms:.3g} ms")
+        self._window_timer.start()
+
+    def _exp_window_dragged(self) -> None:
+        entry = self._selected_entry()
+        if entry is None:
+            return
+        record = entry.record
+        length_s = (record.n_samples - 1) / record.sample_rate_hz
+        tau_s = max(1.0 / record.sample_rate_hz, self.exp_window_line.value())
+        end = float(f"{min(1.0, max(1e-6, np.exp(-length_s / tau_s))):.3g}")
+        self._dragged_window["exponential_end_fraction"] = end
+        self.exp_window_line.label.setFormat(f"exp. window τ {tau_s:.3g} s, ends at {end:.3g}")
+        self._window_timer.start()
+
+    def _apply_dragged_window(self) -> None:
+        values, self._dragged_window = self._dragged_window, {}
+        if values:
+            self.window_dragged.emit(values)
+
+    def decide_by_key(self, accepted: bool) -> None:
+        """Accept or reject from the rig (a key or a foot switch): the selected hit when it waits for a decision,
+        else the oldest waiting hit, else the selected hit."""
+        hits = self.controller.hits
+        selected = next((e for e in hits if e.index == self.selected_index()), None)
+        waiting = [entry for entry in hits if entry.pending]
+        target = selected if selected is not None and selected.pending else (waiting[0] if waiting else selected)
+        if target is None:
+            self.controller.message.emit("no hit to decide on yet", "info")
+            return
+        self.select_hit(target.index)
+        self.controller.decide(target.index, accepted)
+
+    def undo_last_hit(self) -> None:
+        """Take the newest accepted hit out of the average (it stays in the session, rejected by hand)."""
+        accepted = [entry for entry in self.controller.hits if entry.accepted]
+        if not accepted:
+            self.controller.message.emit("undo: no accepted hit to take out of the average", "info")
+            return
+        last = accepted[-1]
+        self.select_hit(last.index)
+        self.controller.decide(last.index, False)
+        self.controller.message.emit(f"hit {last.index + 1} taken out of the average (rejected by hand)", "info")
 
     def _show_hit_spectrum(self, entry: HitEntry) -> None:
         """The selected hit's force spectrum (dB re its low-frequency level) with the usable band shaded."""
@@ -535,6 +740,70 @@ class MeasureTab(QWidget):
             f"above that the hammer put too little energy in (spectral nulls) and the FRF is not trusted."
         )
         show_legend_only_with_data(self.spectrum_plot)
+
+    # --- hit check ----------------------------------------------------------------------------------------------------
+
+    def _make_hit_check_page(self) -> QWidget:
+        self.tap_pulse_plot = make_plot("Taps: force pulses", ("Force", "N"), ("Time from trigger", "s"), legend=False)
+        self.tap_spectrum_plot = make_plot("Taps: force spectra", ("Force level", "dB re low f"), legend=False)
+        self.tap_spectrum_plot.getPlotItem().getAxis("left").enableAutoSIPrefix(False)
+        self.tap_spectrum_plot.setYRange(-45, 5)
+        self.tap_band = pg.LinearRegionItem(brush=pg.mkBrush(*BAND_BRUSH), movable=False)
+        self.tap_band.setZValue(-10)
+        self.tap_spectrum_plot.addItem(self.tap_band, ignoreBounds=True)
+        self.tap_drop_line = pg.InfiniteLine(pos=-self.controller.setup.usable_drop_db, angle=0,
+                                             pen=pen(REJECTED_COLOR, 1.0, Qt.PenStyle.DashLine))
+        self.tap_spectrum_plot.addItem(self.tap_drop_line, ignoreBounds=True)
+        # the proposal in a read-only text box: every line readable (it scrolls), nothing cut at the view's edge
+        self.proposal_label = QPlainTextEdit(
+            "Hit check: press Hit check (F4) and tap the structure a few times. Nothing is recorded; the taps "
+            "propose the trigger level, tip, windows and record length.")
+        self.proposal_label.setReadOnly(True)
+        self.proposal_label.setObjectName("hit_check_proposal")
+        self.proposal_label.setFixedHeight(9 * self.fontMetrics().lineSpacing() + 12)
+        self.apply_proposal_button = QPushButton("Apply the proposal to Setup")
+        self.apply_proposal_button.setObjectName("apply_hit_check")
+        self.apply_proposal_button.setToolTip("Stop the hit check and set the trigger level, record length, windows "
+                                              "(and on the simulated rig the tip) as proposed")
+        self.apply_proposal_button.setEnabled(False)
+        self.apply_proposal_button.clicked.connect(self.apply_hit_check)
+        page = QWidget()
+        layout = QVBoxLayout(page)
+        layout.setContentsMargins(0, 0, 0, 0)
+        plots = QHBoxLayout()
+        plots.addWidget(self.tap_pulse_plot)
+        plots.addWidget(self.tap_spectrum_plot)
+        layout.addLayout(plots, 1)
+        layout.addWidget(self.proposal_label)
+        layout.addWidget(self.apply_proposal_button)
+        return page
+
+    def _on_hit_check(self, proposal: object) -> None:
+        """Every tap's force pulse and spectrum, the band they cover, and the proposal in words."""
+        from gasfilm.analysis.hit_check import force_spectrum_db
+
+        for plot in (self.tap_pulse_plot, self.tap_spectrum_plot):
+            for item in plot.getPlotItem().listDataItems():
+                plot.removeItem(item)
+        taps = self.controller.taps
+        for number, record in enumerate(taps):
+            color = PALETTE[number % len(PALETTE)]
+            t_s = (np.arange(record.n_samples) - record.trigger_index) / record.sample_rate_hz
+            pulse = (t_s >= OVERLAY_PULSE_MS[0] / 1e3) & (t_s <= OVERLAY_PULSE_MS[1] / 1e3)
+            self.tap_pulse_plot.plot(t_s[pulse], record.force_n[pulse], pen=pen(color, 1.0))
+            freq, level = force_spectrum_db(record)
+            self.tap_spectrum_plot.plot(freq, level, pen=pen(color, 1.0))
+        low, high = self.controller.fit_band_hz
+        set_region_hz(self.tap_band, low, high, False)
+        self.tap_drop_line.setValue(-self.controller.setup.usable_drop_db)
+        if proposal is None:
+            self.proposal_label.setPlainText("Hit check running: tap the structure a few times (nothing is "
+                                             "recorded).")
+            self.apply_proposal_button.setEnabled(False)
+            return
+        self.proposal_label.setPlainText(proposal.text())
+        self.apply_proposal_button.setEnabled(True)
+        self.tap_pulse_plot.setTitle(f"{len(taps)} tap{'s' if len(taps) != 1 else ''}: force pulses")
 
     # --- running FRF ------------------------------------------------------------------------------------------------
 

@@ -3,7 +3,7 @@
 Runs the real GUI offscreen on the simulated rig: the paper's FOMGF film on 25.05 kg with a small extra mode of the
 mover that the design spec leaves out. It arms, hits with the virtual hammer, rejects one hit by hand, fits the
 paper's nine models, diagnoses the session against the design spec (which finds the extra mode), and writes one PNG
-per tab (and the Measure tab's force spectrum and overlay views) to ``docs/screenshots/`` (the README links them). Settings go to a temporary folder, not the user's.
+per tab (and the Measure tab's hit check, force spectrum and overlay views) to ``docs/screenshots/`` (the README links them). Settings go to a temporary folder, not the user's.
 """
 
 from __future__ import annotations
@@ -80,6 +80,18 @@ def take_screenshots(out_dir: Path) -> list[Path]:
     state.live_view_s = 3.0
     window.setup_tab.set_state(state)
     written = [_save(window, window.setup_tab, out_dir / "setup.png", app)]
+
+    controller.start_hit_check()  # the technician's trial taps before the test (nothing is recorded)
+    _wait_until(app, lambda: controller.state == "armed", 20, "the hit check to stream")
+    _settle(app, 0.5)
+    for number in range(3):
+        controller.virtual_hit("soft")
+        _wait_until(app, lambda n=number: len(controller.taps) == n + 1, 20, f"tap {number + 1}")
+        _settle(app, 0.3)
+    written.append(_save(window, window.measure_tab, out_dir / "measure-hit-check.png", app))
+    controller.stop()
+    _wait_until(app, lambda: controller.state == "idle", 20, "the hit check to stop")
+    window.measure_tab.hit_views.setCurrentIndex(0)
 
     controller.new_session(scratch / "session.h5")
     controller.arm()

@@ -8,11 +8,13 @@ Format (``fixtures/sensors.toml``)::
     sensitivity = 11.2
     units = "mV/N"            # see drivers.interface.SENSITIVITY_UNITS
     description = "modally tuned impact hammer"
-    serial = "LW12345"        # optional: one calibrated sensor (its sheet's sensitivity); listed as "model s/n …"
+    serial = "LW12345"        # optional: one calibrated sensor (its sheet's sensitivity); listed as "model s/n …",
+    calibration_date = 2026-03-02   # with its last calibration (a TOML date or "YYYY-MM-DD")
 """
 
 from __future__ import annotations
 
+import datetime
 import math
 import tomllib
 from dataclasses import dataclass
@@ -26,7 +28,8 @@ DEFAULT_SENSOR_LIBRARY = Path(__file__).resolve().parents[2] / "fixtures" / "sen
 
 @dataclass(frozen=True)
 class Sensor:
-    """One catalogue entry: what the sensor measures and its nominal sensitivity."""
+    """One library entry: a sensor model with its nominal sensitivity, or one sensor of it (serial number, calibrated
+    sensitivity and calibration date)."""
 
     model: str
     kind: ChannelKind
@@ -34,10 +37,12 @@ class Sensor:
     units: str
     description: str = ""
     serial: str = ""
+    calibration_date: str = ""  # ISO date of the last calibration, "" when not known
 
     @property
     def key(self) -> str:
-        """How the Setup tab names the entry: the model, and the serial number of a calibrated sensor."""
+        """How the Setup tab names the entry (and a channel row stores it): the model, and the serial number of a
+        calibrated sensor."""
         return f"{self.model} s/n {self.serial}" if self.serial else self.model
 
     @property
@@ -84,10 +89,23 @@ def load_sensor_library(path: str | Path = DEFAULT_SENSOR_LIBRARY) -> list[Senso
         if not isinstance(entry["model"], str) or not entry["model"].strip():
             raise SettingError(f"{where} model: {entry['model']!r} must be a non-empty text")
         serial = entry.get("serial", "")
-        if not isinstance(serial, str):
+        if not isinstance(serial, (str, int)) or isinstance(serial, bool):
             raise SettingError(f"{where} serial: {serial!r} must be a text")
-        sensors.append(
-            Sensor(entry["model"], kind, float(sensitivity), entry["units"], str(entry.get("description", "")),
-                   serial.strip())
-        )
+        sensors.append(Sensor(entry["model"], kind, float(sensitivity), entry["units"],
+                              str(entry.get("description", "")), str(serial).strip(),
+                              _calibration_date(entry.get("calibration_date", ""), where)))
     return sensors
+
+
+def _calibration_date(value: object, where: str) -> str:
+    """A calibration date as ISO text: a TOML date, or text in the form YYYY-MM-DD ("" when not given)."""
+    if isinstance(value, datetime.datetime):
+        return value.date().isoformat()
+    if isinstance(value, datetime.date):
+        return value.isoformat()
+    if value == "":
+        return ""
+    try:
+        return datetime.date.fromisoformat(str(value)).isoformat()
+    except ValueError:
+        raise SettingError(f"{where} calibration_date: {value!r} is not a date (YYYY-MM-DD)") from None

@@ -52,6 +52,9 @@ class ChannelSetup:
     units: str = "mV/(m/s^2)"
     iepe: bool = True
     coupling: str = Coupling.AC.value
+    serial: str = ""  # the sensor's serial number (library, TEDS or typed in)
+    calibration_date: str = ""  # its last calibration, YYYY-MM-DD ("" not known)
+    teds: str = ""  # what its TEDS chip said, when it was read (Read TEDS)
 
     def channel_config(self) -> ChannelConfig:
         return ChannelConfig(
@@ -98,6 +101,16 @@ class SetupState:
     usable_drop_db: float = 20.0  # the FRF is trusted where the force spectrum is within this of its low-f level
     #: Operating conditions as typed (name with its unit → value text; empty values are not recorded)
     conditions: dict[str, str] = field(default_factory=dict)
+    operator: str = ""  # who runs the test
+    test_object: str = ""  # what is tested (bearing, mover, serial number …)
+
+    def test_record(self) -> dict[str, Any]:
+        """Who tested what, with which sensors: stored with the session ("test" and "sensors") and shown by the
+        report."""
+        sensors = [{"channel": c.physical_channel, "name": c.name, "kind": c.kind, "model": c.sensor_model or "typed in",
+                    "serial": c.serial, "calibration_date": c.calibration_date, "teds": c.teds}
+                   for c in self.enabled_channels()]
+        return {"test": {"operator": self.operator, "test_object": self.test_object}, "sensors": sensors}
 
     def enabled_channels(self) -> list[ChannelSetup]:
         return [channel for channel in self.channels if channel.enabled]

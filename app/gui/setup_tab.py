@@ -40,13 +40,24 @@ from gasfilm.drivers.errors import GasfilmError
 from gasfilm.drivers.interface import NI9234_VALID_RATES_HZ, SENSITIVITY_UNITS, ChannelKind, Coupling
 
 TYPED_IN = "typed in"
-_COLUMNS = ("Use", "Channel", "Name", "Type", "Sensor", "Sensitivity", "Units", "IEPE", "Coupling")
+
+
+def _check_date(text: str, what: str) -> None:
+    import datetime
+
+    try:
+        datetime.date.fromisoformat(text)
+    except ValueError:
+        raise GasfilmError(f"{what}: '{text}' is not a date (YYYY-MM-DD)") from None
+_COLUMNS = ("Use", "Channel", "Name", "Type", "Sensor", "Sensitivity", "Units", "Serial", "Calibrated", "IEPE",
+            "Coupling")
 
 
 class SetupTab(QWidget):
     """Edits a :class:`SetupState`; ``changed`` fires on every edit, ``problem`` names what is invalid ('' if none)."""
 
     changed = Signal()
+    teds_said = Signal(str)  # what Read TEDS found, one line for the banner
 
     def __init__(self, state: SetupState, parent: QWidget | None = None) -> None:
         super().__init__(parent)
@@ -72,6 +83,14 @@ class SetupTab(QWidget):
         device_form.addRow("", self.sim_auto_hammer)
         device_form.addRow("Simulated hammer tip", self.sim_tip)
         device_form.addRow("Simulator seed", self.sim_seed)
+        self.operator = QLineEdit()
+        self.operator.setObjectName("operator")
+        self.operator.setPlaceholderText("who runs the test")
+        self.test_object = QLineEdit()
+        self.test_object.setObjectName("test_object")
+        self.test_object.setPlaceholderText("what is tested, e.g. air bearing B-17 on mover M2")
+        device_form.addRow("Operator", self.operator)
+        device_form.addRow("Test object", self.test_object)
 
         self.table = QTableWidget(len(state.channels), len(_COLUMNS))
         self.table.setHorizontalHeaderLabels(_COLUMNS)
@@ -89,6 +108,12 @@ class SetupTab(QWidget):
         channel_row.addStretch(1)
         channel_row.addWidget(self.library_label)
         channel_row.addWidget(library_button)
+        self.teds_button = QPushButton("Read TEDS")
+        self.teds_button.setObjectName("read_teds")
+        self.teds_button.setToolTip("Read the sensors' TEDS chips through the NI 9234 (IEPE sensors that have one): "
+                                    "sensitivity, serial number and model fill the rows")
+        self.teds_button.clicked.connect(lambda: self.teds_said.emit(self.read_teds()))
+        channel_row.addWidget(self.teds_button)
         channels_layout.addLayout(channel_row)
 
         self.rate_combo = QComboBox()
@@ -221,6 +246,8 @@ class SetupTab(QWidget):
             spin.valueChanged.connect(self._emit_changed)
         self.response_combo.currentIndexChanged.connect(self._emit_changed)
         self.rig_path.editingFinished.connect(self._emit_changed)
+        self.operator.editingFinished.connect(self._emit_changed)
+        self.test_object.editingFinished.connect(self._emit_changed)
         self.conditions_table.itemChanged.connect(self._emit_changed)
 
         self.refresh_devices()
@@ -263,6 +290,8 @@ class SetupTab(QWidget):
         self.target_averages.setValue(state.target_averages)
         self.usable_drop_db.setValue(state.usable_drop_db)
         self.rig_path.setText(state.rig_spec_path)
+        self.operator.setText(state.operator)
+        self.test_object.setText(state.test_object)
         self.conditions_table.setRowCount(0)
         for key, value in {**{key: "" for key in STANDARD_CONDITIONS}, **state.conditions}.items():
             self._add_condition_row(key, value)
@@ -290,7 +319,14 @@ class SetupTab(QWidget):
             min_coherence=self.min_coherence.value(),
             usable_drop_db=self.usable_drop_db.value(),
             conditions=self._conditions(),
+            operator=self.operator.text().strip(),
+            test_object=self.test_object.text().strip(),
         )
+
+    def set_window(self, values: dict) -> None:
+        """Change window settings (the cursors on the Measure tab); ``changed`` fires once."""
+        self.window_form.set_values(values)
+        self._emit_changed()
 
     def problem(self) -> str:
         """The first invalid setting as a one-line message, '' when the setup can be armed."""
@@ -303,6 +339,9 @@ class SetupTab(QWidget):
             if state.rig_spec_path:
                 RigSpec.load(state.rig_spec_path)
             parse_condition_table(state.conditions)
+            for channel in state.enabled_channels():
+                if channel.calibration_date:
+                    _check_date(channel.calibration_date, f"{channel.physical_channel} calibration date")
         except GasfilmError as error:
             return str(error)
         return ""
@@ -342,8 +381,15 @@ class SetupTab(QWidget):
         label = QLabel()
         label.setAlignment(Qt.AlignmentFlag.AlignCenter)
         use, name, sensor, units, iepe = QCheckBox(), QLineEdit(), QComboBox(), QComboBox(), QCheckBox()
-        for column, widget in enumerate((use, label, name, kind, sensor, sensitivity, units, iepe, coupling)):
+        serial, calibrated = QLineEdit(), QLineEdit()
+        serial.setPlaceholderText("serial")
+        calibrated.setPlaceholderText("YYYY-MM-DD")
+        calibrated.setToolTip("the sensor's last calibration date")
+        for column, widget in enumerate((use, label, name, kind, sensor, sensitivity, units, serial, calibrated, iepe,
+                                         coupling)):
             self.table.setCellWidget(row, column, widget)
+        serial.editingFinished.connect(self._emit_changed)
+        calibrated.editingFinished.connect(self._emit_changed)
         use.toggled.connect(lambda _=False: self._channels_changed())
         name.editingFinished.connect(self._emit_changed)
         kind.currentIndexChanged.connect(lambda _=0, r=row: self._kind_changed(r))
@@ -366,6 +412,9 @@ class SetupTab(QWidget):
         cells["Sensitivity"].setValue(channel.sensitivity)
         cells["IEPE"].setChecked(channel.iepe)
         cells["Coupling"].setCurrentText(channel.coupling)
+        cells["Serial"].setText(channel.serial)
+        cells["Calibrated"].setText(channel.calibration_date)
+        self._set_teds(row, channel.teds)
         for widget in cells.values():
             widget.blockSignals(False)
         self._fill_sensor_choices(row, channel.kind, channel.sensor_model)
@@ -386,6 +435,9 @@ class SetupTab(QWidget):
             units=self.channel_cell(row, "Units").currentText(),
             iepe=self.channel_cell(row, "IEPE").isChecked(),
             coupling=self.channel_cell(row, "Coupling").currentText(),
+            serial=self.channel_cell(row, "Serial").text().strip(),
+            calibration_date=self.channel_cell(row, "Calibrated").text().strip(),
+            teds=self.channel_cell(row, "Serial").property("teds") or "",
         )
 
     def _fill_sensor_choices(self, row: int, kind: str, selected: str) -> None:
@@ -396,7 +448,8 @@ class SetupTab(QWidget):
         for sensor in self.sensors:
             if sensor.kind.value == kind:
                 combo.addItem(sensor.key, sensor.key)
-                combo.setItemData(combo.count() - 1, sensor.description, Qt.ItemDataRole.ToolTipRole)
+                calibrated = f"; calibrated {sensor.calibration_date}" if sensor.calibration_date else ""
+                combo.setItemData(combo.count() - 1, sensor.description + calibrated, Qt.ItemDataRole.ToolTipRole)
         combo.setCurrentIndex(max(0, combo.findData(selected)))
         combo.blockSignals(False)
 
@@ -424,7 +477,47 @@ class SetupTab(QWidget):
             spin.setValue(sensor.sensitivity)
             spin.blockSignals(False)
             self._fill_units(row, sensor.kind.value, sensor.units)
+            self.channel_cell(row, "Serial").setText(sensor.serial)
+            self.channel_cell(row, "Calibrated").setText(sensor.calibration_date)
+            self._set_teds(row, "")
         self._emit_changed()
+
+    def _set_teds(self, row: int, teds: str) -> None:
+        """Remember what the row's TEDS chip said (shown as the serial's tooltip)."""
+        cell = self.channel_cell(row, "Serial")
+        cell.setProperty("teds", teds)
+        cell.setToolTip(teds or "the sensor's serial number")
+
+    def read_teds(self) -> str:
+        """Read the TEDS of every enabled channel's sensor (NI 9234: IEPE sensors with a TEDS chip): its sensitivity,
+        serial and model fill the row; returns what was found, one line."""
+        state = self.state()
+        channels = {c.physical_channel: ChannelKind(c.kind) for c in state.enabled_channels()}
+        try:
+            found = drivers.read_teds(state.device, channels)
+        except GasfilmError as error:
+            return f"TEDS: {error}"
+        said = []
+        for row in range(self.table.rowCount()):
+            channel = self._read_row(row).physical_channel
+            if channel not in found:
+                continue
+            teds = found[channel]
+            if teds is None:
+                said.append(f"{channel} no TEDS")
+                continue
+            self._fill_sensor_choices(row, self._read_row(row).kind, "")
+            spin: QDoubleSpinBox = self.channel_cell(row, "Sensitivity")
+            spin.blockSignals(True)
+            spin.setValue(teds.sensitivity)
+            spin.blockSignals(False)
+            self._fill_units(row, self._read_row(row).kind, teds.sensitivity_units)
+            self.channel_cell(row, "Serial").setText(str(teds.serial_number))
+            self._set_teds(row, teds.description())
+            said.append(f"{channel} serial {teds.serial_number}, {teds.sensitivity:g} {teds.sensitivity_units}")
+        self._emit_changed()
+        return "TEDS: " + "; ".join(said) + ("" if any("serial" in part for part in said) else
+                                             " (the sensors carry no TEDS chip)")
 
     def _typed_in(self, row: int) -> None:
         """A sensitivity or unit edited by hand no longer matches the library entry."""
@@ -481,7 +574,8 @@ class SetupTab(QWidget):
             self.load_sensor_library(path)
 
     def _choose_rig_spec(self) -> None:
-        path, _ = QFileDialog.getOpenFileName(self, "Rig spec", self.rig_path.text(), "Rig spec (*.toml)")
+        start = self.rig_path.text() or str(DEFAULT_SENSOR_LIBRARY.parent / "rigs")  # the shipped rig specs
+        path, _ = QFileDialog.getOpenFileName(self, "Rig spec", start, "Rig spec (*.toml)")
         if path:
             self.rig_path.setText(path)
             self._emit_changed()

@@ -121,6 +121,12 @@ class Banner(QFrame):
     def text(self) -> str:
         return self._label.text()
 
+    def withdraw(self, prefix: str) -> None:
+        """Hide the message shown if it starts with ``prefix``: a refusal whose reason has gone (the acquisition it
+        asked to stop has stopped) must not stay."""
+        if self.isVisible() and self.text.startswith(prefix):
+            self.hide()
+
     def show_message(self, text: str, severity: str = "error") -> None:
         background, foreground = _SEVERITY_STYLE[severity]
         self.severity = severity
@@ -299,6 +305,38 @@ class TidyPlotItem(pg.PlotItem):
         self.vb.sigRangeChanged.connect(self._legend_timer.start)
         self.vb.sigResized.connect(self._legend_timer.start)
         self.legend_corner = _LEGEND_CORNERS[0]
+        # the cursor read-out: the value under the mouse, with the axes' names and units, in the view's top left
+        # corner; made when the mouse first enters the view (an item in every view would repaint it on every change)
+        self.readout: pg.TextItem | None = None
+
+    def readout_text(self, view_x: float, view_y: float) -> str:
+        """The point (in view coordinates: log10 of a logarithmic axis) in the axes' words and units."""
+        x_log, y_log = self.vb.state["logMode"]
+        x = 10.0**view_x if x_log else view_x
+        y = 10.0**view_y if y_log else view_y
+        parts = []
+        for side, value in (("bottom", x), ("left", y)):
+            axis = self.getAxis(side)
+            name, unit = axis.labelText or side, axis.labelUnits
+            parts.append(f"{name} {value:.4g}{' ' + unit if unit else ''}")
+        return ", ".join(parts)
+
+    def show_readout(self, scene_pos: Any) -> None:
+        """Mouse moved on the scene: the read-out follows it inside the view, hides outside."""
+        if not self.vb.sceneBoundingRect().contains(scene_pos):
+            if self.readout is not None:
+                self.readout.setVisible(False)
+            return
+        point = self.vb.mapSceneToView(scene_pos)
+        if not (np.isfinite(point.x()) and np.isfinite(point.y())):
+            return
+        if self.readout is None:
+            self.readout = pg.TextItem(color="#222222", anchor=(0, 0), fill=pg.mkBrush(255, 255, 255, 200))
+            self.readout.setParentItem(self.vb)
+            self.readout.setPos(4, 2)
+            self.readout.setZValue(1000)
+        self.readout.setText(self.readout_text(point.x(), point.y()))
+        self.readout.setVisible(True)
 
     def addItem(self, item: Any, *args: Any, **kwargs: Any) -> None:
         super().addItem(item, *args, **kwargs)
@@ -434,6 +472,7 @@ def make_plot(
         # repaint took most of a tab's repaint (~120 ms for the Measure tab offscreen, which a job's result waited for)
         item.getAxis(side).setCacheMode(QGraphicsItem.CacheMode.DeviceCoordinateCache)
     widget.scene().installEventFilter(_SCENE_STAYS_ACTIVE)
+    widget.scene().sigMouseMoved.connect(item.show_readout)
     return widget
 
 

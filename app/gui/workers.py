@@ -9,9 +9,14 @@ fast device can never flood the GUI's event loop: the GUI receives one signal pe
 from __future__ import annotations
 
 import atexit
+import contextlib
 import logging
 import multiprocessing
+import multiprocessing.forkserver
+import multiprocessing.resource_tracker
+import multiprocessing.util  # (its exit function is registered before ours, so ours runs first: see _JobProcesses)
 import queue
+import signal
 import threading
 import time
 from dataclasses import dataclass, field
@@ -22,6 +27,7 @@ from PySide6.QtCore import QCoreApplication, QObject, Qt, QThread, QTimer, Signa
 
 from gasfilm.analysis.acquisition import AcquisitionLoop
 from gasfilm.analysis.capture import HitRecord, ImpactCapture, TriggerSettings
+from gasfilm.analysis.hit_check import TapRecorder
 from gasfilm.analysis.physics.plant import RigPlant
 from gasfilm.analysis.recording import HitEvent, HitRecorder
 from gasfilm.analysis.physics.spec import RigSpec
@@ -67,6 +73,7 @@ class AcquisitionPlan:
     ring_seconds: float = 10.0
     time_offset_s: float = 0.0  # session time of the stream's first sample (hit times continue across re-arms)
     conditions: dict = field(default_factory=dict)  # the session's operating conditions (analysis/conditions.py)
+    hit_check: bool = False  # trial taps before the test: triggered and checked, stored nowhere
     other_responses: tuple[int, ...] = ()  # a rigid body's further accelerometers, checked as the response is
 
 
@@ -106,14 +113,14 @@ class AcquisitionWorker(QObject):
     device_fault = Signal(str)  # a DeviceError's message; acquisition has ended
     finished = Signal()
 
-    def __init__(self, plan: AcquisitionPlan, session: Session, first_index: int = 0) -> None:
+    def __init__(self, plan: AcquisitionPlan, session: Session | None, first_index: int = 0) -> None:
         super().__init__()
         self.plan = plan
         self.session = session
         self.first_index = first_index
         self.device: DaqDevice | None = None
         self.loop: AcquisitionLoop | None = None
-        self.recorder: HitRecorder | None = None
+        self.recorder: HitRecorder | TapRecorder | None = None
         self.stats = AcquisitionStats()
         self._mailbox = None
         self._timer: QTimer | None = None
@@ -151,10 +158,13 @@ class AcquisitionWorker(QObject):
             capture.time_offset_s = plan.time_offset_s
             full_scale = tuple(channel.full_scale_si for channel in plan.config.channels)
             self._capture = capture
-            self.recorder = HitRecorder(
-                self.session, capture, plan.validation, full_scale_si=full_scale, window=plan.window,
-                other_responses=plan.other_responses,
-            )
+            if plan.hit_check:
+                self.recorder = TapRecorder(capture, plan.validation, full_scale_si=full_scale, window=plan.window)
+            else:
+                self.recorder = HitRecorder(
+                    self.session, capture, plan.validation, full_scale_si=full_scale, window=plan.window,
+                    other_responses=plan.other_responses,
+                )
             self._record_samples = capture.record_samples
             self._force_row = force_row
             self.loop = AcquisitionLoop(self.device, ring_seconds=plan.ring_seconds)
@@ -252,9 +262,10 @@ class AcquisitionWorker(QObject):
     def _on_hit(self, event: HitEvent) -> None:
         self.stats.hits += 1
         automatic = event.verdict
-        decided = (automatic.accepted and self.plan.auto_accept) or (not automatic.accepted and self.plan.auto_reject)
+        decided = (self.plan.hit_check or (automatic.accepted and self.plan.auto_accept)
+                   or (not automatic.accepted and self.plan.auto_reject))
         entry = HitEntry(event.index, event.record, automatic, automatic, pending=not decided)
-        if entry.pending:  # never on disk as accepted before the technician says so
+        if entry.pending and self.session is not None:  # never on disk as accepted before the technician says so
             self.session.set_verdict(entry.index, pending_verdict(automatic))
         self._entries[entry.index] = entry
         self.hit_recorded.emit(entry)
@@ -368,8 +379,32 @@ CANCEL_GRACE_S = 10.0
 
 def warm_up_job_processes() -> None:
     """Start the fork server now (it imports the analysis in its own process, seconds on a busy machine) and a first
-    job process, so the first fit or diagnosis starts at once. Returns immediately."""
+    job process, so the first fit or diagnosis starts at once. Returns at once: the server is spawned here, from the
+    main thread, with Ctrl-C ignored, which it and the job processes forked from it inherit — a Ctrl-C in the terminal
+    reaches the whole process group, and the GUI, not the terminal, ends its job processes (before, a Ctrl-C while
+    the server imported the analysis printed its KeyboardInterrupt traceback). The first job process is started on a
+    thread (it waits for the server's imports)."""
+    context = _job_context()
+    if context.get_start_method() == "forkserver" and threading.current_thread() is threading.main_thread():
+        multiprocessing.resource_tracker.ensure_running()  # (it ignores Ctrl-C itself)
+        with _ctrl_c_ignored():
+            multiprocessing.forkserver.ensure_running()
     threading.Thread(target=_JOB_PROCESSES.prepare, name="gasfilm-job-warm-up", daemon=True).start()
+
+
+@contextlib.contextmanager
+def _ctrl_c_ignored():
+    """SIGINT ignored while the block runs (main thread only, for a spawn): a process spawned meanwhile is born
+    ignoring it (an ignored signal stays ignored across exec; a blocked one does not, the spawn resets the mask).
+    It is also blocked meanwhile, so that one arriving now is not lost: Linux keeps a blocked signal pending even
+    while it is ignored, and delivers it to the handler restored before it is unblocked."""
+    signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
 
 
 def job_process_ready(timeout_s: float) -> bool:
@@ -433,13 +468,23 @@ class _JobProcesses:
                 self._spare = None
             self._prepared.set()
 
-    def close(self) -> None:
-        """No more spare processes (the application ends); the waiting one ends now."""
-        with self._lock:
-            self._closed = True
+    def close(self, timeout_s: float = 30.0) -> None:
+        """No more spare processes (the application ends); the waiting one ends now. A spare being started (the warm-up
+        thread waits for the fork server's imports) is waited for first: quitting in the first seconds used to end the
+        interpreter under it — multiprocessing removed the fork server's socket folder while the thread still
+        connected, and the thread printed a FileNotFoundError traceback. This runs before multiprocessing's own exit
+        function (registered earlier, so called later)."""
+        self._closed = True  # a prepare() that has not taken the lock yet starts nothing
+        if not self._lock.acquire(timeout=timeout_s):
+            logger.warning("a job process was still starting after %.0f s; leaving it", timeout_s)
+            return
+        try:
             spare, self._spare = self._spare, None
+        finally:
+            self._lock.release()
         if spare is not None:
             spare.works.close()  # it ends at once (EOF), without work
+            spare.process.join(1.0)
 
     def take(self) -> _JobProcess:
         """The spare process (a new one when there is none)."""
