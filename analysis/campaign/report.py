@@ -296,7 +296,8 @@ def campaign_html(rows: Sequence[dict[str, Any]], by: Sequence[str], title: str 
         ("Session", *by, "Accepted hits (fitted)", "Best model", "Diagnosis", "Findings", "Time (s)"),
         [(Path(row["session"]).name, *[row.get(f"condition.{key}", "—") for key in by],
           f"{row.get('accepted_hits', '—')}" + (" (stored fits stale)" if row.get("stored_fits_stale") else ""),
-          row.get("best_model", "—"),
+          row.get("best_model", "—")
+          + (f" — warning: {row['fit_warnings']}" if row.get("fit_warnings") else ""),
           row.get("diagnosis_verdict") or ("error" if row.get("error") else "—"),
           row.get("diagnosis_findings") or "—",
           "cached" if row.get("cached") else f"{row.get('seconds', 0.0):.1f}") for row in rows]))
