@@ -33,10 +33,16 @@ def window(qtbot, tmp_path):
 
 
 def _answer_dialog_with(qtbot, window, button_text: str) -> list[str]:
-    """Click ``button_text`` in the pending-hits question as soon as it shows; returns the question's texts."""
+    """Click ``button_text`` in the pending-hits question as soon as it shows (after answering "Stop and quit" to
+    the question quitting while armed asks first); returns the pending-hits question's texts."""
     asked: list[str] = []
 
     def answer() -> None:
+        running = window.running_dialog
+        if running is not None:
+            next(b for b in running.buttons() if b.text().replace("&", "") == "Stop and quit").click()
+            QTimer.singleShot(20, answer)
+            return
         box = window.pending_dialog
         if box is None:
             QTimer.singleShot(20, answer)

@@ -40,6 +40,12 @@ EFFECTS = [
     fx.ChannelPoleZero(pole_hz=300.0, zero_hz=330.0),
     fx.ChannelPowerLaw(exponent=0.01, reference_hz=200.0),
 ]
+#: One valid instance of every change between hits, each of the first term of a spec holding :data:`EFFECTS`' first.
+CHANGES = [
+    fx.TermDrift(term=0, parameter="freq_hz", fraction_per_hour=-20.0),
+    fx.TermLevel(term=0, parameter="damping_ratio", exponent=0.8, reference_impulse_ns=0.15),
+    fx.TermOnset(term=0, parameter="mass_kg", at_time_s=5.0),
+]
 CONDITIONS = HitConditions(time_s=np.array([0.0, 60.0, 120.0]), impulse_ns=np.array([0.15, 0.2, 0.25]))
 
 
@@ -48,7 +54,7 @@ def _read_back(spec: RigSpec) -> RigSpec:
 
 
 def test_every_effect_type_is_covered():
-    assert sorted(type(effect).type_name for effect in EFFECTS) == sorted(fx.EFFECT_TYPES)
+    assert sorted(type(effect).type_name for effect in [*EFFECTS, *CHANGES]) == sorted(fx.EFFECT_TYPES)
 
 
 @pytest.mark.parametrize("effect", EFFECTS, ids=lambda effect: type(effect).type_name)
@@ -59,6 +65,17 @@ def test_an_effect_fitted_to_either_edge_of_every_range_is_read_back(effect):
         for value in (slot.range.lower, slot.range.upper):
             if value == 0.0:
                 continue  # a linear range's middle, not its edge (a field that may not be 0 never ends there)
+            written = with_slot(spec, slot, value)
+            assert _read_back(written) == written, (slot.name, value)
+
+
+@pytest.mark.parametrize("change", CHANGES, ids=lambda change: type(change).type_name)
+def test_a_change_between_hits_fitted_to_either_edge_of_its_range_is_read_back(change):
+    spec = RigSpec.nominal("SD", effects=[EFFECTS[0], change])
+    context = fit_context(spec, CONDITIONS, (10.0, 2000.0))
+    slots = effect_slots(spec, 1, context)
+    for slot in slots:
+        for value in (slot.range.lower, slot.range.upper):
             written = with_slot(spec, slot, value)
             assert _read_back(written) == written, (slot.name, value)
 

@@ -213,15 +213,16 @@ class SetupTab(QWidget):
         self.problem_label = QLabel()
         self.problem_label.setWordWrap(True)
 
-        # Three columns under the channel table: everything fits the window's default size without scrolling.
+        # The device beside the rig and its operating point, three columns under the channel table: everything fits
+        # the window's default size without scrolling.
         grid = QGridLayout(self)
         grid.addWidget(device_box, 0, 0)
-        grid.addWidget(rig_box, 0, 1, 1, 2)
+        rig_and_conditions = QVBoxLayout()
+        rig_and_conditions.addWidget(rig_box)
+        rig_and_conditions.addWidget(conditions_box, 1)
+        grid.addLayout(rig_and_conditions, 0, 1, 1, 2)
         grid.addWidget(channels_box, 1, 0, 1, 3)
-        left = QVBoxLayout()
-        left.addWidget(trigger_box)
-        left.addWidget(conditions_box)
-        grid.addLayout(left, 2, 0)
+        grid.addWidget(trigger_box, 2, 0)
         side = QVBoxLayout()
         side.addWidget(window_box)
         side.addWidget(rules_box)
