@@ -229,8 +229,8 @@ def test_diagnose_overwrite_removes_its_own_outputs_this_run_does_not_write(sess
     assert json.loads(out_text)["restoring_force"] is None
     assert not (out / "diagnosis-restoring-force.png").exists() and "removed" in err
     assert sorted(path.name for path in out.iterdir()) == [
-        "diagnosis-overlay.png", "diagnosis-residual.png", "diagnosis-restoring-force-old.png", "improved-rig.toml",
-        "notes.txt"]
+        "diagnosis-film.png", "diagnosis-overlay.png", "diagnosis-residual.png", "diagnosis-restoring-force-old.png",
+        "improved-rig.toml", "notes.txt"]
 
 
 def test_model_numbers_the_recorded_hits_from_1(tmp_path, capsys):
