@@ -1,7 +1,8 @@
 """Run a gasfilm command with one of its writes made to fail, at every write in turn, and compare the session's bytes
 before and after (issue 33 item 2): a command that fails leaves its input session byte for byte as it found it, or
-completes what it reported (``acquire --append``'s reported hits, the session closed, not "recording"); its output
-files are whole or absent; it answers in one line, never an internal error.
+completes what it reported (``acquire --append``'s reported hits, the session closed, not "recording"), or completes
+saying what it did not store in the session (``fit`` and ``replay`` show what they cannot keep, the session as it was);
+its output files are whole or absent; it answers in one line, never an internal error.
 
 Run with ``failing_writes.so`` preloaded (see tests/test_session_journal.py). Each trial forks from this process (the
 command modules imported once): the child arms the failure and runs ``gasfilm COMMAND`` in-process on a fresh copy of
@@ -125,7 +126,10 @@ def check(name: str, status: int, stdout: str, stderr: str, session: Path, befor
         except SessionError as error:
             problems.append(f"a journal was left and the session cannot be restored from it: {error}")
     reported = [int(match) for match in re.findall(r"(?m)^accepted hit (\d+)", stdout)]
-    if status != 0 and not reported:
+    if status == 0 and not_stored(stdout):
+        if session.read_bytes() != before:
+            problems.append("the session changed although the command said its result is not stored in it")
+    elif status != 0 and not reported:
         if session.read_bytes() != before:
             problems.append("the session changed although the command failed before reporting anything")
     elif status != 0:  # acquire --append reported hits before it failed: they are stored, the session closed
@@ -157,8 +161,19 @@ def check(name: str, status: int, stdout: str, stderr: str, session: Path, befor
     return problems, restored
 
 
-def answer(stderr: str) -> str:
-    """The kind of a refusal: its last line without the command, the path and the numbers."""
+def not_stored(stdout: str) -> str | None:
+    """What a command that completed says it did not store in the session (``fit``'s note, ``replay``'s result), else
+    None."""
+    match = re.search(r"(?m)not stored in .*$", stdout)
+    return match.group(0) if match else None
+
+
+def answer(status: int, stdout: str, stderr: str) -> str:
+    """How a trial ended: "completed", what it did not store, or the kind of a refusal (its last line), each without
+    the command, the paths and the numbers."""
+    if status == 0:
+        note = not_stored(stdout)
+        return re.sub(r"\d+", "N", re.sub(r"(?<![\w/])/\S+?(?=[\s:;)])", "PATH", note))[:80] if note else "completed"
     line = (stderr.strip().splitlines() or ["?"])[-1].split(": error: ")[-1]
     line = re.sub(r"^(--\S+ )?/\S+?: ", "", line)
     return re.sub(r"\d+", "N", line.split(" (")[0])[:80]
@@ -196,7 +211,7 @@ def run_command(shim: ctypes.CDLL, name: str, mode: str, source: Path, work: Pat
         status, stdout, stderr, _ = run_child(shim, filled, MODES[mode], position)
         found, was_restored = check(name, status, stdout, stderr, session, before, out, outputs)
         restored += was_restored
-        key = "completed" if status == 0 else answer(stderr)
+        key = answer(status, stdout, stderr)
         answers[key] = answers.get(key, 0) + 1
         problems += [f"{name} {mode} at write {position}: {problem}" for problem in found]
     return {"command": name, "stores": stores, "writes": writes, "trials": len(positions), "answers": answers,
