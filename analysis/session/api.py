@@ -530,7 +530,8 @@ class Session:
             try:
                 store = RollbackFile(real, writable=True)
             except OSError as error:
-                raise SessionError(f"{path}: cannot open the session for writing ({error.strerror or error})") from None
+                raise SessionWriteError(
+                    f"{path}: cannot open the session for writing ({error.strerror or error})") from None
             killed = store.left_open  # a writer that ended without closing the file (killed, crashed)
             try:
                 if killed:  # checked first; then, as h5clear -s, opened with its flags cleared and closed (the clean
