@@ -22,7 +22,7 @@ import numpy as np
 from gasfilm.analysis.capture import HitRecord
 from gasfilm.analysis.validation import Verdict, recorded_full_scale_si
 from gasfilm.drivers.errors import SettingError
-from gasfilm.drivers.interface import DaqConfig, default_hammer_and_accelerometer
+from gasfilm.drivers.interface import ChannelKind, DaqConfig, default_hammer_and_accelerometer
 
 logger = logging.getLogger(__name__)
 
@@ -103,10 +103,13 @@ def _hit_from_rows(index: int, force_n: np.ndarray, response: np.ndarray, sample
 
 
 def _load_npy(paths: Sequence[Path]) -> Source:
+    from gasfilm.analysis.session.layout import MAX_ABS_SI
+
     hits, rate_hz = [], None
     for path in paths:
         try:
-            record = np.load(path, mmap_mode="r", allow_pickle=False)
+            with np.errstate(over="ignore"):  # (a header declaring a giant shape: numpy refuses it with a ValueError)
+                record = np.load(path, mmap_mode="r", allow_pickle=False)
         except OSError as error:
             if error.errno == errno.ENOMEM:  # (the record cannot be mapped: memory, not the file, ran out)
                 raise MemoryError(f"{path}: {error.strerror}") from None
@@ -122,6 +125,11 @@ def _load_npy(paths: Sequence[Path]) -> Source:
         record = np.array(record, dtype=np.float64)
         if not np.all(np.isfinite(record)):
             raise SettingError(f"{path}: holds NaN or infinite samples")
+        for row, name, kind, unit in ((1, "force", ChannelKind.FORCE, "N"),
+                                      (2, "response", ChannelKind.ACCELERATION, "m/s²")):
+            if not np.max(np.abs(record[row])) <= MAX_ABS_SI[kind]:
+                raise SettingError(f"{path}: row {row} ({name}) holds values beyond {MAX_ABS_SI[kind]:g} {unit}: "
+                                   f"a damaged file")
         steps = np.diff(record[0])
         step = float(np.median(steps))
         if not step > 0 or np.max(np.abs(steps - step)) > 1e-6 * step:
