@@ -344,6 +344,35 @@ def prominent_peaks(values: np.ndarray, min_prominence: float) -> np.ndarray:
     return peaks[prominence >= min_prominence].astype(np.intp)
 
 
+def peak_half_widths(values: np.ndarray, peaks: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Each of the ``peaks``' prominence, and where its flanks cross half of it (fractional sample indices, left and
+    right): what ``scipy.signal.peak_prominences(values, peaks)[0]`` and ``scipy.signal.peak_widths(values, peaks,
+    rel_height=0.5)[2:]`` return, without importing ``scipy.signal`` (see :func:`prominent_peaks`)."""
+    x = np.asarray(values, dtype=float)
+    prominences, left_ips, right_ips = (np.empty(len(peaks)) for _ in range(3))
+    for number, peak in enumerate(peaks):
+        bases = []
+        for step, end in ((-1, -1), (1, x.size)):  # the lowest point on each side before a higher sample or the edge
+            lowest, base, i = x[peak], peak, peak
+            while i != end and x[i] <= x[peak]:
+                if x[i] < lowest:
+                    lowest, base = x[i], i
+                i += step
+            bases.append((lowest, base))
+        (left_low, left_base), (right_low, right_base) = bases
+        prominences[number] = x[peak] - max(left_low, right_low)
+        height = x[peak] - 0.5 * prominences[number]
+        i = peak
+        while left_base < i and height < x[i]:
+            i -= 1
+        left_ips[number] = i + ((height - x[i]) / (x[i + 1] - x[i]) if x[i] < height else 0.0)
+        i = peak
+        while i < right_base and height < x[i]:
+            i += 1
+        right_ips[number] = i - ((height - x[i]) / (x[i - 1] - x[i]) if x[i] < height else 0.0)
+    return prominences, left_ips, right_ips
+
+
 def _nearest_higher(x: np.ndarray) -> np.ndarray:
     """For each sample, the index of the nearest sample on its left that is strictly higher (-1 where none)."""
     found = [-1] * x.size

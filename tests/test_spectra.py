@@ -377,3 +377,21 @@ def test_prominent_peaks_are_scipys_find_peaks_with_prominence():
         prominence = float(rng.uniform(0, 2))
         np.testing.assert_array_equal(prominent_peaks(values, prominence),
                                       scipy.signal.find_peaks(values, prominence=prominence)[0])
+
+
+def test_peak_half_widths_are_scipys_prominences_and_widths_at_half_prominence():
+    """The film's features (resonances, antiresonances: gasfilm.analysis.physics.features) are read without
+    scipy.signal too: the same prominences and half-prominence crossings, bit for bit, flat tops included."""
+    import scipy.signal
+
+    from gasfilm.analysis.spectra import peak_half_widths, prominent_peaks
+
+    rng = np.random.default_rng(1)
+    for _ in range(200):
+        values = np.round(rng.standard_normal(int(rng.integers(3, 300))).cumsum(), int(rng.integers(0, 3)))
+        peaks = prominent_peaks(values, float(rng.uniform(0, 2)))
+        prominences, left, right = peak_half_widths(values, peaks)
+        np.testing.assert_array_equal(prominences, scipy.signal.peak_prominences(values, peaks)[0])
+        _, _, their_left, their_right = scipy.signal.peak_widths(values, peaks, rel_height=0.5)
+        np.testing.assert_array_equal(left, their_left)
+        np.testing.assert_array_equal(right, their_right)

@@ -18,9 +18,9 @@ from dataclasses import dataclass
 from typing import Mapping
 
 import numpy as np
-import scipy.signal
 
 from gasfilm.analysis.physics.elements import FilmModel, Node, Parallel, Series, accelerance_from_stiffness
+from gasfilm.analysis.spectra import peak_half_widths, prominent_peaks
 
 #: lines per decade of the coarse grid on which magnitude crossings are looked for, and of the resolving grid's base
 COARSE_LINES_PER_DECADE = 100
@@ -203,15 +203,14 @@ def _extrema(freq: np.ndarray, log_magnitude: np.ndarray, kind: str, sign: float
     """Local maxima of ``sign · log_magnitude`` with a prominence of at least :data:`FEATURE_PROMINENCE`, each
     refined between its grid neighbours."""
     series = sign * log_magnitude
-    peaks, properties = scipy.signal.find_peaks(series, prominence=math.log1p(FEATURE_PROMINENCE))
+    peaks = prominent_peaks(series, math.log1p(FEATURE_PROMINENCE))
     if not len(peaks):
         return []
-    _, _, left, right = scipy.signal.peak_widths(series, peaks, rel_height=0.5, prominence_data=(
-        properties["prominences"], properties["left_bases"], properties["right_bases"]))
+    prominences, left, right = peak_half_widths(series, peaks)
     index = np.arange(len(freq))
     features = []
     refined = refine_maxima(lambda f: sign * function(f), freq, peaks)
-    for (f_peak, _), prominence, l, r in zip(refined, properties["prominences"], left, right):
+    for (f_peak, _), prominence, l, r in zip(refined, prominences, left, right):
         features.append(Feature(kind, f_peak, float(np.exp(np.interp(l, index, np.log(freq)))),
                                 float(np.exp(np.interp(r, index, np.log(freq)))), math.expm1(float(prominence))))
     return features
