@@ -133,9 +133,8 @@ def test_ctrl_c_in_the_terminal_closes_the_gui_cleanly_whenever_it_comes(tmp_pat
     with open(f"/proc/{server}/status") as status:  # the fork server ignores Ctrl-C from its birth
         ignored = int(next(line for line in status if line.startswith("SigIgn:")).split()[1], 16)
     assert ignored & (1 << (signal.SIGINT - 1))
-    if moment == "once the window stands":  # the first job process, forked from the server, waits for work
-        while time.monotonic() < deadline and not any(
-                "forkserver" not in command for pid, command in _children(server)):
+    if moment == "once the window stands":  # the first job process, forked from the server, waits for work (a fork
+        while time.monotonic() < deadline and not _children(server):  # keeps the server's command line)
             time.sleep(0.05)
         time.sleep(1.0)
     os.killpg(process.pid, signal.SIGINT)
