@@ -19,8 +19,8 @@ from test_session_journal import FAULTS, failing_writes, preloaded  # noqa: F401
 
 
 @pytest.mark.parametrize("mode, commands, every", [
-    ("disk-full", ["append", "fit", "export-uff"], 9),
-    ("one-write", ["replay", "model", "export-csv"], 5),
+    ("disk-full", ["append", "fit", "export-uff"], 17),
+    ("one-write", ["replay", "model", "export-csv"], 9),
 ])
 def test_a_failed_write_in_a_command_leaves_its_session_as_it_was(failing_writes, mode, commands, every):  # noqa: F811
     run = subprocess.run([sys.executable, str(FAULTS / "command_write_faults.py"), str(failing_writes), mode,

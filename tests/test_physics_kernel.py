@@ -216,13 +216,17 @@ def test_the_nonlinear_simulator_and_replay_agree_within_the_solver_tolerance():
 
 SINGLES = ["added-mass", "channel-delay", "drift", "step-change", "cubic-stiffness", "ac-coupling", "film-memory",
            "pneumatic-lag", "extra-mode", "cross-talk", "squeeze-film", "friction", "quadratic-damping"]
+#: pairs whose terms share a band or a shape (a mass and a delay, a drift and a mode, a lag and a high-pass …)
 PAIRS = [("added-mass", "channel-delay"), ("drift", "extra-mode"), ("pneumatic-lag", "ac-coupling"),
-         ("film-memory", "added-mass"), ("step-change", "channel-delay"), ("cubic-stiffness", "channel-delay"),
-         ("cross-talk", "extra-mode"), ("drift", "pneumatic-lag"), ("ac-coupling", "added-mass"),
-         ("extra-mode", "film-memory"), ("cross-talk", "drift")]
+         ("film-memory", "added-mass"), ("step-change", "cubic-stiffness"), ("cross-talk", "extra-mode"),
+         ("drift", "pneumatic-lag")]
 
 
-@pytest.mark.parametrize("names", [(name,) for name in SINGLES] + PAIRS, ids=lambda names: "+".join(names))
+#: every effect of SINGLES in one closed loop: alone when no pair holds it
+LOOPS = [(name,) for name in SINGLES if not any(name in pair for pair in PAIRS)] + PAIRS
+
+
+@pytest.mark.parametrize("names", LOOPS, ids=lambda names: "+".join(names))
 def test_closed_loop(names, tmp_path, capsys):
     """Simulate, diagnose against the nominal spec, write the improved spec, diagnose again with it: exit 0, nothing
     found, and the written spec replayed has exactly the RMS the first diagnosis reported as "after"."""

@@ -25,9 +25,9 @@ from test_session import RATE_HZ, new_session, synthetic_hits
 
 SEED = 20261122
 SAMPLES = 512
-RANDOM_FLIPS = 110
-METADATA_FLIPS = 110
-TRUNCATIONS = 20
+RANDOM_FLIPS = 60
+METADATA_FLIPS = 60
+TRUNCATIONS = 12
 HUGE = 2**40
 
 
@@ -238,7 +238,7 @@ def byte_mutations(path, random_flips: int, metadata_flips: int, truncations: in
 
 def test_damaged_sessions_give_one_line_naming_the_file(base_session, tmp_path):
     mutations = {**structural_edits(), **byte_mutations(base_session, RANDOM_FLIPS, METADATA_FLIPS, TRUNCATIONS)}
-    assert len(mutations) >= 300
+    assert len(mutations) >= 200
     check_answers(mutations, base_session, tmp_path, min_refused=100)
 
 

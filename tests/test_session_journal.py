@@ -53,10 +53,11 @@ def plain_h5py_hits(path: Path) -> tuple[np.ndarray, np.ndarray]:
     return rows[:count], records[:count]
 
 
-@pytest.mark.parametrize("mode, every", [("disk-full", 6), ("one-write", 6), ("disk-full-at-byte", 0)])
+@pytest.mark.parametrize("mode, every", [("disk-full", 11), ("one-write", 7), ("disk-full-at-byte", 0)])
 def test_a_failed_write_anywhere_in_a_session_loses_no_reported_hit(failing_writes, mode, every):
     """Create, three hits, an overruled verdict, a fit, close, append a hit, close — with write N failing (the disk
-    full from N on, or N alone failing with EIO) for every 6th N, or the disk full at every 60 kB: after each, every
+    full from N on, or N alone failing with EIO) for every 11th or 7th N (primes: each run lands on other writes), or
+    the disk full at every 30 kB: after each, every
     hit reported is read back by gasfilm and, once gasfilm has opened the session for writing, by plain h5py.
     (``session_write_faults.py SHIM MODE`` without ``--every`` runs every write, 101, and every 4096 bytes, 167
     positions: 0 problems in each mode.)"""
