@@ -4,7 +4,9 @@ the technician says so, as `gasfilm fit` refuses without --overwrite."""
 import pytest
 
 from gasfilm.analysis.session import Session
-from gui_driving import open_window
+from PySide6.QtCore import Qt
+
+from gui_driving import arm, hit, open_window, stop
 from test_cli_acquire_replay import FAST_SIM, gasfilm
 
 
@@ -148,3 +150,37 @@ def test_ctrl_c_in_the_terminal_closes_the_gui_cleanly_whenever_it_comes(tmp_pat
 def test_gui_refuses_a_session_that_is_not_one_before_opening(tmp_path, capsys):
     status, out, err = gasfilm(capsys, "gui", "--session", tmp_path / "nosuch.h5")
     assert status == 2 and err.strip() == f"gasfilm gui: error: {tmp_path / 'nosuch.h5'}: no such session file"
+
+
+def _fit_after_hits(qtbot, window, hits: int, models: list[str]) -> None:
+    controller, tab = window.controller, window.identify_tab
+    arm(qtbot, window)
+    for _ in range(hits):
+        hit(qtbot, window)
+    stop(qtbot, window)
+    window.tabs.setCurrentWidget(tab)
+    tab.set_selected_models(models)
+    qtbot.mouseClick(tab.run_button, Qt.MouseButton.LeftButton)
+    qtbot.waitUntil(lambda: not controller.job_active("fit") and len(controller.fits) == len(models), timeout=90_000)
+
+
+def test_the_parameters_panel_shows_the_refit_of_the_selected_model_at_once(qtbot, window):
+    """Trial 2026-11-29 item 1: after "Refit on all N hits" the panel kept the previous fit until re-selected."""
+    controller, tab = window.controller, window.identify_tab
+    _fit_after_hits(qtbot, window, 3, ["SD", "Zener"])
+    row = next(r for r in range(tab.table.rowCount()) if tab.table.item(r, 1).text() == "Zener")
+    tab.table.selectRow(row)
+    before = controller.fits["Zener"]
+    arm(qtbot, window)
+    hit(qtbot, window)
+    stop(qtbot, window)
+    qtbot.mouseClick(tab.refit_button, Qt.MouseButton.LeftButton)
+    qtbot.waitUntil(lambda: not controller.job_active("fit") and controller.fits["Zener"] is not before,
+                    timeout=90_000)
+    refit = controller.fits["Zener"]
+    selected = tab.table.selectionModel().selectedRows()
+    assert [tab.table.item(index.row(), 1).text() for index in selected] == ["Zener"]
+    shown = {tab.parameters.item(r, 0).text(): tab.parameters.item(r, 1).text()
+             for r in range(tab.parameters.rowCount())}
+    assert shown == {name: f"{value:.5g}" for name, value in refit.params.items()}
+    assert f"{refit.evaluations} evaluations" in tab.flags_label.text()

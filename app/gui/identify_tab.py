@@ -302,6 +302,10 @@ class IdentifyTab(QWidget):
     # --- results -------------------------------------------------------------------------------------------------
 
     def show_fits(self) -> None:
+        """Table 2 of the fits now held; the model selected before stays selected and its parameters are the new
+        fit's."""
+        selected = self._selected_fit()
+        selected_name = selected.model_name if selected is not None else None
         self._control_models.clear()
         self.control_plot.clear()
         self.control_label.clear()
@@ -334,7 +338,9 @@ class IdentifyTab(QWidget):
                 self.table.setItem(r, c, item)
         self._show_hits()
         if rows:
-            self.table.selectRow(0)
+            names = [row.model_name for row in rows]
+            self.table.selectRow(names.index(selected_name) if selected_name in names else 0)
+            self._show_parameters()  # (the same row selected again emits no selection change)
         else:
             self.parameters.setRowCount(0)
             self.flags_label.clear()
