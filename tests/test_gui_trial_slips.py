@@ -184,3 +184,28 @@ def test_the_parameters_panel_shows_the_refit_of_the_selected_model_at_once(qtbo
              for r in range(tab.parameters.rowCount())}
     assert shown == {name: f"{value:.5g}" for name, value in refit.params.items()}
     assert f"{refit.evaluations} evaluations" in tab.flags_label.text()
+
+
+def test_the_banner_says_what_the_latest_decision_key_did(qtbot, window):
+    """Trial 2026-11-29 item 3: after Ctrl+Z then A the banner still said the hit was taken out; R and A said
+    nothing."""
+    from PySide6.QtGui import QKeySequence
+
+    from gasfilm.app.gui.measure_tab import SHORTCUTS
+
+    def key(name: str) -> None:
+        combination = QKeySequence(SHORTCUTS[name])[0]
+        qtbot.keyClick(window.tabs.currentWidget(), combination.key(), combination.keyboardModifiers())
+
+    window.activateWindow()
+    arm(qtbot, window)
+    for _ in range(2):
+        hit(qtbot, window)
+    stop(qtbot, window)
+    newest = window.controller.hits[-1]
+    key("undo")
+    assert not newest.accepted and f"hit {newest.index + 1} taken out of the average" in window.banner.text
+    key("accept")
+    assert newest.accepted and window.banner.text == f"hit {newest.index + 1} accepted: in the average"
+    key("reject")
+    assert not newest.accepted and window.banner.text == f"hit {newest.index + 1} rejected by hand: out of the average"

@@ -265,22 +265,24 @@ class SessionController(QObject):
         if self.acquiring and self.is_simulated:
             self._inject_fault.emit(kind)
 
-    def decide(self, index: int, accepted: bool) -> None:
-        """Accept or reject hit ``index``; stored in the session at once."""
+    def decide(self, index: int, accepted: bool) -> bool:
+        """Accept or reject hit ``index``; stored in the session at once. False when it cannot be (no such hit, or
+        the session is read-only: the banner says so)."""
         entry = self._entry(index)
         if entry is None:
-            return
+            return False
         if self.acquiring:
             self._decide.emit(index, accepted)
-            return
+            return True
         if self.session is None or not self.session.writable:
             self.message.emit("the session is open read-only; save it under a new name to change verdicts", "warning")
-            return
+            return False
         entry.verdict = Verdict(accepted, entry.automatic.reasons, overridden=accepted != entry.automatic.accepted)
         entry.pending = False
         self.session.set_verdict(index, entry.verdict)
         self.hit_changed.emit(entry)
         self.update_running_frf()
+        return True
 
     def live_samples(self, seconds: float) -> tuple[np.ndarray, np.ndarray] | None:
         """The newest ``seconds`` of every channel for the live view: (time_s, data (channels, samples))."""

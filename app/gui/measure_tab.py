@@ -711,7 +711,9 @@ class MeasureTab(QWidget):
             self.controller.message.emit("no hit to decide on yet", "info")
             return
         self.select_hit(target.index)
-        self.controller.decide(target.index, accepted)
+        if self.controller.decide(target.index, accepted):  # the banner says what the latest key did
+            said = "accepted: in the average" if accepted else "rejected by hand: out of the average"
+            self.controller.message.emit(f"hit {target.index + 1} {said}", "info")
 
     def undo_last_hit(self) -> None:
         """Take the newest accepted hit out of the average (it stays in the session, rejected by hand)."""
@@ -721,8 +723,9 @@ class MeasureTab(QWidget):
             return
         last = accepted[-1]
         self.select_hit(last.index)
-        self.controller.decide(last.index, False)
-        self.controller.message.emit(f"hit {last.index + 1} taken out of the average (rejected by hand)", "info")
+        if self.controller.decide(last.index, False):
+            self.controller.message.emit(f"undo: hit {last.index + 1} taken out of the average (rejected by hand)",
+                                         "info")
 
     def _show_hit_spectrum(self, entry: HitEntry) -> None:
         """The selected hit's force spectrum (dB re its low-frequency level) with the usable band shaded."""
