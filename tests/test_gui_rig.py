@@ -9,7 +9,7 @@ from PySide6.QtGui import QKeySequence
 
 from gasfilm.app.gui.measure_tab import SHORTCUTS
 from gasfilm.app.gui.settings import SetupState
-from gui_driving import arm, hit, open_window, stop
+from gui_driving import arm, configure, hit, open_window, stop
 
 
 @pytest.fixture
@@ -118,8 +118,11 @@ def test_windows_dragged_on_the_trace_set_the_windows_and_the_frf_follows(qtbot,
     qtbot.waitUntil(lambda: window.setup_tab.state().window["force_window_ms"] is not None, timeout=5_000)
     assert window.setup_tab.state().window["force_window_ms"] == pytest.approx(3.0, abs=0.01)
     length_s = (record.n_samples - 1) / record.sample_rate_hz
+    assert tab.exp_window_line.scene() is None  # the exponential window is off: no cursor says it is applied
+    configure(window, window={**window.setup_tab.state().window, "exponential_end_fraction": 0.01})  # Setup: on
+    assert tab.exp_window_line.scene() is not None and tab.exp_window_line.isVisible()
     tab.exp_window_line.setValue(0.1)  # τ = 0.1 s: the window ends at exp(-length/τ)
-    qtbot.waitUntil(lambda: window.setup_tab.state().window["exponential_end_fraction"] is not None, timeout=5_000)
+    qtbot.waitUntil(lambda: window.setup_tab.state().window["exponential_end_fraction"] != 0.01, timeout=5_000)
     end = window.setup_tab.state().window["exponential_end_fraction"]
     assert end == pytest.approx(np.exp(-length_s / 0.1), rel=1e-2)
     window_now = WindowSettings(force_window_ms=3.0, exponential_end_fraction=end)

@@ -209,3 +209,21 @@ def test_the_banner_says_what_the_latest_decision_key_did(qtbot, window):
     assert newest.accepted and window.banner.text == f"hit {newest.index + 1} accepted: in the average"
     key("reject")
     assert not newest.accepted and window.banner.text == f"hit {newest.index + 1} rejected by hand: out of the average"
+
+
+def test_the_exponential_window_cursor_is_drawn_only_while_the_window_is_on(qtbot, window):
+    """Trial 2026-11-29 item 8: the Selected-hit plot drew an "exp. window" cursor with the window off."""
+    from gui_driving import configure
+
+    arm(qtbot, window)
+    hit(qtbot, window)
+    stop(qtbot, window)
+    tab = window.measure_tab
+    tab.select_hit(window.controller.hits[0].index)
+    assert window.controller.window_settings().exponential_end_fraction is None
+    drawn = tab.hit_plot.getPlotItem().items
+    assert tab.force_window_line in drawn and tab.exp_window_line not in drawn
+    configure(window, window={**window.setup_tab.state().window, "exponential_end_fraction": 0.01})
+    assert tab.exp_window_line in tab.hit_plot.getPlotItem().items and "ends at 0.01" in tab.exp_window_line.label.format
+    configure(window)  # off again
+    assert tab.exp_window_line not in tab.hit_plot.getPlotItem().items

@@ -224,7 +224,8 @@ class MeasureTab(QWidget):
             label="", labelOpts={"position": 0.92, "color": PALETTE[0], "anchors": [(0, 1), (0, 1)]})
         self.exp_window_line = pg.InfiniteLine(
             angle=90, movable=True, pen=pen(PALETTE[1], 2.0, Qt.PenStyle.DashLine), hoverPen=pen(PALETTE[1], 3.0),
-            label="", labelOpts={"position": 0.8, "color": PALETTE[1], "anchors": [(0, 1), (0, 1)]})
+            label="", labelOpts={"position": 0.8, "color": PALETTE[1], "anchors": [(1, 1), (1, 1)]})  # (text left of
+        # the line: the time constant is late in the record, and a label right of it ran off the plot)
         self.force_window_line.setToolTip("Force window: drag its end (the force after it is set to 0)")
         self.exp_window_line.setToolTip("Exponential window: drag its time constant τ (the window is 1/e there)")
         # (the cursors join the plot with the first hit shown: hidden lines with labels would relayout the tab on
@@ -655,16 +656,19 @@ class MeasureTab(QWidget):
             self.exp_window_curve.setData(t, exponential_window(n, end) * float(np.max(np.abs(record.response))))
         else:
             self.exp_window_curve.setData([], [])
+        # the exponential window's cursor only while it is on (Setup ▸ Windows): drawn off, it read as applied
+        shown_lines = [self.force_window_line] + ([self.exp_window_line] if tau_s is not None else [])
         for line in (self.force_window_line, self.exp_window_line):
-            if line.scene() is None:
+            if line in shown_lines and line.scene() is None:
                 self.hit_plot.addItem(line, ignoreBounds=True)
+            elif line not in shown_lines and line.scene() is not None:
+                self.hit_plot.removeItem(line)
         moving = not self.controller.acquiring  # a running acquisition keeps the windows it was armed with
-        for line, value, text in (
-            (self.force_window_line, peak_s + 1e-3 * (force_ms if force_on else DRAG_START_FORCE_WINDOW_MS),
-             f"force window {force_ms:.3g} ms" if force_on else "force window off (drag to set)"),
-            (self.exp_window_line, tau_s if tau_s is not None else 0.8 * (n - 1) / rate,
-             f"exp. window τ {tau_s:.3g} s, ends at {end:.3g}" if tau_s is not None else "exp. window off (drag)"),
-        ):
+        cursors = [(self.force_window_line, peak_s + 1e-3 * (force_ms if force_on else DRAG_START_FORCE_WINDOW_MS),
+                    f"force window {force_ms:.3g} ms" if force_on else "force window off (drag to set)")]
+        if tau_s is not None:
+            cursors.append((self.exp_window_line, tau_s, f"exp. window τ {tau_s:.3g} s, ends at {end:.3g}"))
+        for line, value, text in cursors:
             line.blockSignals(True)
             line.setVisible(True)
             line.setValue(value)
