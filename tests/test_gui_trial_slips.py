@@ -227,3 +227,19 @@ def test_the_exponential_window_cursor_is_drawn_only_while_the_window_is_on(qtbo
     assert tab.exp_window_line in tab.hit_plot.getPlotItem().items and "ends at 0.01" in tab.exp_window_line.label.format
     configure(window)  # off again
     assert tab.exp_window_line not in tab.hit_plot.getPlotItem().items
+
+
+def test_a_report_written_from_the_gui_after_stop_says_the_session_is_complete(qtbot, window, tmp_path):
+    """Trial 2026-11-29 item 9: the GUI's report said "session status recording"; the command line's "complete"."""
+    arm(qtbot, window)
+    hit(qtbot, window)
+    stop(qtbot, window)
+    written = window.write_report(tmp_path / "after-stop-report.html")
+    text = written.read_text()
+    assert "session status complete." in text and "session status recording" not in text
+    with Session.open(window.controller.session_path, "r") as session:
+        assert session.status == "complete"
+    arm(qtbot, window)  # the session takes hits again after the report
+    hit(qtbot, window)
+    stop(qtbot, window)
+    assert len(window.controller.hits) == 2

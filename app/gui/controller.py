@@ -959,6 +959,15 @@ class SessionController(QObject):
         self.message.emit(f"saved {self.session_path}", "info")
         return self.session_path
 
+    def end_recording(self) -> None:
+        """Close the session "complete" and open it again for writing: the file then says the recording ended, as the
+        command line leaves it (a report reads its status from the file); the next Arm makes it "recording" again."""
+        if self.session is None or not self.session.writable or not self.session.is_open or self.acquiring:
+            return
+        self._store_results()
+        self.session.close("complete")
+        self.session = Session.open(self.session_path, "a")
+
     def save_session_as(self, path: str | Path) -> Path | None:
         """Copy the session (with results) to ``path`` and continue in the copy."""
         if self.session is None or self.acquiring:

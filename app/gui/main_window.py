@@ -210,6 +210,7 @@ class MainWindow(QMainWindow):
         if self.controller.acquiring:
             raise GasfilmError("report: stop the acquisition first (hits are still arriving)")
         self.controller.save_session()
+        self.controller.end_recording()  # the report says "complete", as after `gasfilm acquire`, not "recording"
         path = Path(path)
         if not path.suffix:
             path = path.with_suffix(".html")
