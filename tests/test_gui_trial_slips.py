@@ -243,3 +243,21 @@ def test_a_report_written_from_the_gui_after_stop_says_the_session_is_complete(q
     hit(qtbot, window)
     stop(qtbot, window)
     assert len(window.controller.hits) == 2
+
+
+def test_the_setup_tabs_editors_are_not_squashed_at_the_default_size(qtbot, window):
+    """Trial 2026-11-29 item 6: with the operating conditions beside the device, the accept rules' spin boxes were
+    12 px high and their values cut."""
+    from PySide6.QtWidgets import QAbstractSpinBox, QComboBox
+
+    from gasfilm.app.gui.main_window import DEFAULT_WINDOW_SIZE
+
+    assert (window.width(), window.height()) == DEFAULT_WINDOW_SIZE
+    window.tabs.setCurrentWidget(window.setup_tab)
+    qtbot.wait(50)
+    editors = window.setup_tab.findChildren(QAbstractSpinBox) + window.setup_tab.findChildren(QComboBox)
+    squashed = [(editor.objectName(), editor.height()) for editor in editors
+                if editor.isVisible() and editor.height() < editor.minimumSizeHint().height()]
+    assert not squashed and window.setup_tab.min_coherence.isVisible()
+    conditions = window.setup_tab.conditions_table
+    assert conditions.viewport().height() >= sum(conditions.rowHeight(r) for r in range(conditions.rowCount()))

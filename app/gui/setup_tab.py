@@ -19,6 +19,7 @@ from PySide6.QtWidgets import (
     QLabel,
     QLineEdit,
     QPushButton,
+    QSizePolicy,
     QSpinBox,
     QTableWidget,
     QTableWidgetItem,
@@ -205,6 +206,8 @@ class SetupTab(QWidget):
                                          "B-17 in an empty row. A rig spec with film laws is played at these.")
         add_condition = QPushButton("Add a condition")
         add_condition.clicked.connect(lambda: self._add_condition_row("", ""))
+        # (its rows scroll: its height must not take room from the accept rules and hit checks below)
+        self.conditions_table.setSizePolicy(QSizePolicy.Policy.Expanding, QSizePolicy.Policy.Ignored)
         conditions_box = QGroupBox("Operating conditions")
         conditions_layout = QVBoxLayout(conditions_box)
         conditions_layout.addWidget(self.conditions_table)
@@ -230,7 +233,7 @@ class SetupTab(QWidget):
         grid.addLayout(side, 2, 1)
         grid.addWidget(validation_box, 2, 2)
         grid.addWidget(self.problem_label, 3, 0, 1, 3)
-        grid.setRowStretch(4, 1)
+        grid.setRowStretch(0, 1)  # the spare height to the operating conditions, the boxes below at their size
         for column in range(3):
             grid.setColumnStretch(column, 1)
 
