@@ -261,3 +261,29 @@ def test_the_setup_tabs_editors_are_not_squashed_at_the_default_size(qtbot, wind
     assert not squashed and window.setup_tab.min_coherence.isVisible()
     conditions = window.setup_tab.conditions_table
     assert conditions.viewport().height() >= sum(conditions.rowHeight(r) for r in range(conditions.rowCount()))
+
+
+def test_table2_and_the_fit_warnings_are_whole_at_the_default_size(qtbot, window):
+    """Trial 2026-11-29 item 2: Table 2's 'At bound' and 'Hits' columns were off the right edge (scrolling to them hid
+    the model names) and the correlation warning under the parameters was cut mid-line."""
+    from gasfilm.app.gui.main_window import DEFAULT_WINDOW_SIZE
+
+    controller, tab = window.controller, window.identify_tab
+    _fit_after_hits(qtbot, window, 3, ["SD", "Zener", "FOMGF"])
+    arm(qtbot, window)  # one more hit: every fit is stale, its Hits cell at its widest
+    hit(qtbot, window)
+    stop(qtbot, window)
+    qtbot.wait(50)
+    assert (window.width(), window.height()) == DEFAULT_WINDOW_SIZE
+    table = tab.table
+    assert "⚠ stale" in table.item(0, table.columnCount() - 1).text()
+    widths = sum(table.columnWidth(c) for c in range(table.columnCount()))
+    assert widths <= table.viewport().width() and not table.horizontalScrollBar().isVisible()
+    assert sum(table.rowHeight(r) for r in range(table.rowCount())) <= table.viewport().height()
+    assert any(controller.fits[name].flags for name in controller.fits)  # (a warning to show)
+    for row in range(table.rowCount()):
+        table.selectRow(row)
+        label = tab.flags_label
+        needed = label.heightForWidth(label.width())
+        assert label.height() >= needed, (table.item(row, 1).text(), label.height(), needed)  # whole, may scroll
+        assert label.width() <= label.parentWidget().width()

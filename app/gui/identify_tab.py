@@ -13,6 +13,7 @@ from PySide6.QtWidgets import (
     QAbstractItemView,
     QComboBox,
     QFileDialog,
+    QFrame,
     QGridLayout,
     QGroupBox,
     QHBoxLayout,
@@ -23,6 +24,7 @@ from PySide6.QtWidgets import (
     QMessageBox,
     QProgressBar,
     QPushButton,
+    QScrollArea,
     QSplitter,
     QTableWidget,
     QTableWidgetItem,
@@ -45,8 +47,13 @@ DEFAULT_MODELS = ("SD", "FOMGF")
 STALE_COLOR = "#a66300"
 TABLE2_COLUMNS = ("#", "Model", "Parameters", "RMS (g/N)", "E", "Peak error (g/N)", "E_m", "AIC", "BIC", "At bound",
                   "Hits")
-#: Rows the parameter table shows without scrolling: the most parameters of the paper's models (FOBGF), and one more.
-PARAMETER_ROWS = 9
+#: Table 2's headers on two lines where they are wider than their values: every column shows at the default size
+TABLE2_HEADERS = tuple(name.replace(" (", "\n(").replace("At bound", "At\nbound") for name in TABLE2_COLUMNS)
+#: Lines of the selected fit's description and warnings shown at once (more scroll, whole lines)
+FLAGS_LINES = 4
+#: Rows the parameter table shows without scrolling: the most parameters of the paper's models (FOMGF, 7), and one
+#: more.
+PARAMETER_ROWS = 8
 WAITING_TEXT = "Fitting waits until the acquisition is stopped."
 READY_TEXT = "Acquisition stopped: the FRF is final. Pick the models and fit."
 METHOD_LABELS = {"default": "default (fast, multi-start least squares)", "gapso": "GA-PSO (the paper's)"}
@@ -111,7 +118,7 @@ class IdentifyTab(QWidget):
         left.addWidget(self.status)
 
         self.table = QTableWidget(0, len(TABLE2_COLUMNS))
-        self.table.setHorizontalHeaderLabels(TABLE2_COLUMNS)
+        self.table.setHorizontalHeaderLabels(TABLE2_HEADERS)
         self.table.verticalHeader().setVisible(False)
         self.table.setEditTriggers(QAbstractItemView.EditTrigger.NoEditTriggers)
         self.table.setSelectionBehavior(QAbstractItemView.SelectionBehavior.SelectRows)
@@ -123,9 +130,19 @@ class IdentifyTab(QWidget):
         for table in (self.table, self.parameters):  # compact rows: Table 2's nine models show without scrolling
             table.verticalHeader().setDefaultSectionSize(22)
         # every parameter of the largest model shows, whatever the flags and the control model below say
-        self.parameters.setMinimumHeight(self.parameters.horizontalHeader().sizeHint().height() + PARAMETER_ROWS * 22
-                                         + 2 * self.parameters.frameWidth() + 2)
-        self.flags_label = FixedHeightLabel(lines=3)
+        self.parameters.setFixedHeight(self.parameters.horizontalHeader().sizeHint().height() + PARAMETER_ROWS * 22
+                                       + 2 * self.parameters.frameWidth() + 2)  # (the fit's warnings get the rest)
+        # the fit's description, notes and warnings wrapped to the panel's width; longer ones scroll, never cut
+        self.flags_label = QLabel()
+        self.flags_label.setWordWrap(True)
+        self.flags_label.setAlignment(Qt.AlignmentFlag.AlignLeft | Qt.AlignmentFlag.AlignTop)
+        self.flags_label.setTextInteractionFlags(Qt.TextInteractionFlag.TextSelectableByMouse)
+        self.flags_scroll = QScrollArea()
+        self.flags_scroll.setWidget(self.flags_label)
+        self.flags_scroll.setWidgetResizable(True)
+        self.flags_scroll.setFrameShape(QFrame.Shape.NoFrame)
+        self.flags_scroll.setHorizontalScrollBarPolicy(Qt.ScrollBarPolicy.ScrollBarAlwaysOff)
+        self.flags_scroll.setMinimumHeight(FLAGS_LINES * self.fontMetrics().lineSpacing() + 4)
         table_box = QWidget()
         table_layout = QVBoxLayout(table_box)
         table_layout.setContentsMargins(0, 0, 0, 0)
@@ -139,7 +156,7 @@ class IdentifyTab(QWidget):
         parameters_layout.setContentsMargins(0, 0, 0, 0)
         parameters_layout.addWidget(QLabel("<b>Parameters</b> of the selected model (± standard error)"))
         parameters_layout.addWidget(self.parameters)
-        parameters_layout.addWidget(self.flags_label)
+        parameters_layout.addWidget(self.flags_scroll, 1)
         self.control_button = QPushButton("Control model")
         self.control_button.setToolTip(f"a rational state-space model of the selected fit within "
                                        f"{100 * DEFAULT_MAX_ERROR:g} % of it, stable and passive (gasfilm model)")
@@ -156,7 +173,7 @@ class IdentifyTab(QWidget):
         table_panel = QSplitter(Qt.Orientation.Horizontal)
         table_panel.addWidget(table_box)
         table_panel.addWidget(parameters_box)
-        table_panel.setSizes([640, 460])
+        table_panel.setSizes([730, 370])  # Table 2's every column at the default size; the parameters beside it
 
         self.fig18 = {
             # The models' colours are shown in Table 2 (a swatch by each name): a legend of nine models would
@@ -192,7 +209,7 @@ class IdentifyTab(QWidget):
         right = QSplitter(Qt.Orientation.Vertical)
         right.addWidget(table_panel)
         right.addWidget(figures)
-        right.setSizes([400, 530])
+        right.setSizes([440, 490])
         splitter = QSplitter(Qt.Orientation.Horizontal)
         splitter.addWidget(left_box)
         splitter.addWidget(right)
