@@ -6,7 +6,7 @@ import pytest
 from gasfilm.analysis.session import Session
 from PySide6.QtCore import Qt
 
-from gui_driving import arm, hit, open_window, stop
+from gui_driving import arm, configure, hit, open_window, stop
 from test_cli_acquire_replay import FAST_SIM, gasfilm
 
 
@@ -213,8 +213,6 @@ def test_the_banner_says_what_the_latest_decision_key_did(qtbot, window):
 
 def test_the_exponential_window_cursor_is_drawn_only_while_the_window_is_on(qtbot, window):
     """Trial 2026-11-29 item 8: the Selected-hit plot drew an "exp. window" cursor with the window off."""
-    from gui_driving import configure
-
     arm(qtbot, window)
     hit(qtbot, window)
     stop(qtbot, window)
@@ -287,3 +285,25 @@ def test_table2_and_the_fit_warnings_are_whole_at_the_default_size(qtbot, window
         needed = label.heightForWidth(label.width())
         assert label.height() >= needed, (table.item(row, 1).text(), label.height(), needed)  # whole, may scroll
         assert label.width() <= label.parentWidget().width()
+
+
+def test_arming_with_the_target_reached_records_nothing_and_says_why(qtbot, tmp_path):
+    """Trial 2026-11-29 item 5: F5 after the target of 10 was reached recorded one more hit ("accepted 11 of 10")."""
+    window = open_window(qtbot, tmp_path, target_averages=2)
+    try:
+        controller = window.controller
+        arm(qtbot, window)
+        hit(qtbot, window)
+        hit(qtbot, window)
+        qtbot.waitUntil(lambda: controller.state == "idle", timeout=10_000)  # the target stops it
+        window.measure_tab.arm_button.click()
+        qtbot.wait(200)
+        assert controller.state == "idle" and controller.accepted_count == 2
+        assert window.banner.text.startswith("target of 2 averages already reached (2 accepted in ")
+        configure(window, target_averages=3)  # raised: arming adds hits again
+        arm(qtbot, window)
+        hit(qtbot, window)
+        qtbot.waitUntil(lambda: controller.state == "idle", timeout=10_000)
+        assert controller.accepted_count == 3
+    finally:
+        window.controller.shutdown()

@@ -218,6 +218,12 @@ class SessionController(QObject):
                 ring_seconds=max(10.0, 2 * setup.live_view_s),
                 hit_check=hit_check,
             )
+            if not hit_check and self._target_reached(setup, plan):
+                self.message.emit(
+                    f"target of {setup.target_averages} averages already reached ({self.accepted_count} accepted in "
+                    f"{self.session_path.name}): nothing armed; raise Target averages on the Setup tab to add hits, "
+                    f"or start a new session", "warning")
+                return
             if not hit_check:
                 self._ensure_session(plan)
                 self._store_test_record(setup)
@@ -250,6 +256,13 @@ class SessionController(QObject):
         self._worker = worker
         self._set_state("starting")
         self._worker_thread = start_on_thread(worker, worker.start, self)
+
+    def _target_reached(self, setup: SetupState, plan: AcquisitionPlan) -> bool:
+        """Whether arming would record into the open session that already holds the target number of accepted hits
+        (it would stop after one more, "accepted 11 of 10")."""
+        session = self.session
+        return (setup.target_averages > 0 and session is not None and session.writable and session.is_open
+                and not self._session_differences(plan) and self.accepted_count >= setup.target_averages)
 
     def stop(self) -> None:
         if self._worker is not None:
