@@ -307,3 +307,15 @@ def test_arming_with_the_target_reached_records_nothing_and_says_why(qtbot, tmp_
         assert controller.accepted_count == 3
     finally:
         window.controller.shutdown()
+
+
+def test_the_measure_tabs_hit_views_show_their_labels_whole_at_the_default_size(qtbot, window):
+    """Trial 2026-11-29 item 7: the four views needed scroll arrows and read "cted hit", "Hit ch"."""
+    window.tabs.setCurrentWidget(window.measure_tab)
+    arm(qtbot, window)
+    hit(qtbot, window)
+    stop(qtbot, window)
+    qtbot.wait(50)
+    bar = window.measure_tab.hit_views.tabBar()
+    assert sum(bar.tabSizeHint(i).width() for i in range(bar.count())) <= bar.width()
+    assert all(bar.tabRect(i).width() >= bar.tabSizeHint(i).width() for i in range(bar.count()))

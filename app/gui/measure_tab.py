@@ -284,7 +284,8 @@ class MeasureTab(QWidget):
         self.hit_views = QTabWidget()
         self.hit_views.addTab(self.hit_plot, "Selected hit")
         self.hit_views.addTab(spectrum_page, "Force spectrum")
-        self.hit_views.addTab(overlay_page, "Overlay of accepted hits")
+        overlay_tab = self.hit_views.addTab(overlay_page, "Accepted hits")  # (short: the four labels fit whole)
+        self.hit_views.setTabToolTip(overlay_tab, "The accepted hits' force pulses and responses overlaid")
         self.hit_check_page = self._make_hit_check_page()
         self.hit_views.addTab(self.hit_check_page, "Hit check")
         # The hit list and the views share the column 2 : 3 whatever the views' pages ask for: switching to the
