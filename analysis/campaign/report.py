@@ -14,6 +14,7 @@ import collections
 import datetime
 import html
 import io
+import math
 from pathlib import Path
 from typing import Any, Sequence
 
@@ -32,6 +33,10 @@ th, td { border: 1px solid #bbb; padding: 3px 8px; text-align: left; vertical-al
 th { background: #eee; } .news { background: #fff3cd; } .error { color: #a00; }
 img { max-width: 100%; }
 """
+
+
+#: The largest condition value drawn against (beyond it matplotlib cannot lay out ticks); such rows are in the table.
+PLOTTABLE_CONDITION = 1e100
 
 
 def _png(figure: Any) -> str:
@@ -152,7 +157,8 @@ def parameters_figure(rows: Sequence[dict[str, Any]], by: Sequence[str], model_n
 
     parameters = _campaign_parameters(rows, model_name)
     x_key = f"condition.{by[0]}"
-    usable = [row for row in rows if isinstance(row.get(x_key), (int, float))]
+    usable = [row for row in rows if isinstance(row.get(x_key), (int, float))  # (a condition plottable on an axis)
+              and math.isfinite(row[x_key]) and abs(row[x_key]) <= PLOTTABLE_CONDITION]
     if not usable:
         return None
     series = grouped(usable, by[1:]) if len(by) > 1 else {(): list(usable)}

@@ -74,17 +74,25 @@ def _bic_of_session_fits(session: Any, fits: dict[str, dict]) -> dict[str, float
     return {row.model_name: row.bic for row in compare_models(results, frf.freq_hz[lines], frf.h1[lines])}
 
 
+#: The widest band a fit is taken over (a fit gasfilm made lies far inside: the NI 9234 samples at most 51.2 kS/s).
+MAX_BAND_HZ = 1e6
+MAX_BAND_RATIO = 1e9
+
+
 def _fit_from_dict(data: Any, path: Path) -> FitResult:
     try:
         fit = FitResult.from_dict(data)
-    except (KeyError, TypeError, ValueError, AttributeError, IndexError) as error:
+    except (KeyError, TypeError, ValueError, AttributeError, IndexError, OverflowError) as error:
         raise SettingError(f"{path}: not a gasfilm fit ({type(error).__name__}: {error})") from None
     bad = [name for name, value in fit.params.items() if not np.isfinite(value)]
     if bad or not (np.isfinite(fit.mass_kg) and fit.mass_kg > 0):
         what = f"parameter(s) {', '.join(bad)} not finite" if bad else f"mass {fit.mass_kg} kg is not positive"
         raise SettingError(f"{path}: fit {fit.model_name}: {what}")
-    if not (np.all(np.isfinite(fit.band_hz)) and 0 <= fit.band_hz[0] < fit.band_hz[1]):
-        raise SettingError(f"{path}: fit {fit.model_name}: band {fit.band_hz} Hz is not LO < HI")
+    low_hz, high_hz = fit.band_hz
+    if not (np.isfinite(low_hz) and np.isfinite(high_hz) and 0 <= low_hz < high_hz <= MAX_BAND_HZ
+            and (low_hz == 0 or high_hz / low_hz <= MAX_BAND_RATIO)):
+        raise SettingError(f"{path}: fit {fit.model_name}: band {fit.band_hz} Hz is not 0 ≤ LO < HI ≤ {MAX_BAND_HZ:g} "
+                           f"over at most {np.log10(MAX_BAND_RATIO):.0f} decades")
     try:
         parameters = {parameter.name: parameter for parameter in fit.model().parameters}
     except (GasfilmError, KeyError, ValueError) as error:
