@@ -226,7 +226,7 @@ def _print_summary(summary: dict[str, Any], source: Path, written: str, units: s
 
     print(f"replay of {source}")
     print(f"  conditions: {format_conditions(summary['conditions'])}")
-    print(f"  hits: {summary['hits']} of {summary['record_samples']} samples ({summary['accepted']} accepted, "
+    print(f"  hits: {summary['hits']}, records of {summary['record_samples']} samples ({summary['accepted']} accepted, "
           f"{summary['rejected']} rejected"
           f"{', %d overridden by hand' % summary['overridden'] if summary['overridden'] else ''})")
     if summary["records_without_trigger"]:
