@@ -70,8 +70,9 @@ def score(effects: list[dict], places: dict[str, str], findings: list[dict]) -> 
     return answers
 
 
-def run_rig(rig: Path, hits: int, seed: int, work: Path) -> dict:
-    """Record ``rig`` on the simulator, diagnose it against its film alone, score the findings against its effects."""
+def rig_effects(rig: Path) -> tuple[list[dict], dict[str, str]]:
+    """The answer key of a rig file: its effects as written (mains and other interference left out: a disturbance,
+    not physics to model) and each effect type's place in the chain."""
     import tomllib
 
     from gasfilm.analysis.physics.spec import RigSpec
@@ -80,9 +81,17 @@ def run_rig(rig: Path, hits: int, seed: int, work: Path) -> dict:
     places = {effect.type_name: effect.place() for effect in loaded.effects}
     kinds = {effect.type_name: effect.kind for effect in loaded.effects}
     effects = [effect for effect in tomllib.loads(rig.read_text(encoding="utf-8")).get("effects", [])
-               if kinds[effect["type"]] != "interference"]  # (mains: a disturbance, not physics to model)
+               if kinds[effect["type"]] != "interference"]
+    return effects, places
+
+
+def run_rig(rig: Path, hits: int, seed: int, work: Path) -> dict:
+    """Record ``rig`` on the simulator, diagnose it against its film alone, score the findings against its effects."""
+    from gasfilm.analysis.physics.spec import RigSpec
+
+    effects, places = rig_effects(rig)
     session, given, out = work / f"{rig.stem}.h5", work / f"{rig.stem}-film-alone.toml", work / f"{rig.stem}-diagnosis"
-    film_alone(loaded).save(given)
+    film_alone(RigSpec.load(rig)).save(given)
     subprocess.run([*GASFILM, "acquire", "--device", "sim", "--rig", str(rig), "--out", str(session), "--hits",
                     str(hits), "--pacing", "fast", "--seed", str(seed), "--hit-interval", "7", "8"],
                    check=True, capture_output=True, cwd=ROOT)
