@@ -238,10 +238,11 @@ def diagnose_spectra(
         excluded |= taken_out
         progress(f"what {', '.join(sorted(taken_out))} left is tried again without {'it' if len(taken_out) == 1 else 'them'}")
     unexplained = _unexplained(spectra, evidence, current.spec, rejected, restoring)
+    structure_changes: list[str] = []
     if unexplained and not steps and not structure_read_off_frf:
         redescribed = _redescribe_structure(spectra, evidence, current, context, progress)
         if redescribed is not None:
-            current, evidence = redescribed
+            current, evidence, structure_changes = redescribed
             recalibration_significant = True
             recalibrated_spec = current.spec
             rms_recalibrated = replay_rms(spectra, recalibrated_spec)
@@ -295,6 +296,7 @@ def diagnose_spectra(
         candidates=rejected,
         restoring_force=restoring,
     )
+    diagnosis.notes.extend(f"the structure changed: {change}" for change in structure_changes)
     logger.info("diagnosis: %s, %d finding(s), %d unexplained band(s), χ²/point %.2f → %.2f", verdict, len(findings),
                 len(unexplained), diagnosis.chi2_per_point_before, diagnosis.chi2_per_point_after)
     return diagnosis
@@ -352,26 +354,69 @@ def _description_error(
                             recording)
 
 
+#: A re-read mode of a given structure costs its pole and complex constant (four parameters) at a BIC's price; at most
+#: this many modes are re-read (the ones whose scan gains most are each finished by a fit).
+MODE_PARAMETERS = 4
+REREAD_FITS = 2
+
+
 def _redescribe_structure(
     spectra: HitSpectra, evidence: Evidence, current: FitOutcome, context: FitContext,
     progress: Callable[[str], None],
-) -> tuple[FitOutcome, Evidence] | None:
+) -> tuple[FitOutcome, Evidence, list[str]] | None:
     """When no term explains what a given spec leaves beyond the noise, the structure it describes may itself have
-    changed: its held parameters (structure modes) are fitted too, last — after every few-parameter explanation was
-    tried — and kept when the χ² gain pays their BIC cost. None when there is nothing held or it does not pay."""
-    if not any(type(effect).held_after_recalibration for effect in current.spec.effects):
+    changed: mode by mode, as terms are selected, after every few-parameter explanation was tried. Every held mode is
+    re-read where it now is (:func:`.structure.reread_mode`: its pole scanned near the spec's, its constant solved on
+    the recordings less the rest of the spec), the :data:`REREAD_FITS` that gain most are finished by a fit with the
+    spec's free parameters, and the best is kept when its χ² gain (in units of what is left) pays its four
+    parameters' BIC cost; again while bands stay beyond the noise. Returns the outcome with the re-read modes free,
+    its evidence and each change in words; None when no mode pays."""
+    from gasfilm.analysis.diagnosis.fitspace import effect_slots
+    from gasfilm.analysis.diagnosis.structure import beside_transfer, mode_change_text, reread_mode
+
+    held = [index for index, effect in enumerate(current.spec.effects)
+            if type(effect).held_after_recalibration and hasattr(effect, "added_accelerance")
+            and effect.type_name == "structure-mode"]
+    if not held:
         return None
-    slots = spec_slots(current.spec, context, recalibration=True)
-    extra = len(slots) - len(current.slots)
-    refit = fit(evidence, current.spec, slots)
     points = evidence.point_count
-    cost = extra * np.log(points) + BIC_MARGIN
-    progress(f"no term explains the rest: the structure's {extra} held parameter(s) fitted too, χ² {current.chi2:.0f} "
-             f"→ {refit.chi2:.0f} (needs a fall of {cost:.0f})")
-    if current.chi2 - refit.chi2 <= cost:
+    cost = MODE_PARAMETERS * np.log(points) + BIC_MARGIN
+    given = current.spec
+    changed: list[int] = []
+    s = evidence.decay_rate_1_s + 2j * np.pi * evidence.freq_hz
+    while len(changed) < MAX_TERMS and not _nothing_unexplained(evidence, current.spec):
+        mean, weight = evidence.spectra.mean()
+        predicted = evidence.mean_prediction(current.spec)
+        transfer = beside_transfer(current.spec, evidence.freq_hz, evidence.decay_rate_1_s)
+        scanned = []
+        for index in held:
+            if index in changed:
+                continue
+            mode = current.spec.effects[index]
+            target = mean - predicted + transfer * mode.added_accelerance(s)
+            reread, misfit = reread_mode(mode, evidence.freq_hz, evidence.decay_rate_1_s, target, weight, transfer)
+            scanned.append((misfit, index, reread))
+        best = None
+        for _, index, reread in sorted(scanned, key=lambda item: item[0])[:REREAD_FITS]:
+            start = current.spec.with_values(effects=[reread if i == index else effect
+                                                      for i, effect in enumerate(current.spec.effects)])
+            refit = fit(evidence, start, [*current.slots, *effect_slots(start, index, context)], covariance=False)
+            gain = (current.chi2 - refit.chi2) / _noise_scale(refit, points)
+            if best is None or gain > best[0]:
+                best = (gain, index, refit)
+        if best is None or best[0] <= cost:
+            break
+        gain, index, refit = best
+        progress(f"no term explains the rest: the structure's mode at {given.effects[index].freq_hz:.1f} Hz re-read, "
+                 f"χ² {current.chi2:.0f} → {refit.chi2:.0f} (a gain of {gain:.0f} noise units, needs {cost:.0f})")
+        changed.append(index)
+        evidence = evidence_for(spectra, refit.spec)
+        current = fit(evidence, refit.spec, refit.slots)
+    if not changed:
         return None
-    evidence = evidence_for(spectra, refit.spec)
-    return fit(evidence, refit.spec, slots), evidence
+    words = [mode_change_text(given.effects[index], current.spec.effects[index]) for index in sorted(
+        changed, key=lambda index: given.effects[index].freq_hz)]
+    return current, evidence, words
 
 
 def _settle_quantised_replay(spectra: HitSpectra, outcome: FitOutcome) -> FitOutcome:

@@ -568,3 +568,69 @@ def structure_summary(spec, reading: Structure | None, band_hz: tuple[float, flo
     return {"modes": rows, "mass_line_kg": spec.mass_kg, "polarity": polarity,
             "driving_point": all(row["modal_constant_per_kg"] > 0 for row in rows if not row["above_band"]),
             "read_off_frf": None if reading is None else reading.to_dict()}
+
+
+#: A mode of a given structure re-read where the spec leaves the recordings beyond the noise: its pole scanned over
+#: :data:`POLE_FREEDOM` of its frequency either side, in steps of :data:`SCAN_STEP` of its half-power bandwidth (at
+#: least :data:`SCAN_MIN_STEP` of its frequency), at its damping ratio times :data:`SCAN_DAMPING_FACTORS`.
+SCAN_STEP = 0.25
+SCAN_MIN_STEP = 2e-5
+SCAN_DAMPING_FACTORS = (0.25, 0.5, 0.7, 1.0, 1.4, 2.0, 2.8, 4.0)
+
+
+def beside_transfer(spec, freq_hz: np.ndarray, decay_rate_1_s: float) -> np.ndarray:
+    """What the measurement chain of ``spec`` multiplies a mode beside the mover by on the grid (polarity, channel
+    transfers): the response channel's transfer over the force channel's."""
+    from gasfilm.analysis.physics.response import channel_transfer, laplace_variable
+
+    s = laplace_variable(freq_hz, decay_rate_1_s)
+    return channel_transfer(spec, "acceleration", s) / channel_transfer(spec, "force", s)
+
+
+def reread_mode(mode: StructureMode, freq_hz: np.ndarray, decay_rate_1_s: float, target: np.ndarray,
+                weight: np.ndarray, transfer: np.ndarray) -> tuple[StructureMode, float]:
+    """The mode whose pole and complex constant best describe ``target`` (the recordings less the rest of the spec,
+    (m/s²)/N on the grid, with real ``weight`` per line: χ² = Σ weight·|target − transfer·mode|²), its pole scanned
+    within :data:`POLE_FREEDOM` of ``mode``'s (the constant solved at every trial pole: variable projection), and
+    the χ² it leaves. What a modal engineer does when one peak of a known structure no longer fits: re-read that
+    mode where it now is; the fit that follows finishes it."""
+    s = decay_rate_1_s + 2j * np.pi * freq_hz
+    bandwidth_hz = 2 * mode.damping_ratio * mode.freq_hz
+    step_hz = max(SCAN_STEP * bandwidth_hz, SCAN_MIN_STEP * mode.freq_hz)
+    span_hz = POLE_FREEDOM * mode.freq_hz
+    trial_hz = mode.freq_hz + np.arange(-span_hz, span_hz + step_hz / 2, step_hz)
+    trial_zeta = np.clip(mode.damping_ratio * np.array(SCAN_DAMPING_FACTORS), MIN_DAMPING_RATIO, MAX_DAMPING_RATIO)
+    hz, zeta = (grid.ravel() for grid in np.meshgrid(trial_hz, trial_zeta))
+    omega = 2 * np.pi * hz[:, None]
+    real_column = transfer * s**2 / (s**2 + 2 * zeta[:, None] * omega * s + omega**2)  # (trials, lines)
+    quadrature_column = real_column * s / omega
+    root = np.sqrt(weight)
+    a, b, t = real_column * root, quadrature_column * root, target * root
+
+    def dot(x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        return np.sum((np.conj(x) * y).real, axis=-1)
+
+    aa, bb, ab, at, bt = dot(a, a), dot(b, b), dot(a, b), dot(a, t), dot(b, t)
+    determinant = aa * bb - ab**2
+    ok = determinant > 1e-12 * aa * bb
+    determinant = np.where(ok, determinant, 1.0)
+    real = np.where(ok, (bb * at - ab * bt) / determinant, 0.0)
+    quadrature = np.where(ok, (aa * bt - ab * at) / determinant, 0.0)
+    misfit = float(dot(t, t)) - (real * at + quadrature * bt)
+    best = int(np.argmin(misfit))
+    limit = MAX_MODAL_CONSTANT_PER_KG
+    return (StructureMode(freq_hz=float(hz[best]), damping_ratio=float(zeta[best]),
+                          modal_constant_per_kg=float(np.clip(real[best], -limit, limit)) or mode.modal_constant_per_kg,
+                          quadrature_per_kg=float(np.clip(quadrature[best], -limit, limit))),
+            float(misfit[best]))
+
+
+def mode_change_text(before: StructureMode, after: StructureMode) -> str:
+    """A mode's change in words: its frequency (Hz and %), its damping ratio (and factor) and the size of its modal
+    constant (factor)."""
+    size_before = np.hypot(before.modal_constant_per_kg, before.quadrature_per_kg)
+    size_after = np.hypot(after.modal_constant_per_kg, after.quadrature_per_kg)
+    return (f"the mode at {before.freq_hz:.1f} Hz: frequency → {after.freq_hz:.1f} Hz "
+            f"({100 * (after.freq_hz / before.freq_hz - 1):+.2f} %), damping ratio {before.damping_ratio:.3g} → "
+            f"{after.damping_ratio:.3g} (×{after.damping_ratio / before.damping_ratio:.2f}), modal constant "
+            f"×{size_after / max(size_before, 1e-300):.2f} in size")
