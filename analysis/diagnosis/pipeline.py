@@ -39,6 +39,7 @@ from gasfilm.analysis.diagnosis.modes import unmodelled_resonances_hz
 from gasfilm.analysis.diagnosis.parallel import shared_map
 from gasfilm.analysis.diagnosis.restoring import RestoringForce
 from gasfilm.analysis.diagnosis.result import Alternative, CandidateDescription, Diagnosis, Finding, Unexplained
+from gasfilm.analysis.diagnosis.structure import side_modes_as_structure
 from gasfilm.analysis.diagnosis.selection import (
     BIC_MARGIN,
     FINISHED_STARTS,
@@ -288,7 +289,7 @@ def diagnose_spectra(
         chi2_per_point_after=chi2_after / points,
         given=spec,
         recalibrated=recalibrated_spec,
-        improved=current.spec.with_description_error(
+        improved=side_modes_as_structure(current.spec).with_description_error(
             _description_error(measured, current.spec, unexplained, spec.description_error, recording)),
         spectra=spectra,
         evidence=evidence,

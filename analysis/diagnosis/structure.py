@@ -634,3 +634,19 @@ def mode_change_text(before: StructureMode, after: StructureMode) -> str:
             f"({100 * (after.freq_hz / before.freq_hz - 1):+.2f} %), damping ratio {before.damping_ratio:.3g} → "
             f"{after.damping_ratio:.3g} (×{after.damping_ratio / before.damping_ratio:.2f}), modal constant "
             f"×{size_after / max(size_before, 1e-300):.2f} in size")
+
+
+def side_modes_as_structure(spec):
+    """``spec`` with its side modes (resonances beside the mover a diagnosis found) written as modes of its measured
+    structure when it describes one (it has structure modes): the same physics (modal superposition, a real modal
+    constant), then part of the structure a later diagnosis holds and re-reads mode by mode, rather than free terms a
+    recalibration may move anywhere in the band (a side mode at 6.7 kHz moved above the band to take up a force leak).
+    Unchanged for a spec without structure modes (a mover on a film: its side modes stay terms)."""
+    if not any(effect.type_name == "structure-mode" for effect in spec.effects):
+        return spec
+    limit = MAX_MODAL_CONSTANT_PER_KG
+    return spec.with_values(effects=[
+        StructureMode(freq_hz=effect.freq_hz, damping_ratio=max(effect.damping_ratio, MIN_DAMPING_RATIO),
+                      modal_constant_per_kg=float(np.clip(effect.modal_constant_per_kg, -limit, limit)),
+                      quadrature_per_kg=float(np.clip(effect.quadrature_per_kg, -limit, limit)))
+        if effect.type_name == "side-mode" else effect for effect in spec.effects])
