@@ -368,9 +368,9 @@ def _redescribe_structure(
     """When no term explains what a given spec leaves beyond the noise, the structure it describes may itself have
     changed: mode by mode, as terms are selected, after every few-parameter explanation was tried. Every held mode is
     re-read where it now is (:func:`.structure.reread_mode`: its pole scanned near the spec's, its constant solved on
-    the recordings less the rest of the spec), the :data:`REREAD_FITS` that gain most are finished by a fit with the
-    spec's free parameters, and the best is kept when its χ² gain (in units of what is left) pays its four
-    parameters' BIC cost; again while bands stay beyond the noise. Returns the outcome with the re-read modes free,
+    the recordings less the rest of the spec, around it), the :data:`REREAD_FITS` that gain most there are finished by
+    a fit with the spec's free parameters, and the best is kept when its χ² gain (in units of what is left) pays its
+    four parameters' BIC cost; again while bands stay beyond the noise. Returns the outcome with the re-read modes free,
     its evidence and each change in words; None when no mode pays."""
     from gasfilm.analysis.diagnosis.fitspace import effect_slots
     from gasfilm.analysis.diagnosis.structure import beside_transfer, mode_change_text, reread_mode
@@ -395,10 +395,10 @@ def _redescribe_structure(
                 continue
             mode = current.spec.effects[index]
             target = mean - predicted + transfer * mode.added_accelerance(s)
-            reread, misfit = reread_mode(mode, evidence.freq_hz, evidence.decay_rate_1_s, target, weight, transfer)
-            scanned.append((misfit, index, reread))
+            reread, gain = reread_mode(mode, evidence.freq_hz, evidence.decay_rate_1_s, target, weight, transfer)
+            scanned.append((gain, index, reread))
         best = None
-        for _, index, reread in sorted(scanned, key=lambda item: item[0])[:REREAD_FITS]:
+        for _, index, reread in sorted(scanned, key=lambda item: -item[0])[:REREAD_FITS]:
             start = current.spec.with_values(effects=[reread if i == index else effect
                                                       for i, effect in enumerate(current.spec.effects)])
             refit = fit(evidence, start, [*current.slots, *effect_slots(start, index, context)], covariance=False)

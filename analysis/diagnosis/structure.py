@@ -572,10 +572,13 @@ def structure_summary(spec, reading: Structure | None, band_hz: tuple[float, flo
 
 #: A mode of a given structure re-read where the spec leaves the recordings beyond the noise: its pole scanned over
 #: :data:`POLE_FREEDOM` of its frequency either side, in steps of :data:`SCAN_STEP` of its half-power bandwidth (at
-#: least :data:`SCAN_MIN_STEP` of its frequency), at its damping ratio times :data:`SCAN_DAMPING_FACTORS`.
+#: least :data:`SCAN_MIN_STEP` of its frequency), at its damping ratio times :data:`SCAN_DAMPING_FACTORS`, judged on the
+#: lines within :data:`SCAN_WINDOW` times that span (at least :data:`POLE_LINES` lines either side): the fit that
+#: follows finishes the pole on every line.
 SCAN_STEP = 0.25
 SCAN_MIN_STEP = 2e-5
 SCAN_DAMPING_FACTORS = (0.25, 0.5, 0.7, 1.0, 1.4, 2.0, 2.8, 4.0)
+SCAN_WINDOW = 2.0
 
 
 def beside_transfer(spec, freq_hz: np.ndarray, decay_rate_1_s: float) -> np.ndarray:
@@ -592,37 +595,42 @@ def reread_mode(mode: StructureMode, freq_hz: np.ndarray, decay_rate_1_s: float,
     """The mode whose pole and complex constant best describe ``target`` (the recordings less the rest of the spec,
     (m/s²)/N on the grid, with real ``weight`` per line: χ² = Σ weight·|target − transfer·mode|²), its pole scanned
     within :data:`POLE_FREEDOM` of ``mode``'s (the constant solved at every trial pole: variable projection), and
-    the χ² it leaves. What a modal engineer does when one peak of a known structure no longer fits: re-read that
-    mode where it now is; the fit that follows finishes it."""
-    s = decay_rate_1_s + 2j * np.pi * freq_hz
+    the χ² it gains over ``mode`` as it is, on the lines around it. What a modal engineer does when one peak of a known
+    structure no longer fits: re-read that mode where it now is; the fit that follows finishes it."""
+    spacing_hz = float(np.median(np.diff(freq_hz))) if freq_hz.size > 1 else 1.0
+    span_hz = POLE_FREEDOM * mode.freq_hz
+    near = np.abs(freq_hz - mode.freq_hz) <= max(SCAN_WINDOW * span_hz, POLE_LINES * spacing_hz)
+    s = decay_rate_1_s + 2j * np.pi * freq_hz[near]
+    transfer, root, target = transfer[near], np.sqrt(weight[near]), target[near]
     bandwidth_hz = 2 * mode.damping_ratio * mode.freq_hz
     step_hz = max(SCAN_STEP * bandwidth_hz, SCAN_MIN_STEP * mode.freq_hz)
-    span_hz = POLE_FREEDOM * mode.freq_hz
     trial_hz = mode.freq_hz + np.arange(-span_hz, span_hz + step_hz / 2, step_hz)
     trial_zeta = np.clip(mode.damping_ratio * np.array(SCAN_DAMPING_FACTORS), MIN_DAMPING_RATIO, MAX_DAMPING_RATIO)
     hz, zeta = (grid.ravel() for grid in np.meshgrid(trial_hz, trial_zeta))
     omega = 2 * np.pi * hz[:, None]
-    real_column = transfer * s**2 / (s**2 + 2 * zeta[:, None] * omega * s + omega**2)  # (trials, lines)
-    quadrature_column = real_column * s / omega
-    root = np.sqrt(weight)
-    a, b, t = real_column * root, quadrature_column * root, target * root
-
-    def dot(x: np.ndarray, y: np.ndarray) -> np.ndarray:
-        return np.sum((np.conj(x) * y).real, axis=-1)
-
-    aa, bb, ab, at, bt = dot(a, a), dot(b, b), dot(a, b), dot(a, t), dot(b, t)
+    a = transfer * root * s**2 / (s**2 + 2 * zeta[:, None] * omega * s + omega**2)  # (trials, lines)
+    t = target * root
+    # the quadrature column is a·s/ω: its products follow from |a|² and conj(a)·t
+    power = np.abs(a) ** 2
+    aa = power.sum(axis=1)
+    bb = power @ np.abs(s) ** 2 / omega[:, 0] ** 2
+    ab = power @ s.real / omega[:, 0]
+    at = (np.conj(a) @ t).real
+    bt = (np.conj(a) @ (np.conj(s) * t)).real / omega[:, 0]
     determinant = aa * bb - ab**2
     ok = determinant > 1e-12 * aa * bb
     determinant = np.where(ok, determinant, 1.0)
     real = np.where(ok, (bb * at - ab * bt) / determinant, 0.0)
     quadrature = np.where(ok, (aa * bt - ab * at) / determinant, 0.0)
-    misfit = float(dot(t, t)) - (real * at + quadrature * bt)
+    total = float(np.sum(np.abs(t) ** 2))
+    misfit = total - (real * at + quadrature * bt)
     best = int(np.argmin(misfit))
+    as_it_is = float(np.sum(np.abs(t - transfer * root * mode.added_accelerance(s)) ** 2))
     limit = MAX_MODAL_CONSTANT_PER_KG
     return (StructureMode(freq_hz=float(hz[best]), damping_ratio=float(zeta[best]),
                           modal_constant_per_kg=float(np.clip(real[best], -limit, limit)) or mode.modal_constant_per_kg,
                           quadrature_per_kg=float(np.clip(quadrature[best], -limit, limit))),
-            float(misfit[best]))
+            as_it_is - float(misfit[best]))
 
 
 def mode_change_text(before: StructureMode, after: StructureMode) -> str:
