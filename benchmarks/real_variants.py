@@ -22,6 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from gasfilm.analysis.diagnosis.recordings import Recordings, diagnose
+from gasfilm.analysis.diagnosis.structure import STRUCTURE_CHANGED
 from gasfilm.analysis.physics.effects import StructureMode
 from gasfilm.analysis.physics.spec import RigSpec
 
@@ -172,8 +173,7 @@ def named(diagnosis) -> list[str]:
     """What a diagnosis says changed: its findings with their values, and the structure's modes it re-read."""
     said = [f"{f.effect} (" + ", ".join(f"{key} {value['value']:.4g} {value['unit']}".rstrip()
                                         for key, value in f.parameters.items()) + ")" for f in diagnosis.findings]
-    return said + [note.removeprefix("the structure changed: ") for note in diagnosis.notes
-                   if note.startswith("the structure changed")]
+    return said + [note.removeprefix(STRUCTURE_CHANGED) for note in diagnosis.notes if note.startswith(STRUCTURE_CHANGED)]
 
 
 def main() -> None:

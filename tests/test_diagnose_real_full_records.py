@@ -16,6 +16,8 @@ import numpy as np
 import pytest
 
 from gasfilm.analysis.diagnosis.recordings import Recordings, diagnose
+from gasfilm.analysis.diagnosis.report import report_text
+from gasfilm.analysis.diagnosis.structure import STRUCTURE_CHANGED
 from gasfilm.analysis.physics.spec import RigSpec
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
@@ -85,8 +87,9 @@ def test_full_length_records_close_the_loop_and_each_change_is_named_without_rig
     (row,) = frequencies.values()
     assert abs(row["spec"] - moved.mode_hz) < 1e-6 * moved.mode_hz
     assert abs(row["fitted"] - moved.new_hz) < 1e-3 * moved.new_hz  # 1.5 % made, found within 0.1 %
-    said = [note for note in result.notes if note.startswith("the structure changed")]
+    said = [note for note in result.notes if note.startswith(STRUCTURE_CHANGED)]
     assert len(said) == 1 and f"the mode at {moved.mode_hz:.1f} Hz" in said[0] and "+1.5" in said[0]
+    assert said[0] in report_text(result)  # with the recalibrated parameters, where a person looks for it
 
     # a mode added between two real ones is found as a mode, its frequency within 1 %; nothing else is claimed
     added = changes["added"]

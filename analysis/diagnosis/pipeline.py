@@ -39,7 +39,7 @@ from gasfilm.analysis.diagnosis.modes import unmodelled_resonances_hz
 from gasfilm.analysis.diagnosis.parallel import shared_map
 from gasfilm.analysis.diagnosis.restoring import RestoringForce
 from gasfilm.analysis.diagnosis.result import Alternative, CandidateDescription, Diagnosis, Finding, Unexplained
-from gasfilm.analysis.diagnosis.structure import side_modes_as_structure
+from gasfilm.analysis.diagnosis.structure import STRUCTURE_CHANGED, side_modes_as_structure
 from gasfilm.analysis.diagnosis.selection import (
     BIC_MARGIN,
     FINISHED_STARTS,
@@ -297,7 +297,7 @@ def diagnose_spectra(
         candidates=rejected,
         restoring_force=restoring,
     )
-    diagnosis.notes.extend(f"the structure changed: {change}" for change in structure_changes)
+    diagnosis.notes.extend(STRUCTURE_CHANGED + change for change in structure_changes)
     logger.info("diagnosis: %s, %d finding(s), %d unexplained band(s), χ²/point %.2f → %.2f", verdict, len(findings),
                 len(unexplained), diagnosis.chi2_per_point_before, diagnosis.chi2_per_point_after)
     return diagnosis

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from gasfilm.analysis.diagnosis.result import Diagnosis
-from gasfilm.analysis.diagnosis.structure import structure_summary
+from gasfilm.analysis.diagnosis.structure import STRUCTURE_CHANGED, structure_summary
 from gasfilm.drivers.interface import STANDARD_GRAVITY_M_S2 as G_M_S2
 
 #: A band not explained is listed on its own line when it holds at least this share of the excess χ²; the others are
@@ -49,6 +49,7 @@ def report_text(diagnosis: Diagnosis) -> str:
             lines.append(f"    the structure's modes: {len(modal)} parameters recalibrated (the mode table below)"
                          + (f", {edge} at the edge of their range: not a measurement" if edge else "")
                          + "; each one with its uncertainty in --json and the session report")
+        lines.extend(f"    {note}" for note in diagnosis.notes if note.startswith(STRUCTURE_CHANGED))
     if structure is not None:
         lines.extend(_structure_lines(structure, diagnosis))
     for finding in diagnosis.findings:
@@ -109,7 +110,8 @@ def report_text(diagnosis: Diagnosis) -> str:
         lines.append(f"  loop: the written spec diagnosed again gives '{loop['verdict_on_written_spec']}' (χ²/point "
                      f"{loop['chi2_per_point']:.3f})" + (": closed" if loop["closed"] else
                                                         f": NOT closed, it finds {', '.join(loop['findings'])}"))
-    lines.extend(f"  note: {note}" for note in diagnosis.notes)
+    lines.extend(f"  note: {note}" for note in diagnosis.notes
+                 if not (diagnosis.recalibration and note.startswith(STRUCTURE_CHANGED)))
     if diagnosis.improved_spec_path:
         lines.append(f"  improved spec: {diagnosis.improved_spec_path}")
     lines.extend(f"  figure: {figure}" for figure in diagnosis.figures)

@@ -633,6 +633,10 @@ def reread_mode(mode: StructureMode, freq_hz: np.ndarray, decay_rate_1_s: float,
             as_it_is - float(misfit[best]))
 
 
+#: How a diagnosis's note on a re-read mode of its structure begins (the report lists it with the recalibration).
+STRUCTURE_CHANGED = "the structure changed: "
+
+
 def mode_change_text(before: StructureMode, after: StructureMode) -> str:
     """A mode's change in words: its frequency (Hz and %), its damping ratio (and factor) and the size of its modal
     constant (factor)."""
