@@ -32,9 +32,9 @@ DELAY_S = 10e-6
 LEAK_M_S2_PER_N = 0.05
 GAIN = 1.03
 MAINS_HZ = 50.0
-#: The structure changes of the last rows (:func:`structure_variants`): a mode's frequency lowered by MODE_SHIFT, another
-#: one's raised by MODE_MOVE, a mode's damping ratio times DAMPING_FACTOR, and a mode added with a modal constant
-#: ADDED_SHARE of its stronger neighbour's.
+#: The structure changes of the last rows (:func:`structure_variants`): a mode's frequency lowered by MODE_SHIFT,
+#: another one's raised by MODE_MOVE, a mode's damping ratio times DAMPING_FACTOR, and a mode added with a modal
+#: constant ADDED_SHARE of its stronger neighbour's.
 MODE_SHIFT = 0.003
 MODE_MOVE = 0.015
 DAMPING_FACTOR = 2.0
@@ -173,7 +173,8 @@ def named(diagnosis) -> list[str]:
     """What a diagnosis says changed: its findings with their values, and the structure's modes it re-read."""
     said = [f"{f.effect} (" + ", ".join(f"{key} {value['value']:.4g} {value['unit']}".rstrip()
                                         for key, value in f.parameters.items()) + ")" for f in diagnosis.findings]
-    return said + [note.removeprefix(STRUCTURE_CHANGED) for note in diagnosis.notes if note.startswith(STRUCTURE_CHANGED)]
+    return said + [note.removeprefix(STRUCTURE_CHANGED) for note in diagnosis.notes
+                   if note.startswith(STRUCTURE_CHANGED)]
 
 
 def main() -> None:
