@@ -32,14 +32,20 @@ from gasfilm.analysis.diagnosis.candidates import (
     gain_is_not_a_mass,
     separating_measurement,
 )
-from gasfilm.analysis.diagnosis.fitspace import fit_context, removed_with, spec_slots, without_effect
+from gasfilm.analysis.diagnosis.fitspace import effect_slots, fit_context, removed_with, spec_slots, without_effect
 from gasfilm.analysis.diagnosis.measurement import HitSpectra, QualityNote, contiguous_bands, weighted_mean
 from gasfilm.analysis.diagnosis.mechanisms import mechanisms_for
 from gasfilm.analysis.diagnosis.modes import unmodelled_resonances_hz
 from gasfilm.analysis.diagnosis.parallel import shared_map
 from gasfilm.analysis.diagnosis.restoring import RestoringForce
 from gasfilm.analysis.diagnosis.result import Alternative, CandidateDescription, Diagnosis, Finding, Unexplained
-from gasfilm.analysis.diagnosis.structure import STRUCTURE_CHANGED, side_modes_as_structure
+from gasfilm.analysis.diagnosis.structure import (
+    STRUCTURE_CHANGED,
+    beside_transfer,
+    mode_change_text,
+    reread_mode,
+    side_modes_as_structure,
+)
 from gasfilm.analysis.diagnosis.selection import (
     BIC_MARGIN,
     FINISHED_STARTS,
@@ -355,8 +361,8 @@ def _description_error(
                             recording)
 
 
-#: A re-read mode of a given structure costs its pole and complex constant (four parameters) at a BIC's price; at most
-#: this many modes are re-read (the ones whose scan gains most are each finished by a fit).
+#: A re-read mode of a given structure costs its pole and complex constant (four parameters) at a BIC's price; of the
+#: modes re-read in a round, this many (those whose scan gains most) are finished by a fit.
 MODE_PARAMETERS = 4
 REREAD_FITS = 2
 
@@ -372,12 +378,7 @@ def _redescribe_structure(
     a fit with the spec's free parameters, and the best is kept when its χ² gain (in units of what is left) pays its
     four parameters' BIC cost; again while bands stay beyond the noise. Returns the outcome with the re-read modes free,
     its evidence and each change in words; None when no mode pays."""
-    from gasfilm.analysis.diagnosis.fitspace import effect_slots
-    from gasfilm.analysis.diagnosis.structure import beside_transfer, mode_change_text, reread_mode
-
-    held = [index for index, effect in enumerate(current.spec.effects)
-            if type(effect).held_after_recalibration and hasattr(effect, "added_accelerance")
-            and effect.type_name == "structure-mode"]
+    held = [index for index, effect in enumerate(current.spec.effects) if effect.type_name == "structure-mode"]
     if not held:
         return None
     points = evidence.point_count
