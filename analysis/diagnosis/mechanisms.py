@@ -4,8 +4,9 @@ A description (a term of the written spec: a catalog effect or a generic one —
 a channel factor) has a place in the chain and features (frequency, damping, sign, order, …). The table below lists,
 per place, the mechanisms from the literature that produce a description of that form, with the features each needs
 and the measurement that tells it from the others. :func:`mechanisms_for` returns every mechanism consistent with a
-description, in the table's order (the more common first); the first is the name a finding gives, and the data
-cannot tell it from the others listed (``tied``) unless a catalog term already separated them by the fit.
+description, best first: the first is the name a finding gives; those its features point at as much are ``tied``
+with it (the data cannot tell them apart; the measurement listed with each would), the rest are consistent but less
+likely.
 
 Sources: D. J. Ewins, *Modal Testing: Theory, Practice and Application* (2000), §3 (hammer tips, force transducers,
 accelerometer mounting); Brüel & Kjær, *Piezoelectric Accelerometers and Vibration Preamplifiers* (1987), ch. 4
@@ -209,12 +210,14 @@ def _keys(effect: Effect, target: Effect | None) -> set[str]:
 def mechanisms_for(effect: Effect, context: FitContext, target: Effect | None = None) -> list[MechanismMatch]:
     """Every mechanism of :data:`MECHANISMS` consistent with ``effect``'s features (for a change between hits,
     ``target`` is the term it changes), best first: the one its features point at most, ties in the table's order
-    (the more specific and the more common first). ``tied`` marks the first: the others are consistent too, and the
-    listed measurement tells them apart."""
+    (the more specific and the more common first). ``tied`` marks the first and every other whose features point at
+    it as much: the data cannot tell those apart (the listed measurement does); the rest are consistent, but less
+    likely."""
     keys = _keys(effect, target)
     subject = effect if target is None else target
-    matches = [mechanism for mechanism in MECHANISMS
-               if keys & set(mechanism.effects) and mechanism.when(subject, context)]
-    matches.sort(key=lambda mechanism: -mechanism.preference(subject, context))
-    return [MechanismMatch(mechanism.name, mechanism.note, mechanism.tell_apart, index == 0)
-            for index, mechanism in enumerate(matches)]
+    scored = [(mechanism.preference(subject, context), mechanism) for mechanism in MECHANISMS
+              if keys & set(mechanism.effects) and mechanism.when(subject, context)]
+    scored.sort(key=lambda item: -item[0])
+    best = scored[0][0] if scored else 0.0
+    return [MechanismMatch(mechanism.name, mechanism.note, mechanism.tell_apart, preference == best)
+            for preference, mechanism in scored]

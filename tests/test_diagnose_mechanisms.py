@@ -1,0 +1,38 @@
+"""Step 3 of the diagnosis, *name*: the mechanisms listed for a description, best first, and which of them the data
+cannot tell apart (``tied``)."""
+
+from __future__ import annotations
+
+from gasfilm.analysis.diagnosis.mechanisms import mechanisms_for
+from gasfilm.analysis.physics.effects import EFFECT_TYPES, FitContext
+
+#: a 25 kg mover on a film resonating at 200 Hz with a damping ratio of 0.05, seen over 20–1300 Hz
+CONTEXT = FitContext(mass_kg=25.0, film_stiffness_n_per_m=4e7, resonance_hz=200.0, band_hz=(20.0, 1300.0),
+                     session_span_s=60.0, max_displacement_m=1e-6, film_damping_ratio=0.05)
+
+
+def side_mode(freq_hz: float, damping_ratio: float):
+    return EFFECT_TYPES["side-mode"](freq_hz=freq_hz, damping_ratio=damping_ratio, modal_constant_per_kg=2e-3)
+
+
+def test_a_lightly_damped_mode_above_the_film_resonance_is_named_an_elastic_mode_and_tied_with_nothing_else():
+    matches = mechanisms_for(side_mode(880.0, 0.008), CONTEXT)
+    assert "elastic" in matches[0].name
+    assert [match.tied for match in matches] == [True] + [False] * (len(matches) - 1)
+
+
+def test_mechanisms_the_features_point_at_equally_are_tied():
+    """A film-damped mode below the film's resonance: tilt on the film and a mode of the base both fit its features
+    (the data of one accelerometer cannot tell them apart), the plate's elastic mode does not (it needs a mode above
+    the resonance)."""
+    matches = mechanisms_for(side_mode(120.0, 0.06), CONTEXT)
+    tied = {match.name for match in matches if match.tied}
+    assert any("tilt" in name for name in tied) and any("base" in name for name in tied)
+    assert not any("elastic" in match.name for match in matches)
+    assert all(match.tied for match in matches[:len(tied)])  # the tied ones come first
+
+
+def test_every_description_has_at_least_one_mechanism_marked_first_and_tied():
+    matches = mechanisms_for(EFFECT_TYPES["channel-resonance"](channel="force", freq_hz=1450.0, damping_ratio=0.04),
+                             CONTEXT)
+    assert matches and matches[0].tied and "hammer" in matches[0].name
