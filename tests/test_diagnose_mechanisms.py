@@ -3,6 +3,8 @@ cannot tell apart (``tied``)."""
 
 from __future__ import annotations
 
+import numpy as np
+
 from gasfilm.analysis.diagnosis.mechanisms import mechanisms_for
 from gasfilm.analysis.physics.effects import EFFECT_TYPES, FitContext
 
@@ -36,3 +38,18 @@ def test_every_description_has_at_least_one_mechanism_marked_first_and_tied():
     matches = mechanisms_for(EFFECT_TYPES["channel-resonance"](channel="force", freq_hz=1450.0, damping_ratio=0.04),
                              CONTEXT)
     assert matches and matches[0].tied and "hammer" in matches[0].name
+
+
+def test_a_squeeze_film_is_named_and_a_relaxation_it_cannot_be_told_from_is_tied_with_it():
+    """A squeeze film has no spring-pot order, and its loss peaks at squeeze number ≈ 10 (its characteristic
+    frequency); a film memory that fitted as well (an alternative) brings its mechanism, tied."""
+    squeeze = EFFECT_TYPES["squeeze-film"](gap_m=7e-5, length_m=0.025)
+    freq_hz = np.linspace(10.0, 3000.0, 30000)
+    loss_peak_hz = freq_hz[np.argmax(squeeze.added_stiffness(2j * np.pi * freq_hz).imag)]
+    assert abs(squeeze.features()["characteristic_frequency_hz"] / loss_peak_hz - 1) < 0.01
+    alone = mechanisms_for(squeeze, CONTEXT)
+    assert alone and "compressibility" in alone[0].name
+    assert not any("viscoelastic" in match.name for match in alone)
+    beside = mechanisms_for(squeeze, CONTEXT, alternatives=("film-memory",))
+    assert beside[0].name == alone[0].name
+    assert any("viscoelastic" in match.name and match.tied for match in beside)

@@ -23,6 +23,10 @@ from typing import Callable
 from gasfilm.analysis.physics.effects import Effect, FitContext
 
 
+def _always(effect: Effect, context: FitContext) -> bool:
+    return True
+
+
 @dataclass(frozen=True)
 class Mechanism:
     """A physical cause of descriptions of some effect types, when their features fit ``when``."""
@@ -31,7 +35,7 @@ class Mechanism:
     effects: tuple[str, ...]
     note: str
     tell_apart: str
-    when: Callable[[Effect, FitContext], bool] = lambda effect, context: True
+    when: Callable[[Effect, FitContext], bool] = _always
     #: how strongly the features point at this mechanism among those consistent (higher first; ties keep the table's
     #: order)
     preference: Callable[[Effect, FitContext], float] = lambda effect, context: 0.0
@@ -62,7 +66,9 @@ def _below_resonance(effect: Effect, context: FitContext) -> bool:
 
 
 def _order_between(low: float, high: float) -> Callable[[Effect, FitContext], bool]:
-    return lambda effect, context: low <= getattr(effect, "order", getattr(effect, "alpha_memory", 1.0)) <= high
+    """A film branch's spring-pot order within [low, high] (a term without an order, e.g. a squeeze film, passes)."""
+    return lambda effect, context: (not hasattr(effect, "order")) or low <= effect.order <= high
+
 
 
 def _low_pass(effect: Effect, context: FitContext) -> bool:
@@ -207,17 +213,26 @@ def _keys(effect: Effect, target: Effect | None) -> set[str]:
     return {f"{change}:{target.type_name}.{parameter}", f"{change}:{target.type_name}.*", f"{change}:*"}
 
 
-def mechanisms_for(effect: Effect, context: FitContext, target: Effect | None = None) -> list[MechanismMatch]:
+def mechanisms_for(effect: Effect, context: FitContext, target: Effect | None = None,
+                   alternatives: tuple[str, ...] = ()) -> list[MechanismMatch]:
     """Every mechanism of :data:`MECHANISMS` consistent with ``effect``'s features (for a change between hits,
     ``target`` is the term it changes), best first: the one its features point at most, ties in the table's order
     (the more specific and the more common first). ``tied`` marks the first and every other whose features point at
     it as much: the data cannot tell those apart (the listed measurement does); the rest are consistent, but less
-    likely."""
+    likely. ``alternatives``: the types of other terms the data cannot tell from this one (they fitted as well): the
+    mechanisms those make whatever their values are tied too."""
     keys = _keys(effect, target)
     subject = effect if target is None else target
     scored = [(mechanism.preference(subject, context), mechanism) for mechanism in MECHANISMS
               if keys & set(mechanism.effects) and mechanism.when(subject, context)]
     scored.sort(key=lambda item: -item[0])
     best = scored[0][0] if scored else 0.0
-    return [MechanismMatch(mechanism.name, mechanism.note, mechanism.tell_apart, preference == best)
-            for preference, mechanism in scored]
+    matches = [MechanismMatch(mechanism.name, mechanism.note, mechanism.tell_apart, preference == best)
+               for preference, mechanism in scored]
+    listed = {match.name for match in matches}
+    for mechanism in MECHANISMS:
+        if (mechanism.name not in listed and mechanism.when is _always
+                and any(alternative in mechanism.effects for alternative in alternatives)):
+            matches.append(MechanismMatch(mechanism.name, mechanism.note, mechanism.tell_apart, True))
+            listed.add(mechanism.name)
+    return sorted(matches, key=lambda match: not match.tied)

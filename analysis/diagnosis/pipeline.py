@@ -1251,6 +1251,7 @@ def _finding(
     sentence = (f"{sentence[0].upper()}{sentence[1:]}; χ² falls by {gain:.0f} on all hits, by "
                 f"{step.held_out_gain:.0f} (noise units) on hits left out of the fit and by "
                 f"{step.held_out_band_gain:.0f} on frequency bands left out of it.")
+    alternatives = _alternatives(identifier, step.alternatives, final.spec, index)
     unusual = effect.implausible(context)
     if unusual is not None:
         sentence += (f" Its values are unusual for this term ({unusual}); it is named because with it nothing is left "
@@ -1267,7 +1268,7 @@ def _finding(
         chi2_gain=gain,
         held_out_gain=step.held_out_gain,
         gain_over_recalibrated=claim.gain_over_recalibrated,
-        alternatives=_alternatives(identifier, step.alternatives, final.spec, index),
+        alternatives=alternatives,
         held_out_band_gain=step.held_out_band_gain,
         own_band_chi2_per_point=claim.own_band_chi2_per_point,
         own_band_limit=claim.own_band_limit,
@@ -1275,7 +1276,9 @@ def _finding(
         status="modelled" if type(effect).generic else "named",
         features=effect.features(),
         mechanisms=mechanisms_for(effect, context, final.spec.effects[effect.term] if isinstance(effect, TermChange)
-                                  else None),
+                                  else None, alternatives=tuple(
+                                      alternative.effect for alternative in alternatives
+                                      if EFFECT_TYPES[alternative.effect].kind == effect.kind)),
     )
 
 

@@ -778,6 +778,9 @@ class CrossTalk(Effect):
                 f"FRF ({share:+.2f} % of the mass line), most visible where the true FRF is small, in {where}")
 
 
+#: The squeeze number at which a squeeze film's loss (the imaginary part of ``1 − tanh(q/2)/(q/2)``, q = √(jσ))
+#: peaks: σ ≈ 10.16.
+SQUEEZE_LOSS_PEAK = 10.16
 #: Air at 20 °C and sea level: the defaults of a squeeze film's ambient pressure and viscosity.
 AIR_PRESSURE_PA = 101325.0
 AIR_VISCOSITY_PA_S = 1.81e-5
@@ -823,6 +826,13 @@ class SqueezeFilm(Effect):
 
     def fit_ranges(self, context: FitContext) -> dict[str, FitRange]:
         return {"gap_m": FitRange("log", 5e-7, 5e-4), "length_m": FitRange("log", 1e-3, 10.0)}
+
+    def features(self) -> dict[str, float]:
+        """Its fields, its air spring, and the frequency where its loss peaks (squeeze number
+        :data:`SQUEEZE_LOSS_PEAK`): the film turns there from a damper into a spring, a relaxation's characteristic
+        frequency."""
+        return {**super().features(), "static_stiffness_n_per_m": self.static_stiffness_n_per_m,
+                "characteristic_frequency_hz": SQUEEZE_LOSS_PEAK / (2 * np.pi * self.squeeze_time_s)}
 
     def implausible(self, context: FitContext) -> str | None:
         if self.static_stiffness_n_per_m > 100 * context.film_stiffness_n_per_m:
