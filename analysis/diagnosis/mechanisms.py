@@ -65,6 +65,12 @@ def _below_resonance(effect: Effect, context: FitContext) -> bool:
     return getattr(effect, "freq_hz", 0.0) < 0.8 * context.resonance_hz
 
 
+def _positive(effect: Effect, context: FitContext) -> bool:
+    """A mode that moves the accelerometer with the hammer's force (a positive modal constant): what a part riding on
+    the mover in heave makes; a negative one is seen across a nodal line (tilt or an elastic mode off-centre)."""
+    return getattr(effect, "modal_constant_per_kg", 1.0) > 0
+
+
 def _order_between(low: float, high: float) -> Callable[[Effect, FitContext], bool]:
     """A film branch's spring-pot order within [low, high] (a term without an order, e.g. a squeeze film, passes)."""
     return lambda effect, context: (not hasattr(effect, "order")) or low <= effect.order <= high
@@ -88,13 +94,23 @@ MECHANISMS: tuple[Mechanism, ...] = (
               "the mover's own structural mode: far less damped than the modes the gas film carries",
               "accelerometers at two points of the mover (their ratio changes across the mode)", _above_resonance,
               lambda effect, context: float(_lightly_damped(effect, context))),
-    Mechanism("a mode of the base, frame or table the bearing stands on", ("side-mode", "structure-mode"),
-              "the support moves the guide, and with it the mover, in a mode of its own",
+    Mechanism("a mode of the base, frame or table the bearing stands on (or of a guide in series with the film)",
+              ("side-mode", "structure-mode"),
+              "the support moves the guide, and with it the mover, in a mode of its own: below the film's resonance "
+              "(a soft support) or damped as the film is (a support or guide in series with it)",
               "an accelerometer on the base (it moves most there)",
-              preference=lambda effect, context: float(_below_resonance(effect, context))),
+              preference=lambda effect, context: float(_below_resonance(effect, context)
+                                                       or not _lightly_damped(effect, context))),
     Mechanism("a part or fixture riding on the mover (sensor block, cable, clamp)", ("extra-mode", "side-mode"),
-              "a small mass on its own compliance on the mover: a peak/dip pair at its frequency",
-              "removing or clamping the part (the pair moves or goes)"),
+              "a small mass on its own compliance on the mover: a peak/dip pair at its frequency, a positive modal "
+              "constant", "removing or clamping the part (the pair moves or goes)",
+              preference=lambda effect, context: float(_positive(effect, context))),
+    Mechanism("an exciter (shaker) left attached to the mover through its stinger", ("extra-mode", "side-mode"),
+              "the armature's mass on the stinger's stiffness is a mode on the mover (Ewins §3.3: the exciter "
+              "attached alters the structure), lightly damped, with a positive modal constant",
+              "disconnecting the stinger (the mode goes)",
+              preference=lambda effect, context: float(_positive(effect, context)
+                                                       and _lightly_damped(effect, context))),
     Mechanism("a tuned mass damper or absorber on the mover", ("extra-mode",),
               "a deliberate mass-spring-damper on the mover, often heavy and damped, near the film's resonance",
               "the mover's drawings; locking the absorber"),
