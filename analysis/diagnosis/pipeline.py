@@ -549,6 +549,15 @@ def _drop_partial_descriptions(
                                                                  refits_without, rejected, recalibrated, context)
 
 
+def _describes_its_part(claim: Claim) -> bool:
+    """Whether a term whose own band stays beyond the noise still describes its part there, as a generic description
+    does (:func:`_described_share_met`): it removed most of the excess there and the written spec replayed is closer
+    to the recordings with it. Taking it out would hand its mismatch to the terms beside it, whose bands it shares: a
+    term fails its claim on its own values, not on what another leaves."""
+    return (claim.reason is not None and claim.own_band_chi2_per_point > claim.own_band_limit
+            and claim.gain_over_recalibrated > 0 and _described_share_met(claim))
+
+
 def _described_share_met(claim: Claim) -> bool:
     """Whether a term removed at least :data:`DESCRIBED_SHARE` of the excess over the noise in its own band."""
     before, after = claim.own_band_without, claim.own_band_chi2_per_point
@@ -862,6 +871,8 @@ def _drop_unsupported_terms(
         for step in steps:
             if EFFECT_TYPES[step.identifier].generic:  # a change between hits is a description: its own band only
                 continue
+            if _describes_its_part(claims[step.label]):
+                claims[step.label].reason = None  # what it leaves in its band is another's, or not explained
             if claims[step.label].reason is None:  # its own values on the written spec, as when it entered
                 claims[step.label].reason = _not_a_finding(current, _effect_index(current.spec, step.label),
                                                                 context, within_noise)
