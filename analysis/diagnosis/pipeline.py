@@ -195,7 +195,10 @@ def diagnose_spectra(
 
     own_slots = spec_slots(spec, context, recalibration=structure_read_off_frf)
     recalibrated = _settle_quantised_replay(spectra, fit(evidence, spec, own_slots))
-    recalibration_significant = chi2_given - recalibrated.chi2 > len(own_slots) * np.log(points) + BIC_MARGIN
+    # a spec already within the noise and its own recorded description error: what a recalibration would move is that
+    # known error, not a change (no change smaller than it can be seen)
+    recalibration_significant = (chi2_given - recalibrated.chi2 > len(own_slots) * np.log(points) + BIC_MARGIN
+                                 and not (spectra is not measured and _nothing_unexplained(evidence, spec)))
     if recalibration_significant:
         evidence = evidence_for(spectra, recalibrated.spec)
         current = fit(evidence, recalibrated.spec, own_slots)
@@ -339,14 +342,12 @@ def _description_error(
     unexplained: at every analysis line, the power by which the recorded per-hit FRFs differ from the spec replayed
     hit by hit beyond their noise, averaged over the hits (the mean difference and any scatter between hits the spec
     does not describe; 5 lines smoothed, as the unexplained bands are found). With nothing unexplained, the error the
-    given spec recorded, if any. None for a spec grossly beyond the noise (χ²/point above
-    :data:`GROSS_CHI2_PER_POINT`): it describes nothing a change could be measured against."""
+    given spec recorded, if any. Recorded whatever its size: a spec far from the recordings still says how far, and
+    a later diagnosis against it says that no change smaller than that can be seen there."""
     if not unexplained or measured.replay is None:
         return previous
     evidence = evidence_for(measured, spec)
     chi2_per_point = evidence.chi2(spec) / evidence.point_count
-    if chi2_per_point > GROSS_CHI2_PER_POINT:
-        return previous
     freq_hz = measured.freq_hz
     replay = measured.replay
     per_hit = np.abs(replay.measured_h - replayed_per_hit(measured, spec)) ** 2 - replay.measured_variance
