@@ -606,7 +606,8 @@ def default_search(
 
     ``start``: coordinates near the optimum (a fit of a network this one is a reduction of), polished first; when that
     reaches ``reachable_cost`` (that fit's weighted sum of squares, which this network, a limit of that one, cannot
-    go below) within :data:`_ROUND_AGREEMENT`, it is the optimum and no search round is run."""
+    go below) within :data:`_ROUND_AGREEMENT`, it is the optimum and no search round is run; else a round that agrees
+    with it ends the search as a second round would."""
     rng = np.random.default_rng(seed)
     exact = _EXACT_LOG_COST * float(np.sum(np.abs(problem.h) ** 2 * problem.sqrt_w**2))
     best_theta, best_cost, minimum = None, np.inf, False
@@ -619,7 +620,7 @@ def default_search(
             return best_theta
     for round_index in range(_MAX_ROUNDS):
         theta, cost = _search_round(problem, rng, progress if round_index == 0 else None)
-        agrees = round_index > 0 and abs(cost - best_cost) <= _ROUND_AGREEMENT * best_cost
+        agrees = (round_index > 0 or start is not None) and abs(cost - best_cost) <= _ROUND_AGREEMENT * best_cost
         if cost < best_cost:
             best_theta, best_cost = theta, cost
             minimum = best_cost > exact and _promised_decrease(problem, theta) <= _MINIMUM_PROMISE
