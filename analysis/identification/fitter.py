@@ -72,15 +72,16 @@ def fit_model(
     h = np.asarray(h_measured, dtype=complex)
     _check_inputs(film, freq, h, mass_kg, method, weights)
 
-    def fit_network(network: FilmModel, report: Callable[[float], None] | None) -> FitResult:
+    def fit_network(network: FilmModel, report: Callable[[float], None] | None,
+                    near: FitResult | None = None) -> FitResult:
         return _fit_once(network, freq, h, float(mass_kg), method, float(decay_rate_1_s), fit_mass, weights, seed,
-                         report, cancel, gapso_settings)
+                         report, cancel, gapso_settings, near)
 
     share = REDUCTION_PROGRESS if reduce else 1.0
     result = fit_network(film, None if progress is None else (lambda fraction: progress(share * fraction)))
     if reduce:
         result = reduction.identifiable_form(
-            result, lambda network: fit_network(network, None), freq, h,
+            result, lambda network, near=None: fit_network(network, None, near), freq, h,
             None if progress is None else (lambda fraction: progress(share + (1 - share) * fraction)))
         for note in result.notes:
             logger.info("fit %s: %s", film.name, note)
@@ -102,8 +103,10 @@ def _fit_once(
     progress: Callable[[float], None] | None,
     cancel: Callable[[], bool] | None,
     gapso_settings: GapsoSettings,
+    near: FitResult | None = None,
 ) -> FitResult:
-    """One search of ``film``'s parameters, as it is (see :func:`fit_model`)."""
+    """One search of ``film``'s parameters, as it is (see :func:`fit_model`); ``near``: a fit of a network ``film``
+    is a reduction of, whose values (those of ``film``'s parameters it has) start the default fitter's search."""
     started = time.perf_counter()
     logger.info(
         "fit %s (%s, %s fitter): %d lines %.6g–%.6g Hz, mass %.6g kg%s, decay rate %.6g 1/s",
@@ -112,7 +115,8 @@ def _fit_once(
     )
     problem = Problem(film, freq, h, mass_kg, decay_rate_1_s, fit_mass, weights, cancel)
     if method == "default":
-        theta = default_search(problem, seed, progress)
+        start, reachable_cost = _start_near(problem, near)
+        theta = default_search(problem, seed, progress, start, reachable_cost)
     else:
         objective = UnitObjective(problem, gapso_settings.order_margin)
         best_unit, _ = gapso_search(
@@ -133,6 +137,22 @@ def _fit_once(
     if at_bound:
         logger.info("fit %s: %s ended at a bound (not measured)", film.name, ", ".join(at_bound))
     return result
+
+
+def _start_near(problem: Problem, near: FitResult | None) -> tuple[np.ndarray | None, float]:
+    """Coordinates of ``problem`` at ``near``'s values of its parameters (None when ``near`` lacks one of them, or
+    with a fitted mass), and ``near``'s weighted sum of squares on ``problem``'s lines."""
+    names = problem.coords.names
+    if near is None or problem.coords.fit_mass or any(name not in near.params for name in names):
+        return None, 0.0
+    params = np.array([near.params[name] for name in names])
+    if not (np.all(np.isfinite(params)) and np.all((params > 0) | problem.coords.is_order[: len(names)])):
+        return None, 0.0
+    start = np.clip(problem.coords.from_params(params, near.mass_kg), problem.coords.lower, problem.coords.upper)
+    with np.errstate(all="ignore"):
+        residual = (near.accelerance(problem.freq_hz) - problem.h) * problem.sqrt_w
+    reachable_cost = float(np.sum(np.abs(residual) ** 2))
+    return start, reachable_cost if np.isfinite(reachable_cost) else 0.0
 
 
 def _check_inputs(model: FilmModel, freq: np.ndarray, h: np.ndarray, mass_kg: float, method: str, weights) -> None:

@@ -9,7 +9,9 @@ element shorted, a spring-pot made a spring; inside interchangeable arms always 
 the first arm's names). A candidate the fit's own values already support (the element taken out as it is, the BIC
 no higher) is fitted again first; the others are fitted when the fit says the data do not determine it
 (:func:`troubles`: a parameter at a bound or not identifiable, an order at 0 or 2 within its uncertainty, a feature
-inside the band the data do not support). The candidate with the lowest BIC (Table 2's) is taken if that is not
+inside the band the data do not support), each started from the fit's own values (a search of its own only when
+that start does not reach the fit's RMS), and not at all when even the fit's RMS would not give it a BIC below the
+best candidate's so far. The candidate with the lowest BIC (Table 2's) is taken if that is not
 above the fit's own — or, when the fit has a feature the FRF cannot show, the best candidate without one, whatever
 its BIC. This repeats until nothing is left to take out; the form reached is then named as the removals from the
 requested network name it (the same names in every session). The result keeps the model's name, holds the reduced
@@ -280,6 +282,12 @@ def _unsupported(feature: Feature, model: FilmModel, fit: FitResult, freq_hz: np
     return ""
 
 
+def _least_bic(fit: FitResult, network: Node) -> float:
+    """The least BIC ``network``, a reduction of ``fit``'s, can reach on the same data: a limit of ``fit``'s network
+    fits no closer than ``fit``."""
+    return bic(fit, fit.rms, len(network.parameters()))
+
+
 def troubles(fit: FitResult, invented: list[str], notes: list[str]) -> bool:
     """Whether the fit says the data do not determine all of it: a parameter at a bound or not identifiable, an
     order at 0 or 2, a feature inside the band the data do not support. (Strong correlations alone are not: well
@@ -299,13 +307,14 @@ def _inside(invented: list[str]) -> list[str]:
 
 def identifiable_form(
     fit: FitResult,
-    refit: Callable[[FilmModel], FitResult],
+    refit: Callable[..., FitResult],
     freq_hz: np.ndarray,
     h_measured: np.ndarray,
     progress: Callable[[float], None] | None = None,
 ) -> FitResult:
     """``fit`` reduced to what the FRF ``h_measured`` at ``freq_hz`` determines, with its notes and flags:
-    ``refit(model)`` fits a reduced network to the same data (without reducing it).
+    ``refit(model)`` fits a reduced network to the same data (without reducing it), ``refit(model, near)`` starting
+    from the values of ``near``, the fit it is a reduction of.
 
     A reduction is taken when its BIC is not above the fit's; and when the fit has a feature inside the band the
     FRF does not support (a resonance narrower than its lines, or below its noise), the best reduction without one
@@ -324,16 +333,21 @@ def identifiable_form(
         if not screened and not trouble:
             break
         candidates = candidate_reductions(current.model().network)
-        candidates.sort(key=lambda candidate: network_shape(candidate[0]) not in screened[:1])
+        # the screened reduction first, then those with fewer parameters (which may leave the others no chance)
+        candidates.sort(key=lambda candidate: (network_shape(candidate[0]) not in screened[:1],
+                                               len(candidate[0].parameters())))
         tried: list[tuple[FitResult, str, bool]] = []  # (fit, what was taken out, it invents nothing in the band)
         for number, (network, what) in enumerate(candidates):
             if number == 1 and screened and bic(tried[0][0]) <= bic(current) and tried[0][2]:
                 break  # the screened reduction holds: the others need not be fitted
             if number >= 1 and screened and not trouble:
                 break
+            supported = [bic(item[0]) for item in tried if bic(item[0]) <= bic(current)]
+            if supported and _least_bic(current, network) - SAME_BIC >= min(supported):
+                continue  # even fitting as closely as the fit itself it would not be chosen
             if progress is not None:
                 progress(min(1.0, (step + number / max(len(candidates), 1)) / 3))
-            reduced = refit(FilmModel(fit.model_name, network, fit.model().description))
+            reduced = refit(FilmModel(fit.model_name, network, fit.model().description), current)
             evaluations += reduced.evaluations
             wall_time_s += reduced.wall_time_s
             tried.append((reduced, what, not _inside(invented_features(reduced, freq_hz, h_measured))))

@@ -21,6 +21,7 @@ with respect to every parameter (spring ``dZ/dk = 1``, dashpot ``dZ/dη = s``, s
 from __future__ import annotations
 
 import abc
+import functools
 import re
 from dataclasses import dataclass
 from typing import Mapping, NamedTuple, Sequence
@@ -432,6 +433,12 @@ def parse_network(text: str, name: str = "custom", description: str = "") -> Fil
     spring, ``dashpot(c)`` a dashpot and ``pot(eta, alpha)`` a spring-pot. Example (the paper's FOMGF):
     ``k3 || (k1 -- pot(eta1, alpha)) || (k2 -- pot(eta2, beta))``.
     """
+    return FilmModel(name, _parsed_node(text), description)
+
+
+@functools.lru_cache(maxsize=256)
+def _parsed_node(text: str) -> Node:
+    """The network of ``text`` (nodes are immutable: one parse per text serves every model made of it)."""
     tokens: list[str] = []
     position = 0
     stripped = text.strip()
@@ -447,7 +454,7 @@ def parse_network(text: str, name: str = "custom", description: str = "") -> Fil
     node = parser.parallel()
     if parser.index != len(tokens):
         raise SettingError(f"model '{text}': unexpected '{tokens[parser.index]}'")
-    return FilmModel(name, node, description)
+    return node
 
 
 class _Parser:
