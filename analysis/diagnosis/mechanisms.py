@@ -76,7 +76,6 @@ def _order_between(low: float, high: float) -> Callable[[Effect, FitContext], bo
     return lambda effect, context: (not hasattr(effect, "order")) or low <= effect.order <= high
 
 
-
 def _low_pass(effect: Effect, context: FitContext) -> bool:
     return effect.pole_hz < effect.zero_hz
 

@@ -555,8 +555,7 @@ def _describes_its_part(claim: Claim) -> bool:
     does (:func:`_described_share_met`): it removed most of the excess there and the written spec replayed is closer
     to the recordings with it. Taking it out would hand its mismatch to the terms beside it, whose bands it shares: a
     term fails its claim on its own values, not on what another leaves."""
-    return (claim.reason is not None and claim.own_band_chi2_per_point > claim.own_band_limit
-            and claim.gain_over_recalibrated > 0 and _described_share_met(claim))
+    return claim.own_band_chi2_per_point > claim.own_band_limit and _described_share_met(claim)
 
 
 def _described_share_met(claim: Claim) -> bool:
