@@ -60,36 +60,37 @@ def signals_deferred() -> Iterator[None]:
 
 @contextlib.contextmanager
 def stop_signals_handled_by(handler: Callable[[int, Any], None]) -> Iterator[None]:
-    """While the block runs, ``handler`` handles every stop signal; the handlers before are put back after it. The
-    swap is whole either way: the kernel holds the signals back meanwhile, and a handler that raises during it (a
-    signal that had come just before) does not leave part of the handlers swapped. Only in the main thread; elsewhere
-    a no-op."""
+    """While the block runs, ``handler`` handles every stop signal the process does not ignore (one it was started
+    ignoring, nohup's SIGHUP or a background job's SIGINT, stays ignored); the handlers before are put back after
+    it. The swap is whole either way: the kernel holds the signals back meanwhile, and a handler that raises during it
+    (a signal that had come just before) does not leave part of the handlers swapped. Only in the main thread;
+    elsewhere a no-op."""
     if threading.current_thread() is not threading.main_thread():
         yield
         return
-    with _held_back():
-        previous = _install({signum: handler for signum in STOP_SIGNALS})
-    try:
-        yield
-    finally:
-        with _held_back():
-            _install(previous)
-
-
-def _install(handlers: dict[int, Any]) -> dict[int, Any]:
-    """Install every handler of ``handlers`` (signal → handler), whatever a handler raises meanwhile (it is raised
-    once all are in place); returns the handlers they replaced."""
     previous: dict[int, Any] = {}
+    try:
+        with _held_back():  # (a signal that came before is handled when the kernel lets it through: still swapped)
+            _install({signum: handler for signum in STOP_SIGNALS if signal.getsignal(signum) != signal.SIG_IGN},
+                     previous)
+        yield
+    finally:  # also when a signal that came before the block was raised as it started: the block never ran
+        with _held_back():
+            _install(previous, {})
+
+
+def _install(handlers: dict[int, Any], replaced: dict[int, Any]) -> None:
+    """Install every handler of ``handlers`` (signal → handler), noting in ``replaced`` the handlers they replace,
+    whatever a handler raises meanwhile (it is raised once all are in place)."""
     raised: BaseException | None = None
     for signum, handler in handlers.items():
-        while signum not in previous:
+        while signum not in replaced:
             try:
-                previous[signum] = signal.signal(signum, handler)
+                replaced[signum] = signal.signal(signum, handler)
             except BaseException as error:  # (signal.signal runs the handlers of signals already come)
                 raised = raised or error
     if raised is not None:
         raise raised
-    return previous
 
 
 @contextlib.contextmanager

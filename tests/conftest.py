@@ -1,11 +1,20 @@
-"""Test-wide set-up: Qt runs offscreen; matplotlib draws to files."""
+"""Test-wide set-up: Qt runs offscreen; matplotlib draws to files; commands start as from a terminal."""
 
 import os
+import signal
 
 os.environ.setdefault("QT_QPA_PLATFORM", "offscreen")
 os.environ.setdefault("MPLBACKEND", "Agg")
 
 import pytest  # noqa: E402
+
+# A run started in the background (``cmd &`` in a script, nohup) inherits SIGINT or SIGHUP ignored, and so would every
+# command a test starts: gasfilm keeps a signal it was started ignoring ignored, as the shell meant. The tests send
+# stop signals to commands as a terminal would, so they start them with the dispositions a terminal gives.
+for _signum, _handler in ((signal.SIGINT, signal.default_int_handler), (signal.SIGHUP, signal.SIG_DFL),
+                          (signal.SIGTERM, signal.SIG_DFL)):
+    if signal.getsignal(_signum) == signal.SIG_IGN:
+        signal.signal(_signum, _handler)
 
 
 @pytest.fixture(autouse=True, scope="session")

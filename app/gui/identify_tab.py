@@ -24,11 +24,11 @@ from PySide6.QtWidgets import (
     QMessageBox,
     QProgressBar,
     QPushButton,
-    QScrollArea,
     QSplitter,
     QTableWidget,
     QTableWidgetItem,
     QTabWidget,
+    QTextBrowser,
     QVBoxLayout,
     QWidget,
 )
@@ -133,16 +133,13 @@ class IdentifyTab(QWidget):
         self.parameters.setFixedHeight(self.parameters.horizontalHeader().sizeHint().height() + PARAMETER_ROWS * 22
                                        + 2 * self.parameters.frameWidth() + 2)  # (the fit's warnings get the rest)
         # the fit's description, notes and warnings wrapped to the panel's width; longer ones scroll, never cut
-        self.flags_label = QLabel()
-        self.flags_label.setWordWrap(True)
-        self.flags_label.setAlignment(Qt.AlignmentFlag.AlignLeft | Qt.AlignmentFlag.AlignTop)
-        self.flags_label.setTextInteractionFlags(Qt.TextInteractionFlag.TextSelectableByMouse)
-        self.flags_scroll = QScrollArea()
-        self.flags_scroll.setWidget(self.flags_label)
-        self.flags_scroll.setWidgetResizable(True)
-        self.flags_scroll.setFrameShape(QFrame.Shape.NoFrame)
-        self.flags_scroll.setHorizontalScrollBarPolicy(Qt.ScrollBarPolicy.ScrollBarAlwaysOff)
-        self.flags_scroll.setMinimumHeight(FLAGS_LINES * self.fontMetrics().lineSpacing() + 4)
+        # (a text view, not a label in a scroll area: it wraps to its own width whether its scroll bar shows or not)
+        self.flags_text = QTextBrowser()
+        self.flags_text.setFrameShape(QFrame.Shape.NoFrame)
+        self.flags_text.setHorizontalScrollBarPolicy(Qt.ScrollBarPolicy.ScrollBarAlwaysOff)
+        self.flags_text.viewport().setAutoFillBackground(False)
+        self.flags_text.setStyleSheet("QTextBrowser { background: transparent; }")
+        self.flags_text.setMinimumHeight(FLAGS_LINES * self.fontMetrics().lineSpacing() + 4)
         table_box = QWidget()
         table_layout = QVBoxLayout(table_box)
         table_layout.setContentsMargins(0, 0, 0, 0)
@@ -156,7 +153,7 @@ class IdentifyTab(QWidget):
         parameters_layout.setContentsMargins(0, 0, 0, 0)
         parameters_layout.addWidget(QLabel("<b>Parameters</b> of the selected model (± standard error)"))
         parameters_layout.addWidget(self.parameters)
-        parameters_layout.addWidget(self.flags_scroll, 1)
+        parameters_layout.addWidget(self.flags_text, 1)
         self.control_button = QPushButton("Control model")
         self.control_button.setToolTip(f"a rational state-space model of the selected fit within "
                                        f"{100 * DEFAULT_MAX_ERROR:g} % of it, stable and passive (gasfilm model)")
@@ -360,7 +357,7 @@ class IdentifyTab(QWidget):
             self._show_parameters()  # (the same row selected again emits no selection change)
         else:
             self.parameters.setRowCount(0)
-            self.flags_label.clear()
+            self.flags_text.clear()
         self._update_band_label()
         if self.isVisible():
             self._draw_figures()
@@ -419,7 +416,7 @@ class IdentifyTab(QWidget):
         self.parameters.resizeColumnsToContents()
         flags = "; ".join(fit.flags)
         notes = "".join(f"<br>{html.escape(note)}" for note in fit.notes)
-        self.flags_label.setText(
+        self.flags_text.setHtml(
             f"{fit.model_name}: {fit.network} · {fit.method} fitter · {fit.evaluations} evaluations in "
             f"{fit.wall_time_s:.2f} s" + notes
             + (f"<br><span style='color:#a66300'>⚠ {html.escape(flags)}</span>" if flags else "")
