@@ -1,10 +1,15 @@
-"""Test-wide set-up: Qt runs offscreen; matplotlib draws to files; commands start as from a terminal."""
+"""Test-wide set-up: Qt runs offscreen; matplotlib draws to files; one BLAS thread; commands start as from a
+terminal."""
 
 import os
 import signal
 
 os.environ.setdefault("QT_QPA_PLATFORM", "offscreen")
 os.environ.setdefault("MPLBACKEND", "Agg")
+# Two test workers fill the two cores: OpenBLAS's own threads (one per core, spinning while they wait) would only
+# take CPU from the other worker — a third more CPU under load for the same tests. Set before numpy loads OpenBLAS,
+# and inherited by every command a test starts.
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import pytest  # noqa: E402
 

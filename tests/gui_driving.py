@@ -57,3 +57,12 @@ def hit(qtbot, window, tip: str = "medium") -> None:
 def stop(qtbot, window) -> None:
     qtbot.mouseClick(window.measure_tab.stop_button, Qt.MouseButton.LeftButton)
     qtbot.waitUntil(lambda: window.controller.state == "idle", timeout=10_000)
+
+
+def fits_finish(qtbot, window, models: int, timeout_ms: int = 90_000) -> None:
+    """Wait for the fit job just started to end with ``models`` fits; when it does not start or ends without them,
+    fail at once with what the banner says (before, a refused or failed fit looked like a fit that never ended)."""
+    controller = window.controller
+    assert controller.job_active("fit"), f"the fit did not start: {window.banner.text!r}"
+    qtbot.waitUntil(lambda: not controller.job_active("fit"), timeout=timeout_ms)
+    assert len(controller.fits) == models, f"{len(controller.fits)} of {models} fits: {window.banner.text!r}"

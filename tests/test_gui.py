@@ -11,6 +11,7 @@ from gasfilm.app.gui.settings import load_setup
 from gasfilm.drivers.errors import SettingError
 from gasfilm.drivers.interface import ChannelKind
 from gui_driving import arm as _arm
+from gui_driving import fits_finish
 from gui_driving import gui_settings as _settings
 from gui_driving import hit as _hit
 from gui_driving import open_window
@@ -62,7 +63,7 @@ def test_full_hammer_session_through_the_gui(qtbot, window, tmp_path):
     window.tabs.setCurrentWidget(window.identify_tab)
     window.identify_tab.set_selected_models(["SD", "FOMGF"])
     qtbot.mouseClick(window.identify_tab.run_button, Qt.MouseButton.LeftButton)
-    qtbot.waitUntil(lambda: not controller.job_active("fit") and len(controller.fits) == 2, timeout=60_000)
+    fits_finish(qtbot, window, 2)
     assert window.identify_tab.table.rowCount() == 2
     assert window.identify_tab.table.item(0, 1).text() == "FOMGF"  # the simulated film is the paper's FOMGF
 

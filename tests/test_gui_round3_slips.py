@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from PySide6.QtCore import Qt, QTimer
 
-from gui_driving import arm, hit, open_window, stop
+from gui_driving import arm, fits_finish, hit, open_window, stop
 
 
 @pytest.fixture
@@ -104,7 +104,7 @@ def test_table2_marks_the_lowest_bic_and_the_parameters_at_a_bound_and_shows_eve
     window.tabs.setCurrentWidget(tab)
     tab.set_selected_models(["SD", "FOMGF", "FOBGF"])
     qtbot.mouseClick(tab.run_button, Qt.MouseButton.LeftButton)
-    qtbot.waitUntil(lambda: not controller.job_active("fit") and len(controller.fits) == 3, timeout=90_000)
+    fits_finish(qtbot, window, 3)
     header = [tab.table.horizontalHeaderItem(c).text().replace("\n", " ") for c in range(tab.table.columnCount())]
     assert header[2] == "Parameters" and header[9] == "At bound" and header[10] == "Hits"
     bic = [tab.table.item(r, 8).text() for r in range(3)]

@@ -11,7 +11,7 @@ from gasfilm.analysis.settings import SETTING_LABELS
 from gasfilm.app.commands.fit import parse_band
 from gasfilm.app.gui.diagnose_tab import finding_title
 from gasfilm.app.gui.widgets import TidyPlotItem, field_label
-from gui_driving import arm, hit, open_window, stop
+from gui_driving import arm, fits_finish, hit, open_window, stop
 
 
 @pytest.fixture
@@ -159,7 +159,7 @@ def test_session_through_the_gui_without_slips(qtbot, window):
     window.tabs.setCurrentWidget(window.identify_tab)
     window.identify_tab.set_selected_models(["SD", "FOMGF"])
     window.identify_tab.run_fits()
-    qtbot.waitUntil(lambda: not controller.job_active("fit") and bool(controller.fits), timeout=60_000)
+    fits_finish(qtbot, window, 2)
     assert window.banner.severity == "info" and window.banner.text.startswith("fit finished: 2 models"), \
         window.banner.history
 

@@ -6,7 +6,7 @@ import pytest
 from gasfilm.analysis.session import Session
 from PySide6.QtCore import Qt
 
-from gui_driving import arm, configure, hit, open_window, stop
+from gui_driving import arm, configure, fits_finish, hit, open_window, stop
 from test_cli_acquire_replay import FAST_SIM, gasfilm
 
 
@@ -153,7 +153,7 @@ def test_gui_refuses_a_session_that_is_not_one_before_opening(tmp_path, capsys):
 
 
 def _fit_after_hits(qtbot, window, hits: int, models: list[str]) -> None:
-    controller, tab = window.controller, window.identify_tab
+    tab = window.identify_tab
     arm(qtbot, window)
     for _ in range(hits):
         hit(qtbot, window)
@@ -161,7 +161,7 @@ def _fit_after_hits(qtbot, window, hits: int, models: list[str]) -> None:
     window.tabs.setCurrentWidget(tab)
     tab.set_selected_models(models)
     qtbot.mouseClick(tab.run_button, Qt.MouseButton.LeftButton)
-    qtbot.waitUntil(lambda: not controller.job_active("fit") and len(controller.fits) == len(models), timeout=90_000)
+    fits_finish(qtbot, window, len(models))
 
 
 def test_the_parameters_panel_shows_the_refit_of_the_selected_model_at_once(qtbot, window):
