@@ -563,3 +563,21 @@ def test_the_latin_hypercube_is_scipys_bit_for_bit_without_importing_scipy_stats
                              "gasfilm.analysis.figures; print('scipy.stats' in sys.modules)"],
                             capture_output=True, text=True, check=True).stdout.strip()
     assert loaded == "False"
+
+
+def test_an_undamped_branch_resonance_narrower_than_any_grid_is_a_feature_not_a_crash():
+    """GUI fits that "never ended" (2026-11-29): a FOMGF fit whose second spring-pot ran to order 2 exactly (an
+    undamped inertance on k2: a resonance √(k2/η2)/2π ≈ 21.8 Hz with no width) crashed the invented-feature check
+    with an IndexError for about a third of these k2 — the peak refined between two samples above √2 × every sample — and
+    the GUI's fit job failed. Each is one film resonance there, of zero width (narrower than any grid)."""
+    from gasfilm.analysis.physics.elements import get_model
+    from gasfilm.analysis.physics.features import film_features
+
+    model = get_model("FOMGF")
+    params = {"k3": 3.2466827e7, "k1": 2.9110842e6, "eta1": 16.157375, "alpha": 1.7471001, "eta2": 12.31745,
+              "beta": 2.0}
+    for k2 in np.linspace(2.30e5, 2.31e5, 60):
+        resonance_hz = np.sqrt(k2 / params["eta2"]) / (2 * np.pi)
+        features = film_features(model, {**params, "k2": float(k2)}, 25.0, (10.0, 2000.0))
+        assert any(feature.kind == "film resonance" and abs(feature.freq_hz / resonance_hz - 1) < 1e-6
+                   for feature in features), (k2, features)

@@ -114,9 +114,10 @@ def _branch_resonances(model: FilmModel, values: Mapping[str, np.ndarray], span_
         if not (np.isfinite(base) and base > 0 and magnitude[top] >= BRANCH_RESONANCE_GAIN * base):
             continue
         f_peak, peak = refine_maxima(lambda f: np.abs(node.stiffness(2j * np.pi * f, values)), local, [top])[0]
-        half = magnitude >= peak / math.sqrt(2.0)
-        edges = np.flatnonzero(half)
-        width_low, width_high = float(local[edges[0]]), float(local[edges[-1]])
+        edges = np.flatnonzero(magnitude >= peak / math.sqrt(2.0))
+        # (an undamped branch, a spring-pot at order 2 exactly: the peak between two samples is above √2 × every
+        # sample, narrower than any grid — of zero width here)
+        width_low, width_high = (float(local[edges[0]]), float(local[edges[-1]])) if edges.size else (f_peak, f_peak)
         with np.errstate(all="ignore"):
             total = abs(complex(model.network.stiffness(np.array([2j * np.pi * f_peak]), values)[0]))
         if low <= f_peak <= high:
