@@ -1075,6 +1075,16 @@ class ChannelPoleZero(Effect):
                 "zero_hz": FitRange("log", 1e-3 * low, 100.0 * high),
                 "gain": FitRange("log", 0.1, 10.0)}
 
+    def implausible(self, context: FitContext) -> str | None:
+        """Where it reads most in the band the factor's gain lies within :data:`CHAIN_GAIN_LIMITS`, as a power law's
+        gain does: with its corners together or beyond the band it is a gain alone, a power law of exponent 0."""
+        largest = max(float(abs(self._scale() * self._shape(2j * np.pi * f))) for f in context.band_hz)
+        low, high = CHAIN_GAIN_LIMITS
+        if low <= largest <= high:
+            return None
+        return (f"at its largest in the band the response reads {largest:.3g} times the truth: a chain that far off "
+                f"everywhere has a wrong sensitivity or unit (the level note), not a filter")
+
     def low_frequency_gain(self) -> float:
         """The factor's magnitude below both corners."""
         return self._scale()
@@ -1124,7 +1134,7 @@ class ChannelPowerLaw(Effect):
 
     def fit_ranges(self, context: FitContext) -> dict[str, FitRange]:
         return {"exponent": FitRange("linear", -POWER_LAW_LIMIT, POWER_LAW_LIMIT),
-                "gain": FitRange("log", 0.5, 2.0)}
+                "gain": FitRange("log", *CHAIN_GAIN_LIMITS)}
 
     def features(self) -> dict[str, float]:
         return {"exponent": self.exponent, "percent_per_decade": 100.0 * (10.0**self.exponent - 1.0),
@@ -1139,6 +1149,9 @@ class ChannelPowerLaw(Effect):
 
 #: A channel power law's exponent stays within ±this (±0.3: a factor of 2 per decade).
 POWER_LAW_LIMIT = 0.3
+#: What a chain factor reads, against the truth, where it reads most in the band: beyond a factor of two a sensitivity
+#: or a unit is wrong (the `level` note says which), which no filter of the chain describes.
+CHAIN_GAIN_LIMITS = (0.5, 2.0)
 
 
 # --- changes between hits: a term of the spec whose value moves from hit to hit -------------------------------------
