@@ -231,7 +231,7 @@ def test_a_charge_sensor_on_a_voltage_input_is_a_high_pass_of_the_chain_with_its
     assert not [finding.effect for finding in diagnosis.findings if finding.kind == "rig"], diagnosis.findings
     [chain] = [finding for finding in diagnosis.findings if finding.effect == "channel-pole-zero"]
     assert abs(chain.features["pole_hz"] / 350.0 - 1) < 0.02, chain.features
-    assert abs(chain.features["high_frequency_gain"] - 0.8) < 0.01, chain.features
+    assert abs(chain.features["gain_above_corners"] - 0.8) < 0.01, chain.features
     assert "voltage input" in chain.mechanisms[0].name
     assert diagnosis.verdict == "modelled" and diagnosis.chi2_per_point_after < 1.5
 

@@ -166,9 +166,9 @@ def test_a_first_order_factor_of_the_chain_reads_its_gain_at_its_reference_and_s
     s = 2j * np.pi * FREQ_HZ
     factor = ChannelPoleZero(pole_hz=373.0, zero_hz=1e-3, gain=0.5, reference_hz=200.0)
     assert abs(factor.channel_transfer("acceleration", np.array([2j * np.pi * 200.0]))[0]) == pytest.approx(0.5)
-    high_pass = factor.high_frequency_gain() * s / (s + 2 * np.pi * 373.0)
+    high_pass = factor.gain_above_corners() * s / (s + 2 * np.pi * 373.0)
     np.testing.assert_allclose(factor.channel_transfer("acceleration", s), high_pass, rtol=1e-3)
-    assert factor.high_frequency_gain() == pytest.approx(0.5 * abs(1 + 373.0 / (200.0j)), rel=1e-5)
+    assert factor.gain_above_corners() == pytest.approx(0.5 * abs(1 + 373.0 / (200.0j)), rel=1e-5)
     assert factor.channel_transfer("force", s) == 1.0
     unity_at_dc = ChannelPoleZero(pole_hz=900.0, zero_hz=5000.0)
     np.testing.assert_allclose(unity_at_dc.channel_transfer("acceleration", s),

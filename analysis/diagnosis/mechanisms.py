@@ -90,7 +90,7 @@ def _high_pass_in_band(effect: Effect, context: FitContext) -> bool:
 
 def _reads_low(effect: Effect, context: FitContext) -> bool:
     """A factor whose gain above its corners is below 1: the signal divided before it is read."""
-    return effect.high_frequency_gain() < 1.0
+    return effect.gain_above_corners() < 1.0
 
 
 #: The mechanisms, by description, the more common first within a description.

@@ -1085,24 +1085,24 @@ class ChannelPoleZero(Effect):
         return (f"at its largest in the band the response reads {largest:.3g} times the truth: a chain that far off "
                 f"everywhere has a wrong sensitivity or unit (the level note), not a filter")
 
-    def low_frequency_gain(self) -> float:
+    def gain_below_corners(self) -> float:
         """The factor's magnitude below both corners."""
         return self._scale()
 
-    def high_frequency_gain(self) -> float:
+    def gain_above_corners(self) -> float:
         """The factor's magnitude above both corners."""
         return self._scale() * self.pole_hz / self.zero_hz
 
     def features(self) -> dict[str, float]:
-        return {"pole_hz": self.pole_hz, "zero_hz": self.zero_hz, "low_frequency_gain": self.low_frequency_gain(),
-                "high_frequency_gain": self.high_frequency_gain()}
+        return {"pole_hz": self.pole_hz, "zero_hz": self.zero_hz, "gain_below_corners": self.gain_below_corners(),
+                "gain_above_corners": self.gain_above_corners()}
 
     def evidence(self, sigma: Mapping[str, float], where: str, context: FitContext) -> str:
         return (f"the FRF is scaled and turned smoothly with frequency as a first-order factor of the measurement "
                 f"chain does: a pole at {self.pole_hz:.4g} ± {sigma['pole_hz']:.2g} Hz and a zero at "
                 f"{self.zero_hz:.4g} ± {sigma['zero_hz']:.2g} Hz, a gain of {self.gain:.3g} ± {sigma['gain']:.2g} at "
-                f"{self.reference_hz:.0f} Hz ({self.low_frequency_gain():.3g} below both corners, "
-                f"{self.high_frequency_gain():.3g} above both), in {where}")
+                f"{self.reference_hz:.0f} Hz ({self.gain_below_corners():.3g} below both corners, "
+                f"{self.gain_above_corners():.3g} above both), in {where}")
 
 
 @register_effect("channel-power-law")
