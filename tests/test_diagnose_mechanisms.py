@@ -64,3 +64,14 @@ def test_a_squeeze_film_is_named_and_a_relaxation_it_cannot_be_told_from_is_tied
     beside = mechanisms_for(squeeze, CONTEXT, alternatives=("film-memory",))
     assert beside[0].name == alone[0].name
     assert any("viscoelastic" in match.name and match.tied for match in beside)
+
+
+def test_a_high_pass_inside_the_band_that_reads_low_is_a_charge_sensor_on_a_voltage_input():
+    """A first-order factor with its zero at the origin and its pole inside the band, reading below 1 above it: the
+    capacitance of a charge sensor and its cable on a voltage input's resistance (no charge amplifier). A coupling's
+    corner below the band is a conditioner's, not that."""
+    pole_zero = EFFECT_TYPES["channel-pole-zero"]
+    matches = mechanisms_for(pole_zero(pole_hz=373.0, zero_hz=0.01, gain=0.37, reference_hz=200.0), CONTEXT)
+    assert "voltage input" in matches[0].name and matches[0].tied and not matches[1].tied
+    coupling = mechanisms_for(pole_zero(pole_hz=2.0, zero_hz=0.01, gain=0.9, reference_hz=200.0), CONTEXT)
+    assert not any("voltage input" in match.name for match in coupling) and "high-pass" in coupling[0].name

@@ -25,9 +25,11 @@ from gasfilm.analysis.diagnosis.recordings import Recordings
 from gasfilm.analysis.diagnosis.selection import FitOutcome, fit
 from gasfilm.analysis.physics.effects import (
     AcCoupling,
+    ChannelPoleZero,
     CrossTalk,
     ExtraMode,
     FilmMemory,
+    FitContext,
     PneumaticLag,
     SensitivityError,
 )
@@ -206,6 +208,45 @@ def test_a_sensor_whose_sensitivity_falls_with_frequency_is_no_film_physics():
     diagnosis = diagnose(_tilted_sensor(), NOMINAL)
     assert not [finding.effect for finding in diagnosis.findings if finding.kind == "rig"], diagnosis.findings
     assert "eta" not in diagnosis.recalibration or not diagnosis.recalibration["eta"]["at_bound"]
+
+
+def _charge_sensor_on_a_voltage_input(hits: int = 12, seed: int = 2, rate_hz: float = 6400.0) -> Recordings:
+    """The nominal rig read by a charge accelerometer plugged straight into a voltage input (no charge amplifier):
+    its and its cable's capacitance on the input's resistance make a high-pass at 350 Hz, inside the band, and the
+    cable divides the sensitivity to 0.8 (``0.8·s/(s + 2π·350)``), synthesised exactly with sensor noise."""
+    k, c = NOMINAL.film_parameters["k"], NOMINAL.film_parameters["eta"]
+
+    def accelerance(freq_hz: np.ndarray) -> np.ndarray:
+        s = 2j * np.pi * freq_hz
+        return s**2 / (NOMINAL.moving_mass_kg * s**2 + c * s + k) * 0.8 * s / (s + 2 * np.pi * 350.0)
+
+    return synthesised_hits(accelerance, rate_hz, hits, seed, "charge sensor on a voltage input")
+
+
+def test_a_charge_sensor_on_a_voltage_input_is_a_high_pass_of_the_chain_with_its_gain():
+    """Red team round 10: a high-pass far inside the band with a gain below 1 is one first-order factor of the
+    chain (its zero at the origin, a valid limit), found where it is and named as the missing charge amplifier — not
+    a mode beside the mover; the written spec replays within the noise."""
+    diagnosis = diagnose(_charge_sensor_on_a_voltage_input(), NOMINAL)
+    assert not [finding.effect for finding in diagnosis.findings if finding.kind == "rig"], diagnosis.findings
+    [chain] = [finding for finding in diagnosis.findings if finding.effect == "channel-pole-zero"]
+    assert abs(chain.features["pole_hz"] / 350.0 - 1) < 0.02, chain.features
+    assert abs(chain.features["gain_above_corners"] - 0.8) < 0.01, chain.features
+    assert "voltage input" in chain.mechanisms[0].name
+    assert diagnosis.verdict == "modelled" and diagnosis.chi2_per_point_after < 1.5
+
+
+def test_a_chain_factor_that_reads_beyond_twice_the_truth_across_the_band_is_implausible():
+    """Red team round 10 (a gantry beam in series with the film): with its corners together a pole-zero is a gain
+    alone, and one of 2.6 stood in beside a mode as heavy as the mover. Where it reads most in the band a chain factor
+    stays within a factor of two, as a power law's gain does (beyond it the level note speaks of units); a high-pass
+    far inside the band that reads 0.79 above it is within."""
+    context = FitContext(mass_kg=25.0, film_stiffness_n_per_m=4e7, resonance_hz=200.0, band_hz=(10.0, 1300.0),
+                         session_span_s=60.0, max_displacement_m=1e-6)
+    gain_alone = ChannelPoleZero(pole_hz=700.0, zero_hz=700.0, gain=2.6, reference_hz=200.0).implausible(context)
+    assert gain_alone is not None and "2.6 times the truth" in gain_alone
+    assert ChannelPoleZero(pole_hz=373.0, zero_hz=0.01, gain=0.37, reference_hz=200.0).implausible(context) is None
+    assert ChannelPoleZero(pole_hz=700.0, zero_hz=700.0, gain=0.4, reference_hz=200.0).implausible(context)
 
 
 def test_a_candidate_fit_that_cannot_matter_stops_early_and_one_that_can_runs_to_the_end():

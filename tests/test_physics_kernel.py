@@ -80,7 +80,7 @@ EXAMPLES: dict[str, Effect] = {
     "side-mode": SideMode(freq_hz=430.0, damping_ratio=0.015, modal_constant_per_kg=-0.004),
     "film-branch": FilmBranch(stiffness_n_per_m=2e6, order=0.4, reference_hz=200.0),
     "channel-resonance": ChannelResonance(channel="acceleration", freq_hz=1800.0, damping_ratio=0.05),
-    "channel-pole-zero": ChannelPoleZero(pole_hz=900.0, zero_hz=5000.0),
+    "channel-pole-zero": ChannelPoleZero(pole_hz=900.0, zero_hz=5000.0, gain=0.95, reference_hz=200.0),
     "channel-power-law": ChannelPowerLaw(exponent=-0.012, reference_hz=100.0),
 }
 #: Changes between hits act on another term: each example changes the first effect of a spec whose first effect is
@@ -157,6 +157,23 @@ def test_drift_and_pneumatic_lag_combine_as_one_rig():
     film = spec.film.stiffness(s, spec.film_parameters) * (1 + 0.5 * 1800.0 / 3600.0)
     expected = s**2 / (film + lag.k_lag / (1 + s * lag.tau_lag) + spec.mass_kg * s**2)
     np.testing.assert_allclose(rig_accelerance(spec, FREQ_HZ, time_s=1800.0), expected, rtol=1e-12)
+
+
+def test_a_first_order_factor_of_the_chain_reads_its_gain_at_its_reference_and_stays_finite_at_its_limits():
+    """``gain·P(s)/|P(j2π f_ref)|``: its magnitude at the reference is the gain; with its zero far below the band it
+    is the high-pass ``g·s/(s + ω_p)`` (a charge sensor on a voltage input), which no unity-at-DC form can hold; a
+    pole-zero written without gain and reference (reference 0: DC) is ``(1 + s/ω_z)/(1 + s/ω_p)`` as before."""
+    s = 2j * np.pi * FREQ_HZ
+    factor = ChannelPoleZero(pole_hz=373.0, zero_hz=1e-3, gain=0.5, reference_hz=200.0)
+    assert abs(factor.channel_transfer("acceleration", np.array([2j * np.pi * 200.0]))[0]) == pytest.approx(0.5)
+    high_pass = factor.gain_above_corners() * s / (s + 2 * np.pi * 373.0)
+    np.testing.assert_allclose(factor.channel_transfer("acceleration", s), high_pass, rtol=1e-3)
+    assert factor.gain_above_corners() == pytest.approx(0.5 * abs(1 + 373.0 / (200.0j)), rel=1e-5)
+    assert factor.channel_transfer("force", s) == 1.0
+    unity_at_dc = ChannelPoleZero(pole_hz=900.0, zero_hz=5000.0)
+    np.testing.assert_allclose(unity_at_dc.channel_transfer("acceleration", s),
+                               (1 + s / (2 * np.pi * 5000.0)) / (1 + s / (2 * np.pi * 900.0)), rtol=1e-14)
+    assert RigSpec.from_toml(RigSpec.nominal("SD").with_effects(unity_at_dc).to_toml()).effects == (unity_at_dc,)
 
 
 RATE_HZ = 12800.0

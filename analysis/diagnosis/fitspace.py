@@ -67,8 +67,10 @@ class Slot:
         low, high = self.search_bounds()
         position = self.to_search(self.value(spec)) if self.range.scale != "log" or self.value(spec) > 0 else low
         margin = AT_BOUND_FRACTION * (high - low)
-        open_upper = self.effect is not None and self.name in type(spec.effects[self.effect]).open_upper
-        return position - low <= margin or (high - position <= margin and not open_upper)
+        effect = None if self.effect is None else type(spec.effects[self.effect])
+        open_lower = effect is not None and self.name in effect.open_lower
+        open_upper = effect is not None and self.name in effect.open_upper
+        return (position - low <= margin and not open_lower) or (high - position <= margin and not open_upper)
 
 
 def fit_context(spec: RigSpec, conditions: HitConditions, band_hz: tuple[float, float]) -> FitContext:

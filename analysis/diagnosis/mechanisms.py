@@ -10,7 +10,8 @@ likely.
 
 Sources: D. J. Ewins, *Modal Testing: Theory, Practice and Application* (2000), §3 (hammer tips, force transducers,
 accelerometer mounting); Brüel & Kjær, *Piezoelectric Accelerometers and Vibration Preamplifiers* (1987), ch. 4
-(mounting resonance); F. Al-Bender, *Air Bearings: Theory, Design and Applications* (2021), ch. 7–9 (pneumatic
+(mounting resonance) and ch. 5 (a charge sensor on a voltage amplifier: the cable's capacitance and the input
+resistance); F. Al-Bender, *Air Bearings: Theory, Design and Applications* (2021), ch. 7–9 (pneumatic
 hammer, squeeze films, tilt stiffness); J. J. Blech, *On isothermal squeeze films*, J. Lubrication Technol. 105 (1983);
 NI 9234 user manual (AC coupling at 0.5 Hz, the delta-sigma filter's delay); the paper (fractional film models).
 """
@@ -78,6 +79,18 @@ def _order_between(low: float, high: float) -> Callable[[Effect, FitContext], bo
 
 def _low_pass(effect: Effect, context: FitContext) -> bool:
     return effect.pole_hz < effect.zero_hz
+
+
+def _high_pass_in_band(effect: Effect, context: FitContext) -> bool:
+    """A first-order factor whose zero lies below the band (a high-pass's zero at the origin) and whose pole lies
+    inside it: a discharge far faster than any conditioner's coupling (those sit below the band)."""
+    low, high = context.band_hz
+    return effect.zero_hz < low <= effect.pole_hz <= high
+
+
+def _reads_low(effect: Effect, context: FitContext) -> bool:
+    """A factor whose gain above its corners is below 1: the signal divided before it is read."""
+    return effect.gain_above_corners() < 1.0
 
 
 #: The mechanisms, by description, the more common first within a description.
@@ -156,6 +169,15 @@ MECHANISMS: tuple[Mechanism, ...] = (
               "the response leads and its magnitude changes smoothly at one end of the band",
               "the conditioners' coupling settings; a static (DC) calibration",
               lambda effect, context: not _low_pass(effect, context) if hasattr(effect, "pole_hz") else True),
+    Mechanism("a charge-output sensor read by a voltage input (no charge amplifier): the sensor's and the cable's "
+              "capacitance discharging through the input's resistance", ("channel-pole-zero",),
+              "a piezoelectric charge accelerometer plugged straight into a voltage input (IEPE off, no charge "
+              "amplifier) discharges through the input resistance R: a first-order high-pass at 1/(2πR(C_s + C_c)), "
+              "inside the band for a nanofarad on a few hundred kΩ, and the cable's capacitance C_c divides the "
+              "sensor's open-circuit sensitivity by C_s/(C_s + C_c), so the response reads low above the corner",
+              "the sensor's type (charge or IEPE output) and the input's setting; a charge amplifier in the line (the "
+              "corner falls below the band and the gain returns to the sensor's)", _high_pass_in_band,
+              lambda effect, context: float(_reads_low(effect, context))),
     Mechanism("a sensor whose sensitivity changes with frequency (a piezoceramic's dielectric relaxation, a charge "
               "amplifier's or a long cable's loss)", ("channel-power-law",),
               "the FRF scaled by a power of frequency with a constant phase", "a back-to-back calibration of the sensor "

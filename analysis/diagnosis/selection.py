@@ -594,8 +594,12 @@ def starting_effects(identifier: str, spec: RigSpec, evidence: Evidence, context
     if identifier == "channel-power-law":
         return [ChannelPowerLaw(exponent=0.0, reference_hz=resonance_hz)]
     if identifier == "channel-pole-zero":
-        near, far = 2.0 * context.band_hz[1], 50.0 * context.band_hz[1]
-        return [ChannelPoleZero(pole_hz=near, zero_hz=far), ChannelPoleZero(pole_hz=far, zero_hz=near)]
+        # a lag and a lead above the band, and a high-pass at the resonance (its zero far below the band); the gain is
+        # the magnitude at the resonance, 1 at the start
+        low, high = context.band_hz
+        near, far = 2.0 * high, 50.0 * high
+        return [ChannelPoleZero(pole_hz=pole_hz, zero_hz=zero_hz, reference_hz=resonance_hz)
+                for pole_hz, zero_hz in ((near, far), (far, near), (resonance_hz, 1e-2 * low))]
     if identifier in ("term-drift", "term-level", "term-onset"):
         return _term_change_starts(identifier, spec, evidence, context)
     raise KeyError(identifier)

@@ -117,6 +117,8 @@ class Effect:
     per_hit: ClassVar[bool] = False  # the term differs from hit to hit (session time, hit level)
     #: Parameters whose upper fit bound is a valid limiting form of the term, not a failed measurement.
     open_upper: ClassVar[frozenset[str]] = frozenset()
+    #: Parameters whose lower fit bound is a valid limiting form of the term (a zero far below the band: at the origin).
+    open_lower: ClassVar[frozenset[str]] = frozenset()
     #: Fitted with the spec's own parameters in a diagnosis's recalibration, then held while candidate terms are
     #: tried (a measured structure's modes: many parameters that no candidate term competes with).
     held_after_recalibration: ClassVar[bool] = False
@@ -1033,38 +1035,74 @@ class ChannelResonance(Effect):
 @register_effect("channel-pole-zero")
 @dataclass(frozen=True)
 class ChannelPoleZero(Effect):
-    """A first-order factor in the measurement chain: the response reads ``(1 + s/ω_z)/(1 + s/ω_p)`` times the truth
-    (a low-pass where only the pole lies in or near the band, a lead where only the zero does). The FRF cannot tell
-    the channel: the same factor inverted on the force channel is the same FRF."""
+    """A first-order factor in the measurement chain: the response reads ``gain·P(s)/|P(j2π·reference_hz)|`` times
+    the truth, ``P(s) = (1 + s/ω_z)/(1 + s/ω_p)``: ``gain`` is the factor's magnitude at ``reference_hz`` (0: at DC,
+    where P is 1). A low-pass where only the pole lies in or near the band, a lead where only the zero does, a
+    high-pass where the pole lies in the band and the zero far below it (at the origin, as every coupling's zero is).
+    Normalised inside the band, every corner may run to either side of the band and the factor stays finite there.
+    The FRF cannot tell the channel: the same factor inverted on the force channel is the same FRF."""
 
     kind: ClassVar[str] = "measurement"
     explanation: ClassVar[str] = (
-        "The measurement chain filters the signals: a first-order lag or lead (a pole or a zero) scales and turns "
-        "the FRF smoothly with frequency, whatever the mover does.")
+        "The measurement chain filters the signals: a first-order lag, lead or high-pass (a pole and a zero) with a "
+        "gain scales and turns the FRF smoothly with frequency, whatever the mover does.")
     generic: ClassVar[bool] = True
     #: a corner at its upper bound is far above the band: the factor is then a pure lag or a pure lead, a valid limit
     open_upper: ClassVar[frozenset[str]] = frozenset({"pole_hz", "zero_hz"})
+    #: a zero at its lower bound is far below the band: the factor is a high-pass there (its zero at the origin)
+    open_lower: ClassVar[frozenset[str]] = frozenset({"zero_hz"})
 
     pole_hz: float = _number("Hz", _positive)
     zero_hz: float = _number("Hz", _positive)
+    gain: float = _number("1", _positive, 1.0)
+    reference_hz: float = _number("Hz", _non_negative, 0.0)
+
+    def _shape(self, s: np.ndarray | complex) -> np.ndarray | complex:
+        return (1.0 + s / (2 * np.pi * self.zero_hz)) / (1.0 + s / (2 * np.pi * self.pole_hz))
+
+    def _scale(self) -> float:
+        """The gain over P's magnitude at the reference frequency."""
+        return self.gain / float(abs(self._shape(2j * np.pi * self.reference_hz)))
 
     def channel_transfer(self, channel: str, s: np.ndarray) -> np.ndarray | float:
         if channel != "acceleration":
             return 1.0
-        return (1.0 + s / (2 * np.pi * self.zero_hz)) / (1.0 + s / (2 * np.pi * self.pole_hz))
+        return self._scale() * self._shape(s)
 
     def fit_ranges(self, context: FitContext) -> dict[str, FitRange]:
         low, high = context.band_hz
         return {"pole_hz": FitRange("log", 0.05 * low, 100.0 * high),
-                "zero_hz": FitRange("log", 0.05 * low, 100.0 * high)}
+                "zero_hz": FitRange("log", 1e-3 * low, 100.0 * high),
+                "gain": FitRange("log", 0.1, 10.0)}
+
+    def implausible(self, context: FitContext) -> str | None:
+        """Where it reads most in the band the factor's gain lies within :data:`CHAIN_GAIN_LIMITS`, as a power law's
+        gain does: with its corners together or beyond the band it is a gain alone, a power law of exponent 0."""
+        largest = max(float(abs(self._scale() * self._shape(2j * np.pi * f))) for f in context.band_hz)
+        low, high = CHAIN_GAIN_LIMITS
+        if low <= largest <= high:
+            return None
+        return (f"at its largest in the band the response reads {largest:.3g} times the truth: a chain that far off "
+                f"everywhere has a wrong sensitivity or unit (the level note), not a filter")
+
+    def gain_below_corners(self) -> float:
+        """The factor's magnitude below both corners."""
+        return self._scale()
+
+    def gain_above_corners(self) -> float:
+        """The factor's magnitude above both corners."""
+        return self._scale() * self.pole_hz / self.zero_hz
 
     def features(self) -> dict[str, float]:
-        return {"pole_hz": self.pole_hz, "zero_hz": self.zero_hz}
+        return {"pole_hz": self.pole_hz, "zero_hz": self.zero_hz, "gain_below_corners": self.gain_below_corners(),
+                "gain_above_corners": self.gain_above_corners()}
 
     def evidence(self, sigma: Mapping[str, float], where: str, context: FitContext) -> str:
         return (f"the FRF is scaled and turned smoothly with frequency as a first-order factor of the measurement "
                 f"chain does: a pole at {self.pole_hz:.4g} ± {sigma['pole_hz']:.2g} Hz and a zero at "
-                f"{self.zero_hz:.4g} ± {sigma['zero_hz']:.2g} Hz, in {where}")
+                f"{self.zero_hz:.4g} ± {sigma['zero_hz']:.2g} Hz, a gain of {self.gain:.3g} ± {sigma['gain']:.2g} at "
+                f"{self.reference_hz:.0f} Hz ({self.gain_below_corners():.3g} below both corners, "
+                f"{self.gain_above_corners():.3g} above both), in {where}")
 
 
 @register_effect("channel-power-law")
@@ -1096,7 +1134,7 @@ class ChannelPowerLaw(Effect):
 
     def fit_ranges(self, context: FitContext) -> dict[str, FitRange]:
         return {"exponent": FitRange("linear", -POWER_LAW_LIMIT, POWER_LAW_LIMIT),
-                "gain": FitRange("log", 0.5, 2.0)}
+                "gain": FitRange("log", *CHAIN_GAIN_LIMITS)}
 
     def features(self) -> dict[str, float]:
         return {"exponent": self.exponent, "percent_per_decade": 100.0 * (10.0**self.exponent - 1.0),
@@ -1111,6 +1149,9 @@ class ChannelPowerLaw(Effect):
 
 #: A channel power law's exponent stays within ±this (±0.3: a factor of 2 per decade).
 POWER_LAW_LIMIT = 0.3
+#: What a chain factor reads, against the truth, where it reads most in the band: beyond a factor of two a sensitivity
+#: or a unit is wrong (the `level` note says which), which no filter of the chain describes.
+CHAIN_GAIN_LIMITS = (0.5, 2.0)
 
 
 # --- changes between hits: a term of the spec whose value moves from hit to hit -------------------------------------
