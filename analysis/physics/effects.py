@@ -1077,8 +1077,10 @@ class ChannelPoleZero(Effect):
 
     def implausible(self, context: FitContext) -> str | None:
         """Where it reads most in the band the factor's gain lies within :data:`CHAIN_GAIN_LIMITS`, as a power law's
-        gain does: with its corners together or beyond the band it is a gain alone, a power law of exponent 0."""
-        largest = max(float(abs(self._scale() * self._shape(2j * np.pi * f))) for f in context.band_hz)
+        gain does: with its corners together or beyond the band it is a gain alone, a power law of exponent 0. (A
+        first-order factor's magnitude is monotonic in frequency: largest at an edge of the band.)"""
+        edges = 2j * np.pi * np.asarray(context.band_hz, dtype=float)
+        largest = float(np.max(np.abs(self.channel_transfer("acceleration", edges))))
         low, high = CHAIN_GAIN_LIMITS
         if low <= largest <= high:
             return None
