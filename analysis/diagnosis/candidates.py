@@ -26,6 +26,7 @@ CANDIDATES: tuple[str, ...] = (
     "squeeze-film",
     "pneumatic-lag",
     "extra-mode",
+    "support-mode",
 )
 
 
@@ -74,6 +75,8 @@ SEPARATING_MEASUREMENT: dict[frozenset[str], str] = {
     frozenset({"film-memory", "squeeze-film"}): "a test at another gap or supply pressure (a squeeze film scales "
                                                 "with the gap as h0⁻¹ and h0⁻²)",
     frozenset({"extra-mode", "film-memory"}): "a second accelerometer elsewhere on the mover",
+    frozenset({"extra-mode", "support-mode"}): "an accelerometer on what the bearing stands on (a support mode moves "
+                                               "it most; a part on the mover does not move it)",
     frozenset({"cross-talk", "added-mass"}): "a recording with the hammer resting on the mover (no impact)",
 }
 

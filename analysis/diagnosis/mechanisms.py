@@ -113,6 +113,12 @@ MECHANISMS: tuple[Mechanism, ...] = (
               "an accelerometer on the base (it moves most there)",
               preference=lambda effect, context: float(_below_resonance(effect, context)
                                                        or not _lightly_damped(effect, context))),
+    Mechanism("a mode of the base, frame, guide or beam the bearing stands on, in series with the film",
+              ("support-mode",),
+              "what the film stands on moves in a mode of its own (its modal mass at the bearing on its own stiffness, "
+              "e.g. a gantry beam's torsion seen off its shear centre): the film's resonance falls and a second one "
+              "appears above the support's own frequency (Altintas 2012 ch. 3; Ewins 2000 §2.3)",
+              "an accelerometer on the support beside the bearing (it moves most in the second resonance)"),
     Mechanism("a part or fixture riding on the mover (sensor block, cable, clamp)", ("extra-mode", "side-mode"),
               "a small mass on its own compliance on the mover: a peak/dip pair at its frequency, a positive modal "
               "constant", "removing or clamping the part (the pair moves or goes)",

@@ -1285,7 +1285,7 @@ def _finding(
         own_band_limit=claim.own_band_limit,
         place=effect.place(),
         status="modelled" if type(effect).generic else "named",
-        features=effect.features(),
+        features=effect.features_on(final.spec),
         mechanisms=mechanisms_for(effect, context, final.spec.effects[effect.term] if isinstance(effect, TermChange)
                                   else None, alternatives=tuple(
                                       alternative.effect for alternative in alternatives

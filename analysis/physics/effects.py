@@ -157,6 +157,10 @@ class Effect:
         modal superposition (it does not load the mover)."""
         return 0.0
 
+    def support_stiffness(self, s: np.ndarray) -> np.ndarray | None:
+        """Dynamic stiffness (N/m) of what the film stands on, in series with the film (``None``: rigid ground)."""
+        return None
+
     def force_leak_m_s2_per_n(self) -> float:
         """Part of the force signal that leaks into the acceleration channel, in (m/s²)/N (electrical cross-talk)."""
         return 0.0
@@ -199,6 +203,11 @@ class Effect:
         default its fields."""
         return {item.name: float(getattr(self, item.name)) for item in dataclasses.fields(self)
                 if isinstance(getattr(self, item.name), (int, float))}
+
+    def features_on(self, spec: Any) -> dict[str, float]:
+        """:meth:`features`, with what the term makes of the rig ``spec`` it belongs to (a :class:`RigSpec`): by
+        default its features alone."""
+        return self.features()
 
     def to_table(self) -> dict[str, Any]:
         table: dict[str, Any] = {"type": self.type_name}
@@ -296,6 +305,68 @@ class ExtraMode(Effect):
         mass = f"{self.mass_kg:.3g} kg" if self.mass_kg >= 1.0 else f"{self.mass_kg * 1e3:.3g} g"
         return (f"a localised peak/dip pattern near {self.freq_hz:.1f} ± {sigma['freq_hz']:.1f} Hz that the film "
                 f"model cannot produce: an additional resonance of {mass} (damping ratio {self.damping_ratio:.3g})")
+
+
+@register_effect("support-mode")
+@dataclass(frozen=True)
+class SupportMode(Effect):
+    """A mode of what the bearing stands on (a base, a frame, a guide or beam), in series with the film: the film's
+    dynamic stiffness ``Z_f`` reaches the ground through the support's ``M s² + 2ζMω s + Mω²`` (its modal mass ``M``
+    at the bearing, its natural frequency ``ω`` with the bearing removed), so the mover sees ``Z_f Z_b/(Z_f + Z_b)``:
+    the film's resonance falls and a second resonance appears above the support's own."""
+
+    explanation: ClassVar[str] = (
+        "What the bearing stands on moves in a mode of its own, in series with the film: the film's resonance is "
+        "lower than the film alone gives and a second resonance appears above the support's own frequency.")
+
+    freq_hz: float = _number("Hz", _positive)
+    damping_ratio: float = _number("1", _positive)
+    mass_kg: float = _number("kg", _positive)
+
+    def validate(self) -> None:
+        if self.damping_ratio < MIN_DAMPING_RATIO:
+            raise EffectValueError("damping_ratio", f"must be at least {MIN_DAMPING_RATIO:g} (a mode that never "
+                                                    f"decays cannot be simulated)")
+
+    def support_stiffness(self, s: np.ndarray) -> np.ndarray:
+        omega = 2 * np.pi * self.freq_hz
+        return self.mass_kg * (s**2 + 2 * self.damping_ratio * omega * s + omega**2)
+
+    def fit_ranges(self, context: FitContext) -> dict[str, FitRange]:
+        low, high = context.band_hz
+        return {"freq_hz": FitRange("log", 0.5 * low, high), "damping_ratio": FitRange("log", 1e-4, 0.5),
+                "mass_kg": FitRange("log", 0.05 * context.mass_kg, 100.0 * context.mass_kg)}
+
+    def system_resonances(self, spec: Any) -> list[tuple[float, float]]:
+        """The resonances (frequency in Hz, damping ratio) of the mover on its film on this support: the roots of
+        ``m s²(Z_f + Z_b) + Z_f Z_b``, the film taken as the spring and dashpot it is at its own resonance."""
+        mass_kg = spec.moving_mass_kg
+        omega_film = float(np.sqrt(spec.film.stiffness(np.array([1j]), spec.film_parameters)[0].real / mass_kg))
+        for _ in range(20):  # the film's spring and dashpot at its resonance (a fractional film is not constant)
+            film = complex(spec.film.stiffness(np.array([1j * omega_film]), spec.film_parameters)[0])
+            omega_film = float(np.sqrt(max(film.real, 1e-9) / mass_kg))
+        k_f, c_f = film.real, film.imag / omega_film
+        omega = 2 * np.pi * self.freq_hz
+        m_b, c_b, k_b = self.mass_kg, 2 * self.damping_ratio * self.mass_kg * omega, self.mass_kg * omega**2
+        # m s²·(M s² + (c_f + c_b) s + k_f + k_b) + (k_f + c_f s)(M s² + c_b s + k_b)
+        quartic = np.polyadd(mass_kg * np.polymul([1, 0, 0], [m_b, c_f + c_b, k_f + k_b]),
+                             np.polymul([c_f, k_f], [m_b, c_b, k_b]))
+        poles = [root for root in np.roots(quartic) if root.imag > 0]
+        return sorted((float(abs(root) / (2 * np.pi)), float(-root.real / abs(root))) for root in poles)
+
+    def features_on(self, spec: Any) -> dict[str, float]:
+        (film_hz, film_zeta), (second_hz, second_zeta) = self.system_resonances(spec)
+        return {**self.features(), "film_resonance_hz": film_hz, "film_resonance_damping_ratio": film_zeta,
+                "second_resonance_hz": second_hz, "second_resonance_damping_ratio": second_zeta}
+
+    def implausible(self, context: FitContext) -> str | None:
+        return _band_excitable(self.freq_hz, context)
+
+    def evidence(self, sigma: Mapping[str, float], where: str, context: FitContext) -> str:
+        return (f"a second resonance and a lower film resonance that a mode of the support in series with the film "
+                f"makes: {self.mass_kg:.3g} ± {sigma['mass_kg']:.2g} kg at the bearing, "
+                f"{self.freq_hz:.1f} ± {sigma['freq_hz']:.1f} Hz on its own (damping ratio {self.damping_ratio:.3g}), "
+                f"in {where}")
 
 
 @register_effect("structure-mode")

@@ -111,7 +111,8 @@ def rig_dynamic_stiffness(
     impulse_ns: np.ndarray | float | None = None,
     pieces: "GridPieces | None" = None,
 ) -> np.ndarray:
-    """Linear dynamic stiffness of the mover on its film, ``Z_film(t) + Σ Z_effect + c_eq(v)·s + M s²`` (N/m).
+    """Linear dynamic stiffness of the mover on its film, ``Z_film(t) + Σ Z_effect + c_eq(v)·s + M s²`` (N/m), the
+    film in series with its support's ``Z_b`` when the spec has one (``Z_film Z_b/(Z_film + Z_b)``).
 
     The film is the spec's at ``time_s`` (one time or an array of hit times) unless ``film_scale`` gives its scale.
     With ``impulse_ns`` (one hit's or an array matching ``time_s``), amplitude-dependent dampers add their equivalent
@@ -129,6 +130,9 @@ def rig_dynamic_stiffness(
         total = film_stiffness(spec, s, time_s)
     else:
         total = spec.film.stiffness(s, spec.film_parameters) * film_scale
+    support = spec.support_stiffness(s) if pieces is None else pieces.support(spec)
+    if support is not None:  # the film in series with what it stands on
+        total = total * support / (total + support)
     total = total + spec.moving_mass_kg * (s**2 if pieces is None else pieces.s_squared)
     if pieces is None:
         for effect in spec.effects:
@@ -213,6 +217,13 @@ class GridPieces:
 
     def added_stiffness(self, effect: Effect) -> np.ndarray | float:
         return self._remembered(("added", effect), lambda: effect.added_stiffness(self.s))
+
+    def support(self, spec: RigSpec) -> np.ndarray | None:
+        """:meth:`RigSpec.support_stiffness` of the spec (None without a support: effects that have none skipped)."""
+        supports = tuple(effect for effect in spec.effects if _overrides(type(effect), "support_stiffness"))
+        if not supports:
+            return None
+        return self._remembered(("support", supports), lambda: spec.support_stiffness(self.s))
 
     def structure(self, spec: RigSpec) -> np.ndarray | float:
         """:func:`structure_accelerance` of the spec (each mode remembered; effects that add none skipped)."""
@@ -380,6 +391,8 @@ class AcceleranceParts:
         effect that changes something else."""
         parts = {"film"} if effect_index is None else _touched_parts(type(spec.effects[effect_index]))
         if parts is None or spec.rigid_body is not None:  # (a rigid body's films do not add to D)
+            return None
+        if "film" in parts and self.pieces.support(spec) is not None:  # (a film in series does not add to D)
             return None
         pieces = self.pieces
         change: np.ndarray | float = 0.0

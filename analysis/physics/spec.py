@@ -306,6 +306,15 @@ class RigSpec:
     def force_leak_m_s2_per_n(self) -> float:
         return sum(effect.force_leak_m_s2_per_n() for effect in self.effects)
 
+    def support_stiffness(self, s: np.ndarray) -> np.ndarray | None:
+        """Dynamic stiffness (N/m) of what the film stands on, in series with it (``None``: rigid ground)."""
+        supports = [stiffness for effect in self.effects
+                    if (stiffness := effect.support_stiffness(s)) is not None]
+        if not supports:
+            return None
+        compliance = sum(1.0 / stiffness for stiffness in supports)  # supports stacked one on another
+        return 1.0 / compliance
+
     def sensor(self, channel: str) -> SensorSpec:
         return self.force_sensor if channel == "force" else self.acceleration_sensor
 
