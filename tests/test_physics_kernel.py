@@ -38,6 +38,7 @@ from gasfilm.analysis.physics.effects import (
     SqueezeFilm,
     StepChange,
     StructureMode,
+    SupportMode,
     Polarity,
     TermDrift,
     TermLevel,
@@ -82,6 +83,7 @@ EXAMPLES: dict[str, Effect] = {
     "channel-resonance": ChannelResonance(channel="acceleration", freq_hz=1800.0, damping_ratio=0.05),
     "channel-pole-zero": ChannelPoleZero(pole_hz=900.0, zero_hz=5000.0, gain=0.95, reference_hz=200.0),
     "channel-power-law": ChannelPowerLaw(exponent=-0.012, reference_hz=100.0),
+    "support-mode": SupportMode(freq_hz=430.0, damping_ratio=0.02, mass_kg=30.0),
 }
 #: Changes between hits act on another term: each example changes the first effect of a spec whose first effect is
 #: :data:`CHANGED` (checked on their own, :func:`test_a_term_that_changes_between_hits_is_played_hit_by_hit`).
@@ -176,6 +178,28 @@ def test_a_first_order_factor_of_the_chain_reads_its_gain_at_its_reference_and_s
     assert RigSpec.from_toml(RigSpec.nominal("SD").with_effects(unity_at_dc).to_toml()).effects == (unity_at_dc,)
 
 
+def test_a_support_mode_puts_the_film_in_series_with_the_supports_mass_spring_damper():
+    """A mode of what the bearing stands on: the mover sees ``Z_f Z_b/(Z_f + Z_b)`` (a two-body chain written out
+    here on its own), and the resonances the finding reports are that chain's poles: the film's, lowered, and a
+    second one above the support's own frequency."""
+    spec = RigSpec.nominal("SD").with_values(film_parameters={"k": 3.8e7, "eta": 3500.0})
+    support = SupportMode(freq_hz=430.0, damping_ratio=0.02, mass_kg=30.0)
+    s = 2j * np.pi * FREQ_HZ
+    film = 3.8e7 + 3500.0 * s
+    beam = 30.0 * (s**2 + 2 * 0.02 * 2 * np.pi * 430.0 * s + (2 * np.pi * 430.0) ** 2)
+    chain = s**2 / (spec.mass_kg * s**2 + film * beam / (film + beam))
+    np.testing.assert_allclose(rig_accelerance(spec.with_effects(support), FREQ_HZ), chain, rtol=1e-12)
+    mass = spec.mass_kg
+    poles = np.roots(np.polyadd(np.polymul([mass, 0, 0], [30.0, 3500.0 + 30.0 * 0.04 * 2 * np.pi * 430.0,
+                                                           3.8e7 + 30.0 * (2 * np.pi * 430.0) ** 2]),
+                                np.polymul([3500.0, 3.8e7], [30.0, 30.0 * 0.04 * 2 * np.pi * 430.0,
+                                                             30.0 * (2 * np.pi * 430.0) ** 2])))
+    expected = sorted(abs(pole) / (2 * np.pi) for pole in poles if pole.imag > 0)
+    features = support.features_on(spec.with_effects(support))
+    assert [features["film_resonance_hz"], features["second_resonance_hz"]] == pytest.approx(expected, rel=1e-9)
+    assert features["film_resonance_hz"] < np.sqrt(3.8e7 / mass) / (2 * np.pi) < 430.0 < features["second_resonance_hz"]
+
+
 RATE_HZ = 12800.0
 LINEAR = [name for name, effect in EXAMPLES.items() if effect.kind != "interference" and name != "cubic-stiffness"]
 
@@ -232,7 +256,7 @@ def test_the_nonlinear_simulator_and_replay_agree_within_the_solver_tolerance():
 # --- the closed loop, by construction ------------------------------------------------------------------------------
 
 SINGLES = ["added-mass", "channel-delay", "drift", "step-change", "cubic-stiffness", "ac-coupling", "film-memory",
-           "pneumatic-lag", "extra-mode", "cross-talk", "squeeze-film", "friction", "quadratic-damping"]
+           "pneumatic-lag", "extra-mode", "cross-talk", "squeeze-film", "friction", "quadratic-damping", "support-mode"]
 #: pairs whose terms share a band or a shape (a mass and a delay, a drift and a mode, a lag and a high-pass …)
 PAIRS = [("added-mass", "channel-delay"), ("drift", "extra-mode"), ("pneumatic-lag", "ac-coupling"),
          ("film-memory", "added-mass"), ("step-change", "cubic-stiffness"), ("cross-talk", "extra-mode"),

@@ -39,6 +39,7 @@ EFFECTS = [
     fx.ChannelResonance(channel="acceleration", freq_hz=1500.0, damping_ratio=0.05),
     fx.ChannelPoleZero(pole_hz=300.0, zero_hz=330.0),
     fx.ChannelPowerLaw(exponent=0.01, reference_hz=200.0),
+    fx.SupportMode(freq_hz=430.0, damping_ratio=0.02, mass_kg=30.0),
 ]
 #: One valid instance of every change between hits, each of the first term of a spec holding :data:`EFFECTS`' first.
 CHANGES = [
