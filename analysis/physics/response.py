@@ -24,7 +24,7 @@ from gasfilm.analysis.physics.elements import FilmModel, laplace_variable
 from gasfilm.drivers.errors import GasfilmError
 
 from gasfilm.analysis.physics import rigid_body
-from gasfilm.analysis.physics.effects import CUBIC_EQUIVALENT, DECAY_TOLERANCE, MAX_RESPONSE_DURATION_S, Effect
+from gasfilm.analysis.physics.effects import CUBIC_EQUIVALENT, DECAY_TOLERANCE, MAX_RESPONSE_DURATION_S, Effect, TermChange
 from gasfilm.analysis.physics.spec import RigSpec
 # --- physics -------------------------------------------------------------------------------------------------------
 
@@ -453,15 +453,20 @@ _PART_OF_METHOD = {
     "film_scale": "film", "viscous_scale": "film", "added_stiffness": "added",
     "added_mass_kg": "stiffness", "cubic_stiffness_n_per_m3": "stiffness", "level_damping_ns_per_m": "stiffness",
     "added_accelerance": "structure", "force_leak_m_s2_per_n": "leak", "channel_transfer": "ratio",
+    "support_stiffness": "stiffness",
 }
 #: Methods that do not enter the accelerance.
-_OUTSIDE_ACCELERANCE = ("validate", "interference", "fit_ranges", "implausible", "evidence", "to_table")
+_OUTSIDE_ACCELERANCE = ("validate", "interference", "fit_ranges", "implausible", "evidence", "to_table", "place",
+                        "features", "features_on")
 
 
 @functools.cache
 def _touched_parts(kind: type) -> frozenset[str] | None:
     """The parts of the accelerance an effect type's fields change; None when it overrides a method of unknown
-    effect (its columns are then whole differences)."""
+    effect (its columns are then whole differences), and for a change between hits (it moves another term hit by
+    hit: a spec holding one is evaluated whole)."""
+    if issubclass(kind, TermChange):
+        return None
     parts = set()
     for name, member in vars(Effect).items():
         if callable(member) and not name.startswith("_") and _overrides(kind, name):
