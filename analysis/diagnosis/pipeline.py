@@ -492,7 +492,7 @@ def _select_one(
     trials.sort(key=lambda trial: trial[0], reverse=True)
     summary = ", ".join(f"{identifier} {score:+.0f}" for score, identifier, _, _ in trials[:4])
     progress(f"BIC gain of the best candidates (noise scale {noise_scale:.2f}): {summary}")
-    for rank, (score, identifier, outcome, candidate_evidence) in enumerate(trials[:4]):
+    for score, identifier, outcome, candidate_evidence in trials[:4]:
         if score <= BIC_MARGIN:
             return None
         index = len(outcome.spec.effects) - 1
