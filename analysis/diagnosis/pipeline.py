@@ -675,7 +675,7 @@ def _not_a_finding(
     at_bound = [slot.name for slot in outcome.slots if slot.effect == index and slot.at_bound(spec)]
     if at_bound:
         return f"{', '.join(at_bound)} ran into the edge of the physical range"
-    return None if within_noise else spec.effects[index].implausible(context)
+    return None if within_noise else spec.effects[index].implausible_in(spec, context)
 
 
 def _candidate_fits(
@@ -1263,7 +1263,7 @@ def _finding(
                 f"{step.held_out_gain:.0f} (noise units) on hits left out of the fit and by "
                 f"{step.held_out_band_gain:.0f} on frequency bands left out of it.")
     alternatives = _alternatives(identifier, step.alternatives, final.spec, index)
-    unusual = effect.implausible(context)
+    unusual = effect.implausible_in(final.spec, context)
     if unusual is not None:
         sentence += (f" Its values are unusual for this term ({unusual}); it is named because with it nothing is left "
                      f"unexplained.")

@@ -187,6 +187,10 @@ class Effect:
         """Why fitted values are physically absurd (then the term is no finding), or None."""
         return None
 
+    def implausible_in(self, spec: Any, context: FitContext) -> str | None:
+        """:meth:`implausible`, with what the term makes of the rig ``spec`` it belongs to (a :class:`RigSpec`)."""
+        return self.implausible(context)
+
     def evidence(self, sigma: Mapping[str, float], where: str, context: FitContext) -> str:
         """What the recordings show, in words, with this term's values; ``where`` names the band."""
         return f"the term improves the fit in {where}"
@@ -337,9 +341,10 @@ class SupportMode(Effect):
         return {"freq_hz": FitRange("log", 0.5 * low, high), "damping_ratio": FitRange("log", 1e-4, 0.5),
                 "mass_kg": FitRange("log", 0.05 * context.mass_kg, 100.0 * context.mass_kg)}
 
-    def system_resonances(self, spec: Any) -> list[tuple[float, float]]:
-        """The resonances (frequency in Hz, damping ratio) of the mover on its film on this support: the roots of
-        ``m s²(Z_f + Z_b) + Z_f Z_b``, the film taken as the spring and dashpot it is at its own resonance."""
+    def system_resonances(self, spec: Any) -> tuple[tuple[float, float], tuple[float, float]]:
+        """The two resonances (frequency in Hz, damping ratio) of the mover on its film on this support — the film's,
+        nearest the film's alone, and the one the support adds: the roots of ``m s²(Z_f + Z_b) + Z_f Z_b``, the film
+        taken as the spring and dashpot it is at its own resonance."""
         mass_kg = spec.moving_mass_kg
         omega_film = float(np.sqrt(spec.film.stiffness(np.array([1j]), spec.film_parameters)[0].real / mass_kg))
         for _ in range(20):  # the film's spring and dashpot at its resonance (a fractional film is not constant)
@@ -351,16 +356,38 @@ class SupportMode(Effect):
         # m s²·(M s² + (c_f + c_b) s + k_f + k_b) + (k_f + c_f s)(M s² + c_b s + k_b)
         quartic = np.polyadd(mass_kg * np.polymul([1, 0, 0], [m_b, c_f + c_b, k_f + k_b]),
                              np.polymul([c_f, k_f], [m_b, c_b, k_b]))
-        poles = [root for root in np.roots(quartic) if root.imag > 0]
-        return sorted((float(abs(root) / (2 * np.pi)), float(-root.real / abs(root))) for root in poles)
+        roots = np.roots(quartic)
+        resonances = [(float(abs(root) / (2 * np.pi)), float(-root.real / abs(root))) for root in roots if root.imag > 0]
+        # an over-damped pair is two real roots: its resonance is their geometric mean, its damping ratio ≥ 1
+        real = sorted(float(-root.real) for root in roots if root.imag == 0)
+        for slow, fast in zip(real[0::2], real[1::2]):
+            resonances.append((float(np.sqrt(slow * fast) / (2 * np.pi)), (slow + fast) / (2 * np.sqrt(slow * fast))))
+        film_alone_hz = omega_film / (2 * np.pi)
+        film, added = sorted(resonances, key=lambda resonance: abs(np.log(resonance[0] / film_alone_hz)))
+        return film, added
 
     def features_on(self, spec: Any) -> dict[str, float]:
-        (film_hz, film_zeta), (second_hz, second_zeta) = self.system_resonances(spec)
+        (film_hz, film_zeta), (added_hz, added_zeta) = self.system_resonances(spec)
         return {**self.features(), "film_resonance_hz": film_hz, "film_resonance_damping_ratio": film_zeta,
-                "second_resonance_hz": second_hz, "second_resonance_damping_ratio": second_zeta}
+                "added_resonance_hz": added_hz, "added_resonance_damping_ratio": added_zeta}
 
     def implausible(self, context: FitContext) -> str | None:
         return _band_excitable(self.freq_hz, context)
+
+    def implausible_in(self, spec: Any, context: FitContext) -> str | None:
+        """A support shows itself by the resonance it adds beside the film's: both in the band, the added one a
+        resonance of its own; otherwise it only re-describes the film (a film run rigid on the support, whose own
+        resonance leaves the band, or the film's damping moved onto the support)."""
+        (film_hz, _), (added_hz, added_zeta) = self.system_resonances(spec)
+        low, high = context.band_hz
+        for name, hz in (("the film's resonance on it", film_hz), ("the resonance it adds", added_hz)):
+            if not low <= hz <= high:
+                return (f"{name}, {hz:.0f} Hz, lies outside the analysis band {low:.0f}–{high:.0f} Hz: a support "
+                        f"whose two resonances the data do not both show only re-describes the film")
+        if added_zeta > MAX_LOCAL_DAMPING_RATIO:
+            return (f"the resonance it adds at {added_hz:.0f} Hz has a damping ratio of {added_zeta:.2g}: too damped "
+                    f"for a resonance of its own, it only reshapes the band, which other causes do as well")
+        return self.implausible(context)
 
     def evidence(self, sigma: Mapping[str, float], where: str, context: FitContext) -> str:
         return (f"a second resonance and a lower film resonance that a mode of the support in series with the film "

@@ -456,8 +456,8 @@ _PART_OF_METHOD = {
     "support_stiffness": "stiffness",
 }
 #: Methods that do not enter the accelerance.
-_OUTSIDE_ACCELERANCE = ("validate", "interference", "fit_ranges", "implausible", "evidence", "to_table", "place",
-                        "features", "features_on")
+_OUTSIDE_ACCELERANCE = ("validate", "interference", "fit_ranges", "implausible", "implausible_in", "evidence",
+                        "to_table", "place", "features", "features_on")
 
 
 @functools.cache
