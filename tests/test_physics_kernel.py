@@ -26,6 +26,7 @@ from gasfilm.analysis.physics.effects import (
     CubicStiffness,
     Drift,
     Effect,
+    FitContext,
     ExtraMode,
     FilmBranch,
     FilmMemory,
@@ -198,6 +199,26 @@ def test_a_support_mode_puts_the_film_in_series_with_the_supports_mass_spring_da
     features = support.features_on(spec.with_effects(support))
     assert [features["film_resonance_hz"], features["added_resonance_hz"]] == pytest.approx(expected, rel=1e-9)
     assert features["film_resonance_hz"] < np.sqrt(3.8e7 / mass) / (2 * np.pi) < 430.0 < features["added_resonance_hz"]
+
+
+def test_a_support_mode_must_show_both_resonances_in_the_band_the_added_one_of_its_own():
+    """A support re-describes the film when the data cannot see it: a film run rigid on it (the film's resonance far
+    above the band), or the film's damping moved onto it (the resonance it adds too damped to be one of its own); an
+    over-damped pair is still a resonance (damping ratio ≥ 1), never a crash."""
+    film = RigSpec.nominal("SD").with_values(film_parameters={"k": 3.8e7, "eta": 3500.0})
+    context = FitContext(mass_kg=25.05, film_stiffness_n_per_m=3.8e7, resonance_hz=196.0, band_hz=(10.0, 1300.0),
+                         session_span_s=60.0, max_displacement_m=1e-5)
+    seen = SupportMode(freq_hz=430.0, damping_ratio=0.02, mass_kg=30.0)
+    assert seen.implausible_in(film.with_effects(seen), context) is None
+    rigid = film.with_values(film_parameters={"k": 6.9e11, "eta": 3.9e6})
+    hidden = SupportMode(freq_hz=392.0, damping_ratio=0.11, mass_kg=8.3)
+    assert "outside the analysis band" in hidden.implausible_in(rigid.with_effects(hidden), context)
+    smeared = SupportMode(freq_hz=588.0, damping_ratio=0.36, mass_kg=6.7)
+    assert "too damped" in smeared.implausible_in(film.with_effects(smeared), context)
+    overdamped = SupportMode(freq_hz=100.0, damping_ratio=0.5, mass_kg=3.0)
+    resonances = overdamped.system_resonances(film.with_values(film_parameters={"k": 3.8e7, "eta": 3e5})
+                                              .with_effects(overdamped))
+    assert len(resonances) == 2 and max(zeta for _, zeta in resonances) >= 1.0
 
 
 RATE_HZ = 12800.0
