@@ -296,8 +296,10 @@ def fits_figure(frf: FrfResult, fits: Sequence[Any]) -> Any:
 
 
 def _png_base64(figure: Any) -> str:
+    from gasfilm.analysis.figures import FAST_PNG
+
     buffer = io.BytesIO()
-    figure.savefig(buffer, format="png", dpi=100)
+    figure.savefig(buffer, format="png", dpi=100, pil_kwargs=FAST_PNG)
     return base64.b64encode(buffer.getvalue()).decode("ascii")
 
 

@@ -118,11 +118,13 @@ class SimulatedNI9234:
 
     ``plant``: the rig behind it (a :class:`~gasfilm.drivers.plant.Plant`; for a rig spec, the caller builds a
     :class:`gasfilm.analysis.physics.plant.RigPlant`). ``pacing="realtime"`` makes ``read`` wait for the samples as
-    the real module would; ``"fast"`` delivers at once. ``hit_interval_s=(lo, hi)`` hits at uniformly random
+    the real module would (``speed`` times faster: 2.0 streams two seconds of signal a second); ``"fast"`` delivers at
+    once. ``hit_interval_s=(lo, hi)`` hits at uniformly random
     intervals (the first after half of one), ``None`` only on demand (:meth:`sim_hit`). ``tip``, ``force_n``,
     ``force_spread`` (uniform ± fraction) and ``double_hit_rate`` default to the plant's hammer. ``noise=False``
     turns sensor and module noise off, ``quantize=False`` the 24-bit quantisation. ``buffer_s`` is how much unread
-    data the device holds before it overflows (realtime pacing). Until :meth:`configure`, the setup is the paper's
+    data the device holds before it overflows (realtime pacing; at ``speed`` N, N times more: a reader gets the time to
+    catch up that it gets at real time). Until :meth:`configure`, the setup is the paper's
     hammer + accelerometer.
     """
 
@@ -141,6 +143,7 @@ class SimulatedNI9234:
         noise: bool = True,
         quantize: bool = True,
         buffer_s: float = 5.0,
+        speed: float = 1.0,
     ) -> None:
         if not isinstance(plant, Plant):
             raise SettingError(f"sim plant: {plant!r} is not a Plant (gasfilm.drivers.plant)")
@@ -163,12 +166,15 @@ class SimulatedNI9234:
             raise SettingError(f"sim double_hit_rate: {self.double_hit_rate} must be in [0, 1]")
         if not buffer_s > 0:
             raise SettingError(f"sim buffer_s: {buffer_s} s must be > 0")
+        if not (isinstance(speed, (int, float)) and 0 < speed < float("inf")):
+            raise SettingError(f"sim speed: {speed} must be a number > 0 (times real time)")
         self.seed = seed
         self.pacing = pacing
         self.hit_interval_s = hit_interval_s
         self.noise = noise
         self.quantize = quantize
         self.buffer_s = buffer_s
+        self.speed = float(speed)
         self._config: DaqConfig = default_hammer_and_accelerometer()
         self._running = False
         self._closed = False
@@ -539,18 +545,19 @@ class SimulatedNI9234:
         return filtered[position]
 
     def _wait_for(self, n_samples: int, timeout_s: float) -> None:
-        """Realtime pacing: overflow if the unread backlog exceeds the buffer, else wait until the samples exist."""
+        """Realtime pacing: overflow if the unread backlog exceeds the buffer, else wait until the samples exist
+        (times in signal seconds, :attr:`speed` of them per second; ``timeout_s`` in seconds)."""
         fs = self.sample_rate_hz
         now = time.monotonic()
-        acquired_s = now - self._started_wall_s
+        acquired_s = (now - self._started_wall_s) * self.speed
         backlog_s = acquired_s - self._position / fs
-        if backlog_s > self.buffer_s:
+        if backlog_s > self.buffer_s * self.speed:
             self._fault = BufferOverflowError(
-                f"sim: {backlog_s:.1f} s of unread samples exceeded the {self.buffer_s:g} s device buffer; "
+                f"sim: {backlog_s:.1f} s of unread samples exceeded the {self.buffer_s * self.speed:g} s device buffer; "
                 f"the reader fell behind (DAQmx -200361)"
             )
             raise self._fault
-        ready_at = self._started_wall_s + (self._position + n_samples) / fs
+        ready_at = self._started_wall_s + (self._position + n_samples) / fs / self.speed
         wait_s = ready_at - now
         if wait_s > timeout_s:
             time.sleep(timeout_s)

@@ -1,5 +1,7 @@
 """The technician's GUI driven like a person would, on the simulated rig (Qt offscreen, pytest-qt)."""
 
+import time
+
 import numpy as np
 import pytest
 from PySide6.QtCore import Qt
@@ -14,7 +16,7 @@ from gui_driving import arm as _arm
 from gui_driving import fits_finish
 from gui_driving import gui_settings as _settings
 from gui_driving import hit as _hit
-from gui_driving import open_window
+from gui_driving import SAMPLE_RATE_HZ, SIM_SPEED, open_window
 from gui_driving import stop as _stop
 
 
@@ -30,6 +32,7 @@ def test_full_hammer_session_through_the_gui(qtbot, window, tmp_path):
     session_path = tmp_path / "hammer.h5"
     controller.new_session(session_path)
     _arm(qtbot, window)
+    armed_at = time.monotonic()
     assert window.measure_tab.hammer_box.isVisible() and window.measure_tab.hammer_box.isEnabled()
     qtbot.waitUntil(lambda: window.measure_tab.redraw_count > 3, timeout=5_000)  # the live view draws
 
@@ -45,7 +48,10 @@ def test_full_hammer_session_through_the_gui(qtbot, window, tmp_path):
     qtbot.waitUntil(lambda: controller.frf is not None and controller.frf.n_averages == 5, timeout=5_000)
     assert "accepted 5" in window.measure_tab.counter_label.text()
     assert "rejected 1" in window.measure_tab.counter_label.text()
+    streamed_s, elapsed_s = controller.acquisition_stats.samples_read / SAMPLE_RATE_HZ, time.monotonic() - armed_at
     _stop(qtbot, window)
+    # the simulator streamed at the Setup tab's speed, SIM_SPEED times real time (at real time: below 1.3 times)
+    assert streamed_s > SIM_SPEED / 2 * elapsed_s, (streamed_s, elapsed_s)
 
     # FRF and coherence shown
     window.tabs.setCurrentWidget(window.frf_tab)
@@ -187,6 +193,7 @@ def test_setup_is_remembered_between_runs(qtbot, tmp_path):
     state.channels[2].sensitivity = 100.0
     state.channels[2].units = "mV/g"
     state.response_channel = "ai2"
+    state.sim_speed = 2.5
     first.setup_tab.set_state(state)
     first.close()
     second = MainWindow(_settings(tmp_path), session_dir=tmp_path)
@@ -195,7 +202,7 @@ def test_setup_is_remembered_between_runs(qtbot, tmp_path):
     assert remembered.sample_rate_hz == 51200.0 / 8
     assert remembered.trigger["level_n"] == 35.0
     assert remembered.channels[2].enabled and remembered.channels[2].sensor_model == "PCB 352C33"
-    assert remembered.response_channel == "ai2"
+    assert remembered.response_channel == "ai2" and remembered.sim_speed == 2.5
     assert load_setup(_settings(tmp_path)) == (remembered, "")
     second.close()
 

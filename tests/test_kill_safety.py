@@ -78,20 +78,23 @@ def test_sigkill_at_random_moments_keeps_every_reported_hit(tmp_path):
     reference_path = tmp_path / "reference.h5"
 
     def reference_run() -> None:
-        process = acquire("--pacing", "fast", "--seconds", "120", "--out", str(reference_path))
+        # 60 s of signal, some 160 hits: several times what a fast-paced run reports before its kill (at most 1 s)
+        process = acquire("--pacing", "fast", "--seconds", "60", "--out", str(reference_path))
         assert process.wait(120) == 0, process.stderr.read()
 
-    # realtime runs mostly wait for the simulated clock, so they run side by side (with the reference run);
-    # fast-paced runs keep a core busy and run one after the other
-    with ThreadPoolExecutor(max_workers=len(RUNS) + 1) as pool:
+    def fast_runs() -> dict[int, tuple[list[str], str]]:
+        return {run: run_and_kill(paths[run], pacing, delays_s[run])
+                for run, (pacing, _, _) in enumerate(RUNS) if pacing == "fast"}
+
+    # realtime runs mostly wait for the simulated clock and the reference run for its commits to reach the disk, so
+    # they run side by side with the fast-paced runs, which keep a core busy and run one after the other
+    with ThreadPoolExecutor(max_workers=len(RUNS) + 2) as pool:
         reference_done = pool.submit(reference_run)
+        fast = pool.submit(fast_runs)
         realtime = {run: pool.submit(run_and_kill, paths[run], pacing, delays_s[run])
                     for run, (pacing, _, _) in enumerate(RUNS) if pacing == "realtime"}
-        outputs = {run: future.result() for run, future in realtime.items()}
+        outputs = {run: future.result() for run, future in realtime.items()} | fast.result()
         reference_done.result()
-    for run, (pacing, _, _) in enumerate(RUNS):
-        if pacing != "realtime":
-            outputs[run] = run_and_kill(paths[run], pacing, delays_s[run])
     reference = stored_hits(reference_path, "r")[1]
 
     measured = []

@@ -279,6 +279,22 @@ def test_realtime_pacing_blocks_and_overflows_when_the_reader_falls_behind():
     assert 0.09 < time.monotonic() - started < 1.0
 
 
+def test_realtime_pacing_at_a_speed_streams_that_many_seconds_of_signal_a_second_and_buffers_as_many():
+    device = _device(None, pacing="realtime", speed=4.0, buffer_s=0.5)
+    out = np.empty((2, int(0.4 * FS_HZ)))
+    started = time.monotonic()
+    device.read(out)
+    device.read(out)
+    assert 0.19 <= time.monotonic() - started < 0.7  # 0.8 s of signal: 0.2 s at four times real time
+    time.sleep(0.25)  # 1 s of signal unread: more than 0.5 s, within the 4 × 0.5 s that the device holds at this speed
+    device.read(out)
+    time.sleep(1.0)
+    with pytest.raises(BufferOverflowError, match=" 2 s device buffer"):
+        device.read(out)
+    with pytest.raises(SettingError, match="speed"):
+        _device(None, pacing="realtime", speed=0.0)
+
+
 def test_noise_and_quantisation_of_the_module_chain():
     device = _device(None, seed=6, hit_interval_s=None)
     data = _read_seconds(device, 2.0)[:, int(0.5 * FS_HZ) :]  # after the coupling's start-up

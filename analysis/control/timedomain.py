@@ -221,9 +221,15 @@ def figure_hits(path: str | Path, check: TimeDomainCheck, max_hits: int = 4, win
     """Overlay of recorded, fractional and rational acceleration for the first hits (from 5 ms before the trigger)."""
     from matplotlib.figure import Figure
 
+    from gasfilm.analysis.figures import FAST_PNG
+
     count = min(max_hits, len(check.hit_indices))
-    figure = Figure(figsize=(11, 2.6 * count + 0.6), layout="tight")
+    height_in = 2.6 * count + 0.6
+    figure = Figure(figsize=(11, height_in))
     axes = np.atleast_1d(figure.subplots(count, 1, sharex=True))
+    # fixed margins, in inches whatever the number of hits (a "tight" layout draws the figure twice)
+    figure.subplots_adjust(left=0.06, right=0.985, bottom=0.5 / height_in, top=1 - 0.3 / height_in,
+                           hspace=0.16)
     fs = check.sample_rate_hz
     for row, axis in enumerate(axes):
         start = max(0, int(check.trigger_index[row] - 0.005 * fs))
@@ -244,7 +250,7 @@ def figure_hits(path: str | Path, check: TimeDomainCheck, max_hits: int = 4, win
     axes[0].legend(loc="upper right", fontsize=8)
     axes[-1].set_xlabel("time after the trigger (ms)")
     path = Path(path)
-    figure.savefig(path, dpi=110, format="png")
+    figure.savefig(path, dpi=110, format="png", pil_kwargs=FAST_PNG)
     return path
 
 
@@ -252,8 +258,9 @@ def error_figure(model: RationalModel) -> Any:
     """The approximation's complex relative error of the plant and the film against frequency, band shaded."""
     from matplotlib.figure import Figure
 
-    figure = Figure(figsize=(9, 4.5), layout="tight")
+    figure = Figure(figsize=(9, 4.5))
     axis = figure.subplots()
+    figure.subplots_adjust(left=0.09, right=0.975, bottom=0.11, top=0.9)  # fixed: a "tight" layout draws twice
     floor = 1e-12
     axis.loglog(model.curve_freq_hz, np.maximum(100 * model.curve_plant_error, floor), label="plant (accelerance)")
     axis.loglog(model.curve_freq_hz, np.maximum(100 * model.curve_film_error, floor), label="film (stiffness)",
@@ -271,6 +278,8 @@ def error_figure(model: RationalModel) -> Any:
 
 def figure_error(path: str | Path, model: RationalModel) -> Path:
     """:func:`error_figure` written as PNG."""
+    from gasfilm.analysis.figures import FAST_PNG
+
     path = Path(path)
-    error_figure(model).savefig(path, dpi=110, format="png")
+    error_figure(model).savefig(path, dpi=110, format="png", pil_kwargs=FAST_PNG)
     return path

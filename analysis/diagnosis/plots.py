@@ -19,14 +19,11 @@ from gasfilm.analysis.diagnosis.result import Diagnosis
 from gasfilm.analysis.physics.elements import laplace_variable
 from gasfilm.analysis.physics.response import rig_dynamic_stiffness
 from gasfilm.analysis.diagnosis.structure import STABILITY, Structure
+from gasfilm.analysis.figures import FAST_PNG
 from gasfilm.analysis.paths import written_whole
 from gasfilm.analysis.threads import one_blas_thread
 from gasfilm.drivers.interface import STANDARD_GRAVITY_M_S2 as G_M_S2
 
-
-#: PNG compression of the figures: zlib's fastest level (the default level took longer than drawing a plot's lines,
-#: for files a third smaller).
-FAST_PNG = {"compress_level": 1}
 
 #: The files :func:`write_outputs` writes into its folder.
 SPEC_FILE = "improved-rig.toml"

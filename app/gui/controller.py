@@ -215,6 +215,7 @@ class SessionController(QObject):
                 sim_auto_hammer=setup.sim_auto_hammer,
                 sim_tip=setup.sim_tip,
                 sim_seed=setup.sim_seed,
+                sim_speed=setup.sim_speed,
                 ring_seconds=max(10.0, 2 * setup.live_view_s),
                 hit_check=hit_check,
             )

@@ -95,6 +95,7 @@ class SetupState:
     sim_auto_hammer: bool = False  # simulated rig: the hammer also hits by itself every 1.5–3 s
     sim_tip: str = "medium"
     sim_seed: int = 1
+    sim_speed: float = 1.0  # simulated rig: seconds of signal streamed per second (1: real time)
     live_view_s: float = 2.0
     target_averages: int = 10  # acquisition stops once this many hits are accepted (0: no target)
     min_coherence: float = 0.9  # auto-accept also needs the band's mean γ² to stay above this (0: no check)

@@ -75,6 +75,13 @@ class SetupTab(QWidget):
         self.sim_tip.addItems(SIM_TIPS)
         self.sim_seed = QSpinBox()
         self.sim_seed.setRange(0, 1_000_000)
+        self.sim_speed = QDoubleSpinBox()
+        self.sim_speed.setRange(0.25, 10.0)
+        self.sim_speed.setDecimals(2)
+        self.sim_speed.setSingleStep(0.5)
+        self.sim_speed.setSuffix(" × real time")
+        self.sim_speed.setToolTip("The simulated module streams this many seconds of signal per second: a demo session "
+                                  "in less time (hit times stay in signal seconds)")
         device_box = QGroupBox("Device")
         device_form = QFormLayout(device_box)
         device_row = QHBoxLayout()
@@ -84,6 +91,7 @@ class SetupTab(QWidget):
         device_form.addRow("", self.sim_auto_hammer)
         device_form.addRow("Simulated hammer tip", self.sim_tip)
         device_form.addRow("Simulator seed", self.sim_seed)
+        device_form.addRow("Simulator speed", self.sim_speed)
         self.operator = QLineEdit()
         self.operator.setObjectName("operator")
         self.operator.setPlaceholderText("who runs the test")
@@ -244,6 +252,7 @@ class SetupTab(QWidget):
         self.device_combo.currentTextChanged.connect(self._emit_changed)
         self.sim_tip.currentIndexChanged.connect(self._emit_changed)
         self.sim_seed.valueChanged.connect(self._emit_changed)
+        self.sim_speed.valueChanged.connect(self._emit_changed)
         self.rate_combo.currentIndexChanged.connect(self._emit_changed)
         self.live_view_s.valueChanged.connect(self._emit_changed)
         for spin in (self.min_coherence, self.target_averages, self.usable_drop_db):
@@ -280,6 +289,7 @@ class SetupTab(QWidget):
         self.sim_auto_hammer.setChecked(state.sim_auto_hammer)
         self.sim_tip.setCurrentText(state.sim_tip)
         self.sim_seed.setValue(state.sim_seed)
+        self.sim_speed.setValue(state.sim_speed)
         for row, channel in enumerate(state.channels):
             self._fill_row(row, channel)
         index = self.rate_combo.findData(min(NI9234_VALID_RATES_HZ, key=lambda r: abs(r - state.sample_rate_hz)))
@@ -318,6 +328,7 @@ class SetupTab(QWidget):
             sim_auto_hammer=self.sim_auto_hammer.isChecked(),
             sim_tip=self.sim_tip.currentText(),
             sim_seed=self.sim_seed.value(),
+            sim_speed=self.sim_speed.value(),
             live_view_s=self.live_view_s.value(),
             target_averages=self.target_averages.value(),
             min_coherence=self.min_coherence.value(),
@@ -588,7 +599,7 @@ class SetupTab(QWidget):
         if self._loading:
             return
         is_sim = self.device_combo.currentText().strip() == drivers.SIMULATED_DEVICE_NAME
-        for widget in (self.sim_auto_hammer, self.sim_tip, self.sim_seed):
+        for widget in (self.sim_auto_hammer, self.sim_tip, self.sim_seed, self.sim_speed):
             widget.setEnabled(is_sim)
         self.rig_summary.setText(self._rig_summary())
         problem = self.problem()

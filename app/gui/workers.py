@@ -70,6 +70,7 @@ class AcquisitionPlan:
     sim_tip: str = "medium"
     sim_seed: int = 1
     sim_pacing: str = "realtime"
+    sim_speed: float = 1.0  # realtime pacing at this many times real time
     ring_seconds: float = 10.0
     time_offset_s: float = 0.0  # session time of the stream's first sample (hit times continue across re-arms)
     conditions: dict = field(default_factory=dict)  # the session's operating conditions (analysis/conditions.py)
@@ -145,6 +146,7 @@ class AcquisitionWorker(QObject):
                     plant=RigPlant(plan.rig_spec),
                     seed=plan.sim_seed,
                     pacing=plan.sim_pacing,
+                    speed=plan.sim_speed,
                     hit_interval_s=SIM_HIT_INTERVAL_S if plan.sim_auto_hammer else None,
                     tip=plan.sim_tip,
                 )
