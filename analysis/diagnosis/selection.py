@@ -571,10 +571,10 @@ def starting_effects(identifier: str, spec: RigSpec, evidence: Evidence, context
         return [ExtraMode(freq_hz=f, damping_ratio=0.02, mass_kg=0.002 * context.mass_kg)
                 for f in _excess_peaks(spec, evidence, resonance_hz)]
     if identifier == "support-mode":
-        # the second resonance a support in series makes lies above the support's own frequency; its modal mass is
-        # of the order of the mover's or larger
-        return [SupportMode(freq_hz=0.9 * f, damping_ratio=0.03, mass_kg=factor * context.mass_kg)
-                for f in _excess_peaks(spec, evidence, resonance_hz) for factor in (1.0, 5.0)]
+        # the resonance a support in series adds lies beyond the support's own frequency; its modal mass is of the
+        # order of the mover's or larger (a start at each of the two largest excess peaks)
+        return [SupportMode(freq_hz=0.9 * f, damping_ratio=0.03, mass_kg=2.0 * context.mass_kg)
+                for f in _excess_peaks(spec, evidence, resonance_hz)[:2]]
     if identifier == "sensitivity-error":
         return [SensitivityError(channel="acceleration", fraction=sign * 0.01) for sign in (1.0, -1.0)]
     if identifier == "side-mode":
