@@ -6,6 +6,7 @@ Only the interpreter's own start comes before this module: a signal then meets P
 when the process starts (by its parent) are delivered once the handlers are in place."""
 
 import signal
+import sys
 
 from gasfilm.analysis.interrupts import STOP_SIGNALS, raise_stop_signal, stop_signal_raised
 from gasfilm.app.memory import MIN_ADDRESS_SPACE_BYTES, address_space_limit
@@ -17,11 +18,21 @@ for _signum in STOP_SIGNALS:
         signal.signal(_signum, raise_stop_signal)
 
 
+def _silent_once_stopped(kind: type[BaseException], value: BaseException, traceback) -> None:
+    """``sys.excepthook`` for the start-up: an extension module interrupted while it imports numpy prints its own
+    ImportError through this hook (numpy's ``import_array``, "_multiarray_umath failed to import"); once a stop signal
+    has come, the one line :func:`run` prints says all there is."""
+    if stop_signal_raised() is None:
+        sys.__excepthook__(kind, value, traceback)
+
+
+sys.excepthook = _silent_once_stopped
+
+
 def run() -> int:
     """``gasfilm`` with the arguments of this process: its exit status (128 + the signal's number when stopped by
     one)."""
     import os
-    import sys
 
     try:
         if hasattr(signal, "pthread_sigmask"):  # (one that came while they were blocked is raised here)

@@ -116,3 +116,27 @@ def test_a_stop_signal_at_any_moment_of_start_up_gives_one_line_and_leaves_nothi
                 problems.append(f"{where}: the stopped fit left {os.listdir(figures)}")
     assert not problems, "\n".join(problems)
     assert sum(re.search(r"^acquire", " ".join(trial[4])) is not None for trial in trials) >= 9
+
+
+@pytest.mark.parametrize("stopped", [False, True])
+def test_an_import_error_printed_by_an_interrupted_extension_is_silent_only_once_a_stop_signal_came(stopped):
+    """numpy's ``import_array`` in an extension module prints the ImportError a stop signal turned its import into
+    (through ``sys.excepthook``): after a stop signal the command's one line is all that is said; otherwise an error
+    printed that way is still shown."""
+    code = "\n".join([
+        "import sys",
+        "from gasfilm.app import entry",
+        "from gasfilm.analysis.interrupts import raise_stop_signal",
+        "if sys.argv[1] == 'stopped':",
+        "    try:",
+        "        raise_stop_signal(1, None)",
+        "    except KeyboardInterrupt:",
+        "        pass",
+        "try:",
+        "    raise ImportError('_multiarray_umath failed to import')",
+        "except ImportError:",
+        "    sys.excepthook(*sys.exc_info())",
+    ])
+    done = subprocess.run([sys.executable, "-c", code, "stopped" if stopped else "running"], capture_output=True,
+                          text=True, timeout=60, check=True)
+    assert ("_multiarray_umath failed to import" in done.stderr) is not stopped
