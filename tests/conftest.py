@@ -6,8 +6,8 @@ import signal
 
 os.environ.setdefault("QT_QPA_PLATFORM", "offscreen")
 os.environ.setdefault("MPLBACKEND", "Agg")
-# Two test workers fill the two cores: OpenBLAS's own threads (one per core, spinning while they wait) would only
-# take CPU from the other worker — a third more CPU under load for the same tests. Set before numpy loads OpenBLAS,
+# The test workers fill the cores (one more worker than cores): OpenBLAS's own threads (one per core, spinning while
+# they wait) would only take CPU from the other workers — a third more CPU under load for the same tests. Set before numpy loads OpenBLAS,
 # and inherited by every command a test starts.
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
@@ -40,3 +40,18 @@ def every_written_spec_is_read_back():
     patch.setattr(RigSpec, "to_toml", written_and_read_back)
     yield
     patch.undo()
+
+
+@pytest.fixture(autouse=True)
+def one_process_per_diagnosis_beside_another_test_worker():
+    """Under test workers (``./run test``: every core has one already), a diagnosis a test runs in its own process
+    computes alone instead of forking a copy to share its candidate fits (twice the processes on the same cores: the
+    same results, bit for bit, for a tenth more CPU). ``test_diagnose_parallel`` asks for the copy and checks its
+    results are the same."""
+    if not os.environ.get("PYTEST_XDIST_WORKER"):
+        yield
+        return
+    from gasfilm.analysis.diagnosis.parallel import worker_processes
+
+    with worker_processes(1):
+        yield

@@ -154,8 +154,7 @@ def test_the_report_shows_the_fits_warnings_beside_them(tmp_path, capsys):
     warnings = [line.split("WARNING: ", 1)[1] for line in err.splitlines() if "WARNING: " in line]
     assert any("the fitted parameters mean little" in w for w in warnings)
     assert any(w.startswith("NOT explained by any film model") for w in warnings)
-    for name in ("report.html", "report.pdf"):
-        assert gasfilm(capsys, "report", path, "--out", tmp_path / name)[0] == 0
+    assert gasfilm(capsys, "report", path, "--out", tmp_path / "report.html")[0] == 0
     page = (tmp_path / "report.html").read_text(encoding="utf-8")
     fits_section = page[page.index("Identified models"):page.index("Control design")]
     import html
@@ -193,7 +192,8 @@ def test_the_reports_diagnosis_shows_what_is_not_explained_the_noise_and_the_opt
         assert "No missing physics found" not in section
         assert "<td>810–851</td><td>1, 3</td><td>84.0</td><td>a localised peak near 824 Hz</td><td>824</td>" \
                "<td>extra mode</td>" in section
-    assert gasfilm(capsys, "report", path, "--out", tmp_path / "report.pdf")[0] == 0
+    if verdict == "not explained":  # (the page with the most in it, on paper too)
+        assert gasfilm(capsys, "report", path, "--out", tmp_path / "report.pdf")[0] == 0
 
 
 def test_model_max_error_is_a_percentage_with_or_without_its_sign(tmp_path, capsys):

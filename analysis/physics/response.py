@@ -186,11 +186,14 @@ class GridPieces:
 
     def _remembered(self, key: tuple, compute: Callable[[], np.ndarray | float]) -> np.ndarray | float:
         try:
-            return self._kept[key]
+            value = self._kept.pop(key)
         except KeyError:
             pass
         except TypeError:  # an unhashable effect field: computed every time
             return compute()
+        else:  # (kept as the most recently used)
+            self._kept[key] = value
+            return value
         value = compute()
         if len(self._kept) >= 4 * self.KEPT:
             self._kept.pop(next(iter(self._kept)))
