@@ -20,8 +20,6 @@ from typing import Callable
 
 import numpy as np
 import scipy.fft
-import scipy.interpolate
-import scipy.signal
 
 from gasfilm.analysis.physics.response import HitConditions
 from gasfilm.analysis.spectra import WindowSettings, exponential_window, force_window
@@ -537,6 +535,7 @@ def spiked_hits(records: np.ndarray, extents: list[tuple[int, int, int]], sample
     have at that time (a structure's own ringing after the pulse is in every hit)."""
     if len(records) < 3:
         return []
+    import scipy.signal  # (on first use, as the next two: a command that only reads a diagnosis does not wait for them)
     sos = scipy.signal.butter(4, SPIKE_BAND_FRACTION * sample_rate_hz, "highpass", fs=sample_rate_hz, output="sos")
     high = np.abs(scipy.signal.sosfiltfilt(sos, records[:, 1], axis=-1))
     # the noise level where each sample is (blocks of SPIKE_BLOCK samples: records may come windowed, the noise
@@ -1237,6 +1236,7 @@ def _missing_pulse_fronts(
             curvature = before - 2 * at + after
             centre += 0.5 * (before - after) / curvature if curvature != 0 else 0.0
         last = min(end + 1, row.size - 1)  # the foot below 2 % belongs to the pulse too
+        import scipy.interpolate
         fall = scipy.interpolate.CubicSpline(np.arange(peak, last + 1), row[peak : last + 1])
         missing = int(np.floor(last - 2 * centre))
         if missing > 0:
@@ -1327,6 +1327,7 @@ def _narrowband_lines_hz(quiet: np.ndarray, sample_rate_hz: float, mains_hz: lis
     centred = quiet - quiet.mean(axis=1, keepdims=True)
     periodogram = np.mean(np.abs(np.fft.rfft(centred * hann, axis=1)) ** 2, axis=0)
     freq_hz = np.fft.rfftfreq(length, 1.0 / sample_rate_hz)
+    import scipy.signal
     floor = scipy.signal.medfilt(periodogram, 41)  # the local noise level around each line
     if not np.all(floor[1:] > 0):
         return []

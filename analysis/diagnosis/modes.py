@@ -4,7 +4,6 @@ at their frequencies in the diagnosis's ``unexplained`` entries."""
 from __future__ import annotations
 
 import numpy as np
-import scipy.signal
 
 from gasfilm.analysis.diagnosis.selection import Evidence
 from gasfilm.analysis.physics.spec import RigSpec
@@ -23,6 +22,7 @@ def unmodelled_resonances_hz(evidence: Evidence, spec: RigSpec, band_hz: tuple[f
     freq_hz = evidence.freq_hz
     measured = np.abs(evidence.spectra.mean()[0])
     model = np.abs(evidence.mean_prediction(spec))
+    import scipy.signal  # (on first use: reading a stored diagnosis does not wait for it)
     measured_peaks, _ = scipy.signal.find_peaks(np.log(measured + 1e-300), prominence=np.log(PROMINENCE))
     model_peaks, _ = scipy.signal.find_peaks(np.log(model + 1e-300), prominence=np.log(PROMINENCE))
     left = [float(freq_hz[p]) for p in measured_peaks]

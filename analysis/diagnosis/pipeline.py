@@ -22,7 +22,6 @@ from dataclasses import dataclass, field
 from typing import Callable
 
 import numpy as np
-import scipy.stats
 
 from gasfilm.analysis.diagnosis.candidates import (
     EQUIVALENT,
@@ -587,6 +586,7 @@ def _hits_differ(evidence: Evidence, spec: RigSpec) -> bool:
     dof = 2 * (evidence.hit_count - 1) * residual.shape[1]
     per_dof = float(np.sum(weight * np.abs(residual - mean) ** 2)) / dof
     noise = evidence.spectra.noise
+    import scipy.stats  # (on first use: reading a stored diagnosis does not wait for it)
     chance = float(scipy.stats.f.isf(OWN_BAND_FALSE_ALARM, dof, max(noise.degrees_of_freedom, 1.0))) \
         if noise is not None else 1.0
     return per_dof > max(HITS_DIFFER, chance)
@@ -1166,6 +1166,7 @@ def own_band_chance(spectra: HitSpectra, per_point: np.ndarray, lines: np.ndarra
     outside[lines] = False
     rest = float(per_point[:, outside].mean()) if outside.any() else 1.0
     level = min(max(rest, 1.0), ADEQUATE_CHI2_PER_POINT)
+    import scipy.stats  # (on first use: reading a stored diagnosis does not wait for it)
     return level * float(scipy.stats.f.isf(OWN_BAND_FALSE_ALARM, band_dof, max(noise_dof, 1.0)))
 
 
