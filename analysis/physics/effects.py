@@ -346,10 +346,9 @@ class SupportMode(Effect):
         nearest the film's alone, and the one the support adds: the roots of ``m s²(Z_f + Z_b) + Z_f Z_b``, the film
         taken as the spring and dashpot it is at its own resonance."""
         mass_kg = spec.moving_mass_kg
-        omega_film = float(np.sqrt(spec.film.stiffness(np.array([1j]), spec.film_parameters)[0].real / mass_kg))
-        for _ in range(20):  # the film's spring and dashpot at its resonance (a fractional film is not constant)
-            film = complex(spec.film.stiffness(np.array([1j * omega_film]), spec.film_parameters)[0])
-            omega_film = float(np.sqrt(max(film.real, 1e-9) / mass_kg))
+        # the film's spring and dashpot at its resonance (a fractional film is not constant)
+        omega_film = spec.film.resonance_omega_rad_s(spec.film_parameters, mass_kg)
+        film = complex(spec.film.stiffness(np.array([1j * omega_film]), spec.film_parameters)[0])
         k_f, c_f = film.real, film.imag / omega_film
         omega = 2 * np.pi * self.freq_hz
         m_b, c_b, k_b = self.mass_kg, 2 * self.damping_ratio * self.mass_kg * omega, self.mass_kg * omega**2

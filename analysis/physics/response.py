@@ -259,12 +259,13 @@ def _scales_film(effect: Effect) -> bool:
 
 
 def resonance_omega_rad_s(spec: RigSpec) -> float:
-    """Undamped natural frequency (rad/s) of the moving mass on the real part of the film stiffness (fixed point).
-    Remembered per film and mass (a fit of a cubic term asks at every evaluation)."""
+    """Undamped natural frequency (rad/s) of the moving mass on the real part of the film stiffness
+    (:meth:`FilmModel.resonance_omega_rad_s`), remembered per film and mass (a fit of a cubic term asks at every
+    evaluation)."""
     key = (spec.film_model, tuple(spec.film_parameters.items()), spec.moving_mass_kg)
     omega = _RESONANCES.get(key)
     if omega is None:
-        omega = _resonance_omega_rad_s(spec)
+        omega = spec.film.resonance_omega_rad_s(spec.film_parameters, spec.moving_mass_kg)
         if len(_RESONANCES) >= 256:
             _RESONANCES.clear()
         _RESONANCES[key] = omega
@@ -272,28 +273,6 @@ def resonance_omega_rad_s(spec: RigSpec) -> float:
 
 
 _RESONANCES: dict[tuple, float] = {}
-
-
-def _resonance_omega_rad_s(spec: RigSpec) -> float:
-    """The fixed point ``ω = √(Re Z(jω)/M)``, iterated from ``√(|Z(j)|/M)`` with Steffensen's acceleration (Aitken's
-    Δ² on each pair of plain steps): a fractional film takes ten plain steps, a few accelerated ones."""
-    mass_kg = spec.moving_mass_kg
-
-    def step(omega: float) -> float:
-        stiffness = spec.film.stiffness(np.array([1j * omega]), spec.film_parameters)[0].real
-        return float(np.sqrt(max(stiffness, 1e-9) / mass_kg))
-
-    omega = float(np.sqrt(abs(spec.film.stiffness(np.array([1j]), spec.film_parameters)[0]) / mass_kg))
-    for _ in range(20):
-        first = step(omega)
-        if abs(first - omega) <= 1e-12 * first:
-            return first
-        second = step(first)
-        curvature = second - 2 * first + omega
-        accelerated = omega - (first - omega) ** 2 / curvature if curvature != 0 else second
-        # an accelerated step that leaves the neighbourhood (or runs negative) is not taken: the plain one is
-        omega = accelerated if 0.5 * second < accelerated < 2 * second else second
-    return omega
 
 
 def hit_displacement_m(spec: RigSpec, impulse_ns: np.ndarray | float) -> np.ndarray | float:
