@@ -553,7 +553,8 @@ class SimulatedNI9234:
         backlog_s = acquired_s - self._position / fs
         if backlog_s > self.buffer_s * self.speed:
             self._fault = BufferOverflowError(
-                f"sim: {backlog_s:.1f} s of unread samples exceeded the {self.buffer_s * self.speed:g} s device buffer; "
+                f"sim: {backlog_s:.1f} s of unread samples exceeded the {self.buffer_s * self.speed:g} s device "
+                f"buffer; "
                 f"the reader fell behind (DAQmx -200361)"
             )
             raise self._fault

@@ -7,8 +7,8 @@ import signal
 os.environ.setdefault("QT_QPA_PLATFORM", "offscreen")
 os.environ.setdefault("MPLBACKEND", "Agg")
 # The test workers fill the cores (one more worker than cores): OpenBLAS's own threads (one per core, spinning while
-# they wait) would only take CPU from the other workers — a third more CPU under load for the same tests. Set before numpy loads OpenBLAS,
-# and inherited by every command a test starts.
+# they wait) would only take CPU from the other workers — a third more CPU under load for the same tests. Set before
+# numpy loads OpenBLAS, and inherited by every command a test starts.
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import pytest  # noqa: E402

@@ -86,7 +86,8 @@ def test_a_stop_signal_at_any_moment_of_start_up_gives_one_line_and_leaves_nothi
         except subprocess.TimeoutExpired:  # the signal was lost: say which moment, and go on with the others
             process.kill()
             stdout, stderr = process.communicate()
-            problems.append(f"{where}: still running 120 s after the signals were sent ({stdout[-200:]!r}, {stderr[-200:]!r})")
+            problems.append(f"{where}: still running 120 s after the signals were sent ({stdout[-200:]!r}, "
+                            f"{stderr[-200:]!r})")
             continue
         if process.returncode == 0:  # (a fit can finish before a late signal: then it is complete)
             continue

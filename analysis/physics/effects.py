@@ -348,15 +348,16 @@ class SupportMode(Effect):
         mass_kg = spec.moving_mass_kg
         # the film's spring and dashpot at its resonance (a fractional film is not constant)
         omega_film = spec.film.resonance_omega_rad_s(spec.film_parameters, mass_kg)
-        film = complex(spec.film.stiffness(np.array([1j * omega_film]), spec.film_parameters)[0])
-        k_f, c_f = film.real, film.imag / omega_film
+        film_stiffness = complex(spec.film.stiffness(np.array([1j * omega_film]), spec.film_parameters)[0])
+        k_f, c_f = film_stiffness.real, film_stiffness.imag / omega_film
         omega = 2 * np.pi * self.freq_hz
         m_b, c_b, k_b = self.mass_kg, 2 * self.damping_ratio * self.mass_kg * omega, self.mass_kg * omega**2
         # m s²·(M s² + (c_f + c_b) s + k_f + k_b) + (k_f + c_f s)(M s² + c_b s + k_b)
         quartic = np.polyadd(mass_kg * np.polymul([1, 0, 0], [m_b, c_f + c_b, k_f + k_b]),
                              np.polymul([c_f, k_f], [m_b, c_b, k_b]))
         roots = np.roots(quartic)
-        resonances = [(float(abs(root) / (2 * np.pi)), float(-root.real / abs(root))) for root in roots if root.imag > 0]
+        resonances = [(float(abs(root) / (2 * np.pi)), float(-root.real / abs(root)))
+                      for root in roots if root.imag > 0]
         # an over-damped pair is two real roots: its resonance is their geometric mean, its damping ratio ≥ 1
         real = sorted(float(-root.real) for root in roots if root.imag == 0)
         for slow, fast in zip(real[0::2], real[1::2]):

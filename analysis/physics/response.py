@@ -170,7 +170,8 @@ class GridPieces:
     """The parts of :func:`rig_accelerance` on one grid ``s = σ + j2πf`` that a fit evaluates again and again with
     one parameter changed: the film at the hits' times, each effect's added stiffness, the channel transfers, s².
     Each is remembered under the values it depends on (about :data:`KEPT` of each kind, the least recently used
-    forgotten first) and computed exactly as without it, so results are bit-for-bit the same. Effects are frozen dataclasses: their values are their key."""
+    forgotten first) and computed exactly as without it, so results are bit-for-bit the same. Effects are frozen
+    dataclasses: their values are their key."""
 
     KEPT = 16
 
