@@ -30,11 +30,34 @@ class StopSignal(KeyboardInterrupt):
 _RAISED: list[int] = []
 
 
-def raise_stop_signal(signum: int, frame: Any) -> None:  # noqa: ARG001 - a signal handler's signature
-    """The signal handler that turns a stop signal into :class:`StopSignal` (and notes it: an extension module being
-    imported when it comes turns it into an ImportError of its own, "initialization failed")."""
+def raise_stop_signal(signum: int, frame: Any) -> None:
+    """The signal handler that turns a stop signal into :class:`StopSignal` (and notes it). A signal that comes while a
+    module is being imported is delivered again once the import is done: an extension module importing others turns
+    the exception into an ImportError of its own ("initialization failed"), which a library may catch as an optional
+    dependency that is missing, and the stop would be lost."""
+    if _importing(frame):
+        redelivery = threading.Timer(IMPORT_RETRY_S, signal.raise_signal, (signum,))
+        redelivery.daemon = True
+        redelivery.start()
+        return
     _RAISED.append(int(signum))
     raise StopSignal(signum)
+
+
+#: How long a stop signal that came during an import waits before it is delivered again, s.
+IMPORT_RETRY_S = 0.02
+
+#: The code of Python's import machinery (frozen modules: these are the names their frames carry).
+_IMPORT_MACHINERY = frozenset({"<frozen importlib._bootstrap>", "<frozen importlib._bootstrap_external>"})
+
+
+def _importing(frame: Any) -> bool:
+    """Whether ``frame`` (the one a signal handler is given) runs inside an import."""
+    while frame is not None:
+        if frame.f_code.co_filename in _IMPORT_MACHINERY:
+            return True
+        frame = frame.f_back
+    return False
 
 
 def stop_signal_raised() -> int | None:

@@ -142,3 +142,32 @@ def test_an_import_error_printed_by_an_interrupted_extension_is_silent_only_once
     done = subprocess.run([sys.executable, "-c", code, "stopped" if stopped else "running"], capture_output=True,
                           text=True, timeout=60, check=True)
     assert ("_multiarray_umath failed to import" in done.stderr) is not stopped
+
+
+def test_a_stop_signal_during_an_import_waits_for_the_import_and_is_then_raised(tmp_path):
+    """A stop signal inside an import is not raised there (an extension module would turn it into an ImportError that
+    a library may take for a missing optional dependency, and the stop was lost: 6 of 304 starts ran on): the import
+    finishes, and the signal is raised once it is done."""
+    (tmp_path / "signalled_while_imported.py").write_text("\n".join([
+        "import os, signal, time",
+        "try:",
+        "    os.kill(os.getpid(), signal.SIGHUP)",
+        "    time.sleep(0.3)",
+        "    print('imported', flush=True)",
+        "except BaseException as error:  # what a library's 'except ImportError' would see",
+        "    print('raised inside the import:', type(error).__name__, flush=True)",
+    ]))
+    code = "\n".join([
+        "import signal, sys, time",
+        "from gasfilm.analysis.interrupts import StopSignal, raise_stop_signal",
+        "signal.signal(signal.SIGHUP, raise_stop_signal)",
+        f"sys.path.insert(0, {str(tmp_path)!r})",
+        "try:",
+        "    import signalled_while_imported",
+        "    time.sleep(30)",
+        "    print('never stopped')",
+        "except StopSignal as stop:",
+        "    print('stopped by', stop, flush=True)",
+    ])
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60, check=True)
+    assert done.stdout.splitlines() == ["imported", "stopped by SIGHUP"]
