@@ -1040,6 +1040,8 @@ def _other_kind_in_its_place(
     reduced = without_effect(final.spec, index)
     others = [other for other in _candidate_identifiers(reduced, context, restoring)
               if EFFECT_TYPES[other].kind in ("rig", "measurement") and EFFECT_TYPES[other].kind != kind]
+    if not _hits_differ(evidence, reduced):  # as in the selection: one spec for every hit is all these data describe
+        others = [other for other in others if other not in TERM_CHANGES]
     points = evidence.point_count
     noise_scale = _noise_scale(final, points)
     # another term matters when its swap costs less than SWAP_MARGIN
