@@ -12,6 +12,7 @@ import tempfile
 from pathlib import Path
 from typing import Any, Mapping, Sequence, TypeVar
 
+from gasfilm.analysis.interrupts import signals_deferred
 from gasfilm.analysis.paths import file_in_the_way, link_target, missing_folder
 from gasfilm.drivers.errors import SettingError
 from gasfilm.drivers.units import STANDARD_GRAVITY_M_S2
@@ -142,9 +143,10 @@ def check_output_file(path: Path, flag: str, overwrite: bool, make_parent: bool 
     if not parent.is_dir():
         raise SettingError(f"{where}: {missing_folder(parent)}")
     try:  # the only reliable test of "a new file can be made here" (root, read-only mounts, /proc)
-        handle, probe = tempfile.mkstemp(dir=parent, prefix=f".{path.name}.", suffix=".probe")
-        os.close(handle)
-        os.unlink(probe)
+        with signals_deferred():  # (a stop signal in between would leave the probe behind)
+            handle, probe = tempfile.mkstemp(dir=parent, prefix=f".{path.name}.", suffix=".probe")
+            os.close(handle)
+            os.unlink(probe)
     except OSError as error:
         raise SettingError(f"{where}: cannot write in {parent} ({error.strerror or error})") from None
     return path
