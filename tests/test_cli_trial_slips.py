@@ -77,12 +77,13 @@ def test_each_diagnosis_is_kept_and_latest_is_the_newest_with_its_options(tmp_pa
     session_path = new_session(tmp_path, capsys)
     from gasfilm.analysis.report import read_report_data, report_html
 
-    status, out, err = gasfilm(capsys, "diagnose", session_path, "--out", tmp_path / "a", "--json")
+    status, out, err = gasfilm(capsys, "diagnose", session_path, "--out", tmp_path / "a", "--json",
+                               "--no-figures")
     assert status == 0, err
     first = json.loads(out)
     assert first["options"] == {"command": "gasfilm diagnose", "rig": None, "mass_kg": None, "band_hz": None}
     status, out, err = gasfilm(capsys, "diagnose", session_path, "--mass", "25", "--band", "30:900",
-                               "--out", tmp_path / "b", "--json")
+                               "--out", tmp_path / "b", "--json", "--no-figures")
     assert status == 0, err
     assert "as diagnoses/run-002" in err
     with Session.open(session_path) as session:

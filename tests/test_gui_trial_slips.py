@@ -54,7 +54,7 @@ def test_identify_asks_before_replacing_a_stored_fit_made_with_other_settings(qt
 def test_a_gui_diagnosis_is_kept_beside_the_earlier_ones_and_stored_once(qtbot, window, tmp_path, capsys):
     path = tmp_path / "run.h5"
     assert gasfilm(capsys, "acquire", *FAST_SIM, "--out", path, "--hits", 3, "--seed", 2)[0] == 0
-    assert gasfilm(capsys, "diagnose", path, "--mass", "25", "--out", tmp_path / "d")[0] == 0
+    assert gasfilm(capsys, "diagnose", path, "--mass", "25", "--out", tmp_path / "d", "--no-figures")[0] == 0
     controller = window.controller
     controller.open_session(path)
     controller.run_diagnosis()
