@@ -107,7 +107,8 @@ def effect_slots(spec: RigSpec, index: int, context: FitContext) -> list[Slot]:
     units = {item.name: str(item.metadata.get("unit", "")) for item in dataclasses.fields(effect)}
     ranges = (effect.fit_ranges_on(spec.effects[effect.term], context) if isinstance(effect, TermChange)
               else effect.fit_ranges(context))
-    return [Slot(index, name, within_readable_range(fit_range, units.get(name, ""))) for name, fit_range in ranges.items()]
+    return [Slot(index, name, within_readable_range(fit_range, units.get(name, "")))
+            for name, fit_range in ranges.items()]
 
 
 def spec_slots(spec: RigSpec, context: FitContext, recalibration: bool = False) -> list[Slot]:

@@ -24,6 +24,7 @@ from gasfilm.analysis.physics.effects import (
     AIR_PRESSURE_PA,
     AIR_VISCOSITY_PA_S,
     CUBIC_EQUIVALENT,
+    DRIFT_CLOCKS,
     AcCoupling,
     AddedMass,
     ChannelDelay,
@@ -514,30 +515,7 @@ def candidate_starts(evidence: Evidence, spec: RigSpec, identifier: str, context
     term, change = changing_description(identifier)
     if change is not None:
         return changing_starts(term, spec, evidence, context)
-    starts = [with_effect(spec, effect) for effect in starting_effects(identifier, spec, evidence, context)]
-    if identifier == "term-drift":
-        starts += _drifts_through_halves(spec, evidence, context)
-    return starts
-
-
-def _drifts_through_halves(spec: RigSpec, evidence: Evidence, context: FitContext) -> list[RigSpec]:
-    """Starts of a drift of a value of a term of ``spec`` from the spec fitted to the early and to the late half of
-    the hits: for each value that differs between the halves by :data:`AGREEMENT_SIGMA` or more and changes by no
-    term yet, the value drifting on each clock through the two (:func:`_drifting_starts`)."""
-    halves = _halves(evidence)
-    if halves is None:
-        return []
-    fitted = [fit(evidence.of_hits(half), spec, spec_slots(spec, context), tolerance=SCREENING_TOLERANCE)
-              for half in halves]
-    changing = {(effect.term, effect.parameter) for effect in spec.effects if isinstance(effect, TermChange)}
-    starts = []
-    for index, effect in enumerate(spec.effects):
-        if isinstance(effect, TermChange) or type(effect).held_after_recalibration:
-            continue
-        starts += [start for size, moving, early, late in _half_differences(fitted, index)
-                   if size >= AGREEMENT_SIGMA and (index, moving.name) not in changing
-                   for start in _drifting_starts(spec, index, moving, early, late, halves, context, evidence)]
-    return starts
+    return [with_effect(spec, effect) for effect in starting_effects(identifier, spec, evidence, context)]
 
 
 def changing_description(identifier: str) -> tuple[str, str | None]:
@@ -753,8 +731,9 @@ def _term_change_starts(identifier: str, spec: RigSpec, evidence: Evidence, cont
         if isinstance(effect, TermChange) or type(effect).held_after_recalibration:
             continue
         names = list(effect.fit_ranges(context))
-        if identifier == "term-drift":
-            starts += [TermDrift(term=index, parameter=name, fraction_per_hour=0.0) for name in names]
+        if identifier == "term-drift":  # with session time, and with the blows
+            starts += [TermDrift(term=index, parameter=name, clock=clock) for clock in DRIFT_CLOCKS for name in names
+                       if clock == "session time" or context.blow_span > 0]
         elif identifier == "term-level":
             reference = float(np.median(np.abs(conditions.impulse_ns)))
             if np.ptp(conditions.impulse_ns) > 0.05 * reference:

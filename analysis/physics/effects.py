@@ -1301,11 +1301,11 @@ class TermDrift(TermChange):
     (``fraction_per_hour``: warming, clogging, creep) or the blows delivered (``fraction_per_blow``, the hit's number
     in the session from 0: a stud backing off, a magnet base walking, a tip wearing, a change each impact makes).
 
-    The law is a steady change of the value in its own natural coordinate, for either clock with ``x`` the rate times
-    the clock: a value that must stay positive (a frequency, a damping, a stiffness, a time constant) changes by a
-    constant fraction per unit, compounded, ``× exp(x)``, and never reaches zero; a signed value (a modal constant, a
-    leak) changes by a constant amount, ``× (1 + x)``, and may pass through zero (a sensor walking across a nodal
-    line)."""
+    With ``x`` the rate times the clock: a signed value (a modal constant, a leak) changes by a constant amount,
+    ``× (1 + x)``, and may pass through zero (a sensor walking across a nodal line). A value that must stay positive
+    (a frequency, a damping, a stiffness, a time constant) changes with session time to first order, ``× (1 + x)``
+    (kept above :data:`TERM_CHANGE_FLOOR` of itself), and per blow by a constant fraction of what is left,
+    compounded, ``× exp(x)`` (each impact loosens or wears by a share of the present state), never reaching zero."""
 
     explanation: ClassVar[str] = (
         "A value of the rig or of the measurement chain moves steadily during the session (warming, wear, a "
@@ -1329,7 +1329,11 @@ class TermDrift(TermChange):
 
     def factor(self, time_s: float, impulse_ns: float, blow: float = 0.0, signed: bool = False) -> float:
         x = self.amount(time_s, blow)
-        return 1.0 + x if signed else math.exp(min(x, MAX_DRIFT_EXPONENT))
+        if signed:
+            return 1.0 + x
+        if self.clock == "blows":
+            return math.exp(min(x, MAX_DRIFT_EXPONENT))
+        return max(1.0 + x, TERM_CHANGE_FLOOR)
 
     def _rate_name(self) -> str:
         return "fraction_per_blow" if self.clock == "blows" else "fraction_per_hour"
@@ -1339,10 +1343,13 @@ class TermDrift(TermChange):
 
     def fit_ranges_on(self, target: Effect, context: FitContext) -> dict[str, FitRange]:
         """A signed value may move by up to :data:`SIGNED_DRIFT_LIMIT` times its first hit's value over the session
-        (through zero, anywhere but at the very first hits); a positive one by :data:`DRIFT_LIMIT` in its logarithm."""
+        (through zero, anywhere but at the very first hits); a positive one by :data:`DRIFT_LIMIT` with session time,
+        by :data:`BLOWS_DRIFT_LIMIT` in its logarithm over the blows."""
         return self._range(context, SIGNED_DRIFT_LIMIT if signed_field(target, self.parameter) else DRIFT_LIMIT)
 
     def _range(self, context: FitContext, over_session: float) -> dict[str, FitRange]:
+        if over_session == DRIFT_LIMIT and self.clock == "blows":
+            over_session = BLOWS_DRIFT_LIMIT
         span = context.blow_span if self.clock == "blows" else context.session_span_s / 3600.0
         limit = over_session / max(span, 1e-6)
         return {self._rate_name(): FitRange("linear", -limit, limit)}
@@ -1352,17 +1359,19 @@ class TermDrift(TermChange):
 
     def evidence(self, sigma: Mapping[str, float], where: str, context: FitContext) -> str:
         name = self._rate_name()
-        span = context.blow_span if self.clock == "blows" else context.session_span_s / 3600.0
+        blows = self.clock == "blows"
+        span = context.blow_span if blows else context.session_span_s / 3600.0
         rate, spread = getattr(self, name), sigma[name]
-        per = "per blow" if self.clock == "blows" else "per hour"
-        return (f"the term's {self.parameter} moves steadily {'blow by blow' if self.clock == 'blows' else 'over the session'}: "
-                f"{rate:+.4g} ± {spread:.2g} {per} ({rate * span:+.3g} ± {spread * span:.2g} from the first hit to the "
-                f"last: × 1 + that for a signed value, × e^that for a positive one), in {where}")
+        return (f"the term's {self.parameter} moves steadily {'blow by blow' if blows else 'over the session'}: "
+                f"{rate:+.4g} ± {spread:.2g} per {'blow' if blows else 'hour'} "
+                f"({rate * span:+.3g} ± {spread * span:.2g} from the first hit to the last), in {where}")
 
 
-#: A steady change of a positive value moves its logarithm by at most this over the session (a factor of 10), and a
-#: signed value by at most this many times its first hit's value (through zero).
-DRIFT_LIMIT = math.log(10.0)
+#: A steady change of a positive value moves it by at most this fraction over the session with session time (±90 %),
+#: its logarithm by at most this over the blows (a factor of 10), and a signed value by at most this many times its
+#: first hit's value (through zero).
+DRIFT_LIMIT = 0.9
+BLOWS_DRIFT_LIMIT = math.log(10.0)
 SIGNED_DRIFT_LIMIT = 20.0
 #: The exponent a positive value's change is evaluated at, at most (far beyond any fitted session: no overflow).
 MAX_DRIFT_EXPONENT = 50.0
