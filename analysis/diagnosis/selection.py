@@ -530,7 +530,7 @@ def changing_starts(identifier: str, spec: RigSpec, evidence: Evidence, context:
     """Starts of a new description ``identifier`` whose values move steadily over the session, for hits that differ
     in a way no term of ``spec`` changing between them describes (a mode whose constant the H1 average cancels, a
     resonance that falls hit by hit): the description fitted to the early half of the hits and to the late half (in
-    blow order, :func:`_fitted_halves`), its values the halves' mean, and, for each value that differs between the
+    blow order, :func:`_halves`), its values the halves' mean, and, for each value that differs between the
     halves by :data:`AGREEMENT_SIGMA` or more, a ``term-drift`` of it on each clock through the two halves' values
     (:func:`_drifting_starts`). None when the halves agree (nothing that changes to describe)."""
     halves = _halves(evidence)
