@@ -700,8 +700,9 @@ def starting_effects(identifier: str, spec: RigSpec, evidence: Evidence, context
                 for order in (0.3, 1.0, 1.7)]
     if identifier == "channel-resonance":
         peaks = _excess_peaks(spec, evidence, None)[:1]
-        return [ChannelResonance(channel=channel, freq_hz=freq, damping_ratio=0.05)
-                for channel in ("acceleration", "force") for freq in (*peaks, 2.0 * context.band_hz[1])]
+        return [ChannelResonance(channel=channel, freq_hz=freq, damping_ratio=0.05, form=form)
+                for form in ("seismic", "transmitted") for channel in ("acceleration", "force")
+                for freq in (*peaks, 2.0 * context.band_hz[1])]
     if identifier == "channel-power-law":
         return [ChannelPowerLaw(exponent=0.0, reference_hz=resonance_hz)]
     if identifier == "channel-pole-zero":

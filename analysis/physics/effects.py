@@ -1094,9 +1094,11 @@ FILM_BRANCH_ORDERS = (0.05, 1.95)
 @register_effect("channel-resonance")
 @dataclass(frozen=True)
 class ChannelResonance(Effect):
-    """A resonance inside the measurement chain: a channel's signal passes ``ω²/(s² + 2ζω s + ω²)`` (unity at low
-    frequency). On the response channel the FRF rises towards it (a sensor on a compliant mount); on the force
-    channel the FRF falls towards it (the hammer's head or its force gauge's own mode)."""
+    """A resonance inside the measurement chain, unity at low frequency, in one of two forms (:data:`RESONANCE_FORMS`):
+    a part on a spring and damper whose own motion is read (a sensor on a compliant mount, a head on an extender in
+    front of the gauge) transmits ``(ω² + 2ζω s)/(s² + 2ζω s + ω²)``, the damper's force with the spring's; a seismic
+    element read by its motion relative to its base (a sensor's own resonance) gives ``ω²/(s² + 2ζω s + ω²)``. On the
+    response channel the FRF rises towards it; on the force channel it falls towards it."""
 
     kind: ClassVar[str] = "measurement"
     explanation: ClassVar[str] = (
@@ -1107,6 +1109,7 @@ class ChannelResonance(Effect):
     channel: str = _channel_field()
     freq_hz: float = _number("Hz", _positive)
     damping_ratio: float = _number("1", _positive)
+    form: str = field(default="seismic", metadata={"unit": "", "choices": ("seismic", "transmitted")})
 
     def place(self) -> str:
         return _channel_place(self.channel)
@@ -1115,7 +1118,9 @@ class ChannelResonance(Effect):
         if channel != self.channel:
             return 1.0
         omega = 2 * np.pi * self.freq_hz
-        return omega**2 / (s**2 + 2 * self.damping_ratio * omega * s + omega**2)
+        damper = 2 * self.damping_ratio * omega * s
+        numerator = omega**2 + damper if self.form == "transmitted" else omega**2
+        return numerator / (s**2 + damper + omega**2)
 
     def fit_ranges(self, context: FitContext) -> dict[str, FitRange]:
         low, high = context.band_hz
