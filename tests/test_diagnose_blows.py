@@ -90,3 +90,15 @@ def test_a_mode_whose_constant_walks_through_zero_per_blow_is_modelled_with_its_
     assert drift.clock == "blows" and drift.fraction_per_blow == pytest.approx(-2.0 / (hits - 1), rel=0.1)
     assert found["side-mode"].features["last_hit_modal_constant_per_kg"] == pytest.approx(2.5e-3, rel=0.1)
     assert diagnosis.chi2_per_point_after < 1.5
+
+
+def test_a_resonance_transmitted_through_a_mount_carries_the_dampers_zero():
+    """A sensor on a compliant mount reads (ω² + 2ζωs)/(s² + 2ζωs + ω²); a seismic element ω²/(…): the two differ by
+    the damper's zero, 1 + 2ζs/ω, and agree at low frequency."""
+    s = 2j * np.pi * FREQ_HZ
+    seismic = ChannelResonance(channel="acceleration", freq_hz=1500.0, damping_ratio=0.05)
+    mount = dataclasses.replace(seismic, form="transmitted")
+    ratio = mount.channel_transfer("acceleration", s) / seismic.channel_transfer("acceleration", s)
+    np.testing.assert_allclose(ratio, 1 + 2 * 0.05 * s / (2 * np.pi * 1500.0), rtol=1e-12)
+    spec = NOMINAL.with_effects(mount)
+    assert RigSpec.from_toml(spec.to_toml()) == spec
