@@ -11,7 +11,9 @@ from pathlib import Path
 from typing import Sequence
 
 import numpy as np
+from matplotlib.axis import Axis
 from matplotlib.figure import Figure
+from matplotlib.ticker import FuncFormatter, NullFormatter
 from numpy.typing import ArrayLike
 
 from gasfilm.analysis.identification import FitResult
@@ -23,6 +25,14 @@ from gasfilm.drivers.interface import STANDARD_GRAVITY_M_S2
 FAST_PNG = {"compress_level": 1}
 UNITS = {"g/N": 1.0 / STANDARD_GRAVITY_M_S2, "SI": 1.0}
 UNIT_LABEL = {"g/N": "g/N", "SI": "(m/s²)/N"}
+
+
+def plain_log_labels(axis: Axis) -> None:
+    """A log axis (``axes.xaxis`` or ``axes.yaxis``) labelled in plain numbers (0.001, 1, 100) at its decades:
+    matplotlib's default 10ⁿ labels are typeset by its mathtext parser, much of the time a figure takes to draw."""
+    axis.set_major_formatter(FuncFormatter(lambda value, _: f"{value:g}" if 1e-4 <= value < 1e6
+                                           else f"1e{np.log10(value):.0f}"))
+    axis.set_minor_formatter(NullFormatter())
 
 
 def _scale(units: str) -> float:

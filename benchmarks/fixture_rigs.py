@@ -85,8 +85,9 @@ def rig_effects(rig: Path) -> tuple[list[dict], dict[str, str]]:
     return effects, places
 
 
-def run_rig(rig: Path, hits: int, seed: int, work: Path) -> dict:
-    """Record ``rig`` on the simulator, diagnose it against its film alone, score the findings against its effects."""
+def run_rig(rig: Path, hits: int, seed: int, work: Path, figures: bool = False) -> dict:
+    """Record ``rig`` on the simulator, diagnose it against its film alone (its figures drawn if ``figures``), score
+    the findings against its effects."""
     from gasfilm.analysis.physics.spec import RigSpec
 
     effects, places = rig_effects(rig)
@@ -97,7 +98,8 @@ def run_rig(rig: Path, hits: int, seed: int, work: Path) -> dict:
                    check=True, capture_output=True, cwd=ROOT)
     started = time.perf_counter()
     done = subprocess.run([*GASFILM, "diagnose", str(session), "--rig", str(given), "--json", "--check-loop",
-                           "--out", str(out)], capture_output=True, text=True, cwd=ROOT)
+                           "--out", str(out), *([] if figures else ["--no-figures"])],
+                          capture_output=True, text=True, cwd=ROOT)
     seconds = time.perf_counter() - started
     if done.returncode != 0:
         return {"rig": rig.stem, "error": done.stderr.strip()[-300:], "effects": len(effects), "seconds": seconds}
@@ -119,12 +121,14 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--rigs", nargs="+", default=["three-modes", "all-effects"])
     parser.add_argument("--hits", type=int, default=8)
     parser.add_argument("--seed", type=int, default=5)
-    parser.add_argument("--out", type=Path, help="keep the sessions and diagnoses here (default: a temporary folder)")
+    parser.add_argument("--out", type=Path, help="keep the sessions and diagnoses, with their figures, here (default: "
+                                                 "a temporary folder, no figures)")
     args = parser.parse_args(argv)
     with tempfile.TemporaryDirectory() as temporary:
         work = args.out or Path(temporary)
         work.mkdir(parents=True, exist_ok=True)
-        rows = [run_rig(RIGS / f"{name}.toml", args.hits, args.seed, work) for name in args.rigs]
+        rows = [run_rig(RIGS / f"{name}.toml", args.hits, args.seed, work, figures=args.out is not None)
+                for name in args.rigs]
     effects = right = modelled = named = 0
     for row in rows:
         if "error" in row:

@@ -5,6 +5,7 @@ version, percentages that mean percent, and refusals that name the file and the 
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import pytest
 
@@ -231,6 +232,15 @@ def test_diagnose_overwrite_removes_its_own_outputs_this_run_does_not_write(sess
     assert sorted(path.name for path in out.iterdir()) == [
         "diagnosis-film.png", "diagnosis-overlay.png", "diagnosis-residual.png", "diagnosis-restoring-force-old.png",
         "improved-rig.toml", "notes.txt"]
+
+
+def test_diagnose_without_figures_writes_the_spec_alone_and_says_so(session_path, tmp_path, capsys):
+    out = tmp_path / "d"
+    status, out_text, err = gasfilm(capsys, "diagnose", session_path, "--out", out, "--json", "--no-figures")
+    assert status == 0, err
+    result = json.loads(out_text)
+    assert result["figures"] == [] and Path(result["improved_spec"]) == out / "improved-rig.toml"
+    assert sorted(path.name for path in out.iterdir()) == ["improved-rig.toml"]
 
 
 def test_model_numbers_the_recorded_hits_from_1(tmp_path, capsys):

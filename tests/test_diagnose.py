@@ -77,7 +77,7 @@ def test_mains_interference_is_quality_not_physics_and_the_cli_stores_it(tmp_pat
     session_path = record(truth, tmp_path / "mains.h5", seed=3)
     NOMINAL.save(tmp_path / "nominal.toml")
     status = gasfilm(["diagnose", str(session_path), "--rig", str(tmp_path / "nominal.toml"), "--json",
-                      "--out", str(tmp_path / "out")])
+                      "--no-figures", "--out", str(tmp_path / "out")])
     assert status == 0
     result = json.loads(capsys.readouterr().out)
     assert result["findings"] == []
@@ -150,7 +150,8 @@ def test_uff_time_records_with_only_the_mass(tmp_path, capsys):
     uff_path = tmp_path / "hits.uff"
     pyuff.UFF(str(uff_path)).write_sets(datasets, mode="overwrite")
 
-    status = gasfilm(["diagnose", str(uff_path), "--mass", "25.05", "--json", "--out", str(tmp_path / "uff")])
+    status = gasfilm(["diagnose", str(uff_path), "--mass", "25.05", "--json", "--no-figures", "--out",
+                     str(tmp_path / "uff")])
     assert status == 0
     result = json.loads(capsys.readouterr().out)
     for key in ("findings", "quality", "rms_before", "rms_after", "improved_spec"):

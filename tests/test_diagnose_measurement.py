@@ -119,7 +119,8 @@ def test_records_exported_with_force_and_exponential_windows(recorded, tmp_path,
                                                                          exponential_end_fraction=None))
     path = export_frf_uff(frf, tmp_path / "windowed.uff", hits=hits)
     capsys.readouterr()
-    assert gasfilm(["diagnose", str(path), "--mass", str(MASS_KG), "--json", "--out", str(tmp_path / "d")]) == 0
+    assert gasfilm(["diagnose", str(path), "--mass", str(MASS_KG), "--json", "--no-figures",
+                    "--out", str(tmp_path / "d")]) == 0
     result = json.loads(capsys.readouterr().out)
     assert result["verdict"] in ("consistent", "parameters-only") and not result["findings"]
     notes = {note["kind"]: note["message"] for note in result["quality"]}

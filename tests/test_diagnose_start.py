@@ -27,7 +27,7 @@ def session(tmp_path_factory) -> Path:
 
 def test_default_path_starts_from_the_recorded_spec_and_is_consistent(session, tmp_path, capsys):
     capsys.readouterr()
-    status = gasfilm(["diagnose", str(session), "--out", str(tmp_path / "d")])
+    status = gasfilm(["diagnose", str(session), "--no-figures", "--out", str(tmp_path / "d")])
     out, err = capsys.readouterr()
     assert status == 0
     assert "verdict: consistent" in out

@@ -152,6 +152,18 @@ def test_every_plot_reads_out_the_point_under_the_cursor_in_its_units(qtbot, win
     assert live.readout_text(-0.5, 12.0) == "Time before now -0.5 s, Force 12 N"
 
 
+def test_every_plot_has_its_right_click_menu_built_when_first_asked_for(qtbot, window):
+    """pyqtgraph's view menu (View All, each axis's range, mouse mode, export) is there on every plot, built on the
+    first right click rather than with the window."""
+    item = window.frf_tab.magnitude_plot.getPlotItem()
+    assert item.vb.menu is None and item.vb.menuEnabled()
+    names = [action.text() for action in item.vb.getContextMenus(None)]
+    assert "View All" in names and "Mouse Mode" in names, names
+    assert item.vb.getMenu(None) is item.vb.menu is not None
+    item.vb.setMenuEnabled(False)
+    assert item.vb.getContextMenus(None) == []
+
+
 def test_magnitude_in_db_or_linear_and_hv_beside_h1_and_h2(qtbot, window):
     controller = window.controller
     arm(qtbot, window)

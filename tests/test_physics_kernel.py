@@ -295,7 +295,7 @@ def test_closed_loop(names, tmp_path, capsys):
     truth = NOMINAL.with_effects(*(EXAMPLES[name] for name in names))
     session = record(truth, tmp_path / "session.h5", hits=6, seed=sum(map(ord, "".join(names))) % 97)
     NOMINAL.save(tmp_path / "nominal.toml")
-    assert gasfilm(["diagnose", str(session), "--rig", str(tmp_path / "nominal.toml"), "--json",
+    assert gasfilm(["diagnose", str(session), "--rig", str(tmp_path / "nominal.toml"), "--json", "--no-figures",
                     "--out", str(tmp_path / "first")]) == 0
     first = json.loads(capsys.readouterr().out)
     written = RigSpec.load(first["improved_spec"])
@@ -305,7 +305,7 @@ def test_closed_loop(names, tmp_path, capsys):
                           hit_times_s=recordings.hit_times_s, overload=recordings.overload)
     assert replay_rms(spectra, written) == pytest.approx(first["rms_after"], rel=1e-9)
 
-    assert gasfilm(["diagnose", str(session), "--rig", first["improved_spec"], "--json",
+    assert gasfilm(["diagnose", str(session), "--rig", first["improved_spec"], "--json", "--no-figures",
                     "--out", str(tmp_path / "second")]) == 0
     second = json.loads(capsys.readouterr().out)
     assert second["findings"] == [], second["findings"]

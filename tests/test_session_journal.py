@@ -222,7 +222,9 @@ def killed_during_a_commit(path: Path, hits: list, at: int) -> bytes:
         session = new_session(path)
         for hit in hits[:-1]:
             session.append_hit(hit, Verdict(True))
-        os.write(writing, path.read_bytes())
+        committed = memoryview(path.read_bytes())
+        while committed:  # (a pipe takes a large write in parts when a signal comes meanwhile)
+            committed = committed[os.write(writing, committed):]
         os.close(writing)
         writes = []
         real_pwrite, real_write_journal = journal._pwrite_all, journal.RollbackFile._write_journal

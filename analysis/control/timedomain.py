@@ -258,6 +258,8 @@ def error_figure(model: RationalModel) -> Any:
     """The approximation's complex relative error of the plant and the film against frequency, band shaded."""
     from matplotlib.figure import Figure
 
+    from gasfilm.analysis.figures import plain_log_labels
+
     figure = Figure(figsize=(9, 4.5))
     axis = figure.subplots()
     figure.subplots_adjust(left=0.09, right=0.975, bottom=0.11, top=0.9)  # fixed: a "tight" layout draws twice
@@ -268,6 +270,8 @@ def error_figure(model: RationalModel) -> Any:
     axis.axvspan(*model.band_hz, color="tab:green", alpha=0.08, label="approximation band")
     if model.target_error:
         axis.axhline(100 * model.target_error, color="tab:red", linewidth=1.0, label="target")
+    plain_log_labels(axis.xaxis)
+    plain_log_labels(axis.yaxis)
     axis.set_xlabel("frequency (Hz)")
     axis.set_ylabel("|G_rational / G_fractional − 1| (%)")
     axis.set_title(f"{model.source.description}: {model.summary()}", fontsize=8, wrap=True)

@@ -467,10 +467,9 @@ def _select_one(
     new description whose values move steadily between hits (:func:`changing_starts`)."""
     noise_scale = _noise_scale(current, points)
     trials = []
-    identifiers = [identifier for identifier in _candidate_identifiers(current.spec, context, restoring, generic)
+    identifiers = [identifier for identifier in _candidate_identifiers(current.spec, evidence, context, restoring,
+                                                                         generic)
                    if identifier not in excluded]
-    if not _hits_differ(evidence, current.spec):  # one spec for every hit is all these data can describe
-        identifiers = [identifier for identifier in identifiers if identifier not in TERM_CHANGES]
     if changing:
         identifiers = [f"{identifier}+term-drift" for identifier in identifiers if identifier not in TERM_CHANGES]
 
@@ -636,13 +635,15 @@ def _describe_the_rest(
 
 
 def _candidate_identifiers(
-    spec: RigSpec, context: FitContext, restoring: RestoringForce | None, generic: bool = False
+    spec: RigSpec, evidence: Evidence, context: FitContext, restoring: RestoringForce | None, generic: bool = False
 ) -> list[str]:
     """The candidate terms that may be added to ``spec`` (the catalog's, or with ``generic`` the generic
-    descriptions): not already in it unless several of a type can be, a time term only when the hits' times are
-    known, an amplitude-dependent term only when the measured restoring force allows its shape."""
+    descriptions): not already in it unless several of a type can be, a change between hits only when the hits
+    differ about ``spec`` (else one spec for every hit is all the data can describe), a time term only when the hits'
+    times are known, an amplitude-dependent term only when the measured restoring force allows its shape."""
     present = {effect.type_name for effect in spec.effects if not type(effect).repeatable}
-    pool = (*(GENERIC_DESCRIPTIONS if generic else candidates_for(spec)), *TERM_CHANGES)
+    pool = (*(GENERIC_DESCRIPTIONS if generic else candidates_for(spec)),
+            *(TERM_CHANGES if _hits_differ(evidence, spec) else ()))
     return [identifier for identifier in pool
             if identifier not in present
             and not (identifier in ("drift", "step-change", "term-drift", "term-onset")
@@ -1052,7 +1053,7 @@ def _other_kind_in_its_place(
     kind = final.spec.effects[index].kind
     type_name = final.spec.effects[index].type_name
     reduced = without_effect(final.spec, index)
-    others = [other for other in _candidate_identifiers(reduced, context, restoring)
+    others = [other for other in _candidate_identifiers(reduced, evidence, context, restoring)
               if EFFECT_TYPES[other].kind in ("rig", "measurement") and EFFECT_TYPES[other].kind != kind]
     points = evidence.point_count
     noise_scale = _noise_scale(final, points)

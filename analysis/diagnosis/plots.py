@@ -10,7 +10,7 @@ import matplotlib
 import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
-from matplotlib.ticker import FuncFormatter, MaxNLocator, NullFormatter
+from matplotlib.ticker import MaxNLocator
 
 from gasfilm.analysis.diagnosis.parallel import shared_map
 from gasfilm.analysis.diagnosis.pipeline import replayed_mean, residuals
@@ -19,7 +19,7 @@ from gasfilm.analysis.diagnosis.result import Diagnosis
 from gasfilm.analysis.physics.elements import laplace_variable
 from gasfilm.analysis.physics.response import rig_dynamic_stiffness
 from gasfilm.analysis.diagnosis.structure import STABILITY, Structure
-from gasfilm.analysis.figures import FAST_PNG
+from gasfilm.analysis.figures import FAST_PNG, plain_log_labels
 from gasfilm.analysis.paths import written_whole
 from gasfilm.analysis.threads import one_blas_thread
 from gasfilm.drivers.interface import STANDARD_GRAVITY_M_S2 as G_M_S2
@@ -116,6 +116,7 @@ def write_film_figure(diagnosis: Diagnosis, path: Path) -> Path:
         axis.plot(freq_hz, part(view["apparent"]) * scale, "C1:", lw=1.2, label="written spec: whole chain")
         axis.set_ylabel(label)
         axis.set_xscale("log")
+        plain_log_labels(axis.xaxis)
         low, high = np.percentile(measured, [2, 98])
         margin = 0.5 * (high - low) + 1e-12
         axis.set_ylim(low - margin, high + margin)
@@ -146,7 +147,7 @@ def write_overlay_figure(diagnosis: Diagnosis, path: Path) -> Path:
     for finding in diagnosis.findings:
         for axis in axes:
             axis.axvspan(*finding.band_hz, color="C1", alpha=0.12)
-    _plain_log_labels(axes[0])
+    plain_log_labels(axes[0].yaxis)
     axes[0].set_ylabel("|H| (g/N)")
     axes[1].set_ylabel("phase (°)")
     axes[1].set_xlabel("frequency (Hz)")
@@ -156,13 +157,6 @@ def write_overlay_figure(diagnosis: Diagnosis, path: Path) -> Path:
     figure.subplots_adjust(left=0.1, right=0.97, bottom=0.08, top=0.94, hspace=0.28)  # (tight_layout draws twice)
     figure.savefig(path, dpi=110, pil_kwargs=FAST_PNG)
     return path
-
-
-def _plain_log_labels(axis: matplotlib.axes.Axes) -> None:
-    """A log y axis labelled in plain numbers (0.001, 1, 100) at its decades: matplotlib's default 10ⁿ labels are
-    typeset by its mathtext parser, most of the time a figure takes to draw."""
-    axis.yaxis.set_major_formatter(FuncFormatter(lambda value, _: f"{value:g}"))
-    axis.yaxis.set_minor_formatter(NullFormatter())
 
 
 def write_residual_figure(diagnosis: Diagnosis, path: Path) -> Path:
@@ -182,7 +176,7 @@ def write_residual_figure(diagnosis: Diagnosis, path: Path) -> Path:
         axes[0].axvspan(*item.band_hz, color="C3", alpha=0.10)
     axes[0].axhline(1.0, color="k", lw=0.6, ls="--")
     axes[0].set_yscale("log")
-    _plain_log_labels(axes[0])
+    plain_log_labels(axes[0].yaxis)
     axes[0].set_xlabel("frequency (Hz)")
     axes[0].set_ylabel("χ² per point (1 = noise)")
     axes[0].legend(fontsize=8)
@@ -258,7 +252,7 @@ def stabilization_figure(reading: dict, frf_freq_hz: np.ndarray | None = None,
         magnitude_axis = axis.twinx()
         inside = (frf_freq_hz >= band[0]) & (frf_freq_hz <= band[1]) & (frf_magnitude > 0)
         magnitude_axis.semilogy(frf_freq_hz[inside], frf_magnitude[inside] / G_M_S2, color="k", lw=0.7)
-        _plain_log_labels(magnitude_axis)
+        plain_log_labels(magnitude_axis.yaxis)
         magnitude_axis.set_ylabel("|H1| (g/N)")
         axis.set_zorder(magnitude_axis.get_zorder() + 1)
         axis.patch.set_visible(False)
@@ -286,17 +280,18 @@ def stabilization_figure(reading: dict, frf_freq_hz: np.ndarray | None = None,
 
 
 @one_blas_thread
-def write_outputs(diagnosis: Diagnosis, out_dir: Path) -> None:
-    """Write the improved spec (the spec that was fitted, exactly) and the figures into ``out_dir``, all of them or
-    none (a full disk leaves no partial file: :func:`~gasfilm.analysis.paths.written_whole`); the paths are kept in
+def write_outputs(diagnosis: Diagnosis, out_dir: Path, figures: bool = True) -> None:
+    """Write the improved spec (the spec that was fitted, exactly) and, unless ``figures`` is false, the figures into
+    ``out_dir``, all of them or none (a full disk leaves no partial file: :func:`~gasfilm.analysis.paths.written_whole`); the paths are kept in
     ``diagnosis.improved_spec_path`` and ``diagnosis.figures``."""
     out_dir.mkdir(parents=True, exist_ok=True)
-    names = (SPEC_FILE, *figure_files(diagnosis))
+    names = (SPEC_FILE, *(figure_files(diagnosis) if figures else ()))
     with written_whole(*(out_dir / name for name in names), what="the diagnosis's files") as temporaries:
         building = dict(zip(names, temporaries))
         header = "".join(f"# {note}\n" for note in diagnosis.notes)
         building[SPEC_FILE].write_text(header + diagnosis.improved.to_toml(), encoding="utf-8")
-        write_figures(diagnosis, building)
+        if figures:
+            write_figures(diagnosis, building)
     diagnosis.improved_spec_path = str(out_dir / SPEC_FILE)
     diagnosis.figures = [str(out_dir / name) for name in names[1:]]
 

@@ -18,7 +18,6 @@ from typing import Callable
 
 import numpy as np
 import scipy.fft
-from scipy.sparse.linalg import LinearOperator, bicgstab
 
 from gasfilm.analysis.physics.elements import FilmModel, laplace_variable
 from gasfilm.drivers.errors import GasfilmError
@@ -541,6 +540,8 @@ def mover_displacement_spectrum(
         return residual, float(np.max(np.abs(residual))) / scale
 
     def newton(k3_now: float, displacement: np.ndarray) -> np.ndarray | None:
+        from scipy.sparse.linalg import LinearOperator, bicgstab  # (imported here only: a tenth of a second)
+
         residual, norm = residual_norm(displacement, k3_now)
         for _ in range(12):  # a good continuation step converges fast; a slow one is better halved
             if norm <= 1e-12:

@@ -37,6 +37,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--overwrite", action="store_true",
                         help="replace an improved spec or figures in --out (and remove an earlier run's figure this "
                              "run does not draw)")
+    parser.add_argument("--no-figures", action="store_true",
+                        help="write the improved spec only, no figures (for scripts that read the JSON)")
     parser.add_argument("--check-loop", action="store_true",
                         help="diagnose the written spec again on the same recordings: it must find nothing more "
                              "(the result under 'loop'; takes about as long again)")
@@ -91,7 +93,7 @@ def run(args: argparse.Namespace) -> int:
             progress(f"{args.source[0]}: conditions {format_conditions(conditions)}")
         source = args.source[0] if len(args.source) == 1 else list(args.source)
         diagnosis = diagnose(source, spec, args.mass, band, progress, check_loop=args.check_loop)
-        write_outputs(diagnosis, args.out)
+        write_outputs(diagnosis, args.out, figures=not args.no_figures)
         if args.overwrite:
             for stale in remove_stale_outputs(diagnosis, args.out):
                 progress(f"removed {stale}: an earlier run's, which this run does not write")
