@@ -85,6 +85,7 @@ def fit_context(spec: RigSpec, conditions: HitConditions, band_hz: tuple[float, 
         session_span_s=float(np.ptp(conditions.time_s)) if len(conditions.time_s) else 0.0,
         max_displacement_m=float(np.max(hit_displacement_m(spec, conditions.impulse_ns))),
         film_damping_ratio=float(stiffness.imag / (2 * stiffness.real)) if stiffness.real > 0 else 0.0,
+        blow_span=float(np.ptp(conditions.blows)) if len(conditions.time_s) else 0.0,
     )
 
 
@@ -104,8 +105,10 @@ def effect_slots(spec: RigSpec, index: int, context: FitContext) -> list[Slot]:
     spec reader takes (:func:`within_readable_range`)."""
     effect = spec.effects[index]
     units = {item.name: str(item.metadata.get("unit", "")) for item in dataclasses.fields(effect)}
+    ranges = (effect.fit_ranges_on(spec.effects[effect.term], context) if isinstance(effect, TermChange)
+              else effect.fit_ranges(context))
     return [Slot(index, name, within_readable_range(fit_range, units.get(name, "")))
-            for name, fit_range in effect.fit_ranges(context).items()]
+            for name, fit_range in ranges.items()]
 
 
 def spec_slots(spec: RigSpec, context: FitContext, recalibration: bool = False) -> list[Slot]:

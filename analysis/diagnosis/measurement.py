@@ -1010,7 +1010,7 @@ def hit_spectra(
         decay_rate_1_s=float(decay_rate_1_s),
         h=h_full[:, grid],
         variance=variance_full[:, grid],
-        conditions=HitConditions(time_s=times, impulse_ns=np.abs(impulses)),
+        conditions=HitConditions(time_s=times, impulse_ns=np.abs(impulses), blow=used.astype(float)),
         hit_numbers=used,
         sample_rate_hz=float(sample_rate_hz),
         n_samples=int(n_samples),

@@ -54,6 +54,7 @@ from gasfilm.analysis.diagnosis.selection import (
     HeldOut,
     best_finished,
     candidate_starts,
+    changing_description,
     bic,
     disagreement,
     fit,
@@ -226,8 +227,8 @@ def diagnose_spectra(
                                    excluded=excluded)
             if accepted is None:
                 break
-            step, outcome, evidence = accepted
-            steps.append(step)
+            new_steps, outcome, evidence = accepted
+            steps.extend(new_steps)
             current = fit(evidence, outcome.spec, outcome.slots)
         demoted_before = len(rejected)
         steps, current, evidence, refits_without = _check_back(spectra, evidence, steps, current, recalibrated_spec,
@@ -456,16 +457,21 @@ def _select_one(
     generic: bool = False,
     other_films: tuple[dict[str, float], ...] = (),
     excluded: set[str] = frozenset(),
-) -> tuple[Step, FitOutcome, Evidence] | None:
-    """The next term of the forward selection, or None when no candidate earns its place: from the catalog, or with
-    ``generic`` from the generic descriptions. An amplitude-dependent term whose shape the measured restoring force
-    contradicts is not tried. ``other_films``: film parameters each candidate is also started from (see
-    :func:`_candidate_fits`); ``excluded``: types not tried (taken out on their claims in an earlier pass)."""
+    changing: bool = False,
+) -> tuple[list[Step], FitOutcome, Evidence] | None:
+    """The next term of the forward selection (its step; with ``changing`` the steps of a new description and of its
+    change between hits), or None when no candidate earns its place: from the catalog, or with ``generic`` from the
+    generic descriptions. An amplitude-dependent term whose shape the measured restoring force contradicts is not
+    tried. ``other_films``: film parameters each candidate is also started from (see :func:`_candidate_fits`);
+    ``excluded``: types not tried (taken out on their claims in an earlier pass); ``changing``: each candidate is a
+    new description whose values move steadily between hits (:func:`changing_starts`)."""
     noise_scale = _noise_scale(current, points)
     trials = []
     identifiers = [identifier for identifier in _candidate_identifiers(current.spec, evidence, context, restoring,
                                                                          generic)
                    if identifier not in excluded]
+    if changing:
+        identifiers = [f"{identifier}+term-drift" for identifier in identifiers if identifier not in TERM_CHANGES]
 
     # a candidate matters when it scores above BIC_MARGIN (chosen, or listed as an alternative)
     fitted_candidates = _candidate_fits(
@@ -493,15 +499,17 @@ def _select_one(
     for score, identifier, outcome, candidate_evidence in trials[:4]:
         if score <= BIC_MARGIN:
             return None
-        index = len(outcome.spec.effects) - 1
-        reason = _not_a_finding(outcome, index, context)
-        if reason is not None and _not_a_finding(outcome, index, context, within_noise=True) is None:
+        new = range(len(current.spec.effects), len(outcome.spec.effects))  # the term (and its change)
+        index = new[0]
+        reason = next((why for why in (_not_a_finding(outcome, i, context) for i in new) if why), None)
+        if reason is not None and all(_not_a_finding(outcome, i, context, within_noise=True) is None for i in new):
             if _nothing_unexplained(evidence_for(spectra, outcome.spec), outcome.spec):
                 progress(f"  {identifier}: its values are unusual ({reason}), but with it nothing is left unexplained")
                 reason = None
         if reason is not None:
             band = _term_band(candidate_evidence, outcome.spec, current.spec)
-            rejected.append(CandidateDescription(identifier, band, _term_parameters(outcome, index), reason))
+            rejected.append(CandidateDescription(changing_description(identifier)[0], band,
+                                                 _term_parameters(outcome, index), reason))
             progress(f"  {identifier}: not a finding ({reason})")
             continue
         hit_folds = held_out_gain(evidence, current.spec, candidate_evidence, outcome.spec, context)
@@ -509,10 +517,11 @@ def _select_one(
         progress(f"  {identifier}: held-out χ² gain {gain_held_out:.0f} (needs > {HELD_OUT_THRESHOLD:.0f})")
         if gain_held_out <= HELD_OUT_THRESHOLD:
             continue
-        close = [other for other_score, other, _, _ in trials if other != identifier
+        close = [changing_description(other)[0] for other_score, other, _, _ in trials if other != identifier
                  and score - other_score < ALTERNATIVE_MARGIN and other_score > BIC_MARGIN]
-        step = Step(identifier, current.chi2, outcome.chi2, gain_held_out, 0.0, close, _label_at(outcome.spec, index))
-        return step, outcome, evidence_for(spectra, outcome.spec)
+        steps = [Step(outcome.spec.effects[i].type_name, current.chi2, outcome.chi2, gain_held_out, 0.0,
+                      close if i == index else [], _label_at(outcome.spec, i)) for i in new]
+        return steps, outcome, evidence_for(spectra, outcome.spec)
     return None
 
 
@@ -612,10 +621,15 @@ def _describe_the_rest(
     while len(described) < MAX_DESCRIPTIONS and not _nothing_unexplained(evidence, current.spec):
         accepted = _select_one(spectra, evidence, current, context, points, rejected, progress, restoring,
                                generic=True, other_films=other_films)
+        if accepted is None and _hits_differ(evidence, current.spec):
+            progress("  the hits differ in a way no description, or change of one, gives: each description tried as "
+                     "a new term whose values move steadily over the session")
+            accepted = _select_one(spectra, evidence, current, context, points, rejected, progress, restoring,
+                                   generic=True, changing=True)
         if accepted is None:
             break
-        step, outcome, evidence = accepted
-        described.append(step)
+        new_steps, outcome, evidence = accepted
+        described.extend(new_steps)
         current = fit(evidence, outcome.spec, outcome.slots)
     return described, current, evidence
 
@@ -1244,6 +1258,23 @@ def _where(index: int, spec: RigSpec, band: tuple[float, float]) -> str:
     return band_text
 
 
+def _values_at_the_ends(spec: RigSpec, index: int, evidence: Evidence) -> dict[str, float]:
+    """The values of term ``index`` that change between hits, as the session's first and last hits (in blow order)
+    see them (``first_hit_<value>``, ``last_hit_<value>``); none for a term no change acts on."""
+    moved = {effect.parameter for effect in spec.effects if isinstance(effect, TermChange) and effect.term == index}
+    if not moved:
+        return {}
+    conditions = evidence.spectra.conditions
+    order = np.argsort(conditions.blows, kind="stable")
+    values: dict[str, float] = {}
+    for end, hit in (("first_hit", order[0]), ("last_hit", order[-1])):
+        seen = spec.at_hit(float(conditions.time_s[hit]), float(conditions.impulse_ns[hit]),
+                           float(conditions.blows[hit]))
+        term = seen.effects[index - sum(1 for effect in spec.effects[:index] if isinstance(effect, TermChange))]
+        values.update({f"{end}_{name}": float(getattr(term, name)) for name in sorted(moved)})
+    return values
+
+
 def _finding(
     evidence: Evidence, step: Step, final: FitOutcome, without: RigSpec, claim: Claim, context: FitContext
 ) -> Finding:
@@ -1287,7 +1318,7 @@ def _finding(
         own_band_limit=claim.own_band_limit,
         place=effect.place(),
         status="modelled" if type(effect).generic else "named",
-        features=effect.features_on(final.spec),
+        features={**effect.features_on(final.spec), **_values_at_the_ends(final.spec, index, evidence)},
         mechanisms=mechanisms_for(effect, context, final.spec.effects[effect.term] if isinstance(effect, TermChange)
                                   else None, alternatives=tuple(
                                       alternative.effect for alternative in alternatives

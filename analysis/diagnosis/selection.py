@@ -24,6 +24,7 @@ from gasfilm.analysis.physics.effects import (
     AIR_PRESSURE_PA,
     AIR_VISCOSITY_PA_S,
     CUBIC_EQUIVALENT,
+    DRIFT_CLOCKS,
     AcCoupling,
     AddedMass,
     ChannelDelay,
@@ -138,6 +139,15 @@ class Evidence:
             rows = self._subset(hits)
             self._rows[key] = (self.spectra.h[rows], np.sqrt(self.spectra.weight[rows]))
         return self._rows[key]
+
+    def of_hits(self, hits: np.ndarray) -> "Evidence":
+        """The same evidence for a subset of the hits (indices into the hits)."""
+        fronts = self.spectra.missing_fronts
+        spectra = dataclasses.replace(self.spectra, h=self.spectra.h[hits], variance=self.spectra.variance[hits],
+                                      conditions=self.spectra.conditions.subset(hits),
+                                      hit_numbers=self.spectra.hit_numbers[hits], replay=None,
+                                      missing_fronts=None if fronts is None else fronts.subset(hits=hits))
+        return Evidence(spectra)
 
     def restricted(self, lines: np.ndarray) -> "Evidence":
         """The same evidence on a subset of the analysis frequencies (indices into ``freq_hz``)."""
@@ -500,8 +510,103 @@ def candidate_starts(evidence: Evidence, spec: RigSpec, identifier: str, context
     """The spec plus the candidate term at each of its starting values (:func:`starting_effects`). A candidate's
     best fit: every start fitted to the screening tolerance (:func:`screening_fit`), the best :data:`FINISHED_STARTS`
     (:func:`to_finish`) finished to the full tolerance (:func:`finishing_fit`), the best of those
-    (:func:`best_finished`)."""
+    (:func:`best_finished`). A changing description (``type+term-drift``, :func:`changing_description`) is started
+    by :func:`changing_starts`."""
+    term, change = changing_description(identifier)
+    if change is not None:
+        return changing_starts(term, spec, evidence, context)
     return [with_effect(spec, effect) for effect in starting_effects(identifier, spec, evidence, context)]
+
+
+def changing_description(identifier: str) -> tuple[str, str | None]:
+    """``(type, change)`` of a candidate: a new description that changes between hits is named ``type+change`` (a
+    mode beside the mover whose modal constant moves over the session: ``side-mode+term-drift``); a plain one is
+    ``(type, None)``."""
+    term, _, change = identifier.partition("+")
+    return term, change or None
+
+
+def changing_starts(identifier: str, spec: RigSpec, evidence: Evidence, context: FitContext) -> list[RigSpec]:
+    """Starts of a new description ``identifier`` whose values move steadily over the session, for hits that differ
+    in a way no term of ``spec`` changing between them describes (a mode whose constant the H1 average cancels, a
+    resonance that falls hit by hit): the description fitted to the early half of the hits and to the late half (in
+    blow order, :func:`_halves`), its values the halves' mean, and, for each value that differs between the
+    halves by :data:`AGREEMENT_SIGMA` or more, a ``term-drift`` of it on each clock through the two halves' values
+    (:func:`_drifting_starts`). None when the halves agree (nothing that changes to describe)."""
+    halves = _halves(evidence)
+    if halves is None:
+        return []
+    fitted = []
+    for half in halves:
+        part = evidence.of_hits(half)
+        outcomes = [fit(part, start, spec_slots(start, context), tolerance=SCREENING_TOLERANCE)
+                    for start in candidate_starts(part, spec, identifier, context)]
+        if not outcomes:
+            return []
+        fitted.append(min(outcomes, key=lambda outcome: outcome.chi2))
+    index = len(spec.effects)
+    early_term, late_term = (outcome.spec.effects[index] for outcome in fitted)
+    held = {slot.name for slot in fitted[0].slots if slot.effect == index}
+    if any(getattr(early_term, item.name) != getattr(late_term, item.name) for item in dataclasses.fields(early_term)
+           if item.name not in held):  # not one description (a resonance of the force channel, then of the response)
+        return []
+    differences = _half_differences(fitted, index)
+    values = {slot.name: slot.from_search(0.5 * (first + second)) for _, slot, first, second in differences}
+    with_term = with_effect(spec, dataclasses.replace(early_term, **values))
+    return [start for size, moving, early, late in differences if size >= AGREEMENT_SIGMA
+            for start in _drifting_starts(with_term, index, moving, early, late, halves, context, evidence)]
+
+
+def _halves(evidence: Evidence) -> tuple[np.ndarray, np.ndarray] | None:
+    """The early and the late half of the hits, in blow order (None with fewer than two hits in each)."""
+    order = np.argsort(evidence.spectra.conditions.blows, kind="stable")
+    halves = (order[: order.size // 2], order[order.size // 2:])
+    return None if min(half.size for half in halves) < 2 else halves
+
+
+def _half_differences(fitted: list[FitOutcome], index: int) -> list[tuple[float, Slot, float, float]]:
+    """For each fitted value of effect ``index`` in two fits (the early and the late half of the hits): how far apart
+    the two are in units of their combined uncertainty (with :data:`MODEL_UNCERTAINTY`'s floor), the slot, and the
+    two values in its search coordinate; largest difference first."""
+    differences = []
+    for position, slot in enumerate(fitted[0].slots):
+        if slot.effect != index:
+            continue
+        early, late = (slot.to_search(slot.value(outcome.spec)) for outcome in fitted)
+        spread = np.hypot(*(np.sqrt(max(outcome.covariance[position, position], 0.0)) for outcome in fitted))
+        floor = MODEL_UNCERTAINTY if slot.range.scale == "log" else MODEL_UNCERTAINTY * max(abs(early), abs(late))
+        differences.append((abs(late - early) / max(float(np.hypot(spread, floor)), 1e-300), slot, early, late))
+    return sorted(differences, key=lambda item: -item[0])
+
+
+def _drifting_starts(spec: RigSpec, index: int, moving: Slot, early: float, late: float,
+                     halves: tuple[np.ndarray, np.ndarray], context: FitContext, evidence: Evidence) -> list[RigSpec]:
+    """``spec`` with its term ``index``'s value ``moving`` drifting, on each clock, through ``early`` and ``late``
+    (its search coordinate fitted to each half of the hits) at the halves' mean clock readings."""
+    conditions = evidence.spectra.conditions
+    signed = moving.range.scale != "log"
+    starts = []
+    for clock, positions in (("session time", conditions.time_s / 3600.0), ("blows", conditions.blows)):
+        at_early, at_late = (float(np.mean(positions[half])) for half in halves)
+        if at_late <= at_early:
+            continue
+        slope = (late - early) / (at_late - at_early)  # in the value's search coordinate, per unit of the clock
+        at_zero = early - slope * at_early
+        if signed:  # the first hit's value, and the slope as a fraction of it
+            smallest = 1e-3 * max(abs(early), abs(late))
+            first = moving.from_search(at_zero if abs(at_zero) > smallest else np.copysign(smallest, early))
+            rate = slope / first
+        else:  # the first hit's value, and the slope of its logarithm
+            first, rate = moving.from_search(at_zero), slope
+        rate_name = "fraction_per_blow" if clock == "blows" else "fraction_per_hour"
+        term = dataclasses.replace(spec.effects[index], **{moving.name: first})
+        drift = TermDrift(term=index, parameter=moving.name, clock=clock)
+        limit = drift.fit_ranges_on(term, context)[rate_name].upper
+        drift = dataclasses.replace(drift, **{rate_name: float(np.clip(rate, -limit, limit))})
+        effects = list(spec.effects)
+        effects[index] = term
+        starts.append(spec.with_values(effects=[*effects, drift]))
+    return starts
 
 
 def screening_fit(
@@ -595,8 +700,9 @@ def starting_effects(identifier: str, spec: RigSpec, evidence: Evidence, context
                 for order in (0.3, 1.0, 1.7)]
     if identifier == "channel-resonance":
         peaks = _excess_peaks(spec, evidence, None)[:1]
-        return [ChannelResonance(channel=channel, freq_hz=freq, damping_ratio=0.05)
-                for channel in ("acceleration", "force") for freq in (*peaks, 2.0 * context.band_hz[1])]
+        return [ChannelResonance(channel=channel, freq_hz=freq, damping_ratio=0.05, form=form)
+                for form in ("seismic", "transmitted") for channel in ("acceleration", "force")
+                for freq in (*peaks, 2.0 * context.band_hz[1])]
     if identifier == "channel-power-law":
         return [ChannelPowerLaw(exponent=0.0, reference_hz=resonance_hz)]
     if identifier == "channel-pole-zero":
@@ -626,8 +732,9 @@ def _term_change_starts(identifier: str, spec: RigSpec, evidence: Evidence, cont
         if isinstance(effect, TermChange) or type(effect).held_after_recalibration:
             continue
         names = list(effect.fit_ranges(context))
-        if identifier == "term-drift":
-            starts += [TermDrift(term=index, parameter=name, fraction_per_hour=0.0) for name in names]
+        if identifier == "term-drift":  # with session time, and with the blows
+            starts += [TermDrift(term=index, parameter=name, clock=clock) for clock in DRIFT_CLOCKS for name in names
+                       if clock == "session time" or context.blow_span > 0]
         elif identifier == "term-level":
             reference = float(np.median(np.abs(conditions.impulse_ns)))
             if np.ptp(conditions.impulse_ns) > 0.05 * reference:

@@ -105,6 +105,7 @@ class FitContext:
     session_span_s: float  # last hit time − first hit time
     max_displacement_m: float  # initial displacement amplitude of the hardest hit, J / (M ω0)
     film_damping_ratio: float = 0.05  # Im Z / (2 Re Z) of the film at the resonance
+    blow_span: float = 0.0  # last hit's blow number − first hit's (blows delivered between them)
 
 
 @dataclass(frozen=True)
@@ -1093,9 +1094,11 @@ FILM_BRANCH_ORDERS = (0.05, 1.95)
 @register_effect("channel-resonance")
 @dataclass(frozen=True)
 class ChannelResonance(Effect):
-    """A resonance inside the measurement chain: a channel's signal passes ``ω²/(s² + 2ζω s + ω²)`` (unity at low
-    frequency). On the response channel the FRF rises towards it (a sensor on a compliant mount); on the force
-    channel the FRF falls towards it (the hammer's head or its force gauge's own mode)."""
+    """A resonance inside the measurement chain, unity at low frequency, in one of two forms (:data:`RESONANCE_FORMS`):
+    a part on a spring and damper whose own motion is read (a sensor on a compliant mount, a head on an extender in
+    front of the gauge) transmits ``(ω² + 2ζω s)/(s² + 2ζω s + ω²)``, the damper's force with the spring's; a seismic
+    element read by its motion relative to its base (a sensor's own resonance) gives ``ω²/(s² + 2ζω s + ω²)``. On the
+    response channel the FRF rises towards it; on the force channel it falls towards it."""
 
     kind: ClassVar[str] = "measurement"
     explanation: ClassVar[str] = (
@@ -1106,6 +1109,7 @@ class ChannelResonance(Effect):
     channel: str = _channel_field()
     freq_hz: float = _number("Hz", _positive)
     damping_ratio: float = _number("1", _positive)
+    form: str = field(default="seismic", metadata={"unit": "", "choices": ("seismic", "transmitted")})
 
     def place(self) -> str:
         return _channel_place(self.channel)
@@ -1114,7 +1118,9 @@ class ChannelResonance(Effect):
         if channel != self.channel:
             return 1.0
         omega = 2 * np.pi * self.freq_hz
-        return omega**2 / (s**2 + 2 * self.damping_ratio * omega * s + omega**2)
+        damper = 2 * self.damping_ratio * omega * s
+        numerator = omega**2 + damper if self.form == "transmitted" else omega**2
+        return numerator / (s**2 + damper + omega**2)
 
     def fit_ranges(self, context: FitContext) -> dict[str, FitRange]:
         low, high = context.band_hz
@@ -1270,48 +1276,116 @@ def _term_index(value: float) -> str | None:
 class TermChange(Effect):
     """A change between hits of one value of another term of the spec (``term``: its index among the effects,
     ``parameter``: the field): the spec a hit sees is :meth:`RigSpec.at_hit`'s, the term's value moved by
-    :meth:`factor` at the hit's session time and impulse. Adds nothing by itself."""
+    :meth:`factor` at the hit's session time, impulse and blow number. Adds nothing by itself."""
 
     per_hit: ClassVar[bool] = True
     generic: ClassVar[bool] = True
     repeatable: ClassVar[bool] = True
 
-    def factor(self, time_s: float, impulse_ns: float) -> float:
-        """The factor on the term's value for a hit at ``time_s`` with impulse ``impulse_ns``."""
+    def factor(self, time_s: float, impulse_ns: float, blow: float = 0.0, signed: bool = False) -> float:
+        """The factor on the term's value for a hit at ``time_s`` with impulse ``impulse_ns``, the session's blow
+        number ``blow`` (0 for the first hit); ``signed``: the value may take either sign (a modal constant)."""
         return 1.0
+
+    def fit_ranges_on(self, target: Effect, context: FitContext) -> dict[str, FitRange]:
+        """:meth:`fit_ranges` for a change of ``target``'s value :attr:`parameter`."""
+        return self.fit_ranges(context)
 
     def place(self) -> str:
         return "between hits"
 
 
+#: The two clocks a steady change runs on: the session's time, or the blows delivered (each hit, wanted or not).
+DRIFT_CLOCKS = ("session time", "blows")
+
+
 @register_effect("term-drift")
 @dataclass(frozen=True)
 class TermDrift(TermChange):
-    """A term's value moves steadily over the session: × ``1 + fraction_per_hour·t/3600`` at session time t."""
+    """A term's value moves steadily over the session, on one of two clocks (:data:`DRIFT_CLOCKS`): session time
+    (``fraction_per_hour``: warming, clogging, creep) or the blows delivered (``fraction_per_blow``, the hit's number
+    in the session from 0: a stud backing off, a magnet base walking, a tip wearing, a change each impact makes).
+
+    With ``x`` the rate times the clock: a signed value (a modal constant, a leak) changes by a constant amount,
+    ``× (1 + x)``, and may pass through zero (a sensor walking across a nodal line). A value that must stay positive
+    (a frequency, a damping, a stiffness, a time constant) changes with session time to first order, ``× (1 + x)``
+    (kept above :data:`TERM_CHANGE_FLOOR` of itself), and per blow by a constant fraction of what is left,
+    compounded, ``× exp(x)`` (each impact loosens or wears by a share of the present state), never reaching zero."""
 
     explanation: ClassVar[str] = (
         "A value of the rig or of the measurement chain moves steadily during the session (warming, wear, a "
-        "loosening mount): early and late hits see it differently.")
+        "loosening mount, a sensor that walks): early and late hits see it differently.")
 
     term: int = _term_field()
     parameter: str = field(metadata={"unit": ""})
-    fraction_per_hour: float = _number("1/h", _finite)
+    fraction_per_hour: float = _number("1/h", _finite, 0.0)
+    clock: str = field(default="session time", metadata={"unit": "", "choices": DRIFT_CLOCKS})
+    fraction_per_blow: float = _number("1/blow", _finite, 0.0)
 
-    def factor(self, time_s: float, impulse_ns: float) -> float:
-        return max(1.0 + self.fraction_per_hour * time_s / 3600.0, TERM_CHANGE_FLOOR)
+    def validate(self) -> None:
+        if self.clock == "session time" and self.fraction_per_blow:
+            raise EffectValueError("fraction_per_blow", "must be 0 for a drift with session time")
+        if self.clock == "blows" and self.fraction_per_hour:
+            raise EffectValueError("fraction_per_hour", "must be 0 for a drift with the blows")
+
+    def amount(self, time_s: float, blow: float) -> float:
+        """The rate times the clock at a hit (session time ``time_s``, blow number ``blow``)."""
+        return self.fraction_per_blow * blow if self.clock == "blows" else self.fraction_per_hour * time_s / 3600.0
+
+    def factor(self, time_s: float, impulse_ns: float, blow: float = 0.0, signed: bool = False) -> float:
+        x = self.amount(time_s, blow)
+        if signed:
+            return 1.0 + x
+        if self.clock == "blows":
+            return math.exp(min(x, MAX_DRIFT_EXPONENT))
+        return max(1.0 + x, TERM_CHANGE_FLOOR)
+
+    def _rate_name(self) -> str:
+        return "fraction_per_blow" if self.clock == "blows" else "fraction_per_hour"
 
     def fit_ranges(self, context: FitContext) -> dict[str, FitRange]:
-        limit = 0.9 * 3600.0 / max(context.session_span_s, 1e-3)  # at most ±90 % over the session
-        return {"fraction_per_hour": FitRange("linear", -limit, limit)}
+        return self._range(context, DRIFT_LIMIT)
+
+    def fit_ranges_on(self, target: Effect, context: FitContext) -> dict[str, FitRange]:
+        """A signed value may move by up to :data:`SIGNED_DRIFT_LIMIT` times its first hit's value over the session
+        (through zero, anywhere but at the very first hits); a positive one by :data:`DRIFT_LIMIT` with session time,
+        by :data:`BLOWS_DRIFT_LIMIT` in its logarithm over the blows."""
+        return self._range(context, SIGNED_DRIFT_LIMIT if signed_field(target, self.parameter) else DRIFT_LIMIT)
+
+    def _range(self, context: FitContext, over_session: float) -> dict[str, FitRange]:
+        if over_session == DRIFT_LIMIT and self.clock == "blows":
+            over_session = BLOWS_DRIFT_LIMIT
+        span = context.blow_span if self.clock == "blows" else context.session_span_s / 3600.0
+        limit = over_session / max(span, 1e-6)
+        return {self._rate_name(): FitRange("linear", -limit, limit)}
 
     def features(self) -> dict[str, float]:
-        return {"fraction_per_hour": self.fraction_per_hour}
+        return {self._rate_name(): getattr(self, self._rate_name())}
 
     def evidence(self, sigma: Mapping[str, float], where: str, context: FitContext) -> str:
-        span_h = context.session_span_s / 3600.0
-        return (f"the term's {self.parameter} moves steadily over the session: "
-                f"{100 * self.fraction_per_hour * span_h:+.1f} ± {100 * sigma['fraction_per_hour'] * span_h:.1f} % "
-                f"from the first hit to the last, in {where}")
+        name = self._rate_name()
+        blows = self.clock == "blows"
+        span = context.blow_span if blows else context.session_span_s / 3600.0
+        rate, spread = getattr(self, name), sigma[name]
+        return (f"the term's {self.parameter} moves steadily {'blow by blow' if blows else 'over the session'}: "
+                f"{rate:+.4g} ± {spread:.2g} per {'blow' if blows else 'hour'} "
+                f"({rate * span:+.3g} ± {spread * span:.2g} from the first hit to the last), in {where}")
+
+
+#: A steady change of a positive value moves it by at most this fraction over the session with session time (±90 %),
+#: its logarithm by at most this over the blows (a factor of 10), and a signed value by at most this many times its
+#: first hit's value (through zero).
+DRIFT_LIMIT = 0.9
+BLOWS_DRIFT_LIMIT = math.log(10.0)
+SIGNED_DRIFT_LIMIT = 20.0
+#: The exponent a positive value's change is evaluated at, at most (far beyond any fitted session: no overflow).
+MAX_DRIFT_EXPONENT = 50.0
+
+
+def signed_field(effect: Effect, name: str) -> bool:
+    """Whether ``effect``'s value ``name`` may take either sign (its rule asks no sign: a modal constant, a leak)."""
+    rule = next((item.metadata.get("rule") for item in dataclasses.fields(effect) if item.name == name), None)
+    return rule in (_any_number, _finite, _nonzero)
 
 
 @register_effect("term-level")
@@ -1329,7 +1403,7 @@ class TermLevel(TermChange):
     exponent: float = _number("1", _finite)
     reference_impulse_ns: float = _number("N·s", _positive)
 
-    def factor(self, time_s: float, impulse_ns: float) -> float:
+    def factor(self, time_s: float, impulse_ns: float, blow: float = 0.0, signed: bool = False) -> float:
         return (max(abs(impulse_ns), 1e-12) / self.reference_impulse_ns) ** self.exponent
 
     def fit_ranges(self, context: FitContext) -> dict[str, FitRange]:
@@ -1359,7 +1433,7 @@ class TermOnset(TermChange):
     at_time_s: float = _number("s of session time", _non_negative)
     before: float = _number("1", _non_negative, 0.0)
 
-    def factor(self, time_s: float, impulse_ns: float) -> float:
+    def factor(self, time_s: float, impulse_ns: float, blow: float = 0.0, signed: bool = False) -> float:
         return 1.0 if time_s >= self.at_time_s else max(self.before, TERM_CHANGE_FLOOR)
 
     def features(self) -> dict[str, float]:

@@ -30,6 +30,9 @@ class RigPlant:
     def __init__(self, spec: RigSpec) -> None:
         self.spec = spec
         self._kept_accelerances: list[tuple[RigSpec, np.ndarray, np.ndarray]] = []
+        #: Blows the plant has taken (each impact it was asked to respond to): a change of the rig per blow
+        #: (``term-drift`` on the blows' clock) sees each hit at its own blow number.
+        self.blows = 0
 
     @classmethod
     def nominal(cls, film: str = "FOMGF") -> "RigPlant":
@@ -81,7 +84,8 @@ class RigPlant:
         """Linear specs: ``F·s²/Z(s, t)`` bin by bin (plus the force cross-talk and the structure modes). Cubic stiffness: the periodic equation of motion solved on the
         grid's samples (:func:`~gasfilm.analysis.physics.response.mover_displacement_spectrum`)."""
         impulse_ns = float(force_spectrum[0].real)  # the spectrum at s ≈ 0: the hit's level
-        spec = self.spec.at_hit(time_s, impulse_ns)  # terms that change between hits, at this hit
+        spec = self.spec.at_hit(time_s, impulse_ns, self.blows)  # terms that change between hits, at this hit
+        self.blows += 1
         # electrical cross-talk of the force signal, and the structure modes beside the mover
         beside_mover = (spec.force_leak_m_s2_per_n + response.structure_accelerance(spec, s)) * force_spectrum
         if spec is not self.spec:  # a channel term that changes between hits: its change in the FRF, on this channel

@@ -35,13 +35,20 @@ NONLINEAR_TOLERANCE = 1e-5
 
 @dataclass(frozen=True)
 class HitConditions:
-    """What differs between the hits of a session: each hit's session time (s) and force impulse (N·s)."""
+    """What differs between the hits of a session: each hit's session time (s), force impulse (N·s) and blow number
+    (the hit's number among the session's blows, 0 for the first; None: the hits in order, 0, 1, 2 …)."""
 
     time_s: np.ndarray
     impulse_ns: np.ndarray
+    blow: np.ndarray | None = None
+
+    @property
+    def blows(self) -> np.ndarray:
+        """Each hit's blow number."""
+        return np.arange(len(self.time_s), dtype=float) if self.blow is None else np.asarray(self.blow, dtype=float)
 
     def subset(self, hits: np.ndarray) -> "HitConditions":
-        return HitConditions(self.time_s[hits], self.impulse_ns[hits])
+        return HitConditions(self.time_s[hits], self.impulse_ns[hits], self.blows[hits])
 
 
 def film_stiffness(
@@ -319,9 +326,9 @@ def _changing_accelerance(
         fixed = spec.at_hit(time_s, _reference_impulse_ns(spec))
         return rig_accelerance(fixed, freq_hz, decay_rate_1_s, time_s, pieces=pieces)
     rows = []
-    for time, impulse in zip(conditions.time_s, conditions.impulse_ns):
-        hit = HitConditions(time_s=np.array([time]), impulse_ns=np.array([impulse]))
-        rows.append(rig_accelerance(spec.at_hit(float(time), float(impulse)), freq_hz, decay_rate_1_s,
+    for time, impulse, blow in zip(conditions.time_s, conditions.impulse_ns, conditions.blows):
+        hit = HitConditions(time_s=np.array([time]), impulse_ns=np.array([impulse]), blow=np.array([blow]))
+        rows.append(rig_accelerance(spec.at_hit(float(time), float(impulse), float(blow)), freq_hz, decay_rate_1_s,
                                     conditions=hit, pieces=pieces)[0])
     return np.array(rows)
 

@@ -34,6 +34,7 @@ from gasfilm.analysis.physics.effects import (
     EffectValueError,
     TermChange,
     _any_number,
+    signed_field,
     FitRange,
     _fraction,
     _non_negative,
@@ -341,16 +342,18 @@ class RigSpec:
         """Whether a term of the spec changes between hits (term-drift, term-level, term-onset)."""
         return any(isinstance(effect, TermChange) for effect in self.effects)
 
-    def at_hit(self, time_s: float, impulse_ns: float) -> "RigSpec":
-        """The spec a hit at session time ``time_s`` with impulse ``impulse_ns`` sees: each changing term's value
-        moved by its changes, the changes themselves left out (their indices are those of :attr:`effects`)."""
+    def at_hit(self, time_s: float, impulse_ns: float, blow: float = 0.0) -> "RigSpec":
+        """The spec a hit at session time ``time_s`` with impulse ``impulse_ns``, the session's blow number ``blow``
+        (0 for the first), sees: each changing term's value moved by its changes, the changes themselves left out
+        (their indices are those of :attr:`effects`)."""
         if not self.has_term_changes:
             return self
         effects = list(self.effects)
         for change in self.effects:
             if isinstance(change, TermChange):
                 target = effects[change.term]
-                value = getattr(target, change.parameter) * change.factor(time_s, impulse_ns)
+                factor = change.factor(time_s, impulse_ns, blow, signed_field(target, change.parameter))
+                value = getattr(target, change.parameter) * factor
                 effects[change.term] = dataclasses.replace(target, **{change.parameter: value})
         return self.with_values(effects=[effect for effect in effects if not isinstance(effect, TermChange)])
 
