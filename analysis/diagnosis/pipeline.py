@@ -553,7 +553,8 @@ def _reselected_at_final_scale(
     lost on their extra parameters — are fitted in its place on the final spec (the rest refitted) and scored at the
     final noise scale, by the criterion that chose (BIC gain in noise units, hits left out of the fit): one better
     by more than :data:`ALTERNATIVE_MARGIN` takes the place, with the candidates within that margin as its
-    alternatives; one within the margin is listed as an alternative (the data cannot tell them apart). Only a
+    alternatives; one within the margin is listed as an alternative (the data cannot tell them apart), and the terms'
+    claims are judged again with it (a measurement term as good as a rig term leaves it unclaimed). Only a
     contender can win at a smaller noise scale: a candidate with a higher χ² and fewer parameters loses by more
     there."""
     points = evidence.point_count
@@ -583,8 +584,13 @@ def _reselected_at_final_scale(
                 points)
             costs.append((cost, other, outcome, other_evidence))
         costs.sort(key=lambda item: item[0])
-        tied = [other for cost, other, _, _ in costs if abs(cost) < ALTERNATIVE_MARGIN]
-        step.alternatives += [other for other in tied if other not in step.alternatives]
+        tied = [other for cost, other, _, _ in costs
+                if abs(cost) < ALTERNATIVE_MARGIN and other not in step.alternatives]
+        if tied and costs[0][0] >= -ALTERNATIVE_MARGIN:  # the claims are judged again with these alternatives
+            step.alternatives += tied
+            progress(f"  at the final noise scale ({noise_scale:.2f}) {', '.join(tied)} fits as well as "
+                     f"{step.label} in its place: listed as its alternative")
+            return steps, current, evidence
         if not costs or costs[0][0] >= -ALTERNATIVE_MARGIN:
             continue
         cost, other, outcome, other_evidence = costs[0]
@@ -952,7 +958,6 @@ def _drop_unsupported_terms(
     while steps:
         claims = {step.label: _claim(spectra, evidence, current, refits_without[step.label], step.label,
                                       recalibrated, rms_recalibrated) for step in steps}
-
         within_noise = _nothing_unexplained(evidence, current.spec)
         for step in steps:
             if EFFECT_TYPES[step.identifier].generic:  # a change between hits is a description: its own band only
