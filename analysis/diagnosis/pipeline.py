@@ -141,6 +141,9 @@ class Step:
     held_out_band_gain: float = 0.0
     alternatives: list[str] = field(default_factory=list)
     label: str = ""
+    #: candidates of its step that fitted better (a lower χ²) but lost on their extra parameters at the step's noise
+    #: scale: judged again at the final one (:func:`_reselected_at_final_scale`), then cleared
+    contenders: list[str] = field(default_factory=list)
 
     def __post_init__(self) -> None:
         self.label = self.label or self.identifier
@@ -221,7 +224,8 @@ def diagnose_spectra(
                  "describe, none is sought")
     rms_recalibrated = replay_rms(spectra, recalibrated_spec)
     excluded: set[str] = set()
-    for _ in range(SELECTION_PASSES):
+    passes = exchanges = 0
+    while passes < SELECTION_PASSES:
         while len(steps) < MAX_TERMS and not within_known_error:
             accepted = _select_one(spectra, evidence, current, context, points, rejected, progress, restoring,
                                    excluded=excluded)
@@ -239,6 +243,16 @@ def diagnose_spectra(
         steps, current, evidence, refits_without, claims = _drop_unsupported_terms(
             spectra, evidence, steps, current, refits_without, rejected, recalibrated_spec, rms_recalibrated, context,
             progress, restoring)
+        # the end state, judged again at its own noise scale: a choice that no longer stands is replaced, and the
+        # selection goes on from there (what was taken out beside the replaced term is judged again)
+        reselected = (None if exchanges >= MAX_TERMS else
+                      _reselected_at_final_scale(spectra, evidence, steps, current, context, progress, restoring))
+        if reselected is not None:
+            steps, current, evidence = reselected
+            del rejected[demoted_before:]
+            exchanges += 1
+            continue
+        passes += 1
         # a term taken out leaves its mismatch to the others: another term of the catalog may take its place (a
         # cross-talk where an added mass was not claimed because the two are as good)
         taken_out = {candidate.effect for candidate in rejected[demoted_before:]
@@ -519,9 +533,86 @@ def _select_one(
             continue
         close = [changing_description(other)[0] for other_score, other, _, _ in trials if other != identifier
                  and score - other_score < ALTERNATIVE_MARGIN and other_score > BIC_MARGIN]
+        contenders = [other for other_score, other, other_outcome, _ in trials if other != identifier
+                      and other_score > BIC_MARGIN and other_outcome.chi2 < outcome.chi2]
         steps = [Step(outcome.spec.effects[i].type_name, current.chi2, outcome.chi2, gain_held_out, 0.0,
-                      close if i == index else [], _label_at(outcome.spec, i)) for i in new]
+                      close if i == index else [], _label_at(outcome.spec, i), contenders if i == index else [])
+                 for i in new]
         return steps, outcome, evidence_for(spectra, outcome.spec)
+    return None
+
+
+def _reselected_at_final_scale(
+    spectra: HitSpectra,
+    evidence: Evidence,
+    steps: list[Step],
+    current: FitOutcome,
+    context: FitContext,
+    progress: Callable[[str], None],
+    restoring: RestoringForce | None,
+) -> tuple[list[Step], FitOutcome, Evidence] | None:
+    """The selection's choices judged again at its final noise scale: the steps with a new spec, or None when every
+    choice stands.
+
+    A step chooses among its candidates in units of the noise scale of the model before it, which is the mismatch the
+    chosen term then removes: far from the noise, a candidate that fits better by a hundred noise units loses to one
+    with a parameter fewer (``Δχ²/83 < ln N``), and on the written spec, diagnosed again, the same candidate wins (the
+    loop does not close). So each step's *contenders* — the candidates that fitted better than the chosen term but
+    lost on their extra parameters — are fitted in its place on the final spec (the rest refitted) and scored at the
+    final noise scale, by the criterion that chose (BIC gain in noise units, hits left out of the fit): one better
+    by more than :data:`ALTERNATIVE_MARGIN` takes the place, with the candidates within that margin as its
+    alternatives; one within the margin is listed as an alternative (the data cannot tell them apart), and the terms'
+    claims are judged again with it (a measurement term as good as a rig term leaves it unclaimed). Only a
+    contender can win at a smaller noise scale: a candidate with a higher χ² and fewer parameters loses by more
+    there."""
+    points = evidence.point_count
+    for position, step in enumerate(steps):
+        present = {effect.type_name for effect in current.spec.effects if not type(effect).repeatable}
+        contenders = [other for other in step.contenders if other not in present]
+        step.contenders = []
+        index = _effect_index(current.spec, step.label)
+        if not contenders or len(removed_with(current.spec, index)) > 1:  # (a term others change stays)
+            continue
+        noise_scale = _noise_scale(current, points)
+        reduced = without_effect(current.spec, index)
+        reduced_evidence = evidence_for(spectra, reduced)
+        fitted = _candidate_fits(
+            spectra, reduced_evidence, reduced, contenders, context, noise_scale,
+            worth=lambda slot_count: current.chi2 + (ALTERNATIVE_MARGIN - (slot_count - len(current.slots))
+                                                     * np.log(points)) * noise_scale)
+        costs: list[tuple[float, str, FitOutcome, Evidence]] = []
+        for other in contenders:
+            result = fitted[other]
+            if isinstance(result, Exception) or result[0] is None:
+                continue
+            outcome, other_evidence = result
+            if _not_a_finding(outcome, len(outcome.spec.effects) - 1, context) is not None:
+                continue
+            cost = (outcome.chi2 - current.chi2) / noise_scale + (len(outcome.slots) - len(current.slots)) * np.log(
+                points)
+            costs.append((cost, other, outcome, other_evidence))
+        costs.sort(key=lambda item: item[0])
+        tied = [other for cost, other, _, _ in costs
+                if abs(cost) < ALTERNATIVE_MARGIN and other not in step.alternatives]
+        if tied and costs[0][0] >= -ALTERNATIVE_MARGIN:  # the claims are judged again with these alternatives
+            step.alternatives += tied
+            progress(f"  at the final noise scale ({noise_scale:.2f}) {', '.join(tied)} fits as well as "
+                     f"{step.label} in its place: listed as its alternative")
+            return steps, current, evidence
+        if not costs or costs[0][0] >= -ALTERNATIVE_MARGIN:
+            continue
+        cost, other, outcome, other_evidence = costs[0]
+        held_out = held_out_gain(reduced_evidence, reduced, other_evidence, outcome.spec, context).gain / noise_scale
+        progress(f"  at the final noise scale ({noise_scale:.2f}) {other} in the place of {step.label}: BIC "
+                 f"{-cost:+.0f} better, held-out χ² gain {held_out:.0f} (needs > {HELD_OUT_THRESHOLD:.0f})")
+        if held_out <= HELD_OUT_THRESHOLD:
+            continue
+        alternatives = [name for name_cost, name, _, _ in costs[1:] if name_cost - cost < ALTERNATIVE_MARGIN]
+        kept = _without_steps(steps, [step], current.spec)
+        replaced = Step(other, step.chi2_before, step.chi2_after - (current.chi2 - outcome.chi2), held_out, 0.0,
+                        alternatives, _label_at(outcome.spec, len(outcome.spec.effects) - 1))
+        new_steps = [*kept[:position], replaced, *kept[position:]]
+        return new_steps, fit(other_evidence, outcome.spec, outcome.slots), other_evidence
     return None
 
 
@@ -898,7 +989,9 @@ def _drop_unsupported_terms(
                 claims[step.label].reason = _displaces_a_parameter(current, step.label,
                                                                         refits_without[step.label])
             if claims[step.label].reason is None:
-                claims[step.label].reason = _beside_a_larger_term(step, steps, claims[step.label])
+                claims[step.label].reason = _beside_a_larger_term(
+                    step, steps, claims[step.label], lambda: _given_term_gains(
+                        spectra, current, step, steps, refits_without[step.label], recalibrated, context))
             if claims[step.label].reason is None:
                 claims[step.label].reason = _measurement_alternative(step)
             if claims[step.label].reason is None and step.identifier == "added-mass":
@@ -977,21 +1070,53 @@ def _survives_left_out_data(
     return _unstable(band_folds, hit_folds, index, noise_scale, points)
 
 
-def _beside_a_larger_term(step: Step, steps: list[Step], claim: Claim) -> str | None:
+def _beside_a_larger_term(
+    step: Step, steps: list[Step], claim: Claim, given_gains: Callable[[], list[tuple[str, float]]] = list
+) -> str | None:
     """Why a term removes no excess of its own: without it (the rest refitted) its own band is already within the
     noise, and its χ² gain is below :data:`MODEL_FORM_SHARE` of another term's — a catalog term is a model of real
     physics, not the physics itself, and what it leaves grows with the mismatch it removes: such a term is a
-    correction to the larger term's form, not told apart from its form error."""
+    correction to the larger term's form, not told apart from its form error. The other terms are those found here
+    (their gains at their steps) and those the spec was given with (``given_gains``, asked for only when no term
+    found here is larger: the spec refitted without each): a written spec diagnosed again judges a term beside the
+    ones written as the diagnosis that wrote them did (the loop closes)."""
+    if claim.own_band_without > claim.own_band_chance:
+        return None
     gain = step.chi2_before - step.chi2_after
-    larger = max(steps, key=lambda other: other.chi2_before - other.chi2_after)
-    larger_gain = larger.chi2_before - larger.chi2_after
-    if (larger is step or gain >= MODEL_FORM_SHARE * larger_gain
-            or claim.own_band_without > claim.own_band_chance):
+    others = [(other.identifier, other.chi2_before - other.chi2_after) for other in steps if other is not step]
+    if not others or gain >= MODEL_FORM_SHARE * max(other_gain for _, other_gain in others):
+        others += given_gains()
+    if not others:
+        return None
+    larger, larger_gain = max(others, key=lambda other: other[1])
+    if gain >= MODEL_FORM_SHARE * larger_gain:
         return None
     return (f"without it its own band is already within the noise (χ²/point {claim.own_band_without:.2f}, what the "
             f"noise reaches by chance: {claim.own_band_chance:.2f}), and its χ² gain ({gain:.0f}) is "
-            f"{100 * gain / larger_gain:.3f} % of the {larger.identifier}'s ({larger_gain:.0f}): a correction to the "
-            f"{larger.identifier}'s form, not told apart from its form error")
+            f"{100 * gain / larger_gain:.3f} % of the {larger}'s ({larger_gain:.0f}): a correction to the "
+            f"{larger}'s form, not told apart from its form error")
+
+
+def _given_term_gains(
+    spectra: HitSpectra, final: FitOutcome, step: Step, steps: list[Step], without: RigSpec, recalibrated: RigSpec,
+    context: FitContext,
+) -> list[tuple[str, float]]:
+    """The χ² gain of each term the spec was given with (not found here, not held) where a term found before
+    ``step`` had its gain measured: in the spec without ``step`` (``without``, refitted), which loses that much more
+    χ² when the given term is taken out too (the rest refitted)."""
+    index = _effect_index(final.spec, step.label)
+    gone = removed_with(final.spec, index)
+    found = {_effect_index(final.spec, other.label) for other in steps}
+    position = {old: new for new, old in enumerate(i for i in range(len(final.spec.effects)) if i not in gone)}
+    base_evidence = evidence_for(spectra, without)
+    base_chi2 = base_evidence.chi2(without)
+    gains = []
+    for i, effect in enumerate(final.spec.effects):
+        if i in found or i in gone or type(effect).held_after_recalibration:
+            continue
+        refit = _refit_without(base_evidence, without, position[i], recalibrated, context)
+        gains.append((_label_at(final.spec, i), refit.chi2 - base_chi2))
+    return gains
 
 
 def _displaces_a_parameter(final: FitOutcome, identifier: str, without: RigSpec) -> str | None:
