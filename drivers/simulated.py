@@ -554,8 +554,7 @@ class SimulatedNI9234:
         if backlog_s > self.buffer_s * self.speed:
             self._fault = BufferOverflowError(
                 f"sim: {backlog_s:.1f} s of unread samples exceeded the {self.buffer_s * self.speed:g} s device "
-                f"buffer; "
-                f"the reader fell behind (DAQmx -200361)"
+                f"buffer; the reader fell behind (DAQmx -200361)"
             )
             raise self._fault
         ready_at = self._started_wall_s + (self._position + n_samples) / fs / self.speed

@@ -282,8 +282,9 @@ def stabilization_figure(reading: dict, frf_freq_hz: np.ndarray | None = None,
 @one_blas_thread
 def write_outputs(diagnosis: Diagnosis, out_dir: Path, figures: bool = True) -> None:
     """Write the improved spec (the spec that was fitted, exactly) and, unless ``figures`` is false, the figures into
-    ``out_dir``, all of them or none (a full disk leaves no partial file: :func:`~gasfilm.analysis.paths.written_whole`); the paths are kept in
-    ``diagnosis.improved_spec_path`` and ``diagnosis.figures``."""
+    ``out_dir``, all of them or none (a full disk leaves no partial file:
+    :func:`~gasfilm.analysis.paths.written_whole`); the paths are kept in ``diagnosis.improved_spec_path`` and
+    ``diagnosis.figures``."""
     out_dir.mkdir(parents=True, exist_ok=True)
     names = (SPEC_FILE, *(figure_files(diagnosis) if figures else ()))
     with written_whole(*(out_dir / name for name in names), what="the diagnosis's files") as temporaries:
