@@ -36,7 +36,8 @@ def raise_stop_signal(signum: int, frame: Any) -> None:
     the exception into an ImportError of its own ("initialization failed"), which a library may catch as an optional
     dependency that is missing, and the stop would be lost."""
     if _importing(frame):
-        redelivery = threading.Timer(IMPORT_RETRY_S, signal.raise_signal, (signum,))
+        # sent to the main thread (where handlers run): a blocking call there (a sleep, a wait) then returns at once
+        redelivery = threading.Timer(IMPORT_RETRY_S, signal.pthread_kill, (threading.main_thread().ident, signum))
         redelivery.daemon = True
         redelivery.start()
         return
