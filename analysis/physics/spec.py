@@ -655,11 +655,30 @@ def film_parameter_range(
     ``mass_kg``: its element's bounds and, with the film's other parameters at ``values``, the values with which the
     film resonates with the mass inside ``RESONANCE_RANGE_HZ`` (:func:`_check_resonance`) with a margin of
     :data:`RESONANCE_MARGIN` at both ends (a spring run to 1e12 N/m on a 1.74 kg structure, or a Maxwell arm's dashpot
-    letting the film sag below 0.1 Hz, is never written)."""
+    letting the film sag below 0.1 Hz, is never written). Remembered per network, parameter, mass and values (a fit
+    asks for the same ranges at every step)."""
     parameter = next(p for p in model.parameters if p.name == name)
     low, high = parameter.lower, parameter.upper
     if parameter.scale != "log" or values is None or not all(p.name in values for p in model.parameters):
         return low, high
+    key = (model.network, name, float(mass_kg), tuple((p.name, float(values[p.name])) for p in model.parameters))
+    remembered = _PARAMETER_RANGES.get(key)
+    if remembered is None:
+        if len(_PARAMETER_RANGES) >= 1024:
+            _PARAMETER_RANGES.clear()
+        remembered = _PARAMETER_RANGES[key] = _resonance_range(model, name, mass_kg, values, low, high)
+    return remembered
+
+
+#: film_parameter_range's answers, by network, parameter, mass and the film's values.
+_PARAMETER_RANGES: dict[tuple, tuple[float, float]] = {}
+
+
+def _resonance_range(
+    model: FilmModel, name: str, mass_kg: float, values: Mapping[str, float], low: float, high: float
+) -> tuple[float, float]:
+    """The part of [low, high] in which parameter ``name`` keeps the film resonating with ``mass_kg`` inside
+    ``RESONANCE_RANGE_HZ`` with its margins (:func:`film_parameter_range`)."""
     low_omega, top_omega = (2 * math.pi * f for f in RESONANCE_RANGE_HZ)
     values = dict(values)
 
