@@ -974,7 +974,9 @@ def _drop_unsupported_terms(
         claims = {step.label: _claim(spectra, evidence, current, refits_without[step.label], step.label,
                                       recalibrated, rms_recalibrated) for step in steps}
         within_noise = _nothing_unexplained(evidence, current.spec)
-        for step in steps:
+        # the latest term first: the first that fails is the one taken out (the earlier ones are judged again on the
+        # spec refitted without it)
+        for step in reversed(steps):
             if EFFECT_TYPES[step.identifier].generic:  # a change between hits is a description: its own band only
                 continue
             if _describes_its_part(claims[step.label]):
@@ -999,6 +1001,8 @@ def _drop_unsupported_terms(
             if claims[step.label].reason is None and len(steps) > 1:
                 claims[step.label].reason = _other_kind_in_its_place(spectra, evidence, current, step.label,
                                                                           context, restoring)
+            if claims[step.label].reason is not None:
+                break
         failing = [step for step in steps if claims[step.label].reason is not None][-1:]
         if not failing:  # (the latest failing term goes first: the others may stand once it is out)
             break
