@@ -102,3 +102,30 @@ def test_a_resonance_transmitted_through_a_mount_carries_the_dampers_zero():
     np.testing.assert_allclose(ratio, 1 + 2 * 0.05 * s / (2 * np.pi * 1500.0), rtol=1e-12)
     spec = NOMINAL.with_effects(mount)
     assert RigSpec.from_toml(spec.to_toml()) == spec
+
+
+def test_a_term_with_a_change_on_it_is_judged_against_the_spec_without_both():
+    """A term whose change between hits goes out with it (``without_effect``): the other terms' parameters are
+    compared with their own values in the spec without both. Red team round 7's coolant-filling crashed after 252 s
+    ("'StepChange' object has no attribute 'fraction_per_blow'"): a drift of a later term was looked for one place
+    down, where a step change stood."""
+    from gasfilm.analysis.diagnosis.fitspace import Slot, without_effect
+    from gasfilm.analysis.diagnosis.pipeline import _displaces_a_parameter
+    from gasfilm.analysis.diagnosis.selection import FitOutcome
+    from gasfilm.analysis.physics.effects import FitRange, StepChange
+
+    mode = SideMode(freq_hz=640.0, damping_ratio=0.006, modal_constant_per_kg=2.5e-3)
+    other = SideMode(freq_hz=900.0, damping_ratio=0.01, modal_constant_per_kg=1e-3)
+    spec = NOMINAL.with_effects(
+        mode, TermDrift(term=0, parameter="modal_constant_per_kg", clock="blows", fraction_per_blow=-0.1),
+        StepChange(at_time_s=20.0, fraction=0.01), other,
+        TermDrift(term=3, parameter="freq_hz", clock="blows", fraction_per_blow=0.2))
+    # the later drift's rate sits at the top of its range with the first mode, and well inside it without
+    rate = Slot(effect=4, name="fraction_per_blow", range=FitRange("linear", -0.2, 0.2))
+    final = FitOutcome(spec=spec, chi2=1.0, slots=[rate], covariance=np.zeros((1, 1)), evaluations=1)
+    without = without_effect(spec, 0)
+    without = without.with_values(effects=[*without.effects[:-1],
+                                           dataclasses.replace(without.effects[-1], fraction_per_blow=0.01)])
+    reason = _displaces_a_parameter(final, "side-mode", without)
+    assert reason is not None and "term-drift#2.fraction_per_blow runs into the edge of its range" in reason, reason
+    assert _displaces_a_parameter(final, "side-mode", without_effect(spec, 0)) is None

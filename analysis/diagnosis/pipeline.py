@@ -1131,13 +1131,12 @@ def _displaces_a_parameter(final: FitOutcome, identifier: str, without: RigSpec)
     others beside it: a lone term that takes a film parameter's place re-describes the film (a fractional film has no
     dashpot), one that needs others beside it to do so is part of a combination standing in for something else."""
     index = _effect_index(final.spec, identifier)
+    gone = removed_with(final.spec, index)  # the term and the changes between hits that act on it
+    position = {old: new for new, old in enumerate(i for i in range(len(final.spec.effects)) if i not in gone)}
     for slot in final.slots:
-        if slot.effect == index or not slot.at_bound(final.spec):
+        if slot.effect in gone or not slot.at_bound(final.spec):
             continue
-        if slot.effect is None:
-            reduced = slot
-        else:
-            reduced = dataclasses.replace(slot, effect=slot.effect - (slot.effect > index))
+        reduced = slot if slot.effect is None else dataclasses.replace(slot, effect=position[slot.effect])
         if reduced.at_bound(without):
             continue
         label = slot.label(final.spec)
