@@ -175,11 +175,17 @@ def removed_with(spec: RigSpec, index: int) -> set[int]:
     return {index} | {i for i, effect in enumerate(spec.effects) if isinstance(effect, TermChange) and effect.term == index}
 
 
+def kept_positions(spec: RigSpec, index: int) -> dict[int, int]:
+    """Where each effect :func:`without_effect` keeps stands in the spec it returns: index in ``spec`` → index there
+    (the effects it takes out, :func:`removed_with`, are not keys)."""
+    gone = removed_with(spec, index)
+    return {old: new for new, old in enumerate(i for i in range(len(spec.effects)) if i not in gone)}
+
+
 def without_effect(spec: RigSpec, index: int) -> RigSpec:
     """The spec less effect ``index`` and less the changes between hits that act on it; the other changes keep
     pointing at their terms."""
-    gone = removed_with(spec, index)
-    position = {old: new for new, old in enumerate(i for i in range(len(spec.effects)) if i not in gone)}
+    position = kept_positions(spec, index)
     return spec.with_values(effects=[
         dataclasses.replace(effect, term=position[effect.term]) if isinstance(effect, TermChange) else effect
-        for i, effect in enumerate(spec.effects) if i not in gone])
+        for i, effect in enumerate(spec.effects) if i in position])

@@ -31,7 +31,8 @@ from gasfilm.analysis.diagnosis.candidates import (
     gain_is_not_a_mass,
     separating_measurement,
 )
-from gasfilm.analysis.diagnosis.fitspace import effect_slots, fit_context, removed_with, spec_slots, without_effect
+from gasfilm.analysis.diagnosis.fitspace import (effect_slots, fit_context, kept_positions, removed_with, spec_slots,
+                                                without_effect)
 from gasfilm.analysis.diagnosis.measurement import HitSpectra, QualityNote, contiguous_bands, weighted_mean
 from gasfilm.analysis.diagnosis.mechanisms import mechanisms_for
 from gasfilm.analysis.diagnosis.modes import unmodelled_resonances_hz
@@ -1108,15 +1109,13 @@ def _given_term_gains(
     """The χ² gain of each term the spec was given with (not found here, not held) where a term found before
     ``step`` had its gain measured: in the spec without ``step`` (``without``, refitted), which loses that much more
     χ² when the given term is taken out too (the rest refitted)."""
-    index = _effect_index(final.spec, step.label)
-    gone = removed_with(final.spec, index)
+    position = kept_positions(final.spec, _effect_index(final.spec, step.label))
     found = {_effect_index(final.spec, other.label) for other in steps}
-    position = {old: new for new, old in enumerate(i for i in range(len(final.spec.effects)) if i not in gone)}
     base_evidence = evidence_for(spectra, without)
     base_chi2 = base_evidence.chi2(without)
     gains = []
     for i, effect in enumerate(final.spec.effects):
-        if i in found or i in gone or type(effect).held_after_recalibration:
+        if i in found or i not in position or type(effect).held_after_recalibration:
             continue
         refit = _refit_without(base_evidence, without, position[i], recalibrated, context)
         gains.append((_label_at(final.spec, i), refit.chi2 - base_chi2))
@@ -1130,11 +1129,10 @@ def _displaces_a_parameter(final: FitOutcome, identifier: str, without: RigSpec)
     is not a measurement — the written spec would claim a value the data did not determine. Asked of a term with
     others beside it: a lone term that takes a film parameter's place re-describes the film (a fractional film has no
     dashpot), one that needs others beside it to do so is part of a combination standing in for something else."""
-    index = _effect_index(final.spec, identifier)
-    gone = removed_with(final.spec, index)  # the term and the changes between hits that act on it
-    position = {old: new for new, old in enumerate(i for i in range(len(final.spec.effects)) if i not in gone)}
+    # (the term goes out with the changes between hits that act on it: their slots are not compared)
+    position = kept_positions(final.spec, _effect_index(final.spec, identifier))
     for slot in final.slots:
-        if slot.effect in gone or not slot.at_bound(final.spec):
+        if (slot.effect is not None and slot.effect not in position) or not slot.at_bound(final.spec):
             continue
         reduced = slot if slot.effect is None else dataclasses.replace(slot, effect=position[slot.effect])
         if reduced.at_bound(without):
