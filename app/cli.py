@@ -177,6 +177,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         _silence_stdout()
         return BROKEN_PIPE_STATUS
     except GasfilmError as error:
+        if os.environ.get("GASFILM_DEBUG") == "1":  # where a user-level error was raised, for a developer
+            import traceback
+
+            traceback.print_exc()
         print(f"gasfilm {args.command}: error: {error}", file=sys.stderr)
         return 2
     except KeyboardInterrupt as stop:  # Ctrl-C, or SIGTERM/SIGHUP (gasfilm.analysis.interrupts)

@@ -129,3 +129,30 @@ def test_a_term_with_a_change_on_it_is_judged_against_the_spec_without_both():
     reason = _displaces_a_parameter(final, "side-mode", without)
     assert reason is not None and "term-drift#2.fraction_per_blow runs into the edge of its range" in reason, reason
     assert _displaces_a_parameter(final, "side-mode", without_effect(spec, 0)) is None
+
+
+def test_a_fit_refuses_a_step_to_values_no_rig_can_have():
+    """A drift of the film's drift can take the film's scale through zero at a late hit: no rig has that, and the
+    fit's residual there is beyond any rig's, so Levenberg-Marquardt shortens the step instead of the diagnosis
+    ending. Red team round 7's coolant-filling ended after 465 s with "drift: the film scale reaches -0.107 at
+    t = 25 s" in the refit without a term."""
+    from gasfilm.analysis.diagnosis.fitspace import Slot
+    from gasfilm.analysis.diagnosis.measurement import HitSpectra
+    from gasfilm.analysis.diagnosis.selection import INFEASIBLE_RESIDUAL, Evidence, _LeastSquares
+    from gasfilm.analysis.physics.effects import Drift, FitRange
+    from gasfilm.drivers.errors import GasfilmError
+
+    conditions = HitConditions(np.linspace(0.0, 50.0, 6), np.full(6, 0.2))
+    freq_hz = np.arange(20.0, 1000.0, 10.0)
+    h = rig_accelerance(NOMINAL, freq_hz, 0.0, conditions=conditions)
+    spectra = HitSpectra(freq_hz, 0.0, h, np.full(h.shape, 1e-10), conditions, np.arange(6), RATE_HZ, 1024)
+    slots = [Slot(0, "fraction_per_hour", FitRange("linear", -1e3, 1e3))]
+    # the film's scale reaches zero at the last hit (t = 50 s) for a drift of -72 /h
+    problem = _LeastSquares(Evidence(spectra), NOMINAL.with_effects(Drift(fraction_per_hour=-10.0)), slots, None)
+    start = problem.residual(np.array([-10.0]))
+    beyond = problem.residual(np.array([-80.0]))
+    assert np.all(beyond == INFEASIBLE_RESIDUAL) and beyond @ beyond > 1e100 * (start @ start)
+    assert np.isfinite(beyond @ beyond)
+    with pytest.raises(GasfilmError, match="film scale reaches"):  # a fit cannot start from a rig that is not one
+        _LeastSquares(Evidence(spectra), NOMINAL.with_effects(Drift(fraction_per_hour=-80.0)), slots,
+                      None).residual(np.array([-80.0]))

@@ -60,6 +60,7 @@ from gasfilm.analysis.physics.response import (
     rig_accelerance,
 )
 from gasfilm.analysis.physics.spec import RigSpec
+from gasfilm.drivers.errors import GasfilmError
 
 
 #: Held-out improvement (χ² units, both folds together, in units of the noise scale) a new term must reach.
@@ -324,6 +325,9 @@ class _NotWorthFinishing(Exception):
         self.vector = vector
 
 
+#: Every element of the residual at values no rig can have (a film scale through zero within the session): its χ²
+#: is beyond any rig's, so Levenberg-Marquardt refuses the step and shortens it; its square, summed, stays finite.
+INFEASIBLE_RESIDUAL = 1e100
 #: MINPACK's gradient tolerance (scipy.optimize.least_squares's default).
 GRADIENT_TOLERANCE = 1e-8
 #: Relative forward-difference step in search space (scipy's for two-point differences: √ε).
@@ -363,8 +367,13 @@ class _LeastSquares:
             return self._last[1]
         self.calls += 1
         spec = self.spec_at(vector)
-        parts = self.evidence.predicted_parts(spec, self.hits)
-        value = self.evidence.residual(spec, self.hits, None if parts is None else parts.accelerance)
+        try:
+            parts = self.evidence.predicted_parts(spec, self.hits)
+            value = self.evidence.residual(spec, self.hits, None if parts is None else parts.accelerance)
+        except GasfilmError:  # no rig has these values (a film scale through zero): a step there is refused
+            if self._last is None:
+                raise
+            return np.full_like(self._last[1], INFEASIBLE_RESIDUAL)
         self._last = (key, value)
         self._last_parts = (spec, parts)
         return value
