@@ -75,3 +75,21 @@ def test_a_high_pass_inside_the_band_that_reads_low_is_a_charge_sensor_on_a_volt
     assert "voltage input" in matches[0].name and matches[0].tied and not matches[1].tied
     coupling = mechanisms_for(pole_zero(pole_hz=2.0, zero_hz=0.01, gain=0.9, reference_hz=200.0), CONTEXT)
     assert not any("voltage input" in match.name for match in coupling) and "high-pass" in coupling[0].name
+
+
+def test_a_parameter_the_data_do_not_determine_is_said_and_read_back():
+    """Red team round 9's journal-cross-coupling modelled a channel pole-zero at 63 ± 180 Hz / 376 ± 590 Hz: values
+    the data do not determine are listed as such (JSON ``undetermined``), the ones they determine are not."""
+    from gasfilm.analysis.diagnosis.result import Finding
+
+    finding = Finding(
+        effect="channel-pole-zero", kind="measurement", band_hz=(20.0, 900.0), where="20–900 Hz",
+        parameters={"pole_hz": {"value": 63.5, "uncertainty": 177.0, "unit": "Hz"},
+                    "zero_hz": {"value": 376.2, "uncertainty": 594.5, "unit": "Hz"},
+                    "gain": {"value": 1.127, "uncertainty": 0.02, "unit": ""}},
+        evidence="", explanation="", hits="all 12 hits", chi2_gain=1.0, held_out_gain=1.0,
+        gain_over_recalibrated=1.0, status="modelled")
+    assert finding.undetermined == ["pole_hz", "zero_hz"]
+    stored = finding.to_dict()
+    assert stored["undetermined"] == ["pole_hz", "zero_hz"]
+    assert Finding.from_dict(stored).undetermined == ["pole_hz", "zero_hz"]

@@ -55,12 +55,21 @@ class Finding:
     features: dict[str, float] = field(default_factory=dict)  # what the description shows (frequency_hz, …)
     mechanisms: list[MechanismMatch] = field(default_factory=list)  # consistent mechanisms, best first
 
+    @property
+    def undetermined(self) -> list[str]:
+        """The parameters the data do not determine: one-σ uncertainty beyond the value's size (a smaller
+        description, without them, may describe the data as well)."""
+        return [name for name, row in self.parameters.items()
+                if isinstance(row.get("value"), (int, float)) and isinstance(row.get("uncertainty"), (int, float))
+                and row["uncertainty"] > abs(row["value"])]
+
     def to_dict(self) -> dict:
         return {
             "effect": self.effect,
             "kind": self.kind,
             "place": self.place,
             "status": self.status,
+            "undetermined": self.undetermined,
             "features": {name: _finite_or_none(value) for name, value in self.features.items()},
             "mechanisms": [mechanism.to_dict() for mechanism in self.mechanisms],
             "band_hz": [round(self.band_hz[0], 1), round(self.band_hz[1], 1)],

@@ -285,7 +285,8 @@ class DiagnoseTab(QWidget):
             return
         rows = "".join(
             f"<tr><td>{name}</td><td align='right'>{values['value']:.4g}</td>"
-            f"<td align='right'>± {values['uncertainty']:.2g}</td><td>{values['unit']}</td></tr>"
+            f"<td align='right'>± {values['uncertainty']:.2g}</td><td>{values['unit']}</td>"
+            f"<td>{'not determined by the data' if name in finding.undetermined else ''}</td></tr>"
             for name, values in finding.parameters.items()
         )
         mechanisms = ""
