@@ -63,8 +63,8 @@ def report_text(diagnosis: Diagnosis) -> str:
             lines.append(f"      {name:30s} {row['value']:.6g} ± {row['uncertainty']:.2g} {row['unit']}"
                          + ("  (not determined by the data)" if name in finding.undetermined else ""))
         if finding.undetermined:
-            lines.append(f"      the data do not determine its {', '.join(finding.undetermined)}: a smaller "
-                         f"description may do as well")
+            lines.append(f"      the data do not determine its {', '.join(finding.undetermined)} (within one σ of "
+                         f"zero): a smaller description may do as well")
         lines.append(f"      why:  {finding.evidence}")
         lines.append(f"      what: {finding.explanation}")
         lines.append(f"      gain over the recalibrated spec: {finding.gain_over_recalibrated:.1f} % RMS (the written "

@@ -57,8 +57,8 @@ class Finding:
 
     @property
     def undetermined(self) -> list[str]:
-        """The parameters the data do not determine: one-σ uncertainty beyond the value's size (a smaller
-        description, without them, may describe the data as well)."""
+        """The parameters the data do not determine: within one σ of zero (a frequency or a time constant there is
+        not measured, a signed change there may be none), so a smaller description may describe the data as well."""
         return [name for name, row in self.parameters.items()
                 if isinstance(row.get("value"), (int, float)) and isinstance(row.get("uncertainty"), (int, float))
                 and row["uncertainty"] > abs(row["value"])]
