@@ -5,7 +5,8 @@ sets ``func`` (called with the parsed arguments, returning the exit status). Reg
 (numpy, scipy, h5py, matplotlib, Qt): each command imports those when it runs, so ``gasfilm --help`` answers at once.
 
 Errors that gasfilm raises on purpose are printed as one line and exit with status 2; nothing ever prints a traceback
-unless ``GASFILM_DEBUG=1``. Python warnings (ADC overload, numpy floating-point warnings) become one clean
+unless ``GASFILM_DEBUG=1`` (an internal error raised with its traceback) or ``GASFILM_DEBUG=2`` (also the traceback
+of an error raised on purpose: where deep in a long computation it came from). Python warnings (ADC overload, numpy floating-point warnings) become one clean
 ``warning:`` line each; a closed output pipe (``gasfilm ... --json | head``) ends the command quietly.
 """
 
@@ -177,7 +178,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         _silence_stdout()
         return BROKEN_PIPE_STATUS
     except GasfilmError as error:
-        if os.environ.get("GASFILM_DEBUG") == "1":  # where a user-level error was raised, for a developer
+        if os.environ.get("GASFILM_DEBUG") == "2":  # where a user-level error was raised, for a developer
             import traceback
 
             traceback.print_exc()

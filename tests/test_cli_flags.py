@@ -129,11 +129,14 @@ def test_registering_the_commands_imports_no_heavy_library():
     assert run_cli("--help").returncode == 0 and "fit" in run_cli("--help").stdout
 
 
-def test_a_user_error_shows_where_it_was_raised_only_with_gasfilm_debug(tmp_path):
+def test_a_user_error_shows_where_it_was_raised_only_with_gasfilm_debug_2(tmp_path):
     missing = tmp_path / "missing.h5"
     plain = run_cli("replay", str(missing))
     assert plain.returncode == 2 and plain.stderr == f"gasfilm replay: error: {missing}: no such session file\n"
     traced = subprocess.run([sys.executable, "-m", "gasfilm.app.cli", "replay", str(missing)], capture_output=True,
-                            text=True, timeout=120, env={**os.environ, "GASFILM_DEBUG": "1"})
+                            text=True, timeout=120, env={**os.environ, "GASFILM_DEBUG": "2"})
     assert traced.returncode == 2 and traced.stderr.startswith("Traceback")
     assert traced.stderr.endswith(f"gasfilm replay: error: {missing}: no such session file\n")
+    internal_only = subprocess.run([sys.executable, "-m", "gasfilm.app.cli", "replay", str(missing)],
+                                   capture_output=True, text=True, timeout=120, env={**os.environ, "GASFILM_DEBUG": "1"})
+    assert internal_only.stderr == plain.stderr  # GASFILM_DEBUG=1 traces internal errors only
