@@ -13,6 +13,7 @@ as rig physics) and ``interference`` (additive signals such as mains, never fitt
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 from dataclasses import dataclass, field
 from typing import Any, Callable, ClassVar, Mapping
@@ -1384,7 +1385,13 @@ MAX_DRIFT_EXPONENT = 50.0
 
 def signed_field(effect: Effect, name: str) -> bool:
     """Whether ``effect``'s value ``name`` may take either sign (its rule asks no sign: a modal constant, a leak)."""
-    rule = next((item.metadata.get("rule") for item in dataclasses.fields(effect) if item.name == name), None)
+    return _signed_field(type(effect), name)
+
+
+@functools.cache
+def _signed_field(kind: type, name: str) -> bool:
+    """:func:`signed_field` of an effect type (asked for every hit of every evaluation of a changing spec)."""
+    rule = next((item.metadata.get("rule") for item in dataclasses.fields(kind) if item.name == name), None)
     return rule in (_any_number, _finite, _nonzero)
 
 
