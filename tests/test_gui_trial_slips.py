@@ -322,3 +322,19 @@ def test_the_measure_tabs_hit_views_show_their_labels_whole_at_the_default_size(
     bar = window.measure_tab.hit_views.tabBar()
     assert sum(bar.tabSizeHint(i).width() for i in range(bar.count())) <= bar.width()
     assert all(bar.tabRect(i).width() >= bar.tabSizeHint(i).width() for i in range(bar.count()))
+
+
+def test_a_session_without_a_spec_is_diagnosed_from_its_frf_as_the_command_does_not_against_the_setup(
+        qtbot, window, tmp_path, capsys):
+    """A session replayed from a UFF holds no rig spec: with the reference field empty the GUI read a start off the
+    FRF as `gasfilm diagnose` does — it diagnosed against the Setup tab's spec (another rig's) and said nothing."""
+    recorded, exported, replayed = tmp_path / "run.h5", tmp_path / "run.uff", tmp_path / "from-uff.h5"
+    assert gasfilm(capsys, "acquire", *FAST_SIM, "--out", recorded, "--hits", 3, "--seed", 2)[0] == 0
+    assert gasfilm(capsys, "export", recorded, "--uff", exported)[0] == 0
+    assert gasfilm(capsys, "replay", exported, "--out", replayed)[0] == 0
+    controller = window.controller
+    controller.open_session(replayed)
+    controller.run_diagnosis()
+    qtbot.waitUntil(lambda: not controller.job_active("diagnose"), timeout=120_000)
+    assert controller.diagnosis is not None, window.banner.history
+    assert controller.diagnosis.notes[0].startswith("no rig spec given: a start read off the FRF")

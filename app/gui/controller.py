@@ -710,9 +710,11 @@ class SessionController(QObject):
 
     def run_diagnosis(self, reference_spec_path: str | Path | None = None,
                       replace_outputs: Any = lambda folder, names: True) -> None:
-        """Diagnose the session's accepted hits against ``reference_spec_path`` (default: the session's own spec);
-        its files go into ``SESSION-diagnosis/`` as ``gasfilm diagnose`` writes them, and an earlier diagnosis's
-        files there are replaced only when ``replace_outputs(folder, names)`` says so (the tab asks)."""
+        """Diagnose the session's accepted hits against ``reference_spec_path`` (default, as ``gasfilm diagnose``
+        without ``--rig``: the session's own spec, else a start read off the FRF — never the Setup tab's, which may
+        be another rig's); its files go into ``SESSION-diagnosis/`` as ``gasfilm diagnose`` writes them, and an
+        earlier diagnosis's files there are replaced only when ``replace_outputs(folder, names)`` says so (the tab
+        asks)."""
         if self.acquiring:
             self.message.emit(f"{STOP_FIRST} before running the diagnosis: hits are still arriving", "warning")
             return
@@ -722,7 +724,7 @@ class SessionController(QObject):
         if "diagnose" in self._jobs:
             return
         try:
-            spec = RigSpec.load(reference_spec_path) if reference_spec_path else self.rig_spec_of_session()
+            spec = RigSpec.load(reference_spec_path) if reference_spec_path else None
         except GasfilmError as error:
             self.message.emit(f"diagnose: {error}", "error")
             return
