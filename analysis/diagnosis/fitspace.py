@@ -114,8 +114,9 @@ def effect_slots(spec: RigSpec, index: int, context: FitContext) -> list[Slot]:
 def spec_slots(spec: RigSpec, context: FitContext, recalibration: bool = False) -> list[Slot]:
     """Every free parameter of a spec: the film's, then each effect's (ranges widened to hold the current values, so
     a spec a diagnosis wrote is recalibrated from exactly where it is). Effects held after the recalibration (a
-    structure's modes: many parameters no candidate term competes with) only with ``recalibration``."""
-    slots = film_slots(spec)
+    structure's modes: many parameters no candidate term competes with) only with ``recalibration``; film parameters
+    the recordings do not determine (``context.held_film``) never."""
+    slots = [slot for slot in film_slots(spec) if slot.name not in context.held_film]
     for index, effect in enumerate(spec.effects):
         if recalibration or not type(effect).held_after_recalibration:
             slots.extend(effect_slots(spec, index, context))

@@ -199,6 +199,20 @@ def diagnose_spectra(
 
     own_slots = spec_slots(spec, context, recalibration=structure_read_off_frf)
     recalibrated = _settle_quantised_replay(spectra, fit(evidence, spec, own_slots))
+    # a film parameter that runs into a bound, and whose given value the recordings fit as well (BIC in noise units),
+    # is not determined by them (a spare arm of a network, an order at 2: an inertance): it keeps the given value in
+    # every fit, never filled in with one that invents a feature (one the data do want beyond its range stays free,
+    # and is said to be at its bound)
+    while undetermined := [slot.name for slot in own_slots
+                           if slot.effect is None and slot.at_bound(recalibrated.spec)]:
+        holding = dataclasses.replace(context, held_film=context.held_film | set(undetermined))
+        held_slots = spec_slots(spec, holding, recalibration=structure_read_off_frf)
+        held = _settle_quantised_replay(spectra, fit(evidence, spec, held_slots))
+        cost = (held.chi2 - recalibrated.chi2) / _noise_scale(recalibrated, points)
+        if cost > len(undetermined) * np.log(points):
+            break
+        progress(_held_film_note(undetermined))
+        context, own_slots, recalibrated = holding, held_slots, held
     # a spec already within the noise and its own recorded description error: what a recalibration would move is that
     # known error, not a change (no change smaller than it can be seen)
     recalibration_significant = (chi2_given - recalibrated.chi2 > len(own_slots) * np.log(points) + BIC_MARGIN
@@ -322,9 +336,17 @@ def diagnose_spectra(
         restoring_force=restoring,
     )
     diagnosis.notes.extend(STRUCTURE_CHANGED + change for change in structure_changes)
+    if context.held_film:
+        diagnosis.notes.append(_held_film_note(sorted(context.held_film)))
     logger.info("diagnosis: %s, %d finding(s), %d unexplained band(s), χ²/point %.2f → %.2f", verdict, len(findings),
                 len(unexplained), diagnosis.chi2_per_point_before, diagnosis.chi2_per_point_after)
     return diagnosis
+
+
+def _held_film_note(names: list[str]) -> str:
+    return (f"the film's {', '.join(names)} ran into the edge of {'its' if len(names) == 1 else 'their'} range when "
+            f"recalibrated: not determined by these recordings, held at the given spec's "
+            f"{'value' if len(names) == 1 else 'values'}")
 
 
 def _with_description_error(spectra: HitSpectra, spec: RigSpec) -> HitSpectra:

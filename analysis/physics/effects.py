@@ -107,6 +107,9 @@ class FitContext:
     max_displacement_m: float  # initial displacement amplitude of the hardest hit, J / (M ω0)
     film_damping_ratio: float = 0.05  # Im Z / (2 Re Z) of the film at the resonance
     blow_span: float = 0.0  # last hit's blow number − first hit's (blows delivered between them)
+    #: Film parameters these recordings do not determine (they ran into a bound in the recalibration): held at the
+    #: given spec's values in every fit of the diagnosis, never filled in.
+    held_film: frozenset[str] = frozenset()
 
 
 @dataclass(frozen=True)
