@@ -78,6 +78,22 @@ def test_a_film_parameter_the_recordings_do_not_determine_is_held_not_filled_in(
     assert any("eta2" in note and "not determined by these recordings" in note for note in diagnosis.notes)
 
 
+def test_a_recalibrated_parameter_within_one_sigma_of_zero_is_said_to_be_undetermined(tmp_path):
+    """A FOMGF film (no dashpot: its damping is the spring-pot's) diagnosed against the spring-damper film: the film
+    memory takes the damping, and the dashpot's eta is recalibrated to about 1 ± 1 N·s/m — the report says the data do
+    not determine it (a new user read "eta 3450 → 0.61 ± 1 N·s/m" as a measured value)."""
+    from gasfilm.analysis.diagnosis.report import report_text
+
+    fomgf = RigSpec.load(Path(__file__).resolve().parents[1] / "fixtures" / "rigs" / "fomgf.toml")
+    diagnosis = diagnose(record(fomgf, tmp_path / "fomgf.h5", hits=6, seed=3), NOMINAL)
+    eta = diagnosis.recalibration["eta"]
+    assert eta["uncertainty"] > abs(eta["fitted"])
+    line = next(line for line in report_text(diagnosis).splitlines() if line.strip().startswith("eta "))
+    assert line.endswith("(within one σ of zero: not determined by the data)"), line
+    k = next(line for line in report_text(diagnosis).splitlines() if line.strip().startswith("k "))
+    assert "not determined" not in k
+
+
 def test_parameter_error_is_recalibrated_not_blamed_on_physics(tmp_path):
     truth = RigSpec.nominal("SD", parameters={"k": 3.78e7 * 1.03, "eta": 3.45e3 * 0.96})
     diagnosis = diagnose(record(truth, tmp_path / "params.h5", seed=2), NOMINAL)

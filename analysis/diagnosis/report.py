@@ -43,7 +43,9 @@ def report_text(diagnosis: Diagnosis) -> str:
                 lines.append(f"    {name:34s} {row['spec']:.6g} → {row['fitted']:.6g}{unit} at the edge of its range: "
                              f"not a measurement (the data do not determine it)")
             else:
-                lines.append(f"    {name:34s} {row['spec']:.6g} → {row['fitted']:.6g} ± {row['uncertainty']:.2g}{unit}")
+                lines.append(f"    {name:34s} {row['spec']:.6g} → {row['fitted']:.6g} ± {row['uncertainty']:.2g}{unit}"
+                             + ("  (within one σ of zero: not determined by the data)"
+                                if row["uncertainty"] > abs(row["fitted"]) else ""))
         if modal:
             edge = sum(bool(row.get("at_bound")) for row in modal.values())
             lines.append(f"    the structure's modes: {len(modal)} parameters recalibrated (the mode table below)"
