@@ -94,6 +94,19 @@ def test_a_recalibrated_parameter_within_one_sigma_of_zero_is_said_to_be_undeter
     assert "not determined" not in k
 
 
+def test_the_film_figure_names_what_rides_on_the_mover_beside_the_film(tmp_path):
+    """F/X − M·s² of a written spec with an extra mode holds the mode's peak: the figure's legend said "film", and a
+    new user read the film as resonant."""
+    from gasfilm.analysis.diagnosis.plots import film_view, written_film_label
+
+    plain = diagnose(record(NOMINAL, tmp_path / "plain.h5", hits=6, seed=1), NOMINAL)
+    assert written_film_label(plain, film_view(plain)) == "written spec: film"
+    moded = diagnose(record(NOMINAL.with_effects(ExtraMode(freq_hz=640.0, damping_ratio=0.02, mass_kg=0.8)),
+                            tmp_path / "mode.h5", hits=6, seed=1), NOMINAL)
+    assert [finding.effect for finding in moded.findings] == ["extra-mode"]
+    assert written_film_label(moded, film_view(moded)) == "written spec: film and what rides on the mover"
+
+
 def test_parameter_error_is_recalibrated_not_blamed_on_physics(tmp_path):
     truth = RigSpec.nominal("SD", parameters={"k": 3.78e7 * 1.03, "eta": 3.45e3 * 0.96})
     diagnosis = diagnose(record(truth, tmp_path / "params.h5", seed=2), NOMINAL)
