@@ -19,7 +19,7 @@ from gasfilm.analysis.diagnosis.result import Diagnosis
 from gasfilm.analysis.physics.elements import laplace_variable
 from gasfilm.analysis.physics.response import rig_dynamic_stiffness
 from gasfilm.analysis.diagnosis.structure import STABILITY, Structure
-from gasfilm.analysis.figures import FAST_PNG, plain_log_labels
+from gasfilm.analysis.figures import FAST_PNG, TITLE_Y, plain_log_labels
 from gasfilm.analysis.paths import written_whole
 from gasfilm.analysis.threads import one_blas_thread
 from gasfilm.drivers.interface import STANDARD_GRAVITY_M_S2 as G_M_S2
@@ -135,7 +135,7 @@ def write_film_figure(diagnosis: Diagnosis, path: Path) -> Path:
     axes[1].set_xlabel("frequency (Hz)")
     axes[0].legend(loc="best", fontsize=8)
     axes[0].set_title(f"the film's dynamic stiffness F/X − M·s² (M = {diagnosis.improved.moving_mass_kg:.4g} kg): "
-                      f"{diagnosis.verdict}", fontsize=10)
+                      f"{diagnosis.verdict}", fontsize=10, y=TITLE_Y)
     figure.subplots_adjust(left=0.11, right=0.97, bottom=0.08, top=0.94, hspace=0.2)
     figure.savefig(path, dpi=110, pil_kwargs=FAST_PNG)
     return path
@@ -165,7 +165,7 @@ def write_overlay_figure(diagnosis: Diagnosis, path: Path) -> Path:
     axes[1].set_xlabel("frequency (Hz)")
     axes[0].legend(loc="best", fontsize=8)
     axes[0].set_title(f"diagnosis: {diagnosis.verdict} — RMS {diagnosis.rms_before / G_M_S2:.3g} → "
-                      f"{diagnosis.rms_after / G_M_S2:.3g} g/N")
+                      f"{diagnosis.rms_after / G_M_S2:.3g} g/N", y=TITLE_Y)
     figure.subplots_adjust(left=0.1, right=0.97, bottom=0.08, top=0.94, hspace=0.28)  # (tight_layout draws twice)
     figure.savefig(path, dpi=110, pil_kwargs=FAST_PNG)
     return path
@@ -286,7 +286,7 @@ def stabilization_figure(reading: dict, frf_freq_hz: np.ndarray | None = None,
     axis.legend(loc="upper left", fontsize=7, title="poles stable in", title_fontsize=7, framealpha=0.9)
     kind = "driving point" if reading.get("driving_point") else "transfer FRF"
     axis.set_title(f"stabilization diagram: {len(reading.get('modes_read', []))} modes (lines), {kind}, mass line "
-                   f"{reading['mass_line_kg']:.4g} kg, polarity {int(reading['polarity']):+d}", fontsize=10)
+                   f"{reading['mass_line_kg']:.4g} kg, polarity {int(reading['polarity']):+d}", fontsize=10, y=TITLE_Y)
     figure.subplots_adjust(left=0.07, right=0.92, bottom=0.09, top=0.94)
     return figure
 
