@@ -338,3 +338,16 @@ def test_a_session_without_a_spec_is_diagnosed_from_its_frf_as_the_command_does_
     qtbot.waitUntil(lambda: not controller.job_active("diagnose"), timeout=120_000)
     assert controller.diagnosis is not None, window.banner.history
     assert controller.diagnosis.notes[0].startswith("no rig spec given: a start read off the FRF")
+
+
+def test_opening_a_session_replaces_what_the_banner_said_of_the_previous_one(qtbot, window, tmp_path, capsys):
+    """A new user opened a second session and the banner still announced the first one's diagnosis ("diagnosis
+    finished … verdict not explained"), also while the second was being diagnosed."""
+    first, second = tmp_path / "first.h5", tmp_path / "second.h5"
+    for path, seed in ((first, 2), (second, 3)):
+        assert gasfilm(capsys, "acquire", *FAST_SIM, "--out", path, "--hits", 3, "--seed", seed)[0] == 0
+    controller = window.controller
+    controller.open_session(first)
+    controller.message.emit("diagnosis finished in 3.0 s: verdict not explained (first-diagnosis/)", "info")
+    controller.open_session(second)
+    assert window.banner.text.startswith("opened second.h5: 3 hits (3 accepted)"), window.banner.history

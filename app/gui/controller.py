@@ -928,6 +928,12 @@ class SessionController(QObject):
         newest = session.newest_diagnosis_name()
         if newest is not None:
             self.stored_diagnosis_loaded.emit(session.read_diagnosis(newest))
+        # (said in the banner: what it showed was the previous session's)
+        stored = [f"{len(self.hits)} hits ({self.accepted_count} accepted)",
+                  *(["its FRF"] if self.frf is not None else []),
+                  *([f"{len(self.fits)} fit{'s' if len(self.fits) != 1 else ''}"] if self.fits else []),
+                  *(["its latest diagnosis"] if newest is not None else [])]
+        self.message.emit(f"opened {path.name}: {', '.join(stored)}", "info")
         if session.recovered:
             self.message.emit(f"{path.name}: recovered after an interrupted recording", "warning")
         self.session_changed.emit(str(path))
