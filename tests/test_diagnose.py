@@ -104,6 +104,7 @@ def test_the_film_figure_names_what_rides_on_the_mover_beside_the_film(tmp_path)
     moded = diagnose(record(NOMINAL.with_effects(ExtraMode(freq_hz=640.0, damping_ratio=0.02, mass_kg=0.8)),
                             tmp_path / "mode.h5", hits=6, seed=1), NOMINAL)
     assert [finding.effect for finding in moded.findings] == ["extra-mode"]
+    assert moded.findings[0].evidence.endswith("on frequency bands left out of it.")  # a catalog term is judged there
     assert written_film_label(moded, film_view(moded)) == "written spec: film and what rides on the mover"
 
 

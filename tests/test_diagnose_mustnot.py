@@ -272,6 +272,8 @@ def test_a_charge_sensor_on_a_voltage_input_is_a_high_pass_of_the_chain_with_its
     assert abs(chain.features["gain_above_corners"] - 0.8) < 0.01, chain.features
     assert "voltage input" in chain.mechanisms[0].name
     assert diagnosis.verdict == "modelled" and diagnosis.chi2_per_point_after < 1.5
+    # a description is judged on the hits left out and its own band: it claims no gain on bands left out
+    assert chain.evidence.endswith("on hits left out of the fit.") and "bands left out" not in chain.evidence
 
 
 def test_a_chain_factor_that_reads_beyond_twice_the_truth_across_the_band_is_implausible():

@@ -1440,9 +1440,12 @@ def _finding(
     elif identifier == "cubic-stiffness":
         hits += ", changing with the hit's force level"
     sentence = effect.evidence(sigma, where, context)
-    sentence = (f"{sentence[0].upper()}{sentence[1:]}; χ² falls by {gain:.0f} on all hits, by "
-                f"{step.held_out_gain:.0f} (noise units) on hits left out of the fit and by "
-                f"{step.held_out_band_gain:.0f} on frequency bands left out of it.")
+    # (a generic description is judged on the hits left out and on its own band, not on bands left out: none given)
+    bands = ("" if type(effect).generic else
+             f" and by {step.held_out_band_gain:.0f} on frequency bands left out of it")
+    sentence = (f"{sentence[0].upper()}{sentence[1:]}; χ² falls by {gain:.0f} on all hits"
+                f"{',' if bands else ' and'} by {step.held_out_gain:.0f} (noise units) on hits left out of the fit"
+                f"{bands}.")
     alternatives = _alternatives(identifier, step.alternatives, final.spec, index)
     unusual = effect.implausible_in(final.spec, context)
     if unusual is not None:
