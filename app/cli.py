@@ -6,8 +6,9 @@ sets ``func`` (called with the parsed arguments, returning the exit status). Reg
 
 Errors that gasfilm raises on purpose are printed as one line and exit with status 2; nothing ever prints a traceback
 unless ``GASFILM_DEBUG=1`` (an internal error raised with its traceback) or ``GASFILM_DEBUG=2`` (also the traceback
-of an error raised on purpose: where deep in a long computation it came from). Python warnings (ADC overload, numpy floating-point warnings) become one clean
-``warning:`` line each; a closed output pipe (``gasfilm ... --json | head``) ends the command quietly.
+of an error raised on purpose: where deep in a long computation it came from). Python warnings (ADC overload, numpy
+floating-point warnings) become one clean ``warning:`` line each; a closed output pipe (``gasfilm ... --json |
+head``) ends the command quietly.
 """
 
 from __future__ import annotations

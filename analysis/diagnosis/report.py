@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from gasfilm.analysis.diagnosis.result import Diagnosis
+from gasfilm.analysis.diagnosis.result import Diagnosis, within_one_sigma_of_zero
 from gasfilm.analysis.diagnosis.structure import STRUCTURE_CHANGED, structure_summary
 from gasfilm.drivers.interface import STANDARD_GRAVITY_M_S2 as G_M_S2
 
@@ -45,7 +45,7 @@ def report_text(diagnosis: Diagnosis) -> str:
             else:
                 lines.append(f"    {name:34s} {row['spec']:.6g} → {row['fitted']:.6g} ± {row['uncertainty']:.2g}{unit}"
                              + ("  (within one σ of zero: not determined by the data)"
-                                if row["uncertainty"] > abs(row["fitted"]) else ""))
+                                if within_one_sigma_of_zero(row["fitted"], row["uncertainty"]) else ""))
         if modal:
             edge = sum(bool(row.get("at_bound")) for row in modal.values())
             lines.append(f"    the structure's modes: {len(modal)} parameters recalibrated (the mode table below)"

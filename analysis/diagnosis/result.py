@@ -29,6 +29,12 @@ class Alternative:
         return {"effect": self.effect, "note": self.note}
 
 
+def within_one_sigma_of_zero(value: float, uncertainty: float) -> bool:
+    """Whether a fitted value is within one σ of zero: the data do not determine it (a frequency or a time constant
+    there is not measured, a signed change there may be none)."""
+    return uncertainty > abs(value)
+
+
 @dataclass
 class Finding:
     """A description of a mismatch in the written spec: located (``place`` in the chain), fitted (``parameters``,
@@ -57,11 +63,11 @@ class Finding:
 
     @property
     def undetermined(self) -> list[str]:
-        """The parameters the data do not determine: within one σ of zero (a frequency or a time constant there is
-        not measured, a signed change there may be none), so a smaller description may describe the data as well."""
+        """The parameters the data do not determine (:func:`within_one_sigma_of_zero`): a smaller description may
+        describe the data as well."""
         return [name for name, row in self.parameters.items()
                 if isinstance(row.get("value"), (int, float)) and isinstance(row.get("uncertainty"), (int, float))
-                and row["uncertainty"] > abs(row["value"])]
+                and within_one_sigma_of_zero(row["value"], row["uncertainty"])]
 
     def to_dict(self) -> dict:
         return {

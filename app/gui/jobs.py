@@ -70,9 +70,9 @@ def fit_models(
 def diagnose_session(
     recordings: Any, spec: RigSpec | None, out_dir: Path, report: Report, _cancelled: Callable[[], bool]
 ) -> Any:
-    """Diagnose ``recordings`` against ``spec`` (None: their own, else one read off the FRF) and write the figures and the improved spec into ``out_dir`` (removing
-    an earlier run's figure this one does not draw); the diagnosis has no cancel hook: Cancel acts at its next
-    progress report."""
+    """Diagnose ``recordings`` against ``spec`` (None: their own, else one read off the FRF) and write the figures
+    and the improved spec into ``out_dir`` (removing an earlier run's figure this one does not draw); the diagnosis
+    has no cancel hook: Cancel acts at its next progress report."""
     diagnosis = diagnose(recordings, spec, progress=lambda text: report(0.0, text))
     write_outputs(diagnosis, out_dir)
     remove_stale_outputs(diagnosis, out_dir)  # the folder is the GUI's own: an earlier run's figure goes
