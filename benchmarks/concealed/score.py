@@ -31,6 +31,7 @@ from gasfilm.drivers.units import STANDARD_GRAVITY_M_S2
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from sessions import record_session  # noqa: E402
+import three_figures  # noqa: E402
 
 NO_PHYSICS = "(none)"
 MISSED = "(missed)"
@@ -131,7 +132,11 @@ def main() -> None:
                      "rms_after": result.rms_after, "improvement_percent": improvement, "time_s": elapsed,
                      "hit_excess": excess, "hit_fluctuation": fluctuation, "overlay": overlay, "point_z": point_z,
                      "quality": [q.kind for q in result.quality], "parameter_errors": accuracy,
-                     "left_after_replay": left, "hits": len(recordings.records), "hidden_size": hidden_size(truth)})
+                     "left_after_replay": left, "hits": len(recordings.records), "hidden_size": hidden_size(truth)}
+                    | three_figures.figures({"control": not expected, "exact": [expected]},
+                                            {"findings": [{"place": f.place} for f in result.findings],
+                                             "chi2_per_point_after": result.chi2_per_point_after},
+                                            "exact" if found == expected else "wrong"))
         for effect in expected:
             confusion[(effect, effect if effect in found else MISSED)] += 1
         for reported in found:
@@ -186,6 +191,7 @@ def _summary(rows: list[dict], confusion: Counter) -> None:
     faint = [row for row in measured if row["overlay"] < 0.0125]
     print(f"\nsessions: {len(rows)}; effect set exactly right: {exact}/{len(rows)} ({100 * exact / len(rows):.0f} %)")
     print(f"controls and artefact sessions claiming physics: {len(claimed)} {claimed}")
+    print(three_figures.summary_line(rows))
     print(f"sessions with an effect where RMS improved < 50 %: {len(short)} {short}")
     looped = [row for row in with_effect if row["left_after_replay"] is not None]
     if looped:

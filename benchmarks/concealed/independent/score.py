@@ -26,6 +26,9 @@ from typing import Any
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from effect_names import PARAMETER_TO_KEY, key_name  # noqa: E402
 
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+import three_figures  # noqa: E402
+
 OUTCOMES = ("exact", "acceptable", "honest not-explained", "wrong", "false claim", "error")
 RIGHT = OUTCOMES[:3]
 CATEGORIES = ("control", "catalog", "outside", "trap")
@@ -199,7 +202,7 @@ def score_case(key_path: Path, data: Path, loop: bool) -> dict:
     result, error, wall = run_diagnosis([str(uff_path), "--mass", f"{key['mass_kg']:g}", "--out", str(out_dir)])
     row["wall_time_s"] = round(wall, 2)
     if result is None:
-        return row | {"outcome": "error", "reason": error}
+        return row | {"outcome": "error", "reason": error} | three_figures.figures(key, None, "error")
     missing: set[str] = set()
     for name in ("verdict", "findings", "unexplained", "chi2_per_point_after", "rms_recalibrated", "improved_spec"):
         if name not in result:
@@ -236,10 +239,12 @@ def score_case(key_path: Path, data: Path, loop: bool) -> dict:
             else:
                 left = sorted({key_name(str(f.get("effect", "?"))) for f in again.get("findings") or []})
                 row["loop"] = "clean" if not left else "found " + ", ".join(left)
+                row["loop_verdict"] = again.get("verdict")
         else:
             row["loop"] = "no improved spec"
     row["missing_fields"] = sorted(missing)
-    return row
+    looped = result | {"loop": {"verdict_on_written_spec": row.get("loop_verdict")}}
+    return row | three_figures.figures(key, looped, outcome)
 
 
 def parameter_text(parameters: Any) -> str:
@@ -333,7 +338,11 @@ def main(argv: list[str] | None = None) -> int:
     rows.sort(key=lambda row: (order.get(row["category"], 9), row["case"]))
     print_tables(rows)
     counts = Counter(row["outcome"] for row in rows)
+    print(three_figures.summary_line(rows))
+    scored = [row for row in rows if row.get("scored")]
     summary = {"cases": len(rows), "right": sum(counts[o] for o in RIGHT), "outcomes": dict(counts),
+               "modelled": sum(bool(row.get("modelled")) for row in scored),
+               "named": sum(bool(row.get("named")) for row in scored), "scored_for_modelled": len(scored),
                "measured_utc": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())}
     (args.data / "scores.json").write_text(json.dumps({"summary": summary, "cases": rows}, indent=1, default=str))
     print(f"\nwrote {args.data / 'scores.json'}")

@@ -44,6 +44,7 @@ def _load(name: str, path: Path):
 
 _names = _load("independent_effect_names", HERE.parent / "independent" / "effect_names.py")
 key_name = _names.key_name
+three_figures = _load("three_figures", HERE.parent / "three_figures.py")
 
 OUTCOMES = ("exact", "acceptable", "honest not-explained", "wrong", "false claim", "must-not claimed", "error")
 RIGHT = OUTCOMES[:3]
@@ -191,7 +192,7 @@ def score_case(key_path: Path, data: Path, loop: bool) -> dict:
     result, error, wall = run_diagnosis([str(uff_path), "--mass", f"{key['mass_kg']:g}", "--out", str(out_dir)])
     row["wall_time_s"] = round(wall, 2)
     if result is None:
-        return row | {"outcome": "error", "reason": error}
+        return row | {"outcome": "error", "reason": error} | three_figures.figures(key, None, "error")
     (out_dir / "diagnosis.json").write_text(json.dumps(result, indent=1, default=str))
     outcome, reason = classify(key, result)
     findings = result.get("findings") or []
@@ -226,7 +227,8 @@ def score_case(key_path: Path, data: Path, loop: bool) -> dict:
                 row["loop_verdict"] = again.get("verdict")
         else:
             row["loop"] = "no improved spec"
-    return row
+    looped = result | {"loop": {"verdict_on_written_spec": row.get("loop_verdict")}}
+    return row | three_figures.figures(key, looped, outcome)
 
 
 def confusion(rows: list[dict]) -> str:
@@ -321,7 +323,11 @@ def main(argv: list[str] | None = None) -> int:
     rows.sort(key=lambda row: (order.get(row["category"], 9), row["case"]))
     print_tables(rows)
     counts = Counter(row["outcome"] for row in rows)
+    print(three_figures.summary_line(rows))
+    scored = [row for row in rows if row.get("scored")]
     summary = {"cases": len(rows), "right": sum(counts[o] for o in RIGHT), "outcomes": dict(counts),
+               "modelled": sum(bool(row.get("modelled")) for row in scored),
+               "named": sum(bool(row.get("named")) for row in scored), "scored_for_modelled": len(scored),
                "measured_utc": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())}
     name = f"scores-{args.label}.json" if args.label else "scores.json"
     (args.data / name).write_text(json.dumps({"summary": summary, "cases": rows}, indent=1, default=str))

@@ -44,6 +44,7 @@ def _load(name: str, path: Path):
 
 
 _key_name = _load("independent_effect_names", HERE.parent / "independent" / "effect_names.py").key_name
+three_figures = _load("three_figures", HERE.parent / "three_figures.py")
 
 
 def key_name(name: str) -> str:
@@ -181,6 +182,7 @@ def score_case(key_path: Path, data: Path) -> dict:
     if key_path.stat().st_mtime > uff.stat().st_mtime:
         return row | {"outcome": "error", "reason": "answer key newer than its data: not scored"}
     result, error, stderr, wall = run([str(uff), *arguments, "--out", str(out_dir)])
+    row |= three_figures.figures(key, result, "error")
     row["wall_time_s"] = round(wall, 1)
     if "Traceback" in stderr:
         row["traceback"] = stderr.strip().splitlines()[-1]
@@ -191,6 +193,7 @@ def score_case(key_path: Path, data: Path) -> dict:
     out_dir.mkdir(parents=True, exist_ok=True)
     (out_dir / "diagnosis.json").write_text(json.dumps(result, indent=1, default=str))
     outcome, reason = classify(key, result)
+    row |= three_figures.figures(key, result, outcome)
     findings = result.get("findings") or []
     return row | {
         "outcome": outcome, "reason": reason, "verdict": result.get("verdict"),
@@ -287,19 +290,23 @@ def main(argv: list[str] | None = None, default_data: Path = Path("out/redteam3"
     print("\n" + confusion(rows) + "\n")
     print(per_case_table(rows) + "\n")
     controls = [r for r in rows if r["category"] == "control"]
-    print(f"right: {sum(r['outcome'] in RIGHT for r in rows)}/{len(rows)} (named — exact or acceptable: "
+    print(f"right: {sum(r['outcome'] in RIGHT for r in rows)}/{len(rows)} (exact or acceptable: "
           f"{sum(r['outcome'] in RIGHT[:2] for r in rows)}/{len(rows)}); controls with physics claimed: "
           f"{sum(r['outcome'] in ('false claim', 'must-not claimed') for r in controls)}/{len(controls)}; must-not "
           f"claimed: {sum(r['outcome'] == 'must-not claimed' for r in rows)}; false claims: "
           f"{sum(r['outcome'] == 'false claim' for r in rows)}; errors: {sum(r['outcome'] == 'error' for r in rows)}; "
           f"tracebacks: {sum('traceback' in r for r in rows)}")
+    print(three_figures.summary_line(rows))
     times = sorted(r["wall_time_s"] for r in rows if "wall_time_s" in r)
     if times:
         print(f"diagnosis wall time per case: median {times[len(times) // 2]:.1f} s, max {times[-1]:.1f} s")
     if not args.tables_from:
         commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True,
                                 cwd=HERE).stdout.strip()
+        scored = [r for r in rows if r.get("scored")]
         summary = {"cases": len(rows), "right": sum(r["outcome"] in RIGHT for r in rows),
+                   "modelled": sum(bool(r.get("modelled")) for r in scored),
+                   "named": sum(bool(r.get("named")) for r in scored), "scored_for_modelled": len(scored),
                    "outcomes": dict(Counter(r["outcome"] for r in rows)), "worktree_commit": commit,
                    "measured_utc": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())}
         name = f"scores-{args.label}.json" if args.label else "scores.json"
