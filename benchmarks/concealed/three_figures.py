@@ -1,9 +1,10 @@
 """*Modelled* and *named* for the concealed sets whose answer keys predate round 10 (simulator, independent, rounds
 1–9), beside each scorer's own *right*.
 
-Those keys list the catalogue names a right diagnosis may report (``exact``, ``acceptable``, ``allowed``,
-``partial_ok``) but not where in the chain the truth sits nor its features with tolerances, as round 10's do. The
-place of each listed name is read off this file's table, the same for every set:
+Those keys list the names a right diagnosis may report (``exact``, ``acceptable``, ``allowed``, ``partial_ok``: the
+catalogue's, and the key's own name of a mechanism outside it) but not where in the chain the truth sits nor its
+features with tolerances, as round 10's do. The place of each listed name is read off this file's table (written
+after the keys, from their summaries alone, the same for every set):
 
 - **modelled** — not a control; the key names at least one effect; the diagnosis described something (a finding or
   a generic description) or its outcome is exact/acceptable; every finding and description sits in a place of the
@@ -42,6 +43,47 @@ PLACES_OF_NAME: dict[str, frozenset[str]] = {
     "sensitivity-error": CHAIN,
     "polarity": CHAIN,
     "window-damping": CHAIN,
+}
+FILM, BESIDE, MOVER, BETWEEN = frozenset({"film"}), frozenset({"beside the mover"}), frozenset({"mover"}), frozenset(
+    {"between hits"})
+FORCE, RESPONSE = frozenset({"force channel", "measurement chain"}), frozenset({"response channel",
+                                                                               "measurement chain"})
+#: The keys' own names of mechanisms outside the catalogue, placed from each key's summary (what the key says the
+#: mechanism does): the film's place for anything acting between the mover and the ground, beside the mover for a
+#: body riding on it or a motion the sensor sees beside the mover's own, a channel for the sensor, the hammer and
+#: what the recorder or an exporter did; between hits as well for what changes over the session.
+PLACES_OF_NAME |= {
+    # between the mover and the ground: the film's dynamic stiffness
+    **{name: FILM for name in (
+        "transport-delay", "viscoelastic-mount", "gap-nonlinearity", "pocket-resonance", "servo", "pneumatic-hammer",
+        "softening-hardening", "touchdown", "hysteresis", "orifice-choking", "freeplay", "dynamic-brake",
+        "cross-coupled-stiffness", "vacuum-preload", "eddy-current-preload", "pocket-thermal-relaxation",
+        "pneumatic-hammer-onset", "supply-line-resonance", "porous-restrictor", "hand-on-mover", "bellows-cover")},
+    # a support or second body in series or beside: either description is in its place
+    **{name: FILM | BESIDE | MOVER for name in ("soft-foundation", "twin-carriage", "reaction-impactor",
+                                                "soft-payload", "loose-part", "viscous-absorber", "fan-unbalance",
+                                                "drive-point-pad")},
+    # the film changing over the session
+    **{name: FILM | BETWEEN for name in ("thermal-cycling", "supply-ripple", "compressor-cycling", "pad-creep",
+                                         "thermal-settling", "stiffness-fluctuation", "coolant-filling")},
+    # what the sensor sees beside the mover's axial motion
+    **{name: BESIDE | RESPONSE | BETWEEN for name in ("transverse-sensitivity", "wrong-axis",
+                                                      "hit-location-scatter")},
+    # the hammer and the force channel
+    **{name: FORCE | BETWEEN for name in ("hit-angle", "two-sided-hits", "iepe-slew-limit", "force-units",
+                                          "force-gauge-nonlinearity", "force-window-cut", "hammer-head-ringing")},
+    # the accelerometer, its mounting and the response channel
+    **{name: RESPONSE for name in ("base-strain", "filter-mismatch", "mount-resonance", "dielectric-slope",
+                                   "velocity-labelled-acceleration", "differentiated-displacement",
+                                   "sensor-nonlinearity", "zero-shift", "boxcar-smoothing", "mains-notch",
+                                   "sensor-liftoff", "interpolated-response", "zero-phase-highpass",
+                                   "dc-coupled-response", "pyroelectric", "popcorn-noise")},
+    **{name: RESPONSE | BETWEEN for name in ("sensor-swap", "autorange-gain", "sensor-thermal-drift")},
+    # the recorder and the export: both channels
+    **{name: CHAIN for name in ("capacitive-crosstalk", "hann-windowed", "overlapping-records", "swapped-cables",
+                                "wavelet-denoised", "aliasing", "record-pairing", "detrended-export", "zero-padded",
+                                "sampling-jitter", "gsm-buzz", "floor-shocks", "stuck-adc-bit", "int16-wrap",
+                                "bench-tap-triggers", "two-digit-export", "adc-midscale-dnl", "clock-drift")},
 }
 NAMED_OUTCOMES = ("exact", "acceptable")
 
@@ -89,3 +131,34 @@ def summary_line(rows: Iterable[dict]) -> str:
             f"named {sum(bool(r.get('named')) for r in scored)}/{len(scored)} "
             f"(of the non-controls whose key names an effect; written spec within the noise, every description in "
             f"a place of the key's names)")
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Recompute modelled and named of a scored folder from its saved diagnoses (``diagnoses/<case>/diagnosis.json``),
+    its keys and the outcomes of its scores file."""
+    import argparse
+    import json
+    from pathlib import Path
+
+    parser = argparse.ArgumentParser(description=main.__doc__.split("\n")[0])
+    parser.add_argument("--data", type=Path, required=True, help="a folder a round's scorer ran on")
+    parser.add_argument("--scores", default="scores.json", help="its scores file (default scores.json)")
+    args = parser.parse_args(argv)
+    rows = json.loads((args.data / args.scores).read_text())["cases"]
+    for row in rows:
+        key = json.loads((args.data / f"{row['case']}.key.json").read_text())
+        saved = args.data / "diagnoses" / row["case"] / "diagnosis.json"
+        result = json.loads(saved.read_text()) if saved.exists() and row["outcome"] != "error" else None
+        if result is not None and row.get("loop_verdict"):
+            result["loop"] = {"verdict_on_written_spec": row["loop_verdict"]}
+        row |= figures(key, result, row["outcome"])
+        if row["scored"]:
+            print(f"  {row['case']:28s} {row['outcome']:22s} modelled {'yes' if row['modelled'] else 'no ':3s} "
+                  f"named {'yes' if row['named'] else 'no ':3s} places {', '.join(row['places']) or '—'}; key: "
+                  f"{', '.join(sorted(key_places(key)))}")
+    print(summary_line(rows))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
