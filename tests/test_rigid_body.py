@@ -207,7 +207,7 @@ def test_the_cli_records_a_roving_test_fits_it_and_exports_it(tmp_path, capsys):
         assert a["stiffness"] == pytest.approx(b["stiffness"], rel=1e-6, abs=1e-6 * a["stiffness_std"])
 
 
-def test_the_one_accelerometer_path_is_bit_for_bit_what_it_was():
+def test_the_one_accelerometer_path_is_what_it_was_to_rounding():
     sys.path.insert(0, str(ROOT / "tests" / "golden"))
     try:
         import one_accelerometer
@@ -219,8 +219,9 @@ def test_the_one_accelerometer_path_is_bit_for_bit_what_it_was():
     for key in before.files:
         if "-fit-" in key:  # (a fit's arithmetic goes through BLAS, whose kernels differ between CPUs in last bits)
             np.testing.assert_allclose(now[key], before[key], rtol=1e-9, err_msg=key)
-        else:
-            assert np.array_equal(now[key], before[key]), key
+        else:  # bit for bit on the CPU that stored it; elsewhere vectorised kernels round the last bits differently
+            scale = float(np.max(np.abs(before[key]))) if before[key].size else 0.0
+            np.testing.assert_allclose(now[key], before[key], rtol=0, atol=1e-12 * scale, err_msg=key)
 
 
 @pytest.mark.parametrize("described", [True, False])

@@ -18,8 +18,10 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from generate import NOMINAL  # noqa: E402
+from machine import machine_line  # noqa: E402
 from sessions import record_session  # noqa: E402
 
 from gasfilm.analysis.diagnosis import diagnose  # noqa: E402
@@ -46,6 +48,7 @@ def main() -> None:
     parser.add_argument("--alone", action="store_true", help="one process (no forked copy for the candidate fits)")
     parser.add_argument("--rounds", type=int, default=1, help="diagnoses of each session; the fastest is printed")
     args = parser.parse_args()
+    print(machine_line(), flush=True)
     with tempfile.TemporaryDirectory() as folder, (worker_processes(1) if args.alone else contextlib.nullcontext()):
         for seed, (name, effects) in enumerate(SESSIONS.items()):
             path = record_session(NOMINAL.with_effects(*effects), Path(folder) / f"{seed}.h5", 20, seed=500 + seed)
