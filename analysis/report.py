@@ -19,8 +19,10 @@ import numpy as np
 
 from gasfilm.analysis.conditions import decode_conditions, format_value
 from gasfilm.analysis.diagnosis.report import VERDICT_LINES
+from gasfilm.analysis.diagnosis.structure import mode_row_notes
 from gasfilm.analysis.fit_warnings import fit_warnings
 from gasfilm.analysis.paths import link_target, missing_folder, written_whole
+from gasfilm.analysis.quantities import band_range, band_text, is_number, unit_word, with_uncertainty
 from gasfilm.analysis.session import Session
 from gasfilm.analysis.session.api import LATEST_DIAGNOSIS
 from gasfilm.analysis.spectra import (
@@ -484,10 +486,10 @@ def diagnosis_options_text(options: Any) -> str:
     rig = options.get("rig")
     mass = options.get("mass_kg")
     band = options.get("band_hz")
-    band_text = (f"--band {band[0]:g}:{band[1]:g} Hz" if isinstance(band, (list, tuple)) and len(band) == 2
+    band_flag = (f"--band {band[0]:g}:{band[1]:g} Hz" if isinstance(band, (list, tuple)) and len(band) == 2
                  and all(_is_number(edge) for edge in band) else "the default band (where the hammer excites)")
     return (f"{by}, " + (f"--rig {rig}" if rig else "the session's own rig spec (else one read off the FRF)")
-            + ", " + (f"--mass {mass:g} kg" if _is_number(mass) else "the spec's mass") + f", {band_text}")
+            + ", " + (f"--mass {mass:g} kg" if _is_number(mass) else "the spec's mass") + f", {band_flag}")
 
 
 def _diagnosis_html(diagnosis: dict[str, Any] | None, name: str | None = None, runs: int = 0, frf: Any = None) -> str:
@@ -515,8 +517,8 @@ def _diagnosis_html(diagnosis: dict[str, Any] | None, name: str | None = None, r
     if findings:
         rows = []
         for finding in findings:
-            band = finding.get("band_hz") or ["?", "?"]
-            where = finding.get("where") or f"{band[0]}–{band[1]} Hz"
+            band = finding.get("band_hz")
+            where = finding.get("where") or (band_text(*band) if _is_band(band) else "?")
             values = "; ".join(_parameter_text(name, entry)
                                for name, entry in (finding.get("parameters") or {}).items())
             mechanisms = [m.get("name", "") for m in finding.get("mechanisms") or [] if isinstance(m, dict)]
@@ -549,10 +551,11 @@ def _diagnosis_html(diagnosis: dict[str, Any] | None, name: str | None = None, r
     if recalibration:
         parts.append("<h3>Recalibrated spec parameters (SI)</h3>")
         parts.append(_table(
-            ("Parameter", "Spec", "Fitted", "±1σ"),
+            ("Parameter", "Spec", "Fitted", "±1σ", "Unit"),
             [(name, _number_text(v.get("spec"), ".5g"), _number_text(v.get("fitted"), ".5g"),
               "at its bound: not a measurement" if v.get("at_bound") else _number_text(v.get("uncertainty"), ".2g",
-                                                                                        NO_SIGMA))
+                                                                                        NO_SIGMA),
+              unit_word(v.get("unit")))
              for name, v in recalibration.items()
              if isinstance(v, dict)],
         ))
@@ -589,7 +592,7 @@ def _structure_html(structure: dict[str, Any], frf: Any = None) -> str:
         ("#", "Frequency (Hz)", "Damping ratio", "Modal constant (1/kg)", "Quadrature (1/kg)", ""),
         [(str(number), _number_text(row.get("freq_hz"), ".2f"), _number_text(row.get("damping_ratio"), ".3g"),
           _number_text(row.get("modal_constant_per_kg"), "+.4g"), _number_text(row.get("quadrature_per_kg"), "+.3g"),
-          "above the band: upper residual" if row.get("above_band") else "")
+          mode_row_notes(row))
          for number, row in enumerate(sorted(rows, key=lambda row: row.get("freq_hz", 0.0)), start=1)]))
     return "".join(parts)
 
@@ -599,9 +602,13 @@ NOTHING_MISSING = ("consistent", "parameters-only")
 
 
 def _band_text(band: Any) -> str:
-    if isinstance(band, (list, tuple)) and len(band) == 2 and all(_is_number(edge) for edge in band):
-        return f"{band[0]:.0f}–{band[1]:.0f}"
-    return "?"
+    """A stored band's ends for a column headed "(Hz)", its width shown (:func:`band_range`); "?" when not stored."""
+    return band_range(*band) if _is_band(band) else "?"
+
+
+def _is_band(band: Any) -> bool:
+    """Whether a stored band is one: two finite numbers."""
+    return isinstance(band, (list, tuple)) and len(band) == 2 and all(_is_number(edge) for edge in band)
 
 
 def _hits_text(hits: Any, first_hit: int = 1) -> str:
@@ -617,7 +624,7 @@ NO_SIGMA = "— (not estimated)"
 
 
 def _is_number(value: Any) -> bool:
-    return isinstance(value, (int, float)) and not isinstance(value, bool) and bool(np.isfinite(value))
+    return is_number(value)
 
 
 def _number_text(value: Any, spec: str, missing: str = "—") -> str:
@@ -627,9 +634,7 @@ def _number_text(value: Any, spec: str, missing: str = "—") -> str:
 def _parameter_text(name: str, entry: Any) -> str:
     if not (isinstance(entry, dict) and _is_number(entry.get("value"))):
         return f"{name} = {entry}"
-    sigma = entry.get("uncertainty")
-    spread = f" ± {sigma:.2g}" if _is_number(sigma) else " (± not estimated)"
-    return f"{name} = {entry['value']:.4g}{spread} {entry.get('unit', '')}".rstrip()
+    return f"{name} = {with_uncertainty(entry['value'], entry.get('uncertainty'), entry.get('unit'), '.4g')}"
 
 
 def quality_note_text(note: Any, first_hit: int = 1) -> str:
@@ -639,8 +644,8 @@ def quality_note_text(note: Any, first_hit: int = 1) -> str:
         return str(note)
     text = f"{str(note.get('kind') or 'note').capitalize()}: {note.get('message') or note.get('text') or ''}".rstrip()
     band = note.get("band_hz")
-    if isinstance(band, (list, tuple)) and len(band) == 2 and all(_is_number(edge) for edge in band):
-        text += f" ({band[0]:.0f}–{band[1]:.0f} Hz)"
+    if _is_band(band):
+        text += f" ({band_text(*band)})"
     hits = note.get("hits")
     if isinstance(hits, (list, tuple)) and hits:
         shown = ", ".join(str(int(hit) + 1 - first_hit) for hit in hits[:12]) + (" …" if len(hits) > 12 else "")

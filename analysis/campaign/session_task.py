@@ -109,6 +109,7 @@ def _analyse(path: Path, options: CampaignOptions) -> dict[str, Any]:
     from gasfilm.analysis.identification import best_by_bic, compare_models, fit_model
     from gasfilm.analysis.physics.elements import PAPER_MASS_KG, get_model
     from gasfilm.analysis.physics.spec import RigSpec
+    from gasfilm.analysis.quantities import band_text
     from gasfilm.analysis.session import Session
     from gasfilm.analysis.spectra import WindowSettings, session_frf
     from gasfilm.drivers.errors import SettingError
@@ -209,9 +210,7 @@ def _analyse(path: Path, options: CampaignOptions) -> dict[str, Any]:
         findings = result.get("findings", [])
         row["diagnosis_verdict"] = str(result.get("verdict", ""))
         row["diagnosis_findings"] = "; ".join(str(finding.get("effect", "?")) for finding in findings)
-        row["diagnosis_unexplained"] = "; ".join(
-            f"{item.get('band_hz', ['?', '?'])[0]}–{item.get('band_hz', ['?', '?'])[1]} Hz"
-            for item in result.get("unexplained", []))
+        row["diagnosis_unexplained"] = "; ".join(band_text(*item["band_hz"]) for item in result.get("unexplained", []))
         row["diagnosis_rms_before_m_s2_per_n"] = diagnosis.rms_before
         row["diagnosis_rms_after_m_s2_per_n"] = diagnosis.rms_after
     return row

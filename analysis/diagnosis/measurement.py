@@ -22,6 +22,7 @@ import numpy as np
 import scipy.fft
 
 from gasfilm.analysis.physics.response import HitConditions
+from gasfilm.analysis.quantities import in_band as in_band_words
 from gasfilm.analysis.spectra import WindowSettings, exponential_window, force_window
 from gasfilm.drivers.errors import SettingError
 
@@ -583,10 +584,6 @@ def _rounding_note(rounding: list[np.ndarray | None], force_w: np.ndarray, force
     return QualityNote("quantisation", message + " — a property of the recording, not physics")
 
 
-def _band_text(low_hz: float, high_hz: float) -> str:
-    return f"{low_hz:.0f}–{high_hz:.0f} Hz"
-
-
 def weighted_mean(per_hit: np.ndarray, weight: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Weighted mean over hits (axis 0) and the total weight per frequency: with the noise weights, H1."""
     total = weight.sum(axis=0)
@@ -968,7 +965,7 @@ def hit_spectra(
         quality.append(
             QualityNote(
                 "low coherence",
-                f"coherence below 0.9 in {_band_text(full_freq_hz[a], full_freq_hz[b])} "
+                f"coherence below 0.9 {in_band_words(full_freq_hz[a], full_freq_hz[b])} "
                 f"(minimum {coherence[a:b + 1].min():.2f}): the measurement is noisy there, weighted accordingly",
                 band_hz=(float(full_freq_hz[a]), float(full_freq_hz[b])),
             )

@@ -69,6 +69,7 @@ from gasfilm.analysis.diagnosis.selection import (
     finishing_fit,
 )
 from gasfilm.analysis.physics.effects import EFFECT_TYPES, FitContext, TermChange
+from gasfilm.analysis.quantities import band_text, in_band
 from gasfilm.analysis.physics.response import simulate_response
 from gasfilm.analysis.physics.spec import DescriptionError, RigSpec
 from gasfilm.analysis.threads import one_blas_thread
@@ -195,7 +196,7 @@ def diagnose_spectra(
     chi2_given = evidence.chi2(spec)
     rms_given = replay_rms(spectra, spec)
     progress(f"compared {evidence.hit_count} hits on {len(evidence.freq_hz)} frequencies "
-             f"{evidence.freq_hz[0]:.0f}–{evidence.freq_hz[-1]:.0f} Hz: χ²/point {chi2_given / points:.2f}")
+             f"{band_text(evidence.freq_hz[0], evidence.freq_hz[-1])}: χ²/point {chi2_given / points:.2f}")
 
     own_slots = spec_slots(spec, context, recalibration=structure_read_off_frf)
     recalibrated = _settle_quantised_replay(spectra, fit(evidence, spec, own_slots))
@@ -364,7 +365,7 @@ def _with_description_error(spectra: HitSpectra, spec: RigSpec) -> HitSpectra:
     covered = spectra.freq_hz[power > 0]
     note = QualityNote("description error", (
         f"the spec records how far it is from the recording it was written from ('{error.recording}', χ²/point "
-        f"{error.chi2_per_point:.2f} there) in {covered[0]:.0f}–{covered[-1]:.0f} Hz: that systematic error is "
+        f"{error.chi2_per_point:.2f} there) {in_band(covered[0], covered[-1])}: that systematic error is "
         f"taken into the noise model, so a change smaller than it cannot be seen there"),
         (float(covered[0]), float(covered[-1])))
     return dataclasses.replace(spectra, variance=spectra.variance + power, replay=replay,
@@ -1299,14 +1300,13 @@ def _claim(
     reference = measure(spectra, recalibrated) if per_hit else rms_recalibrated
     in_written = (100.0 * (measure(spectra, without) - measure(spectra, final.spec)) / reference if reference > 0
                   else 0.0)
-    band_text = f"{band[0]:.0f}–{band[1]:.0f} Hz"
     reason = None
     if after > limit:
         share = (before - after) / (before - 1.0) if before > 1.0 else 0.0
         removed = (f"{100 * share:.0f} % of the excess there removed" if share >= 0
                    else "worse there than without it")
-        reason = (f"a partial description: with it, its own band {band_text} stays at χ²/point {after:.2f} (1 = noise; "
-                  f"beyond the noise above {limit:.2f}), {removed}")
+        reason = (f"a partial description: with it, its own band ({band_text(*band)}) stays at χ²/point {after:.2f} "
+                  f"(1 = noise; {own_band_limit_text(limit)}), {removed}")
     elif in_written <= 0:
         reason = (f"the written spec replayed is not closer to the recordings with it than refitted without it "
                   f"(RMS gain {in_written:+.2f} % of the recalibrated spec's)")
@@ -1317,6 +1317,14 @@ def own_band_limit(spectra: HitSpectra, per_point: np.ndarray, lines: np.ndarray
     """The χ² per point above which a band is beyond the noise: :func:`own_band_chance`, never below
     ADEQUATE_CHI2_PER_POINT (a band of many lines is not held to a stricter standard than the whole)."""
     return max(own_band_chance(spectra, per_point, lines), ADEQUATE_CHI2_PER_POINT)
+
+
+def own_band_limit_text(limit: float) -> str:
+    """What the limit :func:`own_band_limit` gave a band means, in words: the χ²/point up to which it is noise."""
+    if limit > ADEQUATE_CHI2_PER_POINT:
+        return (f"up to {limit:.2f} counts as noise there, a level an F test says the noise alone exceeds only once in "
+                f"{1 / OWN_BAND_FALSE_ALARM:.0f}")
+    return f"up to {limit:.2f} counts as noise there, the margin the whole comparison is held to"
 
 
 def own_band_chance(spectra: HitSpectra, per_point: np.ndarray, lines: np.ndarray) -> float:
@@ -1395,15 +1403,15 @@ def _term_band(evidence: Evidence, final: RigSpec, without: RigSpec) -> tuple[fl
 
 
 def _where(index: int, spec: RigSpec, band: tuple[float, float]) -> str:
-    """A finding's location in words: its own signature's frequency first, consequences elsewhere as such."""
-    band_text = f"{band[0]:.0f}–{band[1]:.0f} Hz"
+    """A finding's location in words: its own signature's frequency first, consequences elsewhere as such; a band as
+    :func:`~gasfilm.analysis.quantities.band_text` writes it (its width shown, "at 3111 Hz" for one frequency)."""
     if spec.effects[index].type_name == "extra-mode":
         mode_hz = spec.effects[index].freq_hz
         own = f"near {mode_hz:.0f} Hz (its own peak/dip)"
         if band[0] <= mode_hz <= band[1]:
             return own
-        return f"{own}; its mass also moves the main resonance, where most of its χ² gain lies ({band_text})"
-    return band_text
+        return f"{own}; its mass also moves the main resonance, where most of its χ² gain lies ({band_text(*band)})"
+    return band_text(*band)
 
 
 def _values_at_the_ends(spec: RigSpec, index: int, evidence: Evidence) -> dict[str, float]:
@@ -1439,7 +1447,7 @@ def _finding(
         hits += ", changing with the hit's session time"
     elif identifier == "cubic-stiffness":
         hits += ", changing with the hit's force level"
-    sentence = effect.evidence(sigma, where, context)
+    sentence = effect.evidence(sigma, in_band(*band), context)
     # (a generic description is judged on the hits left out and on its own band, not on bands left out: none given)
     bands = ("" if type(effect).generic else
              f" and by {step.held_out_band_gain:.0f} on frequency bands left out of it")
@@ -1466,6 +1474,7 @@ def _finding(
         alternatives=alternatives,
         held_out_band_gain=step.held_out_band_gain,
         own_band_chi2_per_point=claim.own_band_chi2_per_point,
+        own_band_chi2_per_point_without=claim.own_band_without,
         own_band_limit=claim.own_band_limit,
         place=effect.place(),
         status="modelled" if type(effect).generic else "named",

@@ -35,6 +35,7 @@ from gasfilm.analysis.physics.effects import (
 )
 from gasfilm.analysis.physics.elements import get_model
 from gasfilm.analysis.physics.spec import MASS_RANGE_KG, RigSpec, film_parameter_range
+from gasfilm.analysis.quantities import band_text
 from gasfilm.analysis.spectra import (
     READ_MIN_COHERENCE,
     FrfResult,
@@ -203,8 +204,7 @@ def read_start_with_structure(
         readable = readable_lines(frf)
         resonances = sorted(resonance_lines(frf))
     if not resonances:
-        band = (f"{frf.freq_hz[readable][0]:.0f}–{frf.freq_hz[readable][-1]:.0f} Hz" if readable.any()
-                else "no line of it")
+        band = band_text(frf.freq_hz[readable][0], frf.freq_hz[readable][-1]) if readable.any() else "no line of it"
         raise SettingError(f"{recordings.source}: no resonance can be read off the FRF in the band the hammer "
                            f"excites with coherence ≥ 0.9 ({band}){_low_coherence_hint(frf)}; give the rig spec "
                            f"with --rig")
@@ -254,7 +254,7 @@ def read_start_with_structure(
                            effects=modes)
     spec = dataclasses.replace(spec, name=f"read off the FRF of {Path(recordings.source).name}")
     text = (f"resonance at {main_hz:.1f} Hz inside the hammer's band (force within 20 dB, coherence ≥ 0.9, "
-            f"{freq_hz[readable][0]:.0f}–{freq_hz[readable][-1]:.0f} Hz): spring-damper film k ≈ "
+            f"{band_text(freq_hz[readable][0], freq_hz[readable][-1])}): spring-damper film k ≈ "
             f"{spec.film_parameters['k']:.3g} N/m, c ≈ {damping:.3g} N·s/m on {mass_kg:.4g} kg ({how})")
     if quantised and len(resonances) > 1:
         text += (f"; the response is coarsely quantised, so the further peaks near "
@@ -362,7 +362,7 @@ def _read_structure(
     suspension_hz = np.sqrt(spec.film_parameters["k"] / mass_kg) / (2 * np.pi)
     text = (f"{why}: a structure read as modal analysis does (LSCF poles over {2 * LSCF_ORDER} model orders, stable in "
             f"frequency, damping and participation; LSFD constants with lower and upper residuals, "
-            f"{freq_hz[lines[0]]:.0f}–{freq_hz[lines[-1]]:.0f} Hz), {len(structure.modes)} modes at "
+            f"{band_text(freq_hz[lines[0]], freq_hz[lines[-1]])}), {len(structure.modes)} modes at "
             + ", ".join(f"{frequency:.0f}" for frequency in sorted(mode.freq_hz for mode in structure.modes))
             + f" Hz beside a mass line of {mass_kg:.4g} kg"
             + (" read with the opposite sign (response polarity −1)" if structure.polarity < 0 else "")

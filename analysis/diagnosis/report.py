@@ -2,8 +2,11 @@
 
 from __future__ import annotations
 
-from gasfilm.analysis.diagnosis.result import Diagnosis, within_one_sigma_of_zero
-from gasfilm.analysis.diagnosis.structure import STRUCTURE_CHANGED, structure_summary
+from gasfilm.analysis.diagnosis.pipeline import own_band_limit_text
+from gasfilm.analysis.diagnosis.result import Diagnosis, Finding, within_one_sigma_of_zero
+from gasfilm.analysis.diagnosis.structure import STRUCTURE_CHANGED, mode_row_notes, structure_summary
+from gasfilm.analysis.physics.effects import EFFECT_TYPES
+from gasfilm.analysis.quantities import band_text, bands_text, is_number, unit_suffix, with_uncertainty
 from gasfilm.drivers.interface import STANDARD_GRAVITY_M_S2 as G_M_S2
 
 #: A band not explained is listed on its own line when it holds at least this share of the excess χ²; the others are
@@ -26,7 +29,7 @@ def report_text(diagnosis: Diagnosis) -> str:
     """A plain-text report, every number with its unit."""
     lines = [f"gasfilm diagnose — verdict: {diagnosis.verdict}"]
     evidence = diagnosis.evidence
-    lines.append(f"  compared {evidence.hit_count} hits, {evidence.freq_hz[0]:.0f}–{evidence.freq_hz[-1]:.0f} Hz, "
+    lines.append(f"  compared {evidence.hit_count} hits, {band_text(evidence.freq_hz[0], evidence.freq_hz[-1])}, "
                  f"replayed with the recorded forces through the same windows")
     if diagnosis.spectra.noise is not None:
         lines.append(f"  noise: {diagnosis.spectra.noise.source} — {diagnosis.spectra.noise.detail}")
@@ -38,12 +41,13 @@ def report_text(diagnosis: Diagnosis) -> str:
         for name, row in diagnosis.recalibration.items():
             if name in modal:
                 continue
-            unit = f" {row['unit']}" if row.get("unit") and row["unit"] != "1" else ""
+            unit = unit_suffix(row.get("unit"))
             if row.get("at_bound"):
-                lines.append(f"    {name:34s} {row['spec']:.6g} → {row['fitted']:.6g}{unit} at the edge of its range: "
-                             f"not a measurement (the data do not determine it)")
+                lines.append(f"    {name:34s} {row['spec']:.6g}{unit} → {row['fitted']:.6g}{unit} at the edge of its "
+                             f"range: not a measurement (the data do not determine it)")
             else:
-                lines.append(f"    {name:34s} {row['spec']:.6g} → {row['fitted']:.6g} ± {row['uncertainty']:.2g}{unit}"
+                lines.append(f"    {name:34s} {row['spec']:.6g}{unit} → "
+                             f"{with_uncertainty(row['fitted'], row['uncertainty'], row.get('unit'))}"
                              + ("  (within one σ of zero: not determined by the data)"
                                 if within_one_sigma_of_zero(row["fitted"], row["uncertainty"]) else ""))
         if modal:
@@ -62,16 +66,14 @@ def report_text(diagnosis: Diagnosis) -> str:
             label = "measurement chain" if finding.kind == "measurement" else "missing physics"
         lines.append(f"  {label}: {finding.effect}  (where: {finding.where}; {finding.hits})")
         for name, row in finding.parameters.items():
-            lines.append(f"      {name:30s} {row['value']:.6g} ± {row['uncertainty']:.2g} {row['unit']}"
+            lines.append(f"      {name:30s} {with_uncertainty(row['value'], row['uncertainty'], row['unit'])}"
                          + ("  (not determined by the data)" if name in finding.undetermined else ""))
         if finding.undetermined:
             lines.append(f"      the data do not determine its {', '.join(finding.undetermined)} (within one σ of "
                          f"zero): a smaller description may do as well")
         lines.append(f"      why:  {finding.evidence}")
         lines.append(f"      what: {finding.explanation}")
-        lines.append(f"      gain over the recalibrated spec: {finding.gain_over_recalibrated:.1f} % RMS (the written "
-                     f"spec without it, refitted); its own band at χ²/point {finding.own_band_chi2_per_point:.2f} "
-                     f"(beyond the noise above {finding.own_band_limit:.2f})")
+        lines.extend(f"      {sentence}" for sentence in gain_sentences(finding))
         for alternative in finding.alternatives:
             lines.append(f"      or:   {alternative.effect} — {alternative.note}")
         if finding.mechanisms:
@@ -85,22 +87,21 @@ def report_text(diagnosis: Diagnosis) -> str:
     for item in (item for item in diagnosis.unexplained if item.chi2_share >= LISTED_SHARE):
         hits = "all hits" if len(item.hits) == diagnosis.evidence.hit_count else \
             f"hits {', '.join(str(hit + 1) for hit in item.hits)}"  # numbered from 1, as everywhere the user sees
-        lines.append(f"  NOT explained: {item.band_hz[0]:.0f}–{item.band_hz[1]:.0f} Hz, {hits}, "
+        lines.append(f"  NOT explained: {band_text(*item.band_hz)}, {hits}, "
                      f"{100 * item.chi2_share:.0f} % of the excess χ²: {item.character}")
         for candidate in item.candidates:
-            values = ", ".join(f"{name} {row['value']:.4g} ± {row['uncertainty']:.2g} {row['unit']}".rstrip()
+            values = ", ".join(f"{name} {with_uncertainty(row['value'], row['uncertainty'], row['unit'], '.4g')}"
                                for name, row in candidate.parameters.items())
             lines.append(f"      candidate description (not a finding): {candidate.effect} ({values})")
     if minor:
         lines.append(f"  and {len(minor)} more band(s) beyond the noise holding under {100 * LISTED_SHARE:.0f} % of the "
-                     f"excess χ² each (" + ", ".join(f"{item.band_hz[0]:.0f}–{item.band_hz[1]:.0f}" for item in minor)
-                     + " Hz; in --json)")
+                     f"excess χ² each ({bands_text([item.band_hz for item in minor])}; in --json)")
     listed = {id(candidate) for item in diagnosis.unexplained for candidate in item.candidates}
     others = [candidate for candidate in diagnosis.candidates if id(candidate) not in listed]
     if others:
         lines.append("  terms tried and not claimed:")
         for candidate in others:
-            lines.append(f"    {candidate.effect} ({candidate.band_hz[0]:.0f}–{candidate.band_hz[1]:.0f} Hz): "
+            lines.append(f"    {candidate.effect} ({band_text(*candidate.band_hz)}): "
                          f"{candidate.reason}")
     if diagnosis.restoring_force is not None:
         lines.append(f"  restoring force: {diagnosis.restoring_force.description()}")
@@ -125,13 +126,32 @@ def report_text(diagnosis: Diagnosis) -> str:
     return "\n".join(lines)
 
 
+def gain_sentences(finding: Finding) -> list[str]:
+    """How much better the written spec is with a finding's term, in words a test engineer reads: in the term's own
+    band, χ²/point without it → with it (1 = the noise) against where that band would be beyond the noise; and the
+    RMS gain over the whole band, said only when it shows (a narrow resonance hardly moves the RMS of the whole band,
+    however well it fits its own)."""
+    band = band_text(*finding.band_hz)
+    before = finding.own_band_chi2_per_point_without
+    change = (f"χ²/point {before:.2f} without it → {finding.own_band_chi2_per_point:.2f} with it"
+              if is_number(before) else f"χ²/point {finding.own_band_chi2_per_point:.2f} with it")
+    sentences = [f"in its own band ({band}): {change} (1 = the measured noise; "
+                 f"{own_band_limit_text(finding.own_band_limit)})"]
+    gain = f"{finding.gain_over_recalibrated:.1f}"
+    if float(gain) != 0:
+        per_hit = finding.effect in EFFECT_TYPES and EFFECT_TYPES[finding.effect].per_hit
+        sentences.append(f"over the whole band{', hit by hit' if per_hit else ''}: RMS {gain} % lower with it than "
+                         f"the written spec refitted without it (in % of the recalibrated spec's RMS)")
+    return sentences
+
+
 def _structure_lines(structure: dict, diagnosis: Diagnosis) -> list[str]:
     """The measured structure: how it was read off the FRF (when it was) and its mode table, by frequency."""
     lines = []
     read = structure["read_off_frf"]
     if read is not None:
         poles = read["poles"]
-        lines.append(f"  structure read off the FRF ({read['band_hz'][0]:.0f}–{read['band_hz'][1]:.0f} Hz): LSCF over "
+        lines.append(f"  structure read off the FRF ({band_text(*read['band_hz'])}): LSCF over "
                      f"{read['lscf_orders']} model orders, {poles['frequency, damping and participation']} poles "
                      f"stable in frequency, damping and participation; "
                      + ("a driving point" if read["driving_point"] else "a transfer FRF (modal constants of both signs)")
@@ -149,6 +169,6 @@ def _structure_lines(structure: dict, diagnosis: Diagnosis) -> list[str]:
     lines.append(f"    {'#':>3} {'frequency (Hz)':>14} {'damping ratio':>13} {'modal constant (1/kg)':>23}")
     for number, row in enumerate(rows, start=1):
         constant = f"{row['modal_constant_per_kg']:+.4g} {row['quadrature_per_kg']:+.2g}j"
-        note = "  above the band: upper residual" if row["above_band"] else ""
-        lines.append(f"    {number:>3} {row['freq_hz']:14.2f} {row['damping_ratio']:13.3g} {constant:>23}{note}")
+        lines.append(f"    {number:>3} {row['freq_hz']:14.2f} {row['damping_ratio']:13.3g} {constant:>23}  "
+                     f"{mode_row_notes(row)}".rstrip())
     return lines

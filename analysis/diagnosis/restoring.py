@@ -39,6 +39,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from gasfilm.analysis.quantities import band_text, rounded_band
+
 #: χ² gain (noise units, independent samples) a shape needs over the linear reference to be evidence, and the share
 #: of the reference's misfit beyond the noise it must remove.
 SHAPE_SIGNIFICANCE = 25.0
@@ -137,7 +139,7 @@ class RestoringForce:
 
     def description(self) -> str:
         """The shape in words, with its significance, and whether a catalog term has it."""
-        band = f"{self.band_hz[0]:.0f}–{self.band_hz[1]:.0f} Hz"
+        band = band_text(*self.band_hz)
         best = self.best
         if best is None:
             top = self.shapes[0] if self.shapes else None
@@ -157,7 +159,7 @@ class RestoringForce:
 
     def to_dict(self) -> dict:
         best = self.best
-        return {"band_hz": [round(self.band_hz[0], 1), round(self.band_hz[1], 1)],
+        return {"band_hz": rounded_band(*self.band_hz),
                 "stiffness_n_per_m": self.stiffness_n_per_m, "damping_ns_per_m": self.damping_ns_per_m,
                 "noise_n": self.noise_n, "independent_samples": round(self.independent_samples, 1),
                 "shapes": [shape.to_dict() for shape in self.shapes],

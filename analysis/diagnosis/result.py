@@ -13,6 +13,7 @@ from gasfilm.analysis.diagnosis.restoring import RestoringForce
 from gasfilm.analysis.diagnosis.selection import Evidence
 from gasfilm.analysis.diagnosis.structure import Structure, structure_summary
 from gasfilm.analysis.physics.spec import RigSpec
+from gasfilm.analysis.quantities import band_text, rounded_band
 from gasfilm.drivers.interface import STANDARD_GRAVITY_M_S2
 
 VERDICTS = ("consistent", "parameters-only", "missing physics", "modelled", "partly explained", "not explained")
@@ -56,6 +57,8 @@ class Finding:
     held_out_band_gain: float = 0.0  # χ² gain (noise units) on interleaved sub-bands left out of the fit
     own_band_chi2_per_point: float = 0.0  # χ² per point of the written spec in the term's own band (1 = noise)
     own_band_limit: float = 0.0  # χ² per point beyond which that band is beyond the noise (F test)
+    #: χ² per point in that band of the written spec refitted without the term (None: stored before it was kept)
+    own_band_chi2_per_point_without: float | None = None
     place: str = ""  # where in the chain (gasfilm.analysis.physics.effects.PLACES)
     status: str = "named"  # "named" or "modelled"
     features: dict[str, float] = field(default_factory=dict)  # what the description shows (frequency_hz, …)
@@ -78,7 +81,7 @@ class Finding:
             "undetermined": self.undetermined,
             "features": {name: _finite_or_none(value) for name, value in self.features.items()},
             "mechanisms": [mechanism.to_dict() for mechanism in self.mechanisms],
-            "band_hz": [round(self.band_hz[0], 1), round(self.band_hz[1], 1)],
+            "band_hz": rounded_band(*self.band_hz),
             "where": self.where,
             "parameters": self.parameters,
             "evidence": self.evidence,
@@ -89,6 +92,7 @@ class Finding:
             "gain_over_recalibrated": round(self.gain_over_recalibrated, 2),
             "held_out_band_gain": round(self.held_out_band_gain, 1),
             "own_band_chi2_per_point": round(self.own_band_chi2_per_point, 3),
+            "own_band_chi2_per_point_without": _rounded_or_none(self.own_band_chi2_per_point_without, 3),
             "own_band_limit": round(self.own_band_limit, 3),
             "alternatives": [alternative.to_dict() for alternative in self.alternatives],
         }
@@ -99,7 +103,7 @@ class Finding:
         band = tuple(values.get("band_hz", (0.0, 0.0)))
         return cls(
             effect=values["effect"], kind=values.get("kind", "rig"), band_hz=band,
-            where=values.get("where", f"{band[0]:.0f}–{band[1]:.0f} Hz"), parameters=values.get("parameters", {}),
+            where=values.get("where", band_text(*band)), parameters=values.get("parameters", {}),
             evidence=values.get("evidence", ""), explanation=values.get("explanation", ""),
             hits=values.get("hits", ""), chi2_gain=values.get("chi2_gain", 0.0),
             held_out_gain=values.get("held_out_gain", 0.0),
@@ -108,6 +112,7 @@ class Finding:
             held_out_band_gain=values.get("held_out_band_gain", 0.0),
             own_band_chi2_per_point=values.get("own_band_chi2_per_point", 0.0),
             own_band_limit=values.get("own_band_limit", 0.0),
+            own_band_chi2_per_point_without=values.get("own_band_chi2_per_point_without"),
             place=values.get("place", ""), status=values.get("status", "named"),
             features={name: value for name, value in values.get("features", {}).items() if value is not None},
             mechanisms=[MechanismMatch(m["name"], m.get("note", ""), m.get("tell_apart", ""), bool(m.get("tied")))
@@ -118,6 +123,12 @@ class Finding:
 def _finite_or_none(value: float) -> float | None:
     """A number for JSON: non-finite values are null (JSON has no NaN)."""
     return float(value) if value == value and abs(value) != float("inf") else None
+
+
+def _rounded_or_none(value: float | None, digits: int) -> float | None:
+    """A number for JSON rounded to ``digits`` decimals; null when there is none or it is not finite."""
+    finite = None if value is None else _finite_or_none(value)
+    return None if finite is None else round(finite, digits)
 
 
 @dataclass
@@ -132,7 +143,7 @@ class CandidateDescription:
     reason: str
 
     def to_dict(self) -> dict:
-        return {"effect": self.effect, "band_hz": [round(self.band_hz[0], 1), round(self.band_hz[1], 1)],
+        return {"effect": self.effect, "band_hz": rounded_band(*self.band_hz),
                 "parameters": self.parameters, "reason": self.reason}
 
 
@@ -148,7 +159,7 @@ class Unexplained:
     unmodelled_resonances_hz: list[float] = field(default_factory=list)  # resonances here the spec does not have
 
     def to_dict(self) -> dict:
-        return {"band_hz": [round(self.band_hz[0], 1), round(self.band_hz[1], 1)],
+        return {"band_hz": rounded_band(*self.band_hz),
                 "hits": [hit + 1 for hit in self.hits],
                 "chi2_share": round(self.chi2_share, 3), "character": self.character,
                 "candidates": [candidate.to_dict() for candidate in self.candidates],

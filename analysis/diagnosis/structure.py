@@ -31,7 +31,9 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.optimize
 
-from gasfilm.analysis.physics.effects import MAX_MODAL_CONSTANT_PER_KG, MIN_DAMPING_RATIO, StructureMode
+from gasfilm.analysis.diagnosis.fitspace import AT_BOUND_FRACTION
+from gasfilm.analysis.physics.effects import (MAX_MODAL_CONSTANT_PER_KG, MIN_DAMPING_RATIO, MODE_DAMPING_RANGE,
+                                              StructureMode)
 from gasfilm.analysis.threads import one_blas_thread
 
 logger = logging.getLogger(__name__)
@@ -169,6 +171,28 @@ def mode_rows(modes: list[StructureMode]) -> list[dict]:
              "modal_constant_per_kg": mode.modal_constant_per_kg, "quadrature_per_kg": mode.quadrature_per_kg,
              "modal_constant_size_per_kg": float(np.hypot(mode.modal_constant_per_kg, mode.quadrature_per_kg))}
             for mode in sorted(modes, key=lambda mode: mode.freq_hz)]
+
+
+#: What the mode table says of a mode whose damping ratio is the fitter's floor (:func:`at_damping_floor`).
+AT_DAMPING_FLOOR = "damping ratio at the fitter's floor: not determined"
+#: What it says of the mode that stands for the modes above the band.
+UPPER_RESIDUAL = "above the band: upper residual"
+
+
+def at_damping_floor(damping_ratio: float) -> bool:
+    """Whether a mode's damping ratio is the fitter's floor (:data:`MIN_DAMPING_RATIO`, the bottom of
+    :data:`MODE_DAMPING_RANGE`), judged as a fitted value at its bound is (within :data:`AT_BOUND_FRACTION` of the
+    range's logarithmic span): held there by the fit, not determined by the data."""
+    low, high = np.log(MODE_DAMPING_RANGE.lower), np.log(MODE_DAMPING_RANGE.upper)
+    return float(np.log(max(damping_ratio, MODE_DAMPING_RANGE.lower))) - low <= AT_BOUND_FRACTION * (high - low)
+
+
+def mode_row_notes(row: dict) -> str:
+    """What the mode table says of one row of :func:`mode_rows` (as stored in a diagnosis), beside its numbers: a
+    damping ratio at the fitter's floor, the mode above the band; "" for neither."""
+    damping = row.get("damping_ratio")
+    floor = isinstance(damping, (int, float)) and bool(np.isfinite(damping)) and at_damping_floor(damping)
+    return "; ".join(([AT_DAMPING_FLOOR] if floor else []) + ([UPPER_RESIDUAL] if row.get("above_band") else []))
 
 
 @one_blas_thread

@@ -20,6 +20,7 @@ from typing import Any, Callable, ClassVar, Mapping
 
 import numpy as np
 
+from gasfilm.analysis.quantities import with_uncertainty
 from gasfilm.drivers.errors import GasfilmError
 
 CHANNELS = ("force", "acceleration")
@@ -197,8 +198,9 @@ class Effect:
         return self.implausible(context)
 
     def evidence(self, sigma: Mapping[str, float], where: str, context: FitContext) -> str:
-        """What the recordings show, in words, with this term's values; ``where`` names the band."""
-        return f"the term improves the fit in {where}"
+        """What the recordings show, in words, with this term's values; ``where`` says where, with its preposition
+        ("in 4065–4155 Hz", "at 3111 Hz": :func:`gasfilm.analysis.quantities.in_band`)."""
+        return f"the term improves the fit {where}"
 
     def place(self) -> str:
         """Where in the chain the effect sits (:data:`PLACES`): a change between hits for per-hit terms, the
@@ -257,6 +259,8 @@ def _band_excitable(freq_hz: float, context: FitContext) -> str | None:
 
 #: The lightest damping an extra mode may have: its ringing must decay within a simulated record.
 MIN_DAMPING_RATIO = 1e-4
+#: Where a fit looks for a mode's damping ratio: from :data:`MIN_DAMPING_RATIO`, the fitter's floor, to 0.5.
+MODE_DAMPING_RANGE = FitRange("log", MIN_DAMPING_RATIO, 0.5)
 #: The lightest part an extra mode may model (kg): lighter ones are far below any measurement's noise.
 MIN_MODE_MASS_KG = 1e-9
 #: An extra mode more damped than this has no localised peak/dip (half-power width above a fifth of its frequency).
@@ -294,7 +298,7 @@ class ExtraMode(Effect):
 
     def fit_ranges(self, context: FitContext) -> dict[str, FitRange]:
         low, high = context.band_hz
-        return {"freq_hz": FitRange("log", 0.5 * low, 1.5 * high), "damping_ratio": FitRange("log", 1e-4, 0.5),
+        return {"freq_hz": FitRange("log", 0.5 * low, 1.5 * high), "damping_ratio": MODE_DAMPING_RANGE,
                 "mass_kg": FitRange("log", 1e-6 * context.mass_kg, context.mass_kg)}
 
     def implausible(self, context: FitContext) -> str | None:
@@ -312,8 +316,9 @@ class ExtraMode(Effect):
 
     def evidence(self, sigma: Mapping[str, float], where: str, context: FitContext) -> str:
         mass = f"{self.mass_kg:.3g} kg" if self.mass_kg >= 1.0 else f"{self.mass_kg * 1e3:.3g} g"
-        return (f"a localised peak/dip pattern near {self.freq_hz:.1f} ± {sigma['freq_hz']:.1f} Hz that the film "
-                f"model cannot produce: an additional resonance of {mass} (damping ratio {self.damping_ratio:.3g})")
+        freq = with_uncertainty(self.freq_hz, sigma["freq_hz"], "Hz", ".1f", ".1f")
+        return (f"a localised peak/dip pattern near {freq} that the film model cannot produce: an additional resonance "
+                f"of {mass} (damping ratio {self.damping_ratio:.3g})")
 
 
 @register_effect("support-mode")
@@ -343,7 +348,7 @@ class SupportMode(Effect):
 
     def fit_ranges(self, context: FitContext) -> dict[str, FitRange]:
         low, high = context.band_hz
-        return {"freq_hz": FitRange("log", 0.5 * low, high), "damping_ratio": FitRange("log", 1e-4, 0.5),
+        return {"freq_hz": FitRange("log", 0.5 * low, high), "damping_ratio": MODE_DAMPING_RANGE,
                 "mass_kg": FitRange("log", 0.05 * context.mass_kg, 100.0 * context.mass_kg)}
 
     def system_resonances(self, spec: Any) -> tuple[tuple[float, float], tuple[float, float]]:
@@ -396,9 +401,9 @@ class SupportMode(Effect):
 
     def evidence(self, sigma: Mapping[str, float], where: str, context: FitContext) -> str:
         return (f"a second resonance and a lower film resonance that a mode of the support in series with the film "
-                f"makes: {self.mass_kg:.3g} ± {sigma['mass_kg']:.2g} kg at the bearing, "
-                f"{self.freq_hz:.1f} ± {sigma['freq_hz']:.1f} Hz on its own (damping ratio {self.damping_ratio:.3g}), "
-                f"in {where}")
+                f"makes: {with_uncertainty(self.mass_kg, sigma['mass_kg'], 'kg', '.3g')} at the bearing, "
+                f"{with_uncertainty(self.freq_hz, sigma['freq_hz'], 'Hz', '.1f', '.1f')} on its own (damping ratio "
+                f"{self.damping_ratio:.3g}), {where}")
 
 
 @register_effect("structure-mode")
@@ -441,13 +446,14 @@ class StructureMode(Effect):
     def fit_ranges(self, context: FitContext) -> dict[str, FitRange]:
         low, high = context.band_hz
         limit = MAX_MODAL_CONSTANT_PER_KG
-        return {"freq_hz": FitRange("log", 0.5 * low, 1.5 * high), "damping_ratio": FitRange("log", 1e-4, 0.5),
+        return {"freq_hz": FitRange("log", 0.5 * low, 1.5 * high), "damping_ratio": MODE_DAMPING_RANGE,
                 "modal_constant_per_kg": FitRange("linear", -limit, limit),
                 "quadrature_per_kg": FitRange("linear", -limit, limit)}
 
     def evidence(self, sigma: Mapping[str, float], where: str, context: FitContext) -> str:
-        return (f"a resonance near {self.freq_hz:.1f} ± {sigma['freq_hz']:.1f} Hz (damping ratio "
-                f"{self.damping_ratio:.3g}, modal constant {self.modal_constant_per_kg:+.3g} 1/kg), in {where}")
+        freq = with_uncertainty(self.freq_hz, sigma["freq_hz"], "Hz", ".1f", ".1f")
+        return (f"a resonance near {freq} (damping ratio {self.damping_ratio:.3g}, modal constant "
+                f"{self.modal_constant_per_kg:+.3g} 1/kg), {where}")
 
 
 #: The largest modal constant a structure mode may have (1/kg): a modal mass of a milligram.
@@ -498,9 +504,9 @@ class CubicStiffness(Effect):
     def evidence(self, sigma: Mapping[str, float], where: str, context: FitContext) -> str:
         change = CUBIC_EQUIVALENT * self.k3_n_per_m3 * context.max_displacement_m**2 / context.film_stiffness_n_per_m
         kind = "stiffer" if self.k3_n_per_m3 > 0 else "softer"
+        k3 = with_uncertainty(self.k3_n_per_m3, sigma["k3_n_per_m3"], "N/m³", ".3g")
         return (f"harder hits resonate differently from softer ones: the film is {kind} at large amplitude "
-                f"(k3 = {self.k3_n_per_m3:.3g} ± {sigma['k3_n_per_m3']:.2g} N/m³, {100 * change:+.2f} % stiffness at "
-                f"the hardest hit), in {where}")
+                f"(k3 = {k3}, {100 * change:+.2f} % stiffness at the hardest hit), {where}")
 
 
 #: Equivalent linearisation of a cubic spring seen through the FRF of a free decay: ``Δk = c · k3 · x0²`` (harmonic
@@ -537,9 +543,9 @@ class ChannelDelay(Effect):
     def evidence(self, sigma: Mapping[str, float], where: str, context: FitContext) -> str:
         top_hz = context.band_hz[1]
         lag = self.delay_s if self.channel == "acceleration" else -self.delay_s
+        delay = with_uncertainty(lag * 1e6, sigma["delay_s"] * 1e6, "µs", ".1f", ".1f")
         return (f"the phase error grows linearly with frequency while the magnitude matches: the response lags the "
-                f"force by {lag * 1e6:.1f} ± {sigma['delay_s'] * 1e6:.1f} µs ({360 * top_hz * lag:.2f}° at "
-                f"{top_hz:.0f} Hz)")
+                f"force by {delay} ({360 * top_hz * lag:.2f}° at {top_hz:.0f} Hz)")
 
 
 @register_effect("added-mass")
@@ -569,8 +575,8 @@ class AddedMass(Effect):
         return None
 
     def evidence(self, sigma: Mapping[str, float], where: str, context: FitContext) -> str:
-        return (f"the high-frequency level and the resonance both move as a mass change of {self.mass_kg * 1e3:+.4g} "
-                f"± {sigma['mass_kg'] * 1e3:.2g} g predicts ({where})")
+        return (f"the high-frequency level and the resonance both move as a mass change of "
+                f"{with_uncertainty(self.mass_kg * 1e3, sigma['mass_kg'] * 1e3, 'g', '+.4g')} predicts ({where})")
 
 
 @register_effect("drift")
@@ -601,11 +607,11 @@ class Drift(Effect):
 
     def evidence(self, sigma: Mapping[str, float], where: str, context: FitContext) -> str:
         span_h = context.session_span_s / 3600.0
+        stiffness, damping = (with_uncertainty(100 * getattr(self, name) * span_h, 100 * sigma[name] * span_h, "%",
+                                               "+.2f", ".2f")
+                              for name in ("fraction_per_hour", "damping_fraction_per_hour"))
         return (f"the resonance moves steadily from early to late hits: over the {context.session_span_s:.0f} s "
-                f"session the film stiffness changes by {100 * self.fraction_per_hour * span_h:+.2f} ± "
-                f"{100 * sigma['fraction_per_hour'] * span_h:.2f} % and its damping by a further "
-                f"{100 * self.damping_fraction_per_hour * span_h:+.2f} ± "
-                f"{100 * sigma['damping_fraction_per_hour'] * span_h:.2f} %, in {where}")
+                f"session the film stiffness changes by {stiffness} and its damping by a further {damping}, {where}")
 
 
 def _positive_scale(scale: np.ndarray, name: str, time_s: np.ndarray | float) -> np.ndarray | float:
@@ -646,10 +652,10 @@ class StepChange(Effect):
         return {"fraction": FitRange("linear", -0.5, 0.5), "damping_fraction": FitRange("linear", -0.5, 0.5)}
 
     def evidence(self, sigma: Mapping[str, float], where: str, context: FitContext) -> str:
+        stiffness, damping = (with_uncertainty(100 * getattr(self, name), 100 * sigma[name], "%", "+.2f", ".2f")
+                              for name in ("fraction", "damping_fraction"))
         return (f"hits before and after t = {self.at_time_s:.1f} s form two groups with no trend inside either: the "
-                f"film stiffness steps by {100 * self.fraction:+.2f} ± {100 * sigma['fraction']:.2f} % and its damping "
-                f"by a further {100 * self.damping_fraction:+.2f} ± {100 * sigma['damping_fraction']:.2f} %, "
-                f"in {where}")
+                f"film stiffness steps by {stiffness} and its damping by a further {damping}, {where}")
 
 
 @register_effect("mains")
@@ -759,8 +765,8 @@ class PneumaticLag(Effect):
 
     def evidence(self, sigma: Mapping[str, float], where: str, context: FitContext) -> str:
         return (f"near the resonance the film damps less than a spring-damper can explain: a lagged film force "
-                f"(k = {self.k_lag:.3g} N/m, time constant {self.tau_lag * 1e3:.3f} ± {sigma['tau_lag'] * 1e3:.3f} "
-                f"ms), in {where}")
+                f"(k = {self.k_lag:.3g} N/m, time constant "
+                f"{with_uncertainty(self.tau_lag * 1e3, sigma['tau_lag'] * 1e3, 'ms', '.3f', '.3f')}), {where}")
 
 
 @register_effect("film-memory")
@@ -794,8 +800,8 @@ class FilmMemory(Effect):
                 "alpha_memory": FitRange("linear", 0.05, 1.9)}
 
     def evidence(self, sigma: Mapping[str, float], where: str, context: FitContext) -> str:
-        return (f"the residual changes smoothly across {where} the way a frequency-dependent stiffness and damping "
-                f"does (spring-pot order {self.alpha_memory:.2f} ± {sigma['alpha_memory']:.2f})")
+        return (f"the residual changes smoothly {where} the way a frequency-dependent stiffness and damping does "
+                f"(spring-pot order {with_uncertainty(self.alpha_memory, sigma['alpha_memory'], '', '.2f', '.2f')})")
 
 
 @register_effect("ac-coupling")
@@ -822,7 +828,7 @@ class AcCoupling(Effect):
 
     def evidence(self, sigma: Mapping[str, float], where: str, context: FitContext) -> str:
         return (f"at the low end of the band the {self.channel} phase leads and its magnitude drops like a high-pass "
-                f"at {self.corner_hz:.2f} ± {sigma['corner_hz']:.2f} Hz")
+                f"at {with_uncertainty(self.corner_hz, sigma['corner_hz'], 'Hz', '.2f', '.2f')}")
 
 
 @register_effect("sensitivity-error")
@@ -850,8 +856,8 @@ class SensitivityError(Effect):
         return {"fraction": FitRange("linear", -0.3, 0.3)}
 
     def evidence(self, sigma: Mapping[str, float], where: str, context: FitContext) -> str:
-        return (f"the FRF is {100 * self.fraction:+.2f} ± {100 * sigma['fraction']:.2f} % off at every frequency, as a "
-                f"wrong {self.channel} sensitivity makes it")
+        fraction = with_uncertainty(100 * self.fraction, 100 * sigma["fraction"], "%", "+.2f", ".2f")
+        return f"the FRF is {fraction} off at every frequency, as a wrong {self.channel} sensitivity makes it"
 
 
 @register_effect("cross-talk")
@@ -879,8 +885,9 @@ class CrossTalk(Effect):
 
     def evidence(self, sigma: Mapping[str, float], where: str, context: FitContext) -> str:
         share = 100 * self.leak_m_s2_per_n * context.mass_kg
-        return (f"a constant {self.leak_m_s2_per_n:.3g} ± {sigma['leak_m_s2_per_n']:.2g} (m/s²)/N is added to the "
-                f"FRF ({share:+.2f} % of the mass line), most visible where the true FRF is small, in {where}")
+        leak = with_uncertainty(self.leak_m_s2_per_n, sigma["leak_m_s2_per_n"], "(m/s²)/N", ".3g")
+        return (f"a constant {leak} is added to the FRF ({share:+.2f} % of the mass line), most visible where the true "
+                f"FRF is small, {where}")
 
 
 #: The squeeze number at which a squeeze film's loss (the imaginary part of ``1 − tanh(q/2)/(q/2)``, q = √(jσ))
@@ -946,10 +953,10 @@ class SqueezeFilm(Effect):
 
     def evidence(self, sigma: Mapping[str, float], where: str, context: FitContext) -> str:
         omega = 2 * np.pi * context.resonance_hz
-        return (f"the film stiffens and its damping falls with frequency as a squeeze film does: gap "
-                f"{self.gap_m * 1e6:.2f} ± {sigma['gap_m'] * 1e6:.2f} µm under a {self.length_m * 1e3:.0f} × "
-                f"{self.width_m * 1e3:.0f} mm plate (squeeze number {self.squeeze_time_s * omega:.2g} at the "
-                f"resonance), in {where}")
+        gap = with_uncertainty(self.gap_m * 1e6, sigma["gap_m"] * 1e6, "µm", ".2f", ".2f")
+        return (f"the film stiffens and its damping falls with frequency as a squeeze film does: gap {gap} under a "
+                f"{self.length_m * 1e3:.0f} × {self.width_m * 1e3:.0f} mm plate (squeeze number "
+                f"{self.squeeze_time_s * omega:.2g} at the resonance), {where}")
 
 
 @register_effect("friction")
@@ -975,7 +982,7 @@ class Friction(Effect):
 
     def evidence(self, sigma: Mapping[str, float], where: str, context: FitContext) -> str:
         return (f"the damping grows as hits get softer, as dry friction makes it: an effective friction force of "
-                f"{self.friction_force_n:.3g} ± {sigma['friction_force_n']:.2g} N, in {where}")
+                f"{with_uncertainty(self.friction_force_n, sigma['friction_force_n'], 'N', '.3g')}, {where}")
 
 
 @register_effect("quadratic-damping")
@@ -1003,8 +1010,8 @@ class QuadraticDamping(Effect):
         return {"coefficient_n_s2_per_m2": FitRange("log", 1e-6 * limit, limit)}
 
     def evidence(self, sigma: Mapping[str, float], where: str, context: FitContext) -> str:
-        return (f"the damping grows with the hit's velocity, as quadratic (flow) damping makes it: c2 = "
-                f"{self.coefficient_n_s2_per_m2:.3g} ± {sigma['coefficient_n_s2_per_m2']:.2g} N·s²/m², in {where}")
+        c2 = with_uncertainty(self.coefficient_n_s2_per_m2, sigma["coefficient_n_s2_per_m2"], "N·s²/m²", ".3g")
+        return f"the damping grows with the hit's velocity, as quadratic (flow) damping makes it: c2 = {c2}, {where}"
 
 
 # --- generic descriptions: the smallest model of a place in the chain, named afterwards from its features ----------
@@ -1029,7 +1036,7 @@ class SideMode(StructureMode):
     def fit_ranges(self, context: FitContext) -> dict[str, FitRange]:
         low, high = context.band_hz
         limit = SIDE_MODE_MASS_LINES / context.mass_kg
-        return {"freq_hz": FitRange("log", 0.5 * low, 1.5 * high), "damping_ratio": FitRange("log", 1e-4, 0.5),
+        return {"freq_hz": FitRange("log", 0.5 * low, 1.5 * high), "damping_ratio": MODE_DAMPING_RANGE,
                 "modal_constant_per_kg": FitRange("linear", -limit, limit)}
 
     def implausible(self, context: FitContext) -> str | None:
@@ -1041,10 +1048,10 @@ class SideMode(StructureMode):
 
     def evidence(self, sigma: Mapping[str, float], where: str, context: FitContext) -> str:
         share = self.modal_constant_per_kg * context.mass_kg
-        return (f"a resonance near {self.freq_hz:.1f} ± {sigma['freq_hz']:.1f} Hz (damping ratio "
-                f"{self.damping_ratio:.3g}) beside the mover's own motion, with a modal constant of "
-                f"{self.modal_constant_per_kg:+.3g} ± {sigma['modal_constant_per_kg']:.2g} 1/kg ({share:+.3g} times the "
-                f"mover's mass line), in {where}")
+        freq = with_uncertainty(self.freq_hz, sigma["freq_hz"], "Hz", ".1f", ".1f")
+        constant = with_uncertainty(self.modal_constant_per_kg, sigma["modal_constant_per_kg"], "1/kg", "+.3g")
+        return (f"a resonance near {freq} (damping ratio {self.damping_ratio:.3g}) beside the mover's own motion, with "
+                f"a modal constant of {constant} ({share:+.3g} times the mover's mass line), {where}")
 
 
 #: A side mode's modal constant is at most this many times the mover's mass line 1/M (a modal mass of M/10).
@@ -1083,11 +1090,11 @@ class FilmBranch(Effect):
 
     def evidence(self, sigma: Mapping[str, float], where: str, context: FitContext) -> str:
         phase = np.pi / 2 * self.order
-        return (f"the film's dynamic stiffness differs by a branch growing as frequency to the power {self.order:.2f} "
-                f"± {sigma['order']:.2f}: at {self.reference_hz:.0f} Hz "
+        return (f"the film's dynamic stiffness differs by a branch growing as frequency to the power "
+                f"{with_uncertainty(self.order, sigma['order'], '', '.2f', '.2f')}: at {self.reference_hz:.0f} Hz "
                 f"{self.stiffness_n_per_m * np.cos(phase):+.3g} N/m of stiffness and "
                 f"{self.stiffness_n_per_m * np.sin(phase) / (2 * np.pi * self.reference_hz):+.3g} N·s/m of damping, "
-                f"in {where}")
+                f"{where}")
 
 
 #: The orders a film branch may take: at 0 a spring-pot is a spring beside the film's own, at 2 a mass beside the
@@ -1135,9 +1142,9 @@ class ChannelResonance(Effect):
 
     def evidence(self, sigma: Mapping[str, float], where: str, context: FitContext) -> str:
         way = "rises" if self.channel == "acceleration" else "falls"
-        return (f"the FRF {way} towards a resonance of the {self.channel} channel itself near {self.freq_hz:.0f} ± "
-                f"{sigma['freq_hz']:.0f} Hz (damping ratio {self.damping_ratio:.2g}), whatever the mover does, in "
-                f"{where}")
+        return (f"the FRF {way} towards a resonance of the {self.channel} channel itself near "
+                f"{with_uncertainty(self.freq_hz, sigma['freq_hz'], 'Hz', '.0f', '.0f')} (damping ratio "
+                f"{self.damping_ratio:.2g}), whatever the mover does, {where}")
 
 
 @register_effect("channel-pole-zero")
@@ -1209,10 +1216,11 @@ class ChannelPoleZero(Effect):
 
     def evidence(self, sigma: Mapping[str, float], where: str, context: FitContext) -> str:
         return (f"the FRF is scaled and turned smoothly with frequency as a first-order factor of the measurement "
-                f"chain does: a pole at {self.pole_hz:.4g} ± {sigma['pole_hz']:.2g} Hz and a zero at "
-                f"{self.zero_hz:.4g} ± {sigma['zero_hz']:.2g} Hz, a gain of {self.gain:.3g} ± {sigma['gain']:.2g} at "
+                f"chain does: a pole at {with_uncertainty(self.pole_hz, sigma['pole_hz'], 'Hz', '.4g')} and a zero at "
+                f"{with_uncertainty(self.zero_hz, sigma['zero_hz'], 'Hz', '.4g')}, a gain of "
+                f"{with_uncertainty(self.gain, sigma['gain'], '', '.3g')} at "
                 f"{self.reference_hz:.0f} Hz ({self.gain_below_corners():.3g} below both corners, "
-                f"{self.gain_above_corners():.3g} above both), in {where}")
+                f"{self.gain_above_corners():.3g} above both), {where}")
 
 
 @register_effect("channel-power-law")
@@ -1251,10 +1259,11 @@ class ChannelPowerLaw(Effect):
                 "phase_deg": 90.0 * self.exponent, "gain": self.gain}
 
     def evidence(self, sigma: Mapping[str, float], where: str, context: FitContext) -> str:
-        return (f"the FRF is scaled by frequency to the power {self.exponent:+.4f} ± {sigma['exponent']:.4f} "
+        return (f"the FRF is scaled by frequency to the power "
+                f"{with_uncertainty(self.exponent, sigma['exponent'], '', '+.4f', '.4f')} "
                 f"({100 * (10**self.exponent - 1):+.2f} % per decade, a constant phase of {90 * self.exponent:+.2f}°; "
                 f"{self.gain:.4f} at {self.reference_hz:.0f} Hz), as a sensor whose sensitivity changes with frequency "
-                f"makes it, in {where}")
+                f"makes it, {where}")
 
 
 #: A channel power law's exponent stays within ±this (±0.3: a factor of 2 per decade).
@@ -1372,8 +1381,8 @@ class TermDrift(TermChange):
         span = context.blow_span if blows else context.session_span_s / 3600.0
         rate, spread = getattr(self, name), sigma[name]
         return (f"the term's {self.parameter} moves steadily {'blow by blow' if blows else 'over the session'}: "
-                f"{rate:+.4g} ± {spread:.2g} per {'blow' if blows else 'hour'} "
-                f"({rate * span:+.3g} ± {spread * span:.2g} from the first hit to the last), in {where}")
+                f"{with_uncertainty(rate, spread, '', '+.4g')} per {'blow' if blows else 'hour'} "
+                f"({with_uncertainty(rate * span, spread * span, '', '+.3g')} from the first hit to the last), {where}")
 
 
 #: A steady change of a positive value moves it by at most this fraction over the session with session time (±90 %),
@@ -1423,9 +1432,9 @@ class TermLevel(TermChange):
         return {"exponent": self.exponent}
 
     def evidence(self, sigma: Mapping[str, float], where: str, context: FitContext) -> str:
-        return (f"the term's {self.parameter} follows the hit level as impulse to the power {self.exponent:+.3f} ± "
-                f"{sigma['exponent']:.3f} ({100 * (2**self.exponent - 1):+.1f} % for a hit twice as hard), in "
-                f"{where}")
+        return (f"the term's {self.parameter} follows the hit level as impulse to the power "
+                f"{with_uncertainty(self.exponent, sigma['exponent'], '', '+.3f', '.3f')} "
+                f"({100 * (2**self.exponent - 1):+.1f} % for a hit twice as hard), {where}")
 
 
 @register_effect("term-onset")
@@ -1450,7 +1459,7 @@ class TermOnset(TermChange):
         return {"at_time_s": self.at_time_s}
 
     def evidence(self, sigma: Mapping[str, float], where: str, context: FitContext) -> str:
-        return f"the term acts from {self.at_time_s:.1f} s of the session on, not before, in {where}"
+        return f"the term acts from {self.at_time_s:.1f} s of the session on, not before, {where}"
 
 
 #: A change never takes a term's value below this share of itself (a value of 0 is no term, and many are > 0).

@@ -27,6 +27,9 @@ from PySide6.QtWidgets import (
 
 from gasfilm.analysis.diagnosis import Finding
 from gasfilm.analysis.diagnosis.pipeline import replayed_mean
+from gasfilm.analysis.diagnosis.report import gain_sentences
+from gasfilm.analysis.diagnosis.structure import mode_row_notes
+from gasfilm.analysis.quantities import band_text, uncertainty_text, unit_word
 from gasfilm.app.gui.controller import SessionController
 from gasfilm.app.gui.widgets import MEASURED_COLOR, PALETTE, FixedHeightLabel, make_plot, pen
 from gasfilm.drivers.errors import GasfilmError
@@ -243,7 +246,7 @@ class DiagnoseTab(QWidget):
         self._show_unexplained([item.to_dict() for item in diagnosis.unexplained])
         self._show_structure(diagnosis.to_dict().get("structure"))
         for note in diagnosis.quality:
-            band = f" ({note.band_hz[0]:.0f}–{note.band_hz[1]:.0f} Hz)" if note.band_hz else ""
+            band = f" ({band_text(*note.band_hz)})" if note.band_hz else ""
             self.quality.addItem(f"{note.kind}{band}: {note.message}")
         if self.findings.count():
             self.findings.setCurrentRow(0)
@@ -268,7 +271,7 @@ class DiagnoseTab(QWidget):
         self._show_unexplained(stored.get("unexplained", []))
         self._show_structure(stored.get("structure"))
         for note in stored["quality"]:
-            band = f" ({note['band_hz'][0]:.0f}–{note['band_hz'][1]:.0f} Hz)" if note.get("band_hz") else ""
+            band = f" ({band_text(*note['band_hz'])})" if note.get("band_hz") else ""
             self.quality.addItem(f"{note['kind']}{band}: {note['message']}")
         if self.findings.count():
             self.findings.setCurrentRow(0)
@@ -285,7 +288,7 @@ class DiagnoseTab(QWidget):
             return
         rows = "".join(
             f"<tr><td>{name}</td><td align='right'>{values['value']:.4g}</td>"
-            f"<td align='right'>± {values['uncertainty']:.2g}</td><td>{values['unit']}</td>"
+            f"<td align='right'>{uncertainty_text(values['uncertainty'])}</td><td>{unit_word(values['unit'])}</td>"
             f"<td>{'not determined by the data' if name in finding.undetermined else ''}</td></tr>"
             for name, values in finding.parameters.items()
         )
@@ -304,8 +307,8 @@ class DiagnoseTab(QWidget):
             f"<p><b>What:</b></p><table cellpadding='3'>{rows}</table>"
             f"<p><b>Why:</b> {finding.evidence}</p>"
             f"<p><b>In plain words:</b> {finding.explanation}</p>"
-            f"<p><b>How much better:</b> χ² gain {finding.chi2_gain:.0f}, on held-out hits {finding.held_out_gain:.0f}; "
-            f"RMS {finding.gain_over_recalibrated:.1f} % below the recalibrated spec</p>"
+            f"<p><b>How much better:</b> χ² gain {finding.chi2_gain:.0f}, on held-out hits {finding.held_out_gain:.0f} "
+            f"(noise units); {'; '.join(gain_sentences(finding))}</p>"
             + "".join(f"<p><b>Or:</b> {alternative.effect} — {alternative.note}</p>"
                       for alternative in finding.alternatives)
         )
@@ -350,7 +353,7 @@ class DiagnoseTab(QWidget):
             f"<tr><td>{number}</td><td align='right'>{row['freq_hz']:.2f}</td>"
             f"<td align='right'>{row['damping_ratio']:.3g}</td><td align='right'>{row['modal_constant_per_kg']:+.4g}</td>"
             f"<td align='right'>{row['quadrature_per_kg']:+.3g}</td>"
-            f"<td>{'above the band: upper residual' if row.get('above_band') else ''}</td></tr>"
+            f"<td>{mode_row_notes(row)}</td></tr>"
             for number, row in enumerate(sorted(structure["modes"], key=lambda row: row["freq_hz"]), start=1))
         kind = "a driving point" if structure.get("driving_point") else "a transfer FRF (modal constants of both signs)"
         return (f"<h3>Measured structure: modes</h3><p>{kind}; mass line {structure.get('mass_line_kg', 0):.4g} kg, "
@@ -367,9 +370,8 @@ class DiagnoseTab(QWidget):
         for item in unexplained:
             if item["chi2_share"] < LISTED_SHARE:
                 continue
-            low, high = item["band_hz"]
-            self.findings.addItem(f"NOT explained: {low:.0f}–{high:.0f} Hz, {100 * item['chi2_share']:.0f} % of the "
-                                  f"excess — {item['character']}")
+            self.findings.addItem(f"NOT explained: {band_text(*item['band_hz'])}, {100 * item['chi2_share']:.0f} % of "
+                                  f"the excess — {item['character']}")
         if minor:
             self.findings.addItem(f"and {len(minor)} more band(s) beyond the noise, each under "
                                   f"{100 * LISTED_SHARE:.0f} % of the excess")
@@ -387,13 +389,14 @@ class DiagnoseTab(QWidget):
             return "<p>The spec's own parameters needed no correction.</p>"
         rows = "".join(
             f"<tr><td>{name}</td><td align='right'>{v['spec']:.4g}</td><td align='right'>{v['fitted']:.4g}</td>"
-            + ("<td>at its bound: not a measurement</td></tr>" if v.get("at_bound")
-               else f"<td align='right'>± {v['uncertainty']:.2g}</td></tr>")
+            + ("<td>at its bound: not a measurement</td>" if v.get("at_bound")
+               else f"<td align='right'>{uncertainty_text(v['uncertainty'])}</td>")
+            + f"<td>{unit_word(v.get('unit'))}</td></tr>"
             for name, v in recalibration.items()
         )
         return (
             "<h3>Recalibrated spec parameters</h3><table cellpadding='3'>"
-            f"<tr><th>parameter</th><th>spec</th><th>fitted</th><th>uncertainty</th></tr>{rows}</table>"
+            f"<tr><th>parameter</th><th>spec</th><th>fitted</th><th>uncertainty</th><th>unit</th></tr>{rows}</table>"
         )
 
     def _plot(self, diagnosis: Any) -> None:
