@@ -32,9 +32,9 @@ PLACES_OF_NAME: dict[str, frozenset[str]] = {
     "film-memory": frozenset({"film"}),
     "squeeze-film": frozenset({"film"}),
     "pneumatic-lag": frozenset({"film"}),
-    "cubic-stiffness": frozenset({"film"}),
-    "friction": frozenset({"film"}),
-    "quadratic-damping": frozenset({"film"}),
+    "cubic-stiffness": frozenset({"film", "between hits"}),  # amplitude-dependent: per hit, with its level
+    "friction": frozenset({"film", "between hits"}),  # amplitude-dependent: per hit, with its level
+    "quadratic-damping": frozenset({"film", "between hits"}),  # amplitude-dependent: per hit, with its level
     "drift": frozenset({"between hits"}),
     "step-change": frozenset({"between hits"}),
     "channel-delay": CHAIN,
@@ -49,16 +49,20 @@ FILM, BESIDE, MOVER, BETWEEN = frozenset({"film"}), frozenset({"beside the mover
 FORCE, RESPONSE = frozenset({"force channel", "measurement chain"}), frozenset({"response channel",
                                                                                "measurement chain"})
 #: The keys' own names of mechanisms outside the catalogue, placed from each key's summary (what the key says the
-#: mechanism does): the film's place for anything acting between the mover and the ground, beside the mover for a
-#: body riding on it or a motion the sensor sees beside the mover's own, a channel for the sensor, the hammer and
-#: what the recorder or an exporter did; between hits as well for what changes over the session.
+#: mechanism does): the film's place for anything acting between the mover and the ground (between hits as well when
+#: it depends on the amplitude: the diagnosis describes that per hit, with its level), beside the mover for a body
+#: riding on it or a motion the sensor sees beside the mover's own, a channel for the sensor, the hammer and what
+#: the recorder or an exporter did; between hits as well for what changes over the session.
 PLACES_OF_NAME |= {
     # between the mover and the ground: the film's dynamic stiffness
     **{name: FILM for name in (
-        "transport-delay", "viscoelastic-mount", "gap-nonlinearity", "pocket-resonance", "servo", "pneumatic-hammer",
-        "softening-hardening", "touchdown", "hysteresis", "orifice-choking", "freeplay", "dynamic-brake",
+        "transport-delay", "viscoelastic-mount", "pocket-resonance", "servo", "dynamic-brake",
         "cross-coupled-stiffness", "vacuum-preload", "eddy-current-preload", "pocket-thermal-relaxation",
-        "pneumatic-hammer-onset", "supply-line-resonance", "porous-restrictor", "hand-on-mover", "bellows-cover")},
+        "supply-line-resonance", "porous-restrictor", "hand-on-mover", "bellows-cover")},
+    # the same, amplitude-dependent: described per hit, with its level (as the catalogue's cubic spring is)
+    **{name: FILM | BETWEEN for name in (
+        "gap-nonlinearity", "pneumatic-hammer", "softening-hardening", "touchdown", "hysteresis", "orifice-choking",
+        "freeplay", "pneumatic-hammer-onset")},
     # a support or second body in series or beside: either description is in its place
     **{name: FILM | BESIDE | MOVER for name in ("soft-foundation", "twin-carriage", "reaction-impactor",
                                                 "soft-payload", "loose-part", "viscous-absorber", "fan-unbalance",
@@ -148,7 +152,13 @@ def main(argv: list[str] | None = None) -> int:
     for row in rows:
         key = json.loads((args.data / f"{row['case']}.key.json").read_text())
         saved = args.data / "diagnoses" / row["case"] / "diagnosis.json"
-        result = json.loads(saved.read_text()) if saved.exists() and row["outcome"] != "error" else None
+        if row["outcome"] == "error":
+            result = None
+        elif saved.exists():
+            result = json.loads(saved.read_text())
+        else:  # a scorer that keeps no diagnosis: what its row kept of it
+            result = {"findings": [{"place": place} for place in row.get("places") or []],
+                      "chi2_per_point_after": row.get("chi2_per_point_after")}
         if result is not None and row.get("loop_verdict"):
             result["loop"] = {"verdict_on_written_spec": row["loop_verdict"]}
         row |= figures(key, result, row["outcome"])
