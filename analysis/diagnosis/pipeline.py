@@ -167,6 +167,16 @@ def _silent(message: str) -> None:
     del message
 
 
+#: Progress messages that start with this indent are the trace of the search (each candidate's scores); the others
+#: say which step the diagnosis is at and what it has so far: what a user is shown unless asking for the trace.
+TRACE_INDENT = "  "
+
+
+def is_trace(message: str) -> bool:
+    """Whether a progress message is the search's trace (:data:`TRACE_INDENT`) rather than a step or a result so far."""
+    return message.startswith(TRACE_INDENT)
+
+
 @one_blas_thread
 def diagnose_spectra(
     spectra: HitSpectra,
@@ -195,8 +205,9 @@ def diagnose_spectra(
     points = evidence.point_count
     chi2_given = evidence.chi2(spec)
     rms_given = replay_rms(spectra, spec)
-    progress(f"compared {evidence.hit_count} hits on {len(evidence.freq_hz)} frequencies "
-             f"{band_text(evidence.freq_hz[0], evidence.freq_hz[-1])}: χ²/point {chi2_given / points:.2f}")
+    progress(f"step 1 of 3, locate: compared {evidence.hit_count} hits on {len(evidence.freq_hz)} frequencies "
+             f"{band_text(evidence.freq_hz[0], evidence.freq_hz[-1])}: χ²/point {chi2_given / points:.2f} "
+             f"(1 = the measured noise)")
 
     own_slots = spec_slots(spec, context, recalibration=structure_read_off_frf)
     recalibrated = _settle_quantised_replay(spectra, fit(evidence, spec, own_slots))
@@ -229,8 +240,9 @@ def diagnose_spectra(
     if len(spec_slots(current.spec, context)) < len(own_slots):  # a structure's modes are held from here on
         current = fit(evidence, current.spec, spec_slots(current.spec, context))
     recalibrated_spec = current.spec
-    progress(f"recalibrated {len(own_slots)} spec parameter(s): χ² {chi2_given:.0f} → {recalibrated.chi2:.0f}"
-             + (" (significant)" if recalibration_significant else " (within the noise)"))
+    progress(f"recalibrated {len(own_slots)} spec parameter(s): χ²/point {chi2_given / points:.3g} → "
+             f"{recalibrated.chi2 / points:.3g}" + (" (significant)" if recalibration_significant
+                                                    else " (within the noise)"))
 
     steps: list[Step] = []
     rejected: list[CandidateDescription] = []
@@ -238,6 +250,9 @@ def diagnose_spectra(
     if within_known_error:
         progress("within the noise and the spec's recorded description error: nothing changed that a term could "
                  "describe, none is sought")
+    else:
+        progress("step 2 of 3, model: the catalogue's terms tried on what is left, each judged on the hits left out "
+                 "of its fit")
     rms_recalibrated = replay_rms(spectra, recalibrated_spec)
     excluded: set[str] = set()
     passes = exchanges = 0
@@ -250,6 +265,7 @@ def diagnose_spectra(
             new_steps, outcome, evidence = accepted
             steps.extend(new_steps)
             current = fit(evidence, outcome.spec, outcome.slots)
+            progress(f"so far: {', '.join(step.label for step in steps)}: χ²/point {current.chi2 / points:.3g}")
         demoted_before = len(rejected)
         steps, current, evidence, refits_without = _check_back(spectra, evidence, steps, current, recalibrated_spec,
                                                                context, progress)
@@ -276,7 +292,9 @@ def diagnose_spectra(
         if not taken_out - excluded or _nothing_unexplained(evidence, current.spec):
             break
         excluded |= taken_out
-        progress(f"what {', '.join(sorted(taken_out))} left is tried again without {'it' if len(taken_out) == 1 else 'them'}")
+        progress(f"{', '.join(sorted(taken_out))} taken out again (not a finding: the report says why); what "
+                 f"{'it' if len(taken_out) == 1 else 'they'} left is tried again without "
+                 f"{'it' if len(taken_out) == 1 else 'them'}")
     unexplained = _unexplained(spectra, evidence, current.spec, rejected, restoring)
     structure_changes: list[str] = []
     if unexplained and not steps and not structure_read_off_frf:
@@ -288,6 +306,8 @@ def diagnose_spectra(
             rms_recalibrated = replay_rms(spectra, recalibrated_spec)
             unexplained = _unexplained(spectra, evidence, current.spec, rejected, restoring)
     if unexplained and not within_known_error:
+        progress("what no catalogue term explains is described in its place: a factor of a channel, a branch of the "
+                 "film, a mode beside the mover")
         described, current, evidence = _describe_the_rest(spectra, evidence, spec, current, context, points,
                                                           rejected, progress, restoring)
         if described:
@@ -297,6 +317,7 @@ def diagnose_spectra(
                 spectra, evidence, steps, current, refits_without, rejected, recalibrated_spec, rms_recalibrated,
                 context, progress)
             unexplained = _unexplained(spectra, evidence, current.spec, rejected, restoring)
+    progress("step 3 of 3, name: each description read against the table of mechanisms")
     findings = [_finding(evidence, step, current, refits_without[step.label], claims[step.label], context)
                 for step in steps]
     chi2_after = current.chi2
@@ -533,7 +554,7 @@ def _select_one(
         trials.append((min(score, 0.0) if padding else score, identifier, outcome, candidate_evidence))
     trials.sort(key=lambda trial: trial[0], reverse=True)
     summary = ", ".join(f"{identifier} {score:+.0f}" for score, identifier, _, _ in trials[:4])
-    progress(f"BIC gain of the best candidates (noise scale {noise_scale:.2f}): {summary}")
+    progress(f"{TRACE_INDENT}BIC gain of the best candidates (noise scale {noise_scale:.2f}): {summary}")
     for score, identifier, outcome, candidate_evidence in trials[:4]:
         if score <= BIC_MARGIN:
             return None
@@ -938,7 +959,7 @@ def _check_back(
         if cost > BIC_MARGIN:
             return steps, current, evidence, {trial_step.label: trial_refit.spec
                                               for _, trial_step, trial_refit in trials}
-        progress(f"check back: {step.label} no longer significant (noise scale {noise_scale:.2f}); removed")
+        progress(f"{TRACE_INDENT}check back: {step.label} no longer significant (noise scale {noise_scale:.2f}); removed")
         steps = _without_steps(steps, [step], current.spec)
         evidence = evidence_for(spectra, refit.spec)
         current = fit(evidence, refit.spec, refit.slots)

@@ -39,6 +39,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                              "run does not draw)")
     parser.add_argument("--no-figures", action="store_true",
                         help="write the improved spec only, no figures (for scripts that read the JSON)")
+    parser.add_argument("--verbose", "-v", action="store_true",
+                        help="print the search's trace too (every candidate's scores), not only its steps and what "
+                             "it has so far")
     parser.add_argument("--check-loop", action="store_true",
                         help="diagnose the written spec again on the same recordings: it must find nothing more "
                              "(the result under 'loop'; takes about as long again)")
@@ -59,6 +62,7 @@ def _band(text: str | None) -> tuple[float, float] | None:
 
 def run(args: argparse.Namespace) -> int:
     from gasfilm.analysis.diagnosis import diagnose
+    from gasfilm.analysis.diagnosis.pipeline import is_trace
     from gasfilm.analysis.diagnosis.plots import OUTPUT_FILES, remove_stale_outputs, write_outputs
     from gasfilm.analysis.diagnosis.report import report_text
     from gasfilm.analysis.physics.spec import MASS_RANGE_KG, RigSpec
@@ -83,7 +87,8 @@ def run(args: argparse.Namespace) -> int:
     started = time.monotonic()
     try:
         def progress(message: str) -> None:
-            print(f"  {message}", file=sys.stderr)
+            if args.verbose or not is_trace(message):
+                print(f"  {message}", file=sys.stderr)
 
         from gasfilm.analysis.conditions import format_conditions
         from gasfilm.app.commands.common import source_conditions

@@ -17,6 +17,7 @@ from typing import Any, Callable, Sequence
 import numpy as np
 
 from gasfilm.analysis.diagnosis import diagnose
+from gasfilm.analysis.diagnosis.pipeline import is_trace
 from gasfilm.analysis.diagnosis.plots import remove_stale_outputs, write_outputs
 from gasfilm.analysis.identification import compare_models, fit_model
 from gasfilm.analysis.physics.elements import get_model
@@ -73,7 +74,13 @@ def diagnose_session(
     """Diagnose ``recordings`` against ``spec`` (None: their own, else one read off the FRF) and write the figures
     and the improved spec into ``out_dir`` (removing an earlier run's figure this one does not draw); the diagnosis
     has no cancel hook: Cancel acts at its next progress report."""
-    diagnosis = diagnose(recordings, spec, progress=lambda text: report(0.0, text))
+    step = [""]
+
+    def progress(text: str) -> None:  # the step and what it has so far; the search's trace is a cancel point only
+        step[0] = step[0] if is_trace(text) else text
+        report(0.0, step[0])
+
+    diagnosis = diagnose(recordings, spec, progress=progress)
     write_outputs(diagnosis, out_dir)
     remove_stale_outputs(diagnosis, out_dir)  # the folder is the GUI's own: an earlier run's figure goes
     return diagnosis
