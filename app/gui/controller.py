@@ -10,6 +10,7 @@ import dataclasses
 import datetime
 import functools
 import logging
+import os
 import shutil
 import time
 from pathlib import Path
@@ -60,6 +61,14 @@ STOP_FIRST = "stop the acquisition"
 def default_session_dir() -> Path:
     base = QStandardPaths.writableLocation(QStandardPaths.StandardLocation.AppDataLocation)
     return Path(base or Path.home() / ".gasfilm") / "sessions"
+
+
+def same_file(first: Path, second: Path) -> bool:
+    """Whether two paths name one file (links followed); False when either is missing."""
+    try:
+        return os.path.samefile(first, second)
+    except OSError:
+        return False
 
 
 def timestamped_session_path(folder: Path, stem: str = "session") -> Path:
@@ -886,6 +895,10 @@ class SessionController(QObject):
             self.message.emit("stop the acquisition before opening a session", "warning")
             return
         path = Path(path)
+        if self.session is not None and self.session_path is not None and same_file(path, self.session_path):
+            # the session open here, opened again: its writer lock is this window's own, not another process's; it is
+            # closed (its results stored) and read back from the file
+            self.close_session()
         read_only = None
         try:
             session = Session.open(path, "a")

@@ -1,0 +1,85 @@
+"""The GUI's side of a new user's trial of the Diagnose tab and of opening sessions: the window's own writer lock is
+never taken for another process's."""
+
+import logging
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from gasfilm.analysis.session import Session
+from gui_driving import open_window
+from test_cli_acquire_replay import FAST_SIM, gasfilm
+
+FIXTURE_RIGS = Path(__file__).resolve().parents[1] / "fixtures" / "rigs"
+
+
+@pytest.fixture
+def window(qtbot, tmp_path):
+    main = open_window(qtbot, tmp_path)
+    yield main
+    main.controller.shutdown()
+
+
+def recorded(tmp_path, capsys, name: str, rig: str = "sd.toml", hits: int = 4, seed: int = 3):
+    """A short simulated session of a fixture rig, recorded by `gasfilm acquire`."""
+    path = tmp_path / name
+    assert gasfilm(capsys, "acquire", *FAST_SIM, "--rig", FIXTURE_RIGS / rig, "--out", path, "--hits", hits,
+                   "--seed", seed)[0] == 0
+    return path
+
+
+def diagnosed(qtbot, window, reference=None):
+    controller = window.controller
+    controller.run_diagnosis(str(reference) if reference else None, lambda folder, names: True)
+    qtbot.waitUntil(lambda: not controller.job_active("diagnose"), timeout=120_000)
+    assert controller.diagnosis is not None, window.banner.history
+    return controller.diagnosis
+
+
+def test_reopening_the_session_the_window_has_open_is_not_refused_as_another_processes(qtbot, window, tmp_path,
+                                                                                       capsys, caplog):
+    """Trial finding 4: File ▸ Open of the session the window had open said "another process is writing this
+    session": the lock was the window's own. It opens again, writable, with every hit."""
+    path = recorded(tmp_path, capsys, "run.h5", hits=3)
+    controller = window.controller
+    controller.open_session(path)
+    said = len(window.banner.history)
+    with caplog.at_level(logging.WARNING):
+        controller.open_session(path)
+    assert all("another" not in text and severity != "error" for severity, text in window.banner.history[said:]), \
+        window.banner.history
+    assert controller.session is not None and controller.session.writable and controller.accepted_count == 3
+    assert not [record for record in caplog.records if "another" in record.getMessage()]
+
+
+def test_diagnosing_the_open_session_says_nothing_of_another_process(qtbot, window, tmp_path, capsys, caplog):
+    """Trial finding 4: Diagnose read the window's own session and warned "open for writing in another gasfilm
+    process" on the terminal."""
+    path = recorded(tmp_path, capsys, "run.h5", hits=3)
+    window.controller.open_session(path)
+    with caplog.at_level(logging.WARNING):
+        diagnosed(qtbot, window)
+        Session.open(path, "r").close()  # a look at its own session from the same process
+    assert not [record for record in caplog.records if "another" in record.getMessage()], caplog.text
+
+
+def test_a_session_another_process_writes_is_still_refused_naming_the_file(qtbot, window, tmp_path, capsys, caplog):
+    """What finding 4 must keep: a lock held by another process is said, naming the file."""
+    path = recorded(tmp_path, capsys, "held.h5", hits=3)
+    writer = subprocess.Popen(
+        [sys.executable, "-c", "import sys\nfrom gasfilm.analysis.session import Session\n"
+         f"session = Session.open({str(path)!r}, 'a')\nprint('open', flush=True)\nsys.stdin.read()\nsession.close()"],
+        stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+    try:
+        assert writer.stdout.readline().strip() == "open"
+        window.controller.open_session(path)
+        severity, text = window.banner.history[-1]
+        assert severity == "error" and str(path) in text and "another process is writing this session" in text
+        with caplog.at_level(logging.WARNING):
+            Session.open(path, "r").close()
+        assert any(str(path) in record.getMessage() and "another gasfilm process" in record.getMessage()
+                   for record in caplog.records), caplog.text
+    finally:
+        writer.communicate("", timeout=60)
