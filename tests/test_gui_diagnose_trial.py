@@ -1,5 +1,5 @@
-"""The GUI's side of a new user's trial of the Diagnose tab and of opening sessions: the window's own writer lock is
-never taken for another process's."""
+"""The GUI's side of a new user's trial of the Diagnose tab and of opening sessions: the headline figure is the χ² per
+point the command prints, and the window's own writer lock is never taken for another process's."""
 
 import logging
 import subprocess
@@ -8,6 +8,7 @@ from pathlib import Path
 
 import pytest
 
+from gasfilm.analysis.diagnosis.report import chi2_headline, report_text
 from gasfilm.analysis.session import Session
 from gui_driving import open_window
 from test_cli_acquire_replay import FAST_SIM, gasfilm
@@ -30,12 +31,34 @@ def recorded(tmp_path, capsys, name: str, rig: str = "sd.toml", hits: int = 4, s
     return path
 
 
+def softer_spec(tmp_path):
+    """The SD rig's spec with a softer film: the session of sd.toml differs from it (a quick diagnosis)."""
+    path = tmp_path / "softer.toml"
+    path.write_text((FIXTURE_RIGS / "sd.toml").read_text().replace("k = 37800000.0", "k = 30000000.0"))
+    return path
+
+
 def diagnosed(qtbot, window, reference=None):
     controller = window.controller
     controller.run_diagnosis(str(reference) if reference else None, lambda folder, names: True)
     qtbot.waitUntil(lambda: not controller.job_active("diagnose"), timeout=120_000)
     assert controller.diagnosis is not None, window.banner.history
     return controller.diagnosis
+
+
+def test_the_diagnose_tabs_headline_is_the_chi2_per_point_the_command_prints(qtbot, window, tmp_path, capsys):
+    """Trial finding 1: the tab led with BIC; the command's headline is χ²/point before → after (1 = noise)."""
+    window.controller.open_session(recorded(tmp_path, capsys, "run.h5"))
+    diagnosis = diagnosed(qtbot, window, softer_spec(tmp_path))
+    words = chi2_headline(diagnosis.chi2_per_point_before, diagnosis.chi2_per_point_after)
+    assert words in report_text(diagnosis)  # what `gasfilm diagnose` prints
+    summary = window.diagnose_tab.summary.text()
+    assert words in summary and summary.index(words) < summary.index("BIC"), summary  # first; BIC a detail after it
+    assert summary.index(words) < summary.index("RMS")
+
+    window.controller.open_session(tmp_path / "run.h5")  # the stored run says the same
+    stored = window.diagnose_tab.summary.text()
+    assert "stored" in stored and words in stored and stored.index(words) < stored.index("BIC"), stored
 
 
 def test_reopening_the_session_the_window_has_open_is_not_refused_as_another_processes(qtbot, window, tmp_path,

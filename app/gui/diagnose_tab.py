@@ -27,6 +27,7 @@ from PySide6.QtWidgets import (
 
 from gasfilm.analysis.diagnosis import Finding
 from gasfilm.analysis.diagnosis.pipeline import replayed_mean
+from gasfilm.analysis.diagnosis.report import chi2_headline
 from gasfilm.app.gui.controller import SessionController
 from gasfilm.app.gui.widgets import MEASURED_COLOR, PALETTE, FixedHeightLabel, make_plot, pen
 from gasfilm.drivers.errors import GasfilmError
@@ -36,6 +37,14 @@ G = STANDARD_GRAVITY_M_S2
 INTRO_TEXT = "Compares the session with its rig spec under the same test conditions."
 WAITING_TEXT = "The diagnosis waits until the acquisition is stopped."
 READY_TEXT = "Acquisition stopped: diagnose the session's accepted hits against its rig spec."
+
+
+def headline(verdict: str, chi2_before: float | None, chi2_after: float | None, details: str) -> str:
+    """The Diagnose tab's summary: the verdict and, as the headline figure, χ² per point before → after (1 = the
+    noise), worded as ``gasfilm diagnose`` prints it; RMS, BIC, hits and time as details."""
+    figure = f" — <b>{chi2_headline(chi2_before, chi2_after)}</b>" if chi2_before is not None \
+        and chi2_after is not None else ""
+    return f"<b>Verdict: {verdict}</b>{figure}<br>{details}"
 
 
 def finding_title(finding: Finding) -> str:
@@ -229,11 +238,11 @@ class DiagnoseTab(QWidget):
             self.summary.clear()
             return
         better = diagnosis.improvement_e
-        self.summary.setText(
-            f"<b>Verdict: {diagnosis.verdict}</b> — RMS {diagnosis.rms_before / G:.3g} → {diagnosis.rms_after / G:.3g} g/N "
-            f"(E = {better:.1f} %), BIC {diagnosis.bic_before:.0f} → {diagnosis.bic_after:.0f}, "
-            f"{diagnosis.evidence.hit_count} hits, {self.controller.diagnosis_seconds(diagnosis):.1f} s"
-        )
+        self.summary.setText(headline(
+            diagnosis.verdict, diagnosis.chi2_per_point_before, diagnosis.chi2_per_point_after,
+            f"RMS {diagnosis.rms_before / G:.3g} → {diagnosis.rms_after / G:.3g} g/N (E = {better:.1f} %), "
+            f"BIC {diagnosis.bic_before:.0f} → {diagnosis.bic_after:.0f}, {diagnosis.evidence.hit_count} hits, "
+            f"{self.controller.diagnosis_seconds(diagnosis):.1f} s"))
         for finding in diagnosis.findings:
             item = QListWidgetItem(finding_title(finding))
             item.setData(Qt.ItemDataRole.UserRole, finding)
@@ -253,11 +262,11 @@ class DiagnoseTab(QWidget):
     def show_stored_diagnosis(self, stored: dict[str, Any]) -> None:
         """What a reopened session's diagnosis said: verdict, findings and quality (the plots need a new run)."""
         self.show_diagnosis(None)
-        self.summary.setText(
-            f"<b>Verdict: {stored['verdict']}</b> — RMS {stored['rms_before_g_per_n']:.3g} → "
-            f"{stored['rms_after_g_per_n']:.3g} g/N (E = {stored['e_percent']:.1f} %), "
-            f"BIC {stored['bic_before']:.0f} → {stored['bic_after']:.0f}, {stored['hits_used']} hits (stored)"
-        )
+        self.summary.setText(headline(
+            stored["verdict"], stored.get("chi2_per_point_before"), stored.get("chi2_per_point_after"),
+            f"RMS {stored['rms_before_g_per_n']:.3g} → {stored['rms_after_g_per_n']:.3g} g/N "
+            f"(E = {stored['e_percent']:.1f} %), BIC {stored['bic_before']:.0f} → {stored['bic_after']:.0f}, "
+            f"{stored['hits_used']} hits (stored)"))
         for values in stored["findings"]:
             finding = Finding.from_dict(values)
             item = QListWidgetItem(finding_title(finding))
