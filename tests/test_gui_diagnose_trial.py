@@ -1,13 +1,17 @@
 """The GUI's side of a new user's trial of the Diagnose tab and of opening sessions: the headline figure is the χ² per
-point the command prints, and the window's own writer lock is never taken for another process's."""
+point the command prints, the film's K(ω) and C(ω) are drawn from the diagnosis, and the window's own writer lock is
+never taken for another process's."""
 
 import logging
 import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
+import pyqtgraph as pg
 import pytest
 
+from gasfilm.analysis.diagnosis.plots import FILM_CURVE_LABELS, film_parts
 from gasfilm.analysis.diagnosis.report import chi2_headline, report_text
 from gasfilm.analysis.session import Session
 from gui_driving import open_window
@@ -59,6 +63,38 @@ def test_the_diagnose_tabs_headline_is_the_chi2_per_point_the_command_prints(qtb
     window.controller.open_session(tmp_path / "run.h5")  # the stored run says the same
     stored = window.diagnose_tab.summary.text()
     assert "stored" in stored and words in stored and stored.index(words) < stored.index("BIC"), stored
+
+
+def test_the_diagnose_tab_draws_the_films_stiffness_and_damping_against_the_specs(qtbot, window, tmp_path, capsys):
+    """Trial finding 2: the film's K(ω) and C(ω) (the paper's eqs. 19–20), which the diagnosis draws into
+    diagnosis-film.png, had no view in the GUI. Drawn from the diagnosis's own numbers, with their units."""
+    window.controller.open_session(recorded(tmp_path, capsys, "run.h5"))
+    diagnosis = diagnosed(qtbot, window, softer_spec(tmp_path))
+    tab = window.diagnose_tab
+    tab.views.setCurrentIndex(1)
+    freq_hz, (stiffness, damping), written_label = film_parts(diagnosis)
+    for plot, part, unit in ((tab.film_stiffness_plot, stiffness, "N/m"), (tab.film_damping_plot, damping, "N·s/m")):
+        item = plot.getPlotItem()
+        assert item.getAxis("left").labelUnits == unit and item.getAxis("bottom").labelUnits == "Hz"
+        curves = {curve.name(): curve for curve in item.listDataItems() if curve.name()}
+        assert set(curves) == {FILM_CURVE_LABELS["recorded"], FILM_CURVE_LABELS["given_film"], written_label,
+                               FILM_CURVE_LABELS["apparent"]}
+        for name, values in ((FILM_CURVE_LABELS["recorded"], part.recorded),
+                             (FILM_CURVE_LABELS["given_film"], part.given_film), (written_label, part.written_film),
+                             (FILM_CURVE_LABELS["apparent"], part.apparent)):
+            x, y = curves[name].getOriginalDataset()
+            np.testing.assert_allclose(x, freq_hz)
+            np.testing.assert_allclose(y, values)
+        (low, high), (shown_low, shown_high) = part.view_range(), item.vb.targetRange()[1]
+        assert np.isclose(shown_low, low) and shown_high >= high * (1 - 1e-9)  # as the PNG (and room for the legend)
+        assert any(isinstance(entry, pg.FillBetweenItem) for entry in item.items)  # the ±2σ band
+    # the softer film as given against the film the recordings show (37.8 MN/m)
+    assert np.allclose(stiffness.given_film, 30e6, rtol=0.01) and abs(np.median(stiffness.recorded) / 37.8e6 - 1) < 0.02
+    assert f"M = {diagnosis.improved.moving_mass_kg:.4g} kg" in tab.film_label.text()
+
+    window.controller.open_session(tmp_path / "run.h5")  # a stored diagnosis keeps no spectra: it says so
+    assert not tab.film_stiffness_plot.getPlotItem().listDataItems()
+    assert "run Diagnose" in tab.film_label.text()
 
 
 def test_reopening_the_session_the_window_has_open_is_not_refused_as_another_processes(qtbot, window, tmp_path,

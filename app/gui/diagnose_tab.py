@@ -20,13 +20,17 @@ from PySide6.QtWidgets import (
     QProgressBar,
     QPushButton,
     QSplitter,
+    QTabWidget,
     QTextBrowser,
     QVBoxLayout,
     QWidget,
 )
 
+import pyqtgraph as pg
+
 from gasfilm.analysis.diagnosis import Finding
 from gasfilm.analysis.diagnosis.pipeline import replayed_mean
+from gasfilm.analysis.diagnosis.plots import FILM_CURVE_LABELS, film_parts, has_film_view
 from gasfilm.analysis.diagnosis.report import chi2_headline
 from gasfilm.app.gui.controller import SessionController
 from gasfilm.app.gui.widgets import MEASURED_COLOR, PALETTE, FixedHeightLabel, make_plot, pen
@@ -37,6 +41,12 @@ G = STANDARD_GRAVITY_M_S2
 INTRO_TEXT = "Compares the session with its rig spec under the same test conditions."
 WAITING_TEXT = "The diagnosis waits until the acquisition is stopped."
 READY_TEXT = "Acquisition stopped: diagnose the session's accepted hits against its rig spec."
+FILM_INTRO_TEXT = ("After a diagnosis: the film's stiffness K(ω) and damping C(ω) read off the recordings, against the "
+                   "spec's film (the paper's eqs. 19–20).")
+FILM_STORED_TEXT = ("A stored diagnosis keeps no spectra: run Diagnose to draw the film's stiffness K(ω) and damping "
+                    "C(ω).")
+FILM_NOT_READ_TEXT = ("The film's K(ω) and C(ω) are read for a film on a point mover; this diagnosis is of a measured "
+                      "structure or a rigid body (see its mode table and the overlay).")
 
 
 def headline(verdict: str, chi2_before: float | None, chi2_after: float | None, details: str) -> str:
@@ -144,8 +154,8 @@ class DiagnoseTab(QWidget):
         self.stabilization_plot = make_plot("Stabilization diagram (LSCF): poles by model order, modes as lines",
                                             ("model order", ""))
         self.stabilization_plot.hide()
-        plots = QWidget()
-        plots_layout = QVBoxLayout(plots)
+        before_after = QWidget()
+        plots_layout = QVBoxLayout(before_after)
         plots_layout.setContentsMargins(0, 0, 0, 0)
         plots_layout.addWidget(self.overlay_plot, 3)
         plots_layout.addWidget(self.residual_plot, 2)
@@ -153,9 +163,31 @@ class DiagnoseTab(QWidget):
         plots_layout.addWidget(self.restoring_label)
         plots_layout.addWidget(self.stabilization_plot, 3)
 
+        # the film's dynamic stiffness read off the recordings against the spec's (diagnosis-film.png)
+        self.film_stiffness_plot = make_plot("Film stiffness K(ω) = Re(F/X − M·s²)", ("stiffness K", "N/m"),
+                                             log_x=True)
+        self.film_damping_plot = make_plot("Film damping C(ω) = Im(F/X − M·s²) / ω", ("damping C", "N·s/m"),
+                                           log_x=True)
+        self.film_damping_plot.setXLink(self.film_stiffness_plot)
+        for plot in (self.film_stiffness_plot, self.film_damping_plot):  # one width: the linked frequencies line up
+            plot.getPlotItem().getAxis("left").setWidth(72)
+        self.film_label = QLabel(FILM_INTRO_TEXT)
+        self.film_label.setWordWrap(True)
+        film = QWidget()
+        film_layout = QVBoxLayout(film)
+        film_layout.setContentsMargins(0, 0, 0, 0)
+        film_layout.addWidget(self.film_label)
+        film_layout.addWidget(self.film_stiffness_plot, 1)
+        film_layout.addWidget(self.film_damping_plot, 1)
+
+        self.views = QTabWidget()
+        self.views.setObjectName("diagnosis_views")
+        self.views.addTab(before_after, "Before / after: FRF, residual, restoring force")
+        self.views.addTab(film, "Film: stiffness K(ω), damping C(ω)")
+
         splitter = QSplitter(Qt.Orientation.Horizontal)
         splitter.addWidget(left)
-        splitter.addWidget(plots)
+        splitter.addWidget(self.views)
         splitter.setSizes([450, 800])
         layout = QVBoxLayout(self)
         layout.addLayout(top)
@@ -231,6 +263,10 @@ class DiagnoseTab(QWidget):
         self.restoring_label.clear()
         self.stabilization_plot.clear()
         self.stabilization_plot.hide()
+        for plot in (self.film_stiffness_plot, self.film_damping_plot):
+            plot.clear()
+            plot.getPlotItem().legend.clear()
+        self.film_label.setText(FILM_INTRO_TEXT)
         has_spec = diagnosis is not None and diagnosis.improved_spec_path is not None
         self.export_button.setEnabled(has_spec)
         self.play_button.setEnabled(has_spec)
@@ -267,6 +303,7 @@ class DiagnoseTab(QWidget):
             f"RMS {stored['rms_before_g_per_n']:.3g} → {stored['rms_after_g_per_n']:.3g} g/N "
             f"(E = {stored['e_percent']:.1f} %), BIC {stored['bic_before']:.0f} → {stored['bic_after']:.0f}, "
             f"{stored['hits_used']} hits (stored)"))
+        self.film_label.setText(FILM_STORED_TEXT)
         for values in stored["findings"]:
             finding = Finding.from_dict(values)
             item = QListWidgetItem(finding_title(finding))
@@ -419,6 +456,40 @@ class DiagnoseTab(QWidget):
         self.residual_plot.plot(freq, np.abs(before - measured) / G, pen=pen(PALETTE[1], 1.5), name="before")
         self.residual_plot.plot(freq, np.abs(after - measured) / G, pen=pen(PALETTE[0], 1.5), name="after")
         self._plot_restoring_force(diagnosis.restoring_force)
+        self._plot_film(diagnosis)
+
+    def _plot_film(self, diagnosis: Any) -> None:
+        """The film's stiffness K(ω) and damping C(ω) read off the recordings (±2σ) against the film as given, the
+        written spec's film and the written spec as a whole: the curves of diagnosis-film.png
+        (:func:`~gasfilm.analysis.diagnosis.plots.film_parts`)."""
+        if not has_film_view(diagnosis):
+            self.film_label.setText(FILM_NOT_READ_TEXT)
+            return
+        freq_hz, parts, written_label = film_parts(diagnosis)
+        for plot, part in zip((self.film_stiffness_plot, self.film_damping_plot), parts):
+            item = plot.getPlotItem()
+            upper = pg.PlotDataItem(freq_hz, part.recorded + part.two_sigma, pen=pen("#bbbbbb", 0.5))
+            lower = pg.PlotDataItem(freq_hz, part.recorded - part.two_sigma, pen=pen("#bbbbbb", 0.5))
+            for curve in (upper, lower):
+                item.addItem(curve)
+            band_brush = pg.mkBrush(160, 160, 160, 90)
+            item.addItem(pg.FillBetweenItem(upper, lower, brush=band_brush))
+            # (the legend shows a filled stand-in: a FillBetweenItem sample crashes pyqtgraph's legend)
+            item.legend.addItem(pg.PlotDataItem(pen=pen("#bbbbbb", 0.5), fillLevel=0, fillBrush=band_brush),
+                                FILM_CURVE_LABELS["band"])
+            plot.plot(freq_hz, part.recorded, pen=pen(MEASURED_COLOR, 1.5), name=FILM_CURVE_LABELS["recorded"])
+            plot.plot(freq_hz, part.given_film, pen=pen(PALETTE[1], 1.5, Qt.PenStyle.DashLine),
+                      name=FILM_CURVE_LABELS["given_film"])
+            plot.plot(freq_hz, part.written_film, pen=pen(PALETTE[0], 1.5), name=written_label)
+            plot.plot(freq_hz, part.apparent, pen=pen(PALETTE[2], 1.5, Qt.PenStyle.DotLine),
+                      name=FILM_CURVE_LABELS["apparent"])
+            item.vb.enableAutoRange(x=True)
+            item.setYRange(*part.view_range(), padding=0)
+        self.film_label.setText(
+            f"The film's dynamic stiffness F/X − M·s² read off the recordings (M = "
+            f"{diagnosis.improved.moving_mass_kg:.4g} kg, the written spec's moving mass; grey: ±2σ) against the film "
+            f"as given, the written spec's {written_label.removeprefix('written spec: ')} and the written spec as a "
+            f"whole, as in diagnosis-film.png.")
 
     def _plot_restoring_force(self, restoring: Any) -> None:
         """The restoring force's stiffness and damping sections, one colour per hit, with the linear film's lines
