@@ -1,6 +1,6 @@
 """The GUI's side of a new user's trial of the Diagnose tab and of opening sessions: the headline figure is the χ² per
-point the command prints, the film's K(ω) and C(ω) are drawn from the diagnosis, and the window's own writer lock is
-never taken for another process's."""
+point the command prints, the film's K(ω) and C(ω) are drawn from the diagnosis, an opened session shows nothing of
+the previous one (views, reference spec), and the window's own writer lock is never taken for another process's."""
 
 import logging
 import subprocess
@@ -95,6 +95,77 @@ def test_the_diagnose_tab_draws_the_films_stiffness_and_damping_against_the_spec
     window.controller.open_session(tmp_path / "run.h5")  # a stored diagnosis keeps no spectra: it says so
     assert not tab.film_stiffness_plot.getPlotItem().listDataItems()
     assert "run Diagnose" in tab.film_label.text()
+
+
+def _shown_views(qtbot, window) -> dict:
+    """Every plot's view range, each tab shown and drawn; plots linked to another (they follow it) and plots with a
+    locked aspect (their range follows the widget's shape) are left out."""
+    views = {}
+    for index in range(window.tabs.count()):
+        window.tabs.setCurrentIndex(index)
+        for _ in range(2):
+            qtbot.wait(150)
+            window.grab()
+        tab = window.tabs.widget(index)
+        for number, plot in enumerate(tab.findChildren(pg.PlotWidget)):
+            view = plot.getPlotItem().vb
+            if view.linkedView(0) is not None or view.linkedView(1) is not None or view.state["aspectLocked"]:
+                continue
+            views[(window.tabs.tabText(index), number, plot.getPlotItem().titleLabel.text)] = view.viewRange()
+    return views
+
+
+def test_an_opened_session_shows_every_plot_as_a_fresh_window_shows_it(qtbot, tmp_path, capsys):
+    """Trial finding 3: after File ▸ Open the plots kept the previous session's ranges (a zoom on its resonance
+    showed an empty plot of the next). Every plot must show the opened session as a window that opened it first."""
+    first = recorded(tmp_path, capsys, "first.h5", rig="three-modes.toml", hits=3, seed=1)
+    second = recorded(tmp_path, capsys, "second.h5", hits=3, seed=2)
+    fresh = open_window(qtbot, tmp_path)
+    fresh.controller.open_session(second)
+    expected = _shown_views(qtbot, fresh)
+    fresh.controller.shutdown()
+    fresh.close()
+
+    window = open_window(qtbot, tmp_path)
+    try:
+        window.controller.open_session(first)
+        _shown_views(qtbot, window)
+        for plot in window.findChildren(pg.PlotWidget):  # the technician zooms everywhere
+            view = plot.getPlotItem().vb
+            (x0, x1), (y0, y1) = view.viewRange()
+            view.setRange(xRange=(x0 + 0.3 * (x1 - x0), x0 + 0.4 * (x1 - x0)),
+                          yRange=(y0 + 0.3 * (y1 - y0), y0 + 0.4 * (y1 - y0)), padding=0)
+        magnitude = window.frf_tab.magnitude_plot.getPlotItem()  # the mouse rests on it: a read-out of the first
+        magnitude.show_readout(magnitude.vb.sceneBoundingRect().center())
+        assert magnitude.readout.isVisible()
+        window.tabs.setCurrentIndex(0)
+        window.controller.open_session(second)
+        shown = _shown_views(qtbot, window)
+        assert not magnitude.readout.isVisible()  # (it named a point of the first session)
+    finally:
+        window.controller.shutdown()
+    assert shown.keys() == expected.keys()
+    stale = {key: (shown[key], expected[key]) for key in expected
+             if not np.allclose(shown[key], expected[key], rtol=1e-3, atol=1e-9)}
+    assert not stale, stale
+
+
+def test_an_opened_session_clears_the_reference_spec_typed_for_the_previous_one(qtbot, window, tmp_path, capsys):
+    """Trial finding 3: the Reference rig spec typed for one session stayed for the next (a diagnosis against the
+    wrong rig). Opened, a session starts from its own spec, or from the one its stored diagnosis was made against."""
+    controller, tab = window.controller, window.diagnose_tab
+    plain = recorded(tmp_path, capsys, "plain.h5", hits=3)
+    against = recorded(tmp_path, capsys, "against.h5", hits=3, seed=4)
+    reference = softer_spec(tmp_path)
+    assert gasfilm(capsys, "diagnose", against, "--rig", reference, "--no-figures")[0] == 0
+
+    controller.open_session(plain)
+    tab.reference_path.setText(str(tmp_path / "design-of-another-rig.toml"))
+    tab.status.setText("Diagnosis complete.")
+    controller.open_session(against)  # its stored diagnosis was made against the softer spec
+    assert tab.reference_path.text() == str(reference)
+    controller.open_session(plain)  # no stored diagnosis: its own spec (the field empty)
+    assert tab.reference_path.text() == "" and "complete" not in tab.status.text()
 
 
 def test_reopening_the_session_the_window_has_open_is_not_refused_as_another_processes(qtbot, window, tmp_path,

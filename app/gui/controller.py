@@ -97,6 +97,9 @@ class SessionController(QObject):
     job_running = Signal(str, bool)  # job name ("fit" | "diagnose"), running
     message = Signal(str, str)  # text, severity ("error" | "warning" | "info")
     session_changed = Signal(str)  # path of the open session ('' for none)
+    #: a session file is being opened (its hits, FRF, fits and diagnosis follow): what the tabs showed of the previous
+    #: session — zoomed views, a reference spec typed for it — goes
+    session_opened = Signal(str)
     hit_check_changed = Signal(object)  # the hit check's HitCheckProposal (None: no tap yet)
     comparisons_changed = Signal()  # other sessions' FRFs drawn over this one's (the FRF tab)
 
@@ -916,6 +919,7 @@ class SessionController(QObject):
         self.session = session
         self.session_path = path
         self._reset_results()
+        self.session_opened.emit(str(path))
         stored_spec = RigSpec.from_toml(session.rig_spec_toml) if session.rig_spec_toml else None
         self._roving = (roving_plan(session.settings), struck_point(stored_spec))
         for stored in session.hits():

@@ -203,6 +203,13 @@ class DiagnoseTab(QWidget):
         controller.job_progress.connect(self._on_progress)
         controller.diagnosis_changed.connect(self.show_diagnosis)
         controller.stored_diagnosis_loaded.connect(self.show_stored_diagnosis)
+        controller.session_opened.connect(self._on_session_opened)
+
+    def _on_session_opened(self, _path: str) -> None:
+        """Another session: the reference spec typed for the previous one goes (the session's own spec is the
+        default; a stored diagnosis made against another spec puts that one back) and the status starts again."""
+        self.reference_path.clear()
+        self.status.setText(INTRO_TEXT)
 
     def confirm_replace(self, folder: Path, names: list[str]) -> bool:
         """Ask before replacing an earlier diagnosis's files (``gasfilm diagnose`` refuses without --overwrite)."""
@@ -318,7 +325,13 @@ class DiagnoseTab(QWidget):
             self.quality.addItem(f"{note['kind']}{band}: {note['message']}")
         if self.findings.count():
             self.findings.setCurrentRow(0)
-        self.status.setText("Stored diagnosis from the session file; run Diagnose to redraw the before/after plots.")
+        status = "Stored diagnosis from the session file; run Diagnose to redraw the before/after plots."
+        reference = (stored.get("options") or {}).get("rig")  # the spec it was made against (None: the session's)
+        if reference and Path(reference).is_file():
+            self.reference_path.setText(reference)
+        elif reference:
+            status += f" It was made against {reference}, not found from here: the session's own spec is the default."
+        self.status.setText(status)
 
     def _show_finding(self, item: QListWidgetItem | None) -> None:
         if item is None:

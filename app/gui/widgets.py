@@ -525,6 +525,41 @@ def make_plot(
     return widget
 
 
+class HomeViews:
+    """Every plot's view as the window first laid it out — which axes follow the data, the ranges of those that do
+    not (coherence 0–1, phase −90…270°, an empty plot's default band) — so that opening a session shows its data as a
+    fresh window would: no zoom or range of the previous session's stays (as a measurement program rescales its
+    displays when another data set is loaded)."""
+
+    def __init__(self, root: QWidget) -> None:
+        self._views = []
+        for plot in root.findChildren(pg.PlotWidget):
+            item = plot.getPlotItem()
+            view = item.vb
+            self._views.append((item, view, list(view.state["autoRange"]), [list(r) for r in view.targetRange()],
+                                list(view.state["logMode"])))
+
+    def restore(self) -> None:
+        """Each axis back to its first range (and to following the data where it did); an axis shown in other
+        coordinates since (a logarithmic frequency axis switched on) follows the data. A cursor read-out, which names
+        a point of the previous data, hides until the mouse moves again."""
+        for item, view, auto, target, log in self._views:
+            if getattr(item, "readout", None) is not None:
+                item.readout.setVisible(False)
+            for axis, name in ((0, "xRange"), (1, "yRange")):
+                if view.linkedView(axis) is not None:  # it follows the view it is linked to
+                    continue
+                # (setRange switches the axis's auto-range off; switched on again, pyqtgraph ranges it on the data:
+                # it does so only when auto-range is switched on)
+                follows = auto[axis]
+                if view.state["logMode"][axis] == log[axis]:
+                    view.setRange(**{name: target[axis]}, padding=0)
+                else:
+                    view.enableAutoRange(axis=axis, enable=False)
+                    follows = True
+                view.enableAutoRange(axis=axis, enable=follows)
+
+
 def show_legend_only_with_data(plot: pg.PlotWidget) -> None:
     """Hide a plot's legend while none of its curves has data, and place it clear of the data now."""
     item = plot.getPlotItem()
