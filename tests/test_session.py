@@ -344,3 +344,23 @@ def test_live_session_can_be_read_but_not_taken_over(tmp_path):
         writer.kill()
     with Session.open(path, "a") as session:
         assert session.status == "complete" and session.hit_count == 3 and not session.recovered
+
+
+def test_a_process_reading_the_session_it_writes_itself_says_nothing_of_another_process(tmp_path, caplog):
+    """The GUI diagnosing the session it has open read its own writer lock as another process's and warned "open for
+    writing in another gasfilm process"; asking for its own lock again said "another process is writing"."""
+    import logging
+
+    from gasfilm.analysis.session.files import WriterLock
+
+    path = tmp_path / "own.h5"
+    with new_session(path) as session:
+        session.append_hit(synthetic_hits(1)[0], Verdict(True))
+        assert WriterLock.held_here(path) and WriterLock.held_by_a_writer(path)
+        with caplog.at_level(logging.WARNING):
+            with Session.open(path) as reader:
+                assert reader.hit_count == 1
+        assert "another" not in caplog.text
+        with pytest.raises(SessionError, match="this process has the session open for writing already"):
+            Session.open(path, "a")
+    assert not WriterLock.held_here(path) and not WriterLock.held_by_a_writer(path)  # released with the session

@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
 
@@ -37,11 +38,17 @@ OUTPUT_FILES = (SPEC_FILE, OVERLAY_FILE, RESIDUAL_FILE, RESTORING_FILE, STABILIZ
 STABILITY_STYLE = ((".", 2.0, "0.75"), ("x", 3.0, "C1"), ("+", 4.0, "C2"), ("o", 3.5, "C0"))
 
 
+def has_film_view(diagnosis: Diagnosis) -> bool:
+    """Whether the film's dynamic stiffness is read off the recordings (:func:`film_view`): a film on a point mover,
+    not a measured structure or a rigid body."""
+    return diagnosis.structure is None and diagnosis.given.rigid_body is None
+
+
 def figure_files(diagnosis: Diagnosis) -> tuple[str, ...]:
     """The figures a diagnosis draws: the overlay, the residual, with a restoring force its figure, with a structure
     read off the FRF its stabilization diagram, and else (a film on a point mover) the film's dynamic stiffness."""
     files = [OVERLAY_FILE, RESIDUAL_FILE]
-    if diagnosis.structure is None and diagnosis.given.rigid_body is None:
+    if has_film_view(diagnosis):
         files.append(FILM_FILE)
     if diagnosis.restoring_force is not None:
         files.append(RESTORING_FILE)
@@ -107,31 +114,65 @@ def written_film_label(diagnosis: Diagnosis, view: dict[str, np.ndarray]) -> str
     return "written spec: film and what rides on the mover"
 
 
+@dataclass(frozen=True)
+class FilmPart:
+    """One part of the film's dynamic stiffness against frequency, as the film figure and the GUI draw it: the
+    stiffness K(ω) = Re Z (N/m) or the damping C(ω) = Im Z / ω (N·s/m), the paper's eqs. 19–20 (:func:`film_view`)."""
+
+    name: str  # "stiffness K" or "damping C"
+    unit: str  # "N/m" or "N·s/m"
+    recorded: np.ndarray  # read off the recordings
+    two_sigma: np.ndarray  # its ±2σ half-width
+    given_film: np.ndarray  # the film of the spec as given
+    written_film: np.ndarray  # the written spec's film (and what rides on the mover: :func:`written_film_label`)
+    apparent: np.ndarray  # the written spec as a whole (channel terms and modes beside the mover included)
+
+    def view_range(self) -> tuple[float, float]:
+        """The range shown: the recorded values' 2nd to 98th percentile and half as much again on either side (a
+        line near an antiresonance of the chain, where Z is undetermined, does not flatten the rest)."""
+        low, high = np.percentile(self.recorded, [2, 98])
+        margin = 0.5 * (high - low) + 1e-12
+        return float(low - margin), float(high + margin)
+
+
+#: The film figure's curves in words (the written spec's film is named by :func:`written_film_label`).
+FILM_CURVE_LABELS = {"band": "recorded ±2σ", "recorded": "recorded", "given_film": "film as given",
+                     "apparent": "written spec: whole chain"}
+
+
+def film_parts(diagnosis: Diagnosis) -> tuple[np.ndarray, tuple[FilmPart, FilmPart], str]:
+    """Frequencies (Hz), the film's stiffness K(ω) and damping C(ω) (:class:`FilmPart`) and the written spec's film's
+    name: what ``diagnosis-film.png`` draws and the GUI's Diagnose tab shows (:func:`film_view`)."""
+    view = film_view(diagnosis)
+    omega = view["omega_rad_s"]
+    parts = tuple(
+        FilmPart(name, unit, recorded=part(view["measured"]) * scale, two_sigma=2 * view["sigma"] * np.abs(scale),
+                 given_film=part(view["given_film"]) * scale, written_film=part(view["written_film"]) * scale,
+                 apparent=part(view["apparent"]) * scale)
+        for name, unit, part, scale in (("stiffness K", "N/m", np.real, 1.0),
+                                        ("damping C", "N·s/m", np.imag, 1.0 / omega)))
+    return view["freq_hz"], parts, written_film_label(diagnosis, view)
+
+
 def write_film_figure(diagnosis: Diagnosis, path: Path) -> Path:
     """The view an air-bearing engineer reads (the paper's K(ω) and C(ω), eqs. 19–20): the film's stiffness and
     damping measured (±2σ) against the spec as given, the written spec's film, and what the written spec as a whole
-    implies (:func:`film_view`)."""
-    view = film_view(diagnosis)
-    freq_hz, omega = view["freq_hz"], view["omega_rad_s"]
-    written_label = written_film_label(diagnosis, view)
+    implies (:func:`film_parts`)."""
+    freq_hz, parts, written_label = film_parts(diagnosis)
     figure = Figure(figsize=(9, 7))
     FigureCanvasAgg(figure)
     axes = figure.subplots(2, 1, sharex=True)
-    for axis, part, scale, label in ((axes[0], np.real, 1.0, "stiffness K (N/m)"),
-                                     (axes[1], np.imag, 1.0 / omega, "damping C (N·s/m)")):
-        measured = part(view["measured"]) * scale
-        band = 2 * view["sigma"] * np.abs(scale)
-        axis.fill_between(freq_hz, measured - band, measured + band, color="0.8", label="recorded ±2σ")
-        axis.plot(freq_hz, measured, "k-", lw=1.0, label="recorded")
-        axis.plot(freq_hz, part(view["given_film"]) * scale, "C3--", lw=1.2, label="film as given")
-        axis.plot(freq_hz, part(view["written_film"]) * scale, "C0-", lw=1.2, label=written_label)
-        axis.plot(freq_hz, part(view["apparent"]) * scale, "C1:", lw=1.2, label="written spec: whole chain")
-        axis.set_ylabel(label)
+    for axis, part in zip(axes, parts):
+        axis.fill_between(freq_hz, part.recorded - part.two_sigma, part.recorded + part.two_sigma, color="0.8",
+                          label=FILM_CURVE_LABELS["band"])
+        axis.plot(freq_hz, part.recorded, "k-", lw=1.0, label=FILM_CURVE_LABELS["recorded"])
+        axis.plot(freq_hz, part.given_film, "C3--", lw=1.2, label=FILM_CURVE_LABELS["given_film"])
+        axis.plot(freq_hz, part.written_film, "C0-", lw=1.2, label=written_label)
+        axis.plot(freq_hz, part.apparent, "C1:", lw=1.2, label=FILM_CURVE_LABELS["apparent"])
+        axis.set_ylabel(f"{part.name} ({part.unit})")
         axis.set_xscale("log")
         plain_log_labels(axis.xaxis)
-        low, high = np.percentile(measured, [2, 98])
-        margin = 0.5 * (high - low) + 1e-12
-        axis.set_ylim(low - margin, high + margin)
+        axis.set_ylim(*part.view_range())
     axes[1].set_xlabel("frequency (Hz)")
     axes[0].legend(loc="best", fontsize=8)
     axes[0].set_title(f"the film's dynamic stiffness F/X − M·s² (M = {diagnosis.improved.moving_mass_kg:.4g} kg): "

@@ -25,6 +25,13 @@ VERDICT_LINES = {
 }
 
 
+def chi2_headline(before: float, after: float) -> str:
+    """The diagnosis's headline figure, worded as the terminal report gives it and the GUI shows it: χ² per point of
+    the spec as given and of the written spec against the recordings, in units of their measured noise (1 = within
+    the noise)."""
+    return f"χ²/point {before:.3f} → {after:.3f} (1 = noise)"
+
+
 def report_text(diagnosis: Diagnosis) -> str:
     """A plain-text report, every number with its unit."""
     lines = [f"gasfilm diagnose — verdict: {diagnosis.verdict}"]
@@ -110,8 +117,8 @@ def report_text(diagnosis: Diagnosis) -> str:
         lines.extend(f"    {note.kind}: {note.message}" for note in diagnosis.quality)
     lines.append(f"  RMS {diagnosis.rms_before / G_M_S2:.4g} g/N as given → {diagnosis.rms_recalibrated / G_M_S2:.4g} "
                  f"recalibrated → {diagnosis.rms_after / G_M_S2:.4g} g/N improved spec (E = "
-                 f"{diagnosis.improvement_e:.1f} %); χ²/point {diagnosis.chi2_per_point_before:.3f} → "
-                 f"{diagnosis.chi2_per_point_after:.3f} (1 = noise)")
+                 f"{diagnosis.improvement_e:.1f} %); "
+                 + chi2_headline(diagnosis.chi2_per_point_before, diagnosis.chi2_per_point_after))
     if diagnosis.loop is not None:
         loop = diagnosis.loop
         lines.append(f"  loop: the written spec diagnosed again gives '{loop['verdict_on_written_spec']}' (χ²/point "

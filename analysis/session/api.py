@@ -467,9 +467,11 @@ class Session:
     def _open_read_only(cls, path: Path) -> "Session":
         """The session file as its last commit left it."""
         real = real_path(path)
-        live = WriterLock.held_elsewhere(real)
-        if live and real not in _SAID_HELD_ELSEWHERE:  # (export, report … of a session being recorded: what it
-            _SAID_HELD_ELSEWHERE.add(real)               # holds now, said once)
+        live = WriterLock.held_by_a_writer(real)
+        # (export, report … of a session another process records: what it holds now, said once; never of a session
+        # this process has open itself, as the GUI diagnosing its own session)
+        if live and not WriterLock.held_here(real) and real not in _SAID_HELD_ELSEWHERE:
+            _SAID_HELD_ELSEWHERE.add(real)
             logger.warning("%s: open for writing in another gasfilm process (a recording or the GUI): read as it "
                            "stands now", path)
         if not live and journal_path(real).is_file():

@@ -72,16 +72,28 @@ class WriterLock:
     HDF5's own file locking is switched off (``locking=False``) so SWMR readers can follow a recording; this lock
     keeps a second writer (or a recovery) away from a session that a live process is still recording into. The
     kernel drops it when the process ends, killed or not. Without ``fcntl`` (Windows) HDF5's locking stays on.
+
+    A process knows the locks it holds itself (:meth:`held_here`): a look at its own session (the GUI diagnosing the
+    session it has open) is not another process writing it, and asking for its own lock a second time says so.
     """
+
+    #: (device, inode) of each file this process holds the writer lock of.
+    _held: set[tuple[int, int]] = set()
 
     def __init__(self, path: Path) -> None:
         self._fd = -1
+        self._key: tuple[int, int] | None = None
         if fcntl is None:
             return
         try:
             self._fd = os.open(path, os.O_RDONLY)
         except OSError as error:
             raise SessionError(f"{path}: cannot open the session file ({error.strerror})") from None
+        status = os.fstat(self._fd)
+        key = (status.st_dev, status.st_ino)
+        if key in WriterLock._held:
+            self.release()
+            raise SessionError(f"{path}: this process has the session open for writing already; close it first")
         try:
             fcntl.flock(self._fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except OSError:
@@ -89,17 +101,34 @@ class WriterLock:
             raise SessionError(
                 f"{path}: another process is writing this session; wait until it has finished"
             ) from None
+        self._key = key
+        WriterLock._held.add(key)
 
     @staticmethod
-    def held_elsewhere(path: Path) -> bool:
-        """Whether a live process holds the writer lock of ``path`` (probed without keeping it)."""
+    def held_by_a_writer(path: Path) -> bool:
+        """Whether a live process holds the writer lock of ``path`` (probed without keeping it): another process, or
+        this one (:meth:`held_here` tells which)."""
+        if WriterLock.held_here(path):
+            return True
         try:
             WriterLock(path).release()
         except SessionError:
             return True
         return False
 
+    @staticmethod
+    def held_here(path: Path) -> bool:
+        """Whether this process itself holds the writer lock of ``path`` (links followed)."""
+        try:
+            status = os.stat(path)
+        except OSError:
+            return False
+        return (status.st_dev, status.st_ino) in WriterLock._held
+
     def release(self) -> None:
+        if self._key is not None:
+            WriterLock._held.discard(self._key)
+            self._key = None
         if self._fd >= 0:
             os.close(self._fd)
             self._fd = -1
@@ -214,7 +243,7 @@ def remove_leftovers(path: Path) -> None:
         if match is None:
             continue
         pid = int(match.group(1))
-        if pid == os.getpid() or _process_alive(pid) or WriterLock.held_elsewhere(leftover):
+        if pid == os.getpid() or _process_alive(pid) or WriterLock.held_by_a_writer(leftover):
             continue
         try:
             if leftover.is_dir():

@@ -10,6 +10,7 @@ import dataclasses
 import datetime
 import functools
 import logging
+import os
 import shutil
 import time
 from pathlib import Path
@@ -62,6 +63,14 @@ def default_session_dir() -> Path:
     return Path(base or Path.home() / ".gasfilm") / "sessions"
 
 
+def same_file(first: Path, second: Path) -> bool:
+    """Whether two paths name one file (links followed); False when either is missing."""
+    try:
+        return os.path.samefile(first, second)
+    except OSError:
+        return False
+
+
 def timestamped_session_path(folder: Path, stem: str = "session") -> Path:
     stamp = datetime.datetime.now().strftime("%Y%m%d-%H%M%S")
     path = folder / f"{stem}-{stamp}.h5"
@@ -88,6 +97,9 @@ class SessionController(QObject):
     job_running = Signal(str, bool)  # job name ("fit" | "diagnose"), running
     message = Signal(str, str)  # text, severity ("error" | "warning" | "info")
     session_changed = Signal(str)  # path of the open session ('' for none)
+    #: a session file is being opened (its hits, FRF, fits and diagnosis follow): what the tabs showed of the previous
+    #: session — zoomed views, a reference spec typed for it — goes
+    session_opened = Signal(str)
     hit_check_changed = Signal(object)  # the hit check's HitCheckProposal (None: no tap yet)
     comparisons_changed = Signal()  # other sessions' FRFs drawn over this one's (the FRF tab)
 
@@ -886,6 +898,10 @@ class SessionController(QObject):
             self.message.emit("stop the acquisition before opening a session", "warning")
             return
         path = Path(path)
+        if self.session is not None and self.session_path is not None and same_file(path, self.session_path):
+            # the session open here, opened again: its writer lock is this window's own, not another process's; it is
+            # closed (its results stored) and read back from the file
+            self.close_session()
         read_only = None
         try:
             session = Session.open(path, "a")
@@ -903,6 +919,7 @@ class SessionController(QObject):
         self.session = session
         self.session_path = path
         self._reset_results()
+        self.session_opened.emit(str(path))
         stored_spec = RigSpec.from_toml(session.rig_spec_toml) if session.rig_spec_toml else None
         self._roving = (roving_plan(session.settings), struck_point(stored_spec))
         for stored in session.hits():

@@ -20,14 +20,18 @@ from PySide6.QtWidgets import (
     QProgressBar,
     QPushButton,
     QSplitter,
+    QTabWidget,
     QTextBrowser,
     QVBoxLayout,
     QWidget,
 )
 
+import pyqtgraph as pg
+
 from gasfilm.analysis.diagnosis import Finding
 from gasfilm.analysis.diagnosis.pipeline import replayed_mean
-from gasfilm.analysis.diagnosis.report import gain_sentences
+from gasfilm.analysis.diagnosis.plots import FILM_CURVE_LABELS, film_parts, has_film_view
+from gasfilm.analysis.diagnosis.report import chi2_headline, gain_sentences
 from gasfilm.analysis.diagnosis.structure import mode_row_notes
 from gasfilm.analysis.quantities import band_text, uncertainty_text, unit_word
 from gasfilm.app.gui.controller import SessionController
@@ -39,6 +43,20 @@ G = STANDARD_GRAVITY_M_S2
 INTRO_TEXT = "Compares the session with its rig spec under the same test conditions."
 WAITING_TEXT = "The diagnosis waits until the acquisition is stopped."
 READY_TEXT = "Acquisition stopped: diagnose the session's accepted hits against its rig spec."
+FILM_INTRO_TEXT = ("After a diagnosis: the film's stiffness K(ω) and damping C(ω) read off the recordings, against the "
+                   "spec's film (the paper's eqs. 19–20).")
+FILM_STORED_TEXT = ("A stored diagnosis keeps no spectra: run Diagnose to draw the film's stiffness K(ω) and damping "
+                    "C(ω).")
+FILM_NOT_READ_TEXT = ("The film's K(ω) and C(ω) are read for a film on a point mover; this diagnosis is of a measured "
+                      "structure or a rigid body (see its mode table and the overlay).")
+
+
+def headline(verdict: str, chi2_before: float | None, chi2_after: float | None, details: str) -> str:
+    """The Diagnose tab's summary: the verdict and, as the headline figure, χ² per point before → after (1 = the
+    noise), worded as ``gasfilm diagnose`` prints it; RMS, BIC, hits and time as details."""
+    figure = f" — <b>{chi2_headline(chi2_before, chi2_after)}</b>" if chi2_before is not None \
+        and chi2_after is not None else ""
+    return f"<b>Verdict: {verdict}</b>{figure}<br>{details}"
 
 
 def finding_title(finding: Finding) -> str:
@@ -138,8 +156,8 @@ class DiagnoseTab(QWidget):
         self.stabilization_plot = make_plot("Stabilization diagram (LSCF): poles by model order, modes as lines",
                                             ("model order", ""))
         self.stabilization_plot.hide()
-        plots = QWidget()
-        plots_layout = QVBoxLayout(plots)
+        before_after = QWidget()
+        plots_layout = QVBoxLayout(before_after)
         plots_layout.setContentsMargins(0, 0, 0, 0)
         plots_layout.addWidget(self.overlay_plot, 3)
         plots_layout.addWidget(self.residual_plot, 2)
@@ -147,9 +165,31 @@ class DiagnoseTab(QWidget):
         plots_layout.addWidget(self.restoring_label)
         plots_layout.addWidget(self.stabilization_plot, 3)
 
+        # the film's dynamic stiffness read off the recordings against the spec's (diagnosis-film.png)
+        self.film_stiffness_plot = make_plot("Film stiffness K(ω) = Re(F/X − M·s²)", ("stiffness K", "N/m"),
+                                             log_x=True)
+        self.film_damping_plot = make_plot("Film damping C(ω) = Im(F/X − M·s²) / ω", ("damping C", "N·s/m"),
+                                           log_x=True)
+        self.film_damping_plot.setXLink(self.film_stiffness_plot)
+        for plot in (self.film_stiffness_plot, self.film_damping_plot):  # one width: the linked frequencies line up
+            plot.getPlotItem().getAxis("left").setWidth(72)
+        self.film_label = QLabel(FILM_INTRO_TEXT)
+        self.film_label.setWordWrap(True)
+        film = QWidget()
+        film_layout = QVBoxLayout(film)
+        film_layout.setContentsMargins(0, 0, 0, 0)
+        film_layout.addWidget(self.film_label)
+        film_layout.addWidget(self.film_stiffness_plot, 1)
+        film_layout.addWidget(self.film_damping_plot, 1)
+
+        self.views = QTabWidget()
+        self.views.setObjectName("diagnosis_views")
+        self.views.addTab(before_after, "Before / after: FRF, residual, restoring force")
+        self.views.addTab(film, "Film: stiffness K(ω), damping C(ω)")
+
         splitter = QSplitter(Qt.Orientation.Horizontal)
         splitter.addWidget(left)
-        splitter.addWidget(plots)
+        splitter.addWidget(self.views)
         splitter.setSizes([450, 800])
         layout = QVBoxLayout(self)
         layout.addLayout(top)
@@ -165,6 +205,13 @@ class DiagnoseTab(QWidget):
         controller.job_progress.connect(self._on_progress)
         controller.diagnosis_changed.connect(self.show_diagnosis)
         controller.stored_diagnosis_loaded.connect(self.show_stored_diagnosis)
+        controller.session_opened.connect(self._on_session_opened)
+
+    def _on_session_opened(self, _path: str) -> None:
+        """Another session: the reference spec typed for the previous one goes (the session's own spec is the
+        default; a stored diagnosis made against another spec puts that one back) and the status starts again."""
+        self.reference_path.clear()
+        self.status.setText(INTRO_TEXT)
 
     def confirm_replace(self, folder: Path, names: list[str]) -> bool:
         """Ask before replacing an earlier diagnosis's files (``gasfilm diagnose`` refuses without --overwrite)."""
@@ -225,6 +272,10 @@ class DiagnoseTab(QWidget):
         self.restoring_label.clear()
         self.stabilization_plot.clear()
         self.stabilization_plot.hide()
+        for plot in (self.film_stiffness_plot, self.film_damping_plot):
+            plot.clear()
+            plot.getPlotItem().legend.clear()
+        self.film_label.setText(FILM_INTRO_TEXT)
         has_spec = diagnosis is not None and diagnosis.improved_spec_path is not None
         self.export_button.setEnabled(has_spec)
         self.play_button.setEnabled(has_spec)
@@ -232,11 +283,11 @@ class DiagnoseTab(QWidget):
             self.summary.clear()
             return
         better = diagnosis.improvement_e
-        self.summary.setText(
-            f"<b>Verdict: {diagnosis.verdict}</b> — RMS {diagnosis.rms_before / G:.3g} → {diagnosis.rms_after / G:.3g} g/N "
-            f"(E = {better:.1f} %), BIC {diagnosis.bic_before:.0f} → {diagnosis.bic_after:.0f}, "
-            f"{diagnosis.evidence.hit_count} hits, {self.controller.diagnosis_seconds(diagnosis):.1f} s"
-        )
+        self.summary.setText(headline(
+            diagnosis.verdict, diagnosis.chi2_per_point_before, diagnosis.chi2_per_point_after,
+            f"RMS {diagnosis.rms_before / G:.3g} → {diagnosis.rms_after / G:.3g} g/N (E = {better:.1f} %), "
+            f"BIC {diagnosis.bic_before:.0f} → {diagnosis.bic_after:.0f}, {diagnosis.evidence.hit_count} hits, "
+            f"{self.controller.diagnosis_seconds(diagnosis):.1f} s"))
         for finding in diagnosis.findings:
             item = QListWidgetItem(finding_title(finding))
             item.setData(Qt.ItemDataRole.UserRole, finding)
@@ -256,11 +307,12 @@ class DiagnoseTab(QWidget):
     def show_stored_diagnosis(self, stored: dict[str, Any]) -> None:
         """What a reopened session's diagnosis said: verdict, findings and quality (the plots need a new run)."""
         self.show_diagnosis(None)
-        self.summary.setText(
-            f"<b>Verdict: {stored['verdict']}</b> — RMS {stored['rms_before_g_per_n']:.3g} → "
-            f"{stored['rms_after_g_per_n']:.3g} g/N (E = {stored['e_percent']:.1f} %), "
-            f"BIC {stored['bic_before']:.0f} → {stored['bic_after']:.0f}, {stored['hits_used']} hits (stored)"
-        )
+        self.summary.setText(headline(
+            stored["verdict"], stored.get("chi2_per_point_before"), stored.get("chi2_per_point_after"),
+            f"RMS {stored['rms_before_g_per_n']:.3g} → {stored['rms_after_g_per_n']:.3g} g/N "
+            f"(E = {stored['e_percent']:.1f} %), BIC {stored['bic_before']:.0f} → {stored['bic_after']:.0f}, "
+            f"{stored['hits_used']} hits (stored)"))
+        self.film_label.setText(FILM_STORED_TEXT)
         for values in stored["findings"]:
             finding = Finding.from_dict(values)
             item = QListWidgetItem(finding_title(finding))
@@ -275,7 +327,13 @@ class DiagnoseTab(QWidget):
             self.quality.addItem(f"{note['kind']}{band}: {note['message']}")
         if self.findings.count():
             self.findings.setCurrentRow(0)
-        self.status.setText("Stored diagnosis from the session file; run Diagnose to redraw the before/after plots.")
+        status = "Stored diagnosis from the session file; run Diagnose to redraw the before/after plots."
+        reference = (stored.get("options") or {}).get("rig")  # the spec it was made against (None: the session's)
+        if reference and Path(reference).is_file():
+            self.reference_path.setText(reference)
+        elif reference:
+            status += f" It was made against {reference}, not found from here: the session's own spec is the default."
+        self.status.setText(status)
 
     def _show_finding(self, item: QListWidgetItem | None) -> None:
         if item is None:
@@ -413,6 +471,40 @@ class DiagnoseTab(QWidget):
         self.residual_plot.plot(freq, np.abs(before - measured) / G, pen=pen(PALETTE[1], 1.5), name="before")
         self.residual_plot.plot(freq, np.abs(after - measured) / G, pen=pen(PALETTE[0], 1.5), name="after")
         self._plot_restoring_force(diagnosis.restoring_force)
+        self._plot_film(diagnosis)
+
+    def _plot_film(self, diagnosis: Any) -> None:
+        """The film's stiffness K(ω) and damping C(ω) read off the recordings (±2σ) against the film as given, the
+        written spec's film and the written spec as a whole: the curves of diagnosis-film.png
+        (:func:`~gasfilm.analysis.diagnosis.plots.film_parts`)."""
+        if not has_film_view(diagnosis):
+            self.film_label.setText(FILM_NOT_READ_TEXT)
+            return
+        freq_hz, parts, written_label = film_parts(diagnosis)
+        for plot, part in zip((self.film_stiffness_plot, self.film_damping_plot), parts):
+            item = plot.getPlotItem()
+            upper = pg.PlotDataItem(freq_hz, part.recorded + part.two_sigma, pen=pen("#bbbbbb", 0.5))
+            lower = pg.PlotDataItem(freq_hz, part.recorded - part.two_sigma, pen=pen("#bbbbbb", 0.5))
+            for curve in (upper, lower):
+                item.addItem(curve)
+            band_brush = pg.mkBrush(160, 160, 160, 90)
+            item.addItem(pg.FillBetweenItem(upper, lower, brush=band_brush))
+            # (the legend shows a filled stand-in: a FillBetweenItem sample crashes pyqtgraph's legend)
+            item.legend.addItem(pg.PlotDataItem(pen=pen("#bbbbbb", 0.5), fillLevel=0, fillBrush=band_brush),
+                                FILM_CURVE_LABELS["band"])
+            plot.plot(freq_hz, part.recorded, pen=pen(MEASURED_COLOR, 1.5), name=FILM_CURVE_LABELS["recorded"])
+            plot.plot(freq_hz, part.given_film, pen=pen(PALETTE[1], 1.5, Qt.PenStyle.DashLine),
+                      name=FILM_CURVE_LABELS["given_film"])
+            plot.plot(freq_hz, part.written_film, pen=pen(PALETTE[0], 1.5), name=written_label)
+            plot.plot(freq_hz, part.apparent, pen=pen(PALETTE[2], 1.5, Qt.PenStyle.DotLine),
+                      name=FILM_CURVE_LABELS["apparent"])
+            item.vb.enableAutoRange(x=True)
+            item.setYRange(*part.view_range(), padding=0)
+        self.film_label.setText(
+            f"The film's dynamic stiffness F/X − M·s² read off the recordings (M = "
+            f"{diagnosis.improved.moving_mass_kg:.4g} kg, the written spec's moving mass; grey: ±2σ) against the film "
+            f"as given, the written spec's {written_label.removeprefix('written spec: ')} and the written spec as a "
+            f"whole, as in diagnosis-film.png.")
 
     def _plot_restoring_force(self, restoring: Any) -> None:
         """The restoring force's stiffness and damping sections, one colour per hit, with the linear film's lines

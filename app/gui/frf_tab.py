@@ -169,6 +169,8 @@ class FrfTab(QWidget):
         """Keep the FRF; draw it now if the tab is visible, else when it is shown (hits arrive while measuring)."""
         self.frf = frf
         self._stale = True
+        if frf is None:  # (another session, or no accepted hit left): the next FRF opens on its default view
+            self._view_set = False
         if self.isVisible():
             self.redraw()
 

@@ -35,7 +35,7 @@ from gasfilm.app.gui.settings import (
     save_setup,
 )
 from gasfilm.app.gui.setup_tab import SetupTab
-from gasfilm.app.gui.widgets import Banner, configure_pyqtgraph
+from gasfilm.app.gui.widgets import Banner, HomeViews, configure_pyqtgraph
 from gasfilm.app.gui.workers import warm_up_job_processes
 from gasfilm.drivers import SIMULATED_DEVICE_NAME
 from gasfilm.drivers.errors import GasfilmError
@@ -126,6 +126,8 @@ class MainWindow(QMainWindow):
         self.status_timer.timeout.connect(self._update_stream_status)
         self.status_timer.start()
         self._session_changed("")
+        self.home_views = HomeViews(self.tabs)  # (every plot as first laid out: an opened session starts from it)
+        self.controller.session_opened.connect(self.home_views.restore)
         self.resize(*DEFAULT_WINDOW_SIZE)
 
     # --- menus ----------------------------------------------------------------------------------------------------

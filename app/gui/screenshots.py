@@ -60,7 +60,7 @@ def _save(window: MainWindow, tab, path: Path, app: QApplication) -> Path:
 
 
 def take_screenshots(out_dir: Path) -> list[Path]:
-    """Run a simulated session through the GUI and write ``setup.png`` … ``diagnose.png`` into ``out_dir``."""
+    """Run a simulated session through the GUI and write ``setup.png`` … ``diagnose-film.png`` into ``out_dir``."""
     out_dir.mkdir(parents=True, exist_ok=True)
     app = QApplication.instance() or QApplication(sys.argv[:1])
     scratch = Path(tempfile.mkdtemp(prefix="gasfilm-screenshots-"))
@@ -127,6 +127,9 @@ def take_screenshots(out_dir: Path) -> list[Path]:
     controller.run_diagnosis(str(design_spec))
     _wait_until(app, lambda: not controller.job_active("diagnose"), 300, "the diagnosis")
     written.append(_save(window, window.diagnose_tab, out_dir / "diagnose.png", app))
+    window.diagnose_tab.views.setCurrentIndex(1)  # the film's K(ω) and C(ω) against the spec's
+    written.append(_save(window, window.diagnose_tab, out_dir / "diagnose-film.png", app))
+    window.diagnose_tab.views.setCurrentIndex(0)
     failures = [text for severity, text in window.banner.history if severity == "error"]
     controller.shutdown()
     window.close()

@@ -322,6 +322,19 @@ class SteadyLabelAxis(pg.AxisItem):
         self.update()
 
 
+class PlainLogAxis(SteadyLabelAxis):
+    """A logarithmic frequency axis labelled in plain numbers at 1, 2 and 5 of each decade (10, 20, 50, 100 Hz), as
+    the PNG figures label theirs, instead of pyqtgraph's 2·10¹ at every tick (which run together)."""
+
+    def logTickStrings(self, values: list[float], scale: float, spacing: float) -> list[str]:  # noqa: N802
+        labels = []
+        for value in values:
+            number = 10.0 ** float(value) * scale
+            mantissa = number / 10.0 ** np.floor(np.log10(number)) if number > 0 else 0.0
+            labels.append(f"{number:g}" if any(abs(mantissa - m) < 1e-6 * m for m in (1.0, 2.0, 5.0)) else "")
+        return labels
+
+
 class TidyPlotItem(pg.PlotItem):
     """A plot whose legend shows only while one of its curves has data (an empty plot has no empty legend box) and
     sits in the corner of the view where it hides the fewest drawn points, never over a curve's highest or lowest
@@ -474,11 +487,13 @@ def make_plot(
     log_y: bool = False,
     legend: bool = True,
     grid: bool = True,
+    log_x: bool = False,
 ) -> pg.PlotWidget:
     """A plot with labelled axes and units, a grid (off for live views: it is redrawn with every frame) and
     (optionally) a legend kept clear of the data (:class:`TidyPlotItem`). Frequencies stay in Hz (no mHz on an
-    empty plot's 0–1 range)."""
-    axes = {side: SteadyLabelAxis(side) for side in ("left", "bottom", "top", "right")}
+    empty plot's 0–1 range); ``log_x``: a logarithmic x axis labelled in plain numbers (:class:`PlainLogAxis`)."""
+    axes = {side: (PlainLogAxis if log_x and side in ("bottom", "top") else SteadyLabelAxis)(side)
+            for side in ("left", "bottom", "top", "right")}
     widget = pg.PlotWidget(plotItem=TidyPlotItem(title=title, viewBox=LazyMenuViewBox(), axisItems=axes))
     item = widget.getPlotItem()
     item.setLabel("left", left[0], units=left[1] or None)
@@ -488,8 +503,8 @@ def make_plot(
             item.getAxis(side).enableAutoSIPrefix(False)
     if grid:
         item.showGrid(x=True, y=True, alpha=0.25)
-    if log_y:
-        item.setLogMode(y=True)
+    if log_y or log_x:
+        item.setLogMode(x=log_x, y=log_y)
     if legend:
         item.addLegend(
             offset=(-LEGEND_MARGIN_PX, LEGEND_MARGIN_PX), labelTextSize="9pt", brush=pg.mkBrush(255, 255, 255, 210),
@@ -497,7 +512,8 @@ def make_plot(
         )
         item.legend.setVisible(False)  # until a curve has data
     if bottom[1] == "Hz":  # an empty plot shows the default fit band, not 0–1 Hz; data autoranges as usual
-        item.vb.setRange(xRange=DEFAULT_FIT_BAND_HZ, padding=0.02, disableAutoRange=False)
+        band = np.log10(DEFAULT_FIT_BAND_HZ) if log_x else DEFAULT_FIT_BAND_HZ
+        item.vb.setRange(xRange=band, padding=0.02, disableAutoRange=False)
     item.setDownsampling(auto=True, mode="peak")
     item.setClipToView(True)
     for side in ("left", "bottom", "top", "right"):
@@ -507,6 +523,41 @@ def make_plot(
     widget.scene().installEventFilter(_SCENE_STAYS_ACTIVE)
     widget.scene().sigMouseMoved.connect(item.show_readout)
     return widget
+
+
+class HomeViews:
+    """Every plot's view as the window first laid it out — which axes follow the data, the ranges of those that do
+    not (coherence 0–1, phase −90…270°, an empty plot's default band) — so that opening a session shows its data as a
+    fresh window would: no zoom or range of the previous session's stays (as a measurement program rescales its
+    displays when another data set is loaded)."""
+
+    def __init__(self, root: QWidget) -> None:
+        self._views = []
+        for plot in root.findChildren(pg.PlotWidget):
+            item = plot.getPlotItem()
+            view = item.vb
+            self._views.append((item, view, list(view.state["autoRange"]), [list(r) for r in view.targetRange()],
+                                list(view.state["logMode"])))
+
+    def restore(self) -> None:
+        """Each axis back to its first range (and to following the data where it did); an axis shown in other
+        coordinates since (a logarithmic frequency axis switched on) follows the data. A cursor read-out, which names
+        a point of the previous data, hides until the mouse moves again."""
+        for item, view, auto, target, log in self._views:
+            if getattr(item, "readout", None) is not None:
+                item.readout.setVisible(False)
+            for axis, name in ((0, "xRange"), (1, "yRange")):
+                if view.linkedView(axis) is not None:  # it follows the view it is linked to
+                    continue
+                # (setRange switches the axis's auto-range off; switched on again, pyqtgraph ranges it on the data:
+                # it does so only when auto-range is switched on)
+                follows = auto[axis]
+                if view.state["logMode"][axis] == log[axis]:
+                    view.setRange(**{name: target[axis]}, padding=0)
+                else:
+                    view.enableAutoRange(axis=axis, enable=False)
+                    follows = True
+                view.enableAutoRange(axis=axis, enable=follows)
 
 
 def show_legend_only_with_data(plot: pg.PlotWidget) -> None:
