@@ -299,9 +299,9 @@ def fit(
     # x_scale="jac") calls it, with its forward differences (:meth:`_LeastSquares.jacobian_rows`), bit for bit; the
     # Jacobian is handed over by rows of parameters (no transposed copy of a tall matrix at every step).
     try:
-        x, _, info, _, _ = leastsq(problem.residual, read_vector(spec, slots), Dfun=problem.jacobian_rows,
-                                   full_output=True, col_deriv=True, ftol=tolerance, xtol=tolerance,
-                                   gtol=GRADIENT_TOLERANCE, maxfev=budget)
+        x, _, info, _, _ = leastsq(problem.residual_for_minpack, read_vector(spec, slots),
+                                   Dfun=problem.jacobian_for_minpack, full_output=True, col_deriv=True,
+                                   ftol=tolerance, xtol=tolerance, gtol=GRADIENT_TOLERANCE, maxfev=budget)
         evaluations = int(info["nfev"])
     except _NotWorthFinishing as stopped:
         x, evaluations = stopped.vector, problem.calls
@@ -378,6 +378,15 @@ class _LeastSquares:
         self._last_parts = (spec, parts)
         return value
 
+    def residual_for_minpack(self, vector: np.ndarray) -> np.ndarray:
+        """:meth:`residual` as a copy: SciPy's MINPACK (C since SciPy 1.15) may work in the array it is handed, which
+        would overwrite the remembered residual the Jacobian's differences start from."""
+        return self.residual(vector).copy()
+
+    def jacobian_for_minpack(self, vector: np.ndarray) -> np.ndarray:
+        """:meth:`jacobian_rows` as a copy (the remembered rows stay what they were computed as)."""
+        return self.jacobian_rows(vector).copy()
+
     def jacobian_rows(self, vector: np.ndarray) -> np.ndarray:
         """∂residual/∂vector by forward differences, one row per slot (scipy's two-point scheme: step
         √ε·max(1, |x|) away from zero, divided by the step as represented). The last one is remembered: scipy's
@@ -401,7 +410,7 @@ class _LeastSquares:
             else:
                 row = self.evidence.residual_change(change, at, self.hits, out=rows[index])
                 row /= moved - vector[index]
-        self._last_rows = (key, rows)  # MINPACK copies what it is handed
+        self._last_rows = (key, rows)
         return rows
 
     def _judge_pace(self, vector: np.ndarray, chi2: float) -> None:

@@ -129,6 +129,7 @@ def main() -> None:
             left = sorted(f.effect for f in diagnose(replayed, result.improved).findings)
         rows.append({"name": entry["name"], "kind": entry["kind"], "expected": expected, "found": found,
                      "exact": found == expected, "verdict": result.verdict, "rms_before": result.rms_before,
+                     "chi2_per_point_after": result.chi2_per_point_after,
                      "rms_after": result.rms_after, "improvement_percent": improvement, "time_s": elapsed,
                      "hit_excess": excess, "hit_fluctuation": fluctuation, "overlay": overlay, "point_z": point_z,
                      "quality": [q.kind for q in result.quality], "parameter_errors": accuracy,
