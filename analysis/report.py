@@ -18,7 +18,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from gasfilm.analysis.conditions import decode_conditions, format_value
-from gasfilm.analysis.diagnosis.report import VERDICT_LINES
+from gasfilm.analysis.diagnosis.report import VERDICT_LINES, chi2_headline
 from gasfilm.analysis.diagnosis.structure import mode_row_notes
 from gasfilm.analysis.fit_warnings import fit_warnings
 from gasfilm.analysis.paths import link_target, missing_folder, written_whole
@@ -502,6 +502,9 @@ def _diagnosis_html(diagnosis: dict[str, Any] | None, name: str | None = None, r
              f"<p>Verdict: <b>{html.escape(verdict)}</b>"]
     if verdict in VERDICT_LINES:
         parts.append(f" — {html.escape(VERDICT_LINES[verdict])}.")
+    if _is_number(diagnosis.get("chi2_per_point_before")) and _is_number(diagnosis.get("chi2_per_point_after")):
+        headline = chi2_headline(diagnosis["chi2_per_point_before"], diagnosis["chi2_per_point_after"])
+        parts.append(f" <b>{html.escape(headline)}</b>.")
     if "rms_before_g_per_n" in diagnosis and "rms_after_g_per_n" in diagnosis:
         parts.append(
             f" RMS {diagnosis['rms_before_g_per_n']:.4g} g/N with the given spec, "

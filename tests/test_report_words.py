@@ -80,3 +80,14 @@ def test_diagnosis_quality_notes_read_as_sentences_without_nan():
     assert "{" not in text and "'kind'" not in text  # before: a raw Python dict
     assert "Double hit: 1 hit(s) with a second impact were left out; hit 3" in text
     assert "nan" not in text.lower()
+
+
+def test_the_reports_diagnosis_leads_with_the_chi2_per_point_the_command_prints():
+    from gasfilm.analysis.diagnosis.report import chi2_headline
+    from gasfilm.analysis.report import _diagnosis_html
+
+    stored = {"verdict": "missing physics", "chi2_per_point_before": 1652.172, "chi2_per_point_after": 1.383,
+              "rms_before_g_per_n": 3.3e-4, "rms_after_g_per_n": 5.9e-6}
+    text = text_of(_diagnosis_html(stored))
+    assert chi2_headline(1652.172, 1.383) in text  # "χ²/point 1652.172 → 1.383 (1 = noise)", as gasfilm diagnose says
+    assert "χ²/point" not in text_of(_diagnosis_html({"verdict": "consistent"}))  # (an old diagnosis without them)
