@@ -66,10 +66,12 @@ def with_uncertainty(value: float, uncertainty: Any, unit: Any = "", value_forma
     bound)" when the value is held at its bound (``at_bound``, or an uncertainty of exactly zero: the fit could not
     move it); "… (± not estimated)" when the uncertainty is unknown (None, NaN). A fixed-point ``uncertainty_format``
     that would round a non-zero uncertainty to zero ("± 0.0 Hz") is widened to its first significant digit, the
-    value with it."""
+    value with it; a value in significant digits ("g") is never rounded coarser than its uncertainty's last digit
+    ("3109.98 ± 0.25 Hz", not "3110 ± 0.25 Hz")."""
     suffix = unit_suffix(unit)
     if held_at_bound(uncertainty, at_bound) or not is_number(uncertainty):
         return f"{value:{value_format}}{suffix} {uncertainty_text(uncertainty, at_bound=at_bound)}"
+    value_format = _digits_to_uncertainty(value, uncertainty, value_format, uncertainty_format)
     fixed = re.fullmatch(r"(.*)\.(\d+)f", uncertainty_format)
     if fixed and float(f"{abs(uncertainty):{uncertainty_format}}") == 0:
         decimals = max(int(fixed.group(2)), -math.floor(math.log10(abs(uncertainty))))
@@ -78,6 +80,18 @@ def with_uncertainty(value: float, uncertainty: Any, unit: Any = "", value_forma
         if value_fixed:
             value_format = f"{value_fixed.group(1)}.{max(int(value_fixed.group(2)), decimals)}f"
     return f"{value:{value_format}} {uncertainty_text(uncertainty, uncertainty_format)}{suffix}"
+
+
+def _digits_to_uncertainty(value: float, uncertainty: float, value_format: str, uncertainty_format: str) -> str:
+    """``value_format`` ("…Ng") with as many significant digits as reach the last digit its uncertainty is printed
+    with (in ``uncertainty_format``, "…Mg")."""
+    significant = re.fullmatch(r"(.*)\.(\d+)g", value_format)
+    shown = re.fullmatch(r".*\.(\d+)g", uncertainty_format)
+    if not (significant and shown and is_number(value) and value != 0 and uncertainty != 0):
+        return value_format
+    last_digit = math.floor(math.log10(abs(uncertainty))) - int(shown.group(1)) + 1
+    needed = math.floor(math.log10(abs(value))) - last_digit + 1
+    return f"{significant.group(1)}.{min(needed, 15)}g" if needed > int(significant.group(2)) else value_format
 
 
 def band_decimals(low_hz: float, high_hz: float) -> int | None:

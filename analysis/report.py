@@ -22,7 +22,7 @@ from gasfilm.analysis.diagnosis.report import VERDICT_LINES, chi2_headline
 from gasfilm.analysis.diagnosis.structure import mode_row_notes
 from gasfilm.analysis.fit_warnings import fit_warnings
 from gasfilm.analysis.paths import link_target, missing_folder, written_whole
-from gasfilm.analysis.quantities import band_range, band_text, is_number, unit_word, with_uncertainty
+from gasfilm.analysis.quantities import band_range, band_text, is_number, unit_suffix, unit_word, with_uncertainty
 from gasfilm.analysis.session import Session
 from gasfilm.analysis.session.api import LATEST_DIAGNOSIS
 from gasfilm.analysis.spectra import (
@@ -421,7 +421,7 @@ def _fits_html(data: ReportData) -> str:
             units_of = {}
         for name, value in fit.params.items():
             parameter_rows.append((fit.model_name, f"{fit.band_hz[0]:g}–{fit.band_hz[1]:g}", name,
-                                   f"{value:.5g} {units_of.get(name, '')}".strip(), _sigma_text(fit, name)))
+                                   f"{value:.5g}{unit_suffix(units_of.get(name, ''))}", _sigma_text(fit, name)))
     flags = [f"<li><b>{html.escape(fit.model_name)}</b> ({fit.band_hz[0]:g}–{fit.band_hz[1]:g} Hz): "
              f"{html.escape('; '.join(fit.notes + fit.flags))}</li>" for fit in data.fits if fit.flags or fit.notes]
     return (

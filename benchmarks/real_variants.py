@@ -24,6 +24,7 @@ import numpy as np
 from gasfilm.analysis.diagnosis.recordings import Recordings, diagnose
 from gasfilm.analysis.diagnosis.structure import STRUCTURE_CHANGED
 from gasfilm.analysis.physics.effects import StructureMode
+from gasfilm.analysis.quantities import unit_suffix
 from gasfilm.analysis.physics.spec import RigSpec
 
 FIXTURE = Path(__file__).resolve().parents[1] / "fixtures" / "real-data" / "pyfrf-5-hits"
@@ -171,7 +172,7 @@ def row(name: str, diagnosis, seconds: float) -> str:
 
 def named(diagnosis) -> list[str]:
     """What a diagnosis says changed: its findings with their values, and the structure's modes it re-read."""
-    said = [f"{f.effect} (" + ", ".join(f"{key} {value['value']:.4g} {value['unit']}".rstrip()
+    said = [f"{f.effect} (" + ", ".join(f"{key} {value['value']:.4g}{unit_suffix(value['unit'])}"
                                         for key, value in f.parameters.items()) + ")" for f in diagnosis.findings]
     return said + [note.removeprefix(STRUCTURE_CHANGED) for note in diagnosis.notes
                    if note.startswith(STRUCTURE_CHANGED)]

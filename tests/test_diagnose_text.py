@@ -123,7 +123,7 @@ def test_the_session_report_says_the_same_words_of_a_stored_diagnosis():
     text = html.unescape(text_of(_diagnosis_html(stored)))
     assert not ZERO_WIDTH.search(text), ZERO_WIDTH.search(text)  # before: "3111–3111 Hz", "(50–50 Hz)"
     assert "beside the mover: at 3111 Hz" in text and "(at 50 Hz)" in text
-    assert "damping_ratio = 0.0002226 ± 0.00011" in text and "freq_hz = 3110 ± 0.25 Hz" in text
+    assert "damping_ratio = 0.0002226 ± 0.00011" in text and "freq_hz = 3109.98 ± 0.25 Hz" in text  # (never coarser than its ±)
     assert not UNIT_ONE.search(text), UNIT_ONE.search(text)
     assert "(dimensionless)" in text and "N/m" in text  # the recalibration's unit column
     assert AT_DAMPING_FLOOR in text
@@ -224,3 +224,26 @@ def test_the_diagnose_tab_shows_the_same_words_for_a_stored_diagnosis(qtbot, tmp
         assert AT_DAMPING_FLOOR in tab.details.toPlainText()
     finally:
         window.controller.shutdown()
+
+
+def test_a_value_is_never_printed_coarser_than_its_uncertainty():
+    from gasfilm.analysis.quantities import with_uncertainty
+
+    assert with_uncertainty(3109.98, 0.25, "Hz", ".4g") == "3109.98 ± 0.25 Hz"  # not "3110 ± 0.25 Hz"
+    assert with_uncertainty(0.5, 0.25, "Hz", ".4g") == "0.5 ± 0.25 Hz"  # enough digits already: unchanged
+    assert with_uncertainty(1.9, 0.0, "1") == "1.9 (at its bound)"
+
+
+def test_gasfilm_fit_prints_no_unit_one_and_says_at_its_bound():
+    from types import SimpleNamespace
+
+    from gasfilm.app.commands.fit import format_parameters
+
+    class Model:
+        parameters = [SimpleNamespace(name="k", unit="N/m"), SimpleNamespace(name="alpha", unit="1")]
+
+    fit = SimpleNamespace(model=Model, mass_fitted=False, model_name="FOKV", params={"k": 3.8e7, "alpha": 1.95},
+                          std_errors={"k": 1.2e3, "alpha": 0.0}, at_bound=("alpha",), mass_kg=25.05, reduced_from="")
+    text = format_parameters([fit])
+    assert "N/m" in text and "(dimensionless)" in text and " 1\n" not in text + "\n"
+    assert "alpha" in text and "(at its bound)" in text

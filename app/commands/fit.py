@@ -127,6 +127,7 @@ def _mass_kg(args: argparse.Namespace, rig_spec_toml: str | None) -> float:
 def format_parameters(fits: list) -> str:
     """Each fit's identified parameters with units and 1-σ uncertainties, and those its reduced form leaves out."""
     from gasfilm.analysis.identification.reduction import reduced_parameters
+    from gasfilm.analysis.quantities import uncertainty_text, unit_word
 
     lines = []
     for fit in fits:
@@ -137,8 +138,8 @@ def format_parameters(fits: list) -> str:
         values = dict(fit.params, **({"mass": fit.mass_kg} if fit.mass_fitted else {}))
         for name, value in values.items():
             error = fit.std_errors.get(name)
-            spread = f"± {error:.2g}" if error is not None else "± —"
-            lines.append(f"  {name:<14} {value:>12.5g} {spread:<10} {units.get(name, '')}")
+            spread = "± —" if error is None else uncertainty_text(error, at_bound=name in fit.at_bound)
+            lines.append(f"  {name:<14} {value:>12.5g} {spread:<10} {unit_word(units.get(name, ''))}")
         missing = reduced_parameters(fit)
         if missing:
             lines.append(f"  {', '.join(missing)}: not determined by the data (the model's reduced form, below)")
