@@ -285,6 +285,8 @@ def configure_pyqtgraph() -> None:
 
 #: Gap between a legend and the edge of the plot's view, in pixels.
 LEGEND_MARGIN_PX = 8
+#: The least height (px) the data keep when a legend is given room above them (a small plot, e.g. the restoring force's).
+MIN_DATA_HEIGHT_PX = 40
 #: Where a legend may sit, in the order tried: (horizontal, vertical) signs of pyqtgraph's legend offset
 #: (−1: right or bottom, +1: left or top): top right, top left, bottom right, bottom left.
 _LEGEND_CORNERS = ((-1, 1), (1, 1), (-1, -1), (1, -1))
@@ -454,10 +456,10 @@ class TidyPlotItem(pg.PlotItem):
     def _make_room_on_top(self) -> bool:
         """When every corner would hide a curve's highest or lowest point (point clouds reaching all four corners),
         raise the top of the view by the legend's height so that it sits above the data, as plotting tools make room
-        for a legend; False when the view is too small for that."""
+        for a legend; False when the data would keep less than :data:`MIN_DATA_HEIGHT_PX` below it."""
         need_px = self.legend.boundingRect().height() + 2 * LEGEND_MARGIN_PX
         height_px = self.vb.height()
-        if height_px <= 2 * need_px:
+        if height_px - need_px < MIN_DATA_HEIGHT_PX:
             return False
         y0, y1 = self.vb.viewRange()[1]
         self.vb.setRange(yRange=(y0, y1 + (y1 - y0) * need_px / (height_px - need_px)), padding=0,
