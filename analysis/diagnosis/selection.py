@@ -300,7 +300,7 @@ def fit(
     # Jacobian is handed over by rows of parameters (no transposed copy of a tall matrix at every step).
     try:
         x, _, info, _, _ = leastsq(problem.residual_for_minpack, read_vector(spec, slots),
-                                   Dfun=problem.jacobian_for_minpack, full_output=True, col_deriv=True,
+                                   Dfun=problem.jacobian_rows, full_output=True, col_deriv=True,
                                    ftol=tolerance, xtol=tolerance, gtol=GRADIENT_TOLERANCE, maxfev=budget)
         evaluations = int(info["nfev"])
     except _NotWorthFinishing as stopped:
@@ -379,13 +379,10 @@ class _LeastSquares:
         return value
 
     def residual_for_minpack(self, vector: np.ndarray) -> np.ndarray:
-        """:meth:`residual` as a copy: SciPy's MINPACK (C since SciPy 1.15) may work in the array it is handed, which
-        would overwrite the remembered residual the Jacobian's differences start from."""
+        """:meth:`residual` as a copy: SciPy's MINPACK keeps the first residual it is handed as its own workspace and
+        writes into it, which must never be the remembered residual the Jacobian's differences start from (the
+        Jacobian it copies)."""
         return self.residual(vector).copy()
-
-    def jacobian_for_minpack(self, vector: np.ndarray) -> np.ndarray:
-        """:meth:`jacobian_rows` as a copy (the remembered rows stay what they were computed as)."""
-        return self.jacobian_rows(vector).copy()
 
     def jacobian_rows(self, vector: np.ndarray) -> np.ndarray:
         """∂residual/∂vector by forward differences, one row per slot (scipy's two-point scheme: step
@@ -410,7 +407,7 @@ class _LeastSquares:
             else:
                 row = self.evidence.residual_change(change, at, self.hits, out=rows[index])
                 row /= moved - vector[index]
-        self._last_rows = (key, rows)
+        self._last_rows = (key, rows)  # MINPACK copies the Jacobian it is handed
         return rows
 
     def _judge_pace(self, vector: np.ndarray, chi2: float) -> None:
