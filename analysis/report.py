@@ -487,9 +487,9 @@ def diagnosis_options_text(options: Any) -> str:
     mass = options.get("mass_kg")
     band = options.get("band_hz")
     band_flag = (f"--band {band[0]:g}:{band[1]:g} Hz" if isinstance(band, (list, tuple)) and len(band) == 2
-                 and all(_is_number(edge) for edge in band) else "the default band (where the hammer excites)")
+                 and all(is_number(edge) for edge in band) else "the default band (where the hammer excites)")
     return (f"{by}, " + (f"--rig {rig}" if rig else "the session's own rig spec (else one read off the FRF)")
-            + ", " + (f"--mass {mass:g} kg" if _is_number(mass) else "the spec's mass") + f", {band_flag}")
+            + ", " + (f"--mass {mass:g} kg" if is_number(mass) else "the spec's mass") + f", {band_flag}")
 
 
 def _diagnosis_html(diagnosis: dict[str, Any] | None, name: str | None = None, runs: int = 0, frf: Any = None) -> str:
@@ -502,14 +502,14 @@ def _diagnosis_html(diagnosis: dict[str, Any] | None, name: str | None = None, r
              f"<p>Verdict: <b>{html.escape(verdict)}</b>"]
     if verdict in VERDICT_LINES:
         parts.append(f" — {html.escape(VERDICT_LINES[verdict])}.")
-    if _is_number(diagnosis.get("chi2_per_point_before")) and _is_number(diagnosis.get("chi2_per_point_after")):
+    if is_number(diagnosis.get("chi2_per_point_before")) and is_number(diagnosis.get("chi2_per_point_after")):
         headline = chi2_headline(diagnosis["chi2_per_point_before"], diagnosis["chi2_per_point_after"])
         parts.append(f" <b>{html.escape(headline)}</b>.")
     if "rms_before_g_per_n" in diagnosis and "rms_after_g_per_n" in diagnosis:
         parts.append(
             f" RMS {diagnosis['rms_before_g_per_n']:.4g} g/N with the given spec, "
             f"{diagnosis['rms_after_g_per_n']:.4g} g/N with the improved spec "
-            + (f"(E {diagnosis['e_percent']:.1f} %)" if _is_number(diagnosis.get("e_percent")) else "")
+            + (f"(E {diagnosis['e_percent']:.1f} %)" if is_number(diagnosis.get("e_percent")) else "")
         )
     parts.append("</p>")
     noise = diagnosis.get("noise")
@@ -543,9 +543,9 @@ def _diagnosis_html(diagnosis: dict[str, Any] | None, name: str | None = None, r
             ("Band (Hz)", "Hits (from 1)", "Share of the excess χ² (%)", "Character",
              "Resonances the spec lacks (Hz)", "Partial descriptions (not findings)"),
             [(_band_text(item.get("band_hz")), _hits_text(item.get("hits"), first_hit),
-              _number_text(100 * item["chi2_share"] if _is_number(item.get("chi2_share")) else None, ".1f"),
+              _number_text(100 * item["chi2_share"] if is_number(item.get("chi2_share")) else None, ".1f"),
               item.get("character", ""),
-              ", ".join(f"{f:.0f}" for f in item.get("unmodelled_resonances_hz") or [] if _is_number(f)) or "—",
+              ", ".join(f"{f:.0f}" for f in item.get("unmodelled_resonances_hz") or [] if is_number(f)) or "—",
               ", ".join(str(c.get("effect", "?")) for c in item.get("candidates") or [] if isinstance(c, dict))
               or "—")
              for item in unexplained],
@@ -611,14 +611,14 @@ def _band_text(band: Any) -> str:
 
 def _is_band(band: Any) -> bool:
     """Whether a stored band is one: two finite numbers."""
-    return isinstance(band, (list, tuple)) and len(band) == 2 and all(_is_number(edge) for edge in band)
+    return isinstance(band, (list, tuple)) and len(band) == 2 and all(is_number(edge) for edge in band)
 
 
 def _hits_text(hits: Any, first_hit: int = 1) -> str:
     """Stored hit numbers as the user sees them, from 1 (``first_hit``: what the stored numbers start from)."""
     if not isinstance(hits, (list, tuple)) or not hits:
         return "—"
-    shown = [str(int(hit) + 1 - first_hit) for hit in hits if _is_number(hit)]
+    shown = [str(int(hit) + 1 - first_hit) for hit in hits if is_number(hit)]
     return ", ".join(shown[:12]) + (" …" if len(shown) > 12 else "")
 
 
@@ -626,16 +626,12 @@ def _hits_text(hits: Any, first_hit: int = 1) -> str:
 NO_SIGMA = "— (not estimated)"
 
 
-def _is_number(value: Any) -> bool:
-    return is_number(value)
-
-
 def _number_text(value: Any, spec: str, missing: str = "—") -> str:
-    return format(value, spec) if _is_number(value) else missing
+    return format(value, spec) if is_number(value) else missing
 
 
 def _parameter_text(name: str, entry: Any) -> str:
-    if not (isinstance(entry, dict) and _is_number(entry.get("value"))):
+    if not (isinstance(entry, dict) and is_number(entry.get("value"))):
         return f"{name} = {entry}"
     return f"{name} = {with_uncertainty(entry['value'], entry.get('uncertainty'), entry.get('unit'), '.4g')}"
 

@@ -74,11 +74,13 @@ def diagnose_session(
     """Diagnose ``recordings`` against ``spec`` (None: their own, else one read off the FRF) and write the figures
     and the improved spec into ``out_dir`` (removing an earlier run's figure this one does not draw); the diagnosis
     has no cancel hook: Cancel acts at its next progress report."""
-    step = [""]
+    step = ""
 
     def progress(text: str) -> None:  # the step and what it has so far; the search's trace is a cancel point only
-        step[0] = step[0] if is_trace(text) else text
-        report(0.0, step[0])
+        nonlocal step
+        if not is_trace(text):
+            step = text
+        report(0.0, step)
 
     diagnosis = diagnose(recordings, spec, progress=progress)
     write_outputs(diagnosis, out_dir)
