@@ -64,13 +64,22 @@ class Slot:
 
     def at_bound(self, spec: RigSpec) -> bool:
         """Whether the fitted value sits at a bound of its range that is not a valid limit of its effect."""
-        low, high = self.search_bounds()
-        position = self.to_search(self.value(spec)) if self.range.scale != "log" or self.value(spec) > 0 else low
-        margin = AT_BOUND_FRACTION * (high - low)
+        at_lower, at_upper = at_range_bounds(self.range, self.value(spec))
         effect = None if self.effect is None else type(spec.effects[self.effect])
         open_lower = effect is not None and self.name in effect.open_lower
         open_upper = effect is not None and self.name in effect.open_upper
-        return (position - low <= margin and not open_lower) or (high - position <= margin and not open_upper)
+        return (at_lower and not open_lower) or (at_upper and not open_upper)
+
+
+def at_range_bounds(fit_range: FitRange, value: float) -> tuple[bool, bool]:
+    """Whether ``value`` sits at the lower and at the upper bound of ``fit_range``: within :data:`AT_BOUND_FRACTION`
+    of the range's span in its search space (the logarithm's for a "log" range, where a value ≤ 0 is at the lower)."""
+    log = fit_range.scale == "log"
+    low, high = (float(np.log(fit_range.lower)), float(np.log(fit_range.upper))) if log else (fit_range.lower,
+                                                                                              fit_range.upper)
+    position = (float(np.log(value)) if value > 0 else low) if log else float(value)
+    margin = AT_BOUND_FRACTION * (high - low)
+    return position - low <= margin, high - position <= margin
 
 
 def fit_context(spec: RigSpec, conditions: HitConditions, band_hz: tuple[float, float]) -> FitContext:

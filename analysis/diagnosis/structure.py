@@ -31,9 +31,10 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.optimize
 
-from gasfilm.analysis.diagnosis.fitspace import AT_BOUND_FRACTION
+from gasfilm.analysis.diagnosis.fitspace import at_range_bounds
 from gasfilm.analysis.physics.effects import (MAX_MODAL_CONSTANT_PER_KG, MIN_DAMPING_RATIO, MODE_DAMPING_RANGE,
                                               StructureMode)
+from gasfilm.analysis.quantities import is_number
 from gasfilm.analysis.threads import one_blas_thread
 
 logger = logging.getLogger(__name__)
@@ -181,17 +182,16 @@ UPPER_RESIDUAL = "above the band: upper residual"
 
 def at_damping_floor(damping_ratio: float) -> bool:
     """Whether a mode's damping ratio is the fitter's floor (:data:`MIN_DAMPING_RATIO`, the bottom of
-    :data:`MODE_DAMPING_RANGE`), judged as a fitted value at its bound is (within :data:`AT_BOUND_FRACTION` of the
-    range's logarithmic span): held there by the fit, not determined by the data."""
-    low, high = np.log(MODE_DAMPING_RANGE.lower), np.log(MODE_DAMPING_RANGE.upper)
-    return float(np.log(max(damping_ratio, MODE_DAMPING_RANGE.lower))) - low <= AT_BOUND_FRACTION * (high - low)
+    :data:`MODE_DAMPING_RANGE`), judged as a fitted value at its bound is (:func:`at_range_bounds`): held there by the
+    fit, not determined by the data."""
+    return at_range_bounds(MODE_DAMPING_RANGE, damping_ratio)[0]
 
 
 def mode_row_notes(row: dict) -> str:
     """What the mode table says of one row of :func:`mode_rows` (as stored in a diagnosis), beside its numbers: a
     damping ratio at the fitter's floor, the mode above the band; "" for neither."""
     damping = row.get("damping_ratio")
-    floor = isinstance(damping, (int, float)) and bool(np.isfinite(damping)) and at_damping_floor(damping)
+    floor = is_number(damping) and at_damping_floor(damping)
     return "; ".join(([AT_DAMPING_FLOOR] if floor else []) + ([UPPER_RESIDUAL] if row.get("above_band") else []))
 
 
