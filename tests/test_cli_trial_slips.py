@@ -462,26 +462,18 @@ def test_export_and_report_of_a_session_held_by_another_process_say_so(session_p
     """New-user trial, round 3: `export --csv` and `report` of a session being recorded quietly wrote what it held
     then. They still do (a look during a recording is useful), and say so."""
     import shutil
-    import subprocess
-    import sys
+
+    from another_writer import held_by_another_process
+    from gasfilm.analysis.session import api
 
     held = tmp_path / "held.h5"
     shutil.copy(session_path, held)
-    writer = subprocess.Popen(
-        [sys.executable, "-c", "import sys, time\nfrom gasfilm.analysis.session import Session\n"
-         f"session = Session.open({str(held)!r}, 'a')\nprint('open', flush=True)\nsys.stdin.read()\nsession.close()"],
-        stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
-    try:
-        assert writer.stdout.readline().strip() == "open"
+    with held_by_another_process(held):
         status, out, err = gasfilm(capsys, "export", held, "--csv", tmp_path / "held.csv")
         assert status == 0 and "open for writing in another gasfilm process" in err, (out, err)
-        from gasfilm.analysis.session import api
-
         api._SAID_HELD_ELSEWHERE.clear()  # (said once per process; each command is a process of its own)
         status, out, err = gasfilm(capsys, "report", held, "--out", tmp_path / "held.html")
         assert status == 0 and "read as it stands now" in err, (out, err)
-    finally:
-        writer.communicate("", timeout=60)
     api._SAID_HELD_ELSEWHERE.clear()
     status, _, err = gasfilm(capsys, "export", held, "--csv", tmp_path / "after.csv")
     assert status == 0 and "another gasfilm process" not in err

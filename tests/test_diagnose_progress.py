@@ -3,19 +3,9 @@ in χ²/point; the search's trace (every candidate's scores) only with ``--verbo
 
 from __future__ import annotations
 
-import pytest
-
 from gasfilm.analysis.diagnosis.pipeline import is_trace
-from test_cli_acquire_replay import FAST_SIM, gasfilm
-
-
-@pytest.fixture(scope="module")
-def session_path(tmp_path_factory):
-    from gasfilm.app.cli import main
-
-    path = tmp_path_factory.mktemp("progress") / "run.h5"
-    assert main(["acquire", *FAST_SIM, "--out", str(path), "--hits", "4", "--seed", "7"]) == 0
-    return path
+from test_cli_acquire_replay import gasfilm
+from test_cli_roundtrip import session_path  # noqa: F401  (a 3-hit session on the simulated rig)
 
 
 def test_diagnose_says_its_steps_and_keeps_the_search_trace_for_verbose(session_path, tmp_path, capsys):

@@ -3,8 +3,6 @@ point the command prints, the film's K(ω) and C(ω) are drawn from the diagnosi
 the previous one (views, reference spec), and the window's own writer lock is never taken for another process's."""
 
 import logging
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -13,6 +11,7 @@ import pytest
 
 from gasfilm.analysis.diagnosis.plots import FILM_CURVE_LABELS, film_parts
 from gasfilm.analysis.diagnosis.report import chi2_headline, report_text
+from another_writer import held_by_another_process
 from gasfilm.analysis.session import Session
 from gui_driving import open_window
 from test_cli_acquire_replay import FAST_SIM, gasfilm
@@ -198,12 +197,7 @@ def test_diagnosing_the_open_session_says_nothing_of_another_process(qtbot, wind
 def test_a_session_another_process_writes_is_still_refused_naming_the_file(qtbot, window, tmp_path, capsys, caplog):
     """What finding 4 must keep: a lock held by another process is said, naming the file."""
     path = recorded(tmp_path, capsys, "held.h5", hits=3)
-    writer = subprocess.Popen(
-        [sys.executable, "-c", "import sys\nfrom gasfilm.analysis.session import Session\n"
-         f"session = Session.open({str(path)!r}, 'a')\nprint('open', flush=True)\nsys.stdin.read()\nsession.close()"],
-        stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
-    try:
-        assert writer.stdout.readline().strip() == "open"
+    with held_by_another_process(path):
         window.controller.open_session(path)
         severity, text = window.banner.history[-1]
         assert severity == "error" and str(path) in text and "another process is writing this session" in text
@@ -211,5 +205,3 @@ def test_a_session_another_process_writes_is_still_refused_naming_the_file(qtbot
             Session.open(path, "r").close()
         assert any(str(path) in record.getMessage() and "another gasfilm process" in record.getMessage()
                    for record in caplog.records), caplog.text
-    finally:
-        writer.communicate("", timeout=60)
