@@ -128,11 +128,19 @@ def figures(key: dict, result: dict | None, outcome: str) -> dict[str, Any]:
             "places": places}
 
 
+def summary_counts(rows: Iterable[dict]) -> dict[str, int]:
+    """``{"modelled": a, "named": b, "scored_for_modelled": n}`` over the rows that carry :func:`figures`' fields
+    and count (a scores file's summary)."""
+    scored = [r for r in rows if r.get("scored")]
+    return {"modelled": sum(bool(r.get("modelled")) for r in scored),
+            "named": sum(bool(r.get("named")) for r in scored), "scored_for_modelled": len(scored)}
+
+
 def summary_line(rows: Iterable[dict]) -> str:
     """"modelled a/n, named b/n" over the rows that carry :func:`figures`' fields and count."""
-    scored = [r for r in rows if r.get("scored")]
-    return (f"modelled {sum(bool(r.get('modelled')) for r in scored)}/{len(scored)}, "
-            f"named {sum(bool(r.get('named')) for r in scored)}/{len(scored)} "
+    counts = summary_counts(rows)
+    return (f"modelled {counts['modelled']}/{counts['scored_for_modelled']}, "
+            f"named {counts['named']}/{counts['scored_for_modelled']} "
             f"(of the non-controls whose key names an effect; written spec within the noise, every description in "
             f"a place of the key's names)")
 

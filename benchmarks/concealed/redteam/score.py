@@ -324,10 +324,8 @@ def main(argv: list[str] | None = None) -> int:
     print_tables(rows)
     counts = Counter(row["outcome"] for row in rows)
     print(three_figures.summary_line(rows))
-    scored = [row for row in rows if row.get("scored")]
     summary = {"cases": len(rows), "right": sum(counts[o] for o in RIGHT), "outcomes": dict(counts),
-               "modelled": sum(bool(row.get("modelled")) for row in scored),
-               "named": sum(bool(row.get("named")) for row in scored), "scored_for_modelled": len(scored),
+               **three_figures.summary_counts(rows),
                "measured_utc": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())}
     name = f"scores-{args.label}.json" if args.label else "scores.json"
     (args.data / name).write_text(json.dumps({"summary": summary, "cases": rows}, indent=1, default=str))

@@ -303,11 +303,9 @@ def main(argv: list[str] | None = None, default_data: Path = Path("out/redteam3"
     if not args.tables_from:
         commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True,
                                 cwd=HERE).stdout.strip()
-        scored = [r for r in rows if r.get("scored")]
         summary = {"cases": len(rows), "right": sum(r["outcome"] in RIGHT for r in rows),
-                   "modelled": sum(bool(r.get("modelled")) for r in scored),
-                   "named": sum(bool(r.get("named")) for r in scored), "scored_for_modelled": len(scored),
-                   "outcomes": dict(Counter(r["outcome"] for r in rows)), "worktree_commit": commit,
+                   **three_figures.summary_counts(rows), "outcomes": dict(Counter(r["outcome"] for r in rows)),
+                   "worktree_commit": commit,
                    "measured_utc": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())}
         name = f"scores-{args.label}.json" if args.label else "scores.json"
         (args.data / name).write_text(json.dumps({"summary": summary, "cases": rows}, indent=1, default=str))
